@@ -1,0 +1,56 @@
+"""Command-line interface: thin (parse, call the library, print). Errors become one line on
+stderr with exit status 2; no traceback for bad input."""
+
+from __future__ import annotations
+
+import sys
+
+import click
+
+from ..errors import UmbmarkError
+from .app import app
+# Each module registers its subcommands on ``app``.
+from . import core  # noqa: F401,E402  simulate, analyze, demo
+from . import real  # noqa: F401,E402  replay, export
+from . import history  # noqa: F401,E402  history, report, guide, measure
+from . import bench  # noqa: F401,E402  bench (group)
+from . import bench_speed  # noqa: F401,E402  bench speed
+from . import bench_accuracy  # noqa: F401,E402  bench accuracy
+from . import reproduce  # noqa: F401,E402  reproduce
+from . import calibrate  # noqa: F401,E402  calibrate
+
+__all__ = ["app", "main"]
+
+
+def _one_line(text: str) -> str:
+    return " ".join(str(text).split())
+
+
+def main(argv=None) -> int:
+    """Entry point of the ``umbmark`` console script."""
+    args = sys.argv[1:] if argv is None else list(argv)
+    prog = "umbmark"
+    try:
+        rv = app.main(args=args, prog_name=prog, standalone_mode=False)
+        code = rv if isinstance(rv, int) else 0
+    except click.exceptions.Exit as e:
+        code = e.exit_code
+    except click.exceptions.Abort:
+        sys.stderr.write(f"{prog}: aborted\n")
+        code = 1
+    except click.exceptions.ClickException as e:
+        where = e.ctx.command_path if getattr(e, "ctx", None) is not None else prog
+        sys.stderr.write(f"{where}: error: {_one_line(e.format_message())}\n")
+        code = 2
+    except UmbmarkError as e:
+        sys.stderr.write(f"{prog}: error: {_one_line(e)}\n")
+        code = 2
+    except OSError as e:
+        if isinstance(e, BrokenPipeError):
+            return 0
+        name = f" {e.filename}" if getattr(e, "filename", None) else ""
+        sys.stderr.write(f"{prog}: error: cannot access{name}: {_one_line(e.strerror or e)}\n")
+        code = 2
+    if argv is None:
+        sys.exit(code)
+    return code

@@ -1,0 +1,5 @@
+"""``umbmark bench accuracy``. Registers on the ``bench`` group."""
+
+from __future__ import annotations
+
+from .bench import bench  # noqa: F401

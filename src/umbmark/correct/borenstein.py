@@ -1,0 +1,106 @@
+"""The paper's linearised correction (Borenstein & Feng, Eqs. 4.20 - 4.32), method ``bf``.
+
+From the centres of gravity of the cw and ccw return errors (start frame, metres):
+
+* from x: ``beta = (x_cg,cw - x_cg,ccw) / (-4L)``, ``alpha = (x_cg,cw + x_cg,ccw) / (-4L)``;
+* from y: ``beta = (y_cg,cw + y_cg,ccw) / (-4L)``, ``alpha = (y_cg,cw - y_cg,ccw) / (-4L)``;
+* the averages of the x- and y-based values are used (the paper's footnote 2);
+* ``R = (L/2) / sin(beta/2)``, ``E_d = (R + b/2) / (R - b/2)``, computed as
+  ``(1 + k) / (1 - k)`` with ``k = b sin(beta/2) / L`` so that beta = 0 gives E_d = 1 exactly;
+* ``E_b = 90 deg / (90 deg - alpha)``, ``b_new = E_b * b``;
+* ``c_L = 2 / (E_d + 1)``, ``c_R = 2 / (1/E_d + 1)`` (composed with a prior calibration).
+
+alpha > 0: the robot turns less than commanded; beta > 0: the legs curve to the left.
+"""
+
+from __future__ import annotations
+
+import math
+
+from ..benchmark import UMBmarkResult, umbmark
+from ..errors import CorrectionUndefined, InputError
+from ..kinematics import Calibration
+from .registry import register
+from .result import CorrectionResult, compose
+
+__all__ = ["bf_correction", "alpha_beta", "ed_from_beta", "eb_from_alpha"]
+
+
+def _check_geometry(side_m: float, wheelbase_m: float):
+    if not (isinstance(side_m, (int, float)) and math.isfinite(side_m) and side_m > 0):
+        raise InputError(f"side must be a positive length, got {side_m!r}")
+    if not (isinstance(wheelbase_m, (int, float)) and math.isfinite(wheelbase_m) and wheelbase_m > 0):
+        raise InputError(f"wheelbase must be a positive length, got {wheelbase_m!r}")
+
+
+def alpha_beta(result: UMBmarkResult, side_m: float) -> dict:
+    """alpha and beta (radians) from x, from y, and their averages (Eqs. 4.20, 4.24)."""
+    cw, ccw = result.cw, result.ccw
+    k = -4.0 * side_m
+    beta_x = (cw.x_cg - ccw.x_cg) / k
+    alpha_x = (cw.x_cg + ccw.x_cg) / k
+    beta_y = (cw.y_cg + ccw.y_cg) / k
+    alpha_y = (cw.y_cg - ccw.y_cg) / k
+    return {
+        "alpha_x": alpha_x, "alpha_y": alpha_y, "alpha": 0.5 * (alpha_x + alpha_y),
+        "beta_x": beta_x, "beta_y": beta_y, "beta": 0.5 * (beta_x + beta_y),
+    }
+
+
+def ed_from_beta(beta: float, side_m: float, wheelbase_m: float) -> tuple[float, float]:
+    """Eqs. 4.21, 4.22: ``(E_d, R)``; R is infinite for beta = 0."""
+    s = math.sin(beta / 2.0)
+    k = wheelbase_m * s / side_m
+    if not abs(k) < 1.0:
+        raise CorrectionUndefined(
+            f"correction undefined: the curvature radius R = {side_m / 2 / abs(s) * 1e3:.1f} mm is not larger than "
+            f"half the wheelbase ({wheelbase_m / 2 * 1e3:.1f} mm); check the side length, wheelbase and units"
+        )
+    radius = math.inf if s == 0 else (side_m / 2.0) / s
+    return (1.0 + k) / (1.0 - k), radius
+
+
+def eb_from_alpha(alpha: float) -> float:
+    """Eq. 4.26: ``E_b = 90 / (90 - alpha)`` (alpha in degrees)."""
+    a = math.degrees(alpha)
+    if not a < 90.0:
+        raise CorrectionUndefined(f"correction undefined: alpha = {a:.2f} deg is not below 90 deg")
+    return 90.0 / (90.0 - a)
+
+
+def bf_correction(
+    result: UMBmarkResult, side_m: float, wheelbase_m: float, prior: Calibration | None = None
+) -> CorrectionResult:
+    """The paper's correction from a UMBmark result.
+
+    ``wheelbase_m``: the wheelbase the odometry used during the runs (the nominal one for an
+    uncalibrated robot, the corrected one for a second pass). ``prior``: the correction factors
+    the robot ran with (``None``: none).
+    """
+    _check_geometry(side_m, wheelbase_m)
+    ab = alpha_beta(result, side_m)
+    ed_pass, radius = ed_from_beta(ab["beta"], side_m, wheelbase_m)
+    eb = eb_from_alpha(ab["alpha"])
+    ed_total, cal = compose(ed_pass, eb, wheelbase_m, prior)
+    deg = math.degrees
+    extra = {
+        "alpha_x_deg": deg(ab["alpha_x"]), "alpha_y_deg": deg(ab["alpha_y"]),
+        "beta_x_deg": deg(ab["beta_x"]), "beta_y_deg": deg(ab["beta_y"]),
+    }
+    for axis in ("x", "y"):  # the paper's footnote 2: both estimates, for comparison
+        try:
+            e, _ = ed_from_beta(ab[f"beta_{axis}"], side_m, wheelbase_m)
+            extra[f"Ed_{axis}"] = e
+        except CorrectionUndefined:
+            extra[f"Ed_{axis}"] = None
+        try:
+            extra[f"Eb_{axis}"] = eb_from_alpha(ab[f"alpha_{axis}"])
+        except CorrectionUndefined:
+            extra[f"Eb_{axis}"] = None
+    return CorrectionResult("bf", ed_total, ed_pass, eb, cal, ab["alpha"], ab["beta"], radius, extra)
+
+
+@register("bf")
+def bf_method(runs, side_m, wheelbase_m, prior=None, **_):
+    """Registry entry: the paper's correction from the runs' centres of gravity."""
+    return bf_correction(umbmark(runs), side_m, wheelbase_m, prior)

@@ -1,0 +1,1 @@
+"""File formats: runs files, encoder logs, bags, parameter export."""

@@ -1,0 +1,140 @@
+"""The runs file: CSV with a header, millimetres and degrees, start frame.
+
+Columns: ``direction`` (``cw`` or ``ccw``), ``x_abs``, ``y_abs``, ``x_odo``, ``y_odo``; optional
+``run``, ``theta_abs``, ``theta_odo``. ``_abs``: where the robot really stopped, ``_odo``: what
+its odometry reported. Extra columns are ignored; blank lines and lines starting with ``#``
+are skipped. An optional column that is present must be filled on every row (or left empty on
+every row: not measured).
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from ..runs import DIRECTIONS, RunsTable
+from .atomic import atomic_write
+
+__all__ = ["read_runs_csv", "write_runs_csv", "parse_runs_csv", "format_runs_csv", "REQUIRED", "OPTIONAL"]
+
+REQUIRED = ("direction", "x_abs", "y_abs", "x_odo", "y_odo")
+OPTIONAL = ("run", "theta_abs", "theta_odo")
+_NUMERIC = ("x_abs", "y_abs", "x_odo", "y_odo", "theta_abs", "theta_odo")
+
+
+def read_runs_csv(path) -> RunsTable:
+    """Read a runs file (mm, deg) into a :class:`RunsTable` (m, rad)."""
+    p = Path(path)
+    if not p.exists():
+        raise InputError("file not found", source=str(path))
+    if p.is_dir():
+        raise InputError("is a folder, not a runs file", source=str(path))
+    try:
+        text = p.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError:
+        raise InputError("not a text (UTF-8) file", source=str(path)) from None
+    except OSError as e:
+        raise InputError(f"cannot read: {e.strerror}", source=str(path)) from None
+    return parse_runs_csv(text, source=str(path))
+
+
+def _number(cell: str, col: str, source: str, line: int) -> float:
+    try:
+        v = float(cell)
+    except ValueError:
+        raise InputError(f"column {col}: {cell.strip()!r} is not a number" if cell.strip() else f"column {col} is empty",
+                         source, line) from None
+    if not math.isfinite(v):
+        raise InputError(f"column {col}: {cell.strip()!r} is not a finite number", source, line)
+    return v
+
+
+def parse_runs_csv(text: str, source: str = "<runs>") -> RunsTable:
+    rows = []
+    header = None
+    header_line = None
+    reader = csv.reader(io.StringIO(text))
+    for row in reader:
+        line = reader.line_num
+        if not row or all(not c.strip() for c in row) or row[0].lstrip().startswith("#"):
+            continue
+        if header is None:
+            header = [c.strip().lower() for c in row]
+            header_line = line
+            missing = [c for c in REQUIRED if c not in header]
+            if missing:
+                raise InputError(
+                    "no header with the runs-file columns: missing " + ", ".join(missing)
+                    + " (expected direction,x_abs,y_abs,x_odo,y_odo[,run,theta_abs,theta_odo])",
+                    source, line,
+                )
+            dup = sorted({c for c in header if header.count(c) > 1 and c in REQUIRED + OPTIONAL})
+            if dup:
+                raise InputError(f"column {dup[0]} appears twice in the header", source, line)
+            continue
+        rows.append((line, row))
+    if header is None:
+        raise InputError("empty file: no header and no runs", source)
+    if not rows:
+        raise InputError("no runs after the header", source, header_line)
+    col = {name: header.index(name) for name in REQUIRED + OPTIONAL if name in header}
+    present_opt = [c for c in OPTIONAL if c in col]
+    # an optional column left empty everywhere counts as absent
+    for c in list(present_opt):
+        cells = [r[col[c]].strip() if col[c] < len(r) else "" for _, r in rows]
+        if all(not x for x in cells):
+            present_opt.remove(c)
+    data = {c: [] for c in REQUIRED + tuple(present_opt)}
+    for line, r in rows:
+        need = max(col[c] for c in data) + 1
+        if len(r) < need:
+            raise InputError(f"has {len(r)} fields, the header has {len(header)}", source, line)
+        d = r[col["direction"]].strip().lower()
+        if d not in DIRECTIONS:
+            raise InputError(f"unknown direction {r[col['direction']].strip()!r} (expected cw or ccw)", source, line)
+        data["direction"].append(d)
+        for c in data:
+            if c in _NUMERIC:
+                data[c].append(_number(r[col[c]], c, source, line))
+        if "run" in data:
+            cell = r[col["run"]].strip()
+            if not cell:
+                raise InputError("column run is empty", source, line)
+            data["run"].append(cell)
+    for d in DIRECTIONS:
+        if d not in data["direction"]:
+            raise InputError(f"no {d} runs: the bi-directional test needs runs in both directions", source)
+    mm = lambda c: np.asarray(data[c]) * 1e-3  # noqa: E731
+    rad = lambda c: np.radians(np.asarray(data[c])) if c in data else None  # noqa: E731
+    return RunsTable.from_columns(
+        data["direction"], mm("x_abs"), mm("y_abs"), mm("x_odo"), mm("y_odo"),
+        rad("theta_abs"), rad("theta_odo"), np.asarray(data["run"]) if "run" in data else None,
+    )
+
+
+def format_runs_csv(runs: RunsTable) -> str:
+    out = io.StringIO()
+    w = csv.writer(out, lineterminator="\n")
+    has_theta = runs.theta_abs is not None and runs.theta_odo is not None
+    header = ["run", "direction", "x_abs", "y_abs", "x_odo", "y_odo"]
+    if has_theta:
+        header += ["theta_abs", "theta_odo"]
+    w.writerow(header)
+    f = lambda v: repr(round(float(v), 6))  # noqa: E731  (micrometre / micro-degree resolution)
+    for i in range(len(runs)):
+        row = [runs.run[i] if runs.run is not None else i + 1, runs.direction[i],
+               f(runs.x_abs[i] * 1e3), f(runs.y_abs[i] * 1e3), f(runs.x_odo[i] * 1e3), f(runs.y_odo[i] * 1e3)]
+        if has_theta:
+            row += [f(math.degrees(runs.theta_abs[i])), f(math.degrees(runs.theta_odo[i]))]
+        w.writerow(row)
+    return out.getvalue()
+
+
+def write_runs_csv(runs: RunsTable, path) -> None:
+    """Write a runs file (mm, deg), atomically."""
+    atomic_write(path, format_runs_csv(runs))
