@@ -14,6 +14,7 @@ from ..io.runs_csv import read_runs_csv, write_runs_csv
 from ..kinematics import LABMATE, Calibration, ErrorParams, Geometry
 from ..simulate import NOISE_PRESETS, Motion, simulate_umbmark
 from .app import app, console, emit_json, fmt, is_quiet, table
+from .history import history_options, print_recorded, record_if_requested
 
 
 def geometry_options(f):
@@ -146,7 +147,9 @@ def simulate(ed, eb, es, n_runs, seed, noise, out, wheelbase_mm, side_mm, wheel_
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False), default=None,
               help="Also write the return-error scatter plot (PNG or SVG).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
-def analyze(runs_file, wheelbase_mm, side_mm, method, c_left, c_right, plot_path, as_json):
+@history_options
+def analyze(runs_file, wheelbase_mm, side_mm, method, c_left, c_right, plot_path, as_json, robot=None, record=False,
+            db=None):
     """Benchmark a runs file (UMBmark) and compute the calibration.
 
     FILE.csv has columns direction (cw/ccw), x_abs, y_abs, x_odo, y_odo in millimetres
@@ -154,24 +157,34 @@ def analyze(runs_file, wheelbase_mm, side_mm, method, c_left, c_right, plot_path
     factors, give them (--c-left/--c-right, and its wheelbase as --wheelbase-mm): the result
     is composed with them (second pass).
 
+    With --robot NAME --record the result is stored in the robot's calibration history
+    (see umbmark history).
+
     \b
-    Example:
+    Examples:
       umbmark analyze runs.csv --wheelbase-mm 340 --side-mm 4000 --json
+      umbmark analyze runs.csv --wheelbase-mm 340 --side-mm 4000 --robot r1 --record
     """
     side_m = workflows.positive("--side-mm", side_mm) * 1e-3
     wheelbase_m = workflows.positive("--wheelbase-mm", wheelbase_mm) * 1e-3
     runs = read_runs_csv(runs_file)
-    a = workflows.analyze(runs, side_m, wheelbase_m, method, _prior(c_left, c_right))
+    prior = _prior(c_left, c_right)
+    a = workflows.analyze(runs, side_m, wheelbase_m, method, prior)
     if plot_path:
         from ..plot import save_figure, scatter_figure
 
         save_figure(scatter_figure(runs, title=f"UMBmark: {Path(runs_file).name}"), plot_path)
+    rec = record_if_requested(robot, record, db, analysis=a, kind="analyze", source=runs_file, prior=prior)
     if as_json:
-        emit_json({"file": str(runs_file), **a.to_dict()})
+        out = {"file": str(runs_file), **a.to_dict()}
+        if rec:
+            out["history"] = rec
+        emit_json(out)
     elif not is_quiet():
         _print_analysis(a)
         if plot_path:
             console().print(f"scatter plot: {plot_path}")
+        print_recorded(rec)
 
 
 @app.command()

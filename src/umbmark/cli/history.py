@@ -1,5 +1,461 @@
-"""CLI commands of issue 4 (history, report, guide, measure). Registers on ``app`` from ``.app``."""
+"""``umbmark history``, ``umbmark report``, ``umbmark guide``, ``umbmark measure``, and the
+``--robot NAME`` / ``--record`` / ``--db PATH`` options any command can attach.
+
+Attaching the history options to another command (e.g. ``replay`` or ``calibrate``)::
+
+    from .history import history_options, record_if_requested
+
+    @app.command()
+    ...
+    @history_options                      # adds robot, record, db keyword arguments
+    def replay(..., robot, record, db):
+        ...
+        rec = record_if_requested(robot, record, db, kind="replay", method=..., results=result_dict,
+                                  parameters={"c_left": .., "c_right": .., "wheelbase_mm": .., "Ed": .., "Eb": ..},
+                                  input_sha256=file_sha256(bag), source=bag)
+        # or, with a workflows.Analysis:  record_if_requested(robot, record, db, analysis=a, kind="replay",
+        #                                                     source=bag, prior=prior)
+        if as_json: emit_json({..., "history": rec})   # rec is None or {"record_id", "robot", "db"}
+
+``--record`` without ``--robot`` is a usage error raised before the command body runs.
+"""
 
 from __future__ import annotations
 
-from .app import app  # noqa: F401
+import functools
+import math
+import sys
+from pathlib import Path
+
+import click
+
+from ..errors import InputError
+from .app import app, console, emit_json, fmt, is_quiet, table
+
+__all__ = ["history_options", "record_if_requested", "print_recorded"]
+
+
+# -- the options other commands attach --------------------------------------------------------------
+def history_options(f):
+    """Add ``--robot NAME``, ``--record`` and ``--db PATH`` (keyword arguments ``robot``,
+    ``record``, ``db``) to a click command."""
+
+    @functools.wraps(f)
+    def wrapper(*args, **kwargs):
+        if kwargs.get("record") and not kwargs.get("robot"):
+            raise click.UsageError("--record needs --robot NAME (the robot whose history gets the result)")
+        return f(*args, **kwargs)
+
+    wrapper = click.option("--db", type=click.Path(dir_okay=False), default=None,
+                           help="History database (default: $UMBMARK_DB, else "
+                                "$XDG_DATA_HOME/umbmark/history.sqlite).")(wrapper)
+    wrapper = click.option("--record", is_flag=True,
+                           help="Store the result in the robot's calibration history (needs --robot).")(wrapper)
+    wrapper = click.option("--robot", metavar="NAME", default=None,
+                           help="Robot name, for the calibration history (see --record).")(wrapper)
+    return wrapper
+
+
+def record_if_requested(robot, record, db, *, analysis=None, kind: str = "analyze", source=None, prior=None,
+                        note=None, **fields) -> dict | None:
+    """Record when ``--record`` was given: a :class:`workflows.Analysis` (``analysis=``) or the
+    raw fields of :func:`umbmark.history.record_result`. Returns ``{"record_id", "robot", "db"}``
+    or None. Prints one line unless ``--quiet``/JSON (call :func:`print_recorded`)."""
+    if not record:
+        return None
+    from ..history import record_analysis, record_result, resolve_db_path
+
+    path = resolve_db_path(db)
+    if analysis is not None:
+        rid = record_analysis(robot, analysis, kind=kind, source=source, db=path, prior=prior, note=note)
+    else:
+        rid = record_result(robot, kind=kind, db=path, source=source, note=note, **fields)
+    return {"record_id": rid, "robot": robot, "db": str(path)}
+
+
+def print_recorded(rec: dict | None) -> None:
+    if rec and not is_quiet():
+        console().print(f"recorded as #{rec['record_id']} in the history of {rec['robot']} ({rec['db']})")
+
+
+# -- umbmark history ----------------------------------------------------------------------------------
+@app.command("history")
+@click.argument("robot", required=False, metavar="[ROBOT]")
+@click.option("--db", type=click.Path(dir_okay=False), default=None,
+              help="History database (default: $UMBMARK_DB, else $XDG_DATA_HOME/umbmark/history.sqlite).")
+@click.option("--plot", "plot_path", type=click.Path(dir_okay=False), default=None,
+              help="Plot E_max,syst, E_d, E_b and the wheelbase over time (PNG, SVG or PDF).")
+@click.option("--export", "export_path", type=click.Path(dir_okay=False, allow_dash=True), default=None,
+              help="Write the latest recommended parameters (JSON, or YAML for .yaml/.yml; '-' = stdout).")
+@click.option("--limit", type=click.IntRange(min=1), default=None, help="Only the newest N records.")
+@click.option("--show", "show_id", type=click.IntRange(min=1), default=None,
+              help="Print one record in full (inputs and results) as JSON.")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+def history_cmd(robot, db, plot_path, export_path, limit, show_id, as_json):
+    """List the recorded calibrations (all robots, or one robot's history).
+
+    Results get into the history with --robot NAME --record on analyze (and replay, calibrate).
+    The database is SQLite; --db, or the UMBMARK_DB environment variable, choose the file.
+
+    \b
+    Examples:
+      umbmark history                                   robots and their latest calibration
+      umbmark history r1 --plot r1-history.png          one robot, with a plot over time
+      umbmark history r1 --export r1-params.json        the latest parameters to load
+      umbmark history --show 3                          one record in full
+    """
+    from ..history import History, format_export
+
+    with History(db, create=False) as h:
+        if show_id is not None:
+            emit_json(h.get(show_id).to_dict(full=True))
+            return
+        if robot is None:
+            if plot_path or export_path:
+                raise click.UsageError("--plot and --export need a ROBOT")
+            robots = h.robots()
+            if as_json:
+                emit_json({"db": str(h.path), "robots": robots})
+            elif not is_quiet():
+                rows = [[r["robot"], r["records"], (r["last_utc"] or "-")[:16].replace("T", " "),
+                         fmt(r.get("emax_syst_mm")), fmt(r.get("Ed"), 6), fmt(r.get("Eb"), 6),
+                         fmt(r.get("wheelbase_mm"), 2)] for r in robots]
+                console().print(table(f"Robots in {h.path}", ["robot", "records", "last (UTC)",
+                                                              "E_max,syst [mm]", "E_d", "E_b",
+                                                              "wheelbase [mm]"], rows))
+            return
+        recs = h.records(robot, limit=limit)
+        if not recs:
+            raise InputError(f"no calibrations of robot {robot!r} in the history database {h.path}" + h._known_hint())
+        if plot_path:
+            from ..history import history_figure
+            from ..plot import save_figure
+
+            save_figure(history_figure(recs), plot_path)
+        exported = None
+        if export_path:
+            suffix = Path(export_path).suffix.lower()
+            text = format_export(recs[-1], "yaml" if suffix in (".yaml", ".yml") else "json")
+            if export_path == "-":
+                sys.stdout.write(text)
+            else:
+                from ..io.atomic import atomic_write
+
+                atomic_write(export_path, text)
+                exported = export_path
+        if as_json:
+            emit_json({"db": str(h.path), "robot": robot, "records": [r.to_dict(full=False) for r in recs],
+                       "plot": plot_path, "export": exported})
+            return
+        if is_quiet() or export_path == "-":
+            return
+        rows = [[f"#{r.id}", r.created_utc[:16].replace("T", " "), r.kind, r.method, fmt(r.emax_syst_mm),
+                 fmt(r.ed, 6), fmt(r.eb, 6), fmt(r.wheelbase_mm, 2), fmt(r.parameters.get("c_left"), 6),
+                 fmt(r.parameters.get("c_right"), 6), _short_source(r)] for r in recs]
+        c = console()
+        c.print(table(f"Calibration history of {robot} ({len(recs)} records, oldest first)",
+                      ["id", "time (UTC)", "kind", "method", "E_max,syst [mm]", "E_d", "E_b", "wheelbase [mm]",
+                       "c_left", "c_right", "input"], rows))
+        if plot_path:
+            c.print(f"plot: {plot_path}")
+        if exported:
+            c.print(f"latest parameters (record #{recs[-1].id}): {exported}")
+
+
+def _short_source(r) -> str:
+    if r.source:
+        return Path(r.source).name
+    return (r.input_sha256 or "-")[:12]
+
+
+# -- umbmark report ------------------------------------------------------------------------------------
+@app.command("report")
+@click.argument("runs_file", required=False, metavar="[FILE.csv]")
+@click.option("--out", "out_path", type=click.Path(dir_okay=False), required=True, help="HTML file to write.")
+@click.option("--wheelbase-mm", type=float, default=None, help="With FILE.csv: wheelbase the odometry used.")
+@click.option("--side-mm", type=float, default=None, help="With FILE.csv: side of the square.")
+@click.option("--method", default="bf", show_default=True, help="With FILE.csv: correction method.")
+@click.option("--c-left", type=float, default=1.0, show_default=True,
+              help="Left-wheel factor the odometry ran with.")
+@click.option("--c-right", type=float, default=1.0, show_default=True,
+              help="Right-wheel factor the odometry ran with.")
+@click.option("--after", "after_file", type=click.Path(dir_okay=False), default=None,
+              help="Runs file of a test after calibration (drawn in the same scatter).")
+@click.option("--attach", "attach", type=click.Path(dir_okay=False), multiple=True,
+              help="Exported parameter file(s) to show in the report (repeatable).")
+@click.option("--bootstrap", "n_boot", type=click.IntRange(min=0), default=1000, show_default=True,
+              help="Bootstrap resamples for the intervals of E_d, E_b, wheelbase (0: none).")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Bootstrap seed.")
+@click.option("--robot", metavar="NAME", default=None,
+              help="Without FILE.csv: report this robot's history. With FILE.csv: label the report.")
+@click.option("--id", "record_id", type=click.IntRange(min=1), default=None,
+              help="Report one recorded analysis of the history (by its id).")
+@click.option("--db", type=click.Path(dir_okay=False), default=None, help="History database (see umbmark history).")
+@click.option("--json", "as_json", is_flag=True, help="Print a JSON summary.")
+def report_cmd(runs_file, out_path, wheelbase_mm, side_mm, method, c_left, c_right, after_file, attach, n_boot,
+               seed, robot, record_id, db, as_json):
+    """Write a self-contained HTML report (figures embedded): one analysis, or one robot's history.
+
+    With FILE.csv: the UMBmark numbers with 95 % intervals, the scatter (before and, with
+    --after, after calibration), the recommended parameters and any --attach'ed exported files.
+    With --robot NAME and no file: the robot's calibration history (table, plot over time,
+    latest parameters). With --id N: a recorded analysis.
+
+    \b
+    Examples:
+      umbmark report runs.csv --wheelbase-mm 340 --side-mm 4000 --out report.html
+      umbmark report --robot r1 --out r1-history.html
+    """
+    from ..io.atomic import atomic_write
+    from ..report import analysis_report, bootstrap_intervals, history_report
+    from .progress import progress
+
+    if runs_file is None and record_id is None:
+        if robot is None:
+            raise click.UsageError("give a runs file FILE.csv, --robot NAME (history) or --id N (a record)")
+        from ..history import History
+
+        with History(db, create=False) as h:
+            recs = h.records(robot)
+            if not recs:
+                raise InputError(f"no calibrations of robot {robot!r} in the history database {h.path}"
+                                 + h._known_hint())
+            page = history_report(recs, db_path=str(h.path))
+        atomic_write(out_path, page)
+        summary = {"out": out_path, "robot": robot, "records": len(recs)}
+    else:
+        from .. import workflows
+        from ..io.runs_csv import read_runs_csv
+        from ..kinematics import Calibration
+
+        source = sha = None
+        when = None
+        prior = None
+        if record_id is not None:
+            if runs_file is not None:
+                raise click.UsageError("give either FILE.csv or --id, not both")
+            from ..history import History, runs_from_rows
+
+            with History(db, create=False) as h:
+                rec = h.get(record_id)
+            rows = rec.inputs.get("runs") if isinstance(rec.inputs, dict) else None
+            if not rows or "side_mm" not in rec.inputs:
+                raise InputError(f"record #{record_id} ({rec.kind}) does not hold runs to report")
+            runs = runs_from_rows(rows)
+            side_mm = rec.inputs["side_mm"]
+            wheelbase_mm = rec.inputs.get("wheelbase_mm")
+            method = rec.method
+            robot = rec.robot
+            source, sha, when = rec.source, rec.input_sha256, rec.created_utc
+            piu = rec.parameters_in_use or {}
+            if piu.get("c_left", 1.0) != 1.0 or piu.get("c_right", 1.0) != 1.0:
+                prior = Calibration(piu["c_left"], piu["c_right"], None)
+        else:
+            if wheelbase_mm is None or side_mm is None:
+                raise click.UsageError("with FILE.csv, --wheelbase-mm and --side-mm are required")
+            runs = read_runs_csv(runs_file)
+            from ..history import file_sha256
+
+            source, sha = str(runs_file), file_sha256(runs_file)
+            for name, v in (("--c-left", c_left), ("--c-right", c_right)):
+                workflows.positive(name, v)
+            if c_left != 1.0 or c_right != 1.0:
+                prior = Calibration(c_left, c_right, None)
+        side_m = workflows.positive("--side-mm", side_mm) * 1e-3
+        wheelbase_m = workflows.positive("--wheelbase-mm", wheelbase_mm) * 1e-3
+        a = workflows.analyze(runs, side_m, wheelbase_m, method, prior)
+        after = read_runs_csv(after_file) if after_file else None
+        exported = {}
+        for f in attach:
+            p = Path(f)
+            if not p.is_file():
+                raise InputError("file not found", source=f)
+            try:
+                exported[p.name] = p.read_text(encoding="utf-8")
+            except UnicodeDecodeError:
+                raise InputError("not a text file (only text exports can be shown)", source=f) from None
+        boot = None
+        if n_boot:
+            with progress("bootstrap", total=n_boot) as advance:
+                boot = bootstrap_intervals(runs, side_m, wheelbase_m, method, prior, n_boot, seed, advance=advance)
+        title = f"UMBmark report: {robot + ', ' if robot else ''}{Path(source).name if source else 'runs'}"
+        page = analysis_report(a, title=title, source=source, source_sha256=sha, prior=prior, after_runs=after,
+                               exported=exported or None, boot=boot, robot=robot)
+        atomic_write(out_path, page)
+        summary = {"out": out_path, "emax_syst_mm": a.result.emax_syst * 1e3, "bootstrap": boot}
+    if as_json:
+        emit_json(summary)
+    elif not is_quiet():
+        console().print(f"report: {out_path}")
+
+
+# -- umbmark guide -------------------------------------------------------------------------------------
+@app.command("guide")
+@click.option("--side-mm", type=float, default=4000.0, show_default=True, help="Side of the square.")
+@click.option("--runs", type=click.IntRange(min=1), default=5, show_default=True, help="Runs per direction.")
+def guide_cmd(side_mm, runs):
+    """Print the field procedure of the UMBmark test, step by step.
+
+    Where to start, how to measure the return position with a tape in the start frame, 5 runs
+    each way, and what to type into the distances or runs file.
+
+    \b
+    Examples:
+      umbmark guide
+      umbmark guide --side-mm 2000 > procedure.txt
+    """
+    from .. import workflows
+    from ..guide import guide_text
+
+    workflows.positive("--side-mm", side_mm)
+    click.echo(guide_text(side_mm, runs), nl=False)
+
+
+# -- umbmark measure -----------------------------------------------------------------------------------
+class PointType(click.ParamType):
+    name = "X,Y"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple):
+            return value
+        parts = str(value).replace(";", ",").split(",")
+        try:
+            x, y = (float(p) for p in parts)
+        except ValueError:
+            self.fail(f"{value!r} is not two numbers X,Y in millimetres (e.g. 150,-120)", param, ctx)
+        if not (math.isfinite(x) and math.isfinite(y)):
+            self.fail(f"{value!r} is not two finite numbers", param, ctx)
+        return (x, y)
+
+
+POINT = PointType()
+
+
+@app.command("measure")
+@click.argument("distances_file", required=False, metavar="[DISTANCES.csv]")
+@click.option("--front", type=POINT, required=True, help="Front side mark in the robot frame [mm] (x fwd, y left).")
+@click.option("--rear", type=POINT, required=True, help="Rear side mark in the robot frame [mm].")
+@click.option("--back", type=POINT, required=True, help="Back mark in the robot frame [mm].")
+@click.option("--side-wall", type=click.Choice(["auto", "left", "right"]), default="auto", show_default=True,
+              help="Side of the robot the side wall is on. auto: left for cw runs, right for ccw runs "
+                   "(the square turns away from it; marks mirrored to that side).")
+@click.option("--resolution-mm", type=float, default=1.0, show_default=True,
+              help="Tape resolution; readings taken as uniform within +-resolution/2.")
+@click.option("--out", "out_path", type=click.Path(dir_okay=False), required=True, help="Runs file to write.")
+@click.option("--interactive", is_flag=True, help="Type the distances at prompts (saved after every run).")
+@click.option("--runs", "n_runs", type=click.IntRange(min=1), default=5, show_default=True,
+              help="With --interactive: runs per direction.")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+def measure_cmd(distances_file, front, rear, back, side_wall, resolution_mm, out_path, interactive, n_runs, as_json):
+    """Turn tape-measured wall distances into a runs file (the paper's section 3.1).
+
+    The start is near the corner of two perpendicular walls. Before and after each run, measure
+    (mm) the front and rear side marks to the side wall and the back mark to the back wall.
+    From these six distances and the odometry's end pose, writes the runs-file row in the start
+    frame, with the standard deviations propagated from the tape resolution (extra columns
+    x_abs_sd, y_abs_sd [mm], theta_abs_sd [deg]). See `umbmark guide`.
+
+    DISTANCES.csv columns: run, direction, start_front, start_rear, start_back, end_front,
+    end_rear, end_back, x_odo, y_odo[, theta_odo] (mm, deg; empty start cells reuse the previous
+    start). Or --interactive.
+
+    \b
+    Examples:
+      umbmark measure distances.csv --front 150,-120 --rear -150,-120 --back -200,0 --out runs.csv
+      umbmark measure --interactive --front 150,-120 --rear -150,-120 --back -200,0 --out runs.csv
+    """
+    from ..io.atomic import atomic_write
+    from ..measure import RobotMarks, format_measured_csv, measure_runs, read_distances_csv
+
+    if resolution_mm is None or not (math.isfinite(resolution_mm) and resolution_mm >= 0):
+        raise InputError(f"--resolution-mm must be a non-negative number, got {resolution_mm!r}")
+    marks = RobotMarks(tuple(v * 1e-3 for v in front), tuple(v * 1e-3 for v in rear), tuple(v * 1e-3 for v in back))
+    if interactive:
+        if distances_file:
+            raise click.UsageError("give DISTANCES.csv or --interactive, not both")
+        rows = _interactive(marks, side_wall, resolution_mm, out_path, n_runs)
+        source = "<interactive>"
+    else:
+        if not distances_file:
+            raise click.UsageError("give a DISTANCES.csv file, or --interactive")
+        rows = read_distances_csv(distances_file)
+        source = distances_file
+    runs, m = measure_runs(marks, rows, resolution_mm, source=source, side_wall=side_wall)
+    atomic_write(out_path, format_measured_csv(runs, m))
+    if as_json:
+        emit_json({"out": out_path, "resolution_mm": resolution_mm, "side_wall": side_wall, "runs": [
+            {"run": str(runs.run[i]), "direction": str(runs.direction[i]),
+             "x_abs_mm": runs.x_abs[i] * 1e3, "y_abs_mm": runs.y_abs[i] * 1e3,
+             "theta_abs_deg": math.degrees(runs.theta_abs[i]),
+             "x_abs_sd_mm": m.x_sd[i] * 1e3, "y_abs_sd_mm": m.y_sd[i] * 1e3,
+             "theta_abs_sd_deg": math.degrees(m.theta_sd[i]),
+             "x_abs_bound_mm": m.x_bound[i] * 1e3, "y_abs_bound_mm": m.y_bound[i] * 1e3,
+             "theta_abs_bound_deg": math.degrees(m.theta_bound[i])} for i in range(len(runs))]})
+        return
+    if is_quiet():
+        return
+    trows = [[str(runs.run[i]), str(runs.direction[i]),
+              f"{runs.x_abs[i] * 1e3:.1f} ± {m.x_sd[i] * 1e3:.1f}", f"{runs.y_abs[i] * 1e3:.1f} ± {m.y_sd[i] * 1e3:.1f}",
+              f"{math.degrees(runs.theta_abs[i]):.2f} ± {math.degrees(m.theta_sd[i]):.2f}",
+              fmt(runs.x_odo[i] * 1e3), fmt(runs.y_odo[i] * 1e3),
+              fmt((runs.x_abs[i] - runs.x_odo[i]) * 1e3), fmt((runs.y_abs[i] - runs.y_odo[i]) * 1e3)]
+             for i in range(len(runs))]
+    console().print(table(f"Return poses in the start frame (± 1 sd from a {resolution_mm:g} mm tape), written to "
+                          f"{out_path}", ["run", "dir", "x_abs [mm]", "y_abs [mm]", "theta_abs [deg]", "x_odo",
+                                          "y_odo", "eps_x", "eps_y"], trows))
+
+
+def _interactive(marks, side_wall, resolution_mm, out_path, n_runs):
+    """Prompt for every run; after each run, save the distances (``<out>.distances.csv``) and the
+    runs file so far."""
+    import csv
+    import io
+
+    from ..io.atomic import atomic_write
+    from ..measure import DIST_COLUMNS, MeasuredRun, format_measured_csv, measure_runs
+
+    raw_path = str(Path(out_path).with_suffix("")) + ".distances.csv"
+    rows: list[MeasuredRun] = []
+    prev = None
+    echo = click.echo
+    echo(f"Entering {n_runs} cw and {n_runs} ccw runs. Distances in mm, perpendicular to the wall. "
+         f"Saved after every run to {out_path} and {raw_path}.")
+    labels = {"start_front": "START front mark -> side wall", "start_rear": "START rear mark -> side wall",
+              "start_back": "START back mark -> back wall", "end_front": "END front mark -> side wall",
+              "end_rear": "END rear mark -> side wall", "end_back": "END back mark -> back wall"}
+    for direction in ("cw", "ccw"):
+        wall = side_wall if side_wall != "auto" else ("left" if direction == "cw" else "right")
+        for k in range(1, n_runs + 1):
+            echo(f"\n{direction} run {k}/{n_runs} (side wall on the robot's {wall})")
+            vals = {}
+            for i, c in enumerate(DIST_COLUMNS):
+                if i == 3:
+                    echo("  reset the odometry, drive the square, then:")
+                    x_odo = click.prompt("  odometry x at the end [mm]", type=float)
+                    y_odo = click.prompt("  odometry y at the end [mm]", type=float)
+                    th = click.prompt("  odometry theta at the end [deg] (empty: not read)", default="",
+                                      show_default=False)
+                default = prev[i] if (prev is not None and i < 3) else None
+                vals[c] = click.prompt(f"  {labels[c]} [mm]", type=float, default=default)
+            theta = None
+            if str(th).strip():
+                try:
+                    theta = float(th)
+                except ValueError:
+                    raise InputError(f"odometry theta {th!r} is not a number") from None
+            d = tuple(vals[c] for c in DIST_COLUMNS)
+            prev = d
+            row = MeasuredRun(str(k), direction, d, x_odo, y_odo, theta)
+            runs, m = measure_runs(marks, rows + [row], resolution_mm, source="<interactive>", side_wall=side_wall)
+            rows.append(row)
+            echo(f"  -> x_abs = {runs.x_abs[-1] * 1e3:.1f} mm, y_abs = {runs.y_abs[-1] * 1e3:.1f} mm, "
+                 f"theta_abs = {math.degrees(runs.theta_abs[-1]):.2f} deg")
+            buf = io.StringIO()
+            w = csv.writer(buf, lineterminator="\n")
+            w.writerow(["run", "direction", *DIST_COLUMNS, "x_odo", "y_odo", "theta_odo"])
+            for r in rows:
+                w.writerow([r.run, r.direction, *[f"{v:g}" for v in r.distances_mm], f"{r.x_odo_mm:g}",
+                            f"{r.y_odo_mm:g}", "" if r.theta_odo_deg is None else f"{r.theta_odo_deg:g}"])
+            atomic_write(raw_path, buf.getvalue())
+            atomic_write(out_path, format_measured_csv(runs, m))
+    return rows

@@ -1,0 +1,60 @@
+"""Progress bars for commands that take more than a second.
+
+Drawn with rich on stderr, only when stderr is a terminal and ``--quiet`` is not given;
+otherwise the helpers do nothing (so pipes, files and tests see no bar)::
+
+    from .progress import progress, track
+
+    with progress("simulating", total=n) as advance:
+        for i in range(n):
+            ...
+            advance()
+
+    for item in track(items, "reading bags"):
+        ...
+"""
+
+from __future__ import annotations
+
+from contextlib import contextmanager
+
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
+from .app import is_quiet
+
+__all__ = ["progress", "track", "progress_enabled"]
+
+
+def _console() -> Console:
+    return Console(stderr=True)
+
+
+def progress_enabled(console: Console | None = None) -> bool:
+    """True when a bar would be drawn: stderr is a terminal and not --quiet."""
+    c = console or _console()
+    return c.is_terminal and not is_quiet()
+
+
+@contextmanager
+def progress(description: str, total: int | None = None):
+    """Yield ``advance(n=1)``; a bar (or a spinner when ``total`` is None) while the block runs."""
+    c = _console()
+    if not progress_enabled(c):
+        yield lambda n=1: None
+        return
+    cols = [SpinnerColumn(), TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+            TimeElapsedColumn()]
+    with Progress(*cols, console=c, transient=True) as p:
+        task = p.add_task(description, total=total)
+        yield lambda n=1: p.advance(task, n)
+
+
+def track(iterable, description: str, total: int | None = None):
+    """Iterate with a progress bar (see :func:`progress`)."""
+    if total is None and hasattr(iterable, "__len__"):
+        total = len(iterable)
+    with progress(description, total) as advance:
+        for item in iterable:
+            yield item
+            advance()

@@ -1,0 +1,391 @@
+"""From tape-measured wall distances to a runs-file row (the paper's section 3.1).
+
+The start area is the corner of two perpendicular walls. Measuring the distances from three
+marked points on the robot to the walls fixes its position and orientation, before and after
+each run; the end pose expressed in the start pose's frame is the runs file's
+``x_abs, y_abs, theta_abs``.
+
+Conventions (SI inside; the CLI and the distances file use millimetres and degrees):
+
+* **Robot frame**: origin at the point the odometry tracks (the wheel-axle midpoint), x forward,
+  y to the left.
+* **Marks**: ``front`` and ``rear`` are two points on the robot's side that faces the *side
+  wall*; ``back`` is a point at the robot's back, measured to the *back wall*. Each distance is
+  the shortest (perpendicular) distance from the mark to the wall.
+* **Wall frame**: origin at the corner, X along the side wall pointing the way the robot faces
+  at the start (away from the back wall), Y to the left of X. The back wall is the line X = 0;
+  the side wall is the line Y = 0, on the robot's right (``side_wall="right"``, robot at Y > 0)
+  or on its left (``side_wall="left"``, robot at Y < 0).
+* The pose of the robot in the wall frame follows from
+  ``d_front - d_rear = s * ((f_x - r_x) sin(theta) + (f_y - r_y) cos(theta))`` (s = +1 for a wall on
+  the right, -1 on the left; of the two solutions the one nearest the nominal heading 0 is taken),
+  then ``Y = s * d_front - (f_x sin(theta) + f_y cos(theta))`` and
+  ``X = d_back - (b_x cos(theta) - b_y sin(theta))``.
+* **Return pose in the start frame**: ``T_start^-1 * T_end``.
+
+Uncertainty: each distance is read off a tape with graduations ``resolution``; the reading error
+is taken as uniform in +-resolution/2 (standard deviation ``resolution / sqrt(12)``) and
+independent between readings. It is propagated to x, y, theta linearly (the Jacobian of the
+whole computation, by central differences): ``*_sd`` is the resulting standard deviation and
+``*_bound`` the worst case ``sum |J_i| * resolution / 2``.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+from .runs import DIRECTIONS, RunsTable
+
+__all__ = [
+    "RobotMarks", "WallPose", "Measurement", "MeasuredRun", "pose_from_distances", "distances_from_pose",
+    "relative_pose", "marks_for_direction", "measure", "measure_run", "measure_runs", "read_distances_csv", "parse_distances_csv",
+    "format_measured_csv", "DIST_COLUMNS", "START_COLUMNS", "END_COLUMNS",
+]
+
+START_COLUMNS = ("start_front", "start_rear", "start_back")
+END_COLUMNS = ("end_front", "end_rear", "end_back")
+DIST_COLUMNS = START_COLUMNS + END_COLUMNS
+
+
+def _wrap(a):
+    return np.mod(np.asarray(a, dtype=float) + np.pi, 2 * np.pi) - np.pi
+
+
+@dataclass(frozen=True)
+class RobotMarks:
+    """The three reference points on the robot, in the robot frame (metres), and which side
+    of the robot the side wall is on at the start."""
+
+    front: tuple[float, float]
+    rear: tuple[float, float]
+    back: tuple[float, float]
+    side_wall: str = "right"
+
+    def __post_init__(self):
+        if self.side_wall not in ("right", "left"):
+            raise InputError(f"side wall must be 'right' or 'left', got {self.side_wall!r}")
+        for name in ("front", "rear", "back"):
+            p = getattr(self, name)
+            if len(p) != 2 or not all(math.isfinite(float(v)) for v in p):
+                raise InputError(f"reference point {name} must be two finite numbers (x, y), got {p!r}")
+        if math.hypot(self.front[0] - self.rear[0], self.front[1] - self.rear[1]) < 1e-3:
+            raise InputError("the front and rear reference points must be at least 1 mm apart "
+                             "(their distances to the side wall give the orientation)")
+
+    @property
+    def sign(self) -> float:
+        return 1.0 if self.side_wall == "right" else -1.0
+
+    def mirrored(self) -> "RobotMarks":
+        """The marks mirrored about the robot's centre line (y -> -y), side wall swapped."""
+        m = lambda p: (float(p[0]), -float(p[1]))  # noqa: E731
+        return RobotMarks(m(self.front), m(self.rear), m(self.back), "left" if self.side_wall == "right" else "right")
+
+
+def marks_for_direction(marks: RobotMarks, direction: str, side_wall: str = "auto") -> RobotMarks:
+    """The marks used for the runs of one direction.
+
+    ``side_wall="auto"``: the square turns away from the side wall, so the wall is on the robot's
+    left for cw runs and on its right for ccw runs; the front and rear marks are taken on that
+    side (mirrored about the centre line when they were given on the other side, i.e. the robot
+    carries the same marks on both sides). ``"left"`` / ``"right"``: the wall is on that side for
+    every run and the marks are used as given."""
+    if side_wall in ("left", "right"):
+        return RobotMarks(marks.front, marks.rear, marks.back, side_wall)
+    if side_wall != "auto":
+        raise InputError(f"side wall must be auto, left or right, got {side_wall!r}")
+    want = "left" if direction == "cw" else "right"
+    base = RobotMarks(marks.front, marks.rear, marks.back, "right" if marks.front[1] <= 0 else "left")
+    return base if base.side_wall == want else base.mirrored()
+
+
+@dataclass(frozen=True)
+class WallPose:
+    """Pose of the robot frame in the wall frame (metres, radians); arrays or scalars."""
+
+    x: np.ndarray
+    y: np.ndarray
+    theta: np.ndarray
+
+
+def distances_from_pose(marks: RobotMarks, pose: WallPose):
+    """The three distances (front, rear, back) a person would measure, metres.
+
+    Raises :class:`InputError` if a mark would be on the wrong side of its wall."""
+    x, y, th = (np.asarray(v, dtype=float) for v in (pose.x, pose.y, pose.theta))
+    c, s = np.cos(th), np.sin(th)
+
+    def world(p):
+        return x + p[0] * c - p[1] * s, y + p[0] * s + p[1] * c
+
+    d_front = marks.sign * world(marks.front)[1]
+    d_rear = marks.sign * world(marks.rear)[1]
+    d_back = world(marks.back)[0]
+    if np.any(d_front < 0) or np.any(d_rear < 0) or np.any(d_back < 0):
+        raise InputError("a reference point is behind its wall in this pose")
+    return d_front, d_rear, d_back
+
+
+def pose_from_distances(marks: RobotMarks, d_front, d_rear, d_back, source: str | None = None,
+                        line=None) -> WallPose:
+    """Pose in the wall frame from the three distances (metres; scalars or arrays).
+
+    ``line``: optional array of file line numbers, for error messages."""
+    df, dr, db = (np.asarray(v, dtype=float) for v in (d_front, d_rear, d_back))
+    sgn = marks.sign
+    a = marks.front[0] - marks.rear[0]
+    b = marks.front[1] - marks.rear[1]
+    r = math.hypot(a, b)
+    phi = math.atan2(b, a)
+    ratio = sgn * (df - dr) / r
+    bad = np.abs(ratio) > 1.0
+    if np.any(bad):
+        i = int(np.flatnonzero(np.atleast_1d(bad))[0])
+        ln = None if line is None else int(np.atleast_1d(line)[i])
+        raise InputError(
+            f"front and rear distances differ by {abs(np.atleast_1d(df - dr)[i]) * 1e3:.1f} mm, more than the "
+            f"{r * 1e3:.1f} mm between the front and rear reference points: check the readings and the marks",
+            source, ln)
+    asn = np.arcsin(ratio)
+    # a sin(t) + b cos(t) = r sin(t + phi): t = asin(ratio) - phi  or  pi - asin(ratio) - phi
+    t1 = _wrap(asn - phi)
+    t2 = _wrap(np.pi - asn - phi)
+    theta = np.where(np.abs(t1) <= np.abs(t2), t1, t2)
+    c, s = np.cos(theta), np.sin(theta)
+    y = sgn * df - (marks.front[0] * s + marks.front[1] * c)
+    x = db - (marks.back[0] * c - marks.back[1] * s)
+    return WallPose(x, y, theta)
+
+
+def relative_pose(start: WallPose, end: WallPose):
+    """End pose expressed in the start pose's frame: ``(x, y, theta)`` (metres, radians)."""
+    dx = np.asarray(end.x) - np.asarray(start.x)
+    dy = np.asarray(end.y) - np.asarray(start.y)
+    c, s = np.cos(start.theta), np.sin(start.theta)
+    return c * dx + s * dy, -s * dx + c * dy, _wrap(np.asarray(end.theta) - np.asarray(start.theta))
+
+
+def _return_pose(marks: RobotMarks, d6: np.ndarray, source=None, line=None) -> np.ndarray:
+    """``d6``: (..., 6) distances start_front, start_rear, start_back, end_front, end_rear,
+    end_back (metres) -> (..., 3) return pose x, y, theta in the start frame."""
+    start = pose_from_distances(marks, d6[..., 0], d6[..., 1], d6[..., 2], source, line)
+    end = pose_from_distances(marks, d6[..., 3], d6[..., 4], d6[..., 5], source, line)
+    return np.stack(relative_pose(start, end), axis=-1)
+
+
+@dataclass(frozen=True)
+class Measurement:
+    """The return pose of one or more runs with its propagated uncertainty (SI)."""
+
+    x: np.ndarray
+    y: np.ndarray
+    theta: np.ndarray
+    x_sd: np.ndarray
+    y_sd: np.ndarray
+    theta_sd: np.ndarray
+    x_bound: np.ndarray
+    y_bound: np.ndarray
+    theta_bound: np.ndarray
+    covariance: np.ndarray  # (..., 3, 3): x, y, theta
+
+
+def measure(marks: RobotMarks, distances, resolution_m: float = 1e-3, source=None, line=None) -> Measurement:
+    """Return poses in the start frame from the six distances (array (..., 6), metres, in the
+    order of :data:`DIST_COLUMNS`), with the tape resolution propagated."""
+    if not (math.isfinite(resolution_m) and resolution_m >= 0):
+        raise InputError(f"tape resolution must be a non-negative number, got {resolution_m!r}")
+    d6 = np.asarray(distances, dtype=float)
+    if d6.shape[-1] != 6:
+        raise InputError("need six distances per run (start front, rear, back; end front, rear, back)")
+    if np.any(d6 < 0):
+        raise InputError("a distance is negative")
+    pose = _return_pose(marks, d6, source, line)
+    # Jacobian by central differences (the computation is smooth away from the inconsistent case)
+    h = 1e-7
+    cols = []
+    for k in range(6):
+        e = np.zeros(6)
+        e[k] = h
+        hi = _return_pose(marks, d6 + e)
+        lo = _return_pose(marks, np.maximum(d6 - e, 0.0))
+        diff = hi - lo
+        diff[..., 2] = _wrap(diff[..., 2])
+        cols.append(diff / (2 * h))
+    jac = np.stack(cols, axis=-1)  # (..., 3, 6)
+    var = resolution_m ** 2 / 12.0
+    cov = var * jac @ np.swapaxes(jac, -1, -2)
+    sd = np.sqrt(np.diagonal(cov, axis1=-2, axis2=-1))
+    bound = np.abs(jac).sum(axis=-1) * resolution_m / 2.0
+    return Measurement(pose[..., 0], pose[..., 1], pose[..., 2], sd[..., 0], sd[..., 1], sd[..., 2],
+                       bound[..., 0], bound[..., 1], bound[..., 2], cov)
+
+
+@dataclass(frozen=True)
+class MeasuredRun:
+    """One row of a distances file (millimetres and degrees, as typed)."""
+
+    run: str
+    direction: str
+    distances_mm: tuple[float, ...]  # DIST_COLUMNS order
+    x_odo_mm: float
+    y_odo_mm: float
+    theta_odo_deg: float | None = None
+    line: int | None = None
+
+
+def measure_run(marks: RobotMarks, row: MeasuredRun, resolution_mm: float = 1.0, source=None) -> Measurement:
+    return measure(marks, np.asarray(row.distances_mm) * 1e-3, resolution_mm * 1e-3, source, row.line)
+
+
+def measure_runs(marks: RobotMarks, rows: list[MeasuredRun], resolution_mm: float = 1.0, source=None,
+                 side_wall: str | None = None):
+    """All rows at once: ``(RunsTable, Measurement)``.
+
+    ``side_wall``: None uses ``marks`` as they are for every run; otherwise see
+    :func:`marks_for_direction` (``"auto"``, ``"left"``, ``"right"``)."""
+    if not rows:
+        raise InputError("no runs to measure", source)
+    d = np.array([r.distances_mm for r in rows], dtype=float) * 1e-3
+    lines = np.array([r.line if r.line is not None else 0 for r in rows])
+    has_lines = any(r.line for r in rows)
+    direction = np.array([r.direction for r in rows])
+    parts = {}
+    for dn in DIRECTIONS:
+        sel = direction == dn
+        if sel.any():
+            mk = marks if side_wall is None else marks_for_direction(marks, dn, side_wall)
+            parts[dn] = (sel, measure(mk, d[sel], resolution_mm * 1e-3, source, lines[sel] if has_lines else None))
+    fields = {}
+    for name in ("x", "y", "theta", "x_sd", "y_sd", "theta_sd", "x_bound", "y_bound", "theta_bound"):
+        a = np.empty(len(rows))
+        for sel, mm in parts.values():
+            a[sel] = getattr(mm, name)
+        fields[name] = a
+    cov = np.empty((len(rows), 3, 3))
+    for sel, mm in parts.values():
+        cov[sel] = mm.covariance
+    m = Measurement(**fields, covariance=cov)
+    has_theta = all(r.theta_odo_deg is not None for r in rows)
+    runs = RunsTable.from_columns(
+        [r.direction for r in rows], m.x, m.y,
+        [r.x_odo_mm * 1e-3 for r in rows], [r.y_odo_mm * 1e-3 for r in rows],
+        m.theta,
+        np.radians([r.theta_odo_deg for r in rows]) if has_theta else None,
+        np.array([r.run for r in rows]),
+    )
+    return runs, m
+
+
+def _num(cell: str, col: str, source, line) -> float:
+    try:
+        v = float(cell)
+    except ValueError:
+        raise InputError(f"column {col}: {cell.strip()!r} is not a number" if cell.strip()
+                         else f"column {col} is empty", source, line) from None
+    if not math.isfinite(v):
+        raise InputError(f"column {col}: {cell.strip()!r} is not a finite number", source, line)
+    return v
+
+
+def read_distances_csv(path) -> list[MeasuredRun]:
+    p = Path(path)
+    if not p.exists():
+        raise InputError("file not found", source=str(path))
+    if p.is_dir():
+        raise InputError("is a folder, not a distances file", source=str(path))
+    try:
+        text = p.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError:
+        raise InputError("not a text (UTF-8) file", source=str(path)) from None
+    return parse_distances_csv(text, source=str(path))
+
+
+def parse_distances_csv(text: str, source: str = "<distances>") -> list[MeasuredRun]:
+    """Parse a distances file (mm, deg).
+
+    Columns: ``direction, start_front, start_rear, start_back, end_front, end_rear, end_back,
+    x_odo, y_odo``; optional ``run``, ``theta_odo``. The three start cells of a row may be left
+    empty together: the start of the previous row is reused (the robot was put back on the same
+    marked start). Blank lines and lines starting with ``#`` are skipped."""
+    required = ("direction",) + DIST_COLUMNS + ("x_odo", "y_odo")
+    reader = csv.reader(io.StringIO(text))
+    header = None
+    out: list[MeasuredRun] = []
+    prev_start = None
+    for row in reader:
+        line = reader.line_num
+        if not row or all(not c.strip() for c in row) or row[0].lstrip().startswith("#"):
+            continue
+        if header is None:
+            header = [c.strip().lower() for c in row]
+            missing = [c for c in required if c not in header]
+            if missing:
+                raise InputError("no header with the distances-file columns: missing " + ", ".join(missing)
+                                 + " (expected direction," + ",".join(DIST_COLUMNS) + ",x_odo,y_odo[,run,theta_odo])",
+                                 source, line)
+            continue
+        col = {c: header.index(c) for c in required + ("run", "theta_odo") if c in header}
+        cell = lambda c: row[col[c]].strip() if col[c] < len(row) else ""  # noqa: E731
+        if len(row) < max(col[c] for c in required) + 1:
+            raise InputError(f"has {len(row)} fields, the header has {len(header)}", source, line)
+        d = cell("direction").lower()
+        if d not in DIRECTIONS:
+            raise InputError(f"unknown direction {cell('direction')!r} (expected cw or ccw)", source, line)
+        starts = [cell(c) for c in START_COLUMNS]
+        if all(not s for s in starts):
+            if prev_start is None:
+                raise InputError("the start distances are empty and there is no previous row to reuse", source, line)
+            start = prev_start
+        else:
+            start = tuple(_num(cell(c), c, source, line) for c in START_COLUMNS)
+        end = tuple(_num(cell(c), c, source, line) for c in END_COLUMNS)
+        for c, v in zip(DIST_COLUMNS, start + end):
+            if v < 0:
+                raise InputError(f"column {c}: a distance cannot be negative ({v:g})", source, line)
+        prev_start = start
+        theta = None
+        if "theta_odo" in col and cell("theta_odo"):
+            theta = _num(cell("theta_odo"), "theta_odo", source, line)
+        run = cell("run") if "run" in col and cell("run") else str(sum(1 for r in out if r.direction == d) + 1)
+        out.append(MeasuredRun(run, d, start + end, _num(cell("x_odo"), "x_odo", source, line),
+                               _num(cell("y_odo"), "y_odo", source, line), theta, line))
+    if header is None:
+        raise InputError("empty file: no header and no runs", source)
+    if not out:
+        raise InputError("no runs after the header", source)
+    with_theta = [r.theta_odo_deg is not None for r in out]
+    if any(with_theta) and not all(with_theta):
+        r = out[with_theta.index(False)]
+        raise InputError("column theta_odo is empty here but filled on other rows (fill it on every row or none)",
+                         source, r.line)
+    return out
+
+
+def format_measured_csv(runs: RunsTable, m: Measurement) -> str:
+    """The runs file (mm, deg) with the propagated standard deviations as extra columns
+    ``x_abs_sd, y_abs_sd`` (mm) and ``theta_abs_sd`` (deg), which the runs-file reader ignores."""
+    out = io.StringIO()
+    w = csv.writer(out, lineterminator="\n")
+    has_theta = runs.theta_odo is not None
+    header = ["run", "direction", "x_abs", "y_abs", "x_odo", "y_odo", "theta_abs"]
+    if has_theta:
+        header += ["theta_odo"]
+    header += ["x_abs_sd", "y_abs_sd", "theta_abs_sd"]
+    w.writerow(header)
+    f = lambda v, nd=3: repr(round(float(v), nd))  # noqa: E731
+    for i in range(len(runs)):
+        row = [runs.run[i], runs.direction[i], f(runs.x_abs[i] * 1e3), f(runs.y_abs[i] * 1e3),
+               f(runs.x_odo[i] * 1e3), f(runs.y_odo[i] * 1e3)]
+        row += [f(math.degrees(runs.theta_abs[i]), 4)]
+        if has_theta:
+            row += [f(math.degrees(runs.theta_odo[i]), 4)]
+        row += [f(m.x_sd[i] * 1e3), f(m.y_sd[i] * 1e3), f(math.degrees(m.theta_sd[i]), 4)]
+        w.writerow(row)
+    return out.getvalue()
