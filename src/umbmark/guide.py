@@ -60,8 +60,8 @@ def guide_text(side_mm: float = 4000.0, runs: int = 5, speed_m_s: float = 0.2) -
         """One row per run in a CSV file (mm and degrees), e.g. distances.csv:
 
      run,direction,start_front,start_rear,start_back,end_front,end_rear,end_back,x_odo,y_odo,theta_odo
-     1,cw,412,409,350,447,388,281,3.0,-1.5,0.2
-     1,ccw,408,410,352,379,455,398,-2.5,4.0,-0.4
+     1,cw,409,411,350,294,278,471,45.7,44.9,-1.30
+     1,ccw,409,411,350,188,150,633,43.7,-44.9,1.29
 
    The three start cells may be left empty to reuse the previous row's start. Or type the rows
    at the prompts: umbmark measure --interactive ... (it saves after every run). If you measure

@@ -44,7 +44,7 @@ from .errors import InputError
 from .runs import DIRECTIONS, RunsTable
 
 __all__ = [
-    "RobotMarks", "WallPose", "Measurement", "MeasuredRun", "pose_from_distances", "distances_from_pose",
+    "RobotMarks", "WallPose", "Measurement", "MeasuredRun", "pose_from_distances", "distances_from_pose", "distances_for_runs",
     "relative_pose", "marks_for_direction", "measure", "measure_run", "measure_runs", "read_distances_csv", "parse_distances_csv",
     "format_measured_csv", "DIST_COLUMNS", "START_COLUMNS", "END_COLUMNS",
 ]
@@ -131,6 +131,35 @@ def distances_from_pose(marks: RobotMarks, pose: WallPose):
     if np.any(d_front < 0) or np.any(d_rear < 0) or np.any(d_back < 0):
         raise InputError("a reference point is behind its wall in this pose")
     return d_front, d_rear, d_back
+
+
+def distances_for_runs(marks: RobotMarks, runs: RunsTable, start: WallPose, side_wall: str | None = "auto"):
+    """The six distances (n, 6) a person would measure for each run of ``runs`` (metres), the
+    robot starting at ``start`` (wall frame; arrays of length n or scalars) and stopping at the
+    run's true end pose (``x_abs, y_abs, theta_abs`` in the start frame). The forward model of
+    :func:`measure`, for tests and examples. With ``side_wall="auto"`` the start's Y is taken
+    as given for ccw runs (wall on the right, Y > 0) and mirrored (Y -> -Y, theta -> -theta) for cw
+    runs (wall on the left)."""
+    if runs.theta_abs is None:
+        raise InputError("the runs need theta_abs (the true end orientation)")
+    n = len(runs)
+    sx, sy, st = (np.broadcast_to(np.asarray(v, dtype=float), (n,)).copy() for v in (start.x, start.y, start.theta))
+    out = np.empty((n, 6))
+    for dn in DIRECTIONS:
+        sel = runs.direction == dn
+        if not sel.any():
+            continue
+        mk = marks if side_wall is None else marks_for_direction(marks, dn, side_wall)
+        y0, t0 = sy[sel], st[sel]
+        if side_wall == "auto" and dn == "cw":
+            y0, t0 = -y0, -t0
+        s0 = WallPose(sx[sel], y0, t0)
+        c, s = np.cos(t0), np.sin(t0)
+        ex, ey = runs.x_abs[sel], runs.y_abs[sel]
+        e = WallPose(s0.x + c * ex - s * ey, s0.y + s * ex + c * ey, t0 + runs.theta_abs[sel])
+        out[sel, :3] = np.stack(distances_from_pose(mk, s0), axis=-1)
+        out[sel, 3:] = np.stack(distances_from_pose(mk, e), axis=-1)
+    return out
 
 
 def pose_from_distances(marks: RobotMarks, d_front, d_rear, d_back, source: str | None = None,

@@ -1,0 +1,207 @@
+"""Calibration history: records, schema migrations, the CLI (history, --record on analyze)."""
+
+import json
+import sqlite3
+
+import pytest
+
+from umbmark.cli import main
+from umbmark.history import (
+    ENV_VAR, MIGRATIONS, SCHEMA_VERSION, History, HistoryError, default_db_path, export_parameters,
+    record_result, resolve_db_path, runs_from_rows, runs_to_rows,
+)
+from umbmark.io.runs_csv import write_runs_csv
+from umbmark.kinematics import ErrorParams
+from umbmark.simulate import simulate_umbmark
+
+ANALYZE = ["--wheelbase-mm", "340", "--side-mm", "4000"]
+
+
+@pytest.fixture
+def three_runs_files(tmp_path):
+    """Three tests of one robot whose wheels wear: E_d drifts, E_b drifts."""
+    paths = []
+    for k, (ed, eb) in enumerate([(1.001, 0.990), (1.002, 0.991), (1.003, 0.992)]):
+        p = tmp_path / f"runs{k + 1}.csv"
+        write_runs_csv(simulate_umbmark(ErrorParams(ed, eb), n_runs=5, noise="paper", seed=k), p)
+        paths.append(p)
+    return paths
+
+
+def test_db_path_resolution(monkeypatch, tmp_path):
+    monkeypatch.delenv(ENV_VAR, raising=False)
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "xdg"))
+    assert default_db_path() == tmp_path / "xdg" / "umbmark" / "history.sqlite"
+    assert resolve_db_path() == default_db_path()
+    monkeypatch.setenv(ENV_VAR, str(tmp_path / "env.sqlite"))
+    assert resolve_db_path() == tmp_path / "env.sqlite"
+    assert resolve_db_path(tmp_path / "opt.sqlite") == tmp_path / "opt.sqlite"
+
+
+def test_add_and_read_back(tmp_path):
+    db = tmp_path / "h.sqlite"
+    rid = record_result("r1", kind="analyze", method="bf", db=db, results={"emax_syst_mm": 300.0, "nan": float("nan")},
+                        parameters={"c_left": 0.999, "c_right": 1.001, "wheelbase_m": 0.336, "Ed": 1.002, "Eb": 0.988},
+                        inputs={"runs": [1, 2]}, input_sha256="ab" * 32, source="/x/runs.csv",
+                        parameters_in_use={"c_left": 1.0}, when="2026-01-02T03:04:05Z")
+    with History(db) as h:
+        r = h.get(rid)
+        assert h.schema_version == SCHEMA_VERSION
+        assert h.journal_mode == "wal"
+    assert (r.robot, r.kind, r.method, r.created_utc) == ("r1", "analyze", "bf", "2026-01-02T03:04:05.000000Z")
+    assert r.wheelbase_mm == pytest.approx(336.0) and r.ed == 1.002 and r.eb == 0.988 and r.emax_syst_mm == 300.0
+    assert r.results["nan"] is None and r.inputs == {"runs": [1, 2]} and r.software_version
+    ex = export_parameters(r)
+    assert ex["wheelbase_m"] == pytest.approx(0.336) and ex["c_left"] == 0.999 and ex["record_id"] == rid
+
+
+def test_records_are_ordered_by_time_and_latest(tmp_path):
+    db = tmp_path / "h.sqlite"
+    with History(db) as h:
+        for when, e in (("2026-03-01", 3.0), ("2026-01-01", 1.0), ("2026-02-01", 2.0)):
+            h.add("r", kind="analyze", method="bf", results={"emax_syst_mm": e}, parameters={}, when=when)
+        h.add("other", kind="replay", method="bf", results={}, parameters={})
+        assert [r.emax_syst_mm for r in h.records("r")] == [1.0, 2.0, 3.0]
+        assert [r.emax_syst_mm for r in h.records("r", limit=2)] == [2.0, 3.0]
+        assert h.latest("r").emax_syst_mm == 3.0
+        assert {d["robot"]: d["records"] for d in h.robots()} == {"r": 3, "other": 1}
+        with pytest.raises(Exception, match="no calibrations of robot 'nobody'.*robots: other, r"):
+            h.latest("nobody")
+
+
+@pytest.mark.parametrize("bad", ["", "   ", "a\nb"])
+def test_bad_robot_names(tmp_path, bad):
+    with pytest.raises(Exception, match="robot"):
+        record_result(bad, kind="analyze", method="bf", results={}, parameters={}, db=tmp_path / "h.sqlite")
+
+
+def test_migration_from_schema_1_keeps_records(tmp_path):
+    db = tmp_path / "old.sqlite"
+    con = sqlite3.connect(db)
+    for stmt in MIGRATIONS[1]:
+        con.execute(stmt)
+    con.execute("INSERT INTO robots (name, created_utc) VALUES ('old', '2025-01-01T00:00:00.000000Z')")
+    con.execute("""INSERT INTO calibrations (robot_id, created_utc, kind, method, software_version, inputs_json,
+                   results_json, parameters_json, parameters_in_use_json, emax_syst_mm, ed, eb, wheelbase_mm)
+                   VALUES (1, '2025-01-01T00:00:00.000000Z', 'analyze', 'bf', '0.0.1', '{}', '{}',
+                   '{"c_left": 0.99}', '{}', 42.0, 1.001, 0.99, 336.0)""")
+    con.execute("PRAGMA user_version = 1")
+    con.commit()
+    con.close()
+    with History(db) as h:
+        assert h.schema_version == SCHEMA_VERSION
+        r = h.latest("old")
+        assert r.emax_syst_mm == 42.0 and r.note is None and r.parameters == {"c_left": 0.99}
+        h.add("old", kind="analyze", method="bf", results={}, parameters={}, note="new")
+        assert [x.note for x in h.records("old")] == [None, "new"]
+
+
+def test_newer_schema_and_foreign_databases_are_refused(tmp_path):
+    newer = tmp_path / "newer.sqlite"
+    History(newer).close()
+    con = sqlite3.connect(newer)
+    con.execute(f"PRAGMA user_version = {SCHEMA_VERSION + 1}")
+    con.commit()
+    con.close()
+    with pytest.raises(HistoryError, match="newer than this umbmark"):
+        History(newer)
+    foreign = tmp_path / "foreign.sqlite"
+    con = sqlite3.connect(foreign)
+    con.execute("CREATE TABLE t (x)")
+    con.commit()
+    con.close()
+    with pytest.raises(HistoryError, match="not an umbmark history"):
+        History(foreign)
+    junk = tmp_path / "junk.sqlite"
+    junk.write_bytes(b"this is not a database" * 100)
+    with pytest.raises(HistoryError, match="not a usable umbmark history"):
+        History(junk)
+
+
+def test_failed_write_rolls_back(tmp_path):
+    db = tmp_path / "h.sqlite"
+    with History(db) as h:
+        h.add("r", kind="analyze", method="bf", results={}, parameters={})
+        with pytest.raises(RuntimeError):
+            with h.transaction() as c:
+                h._insert(c, h._row("r", "analyze", "bf", {}, {}, {}, None, None, None, "doomed", None, None))
+                raise RuntimeError("crash between the statements and the commit")
+        assert h.count() == 1 and h.integrity_check() == "ok"
+
+
+def test_runs_rows_round_trip():
+    runs = simulate_umbmark(ErrorParams(1.002, 0.99), n_runs=3, noise="paper", seed=3)
+    back = runs_from_rows(json.loads(json.dumps(runs_to_rows(runs))))
+    assert (back.x_abs == pytest.approx(runs.x_abs)) and (back.theta_odo == pytest.approx(runs.theta_odo))
+
+
+def test_three_calibrations_table_plot_export(tmp_path, three_runs_files, capsys, monkeypatch):
+    """Acceptance: a history of three calibrations of one robot shows in a table and a plot."""
+    db = tmp_path / "fleet.sqlite"
+    monkeypatch.setenv(ENV_VAR, str(db))  # the environment variable picks the database
+    for p in three_runs_files:
+        assert main(["analyze", str(p), *ANALYZE, "--robot", "r1", "--record"]) == 0
+    out = capsys.readouterr().out
+    assert "recorded as #3 in the history of r1" in out
+    assert main(["analyze", str(three_runs_files[0]), *ANALYZE, "--robot", "r2", "--record", "--json"]) == 0
+    j = json.loads(capsys.readouterr().out)
+    assert j["history"] == {"record_id": 4, "robot": "r2", "db": str(db)}
+
+    assert main(["history"]) == 0
+    out = capsys.readouterr().out
+    assert "r1" in out and "r2" in out
+    png, exp = tmp_path / "r1.png", tmp_path / "r1.json"
+    assert main(["history", "r1", "--plot", str(png), "--export", str(exp)]) == 0
+    out = capsys.readouterr().out
+    assert "Calibration history of r1 (3 records" in out
+    for name in ("runs1.csv", "runs2.csv", "runs3.csv", "#1", "#2", "#3"):
+        assert name in out
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20000
+    exported = json.loads(exp.read_text())
+    assert exported["record_id"] == 3 and exported["robot"] == "r1"
+
+    # the history's numbers are analyze's numbers
+    assert main(["analyze", str(three_runs_files[2]), *ANALYZE, "--json"]) == 0
+    a = json.loads(capsys.readouterr().out)
+    assert exported["c_left"] == pytest.approx(a["c_left"], rel=1e-12)
+    assert exported["wheelbase_mm"] == pytest.approx(a["wheelbase_corrected_mm"], rel=1e-12)
+
+    assert main(["history", "r1", "--json"]) == 0
+    h = json.loads(capsys.readouterr().out)
+    assert [r["id"] for r in h["records"]] == [1, 2, 3]
+    assert h["records"][0]["source"].endswith("runs1.csv") and len(h["records"][0]["input_sha256"]) == 64
+    assert [r["Ed"] for r in h["records"]] == sorted(r["Ed"] for r in h["records"])  # the drift shows
+
+    yml = tmp_path / "p.yaml"
+    assert main(["--quiet", "history", "r1", "--export", str(yml)]) == 0
+    assert capsys.readouterr().out == ""
+    import yaml
+
+    assert yaml.safe_load(yml.read_text())["record_id"] == 3
+    assert main(["history", "r1", "--export", "-"]) == 0
+    assert json.loads(capsys.readouterr().out)["record_id"] == 3
+    assert main(["history", "--show", "2"]) == 0
+    full = json.loads(capsys.readouterr().out)
+    assert len(full["inputs"]["runs"]) == 10 and full["results"]["emax_syst_mm"] > 0
+
+
+def test_cli_errors(tmp_path, capsys, three_runs_files):
+    db = tmp_path / "h.sqlite"
+    assert main(["analyze", str(three_runs_files[0]), *ANALYZE, "--record", "--db", str(db)]) == 2
+    assert "--record needs --robot" in capsys.readouterr().err
+    assert not db.exists()
+    assert main(["history", "--db", str(db)]) == 2
+    assert "no history database" in capsys.readouterr().err
+    assert main(["analyze", str(three_runs_files[0]), *ANALYZE, "--robot", "r1", "--record", "--db", str(db)]) == 0
+    capsys.readouterr()
+    assert main(["history", "ghost", "--db", str(db)]) == 2
+    assert "no calibrations of robot 'ghost'" in capsys.readouterr().err
+    assert main(["history", "--plot", "x.png", "--db", str(db)]) == 2
+    assert "need a ROBOT" in capsys.readouterr().err
+    assert main(["history", "--show", "99", "--db", str(db)]) == 2
+    assert "no record #99" in capsys.readouterr().err
+    # without --record nothing is written
+    assert main(["analyze", str(three_runs_files[1]), *ANALYZE, "--robot", "r1", "--db", str(db), "--json"]) == 0
+    assert "history" not in json.loads(capsys.readouterr().out)
+    with History(db) as h:
+        assert h.count() == 1
