@@ -36,9 +36,8 @@ def guide_text(side_mm: float = 4000.0, runs: int = 5, speed_m_s: float = 0.2) -
    The "back wall" is behind the robot, the "side wall" runs along the robot's side, the robot
    faces along the side wall into the room, 30 to 50 cm from both walls. The square must turn
    AWAY from the side wall: for the cw runs (right turns) the side wall is on the robot's LEFT,
-   for the ccw runs (left turns) on its RIGHT (use the two corners at the ends of one wall, or
-   turn the robot around). Mark the start with tape around the wheels so you can put the robot
-   back on it.""",
+   for the ccw runs (left turns) on its RIGHT: use the two corners at the two ends of one back
+   wall. Mark each start with tape around the wheels so you can put the robot back on it.""",
         f"""The robot drives four {L} mm legs and turns 90 degrees on the spot at each corner, stopping
    after each leg (the paper: {speed_m_s:g} m/s). A cw run starts along +x (the first leg) and turns
    right; a ccw run starts along +x and turns left. The controller only needs to get back near
@@ -59,9 +58,9 @@ def guide_text(side_mm: float = 4000.0, runs: int = 5, speed_m_s: float = 0.2) -
    slipped, a bump) and repeat that run rather than editing the numbers.""",
         """One row per run in a CSV file (mm and degrees), e.g. distances.csv:
 
-     run,direction,start_front,start_rear,start_back,end_front,end_rear,end_back,x_odo,y_odo,theta_odo
-     1,cw,409,411,350,294,278,471,45.7,44.9,-1.30
-     1,ccw,409,411,350,188,150,633,43.7,-44.9,1.29
+   run,direction,start_front,start_rear,start_back,end_front,end_rear,end_back,x_odo,y_odo,theta_odo
+   1,cw,409,411,350,294,278,471,45.7,44.9,-1.30
+   1,ccw,409,411,350,188,150,633,43.7,-44.9,1.29
 
    The three start cells may be left empty to reuse the previous row's start. Or type the rows
    at the prompts: umbmark measure --interactive ... (it saves after every run). If you measure

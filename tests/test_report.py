@@ -1,0 +1,198 @@
+"""HTML reports: well-formed, self-contained, images that decode; optional headless-browser render."""
+
+import base64
+import io
+import json
+import shutil
+import subprocess
+from html.parser import HTMLParser
+
+import numpy as np
+import pytest
+
+from umbmark import workflows
+from umbmark.cli import main
+from umbmark.history import History
+from umbmark.io.runs_csv import write_runs_csv
+from umbmark.kinematics import ErrorParams
+from umbmark.report import analysis_report, bootstrap_intervals, cg_intervals, history_report
+from umbmark.simulate import simulate_umbmark
+
+PNG = b"\x89PNG\r\n\x1a\n"
+VOID = {"meta", "img", "br", "hr", "link", "input", "col", "area", "base", "source", "wbr"}
+
+
+class Checker(HTMLParser):
+    """Collects images and links; checks that every non-void element is closed in order."""
+
+    def __init__(self):
+        super().__init__()
+        self.stack, self.errors, self.images, self.refs, self.text = [], [], [], [], []
+        self.doctype = None
+
+    def handle_decl(self, decl):
+        self.doctype = decl
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        if tag == "img":
+            self.images.append(a)
+        for k in ("src", "href"):
+            if k in a:
+                self.refs.append(a[k])
+        if tag not in VOID:
+            self.stack.append(tag)
+
+    def handle_endtag(self, tag):
+        if not self.stack or self.stack[-1] != tag:
+            self.errors.append(f"</{tag}> closes {self.stack[-1] if self.stack else 'nothing'}")
+        else:
+            self.stack.pop()
+
+    def handle_data(self, data):
+        self.text.append(data)
+
+
+def check_page(page: str) -> Checker:
+    c = Checker()
+    c.feed(page)
+    c.close()
+    assert c.doctype and c.doctype.lower() == "doctype html"
+    assert c.errors == [] and c.stack == []
+    assert c.images, "no images"
+    for ref in c.refs:  # self-contained: nothing fetched from elsewhere
+        assert ref.startswith("data:image/png;base64,"), ref[:60]
+    import matplotlib.image as mpimg
+
+    for img in c.images:
+        assert img.get("alt")
+        raw = base64.b64decode(img["src"].split(",", 1)[1], validate=True)
+        assert raw[:8] == PNG
+        pixels = mpimg.imread(io.BytesIO(raw), format="png")
+        assert pixels.shape[0] > 200 and pixels.shape[1] > 200
+        assert float(np.std(pixels)) > 0.01  # not a blank image
+    return c
+
+
+@pytest.fixture(scope="module")
+def analysis():
+    runs = simulate_umbmark(workflows.FIG11_ERRORS, n_runs=5, noise="paper", seed=1)
+    return workflows.analyze(runs, 4.0, 0.34)
+
+
+def test_analysis_report_is_valid_and_self_contained(analysis):
+    after = simulate_umbmark(workflows.FIG11_ERRORS, n_runs=5, noise="paper", seed=2,
+                             calibration=analysis.correction.calibration)
+    boot = bootstrap_intervals(analysis.runs, 4.0, 0.34, n_boot=200, seed=0)
+    traj = [{"true_x": [0, 1, 1], "true_y": [0, 0, 1], "odo_x": [0, 1.01, 1.02], "odo_y": [0, 0.01, 1.0],
+             "label": "run 1 <cw>"}]
+    page = analysis_report(analysis, title="Test <report> & co", after_runs=after, trajectories=traj,
+                           exported={"params.json": '{"c_left": 0.99}'}, boot=boot, robot="r&1")
+    c = check_page(page)
+    assert len(c.images) == 2  # scatter and trajectories
+    text = "".join(c.text)
+    assert "Test <report> & co" in text and "r&1" in text  # escaped in the source, restored by the parser
+    assert f"{analysis.result.emax_syst * 1e3:.1f} mm" in text
+    assert f"{analysis.correction.calibration.c_left:.6f}" in text
+    assert '{"c_left": 0.99}' in text
+
+
+def test_intervals(analysis):
+    runs = analysis.runs
+    ci = cg_intervals(runs)
+    from scipy import stats
+
+    cw = runs.direction_rows("cw")
+    half = stats.t.ppf(0.975, 4) * np.std(cw.eps_x, ddof=1) / np.sqrt(5) * 1e3
+    assert ci["cw"]["x"] == pytest.approx((cw.eps_x.mean() * 1e3 - half, cw.eps_x.mean() * 1e3 + half))
+    b = bootstrap_intervals(runs, 4.0, 0.34, n_boot=300, seed=1)
+    assert b["failed"] == 0
+    for key, est in (("Ed", analysis.correction.ed), ("Eb", analysis.correction.eb),
+                     ("wheelbase_mm", analysis.correction.calibration.wheelbase_m * 1e3)):
+        lo, hi = b[key]
+        assert lo < est < hi, key
+    # the same seed gives the same intervals
+    assert bootstrap_intervals(runs, 4.0, 0.34, n_boot=300, seed=1) == b
+    # the wheelbase interval of a noise-free test is a point
+    exact = workflows.analyze(simulate_umbmark(workflows.FIG11_ERRORS, n_runs=3, seed=0), 4.0, 0.34)
+    lo, hi = bootstrap_intervals(exact.runs, 4.0, 0.34, n_boot=50)["wheelbase_mm"]
+    assert hi - lo < 1e-9
+
+
+def test_history_report(tmp_path):
+    db = tmp_path / "h.sqlite"
+    from umbmark.history import record_analysis
+
+    for k, when in enumerate(["2026-01-10", "2026-03-10", "2026-06-10"]):
+        runs = simulate_umbmark(ErrorParams(1.001 + k * 1e-3, 0.99), n_runs=5, noise="paper", seed=k)
+        record_analysis("bot", workflows.analyze(runs, 4.0, 0.34), db=db, when=when)
+    with History(db) as h:
+        recs = h.records("bot")
+    page = history_report(recs, db_path=str(db))
+    c = check_page(page)
+    assert len(c.images) == 2  # history plot and the latest scatter
+    text = "".join(c.text)
+    for r in recs:
+        assert f"#{r.id}" in text and r.created_utc[:10] in text
+
+
+def test_report_cli(tmp_path, capsys, monkeypatch):
+    monkeypatch.setenv("UMBMARK_DB", str(tmp_path / "h.sqlite"))
+    runs = simulate_umbmark(workflows.FIG11_ERRORS, n_runs=5, noise="paper", seed=1)
+    a = workflows.analyze(runs, 4.0, 0.34)
+    after = simulate_umbmark(workflows.FIG11_ERRORS, n_runs=5, noise="paper", seed=2, calibration=a.correction.calibration)
+    write_runs_csv(runs, tmp_path / "before.csv")
+    write_runs_csv(after, tmp_path / "after.csv")
+    (tmp_path / "p.json").write_text('{"c_left": 1}')
+    out = tmp_path / "r.html"
+    assert main(["report", str(tmp_path / "before.csv"), "--wheelbase-mm", "340", "--side-mm", "4000",
+                 "--after", str(tmp_path / "after.csv"), "--attach", str(tmp_path / "p.json"),
+                 "--bootstrap", "100", "--out", str(out), "--json"]) == 0
+    j = json.loads(capsys.readouterr().out)
+    assert j["bootstrap"]["n_boot"] == 100 and j["emax_syst_mm"] == pytest.approx(a.result.emax_syst * 1e3)
+    text = "".join(check_page(out.read_text()).text)
+    assert "improvement" in text and "p.json" in text
+
+    assert main(["analyze", str(tmp_path / "before.csv"), "--wheelbase-mm", "340", "--side-mm", "4000",
+                 "--robot", "bot", "--record", "--json"]) == 0
+    capsys.readouterr()
+    assert main(["report", "--robot", "bot", "--out", str(tmp_path / "h.html")]) == 0
+    check_page((tmp_path / "h.html").read_text())
+    assert main(["report", "--id", "1", "--out", str(tmp_path / "one.html"), "--bootstrap", "0"]) == 0
+    one = "".join(check_page((tmp_path / "one.html").read_text()).text)
+    assert f"{a.result.emax_syst * 1e3:.1f} mm" in one
+    capsys.readouterr()
+    # errors: one line, exit 2, no file written
+    assert main(["report", "--out", str(tmp_path / "x.html")]) == 2
+    assert main(["report", str(tmp_path / "before.csv"), "--out", str(tmp_path / "x.html")]) == 2
+    assert "--wheelbase-mm and --side-mm are required" in capsys.readouterr().err
+    assert main(["report", "--robot", "ghost", "--out", str(tmp_path / "x.html")]) == 2
+    assert not (tmp_path / "x.html").exists()
+
+
+def _browser():
+    for name in ("chromium", "chromium-browser", "google-chrome"):
+        if shutil.which(name):
+            return shutil.which(name)
+    return None
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(_browser() is None, reason="no headless Chromium installed (optional check)")
+def test_report_renders_in_headless_chromium(tmp_path, analysis):
+    page = tmp_path / "r.html"
+    page.write_text(analysis_report(analysis, title="render check"))
+    shot = tmp_path / "shot.png"
+    cmd = [_browser(), "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
+           "--disable-background-networking", "--disable-component-update", "--disable-sync",
+           f"--user-data-dir={tmp_path / 'profile'}", "--window-size=1000,2400", f"--screenshot={shot}",
+           page.as_uri()]
+    subprocess.run(cmd, capture_output=True, timeout=120)
+    assert shot.read_bytes()[:8] == PNG
+    import matplotlib.image as mpimg
+
+    px = mpimg.imread(shot)
+    assert px.shape[0] == 2400 and px.shape[1] == 1000
+    # the embedded scatter plot drew: a band of rows in the lower part with dark pixels (axes, markers)
+    dark = (px[..., :3].mean(axis=-1) < 0.5)
+    assert dark[1200:].sum() > 2000
