@@ -154,7 +154,7 @@ def test_three_calibrations_table_plot_export(tmp_path, three_runs_files, capsys
     assert main(["history", "r1", "--plot", str(png), "--export", str(exp)]) == 0
     out = capsys.readouterr().out
     assert "Calibration history of r1 (3 records" in out
-    for name in ("runs1.csv", "runs2.csv", "runs3.csv", "#1", "#2", "#3"):
+    for name in ("#1", "#2", "#3", "analyze/bf", "E_max,syst [mm]", "wheelbase [mm]"):
         assert name in out
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20000
     exported = json.loads(exp.read_text())

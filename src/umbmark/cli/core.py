@@ -15,6 +15,7 @@ from ..kinematics import LABMATE, Calibration, ErrorParams, Geometry
 from ..simulate import NOISE_PRESETS, Motion, simulate_umbmark
 from .app import app, console, emit_json, fmt, is_quiet, table
 from .history import history_options, print_recorded, record_if_requested
+from .progress import progress
 
 
 def geometry_options(f):
@@ -124,8 +125,9 @@ def simulate(ed, eb, es, n_runs, seed, noise, out, wheelbase_mm, side_mm, wheel_
     errors = ErrorParams(workflows.positive("--ed", ed), workflows.positive("--eb", eb), workflows.positive("--es", es))
     motion = Motion(speed_m_s=workflows.positive("--speed", speed_m_s),
                     sample_period_s=workflows.positive("--sample-period-ms", sample_period_ms) * 1e-3)
-    runs = simulate_umbmark(errors, geom, side_m, n_runs, _prior(c_left, c_right, model_wheelbase_mm), noise,
-                            motion, seed=seed)
+    with progress(f"simulating {n_runs} runs each way"):
+        runs = simulate_umbmark(errors, geom, side_m, n_runs, _prior(c_left, c_right, model_wheelbase_mm), noise,
+                                motion, seed=seed)
     write_runs_csv(runs, out)
     res = umbmark(runs)
     if as_json:
@@ -213,7 +215,8 @@ def demo(out_dir, seed, n_runs, noise, as_json):
         from ..errors import InputError
 
         raise InputError(f"output folder {out} does not exist")
-    d = workflows.demo(n_runs=n_runs, noise=noise, seed=seed)
+    with progress("simulating the test before and after calibration"):
+        d = workflows.demo(n_runs=n_runs, noise=noise, seed=seed)
     from ..plot import save_figure, scatter_figure
 
     png = out / "umbmark-demo-scatter.png"

@@ -28,6 +28,7 @@ import sys
 from pathlib import Path
 
 import click
+from rich.markup import escape
 
 from ..errors import InputError
 from .app import app, console, emit_json, fmt, is_quiet, table
@@ -75,7 +76,7 @@ def record_if_requested(robot, record, db, *, analysis=None, kind: str = "analyz
 
 def print_recorded(rec: dict | None) -> None:
     if rec and not is_quiet():
-        console().print(f"recorded as #{rec['record_id']} in the history of {rec['robot']} ({rec['db']})")
+        console().print(escape(f"recorded as #{rec['record_id']} in the history of {rec['robot']} ({rec['db']})"))
 
 
 # -- umbmark history ----------------------------------------------------------------------------------
@@ -149,23 +150,23 @@ def history_cmd(robot, db, plot_path, export_path, limit, show_id, as_json):
             return
         if is_quiet() or export_path == "-":
             return
-        rows = [[f"#{r.id}", r.created_utc[:16].replace("T", " "), r.kind, r.method, fmt(r.emax_syst_mm),
-                 fmt(r.ed, 6), fmt(r.eb, 6), fmt(r.wheelbase_mm, 2), fmt(r.parameters.get("c_left"), 6),
-                 fmt(r.parameters.get("c_right"), 6), _short_source(r)] for r in recs]
+        from rich.table import Table
+
+        t = Table(title=escape(f"Calibration history of {robot} ({len(recs)} records, oldest first)"), title_justify="left",
+                  header_style="bold")
+        for i, col in enumerate(["id", "time (UTC)", "kind/method", "E_max,syst [mm]", "E_d", "E_b",
+                                 "wheelbase [mm]", "c_left", "c_right"]):
+            t.add_column(escape(col), justify="left" if i < 3 else "right", no_wrap=i < 3)
+        for r in recs:
+            t.add_row(f"#{r.id}", r.created_utc[:16].replace("T", " "), escape(f"{r.kind}/{r.method}"), fmt(r.emax_syst_mm),
+                      fmt(r.ed, 6), fmt(r.eb, 6), fmt(r.wheelbase_mm, 2), fmt(r.parameters.get("c_left"), 6),
+                      fmt(r.parameters.get("c_right"), 6))
         c = console()
-        c.print(table(f"Calibration history of {robot} ({len(recs)} records, oldest first)",
-                      ["id", "time (UTC)", "kind", "method", "E_max,syst [mm]", "E_d", "E_b", "wheelbase [mm]",
-                       "c_left", "c_right", "input"], rows))
+        c.print(t)
         if plot_path:
-            c.print(f"plot: {plot_path}")
+            c.print(escape(f"plot: {plot_path}"))
         if exported:
-            c.print(f"latest parameters (record #{recs[-1].id}): {exported}")
-
-
-def _short_source(r) -> str:
-    if r.source:
-        return Path(r.source).name
-    return (r.input_sha256 or "-")[:12]
+            c.print(escape(f"latest parameters (record #{recs[-1].id}): {exported}"))
 
 
 # -- umbmark report ------------------------------------------------------------------------------------
@@ -286,7 +287,7 @@ def report_cmd(runs_file, out_path, wheelbase_mm, side_mm, method, c_left, c_rig
     if as_json:
         emit_json(summary)
     elif not is_quiet():
-        console().print(f"report: {out_path}")
+        console().print(escape(f"report: {out_path}"))
 
 
 # -- umbmark guide -------------------------------------------------------------------------------------
