@@ -64,3 +64,36 @@ def test_bash_completion_script_and_answers():
     r = subprocess.run([sys.executable, "-c", "import sys; sys.argv[0] = 'umbmark'; from umbmark.cli import main; main()"],
                        env=env, capture_output=True, text=True, timeout=60)
     assert r.returncode == 0 and "_umbmark_completion" in r.stdout and "complete -o" in r.stdout
+
+
+def test_progress_is_silent_off_terminal_and_under_quiet(capsys):
+    from rich.console import Console
+
+    from umbmark.cli import progress as prog
+
+    tty = Console(stderr=True, force_terminal=True)
+    with click.Context(app, obj={"quiet": False}):
+        assert prog.progress_enabled(tty)
+        assert not prog.progress_enabled(Console(stderr=True, force_terminal=False))
+    with click.Context(app, obj={"quiet": True}):
+        assert not prog.progress_enabled(tty)
+    # under pytest stderr is not a terminal: nothing is drawn, the iterable passes through
+    assert list(prog.track(range(5), "counting")) == [0, 1, 2, 3, 4]
+    with prog.progress("work", total=3) as advance:
+        advance()
+        advance(2)
+    assert capsys.readouterr().err == ""
+
+
+def test_progress_draws_on_a_terminal(monkeypatch):
+    import io
+
+    from rich.console import Console
+
+    from umbmark.cli import progress as prog
+
+    buf = io.StringIO()
+    monkeypatch.setattr(prog, "_console", lambda: Console(file=buf, force_terminal=True, width=80))
+    with click.Context(app, obj={"quiet": False}):
+        assert list(prog.track(range(3), "counting")) == [0, 1, 2]
+    assert "counting" in buf.getvalue()

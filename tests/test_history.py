@@ -205,3 +205,42 @@ def test_cli_errors(tmp_path, capsys, three_runs_files):
     assert "history" not in json.loads(capsys.readouterr().out)
     with History(db) as h:
         assert h.count() == 1
+
+
+def test_history_options_decorator_on_another_command(tmp_path):
+    """What replay/calibrate do: attach the options, record raw fields (a log's hash)."""
+    import click
+    from click.testing import CliRunner
+
+    from umbmark.cli.history import history_options, record_if_requested
+    from umbmark.history import file_sha256
+
+    log = tmp_path / "bag"
+    log.mkdir()
+    (log / "a.db3").write_bytes(b"\x00\x01" * 100)
+
+    @click.command()
+    @click.argument("src")
+    @history_options
+    def fake_replay(src, robot, record, db):
+        rec = record_if_requested(robot, record, db, kind="replay", method="bf",
+                                  results={"emax_syst_mm": 12.5},
+                                  parameters={"c_left": 0.99, "c_right": 1.01, "wheelbase_m": 0.3, "Ed": 1.02,
+                                              "Eb": 1.0},
+                                  input_sha256=file_sha256(src), source=src)
+        click.echo(json.dumps(rec))
+
+    db = tmp_path / "h.sqlite"
+    r = CliRunner().invoke(fake_replay, [str(log), "--robot", "bot", "--record", "--db", str(db)])
+    assert r.exit_code == 0, r.output
+    assert json.loads(r.output)["record_id"] == 1
+    r = CliRunner().invoke(fake_replay, [str(log), "--record"])
+    assert r.exit_code == 2 and "--record needs --robot" in r.output
+    r = CliRunner().invoke(fake_replay, [str(log), "--robot", "bot", "--db", str(db)])
+    assert r.exit_code == 0 and r.output.strip() == "null"
+    with History(db) as h:
+        rec = h.latest("bot")
+    assert rec.kind == "replay" and rec.wheelbase_mm == pytest.approx(300.0) and rec.emax_syst_mm == 12.5
+    assert rec.input_sha256 == file_sha256(log) and len(rec.input_sha256) == 64
+    (log / "a.db3").write_bytes(b"\x00\x02" * 100)
+    assert file_sha256(log) != rec.input_sha256  # the hash follows the content

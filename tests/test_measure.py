@@ -219,3 +219,19 @@ def test_format_measured_csv_reads_back():
     back = parse_runs_csv(format_measured_csv(got, m))
     np.testing.assert_allclose(back.x_abs, got.x_abs, atol=1e-6)
     assert back.theta_odo is None and back.theta_abs is not None
+
+
+def test_cli_measure_json(tmp_path, repo_root, capsys):
+    import json
+
+    src = repo_root / "data" / "examples" / "distances.csv"
+    assert main(["measure", str(src), *MARK_ARGS, "--resolution-mm", "2", "--out", str(tmp_path / "r.csv"),
+                 "--json"]) == 0
+    j = json.loads(capsys.readouterr().out)
+    assert j["resolution_mm"] == 2 and len(j["runs"]) == 10
+    r0 = j["runs"][0]
+    assert 0 < r0["x_abs_sd_mm"] < r0["x_abs_bound_mm"] and 0 < r0["theta_abs_sd_deg"]
+    # twice the resolution, twice the standard deviation (linear propagation)
+    assert main(["measure", str(src), *MARK_ARGS, "--out", str(tmp_path / "r1.csv"), "--json"]) == 0
+    j1 = json.loads(capsys.readouterr().out)
+    assert r0["x_abs_sd_mm"] == pytest.approx(2 * j1["runs"][0]["x_abs_sd_mm"], rel=1e-6)
