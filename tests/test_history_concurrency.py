@@ -1,5 +1,9 @@
 """A writer killed (SIGKILL) mid-transaction, and two writer processes in parallel, leave the
-history database consistent with every committed record present."""
+history database consistent with every committed record present.
+
+Backends: the SQLite file (standard library), SQLite through SQLAlchemy (a ``sqlite:///`` URL),
+and PostgreSQL when ``UMBMARK_TEST_POSTGRES_URL`` names a database the tests may wipe
+(e.g. ``postgresql+psycopg://postgres@/umbmark_test?host=/tmp/pgsock&port=55432``)."""
 
 import os
 import signal
@@ -9,11 +13,43 @@ import time
 
 import pytest
 
-from umbmark.history import History
+from umbmark.history import open_history
+
+PG_URL = os.environ.get("UMBMARK_TEST_POSTGRES_URL")
+
+
+def _has_sqlalchemy():
+    try:
+        import sqlalchemy  # noqa: F401
+    except ImportError:
+        return False
+    return True
+
+
+@pytest.fixture(params=["sqlite-file", "sqlalchemy-sqlite", "postgresql"])
+def db(request, tmp_path):
+    """A fresh, empty history database of each backend (not created yet)."""
+    if request.param == "sqlite-file":
+        return tmp_path / "h.sqlite"
+    if not _has_sqlalchemy():
+        pytest.skip("SQLAlchemy not installed (optional extra 'db')")
+    if request.param == "sqlalchemy-sqlite":
+        return f"sqlite:///{tmp_path / 'sa.sqlite'}"
+    if not PG_URL:
+        pytest.skip("set UMBMARK_TEST_POSTGRES_URL to run the PostgreSQL backend tests")
+    import sqlalchemy as sa
+
+    eng = sa.create_engine(PG_URL)
+    with eng.begin() as c:
+        for t in ("calibrations", "robots", "umbmark_schema"):
+            c.exec_driver_sql(f"DROP TABLE IF EXISTS {t} CASCADE")
+    eng.dispose()
+    return PG_URL
+
 
 WRITER = r"""
 import sys, time, os
-from umbmark.history import History
+from umbmark.history import open_history as History
 
 db, mode, tag, n = sys.argv[1], sys.argv[2], sys.argv[3], int(sys.argv[4])
 go = sys.argv[5] if len(sys.argv) > 5 and sys.argv[5] else None
@@ -70,13 +106,12 @@ def _read_until(p, prefix, timeout=60):
 
 
 def _notes(db, tag):
-    with History(db) as h:
+    with open_history(db) as h:
         assert h.integrity_check() == "ok"
         return [r.note for r in h.records(tag)]
 
 
-def test_sigkill_inside_a_transaction_loses_only_the_uncommitted_record(tmp_path):
-    db = tmp_path / "h.sqlite"
+def test_sigkill_inside_a_transaction_loses_only_the_uncommitted_record(db):
     p = _start(db, "hang", "robot-a", 3)
     try:
         lines = _read_until(p, "inside")
@@ -92,7 +127,7 @@ def test_sigkill_inside_a_transaction_loses_only_the_uncommitted_record(tmp_path
     assert _notes(db, "robot-a") == ["robot-a-0", "robot-a-1", "robot-a-2"]
     # the lock died with the writer: a new write goes through at once
     t0 = time.monotonic()
-    with History(db, timeout_s=5) as h:
+    with open_history(db) as h:
         h.add("robot-a", kind="analyze", method="bf", results={}, parameters={}, note="after")
         assert h.count() == 4
     assert time.monotonic() - t0 < 5
@@ -100,8 +135,7 @@ def test_sigkill_inside_a_transaction_loses_only_the_uncommitted_record(tmp_path
 
 @pytest.mark.slow
 @pytest.mark.parametrize("after", [1, 17, 60])
-def test_sigkill_at_a_random_moment_keeps_every_committed_record(tmp_path, after):
-    db = tmp_path / "h.sqlite"
+def test_sigkill_at_a_random_moment_keeps_every_committed_record(db, after):
     p = _start(db, "loop", "r", 100000)
     try:
         _read_until(p, "ready")
@@ -125,8 +159,8 @@ def test_sigkill_at_a_random_moment_keeps_every_committed_record(tmp_path, after
 
 
 @pytest.mark.parametrize("pause", [0.0, 0.003])
-def test_two_writer_processes_in_parallel(tmp_path, pause):
-    db = tmp_path / "fresh.sqlite"  # does not exist yet: both processes race to create the schema too
+def test_two_writer_processes_in_parallel(db, tmp_path, pause):
+    # the database is empty: both processes race to create the schema too
     go = tmp_path / "go"
     n = 60
     # a short pause between writes, like separate commands; without it SQLite's busy handler lets
@@ -146,7 +180,7 @@ def test_two_writer_processes_in_parallel(tmp_path, pause):
         assert out.count("committed") == n
     assert _notes(db, "left") == [f"left-{i}" for i in range(n)]
     assert _notes(db, "right") == [f"right-{i}" for i in range(n)]
-    with History(db) as h:
+    with open_history(db) as h:
         recs = h.records()
         assert len(recs) == 2 * n == h.count()
         assert len({r.id for r in recs}) == 2 * n

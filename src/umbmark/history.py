@@ -17,7 +17,9 @@ Every write is one ``BEGIN IMMEDIATE`` ... ``COMMIT`` transaction in WAL mode wi
 two processes writing at once queue up instead of failing (tests/test_history_concurrency.py
 kills writers with SIGKILL and runs writers in parallel processes).
 
-Only SQLite is implemented; no SQLAlchemy / PostgreSQL backend.
+A database URL (``--db postgresql+psycopg://user@host/db``, or in ``UMBMARK_DB``) selects the
+SQLAlchemy backend in :mod:`umbmark.history_sqlalchemy` (optional extras ``db`` / ``postgres``),
+for a fleet sharing one PostgreSQL server.
 """
 
 from __future__ import annotations
@@ -39,7 +41,8 @@ from .errors import InputError, UmbmarkError
 
 __all__ = [
     "SCHEMA_VERSION", "MIGRATIONS", "ENV_VAR", "KINDS", "Record", "History", "HistoryError",
-    "default_db_path", "resolve_db_path", "record_result", "record_analysis", "parameters_from_analysis",
+    "default_db_path", "resolve_db_path", "resolve_db", "is_url", "display_db", "open_history", "make_row", "record_result",
+    "record_analysis", "parameters_from_analysis",
     "file_sha256", "export_parameters", "format_export", "runs_to_rows", "runs_from_rows", "history_figure",
 ]
 
@@ -96,14 +99,47 @@ def default_db_path() -> Path:
     return base / "umbmark" / "history.sqlite"
 
 
+def is_url(db) -> bool:
+    """True for an SQLAlchemy database URL (``postgresql+psycopg://...``, ``sqlite:///...``)."""
+    return isinstance(db, str) and "://" in db
+
+
+def resolve_db(db=None):
+    """``db`` if given, else ``$UMBMARK_DB``, else :func:`default_db_path`; a URL stays a string,
+    a file becomes a :class:`Path`."""
+    db = db or os.environ.get(ENV_VAR) or None
+    if db is None:
+        return default_db_path()
+    if is_url(str(db)):
+        return str(db)
+    return Path(db).expanduser()
+
+
+def display_db(db) -> str:
+    """A database file or URL for messages, with any password in a URL masked."""
+    import re
+
+    return re.sub(r"(://[^:/@]*:)[^@]*@", r"\1***@", str(db))
+
+
 def resolve_db_path(db=None) -> Path:
-    """``db`` if given, else ``$UMBMARK_DB``, else :func:`default_db_path`."""
-    if db:
-        return Path(db).expanduser()
-    env = os.environ.get(ENV_VAR)
-    if env:
-        return Path(env).expanduser()
-    return default_db_path()
+    """Like :func:`resolve_db`, for a database file (not a URL)."""
+    r = resolve_db(db)
+    if isinstance(r, str):
+        raise InputError(f"{r!r} is a database URL, not a file")
+    return r
+
+
+def open_history(db=None, create: bool = True):
+    """Open the history: :class:`History` (SQLite file, standard library) or, for a database URL,
+    :class:`umbmark.history_sqlalchemy.SQLAlchemyHistory` (needs the ``db`` or ``postgres``
+    extra). Both have the same methods."""
+    r = resolve_db(db)
+    if isinstance(r, str):
+        from .history_sqlalchemy import SQLAlchemyHistory
+
+        return SQLAlchemyHistory(r, create=create)
+    return History(r, create=create)
 
 
 def _now_utc() -> str:
@@ -311,33 +347,13 @@ class History:
             parameters_in_use: dict | None = None, note: str | None = None, when=None,
             software_version: str | None = None) -> int:
         """Store one calibration in one transaction; returns its id."""
-        robot = _check_robot(robot)
-        if kind not in KINDS:
-            raise InputError(f"unknown record kind {kind!r} (one of {', '.join(KINDS)})")
         row = self._row(robot, kind, method, results, parameters, inputs, input_sha256, source, parameters_in_use,
                         note, when, software_version)
         with self.transaction() as c:
             return self._insert(c, row)
 
-    def _row(self, robot, kind, method, results, parameters, inputs, input_sha256, source, parameters_in_use, note,
-             when, software_version) -> dict:
-        parameters = dict(parameters or {})
-        results = dict(results or {})
-        wb = _num(parameters.get("wheelbase_mm"))
-        if wb is None and _num(parameters.get("wheelbase_m")) is not None:
-            wb = _num(parameters.get("wheelbase_m")) * 1e3
-        return {
-            "robot": robot, "created_utc": _utc_string(when), "kind": kind, "method": str(method),
-            "software_version": software_version or __version__,
-            "inputs_json": _dumps(inputs or {}), "input_sha256": input_sha256,
-            "source": None if source is None else str(source),
-            "results_json": _dumps(results), "parameters_json": _dumps(parameters),
-            "parameters_in_use_json": _dumps(parameters_in_use or {}),
-            "emax_syst_mm": _num(results.get("emax_syst_mm")),
-            "ed": _num(parameters.get("Ed", results.get("Ed"))),
-            "eb": _num(parameters.get("Eb", results.get("Eb"))),
-            "wheelbase_mm": wb, "note": note, "host": socket.gethostname(),
-        }
+    def _row(self, *args) -> dict:
+        return make_row(*args)
 
     def _insert(self, c, row: dict) -> int:
         """The statements of one record; call inside :meth:`transaction`."""
@@ -401,6 +417,31 @@ class History:
         return f" (robots: {', '.join(names)})" if names else " (it holds no robots yet)"
 
 
+def make_row(robot, kind, method, results, parameters, inputs, input_sha256, source, parameters_in_use, note,
+             when, software_version) -> dict:
+    """The column values of one ``calibrations`` row (plus ``robot``), for any backend."""
+    robot = _check_robot(robot)
+    if kind not in KINDS:
+        raise InputError(f"unknown record kind {kind!r} (one of {', '.join(KINDS)})")
+    parameters = dict(parameters or {})
+    results = dict(results or {})
+    wb = _num(parameters.get("wheelbase_mm"))
+    if wb is None and _num(parameters.get("wheelbase_m")) is not None:
+        wb = _num(parameters.get("wheelbase_m")) * 1e3
+    return {
+        "robot": robot, "created_utc": _utc_string(when), "kind": kind, "method": str(method),
+        "software_version": software_version or __version__,
+        "inputs_json": _dumps(inputs or {}), "input_sha256": input_sha256,
+        "source": None if source is None else str(source),
+        "results_json": _dumps(results), "parameters_json": _dumps(parameters),
+        "parameters_in_use_json": _dumps(parameters_in_use or {}),
+        "emax_syst_mm": _num(results.get("emax_syst_mm")),
+        "ed": _num(parameters.get("Ed", results.get("Ed"))),
+        "eb": _num(parameters.get("Eb", results.get("Eb"))),
+        "wheelbase_mm": wb, "note": note, "host": socket.gethostname(),
+    }
+
+
 def _check_robot(robot) -> str:
     if robot is None or not str(robot).strip():
         raise InputError("a robot name is needed to record a calibration (--robot NAME)")
@@ -421,7 +462,7 @@ def record_result(robot: str, *, kind: str, method: str, results: dict, paramete
     ``wheelbase_mm`` (or ``wheelbase_m``), ``Ed``, ``Eb``; ``parameters_in_use``: the ones the
     robot ran with; ``inputs``: the runs (or anything JSON) and/or ``input_sha256`` plus ``source``
     (the file or folder the input came from: see :func:`file_sha256`)."""
-    with History(db) as h:
+    with open_history(db) as h:
         return h.add(robot, kind=kind, method=method, results=results, parameters=parameters, inputs=inputs,
                      input_sha256=input_sha256, source=source, parameters_in_use=parameters_in_use, note=note,
                      when=when)

@@ -64,14 +64,14 @@ def record_if_requested(robot, record, db, *, analysis=None, kind: str = "analyz
     or None. Prints one line unless ``--quiet``/JSON (call :func:`print_recorded`)."""
     if not record:
         return None
-    from ..history import record_analysis, record_result, resolve_db_path
+    from ..history import display_db, record_analysis, record_result, resolve_db
 
-    path = resolve_db_path(db)
+    path = resolve_db(db)
     if analysis is not None:
         rid = record_analysis(robot, analysis, kind=kind, source=source, db=path, prior=prior, note=note)
     else:
         rid = record_result(robot, kind=kind, db=path, source=source, note=note, **fields)
-    return {"record_id": rid, "robot": robot, "db": str(path)}
+    return {"record_id": rid, "robot": robot, "db": display_db(path)}
 
 
 def print_recorded(rec: dict | None) -> None:
@@ -105,9 +105,9 @@ def history_cmd(robot, db, plot_path, export_path, limit, show_id, as_json):
       umbmark history r1 --export r1-params.json        the latest parameters to load
       umbmark history --show 3                          one record in full
     """
-    from ..history import History, format_export
+    from ..history import format_export, open_history
 
-    with History(db, create=False) as h:
+    with open_history(db, create=False) as h:
         if show_id is not None:
             emit_json(h.get(show_id).to_dict(full=True))
             return
@@ -214,9 +214,9 @@ def report_cmd(runs_file, out_path, wheelbase_mm, side_mm, method, c_left, c_rig
     if runs_file is None and record_id is None:
         if robot is None:
             raise click.UsageError("give a runs file FILE.csv, --robot NAME (history) or --id N (a record)")
-        from ..history import History
+        from ..history import open_history
 
-        with History(db, create=False) as h:
+        with open_history(db, create=False) as h:
             recs = h.records(robot)
             if not recs:
                 raise InputError(f"no calibrations of robot {robot!r} in the history database {h.path}"
@@ -235,9 +235,9 @@ def report_cmd(runs_file, out_path, wheelbase_mm, side_mm, method, c_left, c_rig
         if record_id is not None:
             if runs_file is not None:
                 raise click.UsageError("give either FILE.csv or --id, not both")
-            from ..history import History, runs_from_rows
+            from ..history import open_history, runs_from_rows
 
-            with History(db, create=False) as h:
+            with open_history(db, create=False) as h:
                 rec = h.get(record_id)
             rows = rec.inputs.get("runs") if isinstance(rec.inputs, dict) else None
             if not rows or "side_mm" not in rec.inputs:

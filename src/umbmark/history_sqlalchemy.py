@@ -1,0 +1,268 @@
+"""The calibration history on any SQLAlchemy database (PostgreSQL for a fleet), selected by a
+database URL in ``--db`` or ``UMBMARK_DB``, e.g. ``postgresql+psycopg://user:pw@host/umbmark``.
+
+Needs the optional extra ``db`` (SQLAlchemy) or ``postgres`` (SQLAlchemy + psycopg). Same tables
+and columns as the SQLite backend (:mod:`umbmark.history`); the schema version is kept in a
+one-row table ``umbmark_schema`` (SQLite's ``user_version`` is not portable). Each record is one
+transaction; on PostgreSQL a client killed mid-transaction is rolled back by the server, and two
+writers creating the same robot at once are resolved with a savepoint (the loser re-reads the
+winner's row).
+"""
+
+from __future__ import annotations
+
+from contextlib import contextmanager
+
+from . import __version__
+from .errors import InputError
+from .history import KINDS, SCHEMA_VERSION, HistoryError, Record, _record, display_db, make_row  # noqa: F401
+
+__all__ = ["SQLAlchemyHistory"]
+
+_COLS = ("id", "name", "created_utc", "kind", "method", "software_version", "inputs_json", "input_sha256", "source",
+         "results_json", "parameters_json", "parameters_in_use_json", "emax_syst_mm", "ed", "eb", "wheelbase_mm",
+         "note", "host")
+
+
+def _import():
+    try:
+        import sqlalchemy as sa
+    except ImportError:
+        raise HistoryError("a database URL needs SQLAlchemy: pip install 'umbmark[db]' "
+                           "(or 'umbmark[postgres]' for PostgreSQL)") from None
+    return sa
+
+
+def _tables(sa):
+    md = sa.MetaData()
+    schema = sa.Table("umbmark_schema", md, sa.Column("version", sa.Integer, nullable=False))
+    robots = sa.Table(
+        "robots", md,
+        sa.Column("id", sa.Integer, primary_key=True, autoincrement=True),
+        sa.Column("name", sa.String(200), nullable=False, unique=True),
+        sa.Column("created_utc", sa.String(32), nullable=False),
+    )
+    cal = sa.Table(
+        "calibrations", md,
+        sa.Column("id", sa.Integer, primary_key=True, autoincrement=True),
+        sa.Column("robot_id", sa.Integer, sa.ForeignKey("robots.id"), nullable=False),
+        sa.Column("created_utc", sa.String(32), nullable=False),
+        sa.Column("kind", sa.String(20), nullable=False),
+        sa.Column("method", sa.String(100), nullable=False),
+        sa.Column("software_version", sa.String(64), nullable=False),
+        sa.Column("inputs_json", sa.Text, nullable=False),
+        sa.Column("input_sha256", sa.String(64)),
+        sa.Column("source", sa.Text),
+        sa.Column("results_json", sa.Text, nullable=False),
+        sa.Column("parameters_json", sa.Text, nullable=False),
+        sa.Column("parameters_in_use_json", sa.Text, nullable=False),
+        sa.Column("emax_syst_mm", sa.Float),
+        sa.Column("ed", sa.Float),
+        sa.Column("eb", sa.Float),
+        sa.Column("wheelbase_mm", sa.Float),
+        sa.Column("note", sa.Text),
+        sa.Column("host", sa.String(255)),
+        sa.Index("calibrations_robot_time", "robot_id", "created_utc", "id"),
+    )
+    return md, schema, robots, cal
+
+
+class SQLAlchemyHistory:
+    """Same interface as :class:`umbmark.history.History`, on an SQLAlchemy engine."""
+
+    def __init__(self, url: str, timeout_s: float = 60.0, create: bool = True):
+        sa = self._sa = _import()
+        try:
+            u = sa.engine.make_url(url)
+        except Exception as e:  # noqa: BLE001  sqlalchemy.exc.ArgumentError
+            raise InputError(f"not a database URL: {display_db(url)!r} ({e})") from None
+        self._shown = self.path = display_db(url)
+        kwargs = {}
+        if u.get_backend_name() == "sqlite":
+            kwargs["connect_args"] = {"timeout": timeout_s}
+        try:
+            self._engine = sa.create_engine(u, **kwargs)
+        except Exception as e:  # noqa: BLE001  missing driver etc.
+            raise HistoryError(f"cannot use the history database {self._shown}: {e}") from None
+        if u.get_backend_name() == "sqlite":
+            # pysqlite's implicit transactions start too late for concurrent writers: take the
+            # write lock at BEGIN, as the standard-library backend does
+            @sa.event.listens_for(self._engine, "connect")
+            def _connect(dbapi_conn, record):
+                dbapi_conn.isolation_level = None
+                for pragma in ("foreign_keys = ON", "journal_mode = WAL", "synchronous = FULL"):
+                    dbapi_conn.execute(f"PRAGMA {pragma}")
+
+            @sa.event.listens_for(self._engine, "begin")
+            def _begin(conn):
+                conn.exec_driver_sql("BEGIN IMMEDIATE" if conn.info.get("umbmark_write") else "BEGIN")
+        self._md, self._schema, self._robots, self._cal = _tables(sa)
+        self.journal_mode = None
+        try:
+            self._migrate(create)
+        except HistoryError:
+            self._engine.dispose()
+            raise
+        except sa.exc.SQLAlchemyError as e:
+            self._engine.dispose()
+            raise HistoryError(f"cannot use the history database {self._shown}: {e.__class__.__name__}: "
+                               f"{str(e).splitlines()[0]}") from None
+
+    def close(self):
+        self._engine.dispose()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    @contextmanager
+    def transaction(self):
+        """One write transaction (on SQLite: ``BEGIN IMMEDIATE``); rolled back on any exception."""
+        with self._engine.connect() as conn:
+            conn.info["umbmark_write"] = True
+            try:
+                with conn.begin():
+                    yield conn
+            finally:
+                conn.info.pop("umbmark_write", None)
+
+    def _version(self, conn):
+        sa = self._sa
+        if not sa.inspect(conn).has_table("umbmark_schema"):
+            return None
+        return conn.execute(sa.select(self._schema.c.version)).scalar()
+
+    def _migrate(self, create: bool):
+        sa = self._sa
+        with self._engine.connect() as conn:
+            if self._version(conn) == SCHEMA_VERSION:
+                return  # nothing to do: no write lock needed
+        for attempt in range(2):
+            try:
+                with self.transaction() as conn:
+                    v = self._version(conn)
+                    if v is None:
+                        names = set(sa.inspect(conn).get_table_names())
+                        if not create:
+                            raise HistoryError(f"no umbmark history in {self._shown} (record a calibration with "
+                                               "--robot NAME --record)")
+                        if names & {"robots", "calibrations"}:
+                            raise HistoryError(f"{self._shown} has robots/calibrations tables but no umbmark schema "
+                                               "version: not an umbmark history")
+                        self._md.create_all(conn)
+                        conn.execute(self._schema.insert().values(version=SCHEMA_VERSION))
+                        return
+                    if v > SCHEMA_VERSION:
+                        raise HistoryError(f"the history database {self._shown} has schema version {v}, newer than "
+                                           f"this umbmark ({__version__}, schema {SCHEMA_VERSION}): upgrade umbmark")
+                    # versions below the current one do not exist on this backend yet
+                    return
+            except sa.exc.IntegrityError:
+                continue  # another process created the schema at the same moment: look again
+            except sa.exc.ProgrammingError:
+                if attempt:
+                    raise
+                continue
+
+    @property
+    def schema_version(self) -> int:
+        with self._engine.connect() as conn:
+            return self._version(conn) or 0
+
+    def integrity_check(self) -> str:
+        sa = self._sa
+        with self._engine.connect() as conn:
+            if self._engine.dialect.name == "sqlite":
+                res = "; ".join(r[0] for r in conn.exec_driver_sql("PRAGMA integrity_check"))
+            else:
+                res = "ok"
+            orphans = conn.execute(
+                sa.select(sa.func.count()).select_from(self._cal.outerjoin(self._robots))
+                .where(self._robots.c.id.is_(None))).scalar()
+        return res if not orphans else f"{res}; records without a robot: {orphans}"
+
+    def _row(self, *args) -> dict:
+        return make_row(*args)
+
+    def _insert(self, conn, row: dict) -> int:
+        sa = self._sa
+        name = row["robot"]
+        rid = conn.execute(sa.select(self._robots.c.id).where(self._robots.c.name == name)).scalar()
+        if rid is None:
+            try:
+                with conn.begin_nested():
+                    conn.execute(self._robots.insert().values(name=name, created_utc=row["created_utc"]))
+            except sa.exc.IntegrityError:
+                pass  # created by a concurrent writer
+            rid = conn.execute(sa.select(self._robots.c.id).where(self._robots.c.name == name)).scalar_one()
+        values = {k: v for k, v in row.items() if k != "robot"}
+        res = conn.execute(self._cal.insert().values(robot_id=rid, **values))
+        return int(res.inserted_primary_key[0])
+
+    def add(self, robot: str, *, kind: str, method: str, results: dict, parameters: dict,
+            inputs: dict | None = None, input_sha256: str | None = None, source: str | None = None,
+            parameters_in_use: dict | None = None, note: str | None = None, when=None,
+            software_version: str | None = None) -> int:
+        row = make_row(robot, kind, method, results, parameters, inputs, input_sha256, source, parameters_in_use,
+                       note, when, software_version)
+        with self.transaction() as conn:
+            return self._insert(conn, row)
+
+    def _select(self):
+        sa = self._sa
+        c, r = self._cal.c, self._robots.c
+        cols = [c.id, r.name] + [getattr(c, k) for k in _COLS[2:]]
+        return sa.select(*cols).select_from(self._cal.join(self._robots))
+
+    def records(self, robot: str | None = None, limit: int | None = None) -> list[Record]:
+        q = self._select()
+        if robot is not None:
+            q = q.where(self._robots.c.name == robot)
+        q = q.order_by(self._cal.c.created_utc.desc(), self._cal.c.id.desc())
+        if limit is not None:
+            q = q.limit(int(limit))
+        with self._engine.connect() as conn:
+            rows = conn.execute(q).all()
+        return [_record(tuple(x)) for x in reversed(rows)]
+
+    def get(self, record_id: int) -> Record:
+        with self._engine.connect() as conn:
+            row = conn.execute(self._select().where(self._cal.c.id == int(record_id))).first()
+        if row is None:
+            raise InputError(f"no record #{record_id} in the history database {self._shown}")
+        return _record(tuple(row))
+
+    def latest(self, robot: str) -> Record:
+        recs = self.records(robot, limit=1)
+        if not recs:
+            raise InputError(f"no calibrations of robot {robot!r} in the history database {self._shown}"
+                             + self._known_hint())
+        return recs[0]
+
+    def robots(self) -> list[dict]:
+        sa = self._sa
+        c, r = self._cal.c, self._robots.c
+        q = (sa.select(r.name, sa.func.count(c.id), sa.func.min(c.created_utc), sa.func.max(c.created_utc))
+             .select_from(self._robots.outerjoin(self._cal)).group_by(r.id, r.name).order_by(r.name))
+        with self._engine.connect() as conn:
+            rows = conn.execute(q).all()
+        out = []
+        for name, n, first, last in rows:
+            d = {"robot": name, "records": n, "first_utc": first, "last_utc": last}
+            if n:
+                rec = self.latest(name)
+                d.update({"latest_id": rec.id, "emax_syst_mm": rec.emax_syst_mm, "Ed": rec.ed, "Eb": rec.eb,
+                          "wheelbase_mm": rec.wheelbase_mm})
+            out.append(d)
+        return out
+
+    def count(self) -> int:
+        sa = self._sa
+        with self._engine.connect() as conn:
+            return conn.execute(sa.select(sa.func.count()).select_from(self._cal)).scalar()
+
+    def _known_hint(self) -> str:
+        names = [r["robot"] for r in self.robots()]
+        return f" (robots: {', '.join(names)})" if names else " (it holds no robots yet)"
