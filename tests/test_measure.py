@@ -106,7 +106,7 @@ def test_inconsistent_distances_name_the_line():
 @pytest.mark.parametrize("text,match", [
     ("run,direction,start_front\n1,cw,1\n", r"x\.csv:1: no header .* missing start_rear"),
     ("direction,start_front,start_rear,start_back,end_front,end_rear,end_back,x_odo,y_odo\n"
-     "cw,,,,1,2,3,0,0\n", r"x\.csv:2: the start distances are empty and there is no previous row"),
+     "cw,,,,1,2,3,0,0\n", r"x\.csv:2: the start distances are empty and there is no previous cw row"),
     ("direction,start_front,start_rear,start_back,end_front,end_rear,end_back,x_odo,y_odo\n"
      "cw,1,2,3,1,two,3,0,0\n", r"x\.csv:2: column end_rear: 'two' is not a number"),
     ("direction,start_front,start_rear,start_back,end_front,end_rear,end_back,x_odo,y_odo\n"
@@ -124,10 +124,15 @@ def test_distances_file_errors(text, match):
 def test_empty_start_reuses_previous_row():
     text = ("direction,start_front,start_rear,start_back,end_front,end_rear,end_back,x_odo,y_odo\n"
             "cw,400,401,350,300,302,450,1,2\n"
-            "cw,,,,310,311,455,3,4\n")
+            "ccw,420,421,360,300,302,450,1,2\n"
+            "cw,,,,310,311,455,3,4\n"
+            "ccw,,,,310,311,455,3,4\n")
     rows = parse_distances_csv(text)
-    assert rows[1].distances_mm[:3] == (400.0, 401.0, 350.0)
-    assert [r.run for r in rows] == ["1", "2"]
+    assert rows[2].distances_mm[:3] == (400.0, 401.0, 350.0)  # the previous cw start, not the ccw one
+    assert rows[3].distances_mm[:3] == (420.0, 421.0, 360.0)
+    assert [r.run for r in rows] == ["1", "1", "2", "2"]
+    with pytest.raises(InputError, match="no previous ccw row"):
+        parse_distances_csv(text.replace("ccw,420,421,360", "ccw,,,"), "x.csv")
 
 
 def test_guide_example_rows_measure_to_the_simulated_pose():
@@ -235,3 +240,23 @@ def test_cli_measure_json(tmp_path, repo_root, capsys):
     assert main(["measure", str(src), *MARK_ARGS, "--out", str(tmp_path / "r1.csv"), "--json"]) == 0
     j1 = json.loads(capsys.readouterr().out)
     assert r0["x_abs_sd_mm"] == pytest.approx(2 * j1["runs"][0]["x_abs_sd_mm"], rel=1e-6)
+
+
+def test_cli_measure_interactive_without_theta_and_with_reused_start(tmp_path):
+    """No odometry heading on the first run: not asked again. Enter at a start prompt reuses the
+    previous start of the same direction."""
+    truth = simulate_umbmark(FIG11_ERRORS, n_runs=2, noise="paper", seed=9)
+    d = distances_for_runs(MARKS, truth, WallPose(0.55, 0.5, 0.0)) * 1e3
+    ans = []
+    for i in range(4):
+        start = [f"{v:.4f}" for v in d[i, :3]] if i in (0, 2) else ["", "", ""]  # 2nd run of each: Enter
+        odo = [f"{truth.x_odo[i] * 1e3:.4f}", f"{truth.y_odo[i] * 1e3:.4f}"] + ([""] if i == 0 else [])
+        ans += start + odo + [f"{v:.4f}" for v in d[i, 3:]]
+    out = tmp_path / "runs.csv"
+    res = CliRunner().invoke(app, ["measure", "--interactive", "--runs", "2", *MARK_ARGS, "--out", str(out)],
+                             input="\n".join(ans) + "\n")
+    assert res.exit_code == 0, res.output
+    runs = read_runs_csv(out)
+    assert runs.theta_odo is None and len(runs) == 4
+    np.testing.assert_allclose(runs.x_abs, truth.x_abs, atol=2e-6)
+    np.testing.assert_allclose(runs.theta_abs, truth.theta_abs, atol=1e-6)

@@ -62,7 +62,7 @@ def guide_text(side_mm: float = 4000.0, runs: int = 5, speed_m_s: float = 0.2) -
    1,cw,409,411,350,294,278,471,45.7,44.9,-1.30
    1,ccw,409,411,350,188,150,633,43.7,-44.9,1.29
 
-   The three start cells may be left empty to reuse the previous row's start. Or type the rows
+   Empty start cells reuse the previous start of the same direction. Or type the rows
    at the prompts: umbmark measure --interactive ... (it saves after every run). If you measure
    the end pose another way (a motion-capture system, a grid on the floor), write the runs file
    directly: run,direction,x_abs,y_abs,x_odo,y_odo[,theta_abs,theta_odo], in the start frame.""",

@@ -15,7 +15,7 @@ from contextlib import contextmanager
 
 from . import __version__
 from .errors import InputError
-from .history import KINDS, SCHEMA_VERSION, HistoryError, Record, _record, display_db, make_row  # noqa: F401
+from .history import SCHEMA_VERSION, HistoryError, Record, _record, display_db, make_row
 
 __all__ = ["SQLAlchemyHistory"]
 

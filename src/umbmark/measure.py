@@ -341,13 +341,14 @@ def parse_distances_csv(text: str, source: str = "<distances>") -> list[Measured
 
     Columns: ``direction, start_front, start_rear, start_back, end_front, end_rear, end_back,
     x_odo, y_odo``; optional ``run``, ``theta_odo``. The three start cells of a row may be left
-    empty together: the start of the previous row is reused (the robot was put back on the same
-    marked start). Blank lines and lines starting with ``#`` are skipped."""
+    empty together: the start of the previous row of the same direction is reused (the robot was
+    put back on the same marked start; cw and ccw runs start at different corners). Blank lines
+    and lines starting with ``#`` are skipped."""
     required = ("direction",) + DIST_COLUMNS + ("x_odo", "y_odo")
     reader = csv.reader(io.StringIO(text))
     header = None
     out: list[MeasuredRun] = []
-    prev_start = None
+    prev_start: dict[str, tuple] = {}
     for row in reader:
         line = reader.line_num
         if not row or all(not c.strip() for c in row) or row[0].lstrip().startswith("#"):
@@ -369,16 +370,17 @@ def parse_distances_csv(text: str, source: str = "<distances>") -> list[Measured
             raise InputError(f"unknown direction {cell('direction')!r} (expected cw or ccw)", source, line)
         starts = [cell(c) for c in START_COLUMNS]
         if all(not s for s in starts):
-            if prev_start is None:
-                raise InputError("the start distances are empty and there is no previous row to reuse", source, line)
-            start = prev_start
+            if d not in prev_start:
+                raise InputError(f"the start distances are empty and there is no previous {d} row to reuse", source,
+                                 line)
+            start = prev_start[d]
         else:
             start = tuple(_num(cell(c), c, source, line) for c in START_COLUMNS)
         end = tuple(_num(cell(c), c, source, line) for c in END_COLUMNS)
         for c, v in zip(DIST_COLUMNS, start + end):
             if v < 0:
                 raise InputError(f"column {c}: a distance cannot be negative ({v:g})", source, line)
-        prev_start = start
+        prev_start[d] = start
         theta = None
         if "theta_odo" in col and cell("theta_odo"):
             theta = _num(cell("theta_odo"), "theta_odo", source, line)

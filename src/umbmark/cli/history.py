@@ -230,7 +230,7 @@ def report_cmd(runs_file, out_path, wheelbase_mm, side_mm, method, c_left, c_rig
         from ..kinematics import Calibration
 
         source = sha = None
-        when = None
+        label = None
         prior = None
         if record_id is not None:
             if runs_file is not None:
@@ -247,7 +247,8 @@ def report_cmd(runs_file, out_path, wheelbase_mm, side_mm, method, c_left, c_rig
             wheelbase_mm = rec.inputs.get("wheelbase_mm")
             method = rec.method
             robot = rec.robot
-            source, sha, when = rec.source, rec.input_sha256, rec.created_utc
+            source, sha = rec.source, rec.input_sha256
+            label = f"record #{rec.id} of {rec.created_utc[:16].replace('T', ' ')} UTC"
             piu = rec.parameters_in_use or {}
             if piu.get("c_left", 1.0) != 1.0 or piu.get("c_right", 1.0) != 1.0:
                 prior = Calibration(piu["c_left"], piu["c_right"], None)
@@ -279,7 +280,8 @@ def report_cmd(runs_file, out_path, wheelbase_mm, side_mm, method, c_left, c_rig
         if n_boot:
             with progress("bootstrap", total=n_boot) as advance:
                 boot = bootstrap_intervals(runs, side_m, wheelbase_m, method, prior, n_boot, seed, advance=advance)
-        title = f"UMBmark report: {robot + ', ' if robot else ''}{Path(source).name if source else 'runs'}"
+        what = label or (Path(source).name if source else "runs")
+        title = f"UMBmark report: {robot + ', ' if robot else ''}{what}"
         page = analysis_report(a, title=title, source=source, source_sha256=sha, prior=prior, after_runs=after,
                                exported=exported or None, boot=boot, robot=robot)
         atomic_write(out_path, page)
@@ -358,7 +360,7 @@ def measure_cmd(distances_file, front, rear, back, side_wall, resolution_mm, out
 
     DISTANCES.csv columns: run, direction, start_front, start_rear, start_back, end_front,
     end_rear, end_back, x_odo, y_odo[, theta_odo] (mm, deg; empty start cells reuse the previous
-    start). Or --interactive.
+    start of the same direction). Or --interactive.
 
     \b
     Examples:
@@ -424,8 +426,10 @@ def _interactive(marks, side_wall, resolution_mm, out_path, n_runs):
     labels = {"start_front": "START front mark -> side wall", "start_rear": "START rear mark -> side wall",
               "start_back": "START back mark -> back wall", "end_front": "END front mark -> side wall",
               "end_rear": "END rear mark -> side wall", "end_back": "END back mark -> back wall"}
+    want_theta = None  # asked on the first run; then on every run or on none
     for direction in ("cw", "ccw"):
         wall = side_wall if side_wall != "auto" else ("left" if direction == "cw" else "right")
+        prev = None  # the cw and ccw runs start at different corners
         for k in range(1, n_runs + 1):
             echo(f"\n{direction} run {k}/{n_runs} (side wall on the robot's {wall})")
             vals = {}
@@ -434,8 +438,14 @@ def _interactive(marks, side_wall, resolution_mm, out_path, n_runs):
                     echo("  reset the odometry, drive the square, then:")
                     x_odo = click.prompt("  odometry x at the end [mm]", type=float)
                     y_odo = click.prompt("  odometry y at the end [mm]", type=float)
-                    th = click.prompt("  odometry theta at the end [deg] (empty: not read)", default="",
-                                      show_default=False)
+                    if want_theta is None:
+                        th = click.prompt("  odometry theta at the end [deg] (empty: not read)", default="",
+                                          show_default=False)
+                        want_theta = bool(str(th).strip())
+                    elif want_theta:
+                        th = click.prompt("  odometry theta at the end [deg]", type=float)
+                    else:
+                        th = ""
                 default = prev[i] if (prev is not None and i < 3) else None
                 vals[c] = click.prompt(f"  {labels[c]} [mm]", type=float, default=default)
             theta = None
