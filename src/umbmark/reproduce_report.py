@@ -11,6 +11,7 @@ import base64
 import html
 import io
 import math
+import os
 from pathlib import Path
 
 from . import __version__
@@ -288,4 +289,14 @@ def write_report(study: Study, out_dir, command: str = "umbmark reproduce", exag
     pngs = {k: v["_png"] for k, v in saved.items()}
     page = out_dir / "index.html"
     atomic_write(page, render_html(study, pngs, command))
+    for p in [page] + [f for v in saved.values() for k, f in v.items() if k != "_png"]:
+        _readable(p)
     return page
+
+
+def _readable(path):
+    """Temporary files are created private (0600); a report is meant to be read (0644)."""
+    try:
+        os.chmod(path, 0o644)
+    except OSError:  # pragma: no cover - e.g. a file system without permissions
+        pass

@@ -20,19 +20,19 @@ DEFAULT_SEEDS = 200
               help="Number of study seeds (seed, seed+1, ...) for the distribution.")
 @click.option("--runs", "n_runs", type=click.IntRange(min=2), default=5, show_default=True,
               help="Runs per direction in every test.")
-@click.option("--sample-period-ms", type=float, default=50.0, show_default=True,
+@click.option("--sample-period-ms", type=click.FloatRange(min=0, min_open=True, max=1000), default=50.0, show_default=True,
               help="Controller sampling period of the simulation.")
 @click.option("--quantise/--no-quantise", default=False, show_default=True,
               help="Quantised encoders (the paper preset's): the robot stops at the first sample past its target "
                    "instead of exactly on it.")
-@click.option("--tape-thickness-mm", type=float, default=rep.TAPE_LAYER_M * 1e3, show_default=True,
+@click.option("--tape-thickness-mm", type=click.FloatRange(min=0, max=1, max_open=True), default=rep.TAPE_LAYER_M * 1e3, show_default=True,
               help="Effective thickness of one loop of masking tape (experiments 7 and 8).")
-@click.option("--variation", type=float, default=rep.ROBOT_VARIATION, show_default=True,
+@click.option("--variation", type=click.FloatRange(min=0, max=1), default=rep.ROBOT_VARIATION, show_default=True,
               help="Relative (log-normal) day-to-day variation of the robot's errors in experiments 2-6.")
 @click.option("--no-pitfall", is_flag=True, help="Skip the uni-directional pitfall study.")
 @click.option("--report", "report_dir", type=click.Path(file_okay=False), default=None,
               help="Write an HTML report (index.html) with the figures (PNG, SVG) into this folder.")
-@click.option("--exaggerate", type=float, default=1.0, show_default=True,
+@click.option("--exaggerate", type=click.FloatRange(min=0, min_open=True, max=1e6), default=1.0, show_default=True,
               help="Magnify the deviation of the true paths from the odometry paths in the trajectory figure.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 def reproduce_cmd(seed, seeds, n_runs, sample_period_ms, quantise, tape_thickness_mm, variation, no_pitfall,
@@ -50,8 +50,6 @@ def reproduce_cmd(seed, seeds, n_runs, sample_period_ms, quantise, tape_thicknes
     noise = NOISE_PRESETS["paper"] if quantise else rep.STUDY_NOISE
     cfg = rep.StudyConfig(seed=seed, seeds=seeds, n_runs=n_runs, sample_period_s=sample_period_ms * 1e-3,
                           noise=noise, tape_layer_m=tape_thickness_mm * 1e-3, variation=variation)
-    if not (exaggerate > 0 and exaggerate < 1e6):
-        raise click.BadParameter("must be a positive number", param_hint="--exaggerate")
     study = rep.run_study(cfg, pitfall=not no_pitfall)
     d = study.to_dict()
     command = _command(cfg, seeds, quantise, no_pitfall)
