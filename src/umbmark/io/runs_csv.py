@@ -58,8 +58,14 @@ def parse_runs_csv(text: str, source: str = "<runs>") -> RunsTable:
     rows = []
     header = None
     header_line = None
-    reader = csv.reader(io.StringIO(text))
-    for row in reader:
+    reader = csv.reader(io.StringIO(text, newline=None))
+    while True:
+        try:
+            row = next(reader)
+        except StopIteration:
+            break
+        except csv.Error as e:
+            raise InputError(f"not valid CSV: {e}", source, reader.line_num) from None
         line = reader.line_num
         if not row or all(not c.strip() for c in row) or row[0].lstrip().startswith("#"):
             continue

@@ -1,0 +1,47 @@
+"""Measure the per-run spread of return errors that the `paper` noise preset gives.
+
+The preset is meant to reproduce the paper's sigma of about 25 mm per direction on the 4 x 4 m
+square with the LabMate (0.2 m/s, 10 ms sampling). sigma is the radial sample standard
+deviation defined in umbmark.benchmark.
+
+    python benchmarks/noise_preset.py [--runs 1000] [--seed 11]
+
+Writes benchmarks/results/noise_preset.json and prints it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from dataclasses import asdict
+from pathlib import Path
+
+from umbmark.benchmark import umbmark
+from umbmark.simulate import NOISE_PRESETS, Motion, simulate_umbmark
+from umbmark.workflows import FIG11_ERRORS
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=int, default=1000, help="runs per direction")
+    ap.add_argument("--seed", type=int, default=11)
+    ap.add_argument("--out", type=Path, default=Path(__file__).parent / "results" / "noise_preset.json")
+    a = ap.parse_args(argv)
+    out = {"preset": asdict(NOISE_PRESETS["paper"]), "runs_per_direction": a.runs, "seed": a.seed, "by_period": {}}
+    for period in (0.01, 0.05):
+        t = time.perf_counter()
+        res = umbmark(simulate_umbmark(FIG11_ERRORS, n_runs=a.runs, noise="paper", seed=a.seed,
+                                       motion=Motion(sample_period_s=period)))
+        out["by_period"][f"{period * 1e3:g} ms"] = {
+            "std_cw_mm": res.cw.std * 1e3, "std_ccw_mm": res.ccw.std * 1e3,
+            "sem5_cw_mm": res.cw.std * 1e3 / 5 ** 0.5, "sem5_ccw_mm": res.ccw.std * 1e3 / 5 ** 0.5,
+            "seconds": time.perf_counter() - t,
+        }
+    a.out.parent.mkdir(parents=True, exist_ok=True)
+    a.out.write_text(json.dumps(out, indent=2) + "\n")
+    print(json.dumps(out, indent=2))
+
+
+if __name__ == "__main__":
+    main()

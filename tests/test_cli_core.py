@@ -1,0 +1,169 @@
+import json
+import math
+import subprocess
+import sys
+
+import pytest
+
+from umbmark.cli import main
+
+PINNED = ["emax_syst_mm", "alpha_deg", "beta_deg", "radius_mm", "Ed", "Eb", "c_left", "c_right",
+          "wheelbase_corrected_mm", "second_pass_recommended"]
+PINNED_DIR = ["n", "x_cg_mm", "y_cg_mm", "r_cg_mm", "std_mm", "sem_mm"]
+
+
+def run(capsys, *args):
+    code = main(list(args))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def analyze_json(capsys, path, *extra):
+    code, out, err = run(capsys, "analyze", str(path), "--wheelbase-mm", "340", "--side-mm", "4000", "--method", "bf",
+                         "--json", *extra)
+    assert code == 0, err
+    return json.loads(out)
+
+
+def test_simulate_then_analyze_recovers_the_robot(tmp_path, capsys):
+    f = tmp_path / "runs.csv"
+    code, _, err = run(capsys, "simulate", "--ed", "1.004", "--eb", "0.985", "--runs", "3", "--seed", "2",
+                       "--noise", "none", "--out", str(f))
+    assert code == 0, err
+    d = analyze_json(capsys, f)
+    for k in PINNED:
+        assert k in d
+    for side in ("cw", "ccw"):
+        for k in PINNED_DIR:
+            assert k in d[side]
+        assert d[side]["n"] == 3
+    assert isinstance(d["second_pass_recommended"], bool)
+    assert abs(d["Ed"] - 1.004) < 3e-4 and abs(d["Eb"] - 0.985) < 3e-3
+    assert d["wheelbase_corrected_mm"] == pytest.approx(340 * d["Eb"])
+
+
+def test_other_geometry_flags(tmp_path, capsys):
+    f = tmp_path / "runs.csv"
+    assert run(capsys, "simulate", "--ed", "0.998", "--eb", "1.01", "--runs", "2", "--wheelbase-mm", "200",
+               "--side-mm", "1500", "--out", str(f))[0] == 0
+    code, out, err = run(capsys, "analyze", str(f), "--wheelbase-mm", "200", "--side-mm", "1500", "--json")
+    d = json.loads(out)
+    assert abs(d["Ed"] - 0.998) < 3e-4 and abs(d["Eb"] - 1.01) < 3e-3
+
+
+def test_analyze_matches_the_formulas_on_any_file(tmp_path, capsys):
+    f = tmp_path / "hand.csv"
+    f.write_text("direction,x_abs,y_abs,x_odo,y_odo\n"
+                 "cw,60,70,1,2\ncw,70,60,-1,0\nccw,230,-200,3,3\nccw,220,-210,0,0\n")
+    d = analyze_json(capsys, f)
+    xcw, ycw = (59 + 71) / 2, (68 + 60) / 2
+    xccw, yccw = (227 + 220) / 2, (-203 - 210) / 2
+    L, b = 4000.0, 340.0
+    beta = ((xcw - xccw) / (-4 * L) + (ycw + yccw) / (-4 * L)) / 2
+    alpha = ((xcw + xccw) / (-4 * L) + (ycw - yccw) / (-4 * L)) / 2
+    R = (L / 2) / math.sin(beta / 2)
+    ed = (R + b / 2) / (R - b / 2)
+    eb = 90 / (90 - math.degrees(alpha))
+    want = {"alpha_deg": math.degrees(alpha), "beta_deg": math.degrees(beta), "radius_mm": R, "Ed": ed, "Eb": eb,
+            "c_left": 2 / (ed + 1), "c_right": 2 / (1 / ed + 1), "wheelbase_corrected_mm": eb * b,
+            "emax_syst_mm": math.hypot(xccw, yccw)}
+    for k, v in want.items():
+        assert d[k] == pytest.approx(v, rel=1e-9), k
+    assert d["ccw"]["x_cg_mm"] == pytest.approx(xccw, rel=1e-12)
+
+
+def test_analyze_second_pass_flags(tmp_path, capsys):
+    f = tmp_path / "r.csv"
+    f.write_text("direction,x_abs,y_abs,x_odo,y_odo\ncw,10,10,0,0\nccw,-10,12,0,0\n")
+    d1 = analyze_json(capsys, f)
+    d2 = analyze_json(capsys, f, "--c-left", "0.999", "--c-right", "1.001")
+    assert d2["Ed"] == pytest.approx(d1["Ed"] * 1.001 / 0.999, rel=1e-12)
+
+
+def test_human_output_is_a_table(tmp_path, capsys):
+    f = tmp_path / "r.csv"
+    run(capsys, "simulate", "--ed", "1.002", "--out", str(f), "--runs", "2")
+    code, out, _ = run(capsys, "analyze", str(f), "--wheelbase-mm", "340", "--side-mm", "4000",
+                       "--plot", str(tmp_path / "s.png"))
+    assert code == 0
+    assert "E_max,syst" in out and "c_left" in out and "[mm]" in out
+    assert (tmp_path / "s.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+BAD = [
+    ("missing.csv", None, "file not found"),
+    ("nohead.csv", "cw,1,2,3,4\nccw,1,2,3,4\n", "no header"),
+    ("dir.csv", "direction,x_abs,y_abs,x_odo,y_odo\ncw,1,2,3,4\nup,1,2,3,4\n", ":3: unknown direction"),
+    ("num.csv", "direction,x_abs,y_abs,x_odo,y_odo\ncw,1,2,3,4\nccw,1,x,3,4\n", ":3: column y_abs"),
+    ("nan.csv", "direction,x_abs,y_abs,x_odo,y_odo\ncw,NaN,2,3,4\nccw,1,2,3,4\n", ":2: column x_abs"),
+    ("oneway.csv", "direction,x_abs,y_abs,x_odo,y_odo\ncw,1,2,3,4\ncw,1,2,3,4\n", "no ccw runs"),
+]
+
+
+@pytest.mark.parametrize("name, content, match", BAD)
+def test_bad_files_one_line_exit_2(tmp_path, capsys, name, content, match):
+    f = tmp_path / name
+    if content is not None:
+        f.write_text(content)
+    code, out, err = run(capsys, "analyze", str(f), "--wheelbase-mm", "340", "--side-mm", "4000", "--json")
+    assert code == 2
+    assert out == ""
+    assert err.count("\n") == 1 and match in err and name in err
+
+
+@pytest.mark.parametrize(
+    "flags, match",
+    [
+        (["--wheelbase-mm", "0", "--side-mm", "4000"], "--wheelbase-mm must be a positive"),
+        (["--wheelbase-mm", "-340", "--side-mm", "4000"], "--wheelbase-mm must be a positive"),
+        (["--wheelbase-mm", "340", "--side-mm", "0"], "--side-mm must be a positive"),
+        (["--wheelbase-mm", "nan", "--side-mm", "4000"], "--wheelbase-mm must be a positive"),
+        (["--wheelbase-mm", "340", "--side-mm", "4000", "--method", "magic"], "Invalid value for '--method'"),
+        (["--wheelbase-mm", "abc", "--side-mm", "4000"], "Invalid value for '--wheelbase-mm'"),
+        (["--side-mm", "4000"], "Missing option '--wheelbase-mm'"),
+        (["--wheelbase-mm", "6000", "--side-mm", "100"], "undefined"),
+    ],
+)
+def test_bad_flags_one_line_exit_2(tmp_path, capsys, flags, match):
+    f = tmp_path / "r.csv"
+    f.write_text("direction,x_abs,y_abs,x_odo,y_odo\ncw,-60,-60,0,0\nccw,60,-60,0,0\n")
+    code, out, err = run(capsys, "analyze", str(f), *flags)
+    assert code == 2 and out == ""
+    assert err.count("\n") == 1 and match in err
+
+
+def test_simulate_bad_values(tmp_path, capsys):
+    for flags, match in ((["--ed", "-1"], "--ed must be a positive"), (["--runs", "0"], "--runs"),
+                         (["--noise", "loud"], "--noise")):
+        code, _, err = run(capsys, "simulate", *flags, "--out", str(tmp_path / "x.csv"))
+        assert code == 2 and err.count("\n") == 1 and match in err
+    code, _, err = run(capsys, "simulate", "--out", str(tmp_path / "nodir" / "x.csv"))
+    assert code == 2 and "does not exist" in err
+    assert not (tmp_path / "x.csv").exists()
+
+
+def test_demo_writes_plot_and_shows_improvement(tmp_path, capsys):
+    code, out, err = run(capsys, "demo", "--out", str(tmp_path), "--json")
+    assert code == 0, err
+    d = json.loads(out)
+    assert d["before"]["emax_syst_mm"] > 200
+    assert d["improvement"] > 5
+    png = tmp_path / "umbmark-demo-scatter.png"
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    code, out, _ = run(capsys, "demo", "--out", str(tmp_path))
+    assert code == 0 and "improvement" in out and "Before / after" in out
+
+
+def test_demo_is_reproducible(tmp_path, capsys):
+    a = json.loads(run(capsys, "demo", "--out", str(tmp_path), "--json", "--seed", "4")[1])
+    b = json.loads(run(capsys, "demo", "--out", str(tmp_path), "--json", "--seed", "4")[1])
+    assert a["after"] == b["after"]
+
+
+def test_console_script_has_no_traceback(tmp_path):
+    """The installed entry point, in a fresh process: one line, exit 2."""
+    p = subprocess.run([sys.executable, "-c", "from umbmark.cli import main; main()", "analyze",
+                        str(tmp_path / "none.csv"), "--wheelbase-mm", "340", "--side-mm", "4000"],
+                       capture_output=True, text=True)
+    assert p.returncode == 2
+    assert "Traceback" not in p.stderr and p.stderr.count("\n") == 1

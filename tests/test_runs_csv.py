@@ -1,0 +1,113 @@
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from umbmark.errors import InputError
+from umbmark.io.runs_csv import format_runs_csv, parse_runs_csv, read_runs_csv, write_runs_csv
+from umbmark.runs import RunsTable
+
+GOOD = """direction,x_abs,y_abs,x_odo,y_odo
+cw,10,20,1,2
+ccw,-5,7.5,0,0
+"""
+
+
+def test_reads_mm_into_metres():
+    t = parse_runs_csv(GOOD)
+    np.testing.assert_allclose(t.x_abs, [0.010, -0.005])
+    np.testing.assert_allclose(t.eps_y, [0.018, 0.0075])
+    assert t.theta_abs is None
+
+
+def test_optional_and_extra_columns():
+    t = parse_runs_csv("note,run,direction,x_abs,y_abs,x_odo,y_odo,theta_abs,theta_odo\n"
+                       "a,r1,CW,1,2,3,4,90,-180\n"
+                       "b,r2, ccw ,1,2,3,4,0,0\n")
+    assert list(t.direction) == ["cw", "ccw"]
+    assert t.theta_abs[0] == pytest.approx(math.pi / 2)
+    assert list(t.run) == ["r1", "r2"]
+
+
+def test_comments_blank_lines_and_empty_optional_column():
+    t = parse_runs_csv("# UMBmark 2026-11-21\n\ndirection,x_abs,y_abs,x_odo,y_odo,theta_abs\n"
+                       "cw,1,2,3,4,\n\nccw,1,2,3,4,\n")
+    assert len(t) == 2 and t.theta_abs is None
+
+
+@pytest.mark.parametrize(
+    "text, line, match",
+    [
+        ("cw,1,2,3,4\nccw,1,2,3,4\n", 1, "no header"),
+        ("direction,x_abs,y_abs,x_odo\ncw,1,2,3\n", 1, "missing y_odo"),
+        ("direction,x_abs,y_abs,x_odo,y_odo\ncw,1,2,3,4\nleft,1,2,3,4\n", 3, "unknown direction 'left'"),
+        ("direction,x_abs,y_abs,x_odo,y_odo\ncw,1,2,3,4\nccw,1,abc,3,4\n", 3, "y_abs: 'abc' is not a number"),
+        ("direction,x_abs,y_abs,x_odo,y_odo\ncw,1,2,3,nan\nccw,1,2,3,4\n", 2, "not a finite number"),
+        ("direction,x_abs,y_abs,x_odo,y_odo\ncw,1,2,3,inf\nccw,1,2,3,4\n", 2, "not a finite number"),
+        ("direction,x_abs,y_abs,x_odo,y_odo\ncw,1,2,3\nccw,1,2,3,4\n", 2, "has 4 fields"),
+        ("direction,x_abs,y_abs,x_odo,y_odo\ncw,1,,3,4\nccw,1,2,3,4\n", 2, "y_abs is empty"),
+        ("direction,x_abs,y_abs,x_odo,y_odo,theta_abs\ncw,1,2,3,4,5\nccw,1,2,3,4,\n", 3, "theta_abs is empty"),
+        ("direction,x_abs,y_abs,x_odo,y_odo\n", 1, "no runs"),
+    ],
+)
+def test_bad_content_names_the_line(text, line, match):
+    with pytest.raises(InputError, match=match) as e:
+        parse_runs_csv(text, source="f.csv")
+    assert e.value.line == line
+    assert str(e.value).startswith(f"f.csv:{line}: ")
+
+
+def test_direction_without_runs():
+    with pytest.raises(InputError, match="no ccw runs"):
+        parse_runs_csv("direction,x_abs,y_abs,x_odo,y_odo\ncw,1,2,3,4\n", source="f.csv")
+
+
+def test_missing_and_empty_files(tmp_path):
+    with pytest.raises(InputError, match="file not found"):
+        read_runs_csv(tmp_path / "nope.csv")
+    (tmp_path / "e.csv").write_text("")
+    with pytest.raises(InputError, match="empty file"):
+        read_runs_csv(tmp_path / "e.csv")
+    (tmp_path / "b.csv").write_bytes(b"\xff\xfe\x00bad")
+    with pytest.raises(InputError, match="UTF-8"):
+        read_runs_csv(tmp_path / "b.csv")
+
+
+mm = st.floats(-1e4, 1e4, allow_nan=False)
+row = st.tuples(st.sampled_from(["cw", "ccw"]), mm, mm, mm, mm, st.floats(-179, 180), st.floats(-179, 180))
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(row, min_size=2, max_size=20))
+def test_round_trip(rows):
+    rows = [("cw",) + rows[0][1:]] + [("ccw",) + rows[1][1:]] + rows[2:]
+    d, xa, ya, xo, yo, ta, to = zip(*rows)
+    t = RunsTable.from_columns(d, np.array(xa) / 1e3, np.array(ya) / 1e3, np.array(xo) / 1e3, np.array(yo) / 1e3,
+                               np.radians(ta), np.radians(to))
+    back = parse_runs_csv(format_runs_csv(t))
+    assert list(back.direction) == list(t.direction)
+    for k in ("x_abs", "y_abs", "x_odo", "y_odo"):  # written to 1e-6 mm
+        np.testing.assert_allclose(getattr(back, k), getattr(t, k), atol=1e-9)
+    for k in ("theta_abs", "theta_odo"):  # written to 1e-6 deg
+        np.testing.assert_allclose(getattr(back, k), getattr(t, k), atol=1e-8)
+
+
+@settings(max_examples=100, deadline=None)
+@given(st.text(max_size=200))
+def test_parser_never_crashes_on_garbage(text):
+    try:
+        parse_runs_csv(text)
+    except InputError:
+        pass
+
+
+def test_write_is_atomic(tmp_path):
+    t = parse_runs_csv(GOOD)
+    p = tmp_path / "out.csv"
+    write_runs_csv(t, p)
+    assert parse_runs_csv(p.read_text()).x_abs[0] == pytest.approx(0.010)
+    assert [f.name for f in tmp_path.iterdir()] == ["out.csv"]
+    with pytest.raises(InputError, match="does not exist"):
+        write_runs_csv(t, tmp_path / "no" / "out.csv")
