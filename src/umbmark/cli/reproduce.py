@@ -42,7 +42,7 @@ def reproduce_cmd(seed, seeds, n_runs, sample_period_ms, quantise, tape_thicknes
     uni-directional pitfall of section 3.1.
 
     \b
-    The default study (200 seeds) takes about half a minute. Examples:
+    The default study (200 seeds) takes 10-20 seconds. Examples:
       umbmark reproduce --seeds 20
       umbmark reproduce --json > study.json
       umbmark reproduce --report reproduce-report
