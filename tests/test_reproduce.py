@@ -108,6 +108,12 @@ def test_study_structure(small_study):
     assert dist["improvement_p10"] <= dist["improvement_median"] <= dist["improvement_p90"]
     assert 0.0 <= dist["second_pass_fraction"] <= 1.0
     assert len(dist["per_experiment"]) == 8
+    ex = s.second_pass_examples
+    assert all(e.second is not None for e in ex)
+    assert [(e.seed, e.id) for e in ex] == sorted((e.seed, e.id) for e in ex)
+    n_second = int(round(dist["second_pass_fraction"] * 24))
+    assert len(ex) == min(n_second, rep.N_SECOND_PASS_EXAMPLES)
+    assert [e["id"] for e in d["second_pass_examples"]] == [e.id for e in ex]
 
 
 def test_table_does_not_depend_on_the_number_of_seeds(small_study):

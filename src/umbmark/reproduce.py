@@ -99,6 +99,9 @@ PAPER_TABLE_I: tuple[dict, ...] = (
 PAPER_SIGMA_MM = 25.0
 PAPER_SEM_MM = 11.2
 
+# How many experiments with a second pass (the first ones, in seed order) the study reports.
+N_SECOND_PASS_EXAMPLES = 5
+
 # Day-to-day variation of the LabMate's errors for experiments 2-6 (log-normal, relative).
 ROBOT_VARIATION = 0.15
 
@@ -498,6 +501,7 @@ class Study:
     experiments: list[Experiment]  # the default seed's (the first seed)
     distribution: Distribution
     pitfall: "Pitfall | None" = None
+    second_pass_examples: list[Experiment] = field(default_factory=list)
     extra: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
@@ -509,6 +513,7 @@ class Study:
             "paper_sigma_mm": PAPER_SIGMA_MM,
             "paper_sem_mm": PAPER_SEM_MM,
             "distribution": self.distribution.to_dict(),
+            "second_pass_examples": [e.to_dict() for e in self.second_pass_examples],
             "tape_model": tape_model(self.config),
         }
         if self.pitfall is not None:
@@ -573,7 +578,9 @@ def run_study(cfg: StudyConfig | None = None, pitfall: bool = True) -> Study:
         std_after=arr(lambda e: e.first.result.worst.std),
     )
     pf = uni_directional_pitfall(cfg) if pitfall else None
-    return Study(cfg, all_exps[seeds[0]], dist, pf)
+    # the first experiments (in seed order) where the rule called for a second pass
+    examples = [e for s in seeds for e in all_exps[s] if e.second is not None][:N_SECOND_PASS_EXAMPLES]
+    return Study(cfg, all_exps[seeds[0]], dist, pf, second_pass_examples=examples)
 
 
 # ---------------------------------------------------------------------------------------------

@@ -57,7 +57,8 @@ def reproduce_cmd(seed, seeds, n_runs, sample_period_ms, quantise, tape_thicknes
     if report_dir is not None:
         from ..reproduce_report import write_report
 
-        page = write_report(study, report_dir, command, exaggerate)
+        page_cmd = f"{command} --report {report_dir}" + (f" --exaggerate {exaggerate:g}" if exaggerate != 1 else "")
+        page = write_report(study, report_dir, page_cmd, exaggerate)
         d["report"] = str(page)
     if as_json:
         emit_json(d)
@@ -118,6 +119,14 @@ def _print(study, d):
     c.print(f"second pass called for: {dd['second_pass_fraction'] * 100:.1f}% of experiments; final improvement "
             f">= 10-fold: {dd['fraction_improvement_at_least_10'] * 100:.1f}%; median radial std after calibration "
             f"{dd['std_after_median_mm']:.1f} mm (paper: about {rep.PAPER_SIGMA_MM:g} mm)")
+    ex = d["second_pass_examples"]
+    if ex:
+        c.print(table(
+            f"The first {len(ex)} experiments (in seed order) where the 3 x SEM rule called for a second pass",
+            ["seed", "exp", "E_max before [mm]", "after 1st pass [mm]", "3 x SEM [mm]", "after 2nd pass [mm]",
+             "improvement (final)"],
+            [[e["seed"], e["id"], fmt(e["emax_before_mm"], 0), fmt(e["emax_after_mm"]), fmt(e["three_sem_after_mm"]),
+              fmt(e["second_pass"]["emax_after_mm"]), fmt(e["improvement_final"])] for e in ex]))
     if "pitfall" in d:
         p = d["pitfall"]
         c.print(table(
