@@ -107,6 +107,11 @@ def test_report_is_self_contained_and_its_images_decode(tmp_path, capsys):
         svg = (out_dir / f"{name}.svg").read_text(encoding="utf-8")
         assert "<svg" in svg
     assert not list(out_dir.glob(".*"))  # no temporary files left behind
+    # the same study gives the same figure files, byte for byte
+    other = tmp_path / "rep2"
+    assert run(capsys, "reproduce", "--seeds", "2", "--report", str(other), "--exaggerate", "5", "--json")[0] == 0
+    for f in sorted(out_dir.glob("*.*g")):
+        assert (other / f.name).read_bytes() == f.read_bytes(), f.name
 
 
 @pytest.mark.parametrize("args, what", [

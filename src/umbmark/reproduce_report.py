@@ -110,9 +110,13 @@ def save_study_figures(figs: dict, out_dir, formats=("png", "svg")) -> dict:
 
 
 def save_figure_keep_open(fig, path):
+    import matplotlib
+
     buf = io.BytesIO()
     fmt = Path(path).suffix.lstrip(".")
-    fig.savefig(buf, format=fmt, dpi=110, metadata={"Date": None} if fmt == "svg" else None)
+    # no date and fixed element ids: the same study gives the same SVG bytes
+    with matplotlib.rc_context({"svg.hashsalt": "umbmark-reproduce"}):
+        fig.savefig(buf, format=fmt, dpi=110, metadata={"Date": None} if fmt == "svg" else None)
     atomic_write(path, buf.getvalue())
     return Path(path)
 
