@@ -52,6 +52,7 @@ from .errors import InputError
 from .kinematics import LABMATE, Calibration, ErrorParams, Geometry, OdometryParams, wrap_angle
 from .runs import RunsTable
 from .simulate import NOISE_PRESETS, Motion, NoiseModel, run_program, run_seeds, square_program
+from .workflows import FIG11_ERRORS  # the paper's Fig. 11 robot: E_d = 1.00084, b = 336.17 mm
 
 __all__ = [
     "FIG11_ERRORS",
@@ -78,8 +79,6 @@ __all__ = [
     "run_trajectories",
 ]
 
-# The paper's Fig. 11 robot: after calibration b = 336.17 mm, D_R/D_L = 1.00084.
-FIG11_ERRORS = ErrorParams(ed=1.00084, eb=336.17 / 340.0)
 
 # Table I of the paper: E_max,syst [mm] before / after compensation, the improvement it states.
 PAPER_TABLE_I: tuple[dict, ...] = (
