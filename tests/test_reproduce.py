@@ -41,7 +41,7 @@ def test_batched_tests_equal_simulate_umbmark():
 
 
 @settings(max_examples=40, deadline=None)
-@given(right=st.integers(0, 10), left=st.integers(0, 10), t_mm=st.floats(0.0, 0.5))
+@given(right=st.integers(0, 10), left=st.integers(0, 10), t_mm=st.one_of(st.just(0.0), st.floats(1e-4, 0.5)))
 def test_tape_adds_twice_the_thickness_per_loop(right, left, t_mm):
     t = t_mm * 1e-3
     base = rep.FIG11_ERRORS
