@@ -35,7 +35,7 @@ from .runs import RunsTable
 
 __all__ = [
     "replay", "end_poses", "detect_directions", "square_runs", "Calibrated", "calibrate", "evaluate",
-    "replay_report", "prepare", "method_names",
+    "replay_report", "pooled_report", "prepare", "method_names",
 ]
 
 
@@ -343,3 +343,36 @@ def replay_report(datasets, method: str = "bf", lsq_options: dict | None = None,
                 "from": rows,
             }
     return {"method": method, "datasets": reports, "across": across}
+
+
+def pooled_report(datasets, lsq_options: dict | None = None, heldout: bool = True) -> dict:
+    """``lsq`` fitted jointly on all data sets (same robot); held out: leave-one-data-set-out
+    (fit on the others, evaluate the one left out)."""
+    prepared = [prepare(ds)[0] for ds in datasets]
+    if len(prepared) < 1:
+        raise InputError("no data sets")
+    cal = calibrate(prepared, "lsq", lsq_options)
+    per = []
+    for i, ds in enumerate(prepared):
+        before = evaluate(ds, ds.nominal)
+        after = evaluate(ds, cal.geometry)
+        row = {"dataset": ds.name, "kind": "square" if ds.is_square else "path",
+               "before": {k: before[k] for k in ("emax_syst_mm", "end_position_rms_mm", "path_position_rms_mm")},
+               "after": {k: after[k] for k in ("emax_syst_mm", "end_position_rms_mm", "path_position_rms_mm")}}
+        if heldout and len(prepared) > 1:
+            others = [d for j, d in enumerate(prepared) if j != i]
+            g = calibrate(others, "lsq", lsq_options).geometry
+            ev = evaluate(ds, g)
+            row["heldout"] = {"scheme": "fitted on the other data sets", "calibrated_without_it": g.to_dict(),
+                              **{k: ev[k] for k in ("emax_syst_mm", "end_position_rms_mm", "path_position_rms_mm")}}
+        per.append(row)
+    out = {"method": "lsq", "pooled": True, "datasets": [d.name for d in prepared], **cal.to_dict(), "per_dataset": per}
+    if heldout and len(prepared) > 1:
+        def agg(key, part):
+            v = [r[part][key] for r in per if r[part][key] is not None]
+            return float(np.sqrt(np.mean(np.square(v)))) if v else None
+        out["before"] = {"end_position_rms_mm": agg("end_position_rms_mm", "before")}
+        out["after"] = {"end_position_rms_mm": agg("end_position_rms_mm", "after")}
+        out["heldout"] = {"scheme": "leave-one-data-set-out", "end_position_rms_mm": agg("end_position_rms_mm", "heldout"),
+                          "emax_syst_mm": None}
+    return out
