@@ -136,9 +136,11 @@ def _print_report(rep: dict):
 @click.option("--points-per-run", type=click.IntRange(min=1), default=100, show_default=True,
               help="lsq, sampled mode: poses compared per run.")
 @click.option("--no-heldout", is_flag=True, help="Skip the held-out (leave-one-run-out) figures.")
+@click.option("--save", type=click.Path(dir_okay=False), default=None,
+              help="Also write the JSON report to this file (input of `umbmark export`).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
-def replay(paths, method, log_format, pool, lsq_mode, scale, heading_weight_m, points_per_run, no_heldout, as_json,
-           **kw):
+def replay(paths, method, log_format, pool, lsq_mode, scale, heading_weight_m, points_per_run, no_heldout, save,
+           as_json, **kw):
     """Replay real-robot logs, calibrate, and compare the odometry before and after.
 
     Each DATASET is an optiodom data-set folder, a ROS bag, or (all together) CSV log files.
@@ -162,6 +164,7 @@ def replay(paths, method, log_format, pool, lsq_mode, scale, heading_weight_m, p
         if method != "lsq":
             raise InputError("--pool works with --method lsq")
         rep = pooled_report(sets, lsq_opts, heldout=not no_heldout)
+        _save(rep, save)
         if as_json:
             emit_json(rep)
         elif not is_quiet():
@@ -174,6 +177,7 @@ def replay(paths, method, log_format, pool, lsq_mode, scale, heading_weight_m, p
                     f"{rep['wheelbase_corrected_mm']:.3f} mm, E_d = {rep['Ed']:.6f}, fitted: {rep['fitted_parameters']}")
         return
     rep = replay_report(sets, method, lsq_opts, heldout=not no_heldout)
+    _save(rep, save)
     if as_json:
         emit_json(rep)
         return
@@ -187,6 +191,16 @@ def replay(paths, method, log_format, pool, lsq_mode, scale, heading_weight_m, p
                 for a in rep["across"]]
         console().print(table("Held out across data sets", ["calibrated on", "evaluated on", "E_max,syst [mm]",
                                                              "end position RMS [mm]"], rows))
+
+
+def _save(rep, path):
+    if path:
+        import json
+
+        from ..io.atomic import atomic_write
+        from .app import _clean
+
+        atomic_write(path, json.dumps(_clean(rep), indent=2, allow_nan=False) + "\n")
 
 
 @app.command(name="bag-info")
@@ -275,7 +289,7 @@ def export(calibration, out_format, dataset, c_left, c_right, eb, controller, le
 
     \b
     Example:
-      umbmark replay data/optiodom/square/230620202144 --json > cal.json
+      umbmark replay data/optiodom/square/230620202144 --save cal.json
       umbmark export cal.json --format ros2 --out params.yaml
     """
     from dataclasses import replace
