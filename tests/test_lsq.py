@@ -95,7 +95,8 @@ def test_lsq_on_circular_and_free_is_consistent_with_squares_and_helps_held_out(
 
 @pytest.mark.slow
 def test_pooled_circular_and_free_held_out_by_data_set():
-    sets = [read_optiodom(d) for d in sorted(glob.glob(str(DATA / "circular/*"))) + sorted(glob.glob(str(DATA / "free/*")))]
+    dirs = sorted(glob.glob(str(DATA / "circular/*"))) + sorted(glob.glob(str(DATA / "free/*")))
+    sets = [read_optiodom(d) for d in dirs]
     rep = pooled_report(sets, {"points_per_run": 50})
     ref = _square_bf_ratio()
     assert abs(rep["wheelbase_per_mean_diameter"] / ref - 1) < 0.01

@@ -85,8 +85,9 @@ def test_bf_at_least_five_fold_on_every_square_set(square_reports):
 
 def test_corrected_geometries_agree_and_wrong_nominal_pulled_back(square_reports):
     ratio = {n: rep["wheelbase_per_mean_diameter"] for n, (_, rep) in square_reports.items()}
-    ref = np.mean([ratio[n] for n, (ds, _) in square_reports.items()
-                   if ds.nominal.wheelbase_m == pytest.approx(0.2) and ds.nominal.diameter_left_m == pytest.approx(0.084)])
+    right = [n for n, (ds, _) in square_reports.items()
+             if ds.nominal.wheelbase_m == pytest.approx(0.2) and ds.nominal.diameter_left_m == pytest.approx(0.084)]
+    ref = np.mean([ratio[n] for n in right])
     for n, r in ratio.items():
         assert abs(r / ref - 1) < 0.01, n  # wheelbase within 1 % once the diameter scale is accounted for
     for n, (ds, rep) in square_reports.items():
@@ -139,3 +140,34 @@ def test_bf_on_a_general_path_is_refused(optiodom, capsys):
     assert main(["replay", str(optiodom / "free/030120210006"), "--method", "bf"]) == 2
     err = capsys.readouterr().err
     assert "square" in err and err.count("\n") == 1
+
+
+# --- properties of the log maths -------------------------------------------------------------
+
+from hypothesis import given, settings, strategies as st  # noqa: E402
+
+from umbmark.kinematics import integrate  # noqa: E402
+from umbmark.logs import to_start_frame, wheel_travel_from_poses  # noqa: E402
+
+_travel = st.lists(st.tuples(st.floats(-0.05, 0.05), st.floats(-0.05, 0.05)), min_size=1, max_size=40)
+
+
+@settings(max_examples=60, deadline=None)
+@given(_travel, st.floats(0.1, 1.0))
+def test_wheel_travel_from_poses_inverts_integrate(travel, b):
+    t = np.array([(0.0, 0.0)] + travel)
+    x, y, th = integrate(t[:, 0], t[:, 1], b)
+    dl, dr = wheel_travel_from_poses(x, y, th, b)
+    assert np.allclose(dl[1:], t[1:, 0], atol=1e-9) and np.allclose(dr[1:], t[1:, 1], atol=1e-9)
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.floats(-10, 10), st.floats(-10, 10), st.floats(-20, 20)), min_size=2, max_size=20))
+def test_start_frame_keeps_relative_geometry(poses):
+    p = np.array(poses)
+    x, y, th = to_start_frame(p[:, 0], p[:, 1], p[:, 2])
+    assert x[0] == 0 and y[0] == 0 and th[0] == 0
+    # distances from the start and turn angles are unchanged
+    assert np.allclose(np.hypot(x, y), np.hypot(p[:, 0] - p[0, 0], p[:, 1] - p[0, 1]), atol=1e-9)
+    d = np.mod(th - (np.unwrap(p[:, 2]) - p[0, 2]) + np.pi, 2 * np.pi) - np.pi
+    assert np.allclose(d, 0, atol=1e-9)

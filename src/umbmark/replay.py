@@ -373,6 +373,6 @@ def pooled_report(datasets, lsq_options: dict | None = None, heldout: bool = Tru
             return float(np.sqrt(np.mean(np.square(v)))) if v else None
         out["before"] = {"end_position_rms_mm": agg("end_position_rms_mm", "before")}
         out["after"] = {"end_position_rms_mm": agg("end_position_rms_mm", "after")}
-        out["heldout"] = {"scheme": "leave-one-data-set-out", "end_position_rms_mm": agg("end_position_rms_mm", "heldout"),
-                          "emax_syst_mm": None}
+        out["heldout"] = {"scheme": "leave-one-data-set-out",
+                          "end_position_rms_mm": agg("end_position_rms_mm", "heldout"), "emax_syst_mm": None}
     return out

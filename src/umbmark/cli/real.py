@@ -174,7 +174,8 @@ def replay(paths, method, log_format, pool, lsq_mode, scale, heading_weight_m, p
             c.print(table("lsq fitted to all data sets: end-position RMS [mm]",
                           ["data set", "nominal", "pooled fit", "held out (fit on the others)"], rows))
             c.print(f"D_L = {rep['diameter_left_mm']:.3f} mm, D_R = {rep['diameter_right_mm']:.3f} mm, wheelbase = "
-                    f"{rep['wheelbase_corrected_mm']:.3f} mm, E_d = {rep['Ed']:.6f}, fitted: {rep['fitted_parameters']}")
+                    f"{rep['wheelbase_corrected_mm']:.3f} mm, E_d = {rep['Ed']:.6f}, "
+                    f"fitted: {rep['fitted_parameters']}")
         return
     rep = replay_report(sets, method, lsq_opts, heldout=not no_heldout)
     _save(rep, save)

@@ -142,7 +142,8 @@ def _scale_decision(datasets, mode, scale):
     for ds in datasets:
         for run in ds.runs:
             end = run.end_truth
-            path = np.sum(0.5 * np.abs(run.d_left + run.d_right)) * math.pi * ds.nominal.diameter_avg_m / ds.units_per_rev
+            k = math.pi * ds.nominal.diameter_avg_m / ds.units_per_rev
+            path = np.sum(0.5 * np.abs(run.d_left + run.d_right)) * k
             if path > 0:
                 ratios.append(math.hypot(end[0], end[1]) / path)
     r = float(np.mean(ratios)) if ratios else 0.0

@@ -195,8 +195,8 @@ def read_bag(path, *, nominal: WheelGeometry, joints=None, joint_topic: str = "/
                     pose = msg.pose.pose if gtype in ("Odometry", "PoseWithCovarianceStamped") else msg.pose
                     gt.append((_stamp(msg, ns), pose.position.x, pose.position.y, _yaw(pose.orientation)))
             if not gt:
-                raise InputError(f"no ground-truth poses on {gt_topic}" + (f" for frame {gt_frame!r}" if gt_frame else ""),
-                                 src)
+                frame = f" for frame {gt_frame!r}" if gt_frame else ""
+                raise InputError(f"no ground-truth poses on {gt_topic}{frame}", src)
     finally:
         reader.close()
 
