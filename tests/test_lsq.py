@@ -12,6 +12,7 @@ import simlogs
 from umbmark.correct.lsq import fit_lsq
 from umbmark.errors import InputError
 from umbmark.kinematics import ErrorParams
+from umbmark.logs import to_start_frame
 from umbmark.io.optiodom import read_optiodom
 from umbmark.replay import pooled_report, replay_report
 from umbmark.simulate import Segment, straight_program
@@ -30,6 +31,27 @@ def test_general_path_noise_free_is_exact():
     assert res.std["Ed"] < 1e-9
     d = res.to_dict()
     assert d["fitted_parameters"] == "D_L, D_R, b" and d["Es"] == pytest.approx(0.99, rel=1e-9)
+
+
+def test_tracked_point_offset_is_recovered():
+    ds = simlogs.dataset([simlogs.general_program()])
+    off = np.array([0.03, -0.02])  # a marker 30 mm ahead of and 20 mm right of the axle midpoint
+    runs = []
+    for r in ds.runs:
+        g = r.gt
+        c, s = np.cos(g[:, 2]), np.sin(g[:, 2])
+        m = np.column_stack([g[:, 0] + c * off[0] - s * off[1], g[:, 1] + s * off[0] + c * off[1], g[:, 2]])
+        runs.append(type(r)(r.name, r.t, r.d_left, r.d_right, np.column_stack(to_start_frame(*m.T))))
+    ds = ds.with_runs(runs)
+    true = simlogs.true_geometry()
+    plain = fit_lsq(ds)
+    assert abs(plain.geometry.wheelbase_m / true.wheelbase_m - 1) > 1e-4  # the offset biases a plain fit
+    res = fit_lsq(ds, fit_offset=True)
+    assert np.allclose(res.extra["tracked_point_offset_mm"], off * 1e3, atol=1e-6)
+    assert res.geometry.ed == pytest.approx(true.ed, abs=1e-9)
+    assert res.geometry.wheelbase_m == pytest.approx(true.wheelbase_m, rel=1e-9)
+    with pytest.raises(InputError, match="sampled"):
+        fit_lsq(ds, mode="end", fit_offset=True)
 
 
 def test_closed_paths_end_poses_do_not_fix_the_scale():

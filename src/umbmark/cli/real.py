@@ -112,6 +112,10 @@ def _print_report(rep: dict):
     c.print(table("Calibration", ["", "nominal", "corrected"], cal))
     if rep["method"] == "lsq":
         c.print(f"scale: {rep['scale_reason']}")
+        if rep.get("tracked_point_offset_mm"):
+            o, e = rep["tracked_point_offset_mm"], rep["tracked_point_offset_std_mm"]
+            c.print(f"tracked point offset from the axle midpoint: x {o[0]:.1f} +- {e[0]:.1f} mm, "
+                    f"y {o[1]:.1f} +- {e[1]:.1f} mm (robot frame)")
         if rep.get("std"):
             s = rep["std"]
             c.print(f"jackknife std: D_L {s['diameter_left_mm']:.3f} mm, D_R {s['diameter_right_mm']:.3f} mm, "
@@ -135,12 +139,14 @@ def _print_report(rep: dict):
               help="lsq: metres of position error worth one radian of heading error.")
 @click.option("--points-per-run", type=click.IntRange(min=1), default=100, show_default=True,
               help="lsq, sampled mode: poses compared per run.")
+@click.option("--fit-marker-offset", is_flag=True,
+              help="lsq, sampled mode: also fit where the tracked point sits relative to the axle midpoint.")
 @click.option("--no-heldout", is_flag=True, help="Skip the held-out (leave-one-run-out) figures.")
 @click.option("--save", type=click.Path(dir_okay=False), default=None,
               help="Also write the JSON report to this file (input of `umbmark export`).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
-def replay(paths, method, log_format, pool, lsq_mode, scale, heading_weight_m, points_per_run, no_heldout, save,
-           as_json, **kw):
+def replay(paths, method, log_format, pool, lsq_mode, scale, heading_weight_m, points_per_run, fit_marker_offset,
+           no_heldout, save, as_json, **kw):
     """Replay real-robot logs, calibrate, and compare the odometry before and after.
 
     Each DATASET is an optiodom data-set folder, a ROS bag, or (all together) CSV log files.
@@ -159,7 +165,7 @@ def replay(paths, method, log_format, pool, lsq_mode, scale, heading_weight_m, p
         raise InputError(f"--heading-weight-m must be >= 0, got {heading_weight_m!r}")
     sets = _datasets(paths, log_format, kw)
     lsq_opts = {"mode": lsq_mode, "scale": scale, "heading_weight_m": heading_weight_m,
-                "points_per_run": points_per_run}
+                "points_per_run": points_per_run, "fit_offset": fit_marker_offset}
     if pool:
         if method != "lsq":
             raise InputError("--pool works with --method lsq")

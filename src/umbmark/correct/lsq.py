@@ -24,6 +24,12 @@ Which parameters are fitted (``scale``):
   average at least 10 % of their path length away from where they started; ``fixed``
   otherwise. The result says which (``scale_fitted``, ``scale_reason``).
 
+``fit_offset``: in sampled mode, also fit where the tracked point (a motion-capture marker)
+sits in the robot frame relative to the axle midpoint (two more parameters, reported as
+``tracked_point_offset_mm``). A marker off the axle swings around it in every turn, which
+otherwise reads as odometry error along the path. The run's start frame stays that of the
+tracked point.
+
 Uncertainty: the standard deviations from the Gauss-Newton covariance
 ``s^2 (J^T J)^-1`` (``s^2`` = residual sum of squares / (N - p)). In sampled mode the residuals
 along one run are strongly correlated, so these are optimistic; :mod:`umbmark.replay`
@@ -44,7 +50,7 @@ from ..logs import Dataset, WheelGeometry
 
 __all__ = ["LsqResult", "fit_lsq", "LSQ_DEFAULTS"]
 
-LSQ_DEFAULTS = {"mode": "auto", "scale": "auto", "heading_weight_m": 0.5, "points_per_run": 100}
+LSQ_DEFAULTS = {"mode": "auto", "scale": "auto", "heading_weight_m": 0.5, "points_per_run": 100, "fit_offset": False}
 
 
 @dataclass(frozen=True)
@@ -122,12 +128,17 @@ class _Problem:
         self.gt = np.concatenate(gts)
         self.k = math.pi / ds.units_per_rev
 
-    def residuals(self, d_left, d_right, b, w):
+    def residuals(self, d_left, d_right, b, w, offset=None):
         x, y, th = integrate(self.dl * (self.k * d_left), self.dr * (self.k * d_right), b)
         sel = (self.rows, self.cols)
-        ex = x[sel] - self.gt[:, 0]
-        ey = y[sel] - self.gt[:, 1]
-        eth = np.mod(th[sel] - self.gt[:, 2] + np.pi, 2 * np.pi) - np.pi
+        x, y, th = x[sel], y[sel], th[sel]
+        if offset is not None:  # the tracked point sits at ``offset`` in the robot frame
+            c, s = np.cos(th), np.sin(th)
+            x = x + (c - 1.0) * offset[0] - s * offset[1]
+            y = y + s * offset[0] + (c - 1.0) * offset[1]
+        ex = x - self.gt[:, 0]
+        ey = y - self.gt[:, 1]
+        eth = np.mod(th - self.gt[:, 2] + np.pi, 2 * np.pi) - np.pi
         return ex, ey, eth
 
 
@@ -154,7 +165,8 @@ def _scale_decision(datasets, mode, scale):
 
 
 def fit_lsq(datasets, mode: str = "auto", scale: str = "auto", heading_weight_m: float = 0.5,
-            points_per_run: int = 100, start: WheelGeometry | None = None) -> LsqResult:
+            points_per_run: int = 100, start: WheelGeometry | None = None,
+            fit_offset: bool = False) -> LsqResult:
     """Fit the geometry to one or more data sets of the same robot (see the module docstring).
 
     The data sets may have different nominal geometries (the fit is in absolute diameters and
@@ -183,6 +195,8 @@ def fit_lsq(datasets, mode: str = "auto", scale: str = "auto", heading_weight_m:
             raise InputError("lsq (sampled poses) needs ground truth along the path; this run has none", where)
         if mode == "end" and r.end_truth is None:
             raise InputError("lsq needs a ground-truth end pose; this run has none", where)
+    if fit_offset and mode != "sampled":
+        raise InputError("fitting the tracked point's offset needs ground truth along the path (sampled mode)")
     fit_scale, reason = _scale_decision(datasets, mode, scale)
     nominal = datasets[0].nominal
     problems = [_Problem(ds, mode, points_per_run) for ds in datasets]
@@ -200,12 +214,19 @@ def fit_lsq(datasets, mode: str = "auto", scale: str = "auto", heading_weight_m:
             d_l = 2.0 * d_avg0 / (1.0 + ed)
             return d_l, d_l * ed, math.exp(p[1])
         p0 = np.array([math.log(s0.ed), math.log(s0.wheelbase_m)])
+    ng = p0.size
+    if fit_offset:
+        p0 = np.concatenate([p0, [0.0, 0.0]])
+
+    def offset_of(p):
+        return p[ng:ng + 2] if fit_offset else None
 
     def fun(p):
         d_l, d_r, b = unpack(p)
+        off = offset_of(p)
         parts = []
         for pr in problems:
-            ex, ey, eth = pr.residuals(d_l, d_r, b, w)
+            ex, ey, eth = pr.residuals(d_l, d_r, b, w, off)
             parts += [ex, ey, w * eth]
         return np.concatenate(parts)
 
@@ -241,10 +262,15 @@ def fit_lsq(datasets, mode: str = "auto", scale: str = "auto", heading_weight_m:
     sd = np.sqrt(np.clip(np.diag(cov_g), 0, None))
     std = {"diameter_left_mm": sd[0] * 1e3, "diameter_right_mm": sd[1] * 1e3, "wheelbase_mm": sd[2] * 1e3,
            "Ed": sd[3], "Es": sd[4] if fit_scale else 0.0}
+    extra = {"heading_weight_m": w, "points_per_run": points_per_run if mode == "sampled" else 1}
+    if fit_offset:
+        extra["tracked_point_offset_mm"] = [float(v) * 1e3 for v in sol.x[ng:ng + 2]]
+        extra["tracked_point_offset_std_mm"] = [float(math.sqrt(max(cov_p[i, i], 0.0))) * 1e3
+                                                for i in (ng, ng + 1)]
     # position / heading parts of the residuals
     pos, head = [], []
     for pr in problems:
-        ex, ey, eth = pr.residuals(d_l, d_r, b, w)
+        ex, ey, eth = pr.residuals(d_l, d_r, b, w, offset_of(sol.x))
         pos.append(np.hypot(ex, ey))
         head.append(eth)
     pos = np.concatenate(pos)
@@ -253,6 +279,5 @@ def fit_lsq(datasets, mode: str = "auto", scale: str = "auto", heading_weight_m:
         geometry=geom, nominal=nominal, mode=mode, scale_fitted=fit_scale, scale_reason=reason, std=std,
         n_runs=len(all_runs), n_residuals=n_res, rms_position_m=float(np.sqrt(np.mean(pos ** 2))),
         rms_heading_rad=float(np.sqrt(np.mean(head ** 2))), cost=float(sol.cost), success=bool(sol.success),
-        message=str(sol.message), extra={"heading_weight_m": w, "points_per_run": points_per_run if mode == "sampled"
-                                         else 1},
+        message=str(sol.message), extra=extra,
     )
