@@ -238,7 +238,8 @@ def _heldout_loo(ds: Dataset, method: str, lsq_options: dict | None, full: Calib
                 dirs = set(sub.directions)
                 if dirs != {"cw", "ccw"}:
                     raise InputError("runs in both directions are needed")
-            geoms.append(calibrate(sub, method, lsq_options).geometry)
+            opts = {**(lsq_options or {}), "start": full.geometry} if method == "lsq" else lsq_options
+            geoms.append(calibrate(sub, method, opts).geometry)
         except InputError as e:
             geoms.append(None)
             failed.append(f"{ds.runs[i].name}: {e}")
@@ -361,7 +362,7 @@ def pooled_report(datasets, lsq_options: dict | None = None, heldout: bool = Tru
                "after": {k: after[k] for k in ("emax_syst_mm", "end_position_rms_mm", "path_position_rms_mm")}}
         if heldout and len(prepared) > 1:
             others = [d for j, d in enumerate(prepared) if j != i]
-            g = calibrate(others, "lsq", lsq_options).geometry
+            g = calibrate(others, "lsq", {**(lsq_options or {}), "start": cal.geometry}).geometry
             ev = evaluate(ds, g)
             row["heldout"] = {"scheme": "fitted on the other data sets", "calibrated_without_it": g.to_dict(),
                               **{k: ev[k] for k in ("emax_syst_mm", "end_position_rms_mm", "path_position_rms_mm")}}
