@@ -8,13 +8,15 @@ import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
+import matplotlib.ticker  # noqa: E402
 import numpy as np  # noqa: E402
 
 from .benchmark import umbmark  # noqa: E402
 from .io.atomic import atomic_path  # noqa: E402
 from .runs import RunsTable  # noqa: E402
 
-__all__ = ["scatter_figure", "save_figure", "trajectory_figure"]
+__all__ = ["scatter_figure", "save_figure", "trajectory_figure", "exaggerated_trajectory_figure", "pitfall_figure",
+           "distribution_figure"]
 
 _STYLE = {
     "cw": dict(marker="s", color="tab:blue"),
@@ -89,3 +91,128 @@ def save_figure(fig, path) -> Path:
     finally:
         plt.close(fig)
     return path
+
+
+# ---------------------------------------------------------------------------------------------
+# Figures of the paper reproduction (issue 6)
+
+
+def exaggerated_trajectory_figure(trajectories: list[dict], exaggerate: float = 1.0, side_m: float | None = None,
+                                  title: str | None = None):
+    """True (solid) and odometry (dashed) paths of runs, like the paper's Figs. 3-5.
+
+    ``exaggerate`` > 1 draws the true path as ``odometry + exaggerate * (true - odometry)``: the
+    deviation (the curvature of the legs, the turn errors) is magnified, the odometry path is
+    drawn as it is. ``side_m``: also draw the nominal square (cw and ccw)."""
+    if not (np.isfinite(exaggerate) and exaggerate > 0):
+        raise ValueError(f"exaggeration must be positive, got {exaggerate!r}")
+    fig, ax = plt.subplots(figsize=(7.5, 8.5))
+    if side_m:
+        s = side_m * 1e3
+        ax.plot([0, s, s, 0, 0], [0, 0, s, s, 0], color="0.8", lw=3, zorder=0, label="nominal square (ccw)")
+        ax.plot([0, s, s, 0, 0], [0, 0, -s, -s, 0], color="0.9", lw=3, zorder=0, label="nominal square (cw)")
+    for i, t in enumerate(trajectories):
+        c = f"C{i % 10}"
+        lab = t.get("label", f"run {i + 1}")
+        ox, oy = np.asarray(t["odo_x"]) * 1e3, np.asarray(t["odo_y"]) * 1e3
+        tx = ox + exaggerate * (np.asarray(t["true_x"]) * 1e3 - ox)
+        ty = oy + exaggerate * (np.asarray(t["true_y"]) * 1e3 - oy)
+        what = "true path" if exaggerate == 1 else f"true path (deviation x{exaggerate:g})"
+        ax.plot(tx, ty, color=c, lw=1.5, label=f"{lab}: {what}")
+        ax.plot(ox, oy, color=c, lw=1.0, ls="--", label=f"{lab}: odometry")
+        ax.plot([tx[-1]], [ty[-1]], marker="o", color=c, ms=6)
+    ax.plot([0], [0], "k*", ms=12, label="start")
+    ax.set_aspect("equal", adjustable="datalim")
+    ax.set_xlabel("x [mm] (start frame, x along the first leg)")
+    ax.set_ylabel("y [mm]")
+    ax.set_title(title or "True and odometry paths")
+    ax.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.09), ncol=2, frameon=False)
+    ax.grid(True, lw=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def pitfall_figure(pitfall, title: str | None = None):
+    """The uni-directional pitfall (paper section 3.1): (a) what the experimenter saw while
+    tuning the wheelbase on cw runs only, and what the ccw runs would have shown; (b) the
+    bi-directional test of the tuned robot against the paper's bi-directional correction."""
+    fig, (a, b) = plt.subplots(1, 2, figsize=(13, 6.2), gridspec_kw=dict(width_ratios=[1.1, 1]))
+    g = pitfall.grid_m * 1e3
+    a.plot(g, pitfall.cw_r_cg * 1e3, color=_STYLE["cw"]["color"], lw=1.8, label="cw runs (tuned on)")
+    a.plot(g, pitfall.ccw_r_cg * 1e3, color=_STYLE["ccw"]["color"], lw=1.8, ls="--",
+           label="ccw runs (never run by the experimenter)")
+    tb = pitfall.tuned_wheelbase_m * 1e3
+    a.axvline(tb, color="k", lw=1, label=f"uni-directionally tuned b = {tb:.2f} mm")
+    true_b = pitfall.errors.eb * pitfall.wheelbase_nominal_m * 1e3
+    a.axvline(true_b, color="tab:green", lw=1, ls=":", label=f"true b = {true_b:.2f} mm")
+    a.axvline(pitfall.wheelbase_nominal_m * 1e3, color="0.5", lw=1, ls="-.",
+              label=f"nominal b = {pitfall.wheelbase_nominal_m * 1e3:.2f} mm")
+    a.set_xlabel("wheelbase b in the odometry [mm]")
+    a.set_ylabel("distance of the centre of gravity from the origin, r_cg [mm]")
+    a.set_title("(a) trial and error on the wheelbase, cw runs only")
+    a.set_ylim(bottom=0)
+    a.grid(True, lw=0.3)
+    a.legend(fontsize=7, loc="upper center")
+    for res, runs, lab, filled in ((pitfall.tuned, pitfall.tuned_runs, "b tuned on cw only", False),
+                                   (pitfall.bf, pitfall.bf_runs, "UMBmark + paper's correction", True)):
+        for st in (res.cw, res.ccw):
+            rows = runs.direction_rows(st.direction)
+            sty = _STYLE[st.direction]
+            b.scatter(rows.eps_x * 1e3, rows.eps_y * 1e3, marker=sty["marker"], s=34,
+                      facecolors=sty["color"] if filled else "none", edgecolors=sty["color"],
+                      label=f"{st.direction}, {lab} (r_cg = {st.r_cg * 1e3:.0f} mm)")
+    b.axhline(0, color="0.6", lw=0.8)
+    b.axvline(0, color="0.6", lw=0.8)
+    b.set_aspect("equal", adjustable="datalim")
+    b.set_xlabel("return position error x [mm]")
+    b.set_ylabel("return position error y [mm]")
+    b.set_title("(b) the bi-directional test exposes it")
+    b.grid(True, lw=0.3)
+    b.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.11), ncol=1, frameon=False)
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return fig
+
+
+def distribution_figure(emax_before_mm, emax_after_mm, emax_final_mm, improvement_final, paper_after_mm=(),
+                        paper_improvement=(), title: str | None = None):
+    """Histograms of the study over many seeds: E_max,syst after calibration (first pass and
+    final) and the final improvement factor, with the paper's values marked."""
+    fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.6))
+    after = np.asarray(emax_after_mm, dtype=float).ravel()
+    final = np.asarray(emax_final_mm, dtype=float).ravel()
+    bins = np.linspace(0, max(80.0, float(np.percentile(after, 99.5))), 41)
+    a.hist(after, bins=bins, color="tab:blue", alpha=0.5, label=f"after 1st pass (median {np.median(after):.1f} mm)")
+    a.hist(final, bins=bins, histtype="step", color="k", lw=1.4,
+           label=f"final, after rule-driven 2nd pass (median {np.median(final):.1f} mm)")
+    for i, v in enumerate(paper_after_mm):
+        a.axvline(v, color="tab:red", lw=0.9, ls="--", label="paper, Table I (final)" if i == 0 else None)
+    a.axvspan(12, 35, color="tab:red", alpha=0.06)
+    a.set_xlabel("E_max,syst after calibration [mm]")
+    a.set_ylabel("experiments (all seeds)")
+    a.set_title("(a) E_max,syst after calibration")
+    a.legend(fontsize=7)
+    a.grid(True, lw=0.3)
+    imp = np.asarray(improvement_final, dtype=float).ravel()
+    imp = imp[np.isfinite(imp)]
+    bins = np.logspace(np.log10(max(1.0, imp.min() * 0.9)), np.log10(imp.max() * 1.1), 41)
+    b.hist(imp, bins=bins, color="tab:green", alpha=0.6, label=f"simulation (median {np.median(imp):.1f}-fold)")
+    for i, v in enumerate(paper_improvement):
+        b.axvline(v, color="tab:red", lw=0.9, ls="--", label="paper, Table I" if i == 0 else None)
+    b.axvline(10, color="k", lw=1, label="10-fold")
+    b.set_xscale("log")
+    b.xaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:g}"))
+    b.xaxis.set_minor_formatter(matplotlib.ticker.FuncFormatter(
+        lambda v, _: f"{v:g}" if f"{v:g}"[0] in "235" else ""))
+    for axis in (a, b):
+        axis.yaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))
+    b.set_xlabel("improvement factor E_max,syst before / final")
+    b.set_ylabel("experiments (all seeds)")
+    b.set_title("(b) final improvement")
+    b.legend(fontsize=7)
+    b.grid(True, lw=0.3)
+    before = np.asarray(emax_before_mm, dtype=float).ravel()
+    fig.suptitle(title or f"{before.size} simulated experiments; E_max,syst before: median {np.median(before):.0f} mm")
+    fig.tight_layout()
+    return fig

@@ -1,0 +1,283 @@
+"""General-path least squares (method ``lsq``): wheel diameters and wheelbase from logs of any
+path with ground truth (circles, free driving, straight-and-spin, squares).
+
+The logged wheel increments are replayed (:func:`umbmark.kinematics.integrate`, exact arcs)
+with trial parameters, and the parameters minimise the pose errors of the replayed odometry
+against the ground truth:
+
+* ``mode="sampled"``: errors at up to ``points_per_run`` samples spread evenly along each
+  run (every run counts equally);
+* ``mode="end"``: the end-pose error of each run only.
+
+A pose error is ``(x_odo - x_gt, y_odo - y_gt, w * wrap(theta_odo - theta_gt))`` with
+``w = heading_weight_m`` metres per radian.
+
+Which parameters are fitted (``scale``):
+
+* ``"fit"``: D_L, D_R and b (three parameters). Right when the ground truth measures
+  distances: poses along the path, or end poses away from the start.
+* ``"fixed"``: E_d = D_R / D_L and b with D_avg kept at nominal (two parameters), as the
+  paper does. Needed when the ground truth does not fix the scale: the end pose of a
+  closed path (a square, a full circle) is unchanged when D_L, D_R and b are all scaled by
+  the same factor.
+* ``"auto"`` (default): ``fit`` in sampled mode, and in end mode when the runs end on
+  average at least 10 % of their path length away from where they started; ``fixed``
+  otherwise. The result says which (``scale_fitted``, ``scale_reason``).
+
+``fit_offset``: in sampled mode, also fit where the tracked point (a motion-capture marker)
+sits in the robot frame relative to the axle midpoint (two more parameters, reported as
+``tracked_point_offset_mm``). A marker off the axle swings around it in every turn, which
+otherwise reads as odometry error along the path. The run's start frame stays that of the
+tracked point.
+
+Uncertainty: the standard deviations from the Gauss-Newton covariance
+``s^2 (J^T J)^-1`` (``s^2`` = residual sum of squares / (N - p)). In sampled mode the residuals
+along one run are strongly correlated, so these are optimistic; :mod:`umbmark.replay`
+adds a leave-one-run-out jackknife, which is the figure to trust.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from ..errors import InputError
+from ..kinematics import integrate
+from ..logs import Dataset, WheelGeometry
+
+__all__ = ["LsqResult", "fit_lsq", "LSQ_DEFAULTS"]
+
+LSQ_DEFAULTS = {"mode": "auto", "scale": "auto", "heading_weight_m": 0.5, "points_per_run": 100, "fit_offset": False}
+
+
+@dataclass(frozen=True)
+class LsqResult:
+    geometry: WheelGeometry
+    nominal: WheelGeometry
+    mode: str
+    scale_fitted: bool
+    scale_reason: str
+    std: dict
+    n_runs: int
+    n_residuals: int
+    rms_position_m: float
+    rms_heading_rad: float
+    cost: float
+    success: bool
+    message: str
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def fitted_parameters(self) -> str:
+        return "D_L, D_R, b" if self.scale_fitted else "E_d, b (D_avg kept at nominal)"
+
+    def to_dict(self) -> dict:
+        g, n = self.geometry, self.nominal
+        return {
+            "method": "lsq",
+            "mode": self.mode,
+            "scale_fitted": self.scale_fitted,
+            "scale_reason": self.scale_reason,
+            "fitted_parameters": self.fitted_parameters,
+            "Ed": g.ed,
+            "Eb": g.wheelbase_m / n.wheelbase_m,
+            "Es": g.diameter_avg_m / n.diameter_avg_m,
+            "c_left": g.diameter_left_m / n.diameter_left_m,
+            "c_right": g.diameter_right_m / n.diameter_right_m,
+            "wheelbase_corrected_mm": g.wheelbase_m * 1e3,
+            "diameter_left_mm": g.diameter_left_m * 1e3,
+            "diameter_right_mm": g.diameter_right_m * 1e3,
+            "std_model": dict(self.std),
+            "n_runs": self.n_runs,
+            "n_residuals": self.n_residuals,
+            "rms_position_residual_mm": self.rms_position_m * 1e3,
+            "rms_heading_residual_deg": math.degrees(self.rms_heading_rad),
+            "converged": self.success,
+            **self.extra,
+        }
+
+
+class _Problem:
+    """Pre-computed arrays of one data set: padded increments, chosen samples, ground truth."""
+
+    def __init__(self, ds: Dataset, mode: str, points_per_run: int):
+        self.ds = ds
+        self.dl, self.dr, n = ds.padded()
+        rows, cols, gts = [], [], []
+        for i, run in enumerate(ds.runs):
+            if mode == "sampled":
+                ok = np.flatnonzero(np.all(np.isfinite(run.gt), axis=1))
+                ok = ok[ok > 0]  # sample 0 is the start pose: zero error by construction
+                if ok.size > points_per_run:
+                    pick = np.unique(np.round(np.linspace(0, ok.size - 1, points_per_run)).astype(int))
+                    ok = ok[pick]
+                idx = ok
+                g = run.gt[idx]
+            else:
+                end = run.end_truth
+                idx = np.array([len(run) - 1])
+                g = end[None, :]
+            rows.append(np.full(idx.size, i))
+            cols.append(idx)
+            gts.append(g)
+        self.rows = np.concatenate(rows)
+        self.cols = np.concatenate(cols)
+        self.gt = np.concatenate(gts)
+        self.k = math.pi / ds.units_per_rev
+
+    def residuals(self, d_left, d_right, b, w, offset=None):
+        x, y, th = integrate(self.dl * (self.k * d_left), self.dr * (self.k * d_right), b)
+        sel = (self.rows, self.cols)
+        x, y, th = x[sel], y[sel], th[sel]
+        if offset is not None:  # the tracked point sits at ``offset`` in the robot frame
+            c, s = np.cos(th), np.sin(th)
+            x = x + (c - 1.0) * offset[0] - s * offset[1]
+            y = y + s * offset[0] + (c - 1.0) * offset[1]
+        ex = x - self.gt[:, 0]
+        ey = y - self.gt[:, 1]
+        eth = np.mod(th - self.gt[:, 2] + np.pi, 2 * np.pi) - np.pi
+        return ex, ey, eth
+
+
+def _scale_decision(datasets, mode, scale):
+    if scale == "fit":
+        return True, "asked for (--scale fit)"
+    if scale == "fixed":
+        return False, "asked for (--scale fixed)"
+    if mode == "sampled":
+        return True, "the ground truth along the path measures distances, so it fixes the scale"
+    ratios = []
+    for ds in datasets:
+        for run in ds.runs:
+            end = run.end_truth
+            k = math.pi * ds.nominal.diameter_avg_m / ds.units_per_rev
+            path = np.sum(0.5 * np.abs(run.d_left + run.d_right)) * k
+            if path > 0:
+                ratios.append(math.hypot(end[0], end[1]) / path)
+    r = float(np.mean(ratios)) if ratios else 0.0
+    if r >= 0.1:
+        return True, f"the runs end {100 * r:.0f} % of their path length from the start, so the end poses fix the scale"
+    return False, (f"the runs end near their start ({100 * r:.1f} % of the path length): closed paths do not fix the "
+                   "scale, so D_avg is kept at nominal")
+
+
+def fit_lsq(datasets, mode: str = "auto", scale: str = "auto", heading_weight_m: float = 0.5,
+            points_per_run: int = 100, start: WheelGeometry | None = None,
+            fit_offset: bool = False) -> LsqResult:
+    """Fit the geometry to one or more data sets of the same robot (see the module docstring).
+
+    The data sets may have different nominal geometries (the fit is in absolute diameters and
+    wheelbase; their encoder units must describe the same wheels). The first data set's nominal
+    geometry is the reference for E_b, E_s and the fixed-scale D_avg.
+    """
+    if isinstance(datasets, Dataset):
+        datasets = [datasets]
+    datasets = list(datasets)
+    if not datasets:
+        raise InputError("lsq: no data")
+    if mode not in ("auto", "sampled", "end"):
+        raise InputError(f"unknown lsq mode {mode!r} (use auto, sampled or end)")
+    if scale not in ("auto", "fit", "fixed"):
+        raise InputError(f"unknown lsq scale option {scale!r} (use auto, fit or fixed)")
+    if not (math.isfinite(heading_weight_m) and heading_weight_m >= 0):
+        raise InputError(f"heading weight must be >= 0, got {heading_weight_m!r}")
+    if points_per_run < 1:
+        raise InputError("points per run must be >= 1")
+    all_runs = [(ds, r) for ds in datasets for r in ds.runs]
+    if mode == "auto":
+        mode = "sampled" if all(r.has_trajectory for _, r in all_runs) else "end"
+    for ds, r in all_runs:
+        where = r.source or f"{ds.name}/{r.name}"
+        if mode == "sampled" and not r.has_trajectory:
+            raise InputError("lsq (sampled poses) needs ground truth along the path; this run has none", where)
+        if mode == "end" and r.end_truth is None:
+            raise InputError("lsq needs a ground-truth end pose; this run has none", where)
+    if fit_offset and mode != "sampled":
+        raise InputError("fitting the tracked point's offset needs ground truth along the path (sampled mode)")
+    fit_scale, reason = _scale_decision(datasets, mode, scale)
+    nominal = datasets[0].nominal
+    problems = [_Problem(ds, mode, points_per_run) for ds in datasets]
+    w = heading_weight_m
+    d_avg0 = nominal.diameter_avg_m
+    s0 = start or nominal
+
+    if fit_scale:
+        def unpack(p):
+            return math.exp(p[0]), math.exp(p[1]), math.exp(p[2])
+        p0 = np.log([s0.diameter_left_m, s0.diameter_right_m, s0.wheelbase_m])
+    else:
+        def unpack(p):
+            ed = math.exp(p[0])
+            d_l = 2.0 * d_avg0 / (1.0 + ed)
+            return d_l, d_l * ed, math.exp(p[1])
+        p0 = np.array([math.log(s0.ed), math.log(s0.wheelbase_m)])
+    ng = p0.size
+    if fit_offset:
+        p0 = np.concatenate([p0, [0.0, 0.0]])
+
+    def offset_of(p):
+        return p[ng:ng + 2] if fit_offset else None
+
+    def fun(p):
+        d_l, d_r, b = unpack(p)
+        off = offset_of(p)
+        parts = []
+        for pr in problems:
+            ex, ey, eth = pr.residuals(d_l, d_r, b, w, off)
+            parts += [ex, ey, w * eth]
+        return np.concatenate(parts)
+
+    sol = least_squares(fun, p0, method="lm", x_scale=np.full(p0.size, 1e-3), xtol=1e-12, ftol=1e-12, gtol=1e-12,
+                        max_nfev=400 * p0.size)
+    d_l, d_r, b = unpack(sol.x)
+    try:
+        geom = WheelGeometry(d_l, d_r, b)
+    except InputError:
+        raise InputError("lsq did not converge to a valid geometry (check the units and the ground truth)") from None
+    r = sol.fun
+    n_res = r.size
+    dof = max(n_res - p0.size, 1)
+    s2 = float(r @ r) / dof
+    J = sol.jac
+    try:
+        cov_p = s2 * np.linalg.inv(J.T @ J)
+    except np.linalg.LinAlgError:
+        cov_p = np.full((p0.size, p0.size), np.nan)
+
+    def derived(p):
+        dl_, dr_, b_ = unpack(p)
+        return np.array([dl_, dr_, b_, dr_ / dl_, 0.5 * (dl_ + dr_) / nominal.diameter_avg_m])
+
+    g0 = derived(sol.x)
+    G = np.empty((5, p0.size))
+    for j in range(p0.size):
+        h = 1e-6
+        pp = sol.x.copy()
+        pp[j] += h
+        G[:, j] = (derived(pp) - g0) / h
+    cov_g = G @ cov_p @ G.T
+    sd = np.sqrt(np.clip(np.diag(cov_g), 0, None))
+    std = {"diameter_left_mm": sd[0] * 1e3, "diameter_right_mm": sd[1] * 1e3, "wheelbase_mm": sd[2] * 1e3,
+           "Ed": sd[3], "Es": sd[4] if fit_scale else 0.0}
+    extra = {"heading_weight_m": w, "points_per_run": points_per_run if mode == "sampled" else 1}
+    if fit_offset:
+        extra["tracked_point_offset_mm"] = [float(v) * 1e3 for v in sol.x[ng:ng + 2]]
+        extra["tracked_point_offset_std_mm"] = [float(math.sqrt(max(cov_p[i, i], 0.0))) * 1e3
+                                                for i in (ng, ng + 1)]
+    # position / heading parts of the residuals
+    pos, head = [], []
+    for pr in problems:
+        ex, ey, eth = pr.residuals(d_l, d_r, b, w, offset_of(sol.x))
+        pos.append(np.hypot(ex, ey))
+        head.append(eth)
+    pos = np.concatenate(pos)
+    head = np.concatenate(head)
+    return LsqResult(
+        geometry=geom, nominal=nominal, mode=mode, scale_fitted=fit_scale, scale_reason=reason, std=std,
+        n_runs=len(all_runs), n_residuals=n_res, rms_position_m=float(np.sqrt(np.mean(pos ** 2))),
+        rms_heading_rad=float(np.sqrt(np.mean(head ** 2))), cost=float(sol.cost), success=bool(sol.success),
+        message=str(sol.message), extra=extra,
+    )

@@ -1,0 +1,144 @@
+"""Reader of the OptiOdom data-set layout (Sousa et al.; see data/optiodom/README.md).
+
+A data set is a folder ``ID/`` holding:
+
+* ``ID_metadata.csv``: rows ``key,value,...``; used keys: ``type`` (must be ``diff``),
+  ``ngear`` (gear ratio), ``encRes`` (encoder pulses per motor revolution), ``Li`` (nominal
+  wheelbase, m), ``Di`` (nominal wheel diameters, m: **right, then left**), ``N`` (number of
+  runs), ``L`` (side of the square, m; square data sets only). Other rows are ignored.
+* ``ID_run-NN.csv`` (NN = 01 .. N): no header, one row per sample:
+  ``time (s), x_gt (m), y_gt (m), theta_gt (rad), ticks_right, ticks_left``; the ticks are
+  the encoder pulses counted in that sample (not cumulative). The ground truth is brought
+  into the start frame (it already starts at (0, 0, 0) with x along the first leg).
+
+In square data sets the first half of the runs are declared cw and the second half ccw.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+from ..logs import Dataset, Run, WheelGeometry, to_start_frame
+from ._text import check_increasing_time, numeric_rows, read_text
+
+__all__ = ["read_optiodom", "read_metadata", "is_optiodom"]
+
+COLUMNS = ("time", "x_gt", "y_gt", "theta_gt", "ticks_right", "ticks_left")
+
+
+def is_optiodom(path) -> bool:
+    p = Path(path)
+    return p.is_dir() and any(p.glob("*_metadata.csv"))
+
+
+def _metadata_file(folder: Path) -> Path:
+    own = folder / f"{folder.name}_metadata.csv"
+    if own.is_file():
+        return own
+    found = sorted(folder.glob("*_metadata.csv"))
+    if len(found) == 1:
+        return found[0]
+    if not found:
+        raise InputError("no *_metadata.csv file: not an optiodom data-set folder", source=str(folder))
+    raise InputError(f"{len(found)} metadata files; expected one", source=str(folder))
+
+
+def read_metadata(path) -> dict:
+    """The metadata rows as ``{key: (line, [values])}`` (empty cells dropped)."""
+    text = read_text(path)
+    meta = {}
+    for i, raw in enumerate(text.splitlines(), 1):
+        cells = [c.strip() for c in raw.split(",")]
+        if not cells or not cells[0]:
+            continue
+        meta[cells[0]] = (i, [c for c in cells[1:] if c])
+    return meta
+
+
+def _num(meta: dict, key: str, source: str, count: int = 1, required: bool = True):
+    if key not in meta:
+        if required:
+            raise InputError(f"metadata row {key!r} is missing", source)
+        return None
+    line, vals = meta[key]
+    if not vals:
+        if required:
+            raise InputError(f"metadata row {key!r} has no value", source, line)
+        return None
+    if len(vals) < count:
+        raise InputError(f"metadata row {key!r} needs {count} values, has {len(vals)}", source, line)
+    out = []
+    for v in vals[:count]:
+        try:
+            x = float(v)
+        except ValueError:
+            raise InputError(f"metadata {key}: {v!r} is not a number", source, line) from None
+        if not (math.isfinite(x) and x > 0):
+            raise InputError(f"metadata {key}: {v!r} must be a positive number", source, line)
+        out.append(x)
+    return out if count > 1 else out[0]
+
+
+def read_optiodom(folder) -> Dataset:
+    """Read one optiodom data-set folder into a :class:`~umbmark.logs.Dataset`."""
+    folder = Path(folder)
+    if not folder.exists():
+        raise InputError("folder not found", source=str(folder))
+    if not folder.is_dir():
+        raise InputError("not a folder: an optiodom data set is a folder with a *_metadata.csv file",
+                         source=str(folder))
+    mfile = _metadata_file(folder)
+    src = str(mfile)
+    meta = read_metadata(mfile)
+    if "type" in meta and meta["type"][1] and meta["type"][1][0].lower() != "diff":
+        raise InputError(f"robot type {meta['type'][1][0]!r} is not supported (only 'diff')", src, meta["type"][0])
+    ngear = _num(meta, "ngear", src)
+    enc = _num(meta, "encRes", src)
+    b = _num(meta, "Li", src)
+    d_right, d_left = _num(meta, "Di", src, count=2)
+    n = _num(meta, "N", src)
+    if n != int(n):
+        raise InputError(f"metadata N: {n!r} is not a whole number", src, meta["N"][0])
+    n = int(n)
+    side = _num(meta, "L", src, required=False)
+    prefix = mfile.name[: -len("_metadata.csv")]
+    runs = []
+    for i in range(1, n + 1):
+        f = folder / f"{prefix}_run-{i:02d}.csv"
+        if not f.is_file():
+            raise InputError(f"metadata says N = {n} runs but {f.name} is missing", src, meta["N"][0])
+        runs.append(read_run_file(f))
+    expected = {f"{prefix}_run-{i:02d}.csv" for i in range(1, n + 1)}
+    extra = sorted(p.name for p in folder.glob(f"{prefix}_run-*.csv") if p.name not in expected)
+    directions = None
+    if side is not None and n % 2 == 0:
+        directions = tuple(["cw"] * (n // 2) + ["ccw"] * (n // 2))
+    return Dataset(
+        name=folder.name, nominal=WheelGeometry(d_left, d_right, b), units_per_rev=ngear * enc, runs=tuple(runs),
+        side_m=side, source=str(folder), directions=directions,
+        meta={"format": "optiodom", "gear_ratio": ngear, "pulses_per_rev": enc, "ignored_files": extra},
+    )
+
+
+def read_run_file(path) -> Run:
+    """One ``ID_run-NN.csv`` file."""
+    src = str(path)
+    a, lines = numeric_rows(read_text(path), src, ncols=6, names=COLUMNS)
+    if len(a) < 2:
+        raise InputError("a run needs at least two samples", src)
+    check_increasing_time(a[:, 0], lines, src)
+    for col in (4, 5):
+        frac = np.flatnonzero(a[:, col] != np.round(a[:, col]))
+        if frac.size:
+            k = int(frac[0])
+            raise InputError(f"column {COLUMNS[col]}: {a[k, col]:g} is not a whole number of encoder pulses", src,
+                             int(lines[k]))
+    gx, gy, gth = to_start_frame(a[:, 1], a[:, 2], a[:, 3])
+    m = re.search(r"run-(\d+)", Path(path).stem)
+    name = f"run-{m.group(1)}" if m else Path(path).stem
+    return Run(name, a[:, 0] - a[0, 0], a[:, 5], a[:, 4], np.column_stack([gx, gy, gth]), None, src)

@@ -1,0 +1,137 @@
+"""Export: ROS 2 / ROS 1 diff_drive_controller parameters, JSON, firmware header. The mapping
+is checked by replaying odometry the way diff_drive_controller computes it."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+import yaml
+
+import simlogs
+from umbmark.cli import main
+from umbmark.errors import InputError
+from umbmark.io.export import ExportCalibration, calibration_from_json, format_export, ros_multipliers
+from umbmark.logs import Dataset, Run, WheelGeometry
+from umbmark.replay import replay, replay_report
+
+
+def diff_drive_odometry(pos_left, pos_right, wheel_radius, wheel_separation, left_mult, right_mult, sep_mult):
+    """What diff_drive_controller computes from wheel joint positions [rad]: wheel travel =
+    position x wheel_radius x side multiplier; separation = wheel_separation x multiplier;
+    exact integration (Runge-Kutta 2 for tiny angular steps)."""
+    rl, rr, sep = wheel_radius * left_mult, wheel_radius * right_mult, wheel_separation * sep_mult
+    x = y = heading = 0.0
+    old_l, old_r = pos_left[0] * rl, pos_right[0] * rr
+    out = [(0.0, 0.0, 0.0)]
+    for pl, pr in zip(pos_left[1:], pos_right[1:]):
+        cl, cr = pl * rl, pr * rr
+        dl, dr = cl - old_l, cr - old_r
+        old_l, old_r = cl, cr
+        linear, angular = 0.5 * (dr + dl), (dr - dl) / sep
+        if abs(angular) < 1e-6:
+            d = heading + 0.5 * angular
+            x += linear * math.cos(d)
+            y += linear * math.sin(d)
+            heading += angular
+        else:
+            h0 = heading
+            r = linear / angular
+            heading += angular
+            x += r * (math.sin(heading) - math.sin(h0))
+            y += -r * (math.cos(heading) - math.cos(h0))
+        out.append((x, y, heading))
+    return np.array(out)
+
+
+@pytest.mark.parametrize("multipliers", [(1.0, 1.0, 1.0), (1.01, 0.995, 1.03)])
+def test_ros_multipliers_reproduce_corrected_odometry(tmp_path, multipliers):
+    m_l0, m_r0, m_b0 = multipliers
+    r, s = 0.05, 0.3  # the controller's wheel_radius and wheel_separation
+    # the robot's odometry ran with r*m and s*m_b0: that is the nominal geometry of the logs
+    nominal = WheelGeometry(2 * r * m_l0, 2 * r * m_r0, s * m_b0)
+    al, ar, pose = simlogs.simulate_wheels(simlogs.general_program())
+    ds = Dataset("sim", nominal, 2 * math.pi, (Run("run-01", np.arange(len(al)) * 0.02, al, ar, pose),))
+    rep = replay_report(ds, "lsq", heldout=False)
+    f = tmp_path / "cal.json"
+    f.write_text(json.dumps(rep, default=float))
+    cal = calibration_from_json(f)
+    new = ros_multipliers(cal, m_l0, m_r0, m_b0)
+    pos_l, pos_r = np.cumsum(al), np.cumsum(ar)
+    ddc = diff_drive_odometry(pos_l, pos_r, r, s, new["left_wheel_radius_multiplier"],
+                              new["right_wheel_radius_multiplier"], new["wheel_separation_multiplier"])
+    x, y, th, _ = replay(ds, WheelGeometry(rep["diameter_left_mm"] * 1e-3, rep["diameter_right_mm"] * 1e-3,
+                                           rep["wheelbase_corrected_mm"] * 1e-3))
+    assert np.allclose(ddc[:, 0], x[0], atol=1e-9) and np.allclose(ddc[:, 1], y[0], atol=1e-9)
+    assert np.allclose(ddc[:, 2], th[0], atol=1e-9)
+    # and both follow the true robot (noise-free logs)
+    assert np.abs(ddc[:, :2] - pose[:, :2]).max() < 1e-6
+    # the old multipliers do not
+    old = diff_drive_odometry(pos_l, pos_r, r, s, m_l0, m_r0, m_b0)
+    assert np.abs(old[:, :2] - pose[:, :2]).max() > 0.05
+
+
+def test_ros2_and_ros1_yaml(tmp_path):
+    cal = ExportCalibration(0.999, 1.001, 0.98)
+    d2 = yaml.safe_load(format_export(cal, "ros2", "my_ctrl", 1.0, 1.0, 1.02))
+    p = d2["my_ctrl"]["ros__parameters"]
+    assert p == {"wheel_separation_multiplier": pytest.approx(0.98 * 1.02),
+                 "left_wheel_radius_multiplier": pytest.approx(0.999),
+                 "right_wheel_radius_multiplier": pytest.approx(1.001)}
+    d1 = yaml.safe_load(format_export(cal, "ros1", "mobile_base_controller", wheel_radius_m=0.05))
+    assert d1["mobile_base_controller"]["wheel_radius"] == 0.05
+    assert d1["mobile_base_controller"]["left_wheel_radius_multiplier"] == pytest.approx(0.999)
+    with pytest.raises(InputError):
+        format_export(cal, "ros2", "bad name")
+
+
+def test_json_and_firmware():
+    cal = ExportCalibration(0.999, 1.001, 0.98, 0.084, 0.084, 0.2, 43.7 * 64)
+    d = json.loads(format_export(cal, "json"))
+    assert d["diameter_left_mm"] == pytest.approx(84 * 0.999)
+    assert d["wheelbase_mm"] == pytest.approx(196.0)
+    assert d["left_mm_per_pulse"] == pytest.approx(math.pi * 84 * 0.999 / (43.7 * 64))
+    h = format_export(cal, "firmware")
+    assert "#define UMBMARK_LEFT_MM_PER_PULSE" in h and f"{d['right_mm_per_pulse']:.9g}" in h
+    with pytest.raises(InputError, match="pulses per wheel"):
+        format_export(ExportCalibration(1.0, 1.0, 1.0), "firmware")
+
+
+def test_cli_export_from_replay_json(optiodom, tmp_path, capsys):
+    assert main(["replay", str(optiodom / "square/230620202144"), "--json"]) == 0
+    cal = tmp_path / "cal.json"
+    cal.write_text(capsys.readouterr().out)
+    rep = json.loads(cal.read_text())
+    out = tmp_path / "params.yaml"
+    assert main(["export", str(cal), "--format", "ros2", "--out", str(out)]) == 0
+    p = yaml.safe_load(out.read_text())["diff_drive_controller"]["ros__parameters"]
+    assert set(p) == {"wheel_separation_multiplier", "left_wheel_radius_multiplier", "right_wheel_radius_multiplier"}
+    assert p["wheel_separation_multiplier"] == pytest.approx(rep["wheelbase_corrected_mm"] / 205.0)
+    assert p["left_wheel_radius_multiplier"] == pytest.approx(rep["c_left"])
+    capsys.readouterr()
+    assert main(["export", str(cal), "--format", "firmware"]) == 0
+    assert "UMBMARK_RIGHT_MM_PER_PULSE" in capsys.readouterr().out
+    # from analyze's JSON too
+    assert main(["convert", str(optiodom / "square/230620202144"), "--to", "runs", "--out",
+                 str(tmp_path / "runs.csv")]) == 0
+    capsys.readouterr()
+    assert main(["analyze", str(tmp_path / "runs.csv"), "--wheelbase-mm", "205", "--side-mm", "750", "--json"]) == 0
+    an = tmp_path / "an.json"
+    an.write_text(capsys.readouterr().out)
+    assert main(["export", str(an), "--format", "ros1"]) == 0
+    p1 = yaml.safe_load(capsys.readouterr().out)["diff_drive_controller"]
+    assert p1["wheel_separation_multiplier"] == pytest.approx(p["wheel_separation_multiplier"], rel=1e-9)
+
+
+@pytest.mark.parametrize("content, msg", [
+    ("{not json", "not valid JSON"),
+    ('{"a": 1}', "no 'c_left'"),
+    ('{"c_left": 1, "c_right": -1, "Eb": 1}', "c_right must be a positive number"),
+])
+def test_cli_export_errors(tmp_path, capsys, content, msg):
+    f = tmp_path / "cal.json"
+    f.write_text(content)
+    assert main(["export", str(f), "--format", "ros2"]) == 2
+    err = capsys.readouterr().err
+    assert msg in err and str(f) in err and err.count("\n") == 1
+    assert main(["export", "--format", "ros2", "--c-left", "1"]) == 2
