@@ -244,3 +244,32 @@ def test_history_options_decorator_on_another_command(tmp_path):
     assert rec.input_sha256 == file_sha256(log) and len(rec.input_sha256) == 64
     (log / "a.db3").write_bytes(b"\x00\x02" * 100)
     assert file_sha256(log) != rec.input_sha256  # the hash follows the content
+
+
+def test_record_a_replay_report(tmp_path, optiodom, capsys):
+    """What `replay --robot NAME --record` stores: one record per data set, the log folder hashed."""
+    from umbmark.cli.history import record_report_if_requested
+    from umbmark.history import file_sha256
+
+    sets = [optiodom / "square" / "230620202042", optiodom / "square" / "230620202144"]
+    save = tmp_path / "rep.json"
+    assert main(["-q", "replay", *map(str, sets), "--method", "bf", "--no-heldout", "--save", str(save)]) == 0
+    rep = json.loads(save.read_text())
+    db = tmp_path / "h.sqlite"
+    assert record_report_if_requested("opti", False, db, rep, sets) is None
+    recs = record_report_if_requested("opti", True, db, rep, sets, method="bf")
+    assert [r["record_id"] for r in recs] == [1, 2]
+    with History(db) as h:
+        stored = h.records("opti")
+    for r, part, path in zip(stored, rep["datasets"], sets):
+        assert r.kind == "replay" and r.method == "bf"
+        assert r.input_sha256 == file_sha256(path) and r.source == str(path.resolve())
+        assert r.ed == pytest.approx(part["Ed"]) and r.wheelbase_mm == pytest.approx(part["wheelbase_corrected_mm"])
+        assert r.emax_syst_mm == pytest.approx(part["before"]["emax_syst_mm"])
+        assert r.parameters_in_use == part["nominal"] and r.parameters_in_use["wheelbase_mm"] > 0
+    # a single-data-set report
+    assert main(["-q", "replay", str(sets[1]), "--method", "bf", "--no-heldout", "--save", str(save)]) == 0
+    one = record_report_if_requested("opti", True, db, json.loads(save.read_text()), [sets[1]])
+    assert one[0]["record_id"] == 3
+    with History(db) as h:
+        assert h.get(3).ed == pytest.approx(stored[1].ed)

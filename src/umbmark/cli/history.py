@@ -33,7 +33,7 @@ from rich.markup import escape
 from ..errors import InputError
 from .app import app, console, emit_json, fmt, is_quiet, table
 
-__all__ = ["history_options", "record_if_requested", "print_recorded"]
+__all__ = ["history_options", "record_if_requested", "record_report_if_requested", "print_recorded"]
 
 
 # -- the options other commands attach --------------------------------------------------------------
@@ -74,7 +74,48 @@ def record_if_requested(robot, record, db, *, analysis=None, kind: str = "analyz
     return {"record_id": rid, "robot": robot, "db": display_db(path)}
 
 
-def print_recorded(rec: dict | None) -> None:
+def record_report_if_requested(robot, record, db, rep: dict, paths, *, kind: str = "replay",
+                               method: str | None = None) -> list[dict] | None:
+    """Record a ``replay``-style JSON report (``umbmark replay --json``): one record per data
+    set (``rep["datasets"]``, or ``rep["per_dataset"]`` of a pooled fit, or ``rep`` itself), each
+    with the SHA-256 of its log file or folder and its path. Parameters: ``Ed``, ``Eb``,
+    ``c_left``, ``c_right``, ``wheelbase_corrected_mm``; E_max,syst: ``before.emax_syst_mm`` (the
+    odometry as it ran). Returns the list of ``{"record_id", "robot", "db"}`` or None."""
+    if not record:
+        return None
+    from ..history import file_sha256
+
+    paths = [str(p) for p in (paths if isinstance(paths, (list, tuple)) else [paths])]
+    if "datasets" in rep:
+        parts = list(rep["datasets"])
+    else:
+        parts = [rep]
+    out = []
+    for i, part in enumerate(parts):
+        src = part.get("source") or part.get("dataset") or (paths[i] if i < len(paths) else None)
+        src_path = next((p for p in paths if src and (p == src or Path(p).name == Path(str(src)).name)), src)
+        sha = file_sha256(src_path) if src_path and Path(src_path).exists() else None
+        params = {k: part.get(k, rep.get(k)) for k in ("Ed", "Eb", "c_left", "c_right")}
+        params["wheelbase_mm"] = part.get("wheelbase_corrected_mm", rep.get("wheelbase_corrected_mm"))
+        results = dict(part)
+        before = part.get("before") if isinstance(part.get("before"), dict) else {}
+        results["emax_syst_mm"] = before.get("emax_syst_mm")
+        nominal = part.get("nominal", rep.get("nominal"))
+        out.append(record_if_requested(
+            robot, True, db, kind=kind, method=str(method or part.get("method") or rep.get("method") or "?"),
+            results=results, parameters=params, input_sha256=sha,
+            source=None if src_path is None else str(Path(src_path).resolve() if Path(src_path).exists() else src_path),
+            parameters_in_use=nominal if isinstance(nominal, dict) else None,
+            inputs={"paths": paths, "dataset": src}))
+    return out
+
+
+def print_recorded(rec) -> None:
+    """One line per record (``rec``: a dict, a list of dicts, or None), unless ``--quiet``."""
+    if isinstance(rec, list):
+        for r in rec:
+            print_recorded(r)
+        return
     if rec and not is_quiet():
         console().print(escape(f"recorded as #{rec['record_id']} in the history of {rec['robot']} ({rec['db']})"))
 
