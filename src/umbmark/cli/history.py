@@ -17,6 +17,16 @@ Attaching the history options to another command (e.g. ``replay`` or ``calibrate
         #                                                     source=bag, prior=prior)
         if as_json: emit_json({..., "history": rec})   # rec is None or {"record_id", "robot", "db"}
 
+A command that prints a replay-style JSON report (``replay``) records it in one line, one
+record per data set with the log's SHA-256::
+
+    @history_options
+    def replay(paths, method, ..., robot=None, record=False, db=None, **kw):
+        ...
+        rep = replay_report(...)
+        rec = record_report_if_requested(robot, record, db, rep, paths, kind="replay", method=method)
+        if as_json: rep = {**rep, "history": rec} ... else: print_recorded(rec)
+
 ``--record`` without ``--robot`` is a usage error raised before the command body runs.
 """
 
