@@ -235,8 +235,9 @@ def history_cmd(robot, db, plot_path, export_path, limit, show_id, as_json):
               help="Runs file of a test after calibration (drawn in the same scatter).")
 @click.option("--attach", "attach", type=click.Path(dir_okay=False), multiple=True,
               help="Exported parameter file(s) to show in the report (repeatable).")
-@click.option("--bootstrap", "n_boot", type=click.IntRange(min=0), default=1000, show_default=True,
-              help="Bootstrap resamples for the intervals of E_d, E_b, wheelbase (0: none).")
+@click.option("--bootstrap", "n_boot", type=click.IntRange(min=0), default=None,
+              help="Bootstrap resamples for the intervals of E_d, E_b, wheelbase (0: none). Default: 1000 "
+                   "for bf; none for other methods (they may report their own intervals).")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Bootstrap seed.")
 @click.option("--robot", metavar="NAME", default=None,
               help="Without FILE.csv: report this robot's history. With FILE.csv: label the report.")
@@ -328,6 +329,8 @@ def report_cmd(runs_file, out_path, wheelbase_mm, side_mm, method, c_left, c_rig
             except UnicodeDecodeError:
                 raise InputError("not a text file (only text exports can be shown)", source=f) from None
         boot = None
+        if n_boot is None:
+            n_boot = 1000 if method == "bf" else 0
         if n_boot:
             with progress("bootstrap", total=n_boot) as advance:
                 boot = bootstrap_intervals(runs, side_m, wheelbase_m, method, prior, n_boot, seed, advance=advance)
