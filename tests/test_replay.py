@@ -1,6 +1,7 @@
 """Replay of logged runs, UMBmark on real square runs, calibration before/after, held out."""
 
 import glob
+from pathlib import Path
 import json
 
 import numpy as np
@@ -171,3 +172,19 @@ def test_start_frame_keeps_relative_geometry(poses):
     assert np.allclose(np.hypot(x, y), np.hypot(p[:, 0] - p[0, 0], p[:, 1] - p[0, 1]), atol=1e-9)
     d = np.mod(th - (np.unwrap(p[:, 2]) - p[0, 2]) + np.pi, 2 * np.pi) - np.pi
     assert np.allclose(d, 0, atol=1e-9)
+
+
+def test_replay_records_into_history(tmp_path, capsys):
+    from umbmark.cli import main
+
+    db = tmp_path / "h.sqlite"
+    ds = str(Path(__file__).resolve().parents[1] / "data" / "optiodom" / "square" / "230620202144")
+    code = main(["replay", ds, "--method", "bf", "--no-heldout", "--robot", "optibot", "--record", "--db", str(db),
+                 "--json"])
+    out = capsys.readouterr().out
+    assert code == 0
+    rec = json.loads(out)["history"]
+    assert rec and rec[0]["robot"] == "optibot"
+    assert main(["history", "optibot", "--db", str(db), "--json"]) == 0
+    hist = json.loads(capsys.readouterr().out)
+    assert "replay" in json.dumps(hist) and "201.4" in json.dumps(hist)

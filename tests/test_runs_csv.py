@@ -109,5 +109,6 @@ def test_write_is_atomic(tmp_path):
     write_runs_csv(t, p)
     assert parse_runs_csv(p.read_text()).x_abs[0] == pytest.approx(0.010)
     assert [f.name for f in tmp_path.iterdir()] == ["out.csv"]
+    assert p.stat().st_mode & 0o044  # readable by others (umask permitting), not mkstemp's 0600
     with pytest.raises(InputError, match="does not exist"):
         write_runs_csv(t, tmp_path / "no" / "out.csv")

@@ -9,6 +9,7 @@ import click
 
 from ..errors import InputError
 from ..io.load import LOG_FORMATS, load_logs
+from .history import history_options, print_recorded, record_report_if_requested
 from .app import app, console, emit_json, fmt, is_quiet, table
 
 
@@ -145,8 +146,9 @@ def _print_report(rep: dict):
 @click.option("--save", type=click.Path(dir_okay=False), default=None,
               help="Also write the JSON report to this file (input of `umbmark export`).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+@history_options
 def replay(paths, method, log_format, pool, lsq_mode, scale, heading_weight_m, points_per_run, fit_marker_offset,
-           no_heldout, save, as_json, **kw):
+           no_heldout, save, as_json, robot=None, record=False, db=None, **kw):
     """Replay real-robot logs, calibrate, and compare the odometry before and after.
 
     Each DATASET is an optiodom data-set folder, a ROS bag, or (all together) CSV log files.
@@ -171,8 +173,9 @@ def replay(paths, method, log_format, pool, lsq_mode, scale, heading_weight_m, p
             raise InputError("--pool works with --method lsq")
         rep = pooled_report(sets, lsq_opts, heldout=not no_heldout)
         _save(rep, save)
+        rec = record_report_if_requested(robot, record, db, rep, list(paths), kind="replay", method=method)
         if as_json:
-            emit_json(rep)
+            emit_json(rep if rec is None else {**rep, "history": rec})
         elif not is_quiet():
             c = console()
             rows = [[p["dataset"], fmt(p["before"]["end_position_rms_mm"]), fmt(p["after"]["end_position_rms_mm"]),
@@ -182,14 +185,17 @@ def replay(paths, method, log_format, pool, lsq_mode, scale, heading_weight_m, p
             c.print(f"D_L = {rep['diameter_left_mm']:.3f} mm, D_R = {rep['diameter_right_mm']:.3f} mm, wheelbase = "
                     f"{rep['wheelbase_corrected_mm']:.3f} mm, E_d = {rep['Ed']:.6f}, "
                     f"fitted: {rep['fitted_parameters']}")
+            print_recorded(rec)
         return
     rep = replay_report(sets, method, lsq_opts, heldout=not no_heldout)
     _save(rep, save)
+    rec = record_report_if_requested(robot, record, db, rep, list(paths), kind="replay", method=method)
     if as_json:
-        emit_json(rep)
+        emit_json(rep if rec is None else {**rep, "history": rec})
         return
     if is_quiet():
         return
+    print_recorded(rec)
     reports = rep["datasets"] if "datasets" in rep else [rep]
     for r in reports:
         _print_report(r)
@@ -214,7 +220,13 @@ def _save(rep, path):
 @click.argument("bag")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 def bag_info_cmd(bag, as_json):
-    """List the topics of a ROS 1 or ROS 2 bag (to choose --joints, --gt-topic ...)."""
+    """List the topics of a ROS 1 or ROS 2 bag (to choose --joints, --gt-topic ...).
+
+    \b
+    Example:
+      umbmark bag-info recording.bag
+      umbmark bag-info rosbag2_2026_11_21/ --json
+    """
     from ..io.rosbag import bag_info
 
     info = bag_info(bag)
