@@ -488,6 +488,17 @@ def exact_correction(
             warns.append(f"the model misses the {name} centre of gravity by {miss * 1e3:.1f} mm ({miss / ref:.1f} x its "
                          "SEM): the runs may not follow the closed-loop square model (outliers? use a robust loss)")
 
+    # outlier runs: far from the other runs of their direction (robust scale)
+    for mask, name in ((prob.is_cw, "cw"), (~prob.is_cw, "ccw")):
+        if mask.sum() >= 4:
+            rd = r[mask, :2]
+            dist = np.hypot(*(rd - np.median(rd, axis=0)).T)
+            scale = 1.4826 * np.median(dist)
+            ids = np.asarray(runs.run)[mask] if runs.run is not None else np.flatnonzero(mask) + 1
+            for i in np.flatnonzero(dist > max(6.0 * scale, 1e-4 * side_m)):
+                if loss == "linear":
+                    warns.append(f"{name} run {ids[i]} lies {dist[i] * 1e3:.0f} mm from the other {name} runs "
+                                 f"(robust spread {scale * 1e3:.0f} mm): an outlier? try a robust loss")
     weights = None
     if loss != "linear":
         z = (r / f_scale) ** 2
