@@ -20,9 +20,10 @@ commands ``-+ phi b / 2``, the true wheels roll ``k`` times that (an arc about a
 shifted off the axle midpoint when ``k_L != k_R``). The predicted return error of a run is
 ``true end pose - odometry end pose`` (x, y, and heading when measured).
 
-Where a run's odometry heading ``theta_odo`` is given, the odometry's total turn is taken
-from it (the deviation from the nominal +-360 deg is shared equally among the four turns: real
-controllers stop a little after the target). Where the measured headings (``theta_abs`` and
+Real controllers stop a little after each target, so the odometry's own path is not the
+nominal square: its reported end pose (``x_odo``, ``y_odo`` and ``theta_odo`` when given) is
+explained by the minimum-norm deviations of its four turns (:func:`odometry_turns`), and the
+model drives those turns. Where the measured headings (``theta_abs`` and
 ``theta_odo``) are given, their difference is fitted too, weighted by ``heading_weight_m``
 metres per radian (default: the side length, so a heading error counts like the lateral
 miss it causes over one leg).
@@ -31,9 +32,13 @@ E_s is invisible on a closed square (it only scales the square); it is 1 unless 
 gives a straight-line distance measurement (``straight_m=(odometry_m, measured_m)``), in
 which case ``E_s,pass = measured / odometry`` and both correction factors are scaled by it.
 
-Start values: the bf estimate, and always also the best points of a global grid search over
-``E_d,pass`` in [0.85, 1.15] and ``E_b,pass`` in [0.3, 4] (bf fails completely for skid-steer
-robots, whose effective wheelbase is 1.5 to 2.5 times the track). The lowest final cost wins.
+Start values: the bf estimate first. Where the fit from there does not explain both centres
+of gravity to within 3 SEM (bf is far off: large errors, skid-steer robots whose effective
+wheelbase is 1.5 to 2.5 times the track), a global search follows, in two stages until one
+explains the runs: candidates from the mean measured headings (``eps_theta = 4 beta' -+ 2 pi
+(E_s / E_b - 1)``, all 2 pi ambiguities), then the best local minima of a grid over
+``E_d,pass`` in [0.85, 1.15] x ``E_b,pass`` in [0.3, 4] (61 x 401 points). The lowest final cost
+wins. ``global_search=True`` always searches, ``False`` never.
 
 Uncertainty (delta method with per-direction scatter, documented in the README): the
 least-squares estimate depends on the runs only through each direction's mean residual, so
