@@ -55,9 +55,14 @@ def test_noise_free_recovery(ed, eb, side, b, n, heading, sampled):
     if not heading:
         runs = _no_heading(runs)
     c = correct_runs("exact", runs, side, b)
-    assert abs(c.ed - ed) < 1e-5
-    assert abs(c.eb - eb) < 1e-4
-    assert c.calibration.wheelbase_m == pytest.approx(eb * b, rel=1e-4)
+    # the square test is blind where E_d = 1 and E_b = 0.5 exactly (the robot turns 180 deg and
+    # ends where a perfect one does): then the answer must say so and list the truth
+    answers = [(c.ed, c.eb)] + [(a["Ed_pass"], a["Eb_pass"]) for a in c.extra["alternatives"]]
+    if len(answers) > 1:
+        assert any("ambiguous" in w for w in c.extra["warnings"])
+    assert any(abs(e - ed) < 1e-5 and abs(f - eb) < 1e-4 for e, f in answers)
+    if len(answers) == 1:
+        assert c.calibration.wheelbase_m == pytest.approx(eb * b, rel=1e-4)
 
 
 @pytest.mark.parametrize("ed,eb", [(1.02, 0.95), (1.05, 0.5), (0.95, 2.5), (1.0005, 0.9995), (0.95, 0.5)])
@@ -70,6 +75,21 @@ def test_recovery_where_bf_fails(ed, eb):
     # the corrected robot then drives a perfect square
     after = simulate_umbmark(ErrorParams(ed, eb), n_runs=1, calibration=c.calibration, motion=EXACT_ARC)
     assert np.max(np.hypot(after.eps_x, after.eps_y)) < 1e-6
+
+
+@pytest.mark.parametrize("heading", [True, False])
+def test_blind_spot_is_reported(heading):
+    """E_d = 1, E_b = 0.5: every run ends exactly where a perfect robot's would."""
+    runs = simulate_umbmark(ErrorParams(1.0, 0.5), n_runs=2, motion=EXACT_ARC)
+    if not heading:
+        runs = _no_heading(runs)
+    c = correct_runs("exact", runs, 4.0, 0.34)
+    assert c.eb == pytest.approx(1.0, abs=1e-9)
+    assert any("ambiguous" in w for w in c.extra["warnings"])
+    assert any(abs(a["Eb_pass"] - 0.5) < 1e-6 for a in c.extra["alternatives"])
+    # away from the exact blind spot, no false alarm
+    c2 = correct_runs("exact", simulate_umbmark(ErrorParams(1.001, 0.5), n_runs=2, motion=EXACT_ARC), 4.0, 0.34)
+    assert c2.eb == pytest.approx(0.5, abs=1e-9) and c2.extra["alternatives"] == []
 
 
 def test_bf_far_off_for_large_errors():

@@ -311,6 +311,45 @@ def _fit(prob: _Problem, starts, loss: str, f_scale: float, good=None):
     return best
 
 
+def _aliases(prob: _Problem, sol, loss, f_scale):
+    """Other calibrations that explain the runs as well (the square test is blind to some: a
+    robot that really turns 180 deg per commanded 90 deg with equal wheels ends exactly where
+    a perfect one does). Probes the turn-angle aliases (true turn +- multiples of 90 deg).
+
+    Returns ``(chosen, alternatives)``: the chosen solution is the one whose E_b is nearest
+    1 (the nominal wheelbase); alternatives are ``(E_d, E_b)`` pairs."""
+    ed, eb = sol.x
+    turn = 90.0 * prob.es / eb  # true degrees per commanded 90
+    cands = [90.0 * prob.es / (turn + 90.0 * k) for k in (-3, -2, -1, 1, 2, 3) if 10.0 < turn + 90.0 * k < 350.0]
+    cands = [c for c in cands if 0.05 < c < 20.0]
+    if not cands:
+        return sol, []
+    r = prob.residuals_matrix([ed], [eb])[0]
+    var = []
+    for mask in (prob.is_cw, ~prob.is_cw):
+        if mask.sum() >= 2:
+            var.append(np.mean(np.var(r[mask], axis=0, ddof=1)))
+    sigma2 = float(np.mean(var)) if var else 0.0
+    cost0 = 0.5 * float(np.sum(r * r))
+    thr = cost0 + 2.0 * sigma2 + 1e-12 * prob.side_m ** 2
+    rc = prob.residuals_matrix([ed] * len(cands), cands)
+    costs = 0.5 * np.sum(rc * rc, axis=(1, 2))
+    found = [sol]
+    for c, cc in zip(cands, costs):
+        if cc > 10.0 * thr:
+            continue
+        s2 = _fit(prob, [np.array([ed, c])], loss, f_scale)
+        if s2 is None:
+            continue
+        r2 = prob.residuals_matrix([s2.x[0]], [s2.x[1]])[0]
+        if 0.5 * float(np.sum(r2 * r2)) <= thr and all(abs(math.log(s2.x[1] / f.x[1])) > 1e-3 for f in found):
+            found.append(s2)
+    if len(found) == 1:
+        return sol, []
+    found.sort(key=lambda f: abs(math.log(f.x[1])))
+    return found[0], [(float(f.x[0]), float(f.x[1])) for f in found[1:]]
+
+
 def _explains(prob: _Problem, sol, sems) -> bool:
     """True when a fit explains both centres of gravity to within 3 SEM (noise-free: to within
     a micrometre per metre of side): no need to look elsewhere."""
@@ -477,7 +516,16 @@ def exact_correction(
     if sol is None or sol.status <= 0:
         raise ExactFitError("the exact fit did not converge (no finite solution from any start); check the runs, the "
                             "side length, the wheelbase and the units")
+    alternatives = []
+    with np.errstate(all="ignore"), _warnings.catch_warnings():
+        _warnings.simplefilter("ignore")
+        sol, alternatives = _aliases(prob, sol, loss, f_scale)
     p = sol.x
+    if alternatives:
+        alt = ", ".join(f"E_d {a[0]:.6f} / E_b {a[1]:.6f}" for a in alternatives)
+        warns.append(f"ambiguous: {alt} explains these runs as well as the answer (E_d {p[0]:.6f} / E_b {p[1]:.6f}): "
+                     "the square test cannot tell them apart (the paths end at the same place; headings are "
+                     "only known modulo 360 deg); the answer is the one nearest the nominal wheelbase")
     for j, (lo, hi, name) in enumerate(((0.5, 2.0, "E_d"), (0.05, 20.0, "E_b"))):
         if min(p[j] - lo, hi - p[j]) < 1e-6 * (hi - lo):
             raise ExactFitError(f"the exact fit ran into the bound of {name} ({p[j]:.4g}): no plausible calibration "
@@ -556,6 +604,7 @@ def exact_correction(
     beta = 2.0 * es * (ed_pass - 1.0) / (ed_pass + 1.0) * side_m / (eb_pass * wheelbase_m)
     radius = math.inf if beta == 0 else (side_m / 2.0) / math.sin(beta / 2.0)
     extra["warnings"] = warns
+    extra["alternatives"] = [{"Ed_pass": a[0], "Eb_pass": a[1]} for a in alternatives]
     return CorrectionResult("exact", ed_total, ed_pass, eb_pass, cal, alpha, beta, radius, extra)
 
 
