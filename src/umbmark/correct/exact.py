@@ -37,7 +37,8 @@ of gravity to within 3 SEM (bf is far off: large errors, skid-steer robots whose
 wheelbase is 1.5 to 2.5 times the track), a global search follows, in two stages until one
 explains the runs: candidates from the mean measured headings (``eps_theta = 4 beta' -+ 2 pi
 (E_s / E_b - 1)``, all 2 pi ambiguities), then the best local minima of a grid over
-``E_d,pass`` in [0.85, 1.15] x ``E_b,pass`` in [0.3, 4] (61 x 401 points). The lowest final cost
+the heading gained per leg in [-pi, pi] (so E_d,pass in [0.85, 1.15] at most) x ``E_b,pass`` in
+[0.3, 4] (211 x 401 points). The lowest final cost
 wins. ``global_search=True`` always searches, ``False`` never.
 
 Uncertainty (delta method with per-direction scatter, documented in the README): the
@@ -74,7 +75,7 @@ __all__ = [
 LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
 
 # global search grid (relative to the odometry in use)
-_GRID_ED = 1.0 + np.linspace(-0.15, 0.15, 61)
+_GRID_BETA = np.linspace(-np.pi, np.pi, 211)
 _GRID_EB = np.geomspace(0.3, 4.0, 401)
 
 
@@ -264,25 +265,34 @@ def _heading_starts(prob: _Problem):
 
 
 def _grid_starts(prob: _Problem, k: int = 8):
-    """The ``k`` best distinct local minima of the cost on the global grid."""
-    ED, EB = np.meshgrid(_GRID_ED, _GRID_EB, indexing="ij")
+    """The ``k`` best distinct local minima of the cost on a global grid over ``E_b,pass`` in
+    [0.3, 4] (401 points, log-spaced) and the heading gained per leg ``beta'`` in [-pi, pi]
+    (211 points: the cost varies with E_d on the scale of ``b / L``, so E_d is gridded through
+    ``beta'``), limited to ``E_d,pass`` in [0.85, 1.15]."""
+    BETA, EB = np.meshgrid(_GRID_BETA, _GRID_EB, indexing="ij")
+    q = BETA * EB * prob.b / (2.0 * prob.es * prob.side_m)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ED = (1.0 + q) / (1.0 - q)
+    ok = (np.abs(q) < 0.5) & (ED > 0.85) & (ED < 1.15)
     flat_ed, flat_eb = ED.ravel(), EB.ravel()
-    cost = np.empty(flat_ed.size)
-    chunk = max(1, 200000 // max(prob.n, 1))
-    for i in range(0, flat_ed.size, chunk):
-        r = prob.residuals_matrix(flat_ed[i:i + chunk], flat_eb[i:i + chunk])
-        cost[i:i + chunk] = np.sum(r * r, axis=(1, 2))
+    cost = np.full(flat_ed.size, np.inf)
+    idx_ok = np.flatnonzero(ok.ravel())
+    chunk = max(1, 400000 // max(prob.n, 1))
+    for i in range(0, idx_ok.size, chunk):
+        sel = idx_ok[i:i + chunk]
+        r = prob.residuals_matrix(flat_ed[sel], flat_eb[sel])
+        cost[sel] = np.sum(r * r, axis=(1, 2))
     cost = cost.reshape(ED.shape)
     # local minima on the grid (8-neighbourhood, edges padded with +inf)
     pad = np.pad(cost, 1, constant_values=np.inf)
-    is_min = np.ones_like(cost, dtype=bool)
+    is_min = np.isfinite(cost)
     for di in (-1, 0, 1):
         for dj in (-1, 0, 1):
             if di or dj:
                 is_min &= cost <= pad[1 + di:1 + di + cost.shape[0], 1 + dj:1 + dj + cost.shape[1]]
     idx = np.flatnonzero(is_min.ravel())
     idx = idx[np.argsort(cost.ravel()[idx])][:k]
-    return [np.array([ED.ravel()[i], EB.ravel()[i]]) for i in idx]
+    return [np.array([flat_ed[i], flat_eb[i]]) for i in idx]
 
 
 def _fit(prob: _Problem, starts, loss: str, f_scale: float, good=None):
