@@ -37,8 +37,8 @@ of gravity to within 3 SEM (bf is far off: large errors, skid-steer robots whose
 wheelbase is 1.5 to 2.5 times the track), a global search follows, in two stages until one
 explains the runs: candidates from the mean measured headings (``eps_theta = 4 beta' -+ 2 pi
 (E_s / E_b - 1)``, all 2 pi ambiguities), then the best local minima of a grid over
-the heading gained per leg in [-pi, pi] (so E_d,pass in [0.85, 1.15] at most) x ``E_b,pass`` in
-[0.3, 4] (211 x 401 points). The lowest final cost
+the heading gained per leg in about [-270, 270] deg (and E_d,pass in [0.85, 1.15]) x ``E_b,pass``
+in [0.3, 4] (315 x 401 points). Legs that curve by more than that are outside the search. The lowest final cost
 wins. ``global_search=True`` always searches, ``False`` never.
 
 Uncertainty (delta method with per-direction scatter, documented in the README): the
@@ -75,7 +75,7 @@ __all__ = [
 LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
 
 # global search grid (relative to the odometry in use)
-_GRID_BETA = np.linspace(-np.pi, np.pi, 211)
+_GRID_BETA = np.linspace(-157 * np.pi / 105, 157 * np.pi / 105, 315)  # step pi/105, about +-270 deg
 _GRID_EB = np.geomspace(0.3, 4.0, 401)
 
 
@@ -266,8 +266,8 @@ def _heading_starts(prob: _Problem):
 
 def _grid_starts(prob: _Problem, k: int = 8):
     """The ``k`` best distinct local minima of the cost on a global grid over ``E_b,pass`` in
-    [0.3, 4] (401 points, log-spaced) and the heading gained per leg ``beta'`` in [-pi, pi]
-    (211 points: the cost varies with E_d on the scale of ``b / L``, so E_d is gridded through
+    [0.3, 4] (401 points, log-spaced) and the heading gained per leg ``beta'`` in about
+    [-270, 270] deg (315 points: the cost varies with E_d on the scale of ``b / L``, so E_d is gridded through
     ``beta'``), limited to ``E_d,pass`` in [0.85, 1.15]."""
     BETA, EB = np.meshgrid(_GRID_BETA, _GRID_EB, indexing="ij")
     q = BETA * EB * prob.b / (2.0 * prob.es * prob.side_m)
