@@ -532,10 +532,10 @@ def exact_correction(
         sol, alternatives = _aliases(prob, sol, loss, f_scale)
     p = sol.x
     if alternatives:
-        alt = ", ".join(f"E_d {a[0]:.6f} / E_b {a[1]:.6f}" for a in alternatives)
-        warns.append(f"ambiguous: {alt} explains these runs as well as the answer (E_d {p[0]:.6f} / E_b {p[1]:.6f}): "
-                     "the square test cannot tell them apart (the paths end at the same place; headings are "
-                     "only known modulo 360 deg); the answer is the one nearest the nominal wheelbase")
+        alt = "; ".join(f"E_d {a[0]:.6f}, E_b {a[1]:.6f} (a robot turning {90.0 * es / a[1]:.0f} deg per commanded "
+                        "90 deg)" for a in alternatives)
+        warns.append(f"ambiguous: {alt} would produce the same runs (the square test cannot tell them apart); the "
+                     f"answer assumes the robot visibly turned about {90.0 * es / p[1]:.0f} deg at each corner")
     for j, (lo, hi, name) in enumerate(((0.5, 2.0, "E_d"), (0.05, 20.0, "E_b"))):
         if min(p[j] - lo, hi - p[j]) < 1e-6 * (hi - lo):
             raise ExactFitError(f"the exact fit ran into the bound of {name} ({p[j]:.4g}): no plausible calibration "
