@@ -243,3 +243,18 @@ def test_analyze_cli_exact_json(tmp_path, capsys):
     assert len(d["Ed_ci95"]) == 2 and len(d["Eb_ci95"]) == 2 and len(d["wheelbase_corrected_mm_ci95"]) == 2
     assert abs(d["Ed"] - 1.02) < 1e-3 and abs(d["Eb"] - 0.95) < 5e-3
     assert "emax_syst_after_pred_mm" in d
+
+
+def test_implausible_geometry_and_wide_intervals_warn():
+    runs = simulate_umbmark(ErrorParams(1.01, 1.1), n_runs=5, noise="paper", motion=Motion(sample_period_s=0.05), seed=2)
+    # the wheelbase given in the wrong unit (10 x): the square still fits, E_d does not look right
+    c = correct_runs("exact", runs, 4.0, 3.4)
+    assert any("E_d = " in w and "unusual" in w for w in c.extra["warnings"])
+    # runs that are pure scatter: a poorly determined calibration is said to be so
+    rng = np.random.default_rng(0)
+    junk = RunsTable.from_columns(runs.direction, rng.normal(0, 1, 10), rng.normal(0, 1, 10), runs.x_odo, runs.y_odo)
+    c = correct_runs("exact", junk, 4.0, 0.34)
+    assert any("poorly" in w for w in c.extra["warnings"])
+    # a good run set gives none of these
+    c = correct_runs("exact", runs, 4.0, 0.34)
+    assert c.extra["warnings"] == []

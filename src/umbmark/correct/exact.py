@@ -579,6 +579,13 @@ def exact_correction(
         "runs_cw": n_cw,
         "runs_ccw": n_ccw,
     }
+    # plausibility: errors this large usually mean a wrong side length or wheelbase (units)
+    if abs(ed_pass - 1.0) > 0.1:
+        warns.append(f"E_d = {ed_pass:.4f} (wheel diameters differing by {abs(ed_pass - 1) * 100:.0f} %) is unusual: "
+                     "check the wheelbase and side length (units: mm)")
+    if not (1.0 / 3.0 <= eb_pass <= 3.0):
+        warns.append(f"E_b = {eb_pass:.4f} is unusual (the effective wheelbase would be {eb_pass * wheelbase_m * 1e3:.0f} "
+                     "mm): check the wheelbase and side length (units: mm)")
     ed_total, cal = compose(ed_pass, eb_pass, wheelbase_m, prior)
     if es != 1.0:
         cal = Calibration(cal.c_left * es, cal.c_right * es, cal.wheelbase_m)
@@ -609,6 +616,10 @@ def exact_correction(
         })
         if confidence != 0.95:
             extra["confidence"] = confidence
+        if (eb_hi - eb_lo) > 0.05 * eb_pass or (ed_hi - ed_lo) > 0.01:
+            warns.append(f"the runs determine the calibration poorly (E_d {ed_lo * prior_ed:.4f} to "
+                         f"{ed_hi * prior_ed:.4f}, E_b {eb_lo:.3f} to {eb_hi:.3f}): too few runs or too much "
+                         "scatter")
     # the paper's alpha/beta equivalents of the fitted errors, for comparison with bf
     alpha = 0.5 * math.pi * (1.0 - es / eb_pass)  # turn shortfall per 90 deg turn
     beta = 2.0 * es * (ed_pass - 1.0) / (ed_pass + 1.0) * side_m / (eb_pass * wheelbase_m)
