@@ -60,3 +60,13 @@ def test_interval_coverage_over_200_robots():
     assert c["robots"] == 200
     assert 0.90 <= c["ed_coverage"] <= 0.99, c
     assert 0.90 <= c["eb_coverage"] <= 0.99, c
+
+
+def test_benchmark_script_runs_on_its_own(tmp_path, repo_root):
+    import subprocess
+    import sys
+
+    r = subprocess.run([sys.executable, str(repo_root / "benchmarks" / "accuracy.py"), "--quick", "--robots", "1",
+                        "--out", str(tmp_path)], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "accuracy.csv").exists() and "paper" in r.stdout

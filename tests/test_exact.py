@@ -258,3 +258,19 @@ def test_implausible_geometry_and_wide_intervals_warn():
     # a good run set gives none of these
     c = correct_runs("exact", runs, 4.0, 0.34)
     assert c.extra["warnings"] == []
+
+
+def test_analyze_cli_exact_options(tmp_path, capsys):
+    import json
+
+    p = tmp_path / "runs.csv"
+    e = ErrorParams(1.01, 1.2, es=1.006)
+    write_runs_csv(simulate_umbmark(e, n_runs=2, motion=EXACT_ARC), p)
+    args = ["analyze", str(p), "--wheelbase-mm", "340", "--side-mm", "4000"]
+    assert main(args + ["--method", "exact", "--straight-mm", "10000", "10060", "--loss", "soft_l1", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["Es_pass"] == pytest.approx(1.006) and d["loss"] == "soft_l1"
+    assert d["wheelbase_corrected_mm"] == pytest.approx(1.2 * 340, rel=1e-6)
+    assert main(args + ["--straight-mm", "10000", "10060"]) == 2  # bf has no E_s
+    err = capsys.readouterr().err
+    assert "--method exact" in err and len(err.strip().splitlines()) == 1
