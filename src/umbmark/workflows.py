@@ -39,7 +39,7 @@ class Analysis:
         d.update(self.correction.to_dict())
         d["side_mm"] = self.side_m * 1e3
         d["wheelbase_mm"] = self.wheelbase_m * 1e3
-        d["warnings"] = list(self.result.warnings)
+        d["warnings"] = list(self.result.warnings) + list(self.correction.extra.get("warnings", []))
         return d
 
 

@@ -1,5 +1,121 @@
-"""CLI commands of issue 7 (calibrate loop). Registers on ``app`` from ``.app``."""
+"""``umbmark calibrate``: iterate run / correct / re-run (simulator), or compose the passes of
+a real robot from its runs files (issue 7). Registers on ``app`` from ``.app``."""
 
 from __future__ import annotations
 
-from .app import app  # noqa: F401
+from pathlib import Path
+
+import click
+
+from .. import workflows
+from ..calibrate import calibrate_loop, compose_passes
+from ..correct import METHODS
+from ..errors import InputError
+from ..io.runs_csv import read_runs_csv, write_runs_csv
+from ..kinematics import LABMATE, ErrorParams, Geometry
+from ..simulate import NOISE_PRESETS, Motion
+from .app import app, console, emit_json, fmt, is_quiet, table
+from .core import _prior, geometry_options, prior_options
+
+
+def _pass_rows(loop):
+    rows = []
+    for p in loop.passes:
+        cal = p.calibration_used
+        used = "nominal" if cal is None else f"{cal.c_left:.5f}/{cal.c_right:.5f}"
+        c = p.correction
+        ci = "-"
+        if c is not None and c.extra.get("Eb_ci95"):
+            lo, hi = c.extra["wheelbase_corrected_mm_ci95"]
+            ci = f"[{lo:.2f}, {hi:.2f}]"
+        rule = p.result.sem_rule
+        rows.append([
+            p.index if p.source is None else f"{p.index} ({Path(p.source).name})",
+            used, f"{p.wheelbase_used_m * 1e3:.2f}",
+            fmt(p.result.emax_syst * 1e3), "-" if rule is None else fmt(rule * 1e3),
+            "-" if c is None else fmt(c.ed, 6), "-" if c is None else f"{c.calibration.wheelbase_m * 1e3:.2f}", ci,
+        ])
+    return rows
+
+
+def _print_loop(loop, title):
+    c = console()
+    c.print(table(title, ["pass", "c_left/c_right used", "b used [mm]", "E_max,syst [mm]", "3 x SEM [mm]",
+                          "E_d (total)", "b new [mm]", "b new 95 % [mm]"], _pass_rows(loop)))
+    for p in loop.passes:
+        c.print(f"pass {p.index}: {p.decision}")
+        if p.correction is not None:
+            for w in p.correction.extra.get("warnings", []):
+                c.print(f"[yellow]warning:[/yellow] pass {p.index}: {w}")
+    cal = loop.final_calibration
+    if cal is not None:
+        c.print(f"final calibration: c_left = {cal.c_left:.6f}, c_right = {cal.c_right:.6f}, "
+                f"wheelbase = {cal.wheelbase_m * 1e3:.2f} mm (E_d = {cal.ed:.6f})")
+    if loop.errors is not None:
+        e = loop.errors
+        c.print(f"true robot: E_d = {e.ed:.6f}, wheelbase = {e.eb * loop.nominal_wheelbase_m * 1e3:.2f} mm")
+    if not any(p.decision == loop.stopped for p in loop.passes):
+        c.print(loop.stopped)
+
+
+@app.command()
+@click.argument("runs_files", nargs=-1, metavar="[PASS1.csv PASS2.csv ...]")
+@click.option("--ed", type=float, default=1.02, show_default=True, help="Simulator: true E_d = D_R / D_L.")
+@click.option("--eb", type=float, default=0.95, show_default=True, help="Simulator: true E_b = b_actual / b_nominal.")
+@click.option("--runs", "n_runs", type=click.IntRange(min=2), default=5, show_default=True,
+              help="Simulator: runs per direction in each pass.")
+@click.option("--noise", type=click.Choice(sorted(NOISE_PRESETS)), default="paper", show_default=True)
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
+@click.option("--max-passes", type=click.IntRange(min=1), default=3, show_default=True,
+              help="Simulator: at most this many corrections.")
+@click.option("--method", type=click.Choice(sorted(METHODS)), default="exact", show_default=True)
+@click.option("--sample-period-ms", type=float, default=10.0, show_default=True)
+@click.option("--save-runs", type=click.Path(file_okay=False), default=None,
+              help="Simulator: write each pass's runs file (pass1.csv, ...) into this existing folder.")
+@geometry_options
+@prior_options
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+def calibrate(runs_files, ed, eb, n_runs, noise, seed, max_passes, method, sample_period_ms, save_runs,
+              wheelbase_mm, side_mm, wheel_diameter_mm, c_left, c_right, as_json):
+    """Iterate the calibration until it stops paying.
+
+    Without files (simulator): a robot with true errors --ed/--eb runs the test; while
+    E_max,syst >= 3 x SEM (the paper's rule) the runs are corrected (--method), the correction
+    is loaded into the robot's odometry and the test is run again, at most --max-passes times.
+
+    With runs files (a real robot): PASS1.csv was made with the nominal odometry (or
+    --c-left/--c-right and --wheelbase-mm), PASS2.csv with the calibration computed from pass 1
+    loaded, and so on. Each pass is corrected relative to the odometry it ran with and the
+    corrections are composed; the last line is the calibration to load.
+
+    \b
+    Examples:
+      umbmark calibrate --ed 1.02 --eb 0.95 --seed 1
+      umbmark calibrate pass1.csv pass2.csv --wheelbase-mm 340 --side-mm 4000
+    """
+    side_m = workflows.positive("--side-mm", side_mm) * 1e-3
+    wheelbase_m = workflows.positive("--wheelbase-mm", wheelbase_mm) * 1e-3
+    prior = _prior(c_left, c_right)
+    if runs_files:
+        runs = [read_runs_csv(f) for f in runs_files]
+        loop = compose_passes(runs, side_m, wheelbase_m, method, prior, sources=runs_files)
+        title = f"Successive calibrations of {len(runs)} runs files ({method})"
+    else:
+        if save_runs is not None and not Path(save_runs).is_dir():
+            raise InputError(f"output folder {save_runs} does not exist")
+        geom = Geometry(workflows.positive("--wheel-diameter-mm", wheel_diameter_mm) * 1e-3, wheelbase_m,
+                        LABMATE.pulses_per_rev, LABMATE.gear_ratio)
+        errors = ErrorParams(workflows.positive("--ed", ed), workflows.positive("--eb", eb))
+        motion = Motion(sample_period_s=workflows.positive("--sample-period-ms", sample_period_ms) * 1e-3)
+        loop = calibrate_loop(errors, geom, side_m, n_runs, noise, motion, method, max_passes, seed, prior)
+        if save_runs is not None:
+            for p in loop.passes:
+                write_runs_csv(p.runs, Path(save_runs) / f"pass{p.index}.csv")
+        title = (f"Calibration loop ({method}): simulated robot E_d = {ed}, E_b = {eb}, noise '{noise}', "
+                 f"{n_runs} runs each way")
+    if as_json:
+        d = loop.to_dict()
+        d["method"] = method
+        emit_json(d)
+    elif not is_quiet():
+        _print_loop(loop, title)

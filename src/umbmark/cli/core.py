@@ -82,6 +82,9 @@ def _print_analysis(a: workflows.Analysis):
     for k in ("Ed_ci95", "Eb_ci95", "wheelbase_corrected_mm_ci95"):
         if d.get(k):
             out.append([f"{k} (95 %)", f"[{d[k][0]:.6g}, {d[k][1]:.6g}]"])
+    if d.get("emax_syst_after_pred_measured_mm") is not None:
+        out.append(["predicted E_max,syst after (systematic / measured)",
+                    f"{d['emax_syst_after_pred_mm']:.1f} / {d['emax_syst_after_pred_measured_mm']:.1f} mm"])
     c.print(table("Calibration to load into the odometry", ["", "value"], out))
     for w in d.get("warnings", []):
         c.print(f"[yellow]warning:[/yellow] {w}")
@@ -144,14 +147,19 @@ def simulate(ed, eb, es, n_runs, seed, noise, out, wheelbase_mm, side_mm, wheel_
               help="Wheelbase the robot's odometry used during the runs (nominal for a first pass).")
 @click.option("--side-mm", type=float, required=True, help="Side of the square path.")
 @click.option("--method", type=click.Choice(sorted(METHODS)), default="bf", show_default=True,
-              help="bf: the paper's linearised correction.")
+              help="bf: the paper's linearised correction; exact: non-linear fit of the closed-loop model "
+                   "with 95 % intervals.")
 @prior_options
+@click.option("--loss", type=click.Choice(["linear", "soft_l1", "huber", "cauchy", "arctan"]), default=None,
+              help="exact only: least-squares loss (a robust one resists outlier runs). [default: linear]")
+@click.option("--straight-mm", type=float, nargs=2, default=None, metavar="ODO MEASURED",
+              help="exact only: a straight-line run, distance by odometry and measured, to estimate E_s.")
 @click.option("--plot", "plot_path", type=click.Path(dir_okay=False), default=None,
               help="Also write the return-error scatter plot (PNG or SVG).")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @history_options
-def analyze(runs_file, wheelbase_mm, side_mm, method, c_left, c_right, plot_path, as_json, robot=None, record=False,
-            db=None):
+def analyze(runs_file, wheelbase_mm, side_mm, method, c_left, c_right, loss, straight_mm, plot_path, as_json,
+            robot=None, record=False, db=None):
     """Benchmark a runs file (UMBmark) and compute the calibration.
 
     FILE.csv has columns direction (cw/ccw), x_abs, y_abs, x_odo, y_odo in millimetres
@@ -169,9 +177,18 @@ def analyze(runs_file, wheelbase_mm, side_mm, method, c_left, c_right, plot_path
     """
     side_m = workflows.positive("--side-mm", side_mm) * 1e-3
     wheelbase_m = workflows.positive("--wheelbase-mm", wheelbase_mm) * 1e-3
+    options = {}
+    if loss is not None:
+        options["loss"] = loss
+    if straight_mm:
+        options["straight_m"] = (straight_mm[0] * 1e-3, straight_mm[1] * 1e-3)
+    if options and method != "exact":
+        from ..errors import InputError
+
+        raise InputError("--loss and --straight-mm need --method exact")
     runs = read_runs_csv(runs_file)
     prior = _prior(c_left, c_right)
-    a = workflows.analyze(runs, side_m, wheelbase_m, method, prior)
+    a = workflows.analyze(runs, side_m, wheelbase_m, method, prior, **options)
     if plot_path:
         from ..plot import save_figure, scatter_figure
 

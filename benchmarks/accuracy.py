@@ -1,0 +1,51 @@
+#!/usr/bin/env python3
+"""Accuracy benchmark of the correction methods (issue 7); same as ``umbmark bench accuracy``.
+
+    python benchmarks/accuracy.py            # full grid, 100 robots per cell (about 5-10 min on 2 cores)
+    python benchmarks/accuracy.py --quick    # small grid, 4 robots per cell (seconds)
+
+Writes accuracy.{json,csv,md,png} into benchmarks/results/ (or --out). See
+umbmark.accuracy for the definitions (floors, grid, seeds, sampling period).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from dataclasses import replace
+from pathlib import Path
+
+
+def main(argv=None) -> int:
+    from umbmark.accuracy import QUICK, AccuracyConfig, coverage_trial, run_accuracy, write_results
+
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--quick", action="store_true", help="small grid, few robots (tests, examples)")
+    p.add_argument("--robots", type=int, default=None, help="robots per cell with noise")
+    p.add_argument("--workers", type=int, default=None, help="processes (default 2; quick: 1)")
+    p.add_argument("--seed", type=int, default=None)
+    p.add_argument("--sample-period-ms", type=float, default=None)
+    p.add_argument("--coverage-robots", type=int, default=0,
+                   help="also measure interval coverage over this many random robots (10 ms sampling)")
+    p.add_argument("--out", default=str(Path(__file__).resolve().parent / "results"))
+    a = p.parse_args(argv)
+    cfg = QUICK if a.quick else AccuracyConfig()
+    changes = {k: v for k, v in (("robots", a.robots), ("workers", a.workers), ("seed", a.seed)) if v is not None}
+    if a.sample_period_ms is not None:
+        changes["sample_period_s"] = a.sample_period_ms * 1e-3
+    cfg = replace(cfg, **changes)
+    res = run_accuracy(cfg, progress=lambda i, n: print(f"\rcell {i}/{n}", end="", file=sys.stderr, flush=True))
+    print(file=sys.stderr)
+    if a.coverage_robots:
+        res["coverage_random_robots"] = coverage_trial(a.coverage_robots, sample_period_s=0.01)
+    paths = write_results(res, a.out)
+    for noise, s in res["summary"].items():
+        print(noise, s)
+    if "coverage_random_robots" in res:
+        print("coverage (random robots, 10 ms):", res["coverage_random_robots"])
+    print("written:", ", ".join(paths.values()))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,398 @@
+"""Accuracy benchmark of the correction methods (issue 7): Monte Carlo over a grid of true errors.
+
+For every cell of the grid (true ``E_d``, ``E_b``) and every noise level, ``robots`` seeded
+robots each run the bi-directional test (5 runs per direction), are corrected, and run it
+again (fresh runs):
+
+* ``bf1``: the paper's correction, one pass;
+* ``bf2``: ``bf`` again on the runs of the once-corrected robot (composed), then fresh runs;
+* ``exact``: method ``exact``, one pass;
+* ``exact2``: ``exact`` again on the runs of the once-corrected robot, then fresh runs;
+* ``perfect``: the robot corrected with its true parameters (the **perfect floor**).
+
+Reported per cell: the median E_max,syst after correction of each, the median absolute
+parameter errors, and the coverage of ``exact``'s 95 % intervals. The **estimation floor** is
+``bf1`` on the smallest errors of the grid (the four cells ``|E_d - 1| = |E_b - 1| = 0.05 %``),
+where its linearisation is exact: what 5 noisy runs per direction allow.
+
+Design choices (documented in the README):
+
+* Every cell uses the same physical robot (true wheelbase 340 mm, LabMate wheels); ``E_b`` is
+  set through the nominal wheelbase the odometry starts from, ``b_nominal = 340 mm / E_b``.
+  So every cell has the same non-systematic noise and the floors are comparable across cells.
+* Common random numbers: robot ``i`` uses the same seeds in every cell, and the corrected
+  robots of ``bf1``, ``exact`` and ``perfect`` drive with the same seeds.
+* Noise ``none`` uses the exact one-arc-per-segment model (one robot per cell: it is
+  deterministic); noise ``paper`` uses a sampling period of 30 ms (the paper's robot sampled
+  below 10 ms; 30 ms is 5 times faster to simulate and only makes the quantised stops coarser).
+* A correction that fails (no answer) leaves the robot uncorrected; failures are counted.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from .benchmark import umbmark
+from .correct import correct_runs
+from .errors import InputError, UmbmarkError
+from .kinematics import LABMATE, ErrorParams, Geometry
+from .simulate import Motion, simulate_umbmark
+
+__all__ = ["AccuracyConfig", "QUICK", "run_accuracy", "robot_trial", "coverage_trial", "format_markdown",
+           "write_results"]
+
+METHODS = ("bf1", "bf2", "exact", "exact2", "perfect")
+FITTED = ("bf1", "bf2", "exact", "exact2")
+
+
+@dataclass(frozen=True)
+class AccuracyConfig:
+    ed_departures: tuple = (0.0005, 0.005, 0.02, 0.05)  # |E_d - 1|, both signs
+    eb_values: tuple = (0.5, 0.95, 0.9995, 1.0005, 1.05, 1.5, 2.5)
+    noises: tuple = ("none", "paper")
+    robots: int = 100
+    runs_per_direction: int = 5
+    side_m: float = 4.0
+    true_wheelbase_m: float = LABMATE.wheelbase_m
+    sample_period_s: float = 0.03
+    seed: int = 2026
+    workers: int = 2
+
+    def cells(self):
+        eds = sorted({1.0 - d for d in self.ed_departures} | {1.0 + d for d in self.ed_departures})
+        return [(ed, eb) for ed in eds for eb in self.eb_values]
+
+    def validate(self):
+        if self.robots < 1 or self.runs_per_direction < 2:
+            raise InputError("the accuracy benchmark needs >= 1 robot per cell and >= 2 runs per direction")
+        if self.workers < 1:
+            raise InputError("workers must be >= 1")
+        for d in self.ed_departures:
+            if not 0 < d < 0.2:
+                raise InputError(f"E_d departure {d} out of range (0, 0.2)")
+        for eb in self.eb_values:
+            if not 0.2 <= eb <= 5:
+                raise InputError(f"E_b {eb} out of range [0.2, 5]")
+
+
+# --quick: small grid, few robots, coarse sampling (tests and README examples)
+QUICK = AccuracyConfig(ed_departures=(0.0005, 0.02), eb_values=(0.9995, 0.95, 2.5), robots=4,
+                       sample_period_s=0.05, workers=1)
+
+
+def _geometry(cfg: AccuracyConfig, eb: float) -> Geometry:
+    return Geometry(LABMATE.wheel_diameter_m, cfg.true_wheelbase_m / eb, LABMATE.pulses_per_rev, LABMATE.gear_ratio)
+
+
+def _correct(method, runs, side, wheelbase, prior=None):
+    try:
+        return correct_runs(method, runs, side, wheelbase, prior)
+    except UmbmarkError:
+        return None
+
+
+def robot_trial(cfg: AccuracyConfig, ed: float, eb: float, noise: str, robot: int) -> dict:
+    """One seeded robot of one cell: before, bf1, bf2, exact, perfect."""
+    geom = _geometry(cfg, eb)
+    errors = ErrorParams(ed, eb)
+    motion = Motion(sample_period_s=None if noise == "none" else cfg.sample_period_s)
+    s_before, s_after, s_after2 = np.random.SeedSequence([cfg.seed, robot]).spawn(3)
+    n, side, b0 = cfg.runs_per_direction, cfg.side_m, geom.wheelbase_m
+
+    def run(cal, seed):
+        return simulate_umbmark(errors, geom, side, n, cal, noise, motion, seed=seed)
+
+    out = {"ed": ed, "eb": eb, "noise": noise, "robot": robot}
+    before = run(None, s_before)
+    out["emax_before_mm"] = umbmark(before).emax_syst * 1e3
+    bf1 = _correct("bf", before, side, b0)
+    cal1 = bf1.calibration if bf1 else None
+    after1 = run(cal1, s_after)
+    out["emax_bf1_mm"] = umbmark(after1).emax_syst * 1e3
+    out["fail_bf1"] = bf1 is None
+    bf2 = _correct("bf", after1, side, cal1.wheelbase_m, cal1) if bf1 else None
+    after2 = run(bf2.calibration if bf2 else cal1, s_after2)
+    out["emax_bf2_mm"] = umbmark(after2).emax_syst * 1e3
+    out["fail_bf2"] = bf2 is None
+    ex = _correct("exact", before, side, b0)
+    cal_ex = ex.calibration if ex else None
+    after_ex = run(cal_ex, s_after)
+    out["emax_exact_mm"] = umbmark(after_ex).emax_syst * 1e3
+    out["fail_exact"] = ex is None
+    ex2 = _correct("exact", after_ex, side, cal_ex.wheelbase_m, cal_ex) if ex else None
+    out["emax_exact2_mm"] = umbmark(run(ex2.calibration if ex2 else cal_ex, s_after2)).emax_syst * 1e3
+    out["fail_exact2"] = ex2 is None
+    out["emax_perfect_mm"] = umbmark(run(errors.ideal_calibration(geom), s_after)).emax_syst * 1e3
+    true_b = eb * b0
+    for name, c in (("bf1", bf1), ("bf2", bf2), ("exact", ex), ("exact2", ex2)):
+        out[f"ed_err_{name}"] = abs(c.ed - ed) if c else math.nan
+        out[f"eb_err_{name}"] = abs(c.calibration.wheelbase_m / b0 - eb) if c else math.nan
+    if noise != "none" and ex is not None and ex.extra.get("Ed_ci95"):
+        lo, hi = ex.extra["Ed_ci95"]
+        out["ed_covered"] = bool(lo <= ed <= hi)
+        lo, hi = ex.extra["wheelbase_corrected_mm_ci95"]
+        out["eb_covered"] = bool(lo <= true_b * 1e3 <= hi)
+        out["exact_pred_after_mm"] = ex.extra["emax_syst_after_pred_measured_mm"]
+    else:
+        out["ed_covered"] = out["eb_covered"] = None
+        out["exact_pred_after_mm"] = math.nan
+    out["exact_warned"] = bool(ex.extra.get("warnings")) if ex else False
+    return out
+
+
+def _cell_job(args):
+    cfg, ed, eb, noise = args
+    robots = 1 if noise == "none" else cfg.robots
+    return [robot_trial(cfg, ed, eb, noise, i) for i in range(robots)]
+
+
+def _summarise(trials: list[dict]) -> dict:
+    t = trials[0]
+    row = {"noise": t["noise"], "Ed": t["ed"], "Eb": t["eb"], "robots": len(trials)}
+    col = lambda k: np.array([x[k] for x in trials], dtype=float)  # noqa: E731
+    row["emax_before_mm"] = float(np.median(col("emax_before_mm")))
+    for m in METHODS:
+        row[f"emax_{m}_mm"] = float(np.median(col(f"emax_{m}_mm")))
+    for m in FITTED:
+        e, b = col(f"ed_err_{m}"), col(f"eb_err_{m}")
+        row[f"ed_abs_err_{m}"] = float(np.nanmedian(e)) if np.isfinite(e).any() else None
+        row[f"eb_abs_err_{m}"] = float(np.nanmedian(b)) if np.isfinite(b).any() else None
+        row[f"failures_{m}"] = int(sum(bool(x.get(f"fail_{m}")) for x in trials))
+    cov = [x for x in trials if x["ed_covered"] is not None]
+    row["exact_ci_robots"] = len(cov)
+    row["exact_ed_coverage"] = float(np.mean([x["ed_covered"] for x in cov])) if cov else None
+    row["exact_eb_coverage"] = float(np.mean([x["eb_covered"] for x in cov])) if cov else None
+    row["exact_pred_after_mm"] = float(np.nanmedian(col("exact_pred_after_mm"))) if cov else None
+    row["exact_warnings"] = int(sum(x["exact_warned"] for x in trials))
+    return row
+
+
+def run_accuracy(cfg: AccuracyConfig = AccuracyConfig(), progress=None) -> dict:
+    """Run the benchmark; returns ``{"config", "cells": [row...], "floors", "summary"}``."""
+    cfg.validate()
+    t0 = time.time()
+    jobs = [(cfg, ed, eb, noise) for noise in cfg.noises for ed, eb in cfg.cells()]
+    if cfg.workers > 1 and len(jobs) > 1:
+        with ProcessPoolExecutor(max_workers=min(cfg.workers, os.cpu_count() or 1)) as pool:
+            results = []
+            for i, r in enumerate(pool.map(_cell_job, jobs)):
+                results.append(r)
+                if progress:
+                    progress(i + 1, len(jobs))
+    else:
+        results = []
+        for i, j in enumerate(jobs):
+            results.append(_cell_job(j))
+            if progress:
+                progress(i + 1, len(jobs))
+    rows = [_summarise(r) for r in results]
+    small_ed, small_eb = min(cfg.ed_departures), min(abs(e - 1) for e in cfg.eb_values)
+    floors, summary = {}, {}
+    for noise in cfg.noises:
+        trials = [t for r in results for t in r if t["noise"] == noise]
+        smallest = [t for t in trials if abs(abs(t["ed"] - 1) - small_ed) < 1e-12
+                    and abs(abs(t["eb"] - 1) - small_eb) < 1e-12]
+        est = float(np.median([t["emax_bf1_mm"] for t in smallest]))
+        perf = float(np.median([t["emax_perfect_mm"] for t in trials]))
+        floors[noise] = {"estimation_floor_mm": est, "perfect_floor_mm": perf,
+                         "estimation_floor_cells": sorted({(t["ed"], t["eb"]) for t in smallest})}
+        cells = [r for r in rows if r["noise"] == noise]
+        for r in cells:
+            for m in FITTED:
+                r[f"{m}_over_estimation_floor"] = r[f"emax_{m}_mm"] / est if est > 0 else None
+                r[f"{m}_over_perfect_floor"] = r[f"emax_{m}_mm"] / perf if perf > 0 else None
+        cov = [t for t in trials if t["ed_covered"] is not None]
+        worst = max(cells, key=lambda r: r["exact_over_estimation_floor"] or 0.0)
+        summary[noise] = {
+            "cells": len(cells),
+            "robots": len(trials),
+            "exact_worst_over_estimation_floor": worst["exact_over_estimation_floor"],
+            "exact_worst_cell": [worst["Ed"], worst["Eb"]],
+            "exact_cells_within_1.15_estimation_floor": sum(
+                1 for r in cells if r["exact_over_estimation_floor"] is not None
+                and r["exact_over_estimation_floor"] <= 1.15),
+            "bf1_cells_within_1.15_estimation_floor": sum(
+                1 for r in cells if r["bf1_over_estimation_floor"] is not None and r["bf1_over_estimation_floor"] <= 1.15),
+            "exact_max_ed_abs_err": max((r["ed_abs_err_exact"] or 0.0) for r in cells),
+            "exact_max_eb_abs_err": max((r["eb_abs_err_exact"] or 0.0) for r in cells),
+            "exact_ci_robots": len(cov),
+            "exact_ed_coverage": float(np.mean([t["ed_covered"] for t in cov])) if cov else None,
+            "exact_eb_coverage": float(np.mean([t["eb_covered"] for t in cov])) if cov else None,
+            "exact2_cells_within_1.15_estimation_floor": sum(
+                1 for r in cells if r["exact2_over_estimation_floor"] is not None
+                and r["exact2_over_estimation_floor"] <= 1.15),
+            "exact_cells_over_1.15": [[r["Ed"], r["Eb"], r["exact_over_estimation_floor"]] for r in cells
+                                      if (r["exact_over_estimation_floor"] or 0.0) > 1.15],
+            "failures": {m: sum(r[f"failures_{m}"] for r in cells) for m in FITTED},
+        }
+    cfg_d = asdict(cfg)
+    return {"config": cfg_d, "cells": rows, "floors": floors, "summary": summary,
+            "elapsed_s": time.time() - t0}
+
+
+def coverage_trial(robots: int = 200, seed: int = 7, sample_period_s: float = 0.02, noise: str = "paper",
+                   ed_max_departure: float = 0.05, eb_range=(0.5, 2.5), side_m: float = 4.0,
+                   runs_per_direction: int = 5) -> dict:
+    """Coverage of ``exact``'s 95 % intervals over seeded robots with random true errors
+    (E_d uniform in 1 +- ed_max_departure, E_b log-uniform in eb_range, nominal LabMate)."""
+    rng = np.random.default_rng(seed)
+    hit_d = hit_b = n = 0
+    z = []
+    for i in range(robots):
+        ed = 1.0 + rng.uniform(-ed_max_departure, ed_max_departure)
+        eb = float(np.exp(rng.uniform(math.log(eb_range[0]), math.log(eb_range[1]))))
+        runs = simulate_umbmark(ErrorParams(ed, eb), LABMATE, side_m, runs_per_direction, None, noise,
+                                Motion(sample_period_s=sample_period_s), seed=np.random.SeedSequence([seed, i]))
+        c = correct_runs("exact", runs, side_m, LABMATE.wheelbase_m)
+        if not c.extra.get("Ed_ci95"):
+            continue
+        n += 1
+        lo, hi = c.extra["Ed_ci95"]
+        hit_d += lo <= ed <= hi
+        lo, hi = c.extra["Eb_ci95"]
+        hit_b += lo <= eb <= hi
+        z.append(((c.ed - ed) / c.extra["Ed_se"], (c.eb - eb) / c.extra["Eb_se"]))
+    zz = np.array(z) if z else np.zeros((0, 2))
+    return {"robots": n, "ed_coverage": hit_d / n if n else None, "eb_coverage": hit_b / n if n else None,
+            "z_mean": zz.mean(axis=0).tolist() if n else None, "z_std": zz.std(axis=0).tolist() if n else None}
+
+
+def _f(v, d=1):
+    return "-" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:.{d}f}"
+
+
+def format_markdown(res: dict) -> str:
+    """The results as Markdown tables (one per noise level) with the floors and the summary."""
+    lines = ["# Accuracy benchmark (umbmark, issue 7)", ""]
+    c = res["config"]
+    lines.append(f"Grid: |E_d - 1| in {list(c['ed_departures'])} (both signs), E_b in {list(c['eb_values'])}; "
+                 f"{c['robots']} robots per cell with noise (1 without), {c['runs_per_direction']} runs per "
+                 f"direction, {c['side_m']} m square, true wheelbase {c['true_wheelbase_m'] * 1e3:.0f} mm "
+                 f"(nominal = true / E_b), sampling period {c['sample_period_s'] * 1e3:.0f} ms with noise, "
+                 f"seed {c['seed']}. Elapsed {res['elapsed_s']:.0f} s.")
+    lines.append("")
+    for noise, fl in res["floors"].items():
+        sm = res["summary"][noise]
+        lines.append(f"## noise: {noise}")
+        lines.append("")
+        lines.append(f"Estimation floor (bf one pass, smallest errors): {fl['estimation_floor_mm']:.4g} mm; "
+                     f"perfect floor (true parameters): {fl['perfect_floor_mm']:.4g} mm. "
+                     f"exact within 1.15 x estimation floor in {sm['exact_cells_within_1.15_estimation_floor']} / "
+                     f"{sm['cells']} cells (worst {_f(sm['exact_worst_over_estimation_floor'], 3)} at "
+                     f"E_d {sm['exact_worst_cell'][0]}, E_b {sm['exact_worst_cell'][1]}); bf one pass in "
+                     f"{sm['bf1_cells_within_1.15_estimation_floor']}, exact two passes in "
+                     f"{sm['exact2_cells_within_1.15_estimation_floor']}. exact 95 % interval coverage over "
+                     f"{sm['exact_ci_robots']} robots: E_d {_f(sm['exact_ed_coverage'] and 100 * sm['exact_ed_coverage'])} %, "
+                     f"E_b {_f(sm['exact_eb_coverage'] and 100 * sm['exact_eb_coverage'])} %. Failures (no answer): "
+                     f"{sm['failures']}.")
+        lines.append("")
+        lines.append("| E_d | E_b | before [mm] | bf1 [mm] | bf2 [mm] | exact [mm] | exact2 [mm] | perfect [mm] "
+                     "| exact / est. floor | exact / perfect | exact2 / est. floor | bf1 / est. floor "
+                     "| exact abs err E_d | exact abs err E_b | bf1 abs err E_d | bf1 abs err E_b "
+                     "| exact CI cover E_d / E_b |")
+        lines.append("|" + "---|" * 17)
+        for r in res["cells"]:
+            if r["noise"] != noise:
+                continue
+            cov = "-" if r["exact_ed_coverage"] is None else \
+                f"{100 * r['exact_ed_coverage']:.0f} / {100 * r['exact_eb_coverage']:.0f} %"
+            lines.append(
+                f"| {r['Ed']:.4f} | {r['Eb']:.4f} | {_f(r['emax_before_mm'])} | {_f(r['emax_bf1_mm'])} | "
+                f"{_f(r['emax_bf2_mm'])} | {_f(r['emax_exact_mm'], 2)} | {_f(r['emax_exact2_mm'], 2)} | "
+                f"{_f(r['emax_perfect_mm'], 2)} | "
+                f"{_f(r['exact_over_estimation_floor'], 2)} | {_f(r['exact_over_perfect_floor'], 2)} | "
+                f"{_f(r['exact2_over_estimation_floor'], 2)} | {_f(r['bf1_over_estimation_floor'], 2)} | {_g(r['ed_abs_err_exact'])} | {_g(r['eb_abs_err_exact'])} | "
+                f"{_g(r['ed_abs_err_bf1'])} | {_g(r['eb_abs_err_bf1'])} | {cov} |")
+        lines.append("")
+    return "\n".join(lines) + "\n"
+
+
+def _g(v):
+    return "-" if v is None or not math.isfinite(v) else f"{v:.2g}"
+
+
+CSV_COLUMNS = ("noise", "Ed", "Eb", "robots", "emax_before_mm", "emax_bf1_mm", "emax_bf2_mm", "emax_exact_mm",
+               "emax_exact2_mm", "emax_perfect_mm", "bf1_over_estimation_floor", "bf2_over_estimation_floor",
+               "exact_over_estimation_floor", "exact2_over_estimation_floor", "exact_over_perfect_floor",
+               "bf1_over_perfect_floor", "ed_abs_err_bf1", "eb_abs_err_bf1", "ed_abs_err_bf2", "eb_abs_err_bf2",
+               "ed_abs_err_exact", "eb_abs_err_exact", "ed_abs_err_exact2", "eb_abs_err_exact2",
+               "exact_ed_coverage", "exact_eb_coverage", "exact_pred_after_mm",
+               "failures_bf1", "failures_bf2", "failures_exact", "failures_exact2", "exact_warnings")
+
+
+def format_csv(res: dict) -> str:
+    out = [",".join(CSV_COLUMNS)]
+    for r in res["cells"]:
+        out.append(",".join("" if r.get(k) is None else (repr(r[k]) if isinstance(r[k], float) else str(r[k]))
+                            for k in CSV_COLUMNS))
+    return "\n".join(out) + "\n"
+
+
+def figure(res: dict):
+    """Median E_max,syst after correction per cell (noise 'paper' if present), log scale."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    noise = "paper" if "paper" in res["floors"] else next(iter(res["floors"]))
+    cells = [r for r in res["cells"] if r["noise"] == noise]
+    cells.sort(key=lambda r: (r["Eb"], r["Ed"]))
+    x = np.arange(len(cells))
+    fig, ax = plt.subplots(figsize=(max(8, 0.22 * len(cells) + 3), 5))
+    for m, style in (("bf1", "o-"), ("bf2", "s-"), ("exact", "^-"), ("exact2", "v-"), ("perfect", "x:")):
+        ax.plot(x, [max(r[f"emax_{m}_mm"], 1e-9) for r in cells], style, label=f"{m} (median)", ms=4)
+    fl = res["floors"][noise]
+    ax.axhline(fl["estimation_floor_mm"], color="k", ls="--", lw=1, label="estimation floor")
+    ax.axhline(1.15 * fl["estimation_floor_mm"], color="grey", ls=":", lw=1, label="1.15 x estimation floor")
+    ax.set_yscale("log")
+    ax.set_xticks(x)
+    ax.set_xticklabels([f"{r['Ed']:.4f}\n{r['Eb']:.4g}" for r in cells], fontsize=6, rotation=90)
+    ax.set_xlabel("cell: true E_d / E_b")
+    ax.set_ylabel("E_max,syst after correction [mm] (fresh runs)")
+    ax.set_title(f"Accuracy of one/two correction passes, noise '{noise}', {res['config']['robots']} robots per cell")
+    ax.legend(fontsize=8, loc="upper left")
+    fig.tight_layout()
+    return fig
+
+
+def write_results(res: dict, out_dir, stem: str = "accuracy") -> dict:
+    """Write ``<stem>.json``, ``.csv``, ``.md`` and ``.png`` into ``out_dir`` (created)."""
+    import json
+    from pathlib import Path
+
+    from .io.atomic import atomic_path, atomic_write
+
+    out = Path(out_dir)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"output folder {out} is a file")
+    out.mkdir(parents=True, exist_ok=True)
+
+    def clean(o):
+        if isinstance(o, float):
+            return o if math.isfinite(o) else None
+        if isinstance(o, dict):
+            return {str(k): clean(v) for k, v in o.items()}
+        if isinstance(o, (list, tuple)):
+            return [clean(v) for v in o]
+        if isinstance(o, np.generic):
+            return clean(o.item())
+        return o
+
+    paths = {k: out / f"{stem}.{k}" for k in ("json", "csv", "md", "png")}
+    atomic_write(paths["json"], json.dumps(clean(res), indent=1, allow_nan=False) + "\n")
+    atomic_write(paths["csv"], format_csv(res))
+    atomic_write(paths["md"], format_markdown(res))
+    fig = figure(res)
+    with atomic_path(paths["png"]) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+    return {k: str(v) for k, v in paths.items()}

@@ -1,0 +1,72 @@
+"""The accuracy benchmark (reduced sizes) and the coverage of the exact method's intervals."""
+
+import json
+from dataclasses import replace
+
+import pytest
+
+from umbmark.accuracy import QUICK, AccuracyConfig, coverage_trial, robot_trial, run_accuracy, write_results
+from umbmark.cli import main
+from umbmark.errors import InputError
+
+
+def test_noise_free_cell_shows_where_bf_fails():
+    """E_d 1.02, E_b 0.95: bf one pass leaves about a metre, exact nothing."""
+    t = robot_trial(AccuracyConfig(), 1.02, 0.95, "none", 0)
+    assert 500 < t["emax_bf1_mm"] < 2000
+    assert t["emax_exact_mm"] < 1e-6
+    assert t["ed_err_exact"] < 1e-9 and t["eb_err_exact"] < 1e-9
+    assert t["emax_perfect_mm"] < 1e-6
+
+
+def test_tiny_benchmark_structure(tmp_path):
+    cfg = replace(QUICK, ed_departures=(0.0005, 0.02), eb_values=(0.9995, 0.95), robots=2)
+    res = run_accuracy(cfg)
+    assert {r["noise"] for r in res["cells"]} == {"none", "paper"}
+    assert len(res["cells"]) == 2 * 4 * 2
+    fl = res["floors"]["paper"]
+    assert 0 < fl["perfect_floor_mm"] < 50 and 0 < fl["estimation_floor_mm"] < 50
+    none = [r for r in res["cells"] if r["noise"] == "none"]
+    assert max(r["emax_exact_mm"] for r in none) < 1e-6
+    assert res["summary"]["none"]["exact_ed_coverage"] is None  # no intervals without noise
+    paths = write_results(res, tmp_path / "out")
+    for k in ("json", "csv", "md", "png"):
+        assert (tmp_path / "out" / f"accuracy.{k}").stat().st_size > 100
+    assert json.loads(open(paths["json"]).read())["config"]["robots"] == 2
+    header = open(paths["csv"]).readline().strip().split(",")
+    assert "exact_over_estimation_floor" in header and "exact_over_perfect_floor" in header
+
+
+def test_bench_accuracy_cli(tmp_path, capsys):
+    assert main(["bench", "accuracy", "--quick", "--robots", "1", "--out", str(tmp_path), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert set(d["summary"]) == {"none", "paper"}
+    assert (tmp_path / "accuracy.md").exists()
+    assert main(["bench", "accuracy", "--quick", "--sample-period-ms", "0", "--out", str(tmp_path)]) == 2
+
+
+def test_bad_config():
+    with pytest.raises(InputError):
+        run_accuracy(replace(QUICK, eb_values=(7.0,)))
+    with pytest.raises(InputError):
+        run_accuracy(replace(QUICK, runs_per_direction=1))
+
+
+@pytest.mark.slow
+def test_interval_coverage_over_200_robots():
+    """Acceptance: 95 % intervals contain the true E_d and E_b 90 - 99 % of the time
+    (200 seeded robots, E_d in 1 +- 5 %, E_b in [0.5, 2.5], paper noise, 20 ms sampling)."""
+    c = coverage_trial(200, seed=7, sample_period_s=0.02)
+    assert c["robots"] == 200
+    assert 0.90 <= c["ed_coverage"] <= 0.99, c
+    assert 0.90 <= c["eb_coverage"] <= 0.99, c
+
+
+def test_benchmark_script_runs_on_its_own(tmp_path, repo_root):
+    import subprocess
+    import sys
+
+    r = subprocess.run([sys.executable, str(repo_root / "benchmarks" / "accuracy.py"), "--quick", "--robots", "1",
+                        "--out", str(tmp_path)], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert (tmp_path / "accuracy.csv").exists() and "paper" in r.stdout
