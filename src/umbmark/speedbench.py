@@ -56,7 +56,7 @@ QUICK = dict(
     sim_robots=[1, 10],
     sim_numpy_max=10,
     sim_ref_robots=1,
-    sweep_robots=0,
+    sweep_robots=10,
 )
 
 CHUNK = 1 << 16
@@ -115,10 +115,8 @@ def _log(n, seed=1):
 def _robots(n, seed=7):
     from .kinematics import ErrorParams
 
-    rng = np.random.default_rng(seed)
-    ed = 1.0 + rng.normal(0.0, 2e-3, n)
-    eb = 1.0 + rng.normal(0.0, 1e-2, n)
-    return [ErrorParams(ed=float(a), eb=float(b)) for a, b in zip(ed, eb)]
+    z = np.random.default_rng(seed).standard_normal((n, 2))  # robot i is the same for every n
+    return [ErrorParams(ed=1.0 + 2e-3 * float(a), eb=1.0 + 1e-2 * float(b)) for a, b in z]
 
 
 def _rss_mib():
