@@ -218,21 +218,34 @@ def _kernel_py(kind, s_l, s_r, target, step, n_full, frac, kmax, t_l, t_r, t_b, 
             tgt = target[j] - 1e-12
             nf = n_full[r, j]
             fr = frac[r, j]
+            # ground travel of a full sample, and its noise parameters (constant in a segment)
+            gl0 = p_l * tl
+            gr0 = p_r * tr
+            trl0 = abs(gl0)
+            trr0 = abs(gr0)
+            aml0 = slip_k * math.sqrt(trl0)
+            amr0 = slip_k * math.sqrt(trr0)
+            thl0 = bump_rate * trl0
+            thr0 = bump_rate * trr0
+            sgl = 1.0 if gl0 > 0 else (-1.0 if gl0 < 0 else 0.0)
+            sgr = 1.0 if gr0 > 0 else (-1.0 if gr0 < 0 else 0.0)
+            kl = off + pos
+            kr = kl + tot
             for i in range(kmax[r, j]):
                 done = False
+                full = True
                 if not quantise:
                     if i < nf:
                         mult = 1.0
                     elif i == nf:
                         mult = fr
+                        full = False
                     else:
                         break
                     if mult == 0.0:
                         break
-                    rl = p_l * mult
-                    rr = p_r * mult
-                    o_l = rl * ml
-                    o_r = rr * mr
+                    o_l = p_l * mult * ml
+                    o_r = p_r * mult * mr
                 else:
                     ql = math.floor(cont_l + p_l * (i + 1)) - base_l
                     qr = math.floor(cont_r + p_r * (i + 1)) - base_r
@@ -240,31 +253,36 @@ def _kernel_py(kind, s_l, s_r, target, step, n_full, frac, kmax, t_l, t_r, t_b, 
                         prog = 0.5 * (ql * ml + qr * mr)
                     else:
                         prog = abs(qr * mr - ql * ml) / mb
-                    rl = p_l
-                    rr = p_r
                     o_l = (ql - qpl) * ml
                     o_r = (qr - qpr) * mr
                     qpl = ql
                     qpr = qr
                     done = prog >= tgt
-                gl = rl * tl
-                gr = rr * tr
+                if full:
+                    gl, trl, aml, thl = gl0, trl0, aml0, thl0
+                    gr, trr, amr, thr = gr0, trr0, amr0, thr0
+                else:
+                    gl = p_l * mult * tl
+                    gr = p_r * mult * tr
+                    trl = abs(gl)
+                    trr = abs(gr)
+                    aml = slip_k * math.sqrt(trl)
+                    amr = slip_k * math.sqrt(trr)
+                    thl = bump_rate * trl
+                    thr = bump_rate * trr
                 if has_slip or has_bump:
-                    k = off + pos + i
-                    for w in range(2):
-                        gv = gl if w == 0 else gr
-                        travel = abs(gv)
-                        err = 0.0
-                        if has_slip:
-                            err += slip_k * math.sqrt(travel) * slip[k + w * tot]
-                        if has_bump:
-                            if bu[k + w * tot] < bump_rate * travel:
-                                sgn = 1.0 if gv > 0 else (-1.0 if gv < 0 else 0.0)
-                                err -= sgn * min(bump_loss * bl[k + w * tot], travel)
-                        if w == 0:
-                            gl = gv + err
-                        else:
-                            gr = gv + err
+                    el = 0.0
+                    er = 0.0
+                    if has_slip:
+                        el += aml * slip[kl + i]
+                        er += amr * slip[kr + i]
+                    if has_bump:
+                        if bu[kl + i] < thl:
+                            el -= sgl * min(bump_loss * bl[kl + i], trl)
+                        if bu[kr + i] < thr:
+                            er -= sgr * min(bump_loss * bl[kr + i], trr)
+                    gl = gl + el
+                    gr = gr + er
                 # exact arcs; headings composed as rotations (no trig call per sample)
                 tx, ty, tth, tc, ts = _arc(tx, ty, tth, tc, ts, gl, gr, ib_t)
                 ox, oy, oth, oc, os_ = _arc(ox, oy, oth, oc, os_, o_l, o_r, ib_m)
