@@ -21,6 +21,7 @@ Both run in bounded memory: runs are processed ``chunk_runs`` at a time.
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
 
@@ -120,7 +121,18 @@ def _plan(program, motion: Motion, noise: NoiseModel, m_l, m_r, m_b):
     return kind, s_l, s_r, target, step, n_full, frac, kmax
 
 
-def _draws(noise: NoiseModel, rngs, tot):
+def _buffer(work, name, n):
+    """A float64 array of n elements from the reusable workspace ``work`` (a dict): reusing
+    the buffers of the previous chunk avoids touching fresh pages for every chunk."""
+    if work is None:
+        return np.empty(n)
+    buf = work.get(name)
+    if buf is None or buf.size < n:
+        buf = work[name] = np.empty(n)
+    return buf[:n]
+
+
+def _draws(noise: NoiseModel, rngs, tot, work=None):
     """The noise of each run, drawn in run_program's order (slip, bump uniforms, bump losses,
     encoder phase, absolute-measurement noise) into flat buffers; run r's (2, tot[r]) block
     starts at 2 * offs[r]."""
@@ -131,9 +143,9 @@ def _draws(noise: NoiseModel, rngs, tot):
     n = 2 * int(tot.sum())
     has_slip = noise.slip_m_per_sqrt_m > 0
     has_bump = noise.bump_rate_per_m > 0 and noise.bump_loss_m > 0
-    slip = np.zeros(n if has_slip else 1)
-    bu = np.zeros(n if has_bump else 1)
-    bl = np.zeros(n if has_bump else 1)
+    slip = _buffer(work, "slip", n) if has_slip else np.zeros(1)
+    bu = _buffer(work, "bu", n) if has_bump else np.zeros(1)
+    bl = _buffer(work, "bl", n) if has_bump else np.zeros(1)
     phase = np.zeros((2, R))
     absn = np.zeros((3, R))
     for r in range(R):
@@ -361,11 +373,12 @@ def run_batch(program, true_per_run: dict, model_per_run: dict, noise: NoiseMode
     if needs_rng and (rngs is None or len(rngs) != R):
         raise InputError("one random generator per run is needed when there is noise")
     if chunk_runs is None:
-        chunk_runs = 256 if engine == "numba" else 32
+        chunk_runs = 64 if engine == "numba" else 32
     if chunk_runs < 1:
         raise InputError(f"chunk_runs must be >= 1, got {chunk_runs}")
     out = np.zeros((9, R))
     kernel = _get_kernel() if engine == "numba" else None
+    local = threading.local()  # per-thread reusable buffers for the noise draws
 
     def chunk(a):
         e = min(R, a + chunk_runs)
@@ -383,7 +396,10 @@ def run_batch(program, true_per_run: dict, model_per_run: dict, noise: NoiseMode
         kind, s_l, s_r, target, step, n_full, frac, kmax = _plan(program, motion, noise, m_l, m_r, m_b)
         tot = kmax.sum(axis=1)
         if needs_rng:
-            doff, slip, bu, bl, phase, absn = _draws(noise, g, tot)
+            work = getattr(local, "work", None)
+            if work is None:
+                work = local.work = {}
+            doff, slip, bu, bl, phase, absn = _draws(noise, g, tot, work)
         else:
             doff = np.zeros(e - a, dtype=np.int64)
             slip = bu = bl = np.zeros(1)

@@ -63,7 +63,8 @@ __all__ = [
 METHODS = ("exact", "midpoint", "euler")
 BLOCK = 32  # samples per block sharing one trig call (float kernel)
 BLOCK_MAX_RAD = 0.3  # largest heading change within a block handled by the polynomials
-DEFAULT_CHUNK = 1 << 16  # samples per chunk (per run): bounds the working memory
+DEFAULT_CHUNK = 1 << 14  # samples per chunk (per run): bounds the working memory; small temporaries
+# are recycled by the allocator (larger chunks were slower: fresh pages for every temporary)
 _SHIFT = 10  # low bits of the cumulative pulse counts looked up directly (table kernel)
 _MAX_PAIRS = 4096  # largest table of distinct increment pairs (else: float kernel)
 
@@ -158,7 +159,7 @@ def _float_chunk(dl, dr, b, x0, y0, th0, method, poses):
     return x0 + dx.sum(axis=1), y0 + dy.sum(axis=1), theta[:, -1].copy()
 
 
-def _table_row(nl, nr, m_l, m_r, b, x0, y0, th0, method, poses):
+def _table_row(nl, nr, m_l, m_r, b, x0, y0, th0, method, poses, cache=None):
     """One run, one chunk of the table kernel (integer increments nl, nr: 1-D int64).
     Returns None when the increments are too varied for tables (caller uses the float kernel)."""
     lmin, lmax = int(nl.min()), int(nl.max())
@@ -181,7 +182,13 @@ def _table_row(nl, nr, m_l, m_r, b, x0, y0, th0, method, poses):
         if nq > max(64, n // 8):
             return None
         his.append((q0, np.exp(1j * sign * a * (np.arange(q0, q0 + nq, dtype=np.int64) << _SHIFT).astype(float))))
-        los.append(np.exp(1j * sign * a * np.arange(1 << _SHIFT, dtype=float)))
+        key = (a, sign)
+        lo = cache.get(key) if cache is not None else None
+        if lo is None:
+            lo = np.exp(1j * sign * a * np.arange(1 << _SHIFT, dtype=float))
+            if cache is not None:
+                cache[key] = lo
+        los.append(lo)
     # per-pair displacement in the frame of the sample-start heading
     gl = np.arange(lmin, lmax + 1, dtype=float)[:, None] * m_l
     gr = np.arange(rmin, rmax + 1, dtype=float)[None, :] * m_r
@@ -255,6 +262,7 @@ class Odometer:
             raise InputError(f"chunk must be >= 1, got {chunk}")
         self.chunk = int(chunk)
         self.samples = 0
+        self._cache = {}
 
     @property
     def pose(self):
@@ -324,7 +332,8 @@ class Odometer:
         rows = []
         for i in range(nl.shape[0]):
             r = _table_row(nl[i], nr[i], p.left_m_per_pulse, p.right_m_per_pulse, float(self._b[i]),
-                           float(self._x[i]), float(self._y[i]), float(self._th[i]), self.method, poses)
+                           float(self._x[i]), float(self._y[i]), float(self._th[i]), self.method, poses,
+                           self._cache)
             if r is None:
                 return None
             rows.append(r)
