@@ -129,14 +129,15 @@ def _cos_sin_blocks(ref):
     return cos_.reshape(R, nb * BLOCK)[:, :C], sin_.reshape(R, nb * BLOCK)[:, :C]
 
 
-def _float_chunk(dl, dr, b, x0, y0, th0, method, poses):
+def _float_chunk(dl, dr, b, x0, y0, th0, method, poses, dest=None):
     """One chunk of the float kernel. dl, dr: (R, C); b, x0, y0, th0: (R,).
-    Returns (x, y, theta) arrays (R, C) when ``poses``, else the end pose (R,) arrays."""
+    Returns (x, y, theta) arrays (R, C) when ``poses`` (written into ``dest`` when given),
+    else the end pose (R,) arrays."""
     du = dl + dr
     du *= 0.5
     dth = dr - dl
     dth /= b[:, None]
-    theta = np.cumsum(dth, axis=1)
+    theta = np.cumsum(dth, axis=1, out=dest[2] if (poses and dest is not None) else None)
     theta += th0[:, None]
     if method == "euler":
         ref = theta - dth
@@ -151,15 +152,15 @@ def _float_chunk(dl, dr, b, x0, y0, th0, method, poses):
     dy = sin_
     dy *= chord
     if poses:
-        x = np.cumsum(dx, axis=1)
+        x = np.cumsum(dx, axis=1, out=dest[0] if dest is not None else None)
         x += x0[:, None]
-        y = np.cumsum(dy, axis=1)
+        y = np.cumsum(dy, axis=1, out=dest[1] if dest is not None else None)
         y += y0[:, None]
         return x, y, theta
     return x0 + dx.sum(axis=1), y0 + dy.sum(axis=1), theta[:, -1].copy()
 
 
-def _table_row(nl, nr, m_l, m_r, b, x0, y0, th0, method, poses, cache=None):
+def _table_row(nl, nr, m_l, m_r, b, x0, y0, th0, method, poses, cache=None, dest=None):
     """One run, one chunk of the table kernel (integer increments nl, nr: 1-D int64).
     Returns None when the increments are too varied for tables (caller uses the float kernel)."""
     lmin, lmax = int(nl.min()), int(nl.max())
@@ -216,9 +217,10 @@ def _table_row(nl, nr, m_l, m_r, b, x0, y0, th0, method, poses, cache=None):
         z *= hi[cnt]
     if poses:
         p = np.cumsum(z)
-        x = p.real + x0
-        y = p.imag + y0
-        theta = s_r * a_r
+        d = dest if dest is not None else (None, None, None)
+        x = np.add(p.real, x0, out=d[0])
+        y = np.add(p.imag, y0, out=d[1])
+        theta = np.multiply(s_r, a_r, out=d[2])
         theta -= s_l * a_l
         theta += th0
         return x, y, theta
@@ -305,19 +307,21 @@ class Odometer:
         for s in range(0, K, C):
             e = min(K, s + C)
             res = None
+            dest = tuple(o[:, s:e] for o in out) if poses else None
             if kind == "pulses":
-                res = self._table(a[:, s:e], b_[:, s:e], poses)
+                res = self._table(a[:, s:e], b_[:, s:e], poses, dest)
             if res is None:
                 if kind == "pulses":
                     dl = a[:, s:e] * self.params.left_m_per_pulse
                     dr = b_[:, s:e] * self.params.right_m_per_pulse
                 else:
                     dl, dr = a[:, s:e], b_[:, s:e]
-                res = _float_chunk(dl, dr, self._b, self._x, self._y, self._th, self.method, poses)
+                res = _float_chunk(dl, dr, self._b, self._x, self._y, self._th, self.method, poses, dest)
             if poses:
-                for o, r in zip(out, res):
-                    o[:, s:e] = r
-                self._x, self._y, self._th = (np.array(r[:, -1]) for r in res)
+                for o, r in zip(dest, res):
+                    if r is not o:
+                        o[...] = r
+                self._x, self._y, self._th = (np.array(o[:, -1]) for o in dest)
             else:
                 self._x, self._y, self._th = (np.asarray(r, dtype=float).reshape(R) for r in res)
         self.samples += K
@@ -327,18 +331,18 @@ class Odometer:
             out = [np.empty((R, 0)) for _ in range(3)]
         return tuple(o.reshape(self.shape + (K,)) for o in out)
 
-    def _table(self, nl, nr, poses):
+    def _table(self, nl, nr, poses, dest=None):
         p = self.params
         rows = []
         for i in range(nl.shape[0]):
             r = _table_row(nl[i], nr[i], p.left_m_per_pulse, p.right_m_per_pulse, float(self._b[i]),
                            float(self._x[i]), float(self._y[i]), float(self._th[i]), self.method, poses,
-                           self._cache)
+                           self._cache, None if dest is None else tuple(d[i] for d in dest))
             if r is None:
                 return None
             rows.append(r)
         if poses:
-            return tuple(np.stack([r[j] for r in rows]) for j in range(3))
+            return dest  # written in place, row by row
         return tuple(np.array([r[j] for r in rows]) for j in range(3))
 
 
