@@ -325,7 +325,9 @@ def _get_kernel():
         if _numba is None:
             raise InputError('engine "numba" needs numba: pip install -e ".[fast]"')
         global _arc
-        _arc = _numba.njit(cache=True)(_arc_py)
+        # fastmath only here: the arc accumulates the pose (no stopping decision depends on
+        # its rounding); it lets the compiler fuse multiply-adds
+        _arc = _numba.njit(cache=True, fastmath=True)(_arc_py)
         _kernel = _numba.njit(cache=True, nogil=True)(_kernel_py)
     return _kernel
 
