@@ -91,30 +91,49 @@ def _horner(d2, divs, out):
     return out
 
 
-def _sinc_half(dth):
-    """sin(dth/2) / (dth/2), elementwise (the chord factor of an exact arc)."""
-    h = 0.5 * dth
-    if h.size and np.max(np.abs(h)) > _SINC_MAX:
-        return np.sinc(h / np.pi)
+class _Work(dict):
+    """Reusable scratch arrays, one per name: a chunk reuses the memory of the previous one
+    (fresh temporaries every chunk cost page faults that dominated the run time)."""
+
+    def arr(self, name, shape, dtype=float):
+        n = int(np.prod(shape))
+        buf = self.get((name, dtype))
+        if buf is None or buf.size < n:
+            buf = self[(name, dtype)] = np.empty(max(n, 1), dtype)
+        return buf[:n].reshape(shape)
+
+
+def _sinc_half(dth, out, work):
+    """out = sin(dth/2) / (dth/2), elementwise (the chord factor of an exact arc)."""
+    h = work.arr("h", dth.shape)
+    np.multiply(dth, 0.5, out=h)
+    if h.size and max(float(h.max()), -float(h.min())) > _SINC_MAX:
+        out[...] = np.sinc(h / np.pi)
+        return out
     h *= h
-    return _horner(h, _SINC_DIV, np.empty_like(h))
+    return _horner(h, _SINC_DIV, out)
 
 
-def _cos_sin_blocks(ref):
+def _cos_sin_blocks(ref, work):
     """cos and sin of ``ref`` (R, C): one trig call per block of BLOCK samples."""
     R, C = ref.shape
     nb = -(-C // BLOCK)
-    pad = nb * BLOCK - C
-    if pad:
-        ref = np.concatenate([ref, np.repeat(ref[:, -1:], pad, axis=1)], axis=1)
-    r = ref.reshape(R, nb, BLOCK)
+    shape = (R, nb, BLOCK)
+    if nb * BLOCK != C:
+        padded = work.arr("pad", (R, nb * BLOCK))
+        padded[:, :C] = ref
+        padded[:, C:] = ref[:, -1:]
+        ref = padded
+    r = ref.reshape(shape)
     phi = r[:, :, :1]
-    d = r - phi
-    d2 = d * d
-    s = _horner(d2, _SIN_DIV, np.empty_like(d2))
+    d = work.arr("d", shape)
+    np.subtract(r, phi, out=d)
+    d2 = work.arr("d2", shape)
+    np.multiply(d, d, out=d2)
+    s = _horner(d2, _SIN_DIV, work.arr("s", shape))
     s *= d
-    c = _horner(d2, _COS_DIV, np.empty_like(d2))
-    big = np.abs(d).max(axis=2) > BLOCK_MAX_RAD
+    c = _horner(d2, _COS_DIV, work.arr("c", shape))
+    big = (d.max(axis=2) > BLOCK_MAX_RAD) | (d.min(axis=2) < -BLOCK_MAX_RAD)
     if big.any():
         db = d[big]
         c[big] = np.cos(db)
@@ -122,45 +141,58 @@ def _cos_sin_blocks(ref):
     cp = np.cos(phi)
     sp = np.sin(phi)
     # cos(phi + d) = cp c - sp s ; sin(phi + d) = sp c + cp s
-    cos_ = cp * c
-    cos_ -= sp * s
-    sin_ = sp * c
-    sin_ += cp * s
+    tmp = d2  # no longer needed
+    cos_ = work.arr("cos", shape)
+    np.multiply(c, cp, out=cos_)
+    np.multiply(s, sp, out=tmp)
+    cos_ -= tmp
+    sin_ = work.arr("sin", shape)
+    np.multiply(c, sp, out=sin_)
+    np.multiply(s, cp, out=tmp)
+    sin_ += tmp
     return cos_.reshape(R, nb * BLOCK)[:, :C], sin_.reshape(R, nb * BLOCK)[:, :C]
 
 
-def _float_chunk(dl, dr, b, x0, y0, th0, method, poses, dest=None):
+def _float_chunk(dl, dr, b, x0, y0, th0, method, poses, dest=None, work=None):
     """One chunk of the float kernel. dl, dr: (R, C); b, x0, y0, th0: (R,).
     Returns (x, y, theta) arrays (R, C) when ``poses`` (written into ``dest`` when given),
     else the end pose (R,) arrays."""
-    du = dl + dr
+    work = _Work() if work is None else work
+    if poses and dest is None:
+        dest = tuple(np.empty(dl.shape) for _ in range(3))
+    shape = dl.shape
+    du = work.arr("du", shape)
+    np.add(dl, dr, out=du)
     du *= 0.5
-    dth = dr - dl
+    dth = work.arr("dth", shape)
+    np.subtract(dr, dl, out=dth)
     dth /= b[:, None]
-    theta = np.cumsum(dth, axis=1, out=dest[2] if (poses and dest is not None) else None)
+    theta = dest[2] if poses else work.arr("theta", shape)
+    np.cumsum(dth, axis=1, out=theta)
     theta += th0[:, None]
+    ref = work.arr("ref", shape)
+    chord = du
     if method == "euler":
-        ref = theta - dth
-        chord = du
+        np.subtract(theta, dth, out=ref)
     else:
-        ref = dth * -0.5
+        np.multiply(dth, -0.5, out=ref)
         ref += theta
-        chord = du * _sinc_half(dth) if method == "exact" else du
-    cos_, sin_ = _cos_sin_blocks(ref)
-    dx = cos_
+        if method == "exact":
+            chord = _sinc_half(dth, work.arr("chord", shape), work)
+            chord *= du
+    dx, dy = _cos_sin_blocks(ref, work)
     dx *= chord
-    dy = sin_
     dy *= chord
     if poses:
-        x = np.cumsum(dx, axis=1, out=dest[0] if dest is not None else None)
+        x = np.cumsum(dx, axis=1, out=dest[0])
         x += x0[:, None]
-        y = np.cumsum(dy, axis=1, out=dest[1] if dest is not None else None)
+        y = np.cumsum(dy, axis=1, out=dest[1])
         y += y0[:, None]
-        return x, y, theta
+        return dest
     return x0 + dx.sum(axis=1), y0 + dy.sum(axis=1), theta[:, -1].copy()
 
 
-def _table_row(nl, nr, m_l, m_r, b, x0, y0, th0, method, poses, cache=None, dest=None):
+def _table_row(nl, nr, m_l, m_r, b, x0, y0, th0, method, poses, cache=None, dest=None, work=None):
     """One run, one chunk of the table kernel (integer increments nl, nr: 1-D int64).
     Returns None when the increments are too varied for tables (caller uses the float kernel)."""
     lmin, lmax = int(nl.min()), int(nl.max())
@@ -168,13 +200,16 @@ def _table_row(nl, nr, m_l, m_r, b, x0, y0, th0, method, poses, cache=None, dest
     w = rmax - rmin + 1
     if (lmax - lmin + 1) * w > _MAX_PAIRS:
         return None
-    s_r = np.cumsum(nr)
-    s_l = np.cumsum(nl)
-    # counts before each sample (the heading at the sample start), relative to the chunk start
-    pr_ = s_r - nr
-    pl_ = s_l - nl
-    a_r, a_l = m_r / b, m_l / b
+    work = _Work() if work is None else work
+    cache = {} if cache is None else cache
     n = nl.size
+    i64 = np.int64
+    s_r = np.cumsum(nr, out=work.arr("s_r", n, i64))
+    s_l = np.cumsum(nl, out=work.arr("s_l", n, i64))
+    # counts before each sample (the heading at the sample start), relative to the chunk start
+    pr_ = np.subtract(s_r, nr, out=work.arr("p_r", n, i64))
+    pl_ = np.subtract(s_l, nl, out=work.arr("p_l", n, i64))
+    a_r, a_l = m_r / b, m_l / b
     los, his = [], []
     for cnt, a, sign in ((pr_, a_r, 1.0), (pl_, a_l, -1.0)):
         lo_c, hi_c = int(cnt.min()), int(cnt.max())
@@ -182,13 +217,11 @@ def _table_row(nl, nr, m_l, m_r, b, x0, y0, th0, method, poses, cache=None, dest
         nq = (hi_c >> _SHIFT) - q0 + 1
         if nq > max(64, n // 8):
             return None
-        his.append((q0, np.exp(1j * sign * a * (np.arange(q0, q0 + nq, dtype=np.int64) << _SHIFT).astype(float))))
+        his.append((q0, np.exp(1j * sign * a * (np.arange(q0, q0 + nq, dtype=i64) << _SHIFT).astype(float))))
         key = (a, sign)
-        lo = cache.get(key) if cache is not None else None
+        lo = cache.get(key)
         if lo is None:
-            lo = np.exp(1j * sign * a * np.arange(1 << _SHIFT, dtype=float))
-            if cache is not None:
-                cache[key] = lo
+            lo = cache[key] = np.exp(1j * sign * a * np.arange(1 << _SHIFT, dtype=float))
         los.append(lo)
     # per-pair displacement in the frame of the sample-start heading
     gl = np.arange(lmin, lmax + 1, dtype=float)[:, None] * m_l
@@ -203,27 +236,29 @@ def _table_row(nl, nr, m_l, m_r, b, x0, y0, th0, method, poses, cache=None, dest
         f = du * np.sinc(dth / (2.0 * np.pi)) * np.exp(0.5j * dth)
     f = f.ravel()
     f *= complex(math.cos(th0), math.sin(th0))
-    idx = nl - lmin
+    idx = np.subtract(nl, lmin, out=work.arr("idx", n, i64))
     idx *= w
     idx += nr
     idx -= rmin
-    z = f[idx]
+    z = np.take(f, idx, out=work.arr("z", n, complex), mode="clip")
+    tmp_c = work.arr("zt", n, complex)
     mask = (1 << _SHIFT) - 1
     for cnt, lo, (q0, hi) in zip((pr_, pl_), los, his):
-        z *= lo[cnt & mask]
+        np.bitwise_and(cnt, mask, out=idx)
+        z *= np.take(lo, idx, out=tmp_c, mode="clip")
         cnt >>= _SHIFT
         if q0:
             cnt -= q0
-        z *= hi[cnt]
+        z *= np.take(hi, cnt, out=tmp_c, mode="clip")
     if poses:
-        p = np.cumsum(z)
-        d = dest if dest is not None else (None, None, None)
-        x = np.add(p.real, x0, out=d[0])
-        y = np.add(p.imag, y0, out=d[1])
+        p = np.cumsum(z, out=tmp_c)
+        d = dest if dest is not None else tuple(np.empty(n) for _ in range(3))
+        np.add(p.real, x0, out=d[0])
+        np.add(p.imag, y0, out=d[1])
         theta = np.multiply(s_r, a_r, out=d[2])
-        theta -= s_l * a_l
+        theta -= np.multiply(s_l, a_l, out=work.arr("t", n))
         theta += th0
-        return x, y, theta
+        return d
     tot = z.sum()
     return x0 + tot.real, y0 + tot.imag, th0 + (a_r * s_r[-1] - a_l * s_l[-1])
 
@@ -265,6 +300,7 @@ class Odometer:
         self.chunk = int(chunk)
         self.samples = 0
         self._cache = {}
+        self._work = _Work()
 
     @property
     def pose(self):
@@ -316,7 +352,8 @@ class Odometer:
                     dr = b_[:, s:e] * self.params.right_m_per_pulse
                 else:
                     dl, dr = a[:, s:e], b_[:, s:e]
-                res = _float_chunk(dl, dr, self._b, self._x, self._y, self._th, self.method, poses, dest)
+                res = _float_chunk(dl, dr, self._b, self._x, self._y, self._th, self.method, poses, dest,
+                                   self._work)
             if poses:
                 for o, r in zip(dest, res):
                     if r is not o:
@@ -337,7 +374,7 @@ class Odometer:
         for i in range(nl.shape[0]):
             r = _table_row(nl[i], nr[i], p.left_m_per_pulse, p.right_m_per_pulse, float(self._b[i]),
                            float(self._x[i]), float(self._y[i]), float(self._th[i]), self.method, poses,
-                           self._cache, None if dest is None else tuple(d[i] for d in dest))
+                           self._cache, None if dest is None else tuple(d[i] for d in dest), self._work)
             if r is None:
                 return None
             rows.append(r)
