@@ -163,3 +163,19 @@ def test_bad_input():
         odometry.Odometer(0.3, shape=(2,)).update(np.zeros(3), np.zeros(3))
     with pytest.raises(InputError, match="decimate"):
         odometry.replay_stream([], params=PARAMS, decimate=0)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    nl=arrays(np.int64, st.integers(1, 400), elements=st.integers(-20, 40)),
+    shift=st.integers(-3, 3),
+    th0=st.floats(-10, 10),
+    method=st.sampled_from(odometry.METHODS),
+    chunk=st.integers(1, 300),
+)
+def test_property_pulses_same_poses_as_numpy(nl, shift, th0, method, chunk):
+    nr = np.roll(nl, 1) + shift
+    want = kinematics.odometry_from_pulses(nl, nr, PARAMS, (0.3, -0.2, th0), method)
+    _close(odometry.integrate_pulses(nl, nr, PARAMS, (0.3, -0.2, th0), method, chunk=chunk), want, 1e-12)
+    end = odometry.integrate_pulses_end(nl, nr, PARAMS, (0.3, -0.2, th0), method, chunk=chunk)
+    _close(end, [w[-1] for w in want], 1e-12)
