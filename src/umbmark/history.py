@@ -31,6 +31,7 @@ import os
 import socket
 import sqlite3
 import sys
+import time
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
@@ -255,6 +256,23 @@ def _record(row) -> Record:
                   row[16], row[17])
 
 
+def retry_while_locked(fn, timeout_s: float, errors):
+    """Call ``fn`` until it does not raise a "database is locked" error (one of ``errors``) or
+    ``timeout_s`` has passed. SQLite answers "locked" at once, without waiting for its busy
+    timeout, in a few cases: two processes switching a new file to WAL at the same moment, or a
+    read transaction that must become a write transaction."""
+    deadline = time.monotonic() + timeout_s
+    delay = 0.01
+    while True:
+        try:
+            return fn()
+        except errors as e:
+            if "locked" not in str(e) or time.monotonic() > deadline:
+                raise
+            time.sleep(delay)
+            delay = min(2 * delay, 0.25)
+
+
 class History:
     """An open history database. Use as a context manager, or call :meth:`close`."""
 
@@ -273,13 +291,15 @@ class History:
             self._conn = sqlite3.connect(str(self.path), timeout=timeout_s, isolation_level=None)
         except sqlite3.Error as e:
             raise HistoryError(f"cannot open the history database {self.path}: {e}") from None
-        try:
+        def setup():
             self._conn.execute("PRAGMA foreign_keys = ON")
             self._conn.execute(f"PRAGMA busy_timeout = {int(timeout_s * 1000)}")
-            mode = self._conn.execute("PRAGMA journal_mode = WAL").fetchone()[0]
-            self.journal_mode = mode
+            self.journal_mode = self._conn.execute("PRAGMA journal_mode = WAL").fetchone()[0]
             self._conn.execute("PRAGMA synchronous = FULL")
             self._migrate()
+
+        try:
+            retry_while_locked(setup, timeout_s, sqlite3.OperationalError)
         except sqlite3.DatabaseError as e:
             self._conn.close()
             raise HistoryError(f"{self.path} is not a usable umbmark history database: {e}") from None

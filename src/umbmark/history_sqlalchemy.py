@@ -15,7 +15,7 @@ from contextlib import contextmanager
 
 from . import __version__
 from .errors import InputError
-from .history import SCHEMA_VERSION, HistoryError, Record, _record, display_db, make_row
+from .history import SCHEMA_VERSION, HistoryError, Record, _record, display_db, make_row, retry_while_locked
 
 __all__ = ["SQLAlchemyHistory"]
 
@@ -99,7 +99,7 @@ class SQLAlchemyHistory:
         self._md, self._schema, self._robots, self._cal = _tables(sa)
         self.journal_mode = None
         try:
-            self._migrate(create)
+            retry_while_locked(lambda: self._migrate(create), timeout_s, self._sa.exc.OperationalError)
         except HistoryError:
             self._engine.dispose()
             raise

@@ -45,6 +45,11 @@ def bench_speed(quick, out_dir, replay_sizes, robots, isolate, workers, dask, as
 
     Writes OUT/speed.json and OUT/speed.md. The full run (no --quick) takes several minutes
     and replays a 10^8-sample log in streaming mode; --dask adds the sweep on a Dask cluster.
+
+    \b
+    Examples:
+      umbmark bench speed --quick --out bench-quick
+      umbmark bench speed
     """
     sizes = _ints(replay_sizes, "--replay-sizes")
     rob = _ints(robots, "--robots")
