@@ -14,9 +14,9 @@ import math
 import numpy as np
 
 from .errors import InputError
-from .kinematics import LABMATE, Calibration, ErrorParams, Geometry, OdometryParams, wrap_angle
+from .kinematics import LABMATE, Calibration, ErrorParams, Geometry, OdometryParams
 from .runs import RunsTable
-from .simulate import NOISE_PRESETS, Motion, NoiseModel, SimResult, noise_preset, run_seeds, square_program
+from .simulate import NOISE_PRESETS, Motion, NoiseModel, SimResult, noise_preset, run_seeds, runs_table, square_program
 
 __all__ = ["integrate", "integrate_pulses", "run_program", "simulate_umbmark"]
 
@@ -202,13 +202,4 @@ def simulate_umbmark(errors: ErrorParams, geometry: Geometry = LABMATE, side_m: 
         res = run_program(square_program(direction, side_m), true, model, n_runs, noise, motion,
                           rngs=run_seeds(s, n_runs))
         parts.append((direction, res))
-    return RunsTable.from_columns(
-        direction=np.array([d for d, _ in parts for _ in range(n_runs)]),
-        x_abs=np.concatenate([r.abs_x for _, r in parts]),
-        y_abs=np.concatenate([r.abs_y for _, r in parts]),
-        x_odo=np.concatenate([r.odo_x for _, r in parts]),
-        y_odo=np.concatenate([r.odo_y for _, r in parts]),
-        theta_abs=wrap_angle(np.concatenate([r.abs_theta for _, r in parts])),
-        theta_odo=wrap_angle(np.concatenate([r.odo_theta for _, r in parts])),
-        run=np.concatenate([np.arange(1, n_runs + 1)] * 2),
-    )
+    return runs_table(parts, n_runs)

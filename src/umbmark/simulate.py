@@ -56,6 +56,7 @@ __all__ = [
     "simulate_umbmark",
     "simulate_runs",
     "run_seeds",
+    "runs_table",
 ]
 
 
@@ -446,13 +447,16 @@ def simulate_umbmark(
     for direction, s in (("cw", cw_ss), ("ccw", ccw_ss)):
         res = simulate_runs(direction, n_runs, errors, geometry, side_m, calibration, noise, motion, seed=s)
         parts.append((direction, res))
+    return runs_table(parts, n_runs)
+
+
+def runs_table(parts, n_runs: int) -> RunsTable:
+    """A :class:`RunsTable` from ``[("cw", SimResult), ("ccw", SimResult)]``, ``n_runs`` each:
+    the absolute measurement and the odometry end pose of every run, headings wrapped."""
+    cat = lambda attr: np.concatenate([getattr(r, attr) for _, r in parts])  # noqa: E731
     return RunsTable.from_columns(
-        direction=np.array([d for d, r in parts for _ in range(n_runs)]),
-        x_abs=np.concatenate([r.abs_x for _, r in parts]),
-        y_abs=np.concatenate([r.abs_y for _, r in parts]),
-        x_odo=np.concatenate([r.odo_x for _, r in parts]),
-        y_odo=np.concatenate([r.odo_y for _, r in parts]),
-        theta_abs=wrap_angle(np.concatenate([r.abs_theta for _, r in parts])),
-        theta_odo=wrap_angle(np.concatenate([r.odo_theta for _, r in parts])),
-        run=np.concatenate([np.arange(1, n_runs + 1)] * 2),
+        direction=np.array([d for d, _ in parts for _ in range(n_runs)]),
+        x_abs=cat("abs_x"), y_abs=cat("abs_y"), x_odo=cat("odo_x"), y_odo=cat("odo_y"),
+        theta_abs=wrap_angle(cat("abs_theta")), theta_odo=wrap_angle(cat("odo_theta")),
+        run=np.concatenate([np.arange(1, n_runs + 1)] * len(parts)),
     )
