@@ -2,7 +2,8 @@
 with held-out figures.
 
 * :func:`replay`: odometry poses of every run of a data set for a geometry (vectorised over
-  runs and samples with :func:`umbmark.kinematics.integrate`, exact arcs).
+  runs and samples, exact arcs: :func:`umbmark.logs.replay_increments`, which uses the fast
+  chunked kernels of :mod:`umbmark.odometry` for long logs).
 * :func:`detect_directions`: cw / ccw of square runs from the nominal odometry's total turn
   (negative: clockwise).
 * :func:`square_runs`: the UMBmark runs table of square runs (replayed end pose as the
@@ -29,8 +30,7 @@ from .benchmark import umbmark
 from .correct import METHODS, correct_runs
 from .correct.lsq import LSQ_DEFAULTS, fit_lsq
 from .errors import InputError
-from .kinematics import integrate
-from .logs import Dataset, WheelGeometry
+from .logs import Dataset, WheelGeometry, replay_increments
 from .runs import RunsTable
 
 __all__ = [
@@ -47,16 +47,16 @@ def method_names() -> list[str]:
 def replay(ds: Dataset, geometry: WheelGeometry, method: str = "exact"):
     """Odometry of every run for ``geometry``: arrays (R, K) x, y, theta (zero-padded runs keep
     their last pose) and the run lengths."""
-    p = geometry.params(ds.units_per_rev)
     dl, dr, n = ds.padded()
-    x, y, th = integrate(dl * p.left_m_per_pulse, dr * p.right_m_per_pulse, p.wheelbase_m, method=method)
+    x, y, th = replay_increments(dl, dr, geometry.params(ds.units_per_rev), method=method)
     return x, y, th, n
 
 
 def end_poses(ds: Dataset, geometry: WheelGeometry) -> np.ndarray:
     """(R, 3) replayed end poses (x, y, theta unwrapped)."""
-    x, y, th, _ = replay(ds, geometry)
-    return np.column_stack([x[:, -1], y[:, -1], th[:, -1]])
+    dl, dr, _ = ds.padded()
+    x, y, th = replay_increments(dl, dr, geometry.params(ds.units_per_rev), end=True)
+    return np.column_stack([np.reshape(x, -1), np.reshape(y, -1), np.reshape(th, -1)])
 
 
 def detect_directions(ds: Dataset) -> tuple[list[str], np.ndarray, list[str]]:
@@ -230,6 +230,14 @@ def _heldout_loo(ds: Dataset, method: str, lsq_options: dict | None, full: Calib
         return {"scheme": scheme, "emax_syst_mm": None, "end_position_rms_mm": None,
                 "reason": "only one run: nothing to hold out (give several data sets for held-out figures across "
                           "data sets)"}
+    if ds.is_square:
+        counts = {d: list(ds.directions).count(d) for d in ("cw", "ccw")}
+        if min(counts.values()) < 2:
+            return {"scheme": scheme, "emax_syst_mm": None, "end_position_rms_mm": None,
+                    "reason": f"leave-one-run-out needs at least 2 runs in both directions (this set has "
+                              f"{counts['cw']} cw and {counts['ccw']} ccw): without a run, a direction would be "
+                              "missing from the calibration (give several data sets for held-out figures across "
+                              "data sets)"}
     geoms, failed = [], []
     for i in range(n):
         sub = ds.subset([j for j in range(n) if j != i])
