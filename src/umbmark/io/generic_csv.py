@@ -272,6 +272,14 @@ def iter_generic_csv(path, ticks: str = "cumulative", chunk_rows: int = 1 << 16)
         buf = []
 
         def parse(block):
+            if run_col is None:  # fast path: numpy's C parser; any doubt -> the checking parser below
+                try:
+                    vals = np.loadtxt(io.StringIO("\n".join(text for _, text in block)), delimiter=",",
+                                      usecols=idx, ndmin=2, dtype=float, comments=None)
+                    if vals.shape == (len(block), len(use)) and np.all(np.isfinite(vals)):
+                        return vals
+                except ValueError:
+                    pass
             vals = np.empty((len(block), len(use)))
             for j, (ln, text) in enumerate(block):
                 r = next(csv.reader([text]))
