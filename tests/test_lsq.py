@@ -125,3 +125,15 @@ def test_pooled_circular_and_free_held_out_by_data_set():
     assert rep["heldout"]["end_position_rms_mm"] < rep["before"]["end_position_rms_mm"] / 3
     better = [p["heldout"]["end_position_rms_mm"] < p["before"]["end_position_rms_mm"] for p in rep["per_dataset"]]
     assert all(better)
+
+
+@pytest.mark.parametrize("far_m", [1e3, 1e6, -1e6])
+def test_diverging_fit_is_a_clear_error_not_a_silly_geometry(far_m):
+    """An end pose the wheels cannot explain used to return diameters of 1e-11 m or 1e107 m
+    (or overflow); now it is a clear InputError."""
+    from dataclasses import replace
+
+    ds = simlogs.dataset([simlogs.general_program()])
+    bad = replace(ds.runs[0], gt=None, gt_end=np.array([far_m, 0.0, 0.3]))
+    with pytest.raises(InputError, match="did not converge"):
+        fit_lsq(ds.with_runs([bad]), mode="end", scale="fit")

@@ -24,7 +24,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .errors import InputError
-from .kinematics import Calibration, OdometryParams
+from . import odometry as _fast
+from .kinematics import Calibration, OdometryParams, integrate, integrate_end
 
 __all__ = [
     "WheelGeometry",
@@ -33,7 +34,16 @@ __all__ = [
     "to_start_frame",
     "wheel_travel_from_poses",
     "split_at_stops",
+    "replay_increments",
+    "FAST_MIN_SAMPLES",
 ]
+
+# Below this many samples (runs x samples) the plain numpy replay of
+# :func:`umbmark.kinematics.integrate` is as fast as the chunked kernels of
+# :mod:`umbmark.odometry` (their set-up costs more than they save); above it the fast kernels
+# win (integer increments: the table kernel, 2-4x; end pose only: more) and keep the working
+# memory bounded. Measured on this machine: see the README, real robots section.
+FAST_MIN_SAMPLES = 1 << 17
 
 
 @dataclass(frozen=True)
@@ -249,3 +259,31 @@ def split_at_stops(run: Run, units_per_rev: float, stop_s: float = 1.0, min_samp
         if b - a >= min_samples:
             out.append(run.slice(a, b, name=f"{run.name}#{n}"))
     return out
+
+
+def replay_increments(d_left, d_right, params: OdometryParams, method: str = "exact", end: bool = False,
+                      integral: bool | None = None):
+    """Odometry from logged wheel increments (arrays (..., K), log units) with ``params``
+    (metres per unit of each wheel, wheelbase): the poses after each sample ``(x, y, theta)``,
+    or with ``end=True`` only the end pose (arrays of the leading shape).
+
+    Small logs (fewer than :data:`FAST_MIN_SAMPLES` samples in all) are replayed with
+    :func:`umbmark.kinematics.integrate`; larger ones with the chunked kernels of
+    :mod:`umbmark.odometry` (same poses to rounding, ~1e-11 m): the table kernel when every
+    increment is a whole number (``integral``: known already, or None to check), else the
+    float kernel.
+    """
+    d_left = np.asarray(d_left, dtype=float)
+    d_right = np.asarray(d_right, dtype=float)
+    if d_left.size >= FAST_MIN_SAMPLES:
+        if integral is None:
+            integral = bool(np.all(d_left == np.round(d_left)) and np.all(d_right == np.round(d_right))
+                            and np.abs(d_left).max(initial=0) < 2 ** 52 and np.abs(d_right).max(initial=0) < 2 ** 52)
+        if integral:
+            f = _fast.integrate_pulses_end if end else _fast.integrate_pulses
+            return f(d_left.astype(np.int64), d_right.astype(np.int64), params, method=method)
+        f = _fast.integrate_end if end else _fast.integrate
+    else:
+        f = integrate_end if end else integrate
+    return f(d_left * params.left_m_per_pulse, d_right * params.right_m_per_pulse, params.wheelbase_m,
+             method=method)

@@ -2,7 +2,8 @@
 with held-out figures.
 
 * :func:`replay`: odometry poses of every run of a data set for a geometry (vectorised over
-  runs and samples with :func:`umbmark.kinematics.integrate`, exact arcs).
+  runs and samples, exact arcs: :func:`umbmark.logs.replay_increments`, which uses the fast
+  chunked kernels of :mod:`umbmark.odometry` for long logs).
 * :func:`detect_directions`: cw / ccw of square runs from the nominal odometry's total turn
   (negative: clockwise).
 * :func:`square_runs`: the UMBmark runs table of square runs (replayed end pose as the
@@ -29,13 +30,12 @@ from .benchmark import umbmark
 from .correct import METHODS, correct_runs
 from .correct.lsq import LSQ_DEFAULTS, fit_lsq
 from .errors import InputError
-from .kinematics import integrate
-from .logs import Dataset, WheelGeometry
+from .logs import Dataset, WheelGeometry, replay_increments
 from .runs import RunsTable
 
 __all__ = [
     "replay", "end_poses", "detect_directions", "square_runs", "Calibrated", "calibrate", "evaluate",
-    "replay_report", "pooled_report", "prepare", "method_names",
+    "replay_report", "pooled_report", "prepare", "method_names", "stream_replay",
 ]
 
 
@@ -47,16 +47,16 @@ def method_names() -> list[str]:
 def replay(ds: Dataset, geometry: WheelGeometry, method: str = "exact"):
     """Odometry of every run for ``geometry``: arrays (R, K) x, y, theta (zero-padded runs keep
     their last pose) and the run lengths."""
-    p = geometry.params(ds.units_per_rev)
     dl, dr, n = ds.padded()
-    x, y, th = integrate(dl * p.left_m_per_pulse, dr * p.right_m_per_pulse, p.wheelbase_m, method=method)
+    x, y, th = replay_increments(dl, dr, geometry.params(ds.units_per_rev), method=method)
     return x, y, th, n
 
 
 def end_poses(ds: Dataset, geometry: WheelGeometry) -> np.ndarray:
     """(R, 3) replayed end poses (x, y, theta unwrapped)."""
-    x, y, th, _ = replay(ds, geometry)
-    return np.column_stack([x[:, -1], y[:, -1], th[:, -1]])
+    dl, dr, _ = ds.padded()
+    x, y, th = replay_increments(dl, dr, geometry.params(ds.units_per_rev), end=True)
+    return np.column_stack([np.reshape(x, -1), np.reshape(y, -1), np.reshape(th, -1)])
 
 
 def detect_directions(ds: Dataset) -> tuple[list[str], np.ndarray, list[str]]:
@@ -230,6 +230,14 @@ def _heldout_loo(ds: Dataset, method: str, lsq_options: dict | None, full: Calib
         return {"scheme": scheme, "emax_syst_mm": None, "end_position_rms_mm": None,
                 "reason": "only one run: nothing to hold out (give several data sets for held-out figures across "
                           "data sets)"}
+    if ds.is_square:
+        counts = {d: list(ds.directions).count(d) for d in ("cw", "ccw")}
+        if min(counts.values()) < 2:
+            return {"scheme": scheme, "emax_syst_mm": None, "end_position_rms_mm": None,
+                    "reason": f"leave-one-run-out needs at least 2 runs in both directions (this set has "
+                              f"{counts['cw']} cw and {counts['ccw']} ccw): without a run, a direction would be "
+                              "missing from the calibration (give several data sets for held-out figures across "
+                              "data sets)"}
     geoms, failed = [], []
     for i in range(n):
         sub = ds.subset([j for j in range(n) if j != i])
@@ -376,4 +384,82 @@ def pooled_report(datasets, lsq_options: dict | None = None, heldout: bool = Tru
         out["after"] = {"end_position_rms_mm": agg("end_position_rms_mm", "after")}
         out["heldout"] = {"scheme": "leave-one-data-set-out",
                           "end_position_rms_mm": agg("end_position_rms_mm", "heldout"), "emax_syst_mm": None}
+    return out
+
+
+def stream_replay(chunks, geometry: WheelGeometry, units_per_rev: float, decimate: int | None = None,
+                  method: str = "exact") -> dict:
+    """Replay ONE long run given as an iterable of chunks (e.g.
+    :func:`umbmark.io.generic_csv.iter_generic_csv`: objects with ``t``, ``d_left``,
+    ``d_right``, ``gt``) in bounded memory: only the current chunk, the running sums and the kept
+    poses are held (:class:`umbmark.odometry.Odometer`; whole-number increments use its table
+    kernel).
+
+    Returns the odometry's end pose, the ground-truth end pose and the end-pose errors when the
+    last row has ground truth, the RMS position error over every sample with ground truth
+    (``path_position_rms_mm``, as in :func:`evaluate`), and with ``decimate=n`` the poses after
+    every n-th sample (``kept``: arrays ``sample``, ``t_s``, ``x_m``, ``y_m``, ``theta_rad``).
+    """
+    from .odometry import Odometer
+
+    if decimate is not None and decimate < 1:
+        raise InputError(f"decimate must be >= 1, got {decimate}")
+    p = geometry.params(units_per_rev)
+    odo = Odometer(None, params=p, method=method)
+    kept = {"sample": [], "t_s": [], "x_m": [], "y_m": [], "theta_rad": []} if decimate else None
+    n = 0
+    sq_sum, n_gt = 0.0, 0
+    last_gt, t_end, chunks_read = None, 0.0, 0
+    for ch in chunks:
+        dl = np.asarray(ch.d_left, dtype=float)
+        dr = np.asarray(ch.d_right, dtype=float)
+        k = dl.size
+        if k == 0:
+            continue
+        chunks_read += 1
+        integral = bool(np.all(dl == np.round(dl)) and np.all(dr == np.round(dr))
+                        and max(np.abs(dl).max(), np.abs(dr).max()) < 2 ** 52)
+        want = bool(decimate) or ch.gt is not None
+        if integral:
+            res = odo.update_pulses(dl.astype(np.int64), dr.astype(np.int64), poses=want)
+        else:
+            res = odo.update(dl * p.left_m_per_pulse, dr * p.right_m_per_pulse, poses=want)
+        if ch.gt is not None:
+            g = np.asarray(ch.gt, dtype=float)
+            ok = np.isfinite(g[:, 0])
+            if ok.any():
+                sq_sum += float(np.sum((g[ok, 0] - res[0][ok]) ** 2 + (g[ok, 1] - res[1][ok]) ** 2))
+                n_gt += int(ok.sum())
+            last_gt = g[-1] if ok[-1] else None
+        if decimate:
+            sel = np.arange((-(n + 1)) % decimate, k, decimate)
+            kept["sample"].append(n + sel)
+            kept["t_s"].append(np.asarray(ch.t, dtype=float)[sel])
+            for name, arr in zip(("x_m", "y_m", "theta_rad"), res):
+                kept[name].append(np.asarray(arr)[sel])
+        n += k
+        t_end = float(ch.t[-1])
+    if n < 2:
+        raise InputError("a run needs at least two samples")
+    x, y, th = odo.pose
+    out = {
+        "mode": "stream",
+        "samples": n,
+        "chunks": chunks_read,
+        "duration_s": t_end,
+        "nominal": {**geometry.to_dict(), "units_per_wheel_rev": units_per_rev},
+        "end_pose": {"x_mm": x * 1e3, "y_mm": y * 1e3, "theta_deg": math.degrees(th)},
+        "end_truth": None,
+        "end_position_error_mm": None,
+        "end_heading_error_deg": None,
+        "path_position_rms_mm": math.sqrt(sq_sum / n_gt) * 1e3 if n_gt >= 2 else None,
+        "samples_with_truth": n_gt,
+    }
+    if last_gt is not None:
+        out["end_truth"] = {"x_mm": last_gt[0] * 1e3, "y_mm": last_gt[1] * 1e3, "theta_deg": math.degrees(last_gt[2])}
+        out["end_position_error_mm"] = math.hypot(last_gt[0] - x, last_gt[1] - y) * 1e3
+        out["end_heading_error_deg"] = math.degrees(float(np.mod(last_gt[2] - th + np.pi, 2 * np.pi) - np.pi))
+    if kept is not None:
+        out["kept"] = {k: (np.concatenate(v) if v else np.empty(0)) for k, v in kept.items()}
+        out["decimate"] = decimate
     return out

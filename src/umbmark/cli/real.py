@@ -145,10 +145,16 @@ def _print_report(rep: dict):
 @click.option("--no-heldout", is_flag=True, help="Skip the held-out (leave-one-run-out) figures.")
 @click.option("--save", type=click.Path(dir_okay=False), default=None,
               help="Also write the JSON report to this file (input of `umbmark export`).")
+@click.option("--stream", is_flag=True, help="Replay ONE long CSV log in bounded memory with the given geometry: "
+                                             "end pose and errors only (no calibration).")
+@click.option("--decimate", type=click.IntRange(min=1), default=None, help="--stream: keep every N-th pose.")
+@click.option("--poses-out", type=click.Path(dir_okay=False), default=None,
+              help="--stream: write the kept poses (CSV) to this file.")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @history_options
 def replay(paths, method, log_format, pool, lsq_mode, scale, heading_weight_m, points_per_run, fit_marker_offset,
-           no_heldout, save, as_json, robot=None, record=False, db=None, **kw):
+           no_heldout, save, as_json, robot=None, record=False, db=None, stream=False, decimate=None, poses_out=None,
+           **kw):
     """Replay real-robot logs, calibrate, and compare the odometry before and after.
 
     Each DATASET is an optiodom data-set folder, a ROS bag, or (all together) CSV log files.
@@ -165,6 +171,12 @@ def replay(paths, method, log_format, pool, lsq_mode, scale, heading_weight_m, p
 
     if not (math.isfinite(heading_weight_m) and heading_weight_m >= 0):
         raise InputError(f"--heading-weight-m must be >= 0, got {heading_weight_m!r}")
+    if stream or decimate or poses_out:
+        if not stream:
+            raise InputError("--decimate and --poses-out work with --stream")
+        from .stream import run_stream
+
+        return run_stream(paths, {**kw, "log_format": log_format}, decimate, poses_out, as_json)
     sets = _datasets(paths, log_format, kw)
     lsq_opts = {"mode": lsq_mode, "scale": scale, "heading_weight_m": heading_weight_m,
                 "points_per_run": points_per_run, "fit_offset": fit_marker_offset}

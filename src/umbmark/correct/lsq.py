@@ -1,8 +1,9 @@
 """General-path least squares (method ``lsq``): wheel diameters and wheelbase from logs of any
 path with ground truth (circles, free driving, straight-and-spin, squares).
 
-The logged wheel increments are replayed (:func:`umbmark.kinematics.integrate`, exact arcs)
-with trial parameters, and the parameters minimise the pose errors of the replayed odometry
+The logged wheel increments are replayed (:func:`umbmark.logs.replay_increments`, exact arcs;
+the fast kernels of :mod:`umbmark.odometry` on long logs; end poses only in end mode) with
+trial parameters, and the parameters minimise the pose errors of the replayed odometry
 against the ground truth:
 
 * ``mode="sampled"``: errors at up to ``points_per_run`` samples spread evenly along each
@@ -45,10 +46,13 @@ import numpy as np
 from scipy.optimize import least_squares
 
 from ..errors import InputError
-from ..kinematics import integrate
-from ..logs import Dataset, WheelGeometry
+from ..kinematics import OdometryParams
+from ..logs import FAST_MIN_SAMPLES, Dataset, WheelGeometry, replay_increments
 
 __all__ = ["LsqResult", "fit_lsq", "LSQ_DEFAULTS"]
+
+_LOG_LIMIT = 30.0  # trial log-parameters are clipped to +-this (no overflow on a diverging fit)
+_MAX_FACTOR = 10.0  # a fitted diameter or wheelbase further than this factor from nominal: no fit
 
 LSQ_DEFAULTS = {"mode": "auto", "scale": "auto", "heading_weight_m": 0.5, "points_per_run": 100, "fit_offset": False}
 
@@ -127,11 +131,25 @@ class _Problem:
         self.cols = np.concatenate(cols)
         self.gt = np.concatenate(gts)
         self.k = math.pi / ds.units_per_rev
+        self.end = mode != "sampled"
+        if not self.end:  # samples after the last compared one do not matter
+            kmax = int(self.cols.max()) + 1
+            self.dl, self.dr = self.dl[:, :kmax], self.dr[:, :kmax]
+        # whole-number increments (encoder pulses): checked once, not at every trial
+        self.integral = None
+        if self.dl.size >= FAST_MIN_SAMPLES:
+            self.integral = bool(np.all(self.dl == np.round(self.dl)) and np.all(self.dr == np.round(self.dr))
+                                 and max(np.abs(self.dl).max(), np.abs(self.dr).max()) < 2 ** 52)
 
     def residuals(self, d_left, d_right, b, w, offset=None):
-        x, y, th = integrate(self.dl * (self.k * d_left), self.dr * (self.k * d_right), b)
-        sel = (self.rows, self.cols)
-        x, y, th = x[sel], y[sel], th[sel]
+        p = OdometryParams(self.k * d_left, self.k * d_right, b)
+        if self.end:  # one end pose per run, in run order
+            x, y, th = (np.reshape(a, -1)[self.rows]
+                        for a in replay_increments(self.dl, self.dr, p, end=True, integral=self.integral))
+        else:
+            x, y, th = replay_increments(self.dl, self.dr, p, integral=self.integral)
+            sel = (self.rows, self.cols)
+            x, y, th = x[sel], y[sel], th[sel]
         if offset is not None:  # the tracked point sits at ``offset`` in the robot frame
             c, s = np.cos(th), np.sin(th)
             x = x + (c - 1.0) * offset[0] - s * offset[1]
@@ -204,15 +222,18 @@ def fit_lsq(datasets, mode: str = "auto", scale: str = "auto", heading_weight_m:
     d_avg0 = nominal.diameter_avg_m
     s0 = start or nominal
 
+    def _exp(v):  # a diverging trial must not overflow (the result is checked below)
+        return math.exp(min(max(float(v), -_LOG_LIMIT), _LOG_LIMIT))
+
     if fit_scale:
         def unpack(p):
-            return math.exp(p[0]), math.exp(p[1]), math.exp(p[2])
+            return _exp(p[0]), _exp(p[1]), _exp(p[2])
         p0 = np.log([s0.diameter_left_m, s0.diameter_right_m, s0.wheelbase_m])
     else:
         def unpack(p):
-            ed = math.exp(p[0])
+            ed = _exp(p[0])
             d_l = 2.0 * d_avg0 / (1.0 + ed)
-            return d_l, d_l * ed, math.exp(p[1])
+            return d_l, d_l * ed, _exp(p[1])
         p0 = np.array([math.log(s0.ed), math.log(s0.wheelbase_m)])
     ng = p0.size
     if fit_offset:
@@ -233,6 +254,12 @@ def fit_lsq(datasets, mode: str = "auto", scale: str = "auto", heading_weight_m:
     sol = least_squares(fun, p0, method="lm", x_scale=np.full(p0.size, 1e-3), xtol=1e-12, ftol=1e-12, gtol=1e-12,
                         max_nfev=400 * p0.size)
     d_l, d_r, b = unpack(sol.x)
+    ratios = np.array([d_l / nominal.diameter_left_m, d_r / nominal.diameter_right_m, b / nominal.wheelbase_m])
+    if not (np.all(np.isfinite(sol.x)) and np.all(np.isfinite(ratios)) and np.all(ratios > 1.0 / _MAX_FACTOR)
+            and np.all(ratios < _MAX_FACTOR)):
+        raise InputError("lsq did not converge to a valid geometry (diameters or wheelbase more than "
+                         f"{_MAX_FACTOR:g}x off nominal: the data do not determine the fitted parameters; check the "
+                         "units and the ground truth, or use --scale fixed)")
     try:
         geom = WheelGeometry(d_l, d_r, b)
     except InputError:

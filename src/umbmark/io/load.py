@@ -105,3 +105,31 @@ def parse_ranges(text: str):
             raise InputError(f"bad time range {part.strip()!r}: need 0 <= START < END")
         out.append((a, b))
     return out
+
+
+def stream_log(path, decimate: int | None = None, chunk_rows: int = 1 << 16, fmt: str = "auto", **opts) -> dict:
+    """Replay ONE long generic CSV log with the nominal geometry of ``opts`` in bounded memory
+    (read in chunks of ``chunk_rows`` rows, see :func:`umbmark.replay.stream_replay`)."""
+    from ..replay import stream_replay
+    from .generic_csv import iter_generic_csv
+
+    if isinstance(path, (list, tuple)):
+        if len(path) != 1:
+            raise InputError("streaming replays one log file at a time")
+        path = path[0]
+    if fmt == "auto":
+        fmt = detect_format(path)
+    if fmt != "csv":
+        raise InputError(f"streaming reads the generic CSV log only (this is {fmt}; use `umbmark convert` first)",
+                         source=str(path))
+    if opts.get("side_mm") is not None:
+        raise InputError("streaming replays one run with the given geometry; UMBmark squares (--side-mm) need "
+                         "the whole data set (leave out --stream)")
+    ppr = opts.get("pulses_per_wheel_rev")
+    if ppr is None:
+        raise InputError("the CSV log needs --pulses-per-wheel-rev (encoder pulses per wheel revolution)",
+                         source=str(path))
+    nominal = _nominal(opts, str(path))
+    rep = stream_replay(iter_generic_csv(path, opts.get("ticks") or "cumulative", chunk_rows), nominal, ppr,
+                        decimate=decimate)
+    return {"dataset": Path(path).stem, "source": str(path), "format": "csv", **rep}
