@@ -18,6 +18,7 @@ from pathlib import Path
 
 def main(argv=None) -> int:
     from umbmark.accuracy import QUICK, AccuracyConfig, coverage_trial, run_accuracy, write_results
+    from umbmark.errors import InputError
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true", help="small grid, few robots (tests, examples)")
@@ -37,8 +38,12 @@ def main(argv=None) -> int:
     if a.sample_period_ms is not None:
         changes["sample_period_s"] = a.sample_period_ms * 1e-3
     cfg = replace(cfg, **changes)
-    res = run_accuracy(cfg, progress=lambda i, n: print(f"\rcell {i}/{n}", end="", file=sys.stderr, flush=True),
-                       dask=a.dask)
+    try:
+        res = run_accuracy(cfg, progress=lambda i, n: print(f"\rcell {i}/{n}", end="", file=sys.stderr, flush=True),
+                           dask=a.dask)
+    except InputError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
     print(file=sys.stderr)
     if a.coverage_robots:
         res["coverage_random_robots"] = coverage_trial(a.coverage_robots, sample_period_s=0.01)
