@@ -55,9 +55,12 @@ def reproduce_cmd(seed, seeds, n_runs, sample_period_ms, quantise, tape_thicknes
     cfg = rep.StudyConfig(seed=seed, seeds=seeds, n_runs=n_runs, sample_period_s=sample_period_ms * 1e-3,
                           noise=noise, tape_layer_m=tape_thickness_mm * 1e-3, variation=variation)
     with progress(f"simulating {seeds} seeds x 8 experiments", total=seeds) as advance:
-        def on_progress(done, _total, _seen=[0]):
-            advance(done - _seen[0])
-            _seen[0] = done
+        shown = 0
+
+        def on_progress(done, _total):  # seeds done so far -> advance the bar by the new ones
+            nonlocal shown
+            advance(done - shown)
+            shown = done
 
         study = rep.run_study(cfg, pitfall=not no_pitfall, workers=workers, dask=dask, on_progress=on_progress)
     d = study.to_dict()
@@ -67,7 +70,8 @@ def reproduce_cmd(seed, seeds, n_runs, sample_period_ms, quantise, tape_thicknes
         from ..reproduce_report import write_report
 
         page_cmd = f"{command} --report {report_dir}" + (f" --exaggerate {exaggerate:g}" if exaggerate != 1 else "")
-        page = write_report(study, report_dir, page_cmd, exaggerate)
+        with progress("writing the report"):
+            page = write_report(study, report_dir, page_cmd, exaggerate)
         d["report"] = str(page)
     if as_json:
         emit_json(d)
