@@ -18,11 +18,14 @@ from pathlib import Path
 
 def main(argv=None) -> int:
     from umbmark.accuracy import QUICK, AccuracyConfig, coverage_trial, run_accuracy, write_results
+    from umbmark.errors import InputError
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true", help="small grid, few robots (tests, examples)")
     p.add_argument("--robots", type=int, default=None, help="robots per cell with noise")
-    p.add_argument("--workers", type=int, default=None, help="processes (default 2; quick: 1)")
+    p.add_argument("--workers", type=int, default=None, help="local processes (default: all cores)")
+    p.add_argument("--dask", default=None, metavar="ADDRESS",
+                   help="run the cells on a Dask cluster (tcp://host:8786, or 'local')")
     p.add_argument("--seed", type=int, default=None)
     p.add_argument("--sample-period-ms", type=float, default=None)
     p.add_argument("--coverage-robots", type=int, default=0,
@@ -30,11 +33,17 @@ def main(argv=None) -> int:
     p.add_argument("--out", default=str(Path(__file__).resolve().parent / "results"))
     a = p.parse_args(argv)
     cfg = QUICK if a.quick else AccuracyConfig()
-    changes = {k: v for k, v in (("robots", a.robots), ("workers", a.workers), ("seed", a.seed)) if v is not None}
+    changes = {k: v for k, v in (("robots", a.robots), ("seed", a.seed)) if v is not None}
+    changes["workers"] = a.workers  # None: all local cores
     if a.sample_period_ms is not None:
         changes["sample_period_s"] = a.sample_period_ms * 1e-3
     cfg = replace(cfg, **changes)
-    res = run_accuracy(cfg, progress=lambda i, n: print(f"\rcell {i}/{n}", end="", file=sys.stderr, flush=True))
+    try:
+        res = run_accuracy(cfg, progress=lambda i, n: print(f"\rcell {i}/{n}", end="", file=sys.stderr, flush=True),
+                           dask=a.dask)
+    except InputError as e:
+        print(f"error: {e}", file=sys.stderr)
+        return 2
     print(file=sys.stderr)
     if a.coverage_robots:
         res["coverage_random_robots"] = coverage_trial(a.coverage_robots, sample_period_s=0.01)

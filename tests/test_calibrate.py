@@ -111,3 +111,36 @@ def test_loop_needs_two_runs():
     with pytest.raises(InputError, match="no runs files"):
         compose_passes([], 4.0, 0.34)
     assert np.isfinite(LABMATE.wheelbase_m)
+
+
+def test_calibrate_records_into_the_history(tmp_path, capsys):
+    from umbmark.history import open_history
+
+    db = tmp_path / "h.sqlite"
+    e = ErrorParams(1.02, 0.95)
+    p1 = simulate_umbmark(e, n_runs=2, motion=EXACT_ARC)
+    f1 = tmp_path / "p1.csv"
+    write_runs_csv(p1, f1)
+    # a real robot's passes (runs files)
+    assert main(["calibrate", str(f1), "--wheelbase-mm", "340", "--side-mm", "4000", "--method", "bf",
+                 "--robot", "r1", "--record", "--db", str(db), "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["history"] == {"record_id": 1, "robot": "r1", "db": str(db)}
+    # the simulator loop, human output
+    assert main(["calibrate", "--ed", "1.01", "--eb", "1.05", "--noise", "none", "--seed", "1",
+                 "--robot", "r1", "--record", "--db", str(db)]) == 0
+    assert "recorded as #2 in the history of r1" in capsys.readouterr().out
+    with open_history(db, create=False) as h:
+        r1, r2 = h.records("r1")
+    assert (r1.kind, r1.method, r2.kind, r2.method) == ("calibrate", "bf", "calibrate", "exact")
+    assert r1.source.endswith("p1.csv") and len(r1.input_sha256) == 64
+    cal = d["final_calibration"]
+    assert r1.parameters["c_left"] == pytest.approx(cal["c_left"]) and r1.parameters["Ed"] == pytest.approx(cal["Ed"])
+    assert r1.parameters["wheelbase_mm"] == pytest.approx(cal["wheelbase_mm"])
+    assert r1.emax_syst_mm == pytest.approx(d["passes"][0]["emax_syst_mm"])
+    assert r2.parameters["wheelbase_mm"] == pytest.approx(357.0, abs=1e-3)  # the true wheelbase, 340 * 1.05
+    assert r2.parameters["Eb"] == pytest.approx(1.05, abs=1e-5)
+    # --record needs --robot: a usage error, nothing recorded
+    assert main(["calibrate", "--noise", "none", "--record", "--db", str(db)]) == 2
+    with open_history(db, create=False) as h:
+        assert len(h.records("r1")) == 2

@@ -54,6 +54,9 @@ def test_dask_local_cluster_equals_local_run():
         assert sweep.map(emax_of_robots, items, dask=client) == local
         # by address, as --dask tcp://host:port does
         assert sweep.map(square, [3, 1, 2], dask=cluster.scheduler_address) == [9, 1, 4]
+        seen = []
+        assert sweep.map(square, [3, 1, 2], dask=client, on_progress=lambda d, t: seen.append((d, t))) == [9, 1, 4]
+        assert seen == [(1, 3), (2, 3), (3, 3)]
 
 
 def test_errors_propagate_and_bad_arguments():
@@ -82,3 +85,15 @@ def test_describe_backend():
     assert sweep.describe_backend(1) == "this process"
     assert "4 workers" in sweep.describe_backend(4)
     assert "tcp://h:1" in sweep.describe_backend(None, "tcp://h:1")
+
+
+def test_on_progress_counts_every_item_once():
+    for workers in (1, 2):
+        seen = []
+        assert sweep.map(square, range(7), workers=workers, on_progress=lambda d, t: seen.append((d, t))) == \
+            [x * x for x in range(7)]
+        assert seen == [(i, 7) for i in range(1, 8)]
+    seen = []
+    with pytest.raises(ValueError, match="three"):
+        sweep.map(fail_on_three, range(6), workers=1, on_progress=lambda d, t: seen.append(d))
+    assert seen == [1, 2, 3]  # items 0, 1, 2 finished before the failure

@@ -31,9 +31,7 @@ Design choices (documented in the README):
 from __future__ import annotations
 
 import math
-import os
 import time
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
@@ -62,7 +60,7 @@ class AccuracyConfig:
     true_wheelbase_m: float = LABMATE.wheelbase_m
     sample_period_s: float = 0.03
     seed: int = 2026
-    workers: int = 2
+    workers: int | None = None  # local processes for the sweep over cells; None: all cores
 
     def cells(self):
         eds = sorted({1.0 - d for d in self.ed_departures} | {1.0 + d for d in self.ed_departures})
@@ -71,8 +69,8 @@ class AccuracyConfig:
     def validate(self):
         if self.robots < 1 or self.runs_per_direction < 2:
             raise InputError("the accuracy benchmark needs >= 1 robot per cell and >= 2 runs per direction")
-        if self.workers < 1:
-            raise InputError("workers must be >= 1")
+        if self.workers is not None and (not isinstance(self.workers, int) or self.workers < 1):
+            raise InputError(f"workers must be >= 1, got {self.workers!r}")
         for d in self.ed_departures:
             if not 0 < d < 0.2:
                 raise InputError(f"E_d departure {d} out of range (0, 0.2)")
@@ -173,24 +171,20 @@ def _summarise(trials: list[dict]) -> dict:
     return row
 
 
-def run_accuracy(cfg: AccuracyConfig = AccuracyConfig(), progress=None) -> dict:
-    """Run the benchmark; returns ``{"config", "cells": [row...], "floors", "summary"}``."""
+def run_accuracy(cfg: AccuracyConfig = AccuracyConfig(), progress=None, dask=None) -> dict:
+    """Run the benchmark; returns ``{"config", "cells": [row...], "floors", "summary"}``.
+
+    The cells (one noise level, ``E_d``, ``E_b`` each) are the items of a sweep
+    (:func:`umbmark.sweep.map`): ``cfg.workers`` local processes (``None``: all cores) or a Dask
+    cluster (``dask``: an address, ``"local"`` or a ``distributed.Client``). Robot ``i`` of a
+    cell carries its own seed, so every backend gives the same numbers. ``progress(done,
+    total)`` is called as cells finish."""
+    from . import sweep
+
     cfg.validate()
     t0 = time.time()
     jobs = [(cfg, ed, eb, noise) for noise in cfg.noises for ed, eb in cfg.cells()]
-    if cfg.workers > 1 and len(jobs) > 1:
-        with ProcessPoolExecutor(max_workers=min(cfg.workers, os.cpu_count() or 1)) as pool:
-            results = []
-            for i, r in enumerate(pool.map(_cell_job, jobs)):
-                results.append(r)
-                if progress:
-                    progress(i + 1, len(jobs))
-    else:
-        results = []
-        for i, j in enumerate(jobs):
-            results.append(_cell_job(j))
-            if progress:
-                progress(i + 1, len(jobs))
+    results = sweep.map(_cell_job, jobs, workers=cfg.workers, dask=dask, on_progress=progress)
     rows = [_summarise(r) for r in results]
     small_ed, small_eb = min(cfg.ed_departures), min(abs(e - 1) for e in cfg.eb_values)
     floors, summary = {}, {}
@@ -233,7 +227,7 @@ def run_accuracy(cfg: AccuracyConfig = AccuracyConfig(), progress=None) -> dict:
         }
     cfg_d = asdict(cfg)
     return {"config": cfg_d, "cells": rows, "floors": floors, "summary": summary,
-            "elapsed_s": time.time() - t0}
+            "backend": sweep.describe_backend(cfg.workers, dask), "elapsed_s": time.time() - t0}
 
 
 def coverage_trial(robots: int = 200, seed: int = 7, sample_period_s: float = 0.02, noise: str = "paper",

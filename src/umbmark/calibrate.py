@@ -24,7 +24,7 @@ from .kinematics import LABMATE, Calibration, ErrorParams, Geometry
 from .runs import RunsTable
 from .simulate import Motion, NoiseModel, simulate_umbmark
 
-__all__ = ["Pass", "LoopResult", "calibrate_loop", "compose_passes"]
+__all__ = ["Pass", "LoopResult", "calibrate_loop", "compose_passes", "history_fields"]
 
 
 @dataclass(frozen=True)
@@ -86,10 +86,11 @@ class LoopResult:
 def calibrate_loop(errors: ErrorParams, geometry: Geometry = LABMATE, side_m: float = 4.0, n_runs: int = 5,
                    noise: NoiseModel | str = "paper", motion: Motion | None = None, method: str = "exact",
                    max_passes: int = 3, seed: int = 0, prior: Calibration | None = None, tol_m: float = 1e-5,
-                   **options) -> LoopResult:
+                   on_progress=None, **options) -> LoopResult:
     """Simulate: run, correct, re-run until the 3 x SEM rule says stop (at most ``max_passes``
     corrections). ``tol_m``: also stop when E_max,syst is below this (noise-free runs have
-    SEM = 0, so the rule alone would never stop)."""
+    SEM = 0, so the rule alone would never stop). ``on_progress(done, total)``: called after
+    each simulated test (``total`` is the most there can be, ``max_passes + 1``)."""
     if max_passes < 1:
         raise InputError(f"the number of passes must be >= 1, got {max_passes}")
     if n_runs < 2:
@@ -101,6 +102,8 @@ def calibrate_loop(errors: ErrorParams, geometry: Geometry = LABMATE, side_m: fl
     for k in range(max_passes + 1):
         runs = simulate_umbmark(errors, geometry, side_m, n_runs, cal, noise, motion, seed=seeds[k])
         res = umbmark(runs)
+        if on_progress is not None:
+            on_progress(k + 1, max_passes + 1)
         b_used = geometry.wheelbase_m if cal is None or cal.wheelbase_m is None else cal.wheelbase_m
         rule = res.sem_rule
         if res.emax_syst < tol_m:
@@ -156,3 +159,31 @@ def compose_passes(runs_list, side_m: float, wheelbase_m: float, method: str = "
                if last.second_pass_recommended else
                "the last pass was already below 3 x SEM: the final calibration is as good as these runs allow")
     return LoopResult(passes, cal, wheelbase_m, stopped, None)
+
+
+def history_fields(loop: LoopResult, method: str) -> dict:
+    """The fields of a calibration-history record (:func:`umbmark.history.record_result`) for a
+    loop: ``kind="calibrate"``; the recommended parameters are the final (composed) calibration
+    (``Eb`` relative to the wheelbase of pass 1); ``results["emax_syst_mm"]`` is pass 1's (the
+    odometry as the robot ran before these calibrations), ``emax_syst_last_pass_mm`` the last
+    pass's; ``parameters_in_use`` are pass 1's. The runs of every pass go into ``inputs``."""
+    from .history import runs_to_rows
+
+    first, last = loop.passes[0], loop.passes[-1]
+    b0 = first.wheelbase_used_m
+    cal = loop.final_calibration or Calibration()
+    b = cal.wheelbase_m if cal.wheelbase_m is not None else b0
+    used = first.calibration_used or Calibration()
+    results = loop.to_dict()
+    results["method"] = method
+    results["emax_syst_mm"] = first.result.emax_syst * 1e3
+    results["emax_syst_last_pass_mm"] = last.result.emax_syst * 1e3
+    return {
+        "kind": "calibrate",
+        "method": method,
+        "results": results,
+        "parameters": {"c_left": cal.c_left, "c_right": cal.c_right, "wheelbase_mm": b * 1e3, "Ed": cal.ed,
+                       "Eb": b / b0},
+        "parameters_in_use": {"c_left": used.c_left, "c_right": used.c_right, "wheelbase_mm": b0 * 1e3},
+        "inputs": {"passes": [{"source": p.source, "runs": runs_to_rows(p.runs)} for p in loop.passes]},
+    }

@@ -75,6 +75,7 @@ __all__ = [
     "simulate_tests",
     "run_seed_experiments",
     "run_study",
+    "seed_groups",
     "uni_directional_pitfall",
     "run_trajectories",
 ]
@@ -557,16 +558,47 @@ def _noise_free_emax(errors: ErrorParams, cfg: StudyConfig, calibration: Calibra
     return umbmark(rt).emax_syst
 
 
-def run_study(cfg: StudyConfig | None = None, pitfall: bool = True) -> Study:
+def seed_groups(cfg: StudyConfig) -> list[list[int]]:
+    """The study seeds cut into the groups simulated as one batch each (bounded batch size:
+    about ``cfg.chunk_runs`` runs); each group is one task of the sweep in :func:`run_study`."""
+    seeds = cfg.seed_list
+    per_group = max(1, cfg.chunk_runs // (cfg.n_runs * 8))
+    return [seeds[i:i + per_group] for i in range(0, len(seeds), per_group)]
+
+
+def _seed_group_task(task: tuple[list[int], StudyConfig]) -> dict[int, list[Experiment]]:
+    """One sweep task (module level, so a process pool or Dask can pickle it)."""
+    seeds, cfg = task
+    return run_seed_experiments(seeds, cfg)
+
+
+def run_study(cfg: StudyConfig | None = None, pitfall: bool = True, workers: int | None = None, dask=None,
+              on_progress=None) -> Study:
     """The whole study: Table I for the first seed, the distribution over all seeds, and the
-    uni-directional pitfall (first seed)."""
+    uni-directional pitfall (first seed).
+
+    The groups of seeds (:func:`seed_groups`) are simulated through :func:`umbmark.sweep.map`:
+    ``workers`` local processes (``None``: all cores; ``1``: in this process) or a Dask
+    cluster (``dask``: an address, ``"local"`` or a ``distributed.Client``). Every test carries
+    its own seed and the groups are the same whatever the backend, so the study is identical
+    (to the bit) on every backend. ``on_progress(seeds_done, seeds_total)`` is called as groups
+    finish."""
+    from . import sweep
+
     cfg = cfg or StudyConfig()
     seeds = cfg.seed_list
-    # simulate in groups of seeds so the batches stay a bounded size
-    per_group = max(1, cfg.chunk_runs // (cfg.n_runs * 8))
+    groups = seed_groups(cfg)
+    tick = None
+    if on_progress is not None:
+        per_group = len(groups[0])
+
+        def tick(done, _total):
+            on_progress(min(done * per_group, len(seeds)), len(seeds))
+
     all_exps: dict[int, list[Experiment]] = {}
-    for i in range(0, len(seeds), per_group):
-        all_exps.update(run_seed_experiments(seeds[i:i + per_group], cfg))
+    for part in sweep.map(_seed_group_task, [(g, cfg) for g in groups], workers=workers, dask=dask,
+                          on_progress=tick):
+        all_exps.update(part)
     arr = lambda f: np.array([[f(e) for e in all_exps[s]] for s in seeds], dtype=float)  # noqa: E731
     dist = Distribution(
         seeds=seeds,

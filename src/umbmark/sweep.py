@@ -67,28 +67,50 @@ def _check_workers(workers):
 
 
 def map(fn: Callable, items: Iterable, workers: int | None = None, dask=None, chunksize: int = 1,
-        mp_context=None) -> list:
+        mp_context=None, on_progress: Callable[[int, int], None] | None = None) -> list:
     """``[fn(item) for item in items]``, in parallel.
 
     ``workers``: local processes (``None``: all cores of this machine; ``1``: no pool, in this
     process). ``dask``: ``None`` (local pool), a scheduler address such as
     ``"tcp://host:8786"``, ``"local"`` (start a Dask cluster on this machine with ``workers``
     processes) or a ``distributed.Client``. ``chunksize``: items sent to a pool worker at a
-    time. An exception raised by ``fn`` is raised here.
+    time. An exception raised by ``fn`` is raised here. ``on_progress(done, total)``: called
+    in this process each time an item has finished (``done`` items of ``total``; for a bar).
     """
     items = list(items)
     if chunksize < 1:
         raise InputError(f"chunksize must be >= 1, got {chunksize}")
+    tick = _ticker(on_progress, len(items))
     if dask is not None:
-        return _dask_map(fn, items, dask, workers)
+        return _dask_map(fn, items, dask, workers, tick)
     n = _check_workers(workers)
     if n == 1 or len(items) <= 1:
-        return [fn(it) for it in items]
+        out = []
+        for it in items:
+            out.append(fn(it))
+            tick()
+        return out
+    out = []
     with ProcessPoolExecutor(max_workers=min(n, len(items)), mp_context=mp_context) as ex:
-        return list(ex.map(fn, items, chunksize=chunksize))
+        for r in ex.map(fn, items, chunksize=chunksize):  # in input order
+            out.append(r)
+            tick()
+    return out
 
 
-def _dask_map(fn, items, dask, workers):
+def _ticker(on_progress, total):
+    done = 0
+
+    def tick():
+        nonlocal done
+        done += 1
+        if on_progress is not None:
+            on_progress(done, total)
+
+    return tick
+
+
+def _dask_map(fn, items, dask, workers, tick=lambda: None):
     try:
         from distributed import Client, LocalCluster
     except ImportError:
@@ -115,7 +137,11 @@ def _dask_map(fn, items, dask, workers):
             client = dask
             if not builtins.all(hasattr(client, a) for a in ("map", "gather")):
                 raise InputError("dask must be an address, 'local' or a distributed.Client")
+        from distributed import as_completed
+
         futures = client.map(fn, items, pure=False)
+        for _ in as_completed(futures):
+            tick()
         return client.gather(futures)
     finally:
         for o in own:

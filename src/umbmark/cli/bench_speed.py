@@ -12,6 +12,7 @@ from ..errors import InputError
 from ..io.atomic import atomic_write
 from .app import console, emit_json, fmt, is_quiet, table
 from .bench import bench
+from .progress import progress as progress_bar
 from .scaleout import scale_options
 
 
@@ -25,6 +26,15 @@ def _ints(text, name):
     if not vals or any(v < 1 for v in vals):
         raise InputError(f"{name}: expected positive numbers, got {text!r}")
     return vals
+
+
+def _n_cases(quick, overrides, dask, workers):
+    """How many cases the benchmark will run (for the progress bar; None if unknown)."""
+    try:
+        cfg = {**(speedbench.QUICK if quick else speedbench.FULL), **{k: v for k, v in overrides.items() if v is not None}}
+        return len(speedbench._plan(cfg, dask, workers))
+    except Exception:  # noqa: BLE001 - only the bar's total; the benchmark reports its own errors
+        return None
 
 
 @bench.command("speed")
@@ -65,6 +75,7 @@ def bench_speed(quick, out_dir, replay_sizes, robots, isolate, workers, dask, as
     con = console()
 
     def progress(c):
+        advance()
         if show:
             what = f"{c['kind']} {c['impl']} n={c['n']}"
             if "error" in c:
@@ -74,8 +85,9 @@ def bench_speed(quick, out_dir, replay_sizes, robots, isolate, workers, dask, as
                 unit = "samples/s" if c["kind"] == "replay" else "experiments/s"
                 con.print(f"  {what}: {rate:,.0f} {unit}, peak RSS {c['rss_peak_mib']:.0f} MiB")
 
-    res = speedbench.run_benchmark(quick=quick, isolate=isolate, progress=progress, dask=dask, workers=workers,
-                                   **overrides)
+    with progress_bar("speed benchmark: cases", total=_n_cases(quick, overrides, dask, workers)) as advance:
+        res = speedbench.run_benchmark(quick=quick, isolate=isolate, progress=progress, dask=dask, workers=workers,
+                                       **overrides)
     res["isolated"] = isolate
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -3,12 +3,13 @@ a real robot from its runs files (issue 7). Registers on ``app`` from ``.app``."
 
 from __future__ import annotations
 
+import hashlib
 from pathlib import Path
 
 import click
 
 from .. import workflows
-from ..calibrate import calibrate_loop, compose_passes
+from ..calibrate import calibrate_loop, compose_passes, history_fields
 from ..correct import METHODS
 from ..errors import InputError
 from ..io.runs_csv import read_runs_csv, write_runs_csv
@@ -16,6 +17,8 @@ from ..kinematics import LABMATE, ErrorParams, Geometry
 from ..simulate import NOISE_PRESETS, Motion
 from .app import app, console, emit_json, fmt, is_quiet, table
 from .core import _prior, geometry_options, prior_options
+from .history import history_options, print_recorded, record_if_requested
+from .progress import progress
 
 
 def _pass_rows(loop):
@@ -75,8 +78,9 @@ def _print_loop(loop, title):
 @geometry_options
 @prior_options
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+@history_options
 def calibrate(runs_files, ed, eb, n_runs, noise, seed, max_passes, method, sample_period_ms, save_runs,
-              wheelbase_mm, side_mm, wheel_diameter_mm, c_left, c_right, as_json):
+              wheelbase_mm, side_mm, wheel_diameter_mm, c_left, c_right, as_json, robot=None, record=False, db=None):
     """Iterate the calibration until it stops paying.
 
     Without files (simulator): a robot with true errors --ed/--eb runs the test; while
@@ -88,10 +92,14 @@ def calibrate(runs_files, ed, eb, n_runs, noise, seed, max_passes, method, sampl
     loaded, and so on. Each pass is corrected relative to the odometry it ran with and the
     corrections are composed; the last line is the calibration to load.
 
+    --robot NAME --record stores the final calibration in the robot's history (the runs of
+    every pass, and the SHA-256 of the runs files, go with it).
+
     \b
     Examples:
       umbmark calibrate --ed 1.02 --eb 0.95 --seed 1
       umbmark calibrate pass1.csv pass2.csv --wheelbase-mm 340 --side-mm 4000
+      umbmark calibrate pass1.csv pass2.csv --robot r1 --record
     """
     side_m = workflows.positive("--side-mm", side_mm) * 1e-3
     wheelbase_m = workflows.positive("--wheelbase-mm", wheelbase_mm) * 1e-3
@@ -107,15 +115,39 @@ def calibrate(runs_files, ed, eb, n_runs, noise, seed, max_passes, method, sampl
                         LABMATE.pulses_per_rev, LABMATE.gear_ratio)
         errors = ErrorParams(workflows.positive("--ed", ed), workflows.positive("--eb", eb))
         motion = Motion(sample_period_s=workflows.positive("--sample-period-ms", sample_period_ms) * 1e-3)
-        loop = calibrate_loop(errors, geom, side_m, n_runs, noise, motion, method, max_passes, seed, prior)
+        with progress(f"simulating up to {max_passes + 1} tests", total=max_passes + 1) as advance:
+            loop = calibrate_loop(errors, geom, side_m, n_runs, noise, motion, method, max_passes, seed, prior,
+                                  on_progress=lambda done, total: advance())
         if save_runs is not None:
             for p in loop.passes:
                 write_runs_csv(p.runs, Path(save_runs) / f"pass{p.index}.csv")
         title = (f"Calibration loop ({method}): simulated robot E_d = {ed}, E_b = {eb}, noise '{noise}', "
                  f"{n_runs} runs each way")
+    rec = None
+    if record:
+        fields = history_fields(loop, method)
+        if runs_files:
+            from ..history import file_sha256
+
+            shas = [file_sha256(f) for f in runs_files]
+            fields["inputs"]["runs_files"] = [{"path": str(Path(f).resolve()), "sha256": h}
+                                              for f, h in zip(runs_files, shas)]
+            # one file: its hash; several: the hash of their hashes, in pass order
+            fields["input_sha256"] = shas[0] if len(shas) == 1 else \
+                hashlib.sha256("\n".join(shas).encode()).hexdigest()
+            fields["source"] = str(Path(runs_files[-1]).resolve())
+        else:
+            fields["inputs"]["simulation"] = {"Ed": ed, "Eb": eb, "runs_per_direction": n_runs, "noise": noise,
+                                              "seed": seed, "sample_period_ms": sample_period_ms,
+                                              "max_passes": max_passes, "side_mm": side_mm}
+            fields["note"] = "simulated robot"
+        rec = record_if_requested(robot, record, db, **fields)
     if as_json:
         d = loop.to_dict()
         d["method"] = method
+        if rec:
+            d["history"] = rec
         emit_json(d)
     elif not is_quiet():
         _print_loop(loop, title)
+        print_recorded(rec)

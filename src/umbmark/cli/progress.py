@@ -16,6 +16,7 @@ otherwise the helpers do nothing (so pipes, files and tests see no bar)::
 
 from __future__ import annotations
 
+import sys
 from contextlib import contextmanager
 
 from rich.console import Console
@@ -45,9 +46,19 @@ def progress(description: str, total: int | None = None):
         return
     cols = [SpinnerColumn(), TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
             TimeElapsedColumn()]
-    with Progress(*cols, console=c, transient=True) as p:
+    # rich would send whatever the command prints on stdout meanwhile through the bar's console
+    # (stderr): only do that when stdout is the same kind of screen, never into a pipe or file
+    with Progress(*cols, console=c, transient=True, redirect_stdout=_stdout_is_terminal(),
+                  redirect_stderr=False) as p:
         task = p.add_task(description, total=total)
         yield lambda n=1: p.advance(task, n)
+
+
+def _stdout_is_terminal() -> bool:
+    try:
+        return sys.stdout.isatty()
+    except (AttributeError, ValueError):
+        return False
 
 
 def track(iterable, description: str, total: int | None = None):

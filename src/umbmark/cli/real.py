@@ -11,6 +11,7 @@ from ..errors import InputError
 from ..io.load import LOG_FORMATS, load_logs
 from .history import history_options, print_recorded, record_report_if_requested
 from .app import app, console, emit_json, fmt, is_quiet, table
+from .progress import progress, track
 
 
 def _method_choices():
@@ -73,8 +74,9 @@ def _datasets(paths, log_format, kw):
     paths = list(paths)
     if log_format in ("csv",) or (log_format == "auto" and all(Path(p).is_file() and Path(p).suffix.lower()
                                                                 == ".csv" for p in paths)):
-        return [_load(paths, "csv", kw)]
-    return [_load([p], log_format, kw) for p in paths]
+        with progress(f"reading {len(paths)} CSV log(s)"):
+            return [_load(paths, "csv", kw)]
+    return [_load([p], log_format, kw) for p in track(paths, "reading logs")]
 
 
 def _print_report(rep: dict):
@@ -183,7 +185,8 @@ def replay(paths, method, log_format, pool, lsq_mode, scale, heading_weight_m, p
     if pool:
         if method != "lsq":
             raise InputError("--pool works with --method lsq")
-        rep = pooled_report(sets, lsq_opts, heldout=not no_heldout)
+        with progress("fitting and replaying"):
+            rep = pooled_report(sets, lsq_opts, heldout=not no_heldout)
         _save(rep, save)
         rec = record_report_if_requested(robot, record, db, rep, list(paths), kind="replay", method=method)
         if as_json:
@@ -199,7 +202,8 @@ def replay(paths, method, log_format, pool, lsq_mode, scale, heading_weight_m, p
                     f"fitted: {rep['fitted_parameters']}")
             print_recorded(rec)
         return
-    rep = replay_report(sets, method, lsq_opts, heldout=not no_heldout)
+    with progress("replaying and calibrating"):
+        rep = replay_report(sets, method, lsq_opts, heldout=not no_heldout)
     _save(rep, save)
     rec = record_report_if_requested(robot, record, db, rep, list(paths), kind="replay", method=method)
     if as_json:
