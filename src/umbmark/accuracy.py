@@ -32,13 +32,14 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass
 
 import numpy as np
 
 from .benchmark import umbmark
 from .correct import correct_runs
 from .errors import InputError, UmbmarkError
+from .jsonutil import dumps
 from .kinematics import LABMATE, ErrorParams, Geometry
 from .simulate import Motion, simulate_umbmark
 
@@ -358,7 +359,6 @@ def figure(res: dict):
 
 def write_results(res: dict, out_dir, stem: str = "accuracy") -> dict:
     """Write ``<stem>.json``, ``.csv``, ``.md`` and ``.png`` into ``out_dir`` (created)."""
-    import json
     from pathlib import Path
 
     from .io.atomic import atomic_path, atomic_write
@@ -368,19 +368,8 @@ def write_results(res: dict, out_dir, stem: str = "accuracy") -> dict:
         raise InputError(f"output folder {out} is a file")
     out.mkdir(parents=True, exist_ok=True)
 
-    def clean(o):
-        if isinstance(o, float):
-            return o if math.isfinite(o) else None
-        if isinstance(o, dict):
-            return {str(k): clean(v) for k, v in o.items()}
-        if isinstance(o, (list, tuple)):
-            return [clean(v) for v in o]
-        if isinstance(o, np.generic):
-            return clean(o.item())
-        return o
-
     paths = {k: out / f"{stem}.{k}" for k in ("json", "csv", "md", "png")}
-    atomic_write(paths["json"], json.dumps(clean(res), indent=1, allow_nan=False) + "\n")
+    atomic_write(paths["json"], dumps(res, indent=1) + "\n")
     atomic_write(paths["csv"], format_csv(res))
     atomic_write(paths["md"], format_markdown(res))
     fig = figure(res)

@@ -39,6 +39,7 @@ from pathlib import Path
 
 from . import __version__
 from .errors import InputError, UmbmarkError
+from .jsonutil import dumps, jsonable
 
 __all__ = [
     "SCHEMA_VERSION", "MIGRATIONS", "ENV_VAR", "KINDS", "Record", "History", "HistoryError",
@@ -160,22 +161,8 @@ def _utc_string(when) -> str:
     return when.astimezone(timezone.utc).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
 
 
-def _clean(o):
-    if isinstance(o, float):
-        return o if math.isfinite(o) else None
-    if isinstance(o, dict):
-        return {str(k): _clean(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [_clean(v) for v in o]
-    if hasattr(o, "tolist") and callable(o.tolist):  # numpy arrays and scalars
-        return _clean(o.tolist())
-    if isinstance(o, Path):
-        return str(o)
-    return o
-
-
 def _dumps(o) -> str:
-    return json.dumps(_clean(o), allow_nan=False, sort_keys=True)
+    return dumps(o, sort_keys=True)
 
 
 def _num(v):
@@ -575,7 +562,7 @@ def export_parameters(record: Record) -> dict:
 
 def format_export(record: Record, fmt: str = "json") -> str:
     """:func:`export_parameters` as JSON or YAML text."""
-    d = _clean(export_parameters(record))
+    d = jsonable(export_parameters(record))
     if fmt == "json":
         return json.dumps(d, indent=2, allow_nan=False) + "\n"
     if fmt == "yaml":

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import json
 import math
 import sys
 
@@ -12,6 +11,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from .. import __version__
+from ..jsonutil import dumps
 
 CONTEXT = dict(help_option_names=["-h", "--help"], max_content_width=100)
 
@@ -54,21 +54,9 @@ def is_quiet() -> bool:
     return False
 
 
-def _clean(o):
-    if isinstance(o, float):
-        return o if math.isfinite(o) else None
-    if isinstance(o, dict):
-        return {str(k): _clean(v) for k, v in o.items()}
-    if isinstance(o, (list, tuple)):
-        return [_clean(v) for v in o]
-    if hasattr(o, "item") and callable(o.item):  # numpy scalars
-        return _clean(o.item())
-    return o
-
-
 def emit_json(obj) -> None:
     """Print one JSON object (NaN and infinities become null: strict JSON)."""
-    sys.stdout.write(json.dumps(_clean(obj), indent=2, allow_nan=False) + "\n")
+    sys.stdout.write(dumps(obj, indent=2) + "\n")
 
 
 def fmt(v, digits: int = 1, unit: str = "") -> str:

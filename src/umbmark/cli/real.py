@@ -224,12 +224,10 @@ def replay(paths, method, log_format, pool, lsq_mode, scale, heading_weight_m, p
 
 def _save(rep, path):
     if path:
-        import json
-
         from ..io.atomic import atomic_write
-        from .app import _clean
+        from ..jsonutil import dumps
 
-        atomic_write(path, json.dumps(_clean(rep), indent=2, allow_nan=False) + "\n")
+        atomic_write(path, dumps(rep, indent=2) + "\n")
 
 
 @app.command(name="bag-info")
