@@ -25,8 +25,14 @@ nominal square: its reported end pose (``x_odo``, ``y_odo`` and ``theta_odo`` wh
 explained by the minimum-norm deviations of its four turns (:func:`odometry_turns`), and the
 model drives those turns. Where the measured headings (``theta_abs`` and
 ``theta_odo``) are given, their difference is fitted too, weighted by ``heading_weight_m``
-metres per radian (default: the side length, so a heading error counts like the lateral
-miss it causes over one leg).
+metres per radian. Default: weighed by the data (variance components,
+:func:`_reweigh_heading`): ``min(side, sigma_pos / sigma_theta)`` with the scatter of the
+positions and of the headings about the positions-only fit, so headings that are noisier
+than the positions, or disagree with them systematically, count less (a real robot's
+motion-capture headings: the optiodom 1.7 m squares, where the fixed weight of one side
+left 27 mm after correction instead of 4 mm). The side length (a heading error counts like
+the lateral miss it causes over one leg) stays the upper limit and the weight of
+noise-free runs.
 
 E_s is invisible on a closed square (it only scales the square); it is 1 unless the user
 gives a straight-line distance measurement (``straight_m=(odometry_m, measured_m)``), in
