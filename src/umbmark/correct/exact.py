@@ -25,8 +25,14 @@ nominal square: its reported end pose (``x_odo``, ``y_odo`` and ``theta_odo`` wh
 explained by the minimum-norm deviations of its four turns (:func:`odometry_turns`), and the
 model drives those turns. Where the measured headings (``theta_abs`` and
 ``theta_odo``) are given, their difference is fitted too, weighted by ``heading_weight_m``
-metres per radian (default: the side length, so a heading error counts like the lateral
-miss it causes over one leg).
+metres per radian. Default: weighed by the data (variance components,
+:func:`_reweigh_heading`): ``min(side, sigma_pos / sigma_theta)`` with the scatter of the
+positions and of the headings about the positions-only fit, so headings that are noisier
+than the positions, or disagree with them systematically, count less (a real robot's
+motion-capture headings: the optiodom 1.7 m squares, where the fixed weight of one side
+left 27 mm after correction instead of 4 mm). The side length (a heading error counts like
+the lateral miss it causes over one leg) stays the upper limit and the weight of
+noise-free runs.
 
 E_s is invisible on a closed square (it only scales the square); it is 1 unless the user
 gives a straight-line distance measurement (``straight_m=(odometry_m, measured_m)``), in
@@ -321,6 +327,42 @@ def _fit(prob: _Problem, starts, loss: str, f_scale: float, good=None):
     return best
 
 
+def _reweigh_heading(prob: _Problem, sol, loss, f_scale):
+    """Weigh the headings by how well they agree with the model (variance components).
+
+    Fits the positions alone (from ``sol``), then estimates the residual scatter of the
+    positions (``sigma_pos``, per axis, 2 n - 2 degrees of freedom) and of the headings about
+    that fit (``sigma_theta``, n degrees of freedom; any systematic disagreement of the
+    headings with the model counts as scatter). The heading weight becomes
+    ``min(side, sigma_pos / sigma_theta)`` metres per radian: never more than the default (the
+    side), less when the headings are noisier than the positions suggest or disagree with
+    them (a real robot: heading measured by a motion-capture system, turns that slip
+    differently from the legs). Noise-free runs keep the side. Returns the new solution (or
+    ``sol`` when the weight stays) and the weight used."""
+    w0 = prob.w
+    prob.w = 0.0
+    try:
+        sp = _fit(prob, [sol.x], loss, f_scale)
+    finally:
+        prob.w = w0
+    if sp is None:
+        return sol, w0
+    r = prob.residuals_matrix([sp.x[0]], [sp.x[1]])[0]
+    n = prob.n
+    s_pos = math.sqrt(float(np.sum(r[:, :2] ** 2)) / max(2 * n - 2, 1))
+    s_th = math.sqrt(float(np.sum((r[:, 2] / w0) ** 2)) / n)
+    tiny = 1e-9 * prob.side_m
+    if not (math.isfinite(s_pos) and math.isfinite(s_th)) or s_th * w0 <= max(s_pos, tiny):
+        return sol, w0
+    w = s_pos / s_th
+    prob.w = w
+    sol2 = _fit(prob, [sp.x, sol.x], loss, f_scale)
+    if sol2 is None:  # pragma: no cover - defensive
+        prob.w = w0
+        return sol, w0
+    return sol2, w
+
+
 def _aliases(prob: _Problem, sol, loss, f_scale):
     """Other calibrations that explain the runs as well (the square test is blind to some: a
     robot that really turns 180 deg per commanded 90 deg with equal wheels ends exactly where
@@ -513,6 +555,15 @@ def exact_correction(
     with np.errstate(all="ignore"), _warnings.catch_warnings():
         _warnings.simplefilter("ignore")
         sol = _fit(prob, [bf0], loss, f_scale) if bf0 is not None else None
+        reweigh = prob.heading and heading_weight_m is None
+        if reweigh and sol is not None and global_search != True:  # noqa: E712 (True, not 1)
+            # headings that disagree with the positions must not send the fit searching:
+            # weigh them by their agreement first; search only if that does not explain the runs
+            sol_rw, w_rw = _reweigh_heading(prob, sol, loss, f_scale)
+            if _explains(prob, sol_rw, sems):
+                sol, reweigh = sol_rw, False
+            else:
+                prob.w = float(side_m)
         searched = False
         # global search in two stages: candidates from the headings (cheap), then the grid
         for stage in (_heading_starts, _grid_starts):
@@ -529,6 +580,8 @@ def exact_correction(
     alternatives = []
     with np.errstate(all="ignore"), _warnings.catch_warnings():
         _warnings.simplefilter("ignore")
+        if reweigh:
+            sol, _ = _reweigh_heading(prob, sol, loss, f_scale)
         sol, alternatives = _aliases(prob, sol, loss, f_scale)
     p = sol.x
     if alternatives:
@@ -576,6 +629,7 @@ def exact_correction(
         "global_search": searched,
         "loss": loss,
         "heading_used": bool(prob.heading),
+        "heading_weight_m": float(prob.w) if prob.heading else None,
         "runs_cw": n_cw,
         "runs_ccw": n_ccw,
     }
