@@ -41,6 +41,7 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
+from .io._text import csv_rows, header_columns
 from .runs import DIRECTIONS, RunsTable
 
 __all__ = [
@@ -345,16 +346,12 @@ def parse_distances_csv(text: str, source: str = "<distances>") -> list[Measured
     put back on the same marked start; cw and ccw runs start at different corners). Blank lines
     and lines starting with ``#`` are skipped."""
     required = ("direction",) + DIST_COLUMNS + ("x_odo", "y_odo")
-    reader = csv.reader(io.StringIO(text))
     header = None
     out: list[MeasuredRun] = []
     prev_start: dict[str, tuple] = {}
-    for row in reader:
-        line = reader.line_num
-        if not row or all(not c.strip() for c in row) or row[0].lstrip().startswith("#"):
-            continue
+    for line, row in csv_rows(text, source):
         if header is None:
-            header = [c.strip().lower() for c in row]
+            header = header_columns(row)
             missing = [c for c in required if c not in header]
             if missing:
                 raise InputError("no header with the distances-file columns: missing " + ", ".join(missing)

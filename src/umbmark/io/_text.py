@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import csv
+import io
 import math
 from pathlib import Path
 
@@ -22,6 +24,28 @@ def read_text(path) -> str:
         raise InputError("not a text (UTF-8) file", source=str(path)) from None
     except OSError as e:
         raise InputError(f"cannot read: {e.strerror}", source=str(path)) from None
+
+
+def csv_rows(text: str, source: str):
+    """Yield ``(line, cells)`` of the CSV rows of ``text`` that carry data: blank lines and lines
+    whose first cell starts with ``#`` are skipped. ``line`` is the 1-based number of the row's
+    last physical line. Malformed CSV raises an :class:`InputError` naming the line."""
+    reader = csv.reader(io.StringIO(text, newline=None))
+    while True:
+        try:
+            row = next(reader)
+        except StopIteration:
+            return
+        except csv.Error as e:
+            raise InputError(f"not valid CSV: {e}", source, reader.line_num) from None
+        if not row or all(not c.strip() for c in row) or row[0].lstrip().startswith("#"):
+            continue
+        yield reader.line_num, row
+
+
+def header_columns(row) -> list[str]:
+    """A header row's column names: stripped, lower case."""
+    return [c.strip().lower() for c in row]
 
 
 def numeric_rows(text: str, source: str, ncols: int | None = None, names=None, skip=(), delimiter=","):

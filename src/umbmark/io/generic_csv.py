@@ -30,7 +30,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..logs import Dataset, Run, WheelGeometry, to_start_frame
-from ._text import read_text
+from ._text import csv_rows, header_columns, read_text
 
 __all__ = ["read_generic_csv", "format_generic_csv", "iter_generic_csv", "CsvChunk", "REQUIRED", "OPTIONAL"]
 
@@ -54,15 +54,11 @@ def _cell(v: str, col: str, src: str, line: int, allow_empty: bool) -> float:
 
 
 def _parse(text: str, src: str):
-    reader = csv.reader(io.StringIO(text))
     header = None
     rows = []
-    for row in reader:
-        line = reader.line_num
-        if not row or all(not c.strip() for c in row) or row[0].lstrip().startswith("#"):
-            continue
+    for line, row in csv_rows(text, src):
         if header is None:
-            header = [c.strip().lower() for c in row]
+            header = header_columns(row)
             missing = [c for c in REQUIRED if c not in header]
             if missing:
                 raise InputError("header lacks column(s) " + ", ".join(missing)

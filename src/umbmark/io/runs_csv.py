@@ -12,12 +12,12 @@ from __future__ import annotations
 import csv
 import io
 import math
-from pathlib import Path
 
 import numpy as np
 
 from ..errors import InputError
 from ..runs import DIRECTIONS, RunsTable
+from ._text import csv_rows, header_columns, read_text
 from .atomic import atomic_write
 
 __all__ = ["read_runs_csv", "write_runs_csv", "parse_runs_csv", "format_runs_csv", "REQUIRED", "OPTIONAL"]
@@ -29,17 +29,7 @@ _NUMERIC = ("x_abs", "y_abs", "x_odo", "y_odo", "theta_abs", "theta_odo")
 
 def read_runs_csv(path) -> RunsTable:
     """Read a runs file (mm, deg) into a :class:`RunsTable` (m, rad)."""
-    p = Path(path)
-    if not p.exists():
-        raise InputError("file not found", source=str(path))
-    if p.is_dir():
-        raise InputError("is a folder, not a runs file", source=str(path))
-    try:
-        text = p.read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError:
-        raise InputError("not a text (UTF-8) file", source=str(path)) from None
-    except OSError as e:
-        raise InputError(f"cannot read: {e.strerror}", source=str(path)) from None
+    text = read_text(path)
     return parse_runs_csv(text, source=str(path))
 
 
@@ -58,19 +48,9 @@ def parse_runs_csv(text: str, source: str = "<runs>") -> RunsTable:
     rows = []
     header = None
     header_line = None
-    reader = csv.reader(io.StringIO(text, newline=None))
-    while True:
-        try:
-            row = next(reader)
-        except StopIteration:
-            break
-        except csv.Error as e:
-            raise InputError(f"not valid CSV: {e}", source, reader.line_num) from None
-        line = reader.line_num
-        if not row or all(not c.strip() for c in row) or row[0].lstrip().startswith("#"):
-            continue
+    for line, row in csv_rows(text, source):
         if header is None:
-            header = [c.strip().lower() for c in row]
+            header = header_columns(row)
             header_line = line
             missing = [c for c in REQUIRED if c not in header]
             if missing:
