@@ -72,3 +72,12 @@ def table(title: str, columns: list[str], rows: list[list], justify_first: str =
     for r in rows:
         t.add_row(*[escape(str(x)) for x in r])
     return t
+
+
+def prior_options(f):
+    """``--c-left`` / ``--c-right``: the correction factors the robot's odometry ran with."""
+    f = click.option("--c-right", type=float, default=1.0, show_default=True,
+                     help="Right-wheel correction factor the robot's odometry ran with.")(f)
+    f = click.option("--c-left", type=float, default=1.0, show_default=True,
+                     help="Left-wheel correction factor the robot's odometry ran with.")(f)
+    return f

@@ -13,7 +13,7 @@ from ..correct import METHODS
 from ..io.runs_csv import read_runs_csv, write_runs_csv
 from ..kinematics import LABMATE, Calibration, ErrorParams, Geometry
 from ..simulate import NOISE_PRESETS, Motion, simulate_umbmark
-from .app import app, console, emit_json, fmt, is_quiet, table
+from .app import app, console, emit_json, fmt, is_quiet, prior_options, table
 from .history import history_options, print_recorded, record_if_requested
 from .progress import progress
 
@@ -24,14 +24,6 @@ def geometry_options(f):
     f = click.option("--side-mm", type=float, default=4000.0, show_default=True, help="Side of the square path.")(f)
     f = click.option("--wheelbase-mm", type=float, default=LABMATE.wheelbase_m * 1e3, show_default=True,
                      help="Nominal wheelbase.")(f)
-    return f
-
-
-def prior_options(f):
-    f = click.option("--c-right", type=float, default=1.0, show_default=True,
-                     help="Right-wheel correction factor the robot's odometry ran with.")(f)
-    f = click.option("--c-left", type=float, default=1.0, show_default=True,
-                     help="Left-wheel correction factor the robot's odometry ran with.")(f)
     return f
 
 

@@ -41,7 +41,7 @@ import click
 from rich.markup import escape
 
 from ..errors import InputError
-from .app import app, console, emit_json, fmt, is_quiet, table
+from .app import app, console, emit_json, fmt, is_quiet, prior_options, table
 
 __all__ = ["history_options", "record_if_requested", "record_report_if_requested", "print_recorded"]
 
@@ -227,10 +227,7 @@ def history_cmd(robot, db, plot_path, export_path, limit, show_id, as_json):
 @click.option("--wheelbase-mm", type=float, default=None, help="With FILE.csv: wheelbase the odometry used.")
 @click.option("--side-mm", type=float, default=None, help="With FILE.csv: side of the square.")
 @click.option("--method", default="bf", show_default=True, help="With FILE.csv: correction method.")
-@click.option("--c-left", type=float, default=1.0, show_default=True,
-              help="Left-wheel factor the odometry ran with.")
-@click.option("--c-right", type=float, default=1.0, show_default=True,
-              help="Right-wheel factor the odometry ran with.")
+@prior_options
 @click.option("--after", "after_file", type=click.Path(dir_okay=False), default=None,
               help="Runs file of a test after calibration (drawn in the same scatter).")
 @click.option("--attach", "attach", type=click.Path(dir_okay=False), multiple=True,
