@@ -31,9 +31,9 @@ from .errors import InputError
 from .kinematics import LABMATE, Calibration, ErrorParams, Geometry, OdometryParams, wrap_angle
 from .runs import RunsTable
 from .simulate import (
-    NOISE_PRESETS,
     Motion,
     NoiseModel,
+    program_inputs,
     SimResult,
     noise_preset,
     run_program,
@@ -348,11 +348,7 @@ def run_batch(program, true_per_run: dict, model_per_run: dict, noise: NoiseMode
     this many threads (the numba engine and the noise draws release the GIL; results do not
     depend on it; ``None``: 1)."""
     engine = _check_engine(engine)
-    noise = noise or NOISE_PRESETS["none"]
-    motion = motion or Motion()
-    program = tuple(program)
-    if not program:
-        raise InputError("empty path program")
+    program, noise, motion = program_inputs(program, noise, motion)
     if n_runs is None:
         if rngs is not None:
             n_runs = len(rngs)

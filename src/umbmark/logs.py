@@ -74,6 +74,20 @@ class WheelGeometry:
         k = math.pi / units_per_rev
         return OdometryParams(k * self.diameter_left_m, k * self.diameter_right_m, self.wheelbase_m)
 
+    def relative_to(self, nominal: "WheelGeometry") -> dict:
+        """This (corrected) geometry against ``nominal``: the ratios and absolute sizes every
+        calibration report gives (``Ed``, ``Eb``, ``Es``, ``c_left``, ``c_right``, mm values)."""
+        return {
+            "Ed": self.ed,
+            "Eb": self.wheelbase_m / nominal.wheelbase_m,
+            "Es": self.diameter_avg_m / nominal.diameter_avg_m,
+            "c_left": self.diameter_left_m / nominal.diameter_left_m,
+            "c_right": self.diameter_right_m / nominal.diameter_right_m,
+            "wheelbase_corrected_mm": self.wheelbase_m * 1e3,
+            "diameter_left_mm": self.diameter_left_m * 1e3,
+            "diameter_right_mm": self.diameter_right_m * 1e3,
+        }
+
     def calibrated(self, cal: Calibration) -> "WheelGeometry":
         """This (nominal) geometry with correction factors applied (Eq. 4.33)."""
         b = self.wheelbase_m if cal.wheelbase_m is None else cal.wheelbase_m

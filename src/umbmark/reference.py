@@ -16,7 +16,16 @@ import numpy as np
 from .errors import InputError
 from .kinematics import LABMATE, Calibration, ErrorParams, Geometry, OdometryParams
 from .runs import RunsTable
-from .simulate import NOISE_PRESETS, Motion, NoiseModel, SimResult, noise_preset, run_seeds, runs_table, square_program
+from .simulate import (
+    Motion,
+    NoiseModel,
+    SimResult,
+    noise_preset,
+    program_inputs,
+    run_seeds,
+    runs_table,
+    square_program,
+)
 
 __all__ = ["integrate", "integrate_pulses", "run_program", "simulate_umbmark"]
 
@@ -92,11 +101,7 @@ def run_program(program, true: OdometryParams, model: OdometryParams, n_runs: in
                 true_per_run: dict | None = None, model_per_run: dict | None = None) -> SimResult:
     """The closed-loop simulation of :func:`umbmark.simulate.run_program`, one run and one
     sample at a time (same arguments, same random draws, same results to rounding)."""
-    noise = noise or NOISE_PRESETS["none"]
-    motion = motion or Motion()
-    program = tuple(program)
-    if not program:
-        raise InputError("empty path program")
+    program, noise, motion = program_inputs(program, noise, motion)
     if n_runs is None:
         n_runs = len(rngs) if rngs is not None else 1
     R = n_runs

@@ -104,17 +104,7 @@ class Calibrated:
 
     def to_dict(self) -> dict:
         g, n = self.geometry, self.nominal
-        d = {
-            "Ed": g.ed,
-            "Eb": g.wheelbase_m / n.wheelbase_m,
-            "Es": g.diameter_avg_m / n.diameter_avg_m,
-            "c_left": g.diameter_left_m / n.diameter_left_m,
-            "c_right": g.diameter_right_m / n.diameter_right_m,
-            "wheelbase_corrected_mm": g.wheelbase_m * 1e3,
-            "diameter_left_mm": g.diameter_left_m * 1e3,
-            "diameter_right_mm": g.diameter_right_m * 1e3,
-            "wheelbase_per_mean_diameter": g.wheelbase_m / g.diameter_avg_m,
-        }
+        d = {**g.relative_to(n), "wheelbase_per_mean_diameter": g.wheelbase_m / g.diameter_avg_m}
         for k, v in self.figures.items():
             d.setdefault(k, v)
         return d

@@ -57,6 +57,7 @@ __all__ = [
     "simulate_runs",
     "run_seeds",
     "runs_table",
+    "program_inputs",
 ]
 
 
@@ -198,6 +199,15 @@ class SimResult:
     trajectory: dict | None = field(default=None, repr=False)
 
 
+def program_inputs(program, noise: NoiseModel | None, motion: Motion | None):
+    """The common inputs of every simulator: the program as a non-empty tuple, the noise model
+    (default: none) and the motion (default: the paper's)."""
+    program = tuple(program)
+    if not program:
+        raise InputError("empty path program")
+    return program, noise or NOISE_PRESETS["none"], motion or Motion()
+
+
 def _per_run(v, n):
     a = np.broadcast_to(np.asarray(v, dtype=float), (n,))
     return np.array(a)
@@ -229,11 +239,7 @@ def run_program(
     ``right_m_per_pulse``, ``wheelbase_m`` of shape (R,), overriding ``true`` / ``model``.
     ``rngs``: one numpy Generator per run (see :func:`run_seeds`); needed when there is noise.
     """
-    noise = noise or NOISE_PRESETS["none"]
-    motion = motion or Motion()
-    program = tuple(program)
-    if not program:
-        raise InputError("empty path program")
+    program, noise, motion = program_inputs(program, noise, motion)
     if n_runs is None:
         n_runs = len(rngs) if rngs is not None else 1
     if n_runs < 1:
