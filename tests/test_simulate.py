@@ -102,6 +102,19 @@ def test_noise_is_seeded_and_reproducible():
     assert not np.array_equal(a.x_abs, c.x_abs)
 
 
+def test_a_seed_object_gives_the_same_runs_every_time():
+    """SeedSequence.spawn counts its calls; the simulator must not: passing one seed object twice
+    (a benchmark's common random numbers) gives the same runs, equal to the integer seed's."""
+    e = ErrorParams(ed=1.001)
+    ss = np.random.SeedSequence(5)
+    a = simulate_umbmark(e, n_runs=3, noise="paper", seed=ss)
+    b = simulate_umbmark(e, n_runs=3, noise="paper", seed=ss)
+    c = simulate_umbmark(e, n_runs=3, noise="paper", seed=5)
+    np.testing.assert_array_equal(a.x_abs, b.x_abs)
+    np.testing.assert_array_equal(a.x_abs, c.x_abs)
+    assert ss.n_children_spawned == 0
+
+
 def test_a_run_does_not_depend_on_its_batch():
     noise = NOISE_PRESETS["paper"]
     prog = square_program("ccw", 4.0)

@@ -32,6 +32,7 @@ from .kinematics import LABMATE, Calibration, ErrorParams, Geometry, OdometryPar
 from .runs import RunsTable
 from .simulate import (
     Motion,
+    child_seeds,
     NoiseModel,
     program_inputs,
     SimResult,
@@ -471,7 +472,7 @@ def simulate_batch(
     cals = _robot_list(calibrations, n, "calibrations")
     if isinstance(seeds, (int, np.integer, np.random.SeedSequence)):
         root = seeds if isinstance(seeds, np.random.SeedSequence) else np.random.SeedSequence(int(seeds))
-        seeds = root.spawn(n)
+        seeds = child_seeds(root, n)
     seeds = list(seeds)
     if len(seeds) != n:
         raise InputError(f"seeds: expected {n} entries (one per robot), got {len(seeds)}")
@@ -481,8 +482,7 @@ def simulate_batch(
     M = {k: np.repeat([getattr(p, k) for p in model], n_runs) for k in _PARAM_KEYS}
     per_dir = {"cw": [], "ccw": []}
     for s in seeds:
-        ss = s if isinstance(s, np.random.SeedSequence) else np.random.SeedSequence(s)
-        cw_ss, ccw_ss = ss.spawn(2)
+        cw_ss, ccw_ss = child_seeds(s, 2)
         per_dir["cw"].extend(run_seeds(cw_ss, n_runs))
         per_dir["ccw"].extend(run_seeds(ccw_ss, n_runs))
     res = {d: run_batch(square_program(d, side_m), T, M, noise, motion, per_dir[d], n * n_runs, engine, chunk_runs,

@@ -18,6 +18,7 @@ from .kinematics import LABMATE, Calibration, ErrorParams, Geometry, OdometryPar
 from .runs import RunsTable
 from .simulate import (
     Motion,
+    child_seeds,
     NoiseModel,
     SimResult,
     noise_preset,
@@ -203,7 +204,7 @@ def simulate_umbmark(errors: ErrorParams, geometry: Geometry = LABMATE, side_m: 
     true = errors.true_params(geometry)
     model = OdometryParams.from_geometry(geometry, calibration)
     parts = []
-    for direction, s in zip(("cw", "ccw"), ss.spawn(2)):
+    for direction, s in zip(("cw", "ccw"), child_seeds(ss, 2)):
         res = run_program(square_program(direction, side_m), true, model, n_runs, noise, motion,
                           rngs=run_seeds(s, n_runs))
         parts.append((direction, res))

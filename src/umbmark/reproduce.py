@@ -51,7 +51,7 @@ from .correct import CorrectionResult, bf_correction
 from .errors import InputError
 from .kinematics import LABMATE, Calibration, ErrorParams, Geometry, OdometryParams, wrap_angle
 from .runs import RunsTable
-from .simulate import NOISE_PRESETS, Motion, NoiseModel, run_program, run_seeds, square_program
+from .simulate import NOISE_PRESETS, Motion, child_seeds, NoiseModel, run_program, run_seeds, square_program
 from .workflows import FIG11_ERRORS  # the paper's Fig. 11 robot: E_d = 1.00084, b = 336.17 mm
 
 __all__ = [
@@ -257,9 +257,7 @@ def simulate_tests(tests: list[TestSpec], cfg: StudyConfig) -> list[RunsTable]:
     cw_rngs, ccw_rngs = [], []
     tl, tr, tb, ml, mr, mb = ([] for _ in range(6))
     for t in tests:
-        # the same seed split as simulate_umbmark (spawn on a copy: the spec stays reusable)
-        ss = np.random.SeedSequence(t.seed.entropy, spawn_key=t.seed.spawn_key)
-        cw_ss, ccw_ss = ss.spawn(2)
+        cw_ss, ccw_ss = child_seeds(t.seed, 2)  # the same seed split as simulate_umbmark
         cw_rngs += run_seeds(cw_ss, n)
         ccw_rngs += run_seeds(ccw_ss, n)
         tp = t.errors.true_params(geo)

@@ -58,6 +58,7 @@ __all__ = [
     "run_seeds",
     "runs_table",
     "program_inputs",
+    "child_seeds",
 ]
 
 
@@ -213,10 +214,20 @@ def _per_run(v, n):
     return np.array(a)
 
 
+def child_seeds(seed: int | np.random.SeedSequence, n: int) -> list[np.random.SeedSequence]:
+    """The first ``n`` children of ``seed``, the same on every call.
+
+    ``SeedSequence.spawn`` counts its calls (a second call gives new children), so a seed
+    object passed twice would give two different simulations; this does not (it equals the
+    first ``spawn(n)`` of a fresh copy)."""
+    ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+    return [np.random.SeedSequence(ss.entropy, spawn_key=tuple(ss.spawn_key) + (i,), pool_size=ss.pool_size)
+            for i in range(n)]
+
+
 def run_seeds(seed: int | np.random.SeedSequence, n: int) -> list[np.random.Generator]:
     """``n`` independent generators from one seed (run i always gets the same stream)."""
-    ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
-    return [np.random.default_rng(s) for s in ss.spawn(n)]
+    return [np.random.default_rng(s) for s in child_seeds(seed, n)]
 
 
 def run_program(
@@ -447,8 +458,7 @@ def simulate_umbmark(
     Returns the runs as a :class:`RunsTable` (SI units). The cw runs use the first ``n_runs``
     child seeds of ``seed``, the ccw runs the next ``n_runs``.
     """
-    ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
-    cw_ss, ccw_ss = ss.spawn(2)
+    cw_ss, ccw_ss = child_seeds(seed, 2)
     parts = []
     for direction, s in (("cw", cw_ss), ("ccw", ccw_ss)):
         res = simulate_runs(direction, n_runs, errors, geometry, side_m, calibration, noise, motion, seed=s)
