@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Accuracy benchmark of the correction methods (issue 7); same as ``umbmark bench accuracy``.
 
-    python benchmarks/accuracy.py            # full grid, 100 robots per cell (about 5-10 min on 2 cores)
+    python benchmarks/accuracy.py            # full grid, 100 robots per cell (about 8 min on 2 cores)
     python benchmarks/accuracy.py --quick    # small grid, 4 robots per cell (seconds)
 
 Writes accuracy.{json,csv,md,png} into benchmarks/results/ (or --out). See

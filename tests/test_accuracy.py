@@ -35,6 +35,11 @@ def test_tiny_benchmark_structure(tmp_path):
     assert json.loads(open(paths["json"]).read())["config"]["robots"] == 2
     header = open(paths["csv"]).readline().strip().split(",")
     assert "exact_over_estimation_floor" in header and "exact_over_perfect_floor" in header
+    assert {"emax_bound_mm", "exact_over_bound", "bound_eb_sd"} <= set(header)
+    paper = [r for r in res["cells"] if r["noise"] == "paper"]
+    assert all(r["emax_bound_mm"] > 0 and r["bound_eb_sd"] > 0 for r in paper)
+    assert all(r["emax_bound_mm"] == r["emax_perfect_mm"] for r in none)  # no noise: nothing to estimate
+    assert "Information bound" in open(paths["md"]).read()
 
 
 def test_bench_accuracy_cli(tmp_path, capsys):
@@ -70,3 +75,50 @@ def test_benchmark_script_runs_on_its_own(tmp_path, repo_root):
                         "--out", str(tmp_path)], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     assert (tmp_path / "accuracy.csv").exists() and "paper" in r.stdout
+
+
+def test_information_bound_matches_the_analytic_bound_for_measurement_noise():
+    """With only measurement noise (2 mm, 0.4 deg, independent) the run covariance is known, so
+    the Cramer-Rao bound is (sum_d n J_d^T S^-1 J_d)^-1 with S diagonal: the estimated bound
+    (200 simulated runs per direction) must agree within the sampling error of S (~10 %)."""
+    import math
+
+    import numpy as np
+
+    from umbmark.accuracy import _geometry, information_bound
+    from umbmark.correct.exact import _Problem
+    from umbmark.kinematics import ErrorParams
+    from umbmark.simulate import Motion, NoiseModel, simulate_umbmark
+
+    cfg = AccuracyConfig()
+    ed, eb = 1.01, 1.3
+    nm = NoiseModel(abs_xy_std_m=2e-3, abs_theta_std_rad=math.radians(0.4))
+    cov, sds = information_bound(cfg, ed, eb, nm)
+    geom = _geometry(cfg, eb)
+    runs = simulate_umbmark(ErrorParams(ed, eb), geom, cfg.side_m, 1, None, "none", Motion(sample_period_s=None))
+    prob = _Problem(runs, cfg.side_m, geom.wheelbase_m, 1.0, True, 1.0)
+    J = prob.jacobian_runs(np.array([ed, eb]))
+    Sinv = np.diag([1 / 2e-3 ** 2, 1 / 2e-3 ** 2, 1 / math.radians(0.4) ** 2])
+    info = sum(cfg.runs_per_direction * J[i].T @ Sinv @ J[i] for i in range(2))
+    want = np.sqrt(np.diag(np.linalg.inv(info)))
+    assert sds["ed_sd"] == pytest.approx(want[0], rel=0.12)
+    assert sds["eb_sd"] == pytest.approx(want[1], rel=0.12)
+    assert information_bound(cfg, ed, eb, "none") == (None, {"ed_sd": 0.0, "eb_sd": 0.0})
+
+
+def test_exact_is_near_the_information_bound():
+    """The bound is a bound: over 40 seeded robots (paper noise) exact's rms parameter errors are
+    neither far below the Cramer-Rao standard deviations (which would mean a wrong bound) nor far
+    above (an inefficient fit)."""
+    import numpy as np
+
+    from umbmark.accuracy import information_bound
+
+    cfg = replace(AccuracyConfig(), sample_period_s=0.03)
+    cov, sds = information_bound(cfg, 1.005, 0.95, "paper")
+    t = [robot_trial(cfg, 1.005, 0.95, "paper", i, cov) for i in range(40)]
+    rms_d = float(np.sqrt(np.mean([x["ed_err_exact"] ** 2 for x in t])))
+    rms_b = float(np.sqrt(np.mean([x["eb_err_exact"] ** 2 for x in t])))
+    assert 0.7 < rms_d / sds["ed_sd"] < 1.6, (rms_d, sds)
+    assert 0.7 < rms_b / sds["eb_sd"] < 1.6, (rms_b, sds)
+    assert all(x["emax_bound_mm"] > 0 for x in t)

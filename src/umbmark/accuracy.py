@@ -8,7 +8,12 @@ again (fresh runs):
 * ``bf2``: ``bf`` again on the runs of the once-corrected robot (composed), then fresh runs;
 * ``exact``: method ``exact``, one pass;
 * ``exact2``: ``exact`` again on the runs of the once-corrected robot, then fresh runs;
-* ``perfect``: the robot corrected with its true parameters (the **perfect floor**).
+* ``perfect``: the robot corrected with its true parameters (the **perfect floor**);
+* ``bound``: the robot corrected with parameters as good as *any* unbiased one-pass estimator
+  could give: errors drawn from the Cramer-Rao bound of the cell (:func:`information_bound`).
+  It is optimistic (Gaussian noise with the simulator's covariance known exactly, the model
+  free of bias), so a cell whose ``bound`` exceeds 1.15 x the estimation floor is one where no
+  one-pass estimator can reach it.
 
 Reported per cell: the median E_max,syst after correction of each, the median absolute
 parameter errors, and the coverage of ``exact``'s 95 % intervals. The **estimation floor** is
@@ -23,8 +28,13 @@ Design choices (documented in the README):
 * Common random numbers: robot ``i`` uses the same seeds in every cell, and the corrected
   robots of ``bf1``, ``exact`` and ``perfect`` drive with the same seeds.
 * Noise ``none`` uses the exact one-arc-per-segment model (one robot per cell: it is
-  deterministic); noise ``paper`` uses a sampling period of 30 ms (the paper's robot sampled
-  below 10 ms; 30 ms is 5 times faster to simulate and only makes the quantised stops coarser).
+  deterministic); noise ``paper`` uses a sampling period of 10 ms (the paper's robot sampled
+  below 10 ms). Coarser sampling is faster but not neutral: the controller stops on the first
+  sample past each target, so every leg overshoots by half a sample of travel on average (3 mm
+  at 30 ms and 0.2 m/s). The odometry knows it, the runs file does not (the overshoot of all
+  four legs leaves the odometry's end pose unchanged), so no fit can model it: at 30 ms it
+  biases ``exact``'s E_d by about 0.07 % of its departure from 1 and costs up to 20 % in
+  E_max,syst after correction where the legs curve strongly (measured; README).
 * A correction that fails (no answer) leaves the robot uncorrected; failures are counted.
 """
 
@@ -38,6 +48,8 @@ import numpy as np
 
 from .benchmark import umbmark
 from .correct import correct_runs
+from .correct.exact import _Problem
+from .correct.result import compose
 from .errors import InputError, UmbmarkError
 from .jsonutil import dumps
 from .kinematics import LABMATE, ErrorParams, Geometry
@@ -46,7 +58,7 @@ from .simulate import Motion, simulate_umbmark
 __all__ = ["AccuracyConfig", "QUICK", "run_accuracy", "robot_trial", "coverage_trial", "format_markdown",
            "write_results"]
 
-METHODS = ("bf1", "bf2", "exact", "exact2", "perfect")
+METHODS = ("bf1", "bf2", "exact", "exact2", "perfect", "bound")
 FITTED = ("bf1", "bf2", "exact", "exact2")
 
 
@@ -59,7 +71,7 @@ class AccuracyConfig:
     runs_per_direction: int = 5
     side_m: float = 4.0
     true_wheelbase_m: float = LABMATE.wheelbase_m
-    sample_period_s: float = 0.03
+    sample_period_s: float = 0.01
     seed: int = 2026
     workers: int | None = None  # local processes for the sweep over cells; None: all cores
 
@@ -96,8 +108,41 @@ def _correct(method, runs, side, wheelbase, prior=None):
         return None
 
 
-def robot_trial(cfg: AccuracyConfig, ed: float, eb: float, noise: str, robot: int) -> dict:
-    """One seeded robot of one cell: before, bf1, bf2, exact, perfect."""
+# seed key of the bound's covariance runs and of its parameter draws (robots use [seed, i])
+_BOUND_KEY = 0xC4B
+
+
+def information_bound(cfg: AccuracyConfig, ed: float, eb: float, noise: str, runs_for_covariance: int = 200):
+    """Cramer-Rao bound of one pass on the cell's robot: the covariance of (E_d, E_b) that an
+    efficient unbiased estimator reaches from ``cfg.runs_per_direction`` runs per direction.
+
+    The noise of one run's return error (x, y, heading) is measured per direction from
+    ``runs_for_covariance`` simulated runs per direction (own seeds); the model's Jacobian is
+    the exact closed-loop model's at the true parameters. Fisher information
+    ``I = sum_d n J_d^T S_d^-1 J_d``; returns ``(I^-1, {"ed_sd", "eb_sd"})`` (``None`` without
+    noise)."""
+    if noise == "none":
+        return None, {"ed_sd": 0.0, "eb_sd": 0.0}
+    geom = _geometry(cfg, eb)
+    runs = simulate_umbmark(ErrorParams(ed, eb), geom, cfg.side_m, runs_for_covariance, None, noise,
+                            Motion(sample_period_s=cfg.sample_period_s),
+                            seed=np.random.SeedSequence([cfg.seed, _BOUND_KEY, _BOUND_KEY, 1]))
+    prob = _Problem(runs, cfg.side_m, geom.wheelbase_m, 1.0, runs.eps_theta is not None, 1.0)
+    p = np.array([ed, eb])
+    r = prob.residuals_matrix([ed], [eb])[0]
+    J = prob.jacobian_runs(p)
+    info = np.zeros((2, 2))
+    for mask in (prob.is_cw, ~prob.is_cw):
+        S = np.cov(r[mask], rowvar=False).reshape(prob.ncomp, prob.ncomp)
+        Jd = J[mask].mean(axis=0)
+        info += cfg.runs_per_direction * Jd.T @ np.linalg.solve(S, Jd)
+    cov = np.linalg.inv(info)
+    return cov, {"ed_sd": float(math.sqrt(cov[0, 0])), "eb_sd": float(math.sqrt(cov[1, 1]))}
+
+
+def robot_trial(cfg: AccuracyConfig, ed: float, eb: float, noise: str, robot: int, bound_cov=None) -> dict:
+    """One seeded robot of one cell: before, bf1, bf2, exact, perfect, and (``bound_cov``: the
+    cell's :func:`information_bound`) the robot corrected with errors drawn from the bound."""
     geom = _geometry(cfg, eb)
     errors = ErrorParams(ed, eb)
     motion = Motion(sample_period_s=None if noise == "none" else cfg.sample_period_s)
@@ -128,6 +173,13 @@ def robot_trial(cfg: AccuracyConfig, ed: float, eb: float, noise: str, robot: in
     out["emax_exact2_mm"] = umbmark(run(ex2.calibration if ex2 else cal_ex, s_after2)).emax_syst * 1e3
     out["fail_exact2"] = ex2 is None
     out["emax_perfect_mm"] = umbmark(run(errors.ideal_calibration(geom), s_after)).emax_syst * 1e3
+    if bound_cov is None:
+        out["emax_bound_mm"] = out["emax_perfect_mm"] if noise == "none" else math.nan
+    else:
+        g = np.random.default_rng(np.random.SeedSequence([cfg.seed, robot, _BOUND_KEY]))
+        d_ed, d_eb = g.multivariate_normal(np.zeros(2), bound_cov)
+        _, cal_bound = compose(ed + d_ed, eb + d_eb, b0, None)
+        out["emax_bound_mm"] = umbmark(run(cal_bound, s_after)).emax_syst * 1e3
     true_b = eb * b0
     for name, c in (("bf1", bf1), ("bf2", bf2), ("exact", ex), ("exact2", ex2)):
         out[f"ed_err_{name}"] = abs(c.ed - ed) if c else math.nan
@@ -148,7 +200,11 @@ def robot_trial(cfg: AccuracyConfig, ed: float, eb: float, noise: str, robot: in
 def _cell_job(args):
     cfg, ed, eb, noise = args
     robots = 1 if noise == "none" else cfg.robots
-    return [robot_trial(cfg, ed, eb, noise, i) for i in range(robots)]
+    cov, sds = information_bound(cfg, ed, eb, noise)
+    trials = [robot_trial(cfg, ed, eb, noise, i, cov) for i in range(robots)]
+    for t in trials:
+        t["bound_ed_sd"], t["bound_eb_sd"] = sds["ed_sd"], sds["eb_sd"]
+    return trials
 
 
 def _summarise(trials: list[dict]) -> dict:
@@ -169,6 +225,10 @@ def _summarise(trials: list[dict]) -> dict:
     row["exact_eb_coverage"] = float(np.mean([x["eb_covered"] for x in cov])) if cov else None
     row["exact_pred_after_mm"] = float(np.nanmedian(col("exact_pred_after_mm"))) if cov else None
     row["exact_warnings"] = int(sum(x["exact_warned"] for x in trials))
+    row["bound_ed_sd"], row["bound_eb_sd"] = t["bound_ed_sd"], t["bound_eb_sd"]
+    # root mean square parameter errors of exact, to compare with the bound's standard deviations
+    row["exact_ed_rms_err"] = float(np.sqrt(np.nanmean(col("ed_err_exact") ** 2)))
+    row["exact_eb_rms_err"] = float(np.sqrt(np.nanmean(col("eb_err_exact") ** 2)))
     return row
 
 
@@ -199,9 +259,12 @@ def run_accuracy(cfg: AccuracyConfig = AccuracyConfig(), progress=None, dask=Non
                          "estimation_floor_cells": sorted({(t["ed"], t["eb"]) for t in smallest})}
         cells = [r for r in rows if r["noise"] == noise]
         for r in cells:
-            for m in FITTED:
+            for m in FITTED + ("bound",):
                 r[f"{m}_over_estimation_floor"] = r[f"emax_{m}_mm"] / est if est > 0 else None
                 r[f"{m}_over_perfect_floor"] = r[f"emax_{m}_mm"] / perf if perf > 0 else None
+            b = r["emax_bound_mm"]
+            # without noise both are round-off (the bound is the perfect robot): no ratio
+            r["exact_over_bound"] = r["emax_exact_mm"] / b if noise != "none" and b > 0 and math.isfinite(b) else None
         cov = [t for t in trials if t["ed_covered"] is not None]
         worst = max(cells, key=lambda r: r["exact_over_estimation_floor"] or 0.0)
         summary[noise] = {
@@ -225,6 +288,13 @@ def run_accuracy(cfg: AccuracyConfig = AccuracyConfig(), progress=None, dask=Non
             "exact_cells_over_1.15": [[r["Ed"], r["Eb"], r["exact_over_estimation_floor"]] for r in cells
                                       if (r["exact_over_estimation_floor"] or 0.0) > 1.15],
             "failures": {m: sum(r[f"failures_{m}"] for r in cells) for m in FITTED},
+            # cells where even an efficient one-pass estimator cannot reach 1.15 x the floor
+            "bound_cells_over_1.15": [[r["Ed"], r["Eb"], r["bound_over_estimation_floor"]] for r in cells
+                                      if (r["bound_over_estimation_floor"] or 0.0) > 1.15],
+            "exact_worst_over_bound": max((r["exact_over_bound"] or 0.0) for r in cells) or None,
+            "bound_worst_over_estimation_floor": max((r["bound_over_estimation_floor"] or 0.0) for r in cells),
+            "exact_cells_within_1.15_bound": sum(1 for r in cells if r["exact_over_bound"] is not None
+                                                 and r["exact_over_bound"] <= 1.15),
         }
     cfg_d = asdict(cfg)
     return {"config": cfg_d, "cells": rows, "floors": floors, "summary": summary,
@@ -285,13 +355,21 @@ def format_markdown(res: dict) -> str:
                      f"{sm['exact2_cells_within_1.15_estimation_floor']}. exact 95 % interval coverage over "
                      f"{sm['exact_ci_robots']} robots: E_d {_f(sm['exact_ed_coverage'] and 100 * sm['exact_ed_coverage'])} %, "
                      f"E_b {_f(sm['exact_eb_coverage'] and 100 * sm['exact_eb_coverage'])} %. Failures (no answer): "
-                     f"{sm['failures']}.")
+                     f"{sm['failures']}." + ("" if noise == "none" else
+                     f" Information bound (an efficient unbiased one-pass estimator, Cramer-Rao): above 1.15 x the "
+                     f"estimation floor in {len(sm['bound_cells_over_1.15'])} cells"
+                     f"{_cells(sm['bound_cells_over_1.15'])}; exact within 1.15 x the bound in "
+                     f"{sm['exact_cells_within_1.15_bound']} / {sm['cells']} cells (worst "
+                     f"{_f(sm['exact_worst_over_bound'], 2)})."))
         lines.append("")
+        if noise != "none":
+            lines += _by_eb(res, noise)
         lines.append("| E_d | E_b | before [mm] | bf1 [mm] | bf2 [mm] | exact [mm] | exact2 [mm] | perfect [mm] "
                      "| exact / est. floor | exact / perfect | exact2 / est. floor | bf1 / est. floor "
                      "| exact abs err E_d | exact abs err E_b | bf1 abs err E_d | bf1 abs err E_b "
-                     "| exact CI cover E_d / E_b |")
-        lines.append("|" + "---|" * 17)
+                     "| exact CI cover E_d / E_b | bound [mm] | bound / est. floor | exact / bound "
+                     "| bound sd E_d | exact rms err E_d | bound sd E_b | exact rms err E_b |")
+        lines.append("|" + "---|" * 24)
         for r in res["cells"]:
             if r["noise"] != noise:
                 continue
@@ -303,9 +381,39 @@ def format_markdown(res: dict) -> str:
                 f"{_f(r['emax_perfect_mm'], 2)} | "
                 f"{_f(r['exact_over_estimation_floor'], 2)} | {_f(r['exact_over_perfect_floor'], 2)} | "
                 f"{_f(r['exact2_over_estimation_floor'], 2)} | {_f(r['bf1_over_estimation_floor'], 2)} | {_g(r['ed_abs_err_exact'])} | {_g(r['eb_abs_err_exact'])} | "
-                f"{_g(r['ed_abs_err_bf1'])} | {_g(r['eb_abs_err_bf1'])} | {cov} |")
+                f"{_g(r['ed_abs_err_bf1'])} | {_g(r['eb_abs_err_bf1'])} | {cov} | {_f(r['emax_bound_mm'], 2)} | "
+                f"{_f(r['bound_over_estimation_floor'], 2)} | {_f(r['exact_over_bound'], 2)} | "
+                f"{_g(r['bound_ed_sd'])} | {_g(r['exact_ed_rms_err'])} | {_g(r['bound_eb_sd'])} | "
+                f"{_g(r['exact_eb_rms_err'])} |")
         lines.append("")
     return "\n".join(lines) + "\n"
+
+
+def _by_eb(res: dict, noise: str) -> list[str]:
+    """Ranges over the E_d values of each true E_b: the ratios to the floors and the bound."""
+    rows = [r for r in res["cells"] if r["noise"] == noise]
+    cols = (("exact_over_estimation_floor", "exact / est. floor"), ("bound_over_estimation_floor", "bound / est. floor"),
+            ("exact_over_bound", "exact / bound"), ("exact_over_perfect_floor", "exact / perfect"),
+            ("exact2_over_estimation_floor", "exact2 / est. floor"), ("bf1_over_estimation_floor", "bf1 / est. floor"))
+    out = ["By true E_b (ranges over the E_d values):", "",
+           "| true E_b | " + " | ".join(c[1] for c in cols) + " |", "|---|" + "---|" * len(cols)]
+    for eb in sorted({r["Eb"] for r in rows}):
+        cells = [r for r in rows if r["Eb"] == eb]
+        parts = []
+        for key, _ in cols:
+            v = [r[key] for r in cells if r.get(key) is not None]
+            lo, hi = (_ratio(min(v)), _ratio(max(v))) if v else ("-", "-")
+            parts.append(lo if lo == hi else f"{lo} - {hi}")
+        out.append(f"| {eb:g} | " + " | ".join(parts) + " |")
+    return out + [""]
+
+
+def _ratio(v):
+    return f"{v:.0f}" if v >= 100 else f"{v:.2f}"
+
+
+def _cells(cells):
+    return "" if not cells else " (" + ", ".join(f"E_d {c[0]:g} / E_b {c[1]:g}: {c[2]:.2f}" for c in cells) + ")"
 
 
 def _g(v):
@@ -318,6 +426,8 @@ CSV_COLUMNS = ("noise", "Ed", "Eb", "robots", "emax_before_mm", "emax_bf1_mm", "
                "bf1_over_perfect_floor", "ed_abs_err_bf1", "eb_abs_err_bf1", "ed_abs_err_bf2", "eb_abs_err_bf2",
                "ed_abs_err_exact", "eb_abs_err_exact", "ed_abs_err_exact2", "eb_abs_err_exact2",
                "exact_ed_coverage", "exact_eb_coverage", "exact_pred_after_mm",
+               "emax_bound_mm", "bound_over_estimation_floor", "exact_over_bound", "bound_ed_sd", "bound_eb_sd",
+               "exact_ed_rms_err", "exact_eb_rms_err",
                "failures_bf1", "failures_bf2", "failures_exact", "failures_exact2", "exact_warnings")
 
 
@@ -341,7 +451,8 @@ def figure(res: dict):
     cells.sort(key=lambda r: (r["Eb"], r["Ed"]))
     x = np.arange(len(cells))
     fig, ax = plt.subplots(figsize=(max(8, 0.22 * len(cells) + 3), 5))
-    for m, style in (("bf1", "o-"), ("bf2", "s-"), ("exact", "^-"), ("exact2", "v-"), ("perfect", "x:")):
+    for m, style in (("bf1", "o-"), ("bf2", "s-"), ("exact", "^-"), ("exact2", "v-"), ("perfect", "x:"),
+                     ("bound", "d--")):
         ax.plot(x, [max(r[f"emax_{m}_mm"], 1e-9) for r in cells], style, label=f"{m} (median)", ms=4)
     fl = res["floors"][noise]
     ax.axhline(fl["estimation_floor_mm"], color="k", ls="--", lw=1, label="estimation floor")

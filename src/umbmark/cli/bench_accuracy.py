@@ -19,7 +19,7 @@ from .scaleout import scale_options
               help="Robots per cell with noise (default 100; quick: 4).")
 @click.option("--seed", type=click.IntRange(min=0), default=None, help="Seed (default 2026).")
 @click.option("--sample-period-ms", type=float, default=None,
-              help="Sampling period of the noisy simulations (default 30 ms; quick: 50 ms).")
+              help="Sampling period of the noisy simulations (default 10 ms, the paper's; quick: 50 ms).")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False), default="benchmarks/results", show_default=True,
               help="Folder for accuracy.json/.csv/.md/.png (created if missing).")
 @scale_options
