@@ -48,10 +48,10 @@ def test_model_matches_simulator(ed, eb, side, b, ccw):
 def test_noise_free_recovery(ed, eb, side, u, n, heading, sampled):
     """Acceptance: E_d within 1e-5 and E_b within 1e-4, on runs files (mm, deg, CSV round trip)
     of any wheelbase, side and run count, with or without headings, exact-arc or sampled.
-    Domain: side / wheelbase <= 40 (a leg then curves by at most about 220 deg at E_d 1.05,
-    E_b 0.5; the global search covers +-270 deg)."""
-    lo = max(0.1, side / 40.0)
-    b = lo + u * (1.0 - lo)  # wheelbase in [0.1, 1] m with side / wheelbase <= 40
+    Domain: side / wheelbase <= 150 (a leg then curves by up to about 840 deg at E_d 1.05,
+    E_b 0.5: a long square on a narrow robot; the global search widens to cover it)."""
+    lo = max(0.05, side / 150.0)
+    b = lo + u * (1.0 - lo)  # wheelbase in [0.05, 1] m with side / wheelbase <= 150
     geom = Geometry(0.1, b)
     motion = Motion(sample_period_s=0.01) if sampled else EXACT_ARC
     runs = simulate_umbmark(ErrorParams(ed, eb), geom, side, n_runs=n, motion=motion)
@@ -67,6 +67,19 @@ def test_noise_free_recovery(ed, eb, side, u, n, heading, sampled):
     assert any(abs(e - ed) < 1e-5 and abs(f - eb) < 1e-4 for e, f in answers)
     if len(answers) == 1:
         assert c.calibration.wheelbase_m == pytest.approx(eb * b, rel=1e-4)
+
+
+def test_recovery_with_legs_that_curve_a_full_turn():
+    """A 8.7 m square on a 65 mm wheelbase (side / wheelbase 134): each leg curves by -363 deg.
+    The grid of the global search must be wide enough and keep enough of its local minima (with
+    the former +-270 deg grid and 8 minima the fit ended at E_b 0.37)."""
+    ed, eb, side = 0.96913239, 0.66310523, 8.68219321
+    b = side / 134.1
+    runs = simulate_umbmark(ErrorParams(ed, eb), Geometry(0.1, b), side, n_runs=3, motion=EXACT_ARC)
+    c = correct_runs("exact", runs, side, b)
+    assert c.ed == pytest.approx(ed, abs=1e-7)
+    assert c.eb == pytest.approx(eb, abs=1e-6)
+    assert c.extra["global_search"] is True
 
 
 @pytest.mark.parametrize("ed,eb", [(1.02, 0.95), (1.05, 0.5), (0.95, 2.5), (1.0005, 0.9995), (0.95, 0.5)])

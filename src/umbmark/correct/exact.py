@@ -43,9 +43,9 @@ of gravity to within 3 SEM (bf is far off: large errors, skid-steer robots whose
 wheelbase is 1.5 to 2.5 times the track), a global search follows, in two stages until one
 explains the runs: candidates from the mean measured headings (``eps_theta = 4 beta' -+ 2 pi
 (E_s / E_b - 1)``, all 2 pi ambiguities), then the best local minima of a grid over
-the heading gained per leg in about [-270, 270] deg (and E_d,pass in [0.85, 1.15]) x ``E_b,pass``
-in [0.3, 4] (315 x 401 points). Legs that curve by more than that are outside the search. The lowest final cost
-wins. ``global_search=True`` always searches, ``False`` never.
+the heading gained per leg (step pi/105, at least +-270 deg and as wide as E_d,pass in [0.85, 1.15]
+needs at E_b,pass 0.3: several turns per leg for a long side on a narrow robot) x ``E_b,pass`` in
+[0.3, 4] (401 points), only where E_d,pass is in [0.85, 1.15]. The lowest final cost wins. ``global_search=True`` always searches, ``False`` never.
 
 Uncertainty (delta method with per-direction scatter, documented in the README): the
 least-squares estimate depends on the runs only through each direction's mean residual, so
@@ -81,8 +81,21 @@ __all__ = [
 LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
 
 # global search grid (relative to the odometry in use)
-_GRID_BETA = np.linspace(-157 * np.pi / 105, 157 * np.pi / 105, 315)  # step pi/105, about +-270 deg
+_GRID_BETA_STEP = np.pi / 105  # the cost varies with the heading gained per leg on about this scale
+_GRID_BETA_MIN = 157 * _GRID_BETA_STEP  # about +-270 deg at least
 _GRID_EB = np.geomspace(0.3, 4.0, 401)
+_GRID_ED = (0.85, 1.15)
+
+
+def _grid_beta(prob) -> np.ndarray:
+    """The grid of the heading gained per leg: step pi/105, wide enough for every E_d,pass in
+    [0.85, 1.15] at the smallest E_b,pass of the grid (a long side on a narrow robot: the leg may
+    curve by several turns), and at least +-270 deg."""
+    q = (_GRID_ED[1] - 1.0) / (_GRID_ED[1] + 1.0)
+    need = 2.0 * q * prob.es * prob.side_m / (_GRID_EB[0] * prob.b)
+    half = max(_GRID_BETA_MIN, need)
+    k = int(math.ceil(half / _GRID_BETA_STEP))
+    return _GRID_BETA_STEP * np.arange(-k, k + 1)
 
 
 class ExactFitError(CorrectionUndefined):
@@ -270,16 +283,20 @@ def _heading_starts(prob: _Problem):
     return out
 
 
-def _grid_starts(prob: _Problem, k: int = 8):
-    """The ``k`` best distinct local minima of the cost on a global grid over ``E_b,pass`` in
-    [0.3, 4] (401 points, log-spaced) and the heading gained per leg ``beta'`` in about
-    [-270, 270] deg (315 points: the cost varies with E_d on the scale of ``b / L``, so E_d is gridded through
-    ``beta'``), limited to ``E_d,pass`` in [0.85, 1.15]."""
-    BETA, EB = np.meshgrid(_GRID_BETA, _GRID_EB, indexing="ij")
+def _grid_starts(prob: _Problem, k: int | None = None):
+    """The ``k`` best distinct local minima (default: 8 per 315 grid values of ``beta'``) of the
+    cost on a global grid over ``E_b,pass`` in
+    [0.3, 4] (401 points, log-spaced) and the heading gained per leg ``beta'`` (:func:`_grid_beta`;
+    the cost varies with E_d on the scale of ``b / L``, so E_d is gridded through ``beta'``),
+    limited to ``E_d,pass`` in [0.85, 1.15]."""
+    beta = _grid_beta(prob)
+    if k is None:  # wider grids (curlier legs) have more local minima: keep more of them
+        k = int(min(128, max(8, math.ceil(8 * beta.size / 315))))
+    BETA, EB = np.meshgrid(beta, _GRID_EB, indexing="ij")
     q = BETA * EB * prob.b / (2.0 * prob.es * prob.side_m)
     with np.errstate(divide="ignore", invalid="ignore"):
         ED = (1.0 + q) / (1.0 - q)
-    ok = (np.abs(q) < 0.5) & (ED > 0.85) & (ED < 1.15)
+    ok = (np.abs(q) < 0.5) & (ED > _GRID_ED[0]) & (ED < _GRID_ED[1])
     flat_ed, flat_eb = ED.ravel(), EB.ravel()
     cost = np.full(flat_ed.size, np.inf)
     idx_ok = np.flatnonzero(ok.ravel())
