@@ -30,11 +30,18 @@ def main(argv=None) -> int:
     p.add_argument("--sample-period-ms", type=float, default=None)
     p.add_argument("--coverage-robots", type=int, default=0,
                    help="also measure interval coverage over this many random robots (10 ms sampling)")
+    p.add_argument("--fixed-wheelbase", choices=("true", "nominal"), default="true",
+                   help="hold the true wheelbase fixed (one robot; default) or the nominal one (true = E_b x nominal)")
+    p.add_argument("--eb", type=float, nargs="+", default=None, help="E_b values of the grid (default: all)")
+    p.add_argument("--stem", default="accuracy", help="file name stem of the results")
     p.add_argument("--out", default=str(Path(__file__).resolve().parent / "results"))
     a = p.parse_args(argv)
     cfg = QUICK if a.quick else AccuracyConfig()
     changes = {k: v for k, v in (("robots", a.robots), ("seed", a.seed)) if v is not None}
     changes["workers"] = a.workers  # None: all local cores
+    changes["fixed_wheelbase"] = a.fixed_wheelbase
+    if a.eb:
+        changes["eb_values"] = tuple(a.eb)
     if a.sample_period_ms is not None:
         changes["sample_period_s"] = a.sample_period_ms * 1e-3
     cfg = replace(cfg, **changes)
@@ -47,7 +54,7 @@ def main(argv=None) -> int:
     print(file=sys.stderr)
     if a.coverage_robots:
         res["coverage_random_robots"] = coverage_trial(a.coverage_robots, sample_period_s=0.01)
-    paths = write_results(res, a.out)
+    paths = write_results(res, a.out, stem=a.stem)
     for noise, s in res["summary"].items():
         print(noise, s)
     if "coverage_random_robots" in res:

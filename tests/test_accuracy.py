@@ -55,6 +55,21 @@ def test_bad_config():
         run_accuracy(replace(QUICK, eb_values=(7.0,)))
     with pytest.raises(InputError):
         run_accuracy(replace(QUICK, runs_per_direction=1))
+    with pytest.raises(InputError):
+        run_accuracy(replace(QUICK, fixed_wheelbase="track"))
+
+
+def test_which_wheelbase_is_held_fixed():
+    """Default: one physical robot (true 340 mm, the odometry starts from 340 / E_b); 'nominal':
+    the odometry starts from 340 mm and the true (effective) wheelbase is E_b x 340 mm."""
+    from umbmark.accuracy import _geometry
+    from umbmark.kinematics import ErrorParams
+
+    for fixed, nominal, true in (("true", 0.136, 0.34), ("nominal", 0.34, 0.85)):
+        cfg = replace(AccuracyConfig(), fixed_wheelbase=fixed)
+        g = _geometry(cfg, 2.5)
+        assert g.wheelbase_m == pytest.approx(nominal)
+        assert ErrorParams(1.0, 2.5).true_params(g).wheelbase_m == pytest.approx(true)
 
 
 @pytest.mark.slow

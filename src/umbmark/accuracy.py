@@ -70,10 +70,15 @@ class AccuracyConfig:
     robots: int = 100
     runs_per_direction: int = 5
     side_m: float = 4.0
-    true_wheelbase_m: float = LABMATE.wheelbase_m
+    true_wheelbase_m: float = LABMATE.wheelbase_m  # the wheelbase held fixed (see fixed_wheelbase)
     sample_period_s: float = 0.01
     seed: int = 2026
     workers: int | None = None  # local processes for the sweep over cells; None: all cores
+    # "true": one physical robot (true wheelbase fixed, nominal = true / E_b), so every cell has
+    # the same noise; "nominal": the nominal wheelbase is fixed and the true (effective) one is
+    # E_b times it, e.g. a skid-steer robot whose effective wheelbase exceeds its track (its
+    # heading noise then shrinks as E_b grows)
+    fixed_wheelbase: str = "true"
 
     def cells(self):
         eds = sorted({1.0 - d for d in self.ed_departures} | {1.0 + d for d in self.ed_departures})
@@ -90,6 +95,8 @@ class AccuracyConfig:
         for eb in self.eb_values:
             if not 0.2 <= eb <= 5:
                 raise InputError(f"E_b {eb} out of range [0.2, 5]")
+        if self.fixed_wheelbase not in ("true", "nominal"):
+            raise InputError(f"fixed_wheelbase must be 'true' or 'nominal', got {self.fixed_wheelbase!r}")
 
 
 # --quick: small grid, few robots, coarse sampling (tests and README examples)
@@ -98,7 +105,9 @@ QUICK = AccuracyConfig(ed_departures=(0.0005, 0.02), eb_values=(0.9995, 0.95, 2.
 
 
 def _geometry(cfg: AccuracyConfig, eb: float) -> Geometry:
-    return Geometry(LABMATE.wheel_diameter_m, cfg.true_wheelbase_m / eb, LABMATE.pulses_per_rev, LABMATE.gear_ratio)
+    """The nominal geometry of the cell's robot (the true one is ``ErrorParams(ed, eb)`` of it)."""
+    b = cfg.true_wheelbase_m / eb if cfg.fixed_wheelbase == "true" else cfg.true_wheelbase_m
+    return Geometry(LABMATE.wheel_diameter_m, b, LABMATE.pulses_per_rev, LABMATE.gear_ratio)
 
 
 def _correct(method, runs, side, wheelbase, prior=None):
@@ -338,8 +347,8 @@ def format_markdown(res: dict) -> str:
     c = res["config"]
     lines.append(f"Grid: |E_d - 1| in {list(c['ed_departures'])} (both signs), E_b in {list(c['eb_values'])}; "
                  f"{c['robots']} robots per cell with noise (1 without), {c['runs_per_direction']} runs per "
-                 f"direction, {c['side_m']} m square, true wheelbase {c['true_wheelbase_m'] * 1e3:.0f} mm "
-                 f"(nominal = true / E_b), sampling period {c['sample_period_s'] * 1e3:.0f} ms with noise, "
+                 f"direction, {c['side_m']} m square, {_design(c)}, sampling period "
+                 f"{c['sample_period_s'] * 1e3:.0f} ms with noise, "
                  f"seed {c['seed']}. Elapsed {res['elapsed_s']:.0f} s.")
     lines.append("")
     for noise, fl in res["floors"].items():
@@ -406,6 +415,13 @@ def _by_eb(res: dict, noise: str) -> list[str]:
             parts.append(lo if lo == hi else f"{lo} - {hi}")
         out.append(f"| {eb:g} | " + " | ".join(parts) + " |")
     return out + [""]
+
+
+def _design(c: dict) -> str:
+    b = c["true_wheelbase_m"] * 1e3
+    if c.get("fixed_wheelbase", "true") == "true":
+        return f"true wheelbase {b:.0f} mm (nominal = true / E_b: one physical robot)"
+    return f"nominal wheelbase {b:.0f} mm (true = E_b x nominal: e.g. a skid-steer robot's effective wheelbase)"
 
 
 def _ratio(v):

@@ -20,11 +20,14 @@ from .scaleout import scale_options
 @click.option("--seed", type=click.IntRange(min=0), default=None, help="Seed (default 2026).")
 @click.option("--sample-period-ms", type=float, default=None,
               help="Sampling period of the noisy simulations (default 10 ms, the paper's; quick: 50 ms).")
+@click.option("--fixed-wheelbase", type=click.Choice(["true", "nominal"]), default="true", show_default=True,
+              help="Hold the true wheelbase fixed (one physical robot, nominal = 340 mm / E_b) or the nominal one "
+                   "(true = E_b x 340 mm, e.g. a skid-steer robot's effective wheelbase).")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False), default="benchmarks/results", show_default=True,
               help="Folder for accuracy.json/.csv/.md/.png (created if missing).")
 @scale_options
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as one JSON object.")
-def accuracy(quick, robots, seed, sample_period_ms, out_dir, workers, dask, as_json):
+def accuracy(quick, robots, seed, sample_period_ms, fixed_wheelbase, out_dir, workers, dask, as_json):
     """Accuracy of the corrections: bf one pass, bf two passes, exact one and two passes.
 
     Monte Carlo over a grid of true errors (|E_d - 1| from 0.05 % to 5 %, E_b from 0.5 to
@@ -42,6 +45,7 @@ def accuracy(quick, robots, seed, sample_period_ms, out_dir, workers, dask, as_j
     cfg = QUICK if quick else AccuracyConfig()
     changes = {k: v for k, v in (("robots", robots), ("seed", seed)) if v is not None}
     changes["workers"] = workers  # None: all local cores
+    changes["fixed_wheelbase"] = fixed_wheelbase
     if sample_period_ms is not None:
         if not sample_period_ms > 0:
             from ..errors import InputError
