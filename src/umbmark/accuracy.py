@@ -161,26 +161,22 @@ def robot_trial(cfg: AccuracyConfig, ed: float, eb: float, noise: str, robot: in
     def run(cal, seed):
         return simulate_umbmark(errors, geom, side, n, cal, noise, motion, seed=seed)
 
+    def two_passes(method, name1, name2):
+        """Correct, fresh runs (s_after), correct those runs again (composed), fresh runs (s_after2)."""
+        c1 = _correct(method, before, side, b0)
+        cal1 = c1.calibration if c1 else None
+        after1 = run(cal1, s_after)
+        c2 = _correct(method, after1, side, cal1.wheelbase_m, cal1) if c1 else None
+        out[f"emax_{name1}_mm"] = umbmark(after1).emax_syst * 1e3
+        out[f"emax_{name2}_mm"] = umbmark(run(c2.calibration if c2 else cal1, s_after2)).emax_syst * 1e3
+        out[f"fail_{name1}"], out[f"fail_{name2}"] = c1 is None, c2 is None
+        return c1, c2
+
     out = {"ed": ed, "eb": eb, "noise": noise, "robot": robot}
     before = run(None, s_before)
     out["emax_before_mm"] = umbmark(before).emax_syst * 1e3
-    bf1 = _correct("bf", before, side, b0)
-    cal1 = bf1.calibration if bf1 else None
-    after1 = run(cal1, s_after)
-    out["emax_bf1_mm"] = umbmark(after1).emax_syst * 1e3
-    out["fail_bf1"] = bf1 is None
-    bf2 = _correct("bf", after1, side, cal1.wheelbase_m, cal1) if bf1 else None
-    after2 = run(bf2.calibration if bf2 else cal1, s_after2)
-    out["emax_bf2_mm"] = umbmark(after2).emax_syst * 1e3
-    out["fail_bf2"] = bf2 is None
-    ex = _correct("exact", before, side, b0)
-    cal_ex = ex.calibration if ex else None
-    after_ex = run(cal_ex, s_after)
-    out["emax_exact_mm"] = umbmark(after_ex).emax_syst * 1e3
-    out["fail_exact"] = ex is None
-    ex2 = _correct("exact", after_ex, side, cal_ex.wheelbase_m, cal_ex) if ex else None
-    out["emax_exact2_mm"] = umbmark(run(ex2.calibration if ex2 else cal_ex, s_after2)).emax_syst * 1e3
-    out["fail_exact2"] = ex2 is None
+    bf1, bf2 = two_passes("bf", "bf1", "bf2")
+    ex, ex2 = two_passes("exact", "exact", "exact2")
     out["emax_perfect_mm"] = umbmark(run(errors.ideal_calibration(geom), s_after)).emax_syst * 1e3
     if bound_cov is None:
         out["emax_bound_mm"] = out["emax_perfect_mm"] if noise == "none" else math.nan
