@@ -260,7 +260,56 @@ def retry_while_locked(fn, timeout_s: float, errors):
             delay = min(2 * delay, 0.25)
 
 
-class History:
+class _Backend:
+    """What every history backend shares. A backend provides ``path`` (for messages),
+    :meth:`close`, :meth:`transaction`, ``_insert(conn, row)``, :meth:`records` and
+    ``_robot_counts()`` (name, number of records, first and last time per robot)."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def add(self, robot: str, *, kind: str, method: str, results: dict, parameters: dict,
+            inputs: dict | None = None, input_sha256: str | None = None, source: str | None = None,
+            parameters_in_use: dict | None = None, note: str | None = None, when=None,
+            software_version: str | None = None) -> int:
+        """Store one calibration in one transaction; returns its id."""
+        row = self._row(robot, kind, method, results, parameters, inputs, input_sha256, source, parameters_in_use,
+                        note, when, software_version)
+        with self.transaction() as c:
+            return self._insert(c, row)
+
+    @staticmethod
+    def _row(*args) -> dict:
+        return make_row(*args)
+
+    def latest(self, robot: str) -> Record:
+        recs = self.records(robot, limit=1)
+        if not recs:
+            raise InputError(f"no calibrations of robot {robot!r} in the history database {self.path}"
+                             + self._known_hint())
+        return recs[0]
+
+    def robots(self) -> list[dict]:
+        """One summary per robot: name, number of records, first and last time, latest values."""
+        out = []
+        for name, n, first, last in self._robot_counts():
+            d = {"robot": name, "records": n, "first_utc": first, "last_utc": last}
+            if n:
+                rec = self.latest(name)
+                d.update({"latest_id": rec.id, "emax_syst_mm": rec.emax_syst_mm, "Ed": rec.ed, "Eb": rec.eb,
+                          "wheelbase_mm": rec.wheelbase_mm})
+            out.append(d)
+        return out
+
+    def _known_hint(self) -> str:
+        names = [r["robot"] for r in self.robots()]
+        return f" (robots: {', '.join(names)})" if names else " (it holds no robots yet)"
+
+
+class History(_Backend):
     """An open history database. Use as a context manager, or call :meth:`close`."""
 
     def __init__(self, path=None, timeout_s: float = 60.0, create: bool = True):
@@ -297,12 +346,6 @@ class History:
     # -- housekeeping --------------------------------------------------------------------------
     def close(self):
         self._conn.close()
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
 
     @contextmanager
     def transaction(self):
@@ -349,19 +392,6 @@ class History:
         return text if not fk else f"{text}; foreign key violations: {len(fk)}"
 
     # -- writing -------------------------------------------------------------------------------
-    def add(self, robot: str, *, kind: str, method: str, results: dict, parameters: dict,
-            inputs: dict | None = None, input_sha256: str | None = None, source: str | None = None,
-            parameters_in_use: dict | None = None, note: str | None = None, when=None,
-            software_version: str | None = None) -> int:
-        """Store one calibration in one transaction; returns its id."""
-        row = self._row(robot, kind, method, results, parameters, inputs, input_sha256, source, parameters_in_use,
-                        note, when, software_version)
-        with self.transaction() as c:
-            return self._insert(c, row)
-
-    def _row(self, *args) -> dict:
-        return make_row(*args)
-
     def _insert(self, c, row: dict) -> int:
         """The statements of one record; call inside :meth:`transaction`."""
         c.execute("INSERT OR IGNORE INTO robots (name, created_utc) VALUES (?, ?)", (row["robot"], row["created_utc"]))
@@ -393,35 +423,14 @@ class History:
             raise InputError(f"no record #{record_id} in the history database {self.path}")
         return _record(row)
 
-    def latest(self, robot: str) -> Record:
-        recs = self.records(robot, limit=1)
-        if not recs:
-            raise InputError(f"no calibrations of robot {robot!r} in the history database {self.path}"
-                             + self._known_hint())
-        return recs[0]
-
-    def robots(self) -> list[dict]:
-        """One summary per robot: name, number of records, first and last time, latest values."""
-        rows = self._conn.execute(
+    def _robot_counts(self):
+        return self._conn.execute(
             """SELECT r.name, count(c.id), min(c.created_utc), max(c.created_utc)
                FROM robots r LEFT JOIN calibrations c ON c.robot_id = r.id
                GROUP BY r.id ORDER BY r.name""").fetchall()
-        out = []
-        for name, n, first, last in rows:
-            d = {"robot": name, "records": n, "first_utc": first, "last_utc": last}
-            if n:
-                rec = self.latest(name)
-                d.update({"latest_id": rec.id, "emax_syst_mm": rec.emax_syst_mm, "Ed": rec.ed, "Eb": rec.eb,
-                          "wheelbase_mm": rec.wheelbase_mm})
-            out.append(d)
-        return out
 
     def count(self) -> int:
         return self._conn.execute("SELECT count(*) FROM calibrations").fetchone()[0]
-
-    def _known_hint(self) -> str:
-        names = [r["robot"] for r in self.robots()]
-        return f" (robots: {', '.join(names)})" if names else " (it holds no robots yet)"
 
 
 def make_row(robot, kind, method, results, parameters, inputs, input_sha256, source, parameters_in_use, note,

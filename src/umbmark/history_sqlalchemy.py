@@ -15,7 +15,7 @@ from contextlib import contextmanager
 
 from . import __version__
 from .errors import InputError
-from .history import SCHEMA_VERSION, HistoryError, Record, _record, display_db, make_row, retry_while_locked
+from .history import SCHEMA_VERSION, HistoryError, Record, _Backend, _record, display_db, retry_while_locked
 
 __all__ = ["SQLAlchemyHistory"]
 
@@ -67,7 +67,7 @@ def _tables(sa):
     return md, schema, robots, cal
 
 
-class SQLAlchemyHistory:
+class SQLAlchemyHistory(_Backend):
     """Same interface as :class:`umbmark.history.History`, on an SQLAlchemy engine."""
 
     def __init__(self, url: str, timeout_s: float = 60.0, create: bool = True):
@@ -110,12 +110,6 @@ class SQLAlchemyHistory:
 
     def close(self):
         self._engine.dispose()
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
 
     @contextmanager
     def transaction(self):
@@ -183,9 +177,6 @@ class SQLAlchemyHistory:
                 .where(self._robots.c.id.is_(None))).scalar()
         return res if not orphans else f"{res}; records without a robot: {orphans}"
 
-    def _row(self, *args) -> dict:
-        return make_row(*args)
-
     def _insert(self, conn, row: dict) -> int:
         sa = self._sa
         name = row["robot"]
@@ -200,15 +191,6 @@ class SQLAlchemyHistory:
         values = {k: v for k, v in row.items() if k != "robot"}
         res = conn.execute(self._cal.insert().values(robot_id=rid, **values))
         return int(res.inserted_primary_key[0])
-
-    def add(self, robot: str, *, kind: str, method: str, results: dict, parameters: dict,
-            inputs: dict | None = None, input_sha256: str | None = None, source: str | None = None,
-            parameters_in_use: dict | None = None, note: str | None = None, when=None,
-            software_version: str | None = None) -> int:
-        row = make_row(robot, kind, method, results, parameters, inputs, input_sha256, source, parameters_in_use,
-                       note, when, software_version)
-        with self.transaction() as conn:
-            return self._insert(conn, row)
 
     def _select(self):
         sa = self._sa
@@ -234,35 +216,15 @@ class SQLAlchemyHistory:
             raise InputError(f"no record #{record_id} in the history database {self._shown}")
         return _record(tuple(row))
 
-    def latest(self, robot: str) -> Record:
-        recs = self.records(robot, limit=1)
-        if not recs:
-            raise InputError(f"no calibrations of robot {robot!r} in the history database {self._shown}"
-                             + self._known_hint())
-        return recs[0]
-
-    def robots(self) -> list[dict]:
+    def _robot_counts(self):
         sa = self._sa
         c, r = self._cal.c, self._robots.c
         q = (sa.select(r.name, sa.func.count(c.id), sa.func.min(c.created_utc), sa.func.max(c.created_utc))
              .select_from(self._robots.outerjoin(self._cal)).group_by(r.id, r.name).order_by(r.name))
         with self._engine.connect() as conn:
-            rows = conn.execute(q).all()
-        out = []
-        for name, n, first, last in rows:
-            d = {"robot": name, "records": n, "first_utc": first, "last_utc": last}
-            if n:
-                rec = self.latest(name)
-                d.update({"latest_id": rec.id, "emax_syst_mm": rec.emax_syst_mm, "Ed": rec.ed, "Eb": rec.eb,
-                          "wheelbase_mm": rec.wheelbase_mm})
-            out.append(d)
-        return out
+            return conn.execute(q).all()
 
     def count(self) -> int:
         sa = self._sa
         with self._engine.connect() as conn:
             return conn.execute(sa.select(sa.func.count()).select_from(self._cal)).scalar()
-
-    def _known_hint(self) -> str:
-        names = [r["robot"] for r in self.robots()]
-        return f" (robots: {', '.join(names)})" if names else " (it holds no robots yet)"
