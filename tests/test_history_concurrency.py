@@ -15,7 +15,6 @@ import pytest
 
 from umbmark.history import open_history
 
-PG_URL = os.environ.get("UMBMARK_TEST_POSTGRES_URL")
 
 
 def _has_sqlalchemy():
@@ -35,16 +34,7 @@ def db(request, tmp_path):
         pytest.skip("SQLAlchemy not installed (optional extra 'db')")
     if request.param == "sqlalchemy-sqlite":
         return f"sqlite:///{tmp_path / 'sa.sqlite'}"
-    if not PG_URL:
-        pytest.skip("set UMBMARK_TEST_POSTGRES_URL to run the PostgreSQL backend tests")
-    import sqlalchemy as sa
-
-    eng = sa.create_engine(PG_URL)
-    with eng.begin() as c:
-        for t in ("calibrations", "robots", "umbmark_schema"):
-            c.exec_driver_sql(f"DROP TABLE IF EXISTS {t} CASCADE")
-    eng.dispose()
-    return PG_URL
+    return request.getfixturevalue("postgres_url")
 
 
 WRITER = r"""

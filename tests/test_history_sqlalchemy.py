@@ -2,7 +2,6 @@
 SQLAlchemy always, PostgreSQL when UMBMARK_TEST_POSTGRES_URL is set."""
 
 import json
-import os
 import sys
 
 import pytest
@@ -14,21 +13,13 @@ from umbmark.kinematics import ErrorParams
 from umbmark.simulate import simulate_umbmark
 
 sa = pytest.importorskip("sqlalchemy", reason="SQLAlchemy not installed (optional extra 'db')")
-PG_URL = os.environ.get("UMBMARK_TEST_POSTGRES_URL")
 
 
 @pytest.fixture(params=["sqlalchemy-sqlite", "postgresql"])
 def url(request, tmp_path):
     if request.param == "sqlalchemy-sqlite":
         return f"sqlite:///{tmp_path / 'sa.sqlite'}"
-    if not PG_URL:
-        pytest.skip("set UMBMARK_TEST_POSTGRES_URL to run the PostgreSQL backend tests")
-    eng = sa.create_engine(PG_URL)
-    with eng.begin() as c:
-        for t in ("calibrations", "robots", "umbmark_schema"):
-            c.exec_driver_sql(f"DROP TABLE IF EXISTS {t} CASCADE")
-    eng.dispose()
-    return PG_URL
+    return request.getfixturevalue("postgres_url")
 
 
 def test_same_interface_as_the_sqlite_file(url):

@@ -51,7 +51,7 @@ from .correct import CorrectionResult, bf_correction
 from .errors import InputError
 from .kinematics import LABMATE, Calibration, ErrorParams, Geometry, OdometryParams, wrap_angle
 from .runs import RunsTable
-from .simulate import NOISE_PRESETS, Motion, child_seeds, NoiseModel, run_program, run_seeds, square_program
+from .simulate import NOISE_PRESETS, Motion, NoiseModel, child_seeds, run_program, run_seeds, square_program
 from .workflows import FIG11_ERRORS  # the paper's Fig. 11 robot: E_d = 1.00084, b = 336.17 mm
 
 __all__ = [
