@@ -109,6 +109,25 @@ def test_blind_spot_is_reported(heading):
     assert c2.eb == pytest.approx(0.5, abs=1e-9) and c2.extra["alternatives"] == []
 
 
+@pytest.mark.parametrize("ed,eb,side,b,n", [
+    (0.99999, 0.5, 2.0, 0.05, 1),  # found by hypothesis in CI
+    (1.0000985912403728, 0.5, 8.41440030368107, 0.10487123975047885, 1),
+    (1.0000601806433127, 0.5, 8.234125973938584, 0.2604434027946008, 5),
+    (0.9997979623669284, 0.500001, 8.15176186749311, 0.30701611581886523, 1),
+])
+def test_recovery_next_to_the_blind_spot(ed, eb, side, b, n):
+    """E_b = 0.5 (the robot turns 180 deg per commanded 90 deg), E_d just off 1, no headings:
+    the true basin of the cost is so narrow in E_b that the grid point next to it costs more
+    than broad wrong basins (E_d 0.87 or 1.15 at the same E_b, 20 micrometres from the runs).
+    The grid's minima are ranked by the cost a Gauss-Newton step predicts; ranked by the cost
+    at the grid point, the search missed all four."""
+    runs = _no_heading(parse_runs_csv(format_runs_csv(
+        simulate_umbmark(ErrorParams(ed, eb), Geometry(0.1, b), side, n_runs=n, motion=EXACT_ARC))))
+    c = correct_runs("exact", runs, side, b)
+    assert c.ed == pytest.approx(ed, abs=1e-6)
+    assert c.eb == pytest.approx(eb, abs=1e-5)
+
+
 def test_bf_far_off_for_large_errors():
     """The reason for this method: bf one pass leaves about a metre at E_d 1.02, E_b 0.95."""
     e = ErrorParams(1.02, 0.95)

@@ -45,7 +45,9 @@ explains the runs: candidates from the mean measured headings (``eps_theta = 4 b
 (E_s / E_b - 1)``, all 2 pi ambiguities), then the best local minima of a grid over
 the heading gained per leg (step pi/105, at least +-270 deg and as wide as E_d,pass in [0.85, 1.15]
 needs at E_b,pass 0.3: several turns per leg for a long side on a narrow robot) x ``E_b,pass`` in
-[0.3, 4] (401 points), only where E_d,pass is in [0.85, 1.15]. The lowest final cost wins. ``global_search=True`` always searches, ``False`` never.
+[0.3, 4] (401 points), only where E_d,pass is in [0.85, 1.15], ranked by the cost one
+Gauss-Newton step from each predicts (a narrow true basin sampled off its centre must not lose
+to broad shallow ones). The lowest final cost wins. ``global_search=True`` always searches, ``False`` never.
 
 Uncertainty (delta method with per-direction scatter, documented in the README): the
 least-squares estimate depends on the runs only through each direction's mean residual, so
@@ -314,8 +316,33 @@ def _grid_starts(prob: _Problem, k: int | None = None):
             if di or dj:
                 is_min &= cost <= pad[1 + di:1 + di + cost.shape[0], 1 + dj:1 + dj + cost.shape[1]]
     idx = np.flatnonzero(is_min.ravel())
-    idx = idx[np.argsort(cost.ravel()[idx])][:k]
+    # rank them by the cost a Gauss-Newton step from each predicts, not by the cost at the grid
+    # point: a narrow basin sampled off its centre (E_b near 0.5, where each turn is most
+    # sensitive to it) must not lose to broad, shallow basins that merely sit on the grid
+    pred = _gauss_newton_cost(prob, flat_ed[idx], flat_eb[idx])
+    idx = idx[np.argsort(pred)][:k]
     return [np.array([flat_ed[i], flat_eb[i]]) for i in idx]
+
+
+def _gauss_newton_cost(prob: _Problem, ed, eb) -> np.ndarray:
+    """The least-squares cost after one Gauss-Newton step from each ``(ed, eb)``: the part of
+    the residual vector the model's local linearisation cannot remove."""
+    ed = np.asarray(ed, dtype=float)
+    eb = np.asarray(eb, dtype=float)
+    r = prob.residuals_matrix(ed, eb).reshape(ed.size, -1)  # (P, m)
+    cols = []
+    for j in range(2):
+        h = 1e-6 * (ed if j == 0 else eb)
+        e1, b1 = (ed + h, eb) if j == 0 else (ed, eb + h)
+        e2, b2 = (ed - h, eb) if j == 0 else (ed, eb - h)
+        dr = prob.residuals_matrix(e1, b1).reshape(ed.size, -1) - prob.residuals_matrix(e2, b2).reshape(ed.size, -1)
+        cols.append(dr / (2.0 * h[:, None]))
+    J = np.stack(cols, axis=-1)  # (P, m, 2)
+    JtJ = np.einsum("pmi,pmj->pij", J, J)
+    Jtr = np.einsum("pmi,pm->pi", J, r)
+    ridge = 1e-12 * np.trace(JtJ, axis1=1, axis2=2)[:, None, None] * np.eye(2) + 1e-300 * np.eye(2)
+    step = np.linalg.solve(JtJ + ridge, Jtr[..., None])[..., 0]
+    return np.sum(r * r, axis=1) - np.einsum("pi,pi->p", Jtr, step)
 
 
 def _fit(prob: _Problem, starts, loss: str, f_scale: float, good=None):
