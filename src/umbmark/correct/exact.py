@@ -346,13 +346,14 @@ def _gauss_newton_cost(prob: _Problem, ed, eb) -> np.ndarray:
 
 
 def _fit(prob: _Problem, starts, loss: str, f_scale: float, good=None):
-    """Local fits from each start (best initial cost first); the lowest final cost wins.
-    ``good(sol)``: stop early as soon as a solution passes this test."""
+    """Local fits from each start (lowest cost predicted by a Gauss-Newton step first: the
+    cost at the start itself would put a start just off a narrow basin behind starts in broad
+    shallow ones); the lowest final cost wins. ``good(sol)``: stop early as soon as a solution
+    passes this test."""
     best = None
     if len(starts) > 1:
         P = np.array(starts)
-        r = prob.residuals_matrix(P[:, 0], P[:, 1])
-        order = np.argsort(np.sum(r * r, axis=(1, 2)))
+        order = np.argsort(_gauss_newton_cost(prob, P[:, 0], P[:, 1]))
         starts = [starts[i] for i in order]
     for x0 in starts:
         if best is not None and good is not None and good(best):
