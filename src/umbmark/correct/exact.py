@@ -282,11 +282,11 @@ def _heading_starts(prob: _Problem):
             if not abs(q) < 0.3 or not 0.05 < eb < 20:
                 continue
             out.append(np.array([(1 + q) / (1 - q), eb]))
-    return out
+    return _ranked(prob, out)
 
 
 def _grid_starts(prob: _Problem, k: int | None = None):
-    """The ``k`` best distinct local minima (default: 8 per 315 grid values of ``beta'``) of the
+    """The ``k`` best (:func:`_ranked`) local minima (default: 8 per 315 grid values of ``beta'``) of the
     cost on a global grid over ``E_b,pass`` in
     [0.3, 4] (401 points, log-spaced) and the heading gained per leg ``beta'`` (:func:`_grid_beta`;
     the cost varies with E_d on the scale of ``b / L``, so E_d is gridded through ``beta'``),
@@ -316,12 +316,20 @@ def _grid_starts(prob: _Problem, k: int | None = None):
             if di or dj:
                 is_min &= cost <= pad[1 + di:1 + di + cost.shape[0], 1 + dj:1 + dj + cost.shape[1]]
     idx = np.flatnonzero(is_min.ravel())
-    # rank them by the cost a Gauss-Newton step from each predicts, not by the cost at the grid
-    # point: a narrow basin sampled off its centre (E_b near 0.5, where each turn is most
-    # sensitive to it) must not lose to broad, shallow basins that merely sit on the grid
-    pred = _gauss_newton_cost(prob, flat_ed[idx], flat_eb[idx])
-    idx = idx[np.argsort(pred)][:k]
-    return [np.array([flat_ed[i], flat_eb[i]]) for i in idx]
+    return _ranked(prob, [np.array([flat_ed[i], flat_eb[i]]) for i in idx], k)
+
+
+def _ranked(prob: _Problem, starts, k: int | None = None):
+    """The ``k`` (default: all) starts with the lowest cost one Gauss-Newton step from each
+    predicts, best first. Not the cost at the start itself: a narrow basin sampled off its
+    centre (E_b near 0.5, where each turn is most sensitive to it) must not lose to broad,
+    shallow basins that merely sit near a start, nor be fitted after them (the search stops at
+    the first fit that explains the runs)."""
+    if len(starts) < 2:
+        return list(starts)
+    P = np.array(starts)
+    order = np.argsort(_gauss_newton_cost(prob, P[:, 0], P[:, 1]))[:k]
+    return [starts[i] for i in order]
 
 
 def _gauss_newton_cost(prob: _Problem, ed, eb) -> np.ndarray:
@@ -346,15 +354,9 @@ def _gauss_newton_cost(prob: _Problem, ed, eb) -> np.ndarray:
 
 
 def _fit(prob: _Problem, starts, loss: str, f_scale: float, good=None):
-    """Local fits from each start (lowest cost predicted by a Gauss-Newton step first: the
-    cost at the start itself would put a start just off a narrow basin behind starts in broad
-    shallow ones); the lowest final cost wins. ``good(sol)``: stop early as soon as a solution
-    passes this test."""
+    """Local fits from each start, in the order given (see :func:`_ranked`); the lowest final
+    cost wins. ``good(sol)``: stop early as soon as a solution passes this test."""
     best = None
-    if len(starts) > 1:
-        P = np.array(starts)
-        order = np.argsort(_gauss_newton_cost(prob, P[:, 0], P[:, 1]))
-        starts = [starts[i] for i in order]
     for x0 in starts:
         if best is not None and good is not None and good(best):
             break
