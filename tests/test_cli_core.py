@@ -137,6 +137,12 @@ def test_simulate_bad_values(tmp_path, capsys):
                          (["--noise", "loud"], "--noise")):
         code, _, err = run(capsys, "simulate", *flags, "--out", str(tmp_path / "x.csv"))
         assert code == 2 and err.count("\n") == 1 and match in err
+    # inputs that would need more samples than memory holds (found by fuzzing: MemoryError, or
+    # the process killed) are refused before anything is allocated
+    for flags in (["--side-mm", "1e12"], ["--speed", "1e-12"], ["--sample-period-ms", "1e-9"],
+                  ["--wheelbase-mm", "1e9"]):
+        code, _, err = run(capsys, "simulate", *flags, "--out", str(tmp_path / "x.csv"))
+        assert code == 2 and err.count("\n") == 1 and "samples (more than 5,000,000)" in err
     code, _, err = run(capsys, "simulate", "--out", str(tmp_path / "nodir" / "x.csv"))
     assert code == 2 and "does not exist" in err
     assert not (tmp_path / "x.csv").exists()
@@ -167,3 +173,15 @@ def test_console_script_has_no_traceback(tmp_path):
                        capture_output=True, text=True)
     assert p.returncode == 2
     assert "Traceback" not in p.stderr and p.stderr.count("\n") == 1
+
+
+def test_plot_format_must_be_one_matplotlib_writes(tmp_path, capsys):
+    f = tmp_path / "r.csv"
+    f.write_text("direction,x_abs,y_abs,x_odo,y_odo\ncw,-60,-60,0,0\nccw,60,-60,0,0\n")
+    bad = tmp_path / "out.xyz"
+    code, _, err = run(capsys, "analyze", str(f), "--wheelbase-mm", "340", "--side-mm", "4000", "--plot", str(bad))
+    assert code == 2 and err.count("\n") == 1 and "cannot write a .xyz figure" in err and str(bad) in err
+    assert not bad.exists()
+    ok = tmp_path / "out.SVG"
+    assert run(capsys, "analyze", str(f), "--wheelbase-mm", "340", "--side-mm", "4000", "--plot", str(ok))[0] == 0
+    assert ok.read_bytes().lstrip().startswith(b"<?xml")

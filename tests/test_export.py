@@ -127,6 +127,10 @@ def test_cli_export_from_replay_json(optiodom, tmp_path, capsys):
     ("{not json", "not valid JSON"),
     ('{"a": 1}', "no 'c_left'"),
     ('{"c_left": 1, "c_right": -1, "Eb": 1}', "c_right must be a positive number"),
+    ('{"c_left": 1, "c_right": 1, "wheelbase_corrected_mm": 300, "nominal": "x"}', "'nominal' must be an object"),
+    ('{"c_left": 1, "c_right": 1, "Eb": 1, "nominal": {"diameter_left_mm": "84"}}',
+     "nominal diameter_left_mm must be a positive number"),
+    ("[" * 100000 + "]" * 100000, "nested too deeply"),
 ])
 def test_cli_export_errors(tmp_path, capsys, content, msg):
     f = tmp_path / "cal.json"

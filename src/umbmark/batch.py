@@ -32,6 +32,7 @@ from .kinematics import LABMATE, Calibration, ErrorParams, Geometry, OdometryPar
 from .runs import RunsTable
 from .simulate import (
     Motion,
+    check_sample_count,
     child_seeds,
     NoiseModel,
     program_inputs,
@@ -119,6 +120,7 @@ def _plan(program, motion: Motion, noise: NoiseModel, m_l, m_r, m_b):
         n_full[:, j] = nf
         frac[:, j] = fr
         kmax[:, j] = nf + (fr > 0) + margin
+    check_sample_count(kmax.sum(axis=1), motion)
     return kind, s_l, s_r, target, step, n_full, frac, kmax
 
 

@@ -12,6 +12,7 @@ import matplotlib.ticker  # noqa: E402
 import numpy as np  # noqa: E402
 
 from .benchmark import umbmark  # noqa: E402
+from .errors import InputError  # noqa: E402
 from .io.atomic import atomic_path  # noqa: E402
 from .runs import RunsTable  # noqa: E402
 
@@ -85,9 +86,15 @@ def trajectory_figure(trajectories: list[dict], title: str | None = None):
 def save_figure(fig, path) -> Path:
     """Save (format from the suffix: .png, .svg, .pdf) atomically and close the figure."""
     path = Path(path)
+    fmt = path.suffix.lstrip(".").lower() or "png"
+    supported = fig.canvas.get_supported_filetypes()
+    if fmt not in supported:
+        plt.close(fig)
+        raise InputError(f"cannot write a .{fmt} figure (use one of: {', '.join('.' + k for k in sorted(supported))})",
+                         source=str(path))
     try:
         with atomic_path(path) as tmp:
-            fig.savefig(tmp, format=path.suffix.lstrip(".") or "png", dpi=120)
+            fig.savefig(tmp, format=fmt, dpi=120)
     finally:
         plt.close(fig)
     return path

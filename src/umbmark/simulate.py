@@ -230,6 +230,20 @@ def run_seeds(seed: int | np.random.SeedSequence, n: int) -> list[np.random.Gene
     return [np.random.default_rng(s) for s in child_seeds(seed, n)]
 
 
+MAX_SAMPLES_PER_RUN = 5_000_000  # 14 h of driving at 10 ms: beyond it the inputs are wrong
+
+
+def check_sample_count(samples_per_run, motion: Motion) -> None:
+    """Refuse a program that would need more than :data:`MAX_SAMPLES_PER_RUN` samples in a run
+    (a side in metres given in micrometres, a speed near zero, a sample period of nanoseconds):
+    the simulation would exhaust memory or never end."""
+    n = int(np.max(samples_per_run))
+    if n > MAX_SAMPLES_PER_RUN:
+        raise InputError(
+            f"a run would need {n:,} samples (more than {MAX_SAMPLES_PER_RUN:,}): check the side length, "
+            f"wheelbase, speed ({motion.speed_m_s:g} m/s) and sample period ({motion.sample_period_s:g} s)")
+
+
 def run_program(
     program,
     true: OdometryParams,
@@ -312,6 +326,7 @@ def run_program(
         seg_info.append((seg, a_l_sign, a_r_sign, target, gain, steps, n_full, frac, kmax_run))
 
     # --- noise draws, per run from its own generator (independent of the batch)
+    check_sample_count(sum(info[-1] for info in seg_info), motion)
     seg_k = [int(np.max(info[-1])) for info in seg_info]
     offs = np.concatenate([[0], np.cumsum(seg_k)])
     K = int(offs[-1])

@@ -421,8 +421,8 @@ def measure_cmd(distances_file, front, rear, back, side_wall, resolution_mm, out
     from ..io.atomic import atomic_write
     from ..measure import RobotMarks, format_measured_csv, measure_runs, read_distances_csv
 
-    if resolution_mm is None or not (math.isfinite(resolution_mm) and resolution_mm >= 0):
-        raise InputError(f"--resolution-mm must be a non-negative number, got {resolution_mm!r}")
+    if resolution_mm is None or not (math.isfinite(resolution_mm) and 0 <= resolution_mm <= 1000):
+        raise InputError(f"--resolution-mm must be a number from 0 to 1000 (a tape's resolution), got {resolution_mm!r}")
     marks = RobotMarks(tuple(v * 1e-3 for v in front), tuple(v * 1e-3 for v in rear), tuple(v * 1e-3 for v in back))
     if interactive:
         if distances_file:

@@ -88,6 +88,8 @@ def calibration_from_json(path, dataset: str | None = None) -> ExportCalibration
         raise InputError("not a text (UTF-8) file", source=src) from None
     except json.JSONDecodeError as e:
         raise InputError(f"not valid JSON: {e.msg}", source=src, line=e.lineno) from None
+    except RecursionError:
+        raise InputError("JSON nested too deeply: not the JSON of umbmark replay or analyze", source=src) from None
     if not isinstance(d, dict):
         raise InputError("expected a JSON object", source=src)
     if "datasets" in d and isinstance(d["datasets"], list) and d["datasets"] and isinstance(d["datasets"][0], dict):
@@ -101,14 +103,19 @@ def calibration_from_json(path, dataset: str | None = None) -> ExportCalibration
     for k in ("c_left", "c_right"):
         if k not in d:
             raise InputError(f"no {k!r}: not the JSON of umbmark replay or analyze", source=src)
-    if "wheelbase_corrected_mm" in d and ("wheelbase_mm" in d or "nominal" in d):
-        used = d["nominal"]["wheelbase_mm"] if "nominal" in d else d["wheelbase_mm"]
+    nom = d.get("nominal") or {}
+    if not isinstance(nom, dict):
+        raise InputError(f"'nominal' must be an object of nominal figures, got {nom!r}", source=src)
+    for k in ("diameter_left_mm", "diameter_right_mm", "wheelbase_mm", "units_per_wheel_rev"):
+        if nom.get(k) is not None:
+            _pos(f"nominal {k}", nom[k], src)
+    if "wheelbase_corrected_mm" in d and ("wheelbase_mm" in d or nom):
+        used = nom.get("wheelbase_mm") if nom else d["wheelbase_mm"]
         eb = _pos("wheelbase_corrected_mm", d["wheelbase_corrected_mm"], src) / _pos("wheelbase_mm", used, src)
     elif "Eb" in d:
         eb = d["Eb"]
     else:
         raise InputError("no 'Eb' or wheelbase figures", source=src)
-    nom = d.get("nominal") or {}
     mm = lambda v: None if v is None else v * 1e-3  # noqa: E731
     return ExportCalibration(
         d["c_left"], d["c_right"], eb, mm(nom.get("diameter_left_mm")), mm(nom.get("diameter_right_mm")),
