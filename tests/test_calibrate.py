@@ -96,6 +96,8 @@ def test_calibrate_cli_errors(tmp_path, capsys):
     assert "missing.csv" in capsys.readouterr().err
     assert main(["calibrate", "--ed", "-1"]) == 2
     assert "--ed" in capsys.readouterr().err
+    assert main(["calibrate", "--ed", "1e308"]) == 2  # accepted before (fuzzing)
+    assert "--ed must be a number from 0.5 to 2" in capsys.readouterr().err
     assert main(["calibrate", "--save-runs", str(tmp_path / "nope")]) == 2
     err = capsys.readouterr().err
     assert "does not exist" in err and len(err.strip().splitlines()) == 1

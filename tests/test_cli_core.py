@@ -97,6 +97,10 @@ BAD = [
     ("num.csv", "direction,x_abs,y_abs,x_odo,y_odo\ncw,1,2,3,4\nccw,1,x,3,4\n", ":3: column y_abs"),
     ("nan.csv", "direction,x_abs,y_abs,x_odo,y_odo\ncw,NaN,2,3,4\nccw,1,2,3,4\n", ":2: column x_abs"),
     ("oneway.csv", "direction,x_abs,y_abs,x_odo,y_odo\ncw,1,2,3,4\ncw,1,2,3,4\n", "no ccw runs"),
+    # finite but absurd (found by fuzzing: 1e308 overflowed into a calibration of E_b 1e-303)
+    ("huge.csv", "direction,x_abs,y_abs,x_odo,y_odo\ncw,1e308,2,3,4\nccw,1,2,3,4\n", ":2: column x_abs: 1e308 mm is more"),
+    ("heading.csv", "direction,x_abs,y_abs,x_odo,y_odo,theta_abs,theta_odo\ncw,1,2,3,4,1e300,0\nccw,1,2,3,4,0,0\n",
+     ":2: column theta_abs: 1e300 is not a heading"),
 ]
 
 
@@ -133,7 +137,9 @@ def test_bad_flags_one_line_exit_2(tmp_path, capsys, flags, match):
 
 
 def test_simulate_bad_values(tmp_path, capsys):
-    for flags, match in ((["--ed", "-1"], "--ed must be a positive"), (["--runs", "0"], "--runs"),
+    for flags, match in ((["--ed", "-1"], "--ed must be a number from 0.5 to 2"), (["--runs", "0"], "--runs"),
+                         (["--es", "1e308"], "--es must be a number from 0.5 to 2"),
+                         (["--eb", "1e-9"], "--eb must be a number from 0.05 to 20"),
                          (["--noise", "loud"], "--noise")):
         code, _, err = run(capsys, "simulate", *flags, "--out", str(tmp_path / "x.csv"))
         assert code == 2 and err.count("\n") == 1 and match in err

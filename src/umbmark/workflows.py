@@ -26,6 +26,19 @@ def positive(name: str, value: float) -> float:
     return float(value)
 
 
+# the true errors a simulated robot may have: wheels differing by up to a factor of 2, an
+# effective wheelbase from 1/20 to 20 times the nominal one, a mean wheel scale 0.5 to 2
+ERROR_RANGES = {"--ed": (0.5, 2.0), "--eb": (0.05, 20.0), "--es": (0.5, 2.0)}
+
+
+def error_param(name: str, value: float) -> float:
+    """A true error factor from the command line, within :data:`ERROR_RANGES`."""
+    lo, hi = ERROR_RANGES[name]
+    if value is None or not (math.isfinite(value) and lo <= value <= hi):
+        raise InputError(f"{name} must be a number from {lo:g} to {hi:g}, got {value!r}")
+    return float(value)
+
+
 @dataclass(frozen=True)
 class Analysis:
     runs: RunsTable

@@ -113,7 +113,7 @@ def calibrate(runs_files, ed, eb, n_runs, noise, seed, max_passes, method, sampl
             raise InputError(f"output folder {save_runs} does not exist")
         geom = Geometry(workflows.positive("--wheel-diameter-mm", wheel_diameter_mm) * 1e-3, wheelbase_m,
                         LABMATE.pulses_per_rev, LABMATE.gear_ratio)
-        errors = ErrorParams(workflows.positive("--ed", ed), workflows.positive("--eb", eb))
+        errors = ErrorParams(workflows.error_param("--ed", ed), workflows.error_param("--eb", eb))
         motion = Motion(sample_period_s=workflows.positive("--sample-period-ms", sample_period_ms) * 1e-3)
         with progress(f"simulating up to {max_passes + 1} tests", total=max_passes + 1) as advance:
             loop = calibrate_loop(errors, geom, side_m, n_runs, noise, motion, method, max_passes, seed, prior,

@@ -117,7 +117,7 @@ def simulate(ed, eb, es, n_runs, seed, noise, out, wheelbase_mm, side_mm, wheel_
     side_m = workflows.positive("--side-mm", side_mm) * 1e-3
     if model_wheelbase_mm is not None:
         workflows.positive("--model-wheelbase-mm", model_wheelbase_mm)
-    errors = ErrorParams(workflows.positive("--ed", ed), workflows.positive("--eb", eb), workflows.positive("--es", es))
+    errors = ErrorParams(workflows.error_param("--ed", ed), workflows.error_param("--eb", eb), workflows.error_param("--es", es))
     motion = Motion(speed_m_s=workflows.positive("--speed", speed_m_s),
                     sample_period_s=workflows.positive("--sample-period-ms", sample_period_ms) * 1e-3)
     with progress(f"simulating {n_runs} runs each way"):

@@ -41,7 +41,16 @@ def _number(cell: str, col: str, source: str, line: int) -> float:
                          source, line) from None
     if not math.isfinite(v):
         raise InputError(f"column {col}: {cell.strip()!r} is not a finite number", source, line)
+    if col.startswith("theta"):
+        if abs(v) > 360.0:
+            raise InputError(f"column {col}: {cell.strip()} is not a heading in degrees (-180 to 180)", source, line)
+    elif abs(v) > _MAX_MM:
+        raise InputError(f"column {col}: {cell.strip()} mm is more than 10 km from the start: check the units",
+                         source, line)
     return v
+
+
+_MAX_MM = 1e7  # positions (mm) of a square run: anything beyond 10 km is a unit or format error
 
 
 def parse_runs_csv(text: str, source: str = "<runs>") -> RunsTable:
