@@ -111,3 +111,17 @@ def test_compose_keeps_mean_factor_and_multiplies_ratios(ed0, ed1, scale):
     assert cal.c_right / cal.c_left == pytest.approx(total, rel=1e-12)
     assert (cal.c_left + cal.c_right) / 2 == pytest.approx(scale, rel=1e-12)
     assert cal.wheelbase_m == pytest.approx(0.303)
+
+
+def test_warns_far_beyond_small_angles():
+    """One run 1 km off (found by fuzzing) gave alpha = -598 deg, E_b 0.13 and no word of
+    doubt; now a warning says the paper's formulas do not apply. Ordinary runs: no warning."""
+    from umbmark.io.runs_csv import parse_runs_csv
+
+    head = "direction,x_abs,y_abs,x_odo,y_odo\n"
+    ok = parse_runs_csv(head + "cw,-60,-60,0,0\ncw,-50,-70,0,0\nccw,60,-60,0,0\nccw,70,-50,0,0\n")
+    assert bf_correction(umbmark(ok), 4.0, 0.34).extra["warnings"] == []
+    bad = parse_runs_csv(head + "cw,-60,-60,0,0\ncw,1000000,-70,0,0\nccw,60,-60,0,0\nccw,70,-50,0,0\n")
+    c = bf_correction(umbmark(bad), 4.0, 0.34)
+    assert math.degrees(c.alpha) < -90
+    assert len(c.extra["warnings"]) == 1 and "try --method exact" in c.extra["warnings"][0]

@@ -97,6 +97,13 @@ def bf_correction(
             extra[f"Eb_{axis}"] = eb_from_alpha(ab[f"alpha_{axis}"])
         except CorrectionUndefined:
             extra[f"Eb_{axis}"] = None
+    warns = []
+    a_deg, b_deg = deg(ab["alpha"]), deg(ab["beta"])
+    if a_deg <= -90.0 or abs(b_deg) >= 180.0:
+        warns.append(f"alpha = {a_deg:.1f} deg, beta = {b_deg:.1f} deg: far beyond the small angles the paper's "
+                     "formulas assume, so this correction means little (an outlier run, wrong units, or a very "
+                     "large error: try --method exact)")
+    extra["warnings"] = warns
     return CorrectionResult("bf", ed_total, ed_pass, eb, cal, ab["alpha"], ab["beta"], radius, extra)
 
 
