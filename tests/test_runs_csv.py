@@ -1,4 +1,5 @@
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -112,3 +113,38 @@ def test_write_is_atomic(tmp_path):
     assert p.stat().st_mode & 0o044  # readable by others (umask permitting), not mkstemp's 0600
     with pytest.raises(InputError, match="does not exist"):
         write_runs_csv(t, tmp_path / "no" / "out.csv")
+
+
+def test_write_through_links_and_into_special_files(tmp_path):
+    """Found by fuzzing: a symlink was replaced by a regular file (its target left stale), and
+    /dev/full (as root) was replaced by a regular file instead of reporting no space."""
+    import os
+
+    t = parse_runs_csv(GOOD)
+    target = tmp_path / "target.csv"
+    target.write_text("old\n")
+    link = tmp_path / "link.csv"
+    link.symlink_to(target)
+    write_runs_csv(t, link)
+    assert link.is_symlink() and parse_runs_csv(target.read_text()).x_abs[0] == pytest.approx(0.010)
+    assert sorted(f.name for f in tmp_path.iterdir()) == ["link.csv", "target.csv"]
+    # a named pipe gets the content written into it
+    fifo = tmp_path / "pipe"
+    os.mkfifo(fifo)
+    r = os.open(fifo, os.O_RDONLY | os.O_NONBLOCK)
+    try:
+        write_runs_csv(t, fifo)
+        got = os.read(r, 1 << 16).decode()
+        assert parse_runs_csv(got).x_abs[0] == pytest.approx(0.010)
+    finally:
+        os.close(r)
+    assert fifo.exists() and not fifo.is_file()
+    if os.path.exists("/dev/full"):
+        with pytest.raises(OSError, match="No space left") as e:
+            write_runs_csv(t, "/dev/full")
+        assert e.value.filename == "/dev/full"
+        assert not Path("/dev/full").is_file()
+    with pytest.raises(InputError, match="it is a folder"):
+        write_runs_csv(t, tmp_path)
+    with pytest.raises(InputError, match="no file name"):
+        write_runs_csv(t, "")

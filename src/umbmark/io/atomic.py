@@ -20,8 +20,21 @@ def _umask() -> int:
 
 @contextmanager
 def atomic_path(path):
-    """Yield a temporary path beside ``path``; it replaces ``path`` only if the block succeeds."""
+    """Yield a temporary path beside ``path``; it replaces ``path`` only if the block succeeds.
+
+    A symbolic link is written through (its target is replaced, the link stays); a special
+    file that exists (``/dev/stdout``, a named pipe) gets the finished content written into it."""
+    if not str(path):
+        raise InputError("cannot write '': no file name given")
     path = Path(path)
+    if path.is_dir():
+        raise InputError(f"cannot write {path}: it is a folder")
+    if path.exists() and not path.is_file():
+        with _special(path) as tmp:
+            yield tmp
+        return
+    if path.is_symlink():
+        path = Path(os.path.realpath(path))
     parent = path.parent if str(path.parent) else Path(".")
     if not parent.is_dir():
         raise InputError(f"cannot write {path}: folder {parent} does not exist")
@@ -37,6 +50,24 @@ def atomic_path(path):
         except FileNotFoundError:
             pass
         raise
+
+
+@contextmanager
+def _special(path: Path):
+    """The content is made in a temporary file, then written into ``path`` (a device or pipe:
+    it cannot be renamed over, and a failed write, e.g. /dev/full, is an OSError)."""
+    fd, tmp = tempfile.mkstemp(prefix=".umbmark.", suffix=path.suffix or ".tmp")
+    os.close(fd)
+    try:
+        yield Path(tmp)
+        try:
+            with open(tmp, "rb") as src, open(path, "wb") as dst:
+                while chunk := src.read(1 << 20):
+                    dst.write(chunk)
+        except OSError as e:
+            raise OSError(e.errno, e.strerror, str(path)) from None
+    finally:
+        os.unlink(tmp)
 
 
 def atomic_write(path, text: str | bytes):
