@@ -15,6 +15,7 @@ exact-arc or sampled. Prints every miss and a one-line summary; exit status 1 if
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import time
 
@@ -31,14 +32,13 @@ def draw_case(rng, blind: bool) -> dict:
     b = lo + rng.uniform() * (1.0 - lo)
     return {"ed": float(ed), "eb": float(eb), "side_m": float(side), "wheelbase_m": float(b),
             "runs": int(rng.integers(1, 8)), "heading": bool(rng.integers(2)),
-            "sampled": bool(rng.integers(2)) }
+            "sampled": bool(rng.integers(2))}
 
 
 def recovered(case: dict) -> tuple[bool, list]:
     from umbmark.correct import correct_runs
     from umbmark.io.runs_csv import format_runs_csv, parse_runs_csv
     from umbmark.kinematics import ErrorParams, Geometry
-    from umbmark.runs import RunsTable
     from umbmark.simulate import Motion, simulate_umbmark
 
     motion = Motion(sample_period_s=0.01 if case["sampled"] else None)
@@ -46,7 +46,7 @@ def recovered(case: dict) -> tuple[bool, list]:
                             case["side_m"], n_runs=case["runs"], motion=motion)
     runs = parse_runs_csv(format_runs_csv(runs))
     if not case["heading"]:
-        runs = RunsTable(runs.direction, runs.x_abs, runs.y_abs, runs.x_odo, runs.y_odo, None, None, runs.run)
+        runs = dataclasses.replace(runs, theta_abs=None, theta_odo=None)
     c = correct_runs("exact", runs, case["side_m"], case["wheelbase_m"])
     answers = [(c.ed, c.eb)] + [(a["Ed_pass"], a["Eb_pass"]) for a in c.extra["alternatives"]]
     ok = any(abs(e - case["ed"]) < 1e-5 and abs(f - case["eb"]) < 1e-4 for e, f in answers)

@@ -88,11 +88,10 @@ def save_figure(fig, path) -> Path:
     path = Path(path)
     fmt = path.suffix.lstrip(".").lower() or "png"
     supported = fig.canvas.get_supported_filetypes()
-    if fmt not in supported:
-        plt.close(fig)
-        raise InputError(f"cannot write a .{fmt} figure (use one of: {', '.join('.' + k for k in sorted(supported))})",
-                         source=str(path))
     try:
+        if fmt not in supported:
+            raise InputError(f"cannot write a .{fmt} figure (use one of: "
+                             f"{', '.join('.' + k for k in sorted(supported))})", source=str(path))
         with atomic_path(path) as tmp:
             fig.savefig(tmp, format=fmt, dpi=120)
     finally:

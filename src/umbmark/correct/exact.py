@@ -237,16 +237,23 @@ class _Problem:
     def residuals(self, p):
         return self.residuals_matrix([p[0]], [p[1]])[0].ravel()
 
-    def jacobian_runs(self, p, h=1e-7):
-        """Per-run Jacobian of the *model* (n, ncomp, 2), central differences."""
+    def jacobian_matrix(self, ed, eb, h=1e-7):
+        """Per-run Jacobian of the *model* (P, n, ncomp, 2) at arrays ed, eb of shape (P,),
+        central differences."""
+        p = [np.asarray(ed, dtype=float), np.asarray(eb, dtype=float)]
         cols = []
         for j in range(2):
-            dp = np.zeros(2)
-            dp[j] = h * max(1.0, abs(p[j]))
-            rp = self.residuals_matrix([p[0] + dp[0]], [p[1] + dp[1]])[0]
-            rm = self.residuals_matrix([p[0] - dp[0]], [p[1] - dp[1]])[0]
-            cols.append(-(rp - rm) / (2 * dp[j]))
+            d = h * np.maximum(1.0, np.abs(p[j]))
+            hi = [p[0] + d, p[1]] if j == 0 else [p[0], p[1] + d]
+            lo = [p[0] - d, p[1]] if j == 0 else [p[0], p[1] - d]
+            rp = self.residuals_matrix(*hi)
+            rm = self.residuals_matrix(*lo)
+            cols.append(-(rp - rm) / (2 * d[:, None, None]))
         return np.stack(cols, axis=-1)
+
+    def jacobian_runs(self, p, h=1e-7):
+        """Per-run Jacobian of the *model* (n, ncomp, 2) at one parameter pair ``p``."""
+        return self.jacobian_matrix([p[0]], [p[1]], h)[0]
 
 
 def _bf_start(runs, side_m, wheelbase_m):
@@ -336,16 +343,8 @@ def _gauss_newton_cost(prob: _Problem, ed, eb) -> np.ndarray:
     """The least-squares cost after one Gauss-Newton step from each ``(ed, eb)``: the part of
     the residual vector the model's local linearisation cannot remove."""
     ed = np.asarray(ed, dtype=float)
-    eb = np.asarray(eb, dtype=float)
     r = prob.residuals_matrix(ed, eb).reshape(ed.size, -1)  # (P, m)
-    cols = []
-    for j in range(2):
-        h = 1e-6 * (ed if j == 0 else eb)
-        e1, b1 = (ed + h, eb) if j == 0 else (ed, eb + h)
-        e2, b2 = (ed - h, eb) if j == 0 else (ed, eb - h)
-        dr = prob.residuals_matrix(e1, b1).reshape(ed.size, -1) - prob.residuals_matrix(e2, b2).reshape(ed.size, -1)
-        cols.append(dr / (2.0 * h[:, None]))
-    J = np.stack(cols, axis=-1)  # (P, m, 2)
+    J = -prob.jacobian_matrix(ed, eb).reshape(ed.size, -1, 2)  # of the residuals: (P, m, 2)
     JtJ = np.einsum("pmi,pmj->pij", J, J)
     Jtr = np.einsum("pmi,pm->pi", J, r)
     ridge = 1e-12 * np.trace(JtJ, axis1=1, axis2=2)[:, None, None] * np.eye(2) + 1e-300 * np.eye(2)
