@@ -5,7 +5,7 @@
     python benchmarks/accuracy.py --quick    # small grid, 4 robots per cell (seconds)
 
 Writes accuracy.{json,csv,md,png} into benchmarks/results/ (or --out). See
-umbmark.accuracy for the definitions (floors, grid, seeds, sampling period).
+umbmark.studies.accuracy for the definitions (floors, grid, seeds, sampling period).
 """
 
 from __future__ import annotations
@@ -17,21 +17,30 @@ from pathlib import Path
 
 
 def main(argv=None) -> int:
-    from umbmark.accuracy import QUICK, AccuracyConfig, coverage_trial, run_accuracy, write_results
     from umbmark.errors import InputError
+    from umbmark.studies.accuracy import QUICK, AccuracyConfig, coverage_trial, run_accuracy, write_results
 
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true", help="small grid, few robots (tests, examples)")
     p.add_argument("--robots", type=int, default=None, help="robots per cell with noise")
     p.add_argument("--workers", type=int, default=None, help="local processes (default: all cores)")
-    p.add_argument("--dask", default=None, metavar="ADDRESS",
-                   help="run the cells on a Dask cluster (tcp://host:8786, or 'local')")
+    p.add_argument(
+        "--dask", default=None, metavar="ADDRESS", help="run the cells on a Dask cluster (tcp://host:8786, or 'local')"
+    )
     p.add_argument("--seed", type=int, default=None)
     p.add_argument("--sample-period-ms", type=float, default=None)
-    p.add_argument("--coverage-robots", type=int, default=0,
-                   help="also measure interval coverage over this many random robots (10 ms sampling)")
-    p.add_argument("--fixed-wheelbase", choices=("true", "nominal"), default="true",
-                   help="hold the true wheelbase fixed (one robot; default) or the nominal one (true = E_b x nominal)")
+    p.add_argument(
+        "--coverage-robots",
+        type=int,
+        default=0,
+        help="also measure interval coverage over this many random robots (10 ms sampling)",
+    )
+    p.add_argument(
+        "--fixed-wheelbase",
+        choices=("true", "nominal"),
+        default="true",
+        help="hold the true wheelbase fixed (one robot; default) or the nominal one (true = E_b x nominal)",
+    )
     p.add_argument("--eb", type=float, nargs="+", default=None, help="E_b values of the grid (default: all)")
     p.add_argument("--stem", default="accuracy", help="file name stem of the results")
     p.add_argument("--out", default=str(Path(__file__).resolve().parent / "results"))
@@ -46,8 +55,9 @@ def main(argv=None) -> int:
         changes["sample_period_s"] = a.sample_period_ms * 1e-3
     cfg = replace(cfg, **changes)
     try:
-        res = run_accuracy(cfg, progress=lambda i, n: print(f"\rcell {i}/{n}", end="", file=sys.stderr, flush=True),
-                           dask=a.dask)
+        res = run_accuracy(
+            cfg, progress=lambda i, n: print(f"\rcell {i}/{n}", end="", file=sys.stderr, flush=True), dask=a.dask
+        )
     except InputError as e:
         print(f"error: {e}", file=sys.stderr)
         return 2

@@ -2,7 +2,7 @@
 
 The preset is meant to reproduce the paper's sigma of about 25 mm per direction on the 4 x 4 m
 square with the LabMate (0.2 m/s, 10 ms sampling). sigma is the radial sample standard
-deviation defined in umbmark.benchmark.
+deviation defined in umbmark.metrics.
 
     python benchmarks/noise_preset.py [--runs 1000] [--seed 11]
 
@@ -17,9 +17,9 @@ import time
 from dataclasses import asdict
 from pathlib import Path
 
-from umbmark.benchmark import umbmark
-from umbmark.simulate import NOISE_PRESETS, Motion, simulate_umbmark
-from umbmark.workflows import FIG11_ERRORS
+from umbmark.metrics import umbmark
+from umbmark.model.geometry import FIG11_ERRORS
+from umbmark.model.simulate import NOISE_PRESETS, Motion, simulate_umbmark
 
 
 def main(argv=None):
@@ -31,11 +31,16 @@ def main(argv=None):
     out = {"preset": asdict(NOISE_PRESETS["paper"]), "runs_per_direction": a.runs, "seed": a.seed, "by_period": {}}
     for period in (0.01, 0.05):
         t = time.perf_counter()
-        res = umbmark(simulate_umbmark(FIG11_ERRORS, n_runs=a.runs, noise="paper", seed=a.seed,
-                                       motion=Motion(sample_period_s=period)))
+        res = umbmark(
+            simulate_umbmark(
+                FIG11_ERRORS, n_runs=a.runs, noise="paper", seed=a.seed, motion=Motion(sample_period_s=period)
+            )
+        )
         out["by_period"][f"{period * 1e3:g} ms"] = {
-            "std_cw_mm": res.cw.std * 1e3, "std_ccw_mm": res.ccw.std * 1e3,
-            "sem5_cw_mm": res.cw.std * 1e3 / 5 ** 0.5, "sem5_ccw_mm": res.ccw.std * 1e3 / 5 ** 0.5,
+            "std_cw_mm": res.cw.std * 1e3,
+            "std_ccw_mm": res.ccw.std * 1e3,
+            "sem5_cw_mm": res.cw.std * 1e3 / 5**0.5,
+            "sem5_ccw_mm": res.ccw.std * 1e3 / 5**0.5,
             "seconds": time.perf_counter() - t,
         }
     a.out.parent.mkdir(parents=True, exist_ok=True)

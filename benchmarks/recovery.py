@@ -30,20 +30,31 @@ def draw_case(rng, blind: bool) -> dict:
     side = rng.uniform(0.5, 10.0)
     lo = max(0.05, side / 150.0)
     b = lo + rng.uniform() * (1.0 - lo)
-    return {"ed": float(ed), "eb": float(eb), "side_m": float(side), "wheelbase_m": float(b),
-            "runs": int(rng.integers(1, 8)), "heading": bool(rng.integers(2)),
-            "sampled": bool(rng.integers(2))}
+    return {
+        "ed": float(ed),
+        "eb": float(eb),
+        "side_m": float(side),
+        "wheelbase_m": float(b),
+        "runs": int(rng.integers(1, 8)),
+        "heading": bool(rng.integers(2)),
+        "sampled": bool(rng.integers(2)),
+    }
 
 
 def recovered(case: dict) -> tuple[bool, list]:
     from umbmark.correct import correct_runs
     from umbmark.io.runs_csv import format_runs_csv, parse_runs_csv
-    from umbmark.kinematics import ErrorParams, Geometry
-    from umbmark.simulate import Motion, simulate_umbmark
+    from umbmark.model.geometry import ErrorParams, Geometry
+    from umbmark.model.simulate import Motion, simulate_umbmark
 
     motion = Motion(sample_period_s=0.01 if case["sampled"] else None)
-    runs = simulate_umbmark(ErrorParams(case["ed"], case["eb"]), Geometry(0.1, case["wheelbase_m"]),
-                            case["side_m"], n_runs=case["runs"], motion=motion)
+    runs = simulate_umbmark(
+        ErrorParams(case["ed"], case["eb"]),
+        Geometry(0.1, case["wheelbase_m"]),
+        case["side_m"],
+        n_runs=case["runs"],
+        motion=motion,
+    )
     runs = parse_runs_csv(format_runs_csv(runs))
     if not case["heading"]:
         runs = dataclasses.replace(runs, theta_abs=None, theta_odo=None)

@@ -23,11 +23,19 @@ import json
 import time
 from pathlib import Path
 
-from umbmark import reproduce as rep
-from umbmark.simulate import NOISE_PRESETS
+from umbmark.model.simulate import NOISE_PRESETS
+from umbmark.studies import reproduce as rep
 
-KEYS = ("improvement_median", "improvement_p10", "improvement_p90", "emax_before_median_mm",
-        "emax_after_median_mm", "emax_final_median_mm", "second_pass_fraction", "std_after_median_mm")
+KEYS = (
+    "improvement_median",
+    "improvement_p10",
+    "improvement_p90",
+    "emax_before_median_mm",
+    "emax_after_median_mm",
+    "emax_final_median_mm",
+    "second_pass_fraction",
+    "std_after_median_mm",
+)
 
 
 def main(argv=None):
@@ -36,9 +44,11 @@ def main(argv=None):
     ap.add_argument("--out", type=Path, default=Path(__file__).parent / "results" / "reproduce_sampling.json")
     a = ap.parse_args(argv)
     out = {"seeds": a.seeds, "variants": {}}
-    for name, period, noise in (("50 ms, exact stops", 0.05, rep.STUDY_NOISE),
-                                ("10 ms, exact stops", 0.01, rep.STUDY_NOISE),
-                                ("10 ms, paper preset (quantised)", 0.01, NOISE_PRESETS["paper"])):
+    for name, period, noise in (
+        ("50 ms, exact stops", 0.05, rep.STUDY_NOISE),
+        ("10 ms, exact stops", 0.01, rep.STUDY_NOISE),
+        ("10 ms, paper preset (quantised)", 0.01, NOISE_PRESETS["paper"]),
+    ):
         t = time.perf_counter()
         cfg = rep.StudyConfig(seeds=a.seeds, sample_period_s=period, noise=noise)
         d = rep.run_study(cfg, pitfall=False).to_dict()["distribution"]

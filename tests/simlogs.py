@@ -7,18 +7,24 @@ import math
 
 import numpy as np
 
-from umbmark.kinematics import ErrorParams, Geometry, OdometryParams
-from umbmark.logs import Dataset, Run, WheelGeometry, wheel_travel_from_poses
-from umbmark.simulate import Motion, Segment, run_program, square_program
+from umbmark.model.dataset import Dataset, Run, WheelGeometry, wheel_travel_from_poses
+from umbmark.model.geometry import ErrorParams, Geometry, OdometryParams
+from umbmark.model.simulate import Motion, Segment, run_program, square_program
 
 GEOM = Geometry(wheel_diameter_m=0.10, wheelbase_m=0.30, pulses_per_rev=1000.0, gear_ratio=1.0)
 TRUE = ErrorParams(ed=1.004, eb=1.02, es=0.99)
 
 
 def general_program():
-    return (Segment("straight", 1.0), Segment("turn", math.radians(120)), Segment("straight", 0.6),
-            Segment("turn", math.radians(-200)), Segment("straight", 0.8), Segment("turn", math.radians(90)),
-            Segment("straight", 0.4))
+    return (
+        Segment("straight", 1.0),
+        Segment("turn", math.radians(120)),
+        Segment("straight", 0.6),
+        Segment("turn", math.radians(-200)),
+        Segment("straight", 0.8),
+        Segment("turn", math.radians(90)),
+        Segment("straight", 0.4),
+    )
 
 
 def simulate_wheels(program, errors=TRUE, geom=GEOM, dt=0.02):
@@ -37,7 +43,10 @@ def simulate_wheels(program, errors=TRUE, geom=GEOM, dt=0.02):
     return ang_l, ang_r, pose
 
 
-def world(pose, yaw=math.radians(30), origin=(2.0, -1.0)):
+YAW_30 = math.radians(30)
+
+
+def world(pose, yaw=YAW_30, origin=(2.0, -1.0)):
     """Poses of the start frame expressed in a world frame rotated by ``yaw`` at ``origin``."""
     c, s = math.cos(yaw), math.sin(yaw)
     x = origin[0] + c * pose[:, 0] - s * pose[:, 1]

@@ -5,9 +5,9 @@ from dataclasses import replace
 
 import pytest
 
-from umbmark.accuracy import QUICK, AccuracyConfig, coverage_trial, robot_trial, run_accuracy, write_results
 from umbmark.cli import main
 from umbmark.errors import InputError
+from umbmark.studies.accuracy import QUICK, AccuracyConfig, coverage_trial, robot_trial, run_accuracy, write_results
 
 
 def test_noise_free_cell_shows_where_bf_fails():
@@ -62,8 +62,8 @@ def test_bad_config():
 def test_which_wheelbase_is_held_fixed():
     """Default: one physical robot (true 340 mm, the odometry starts from 340 / E_b); 'nominal':
     the odometry starts from 340 mm and the true (effective) wheelbase is E_b x 340 mm."""
-    from umbmark.accuracy import _geometry
-    from umbmark.kinematics import ErrorParams
+    from umbmark.model.geometry import ErrorParams
+    from umbmark.studies.accuracy import _geometry
 
     for fixed, nominal, true in (("true", 0.136, 0.34), ("nominal", 0.34, 0.85)):
         cfg = replace(AccuracyConfig(), fixed_wheelbase=fixed)
@@ -86,8 +86,20 @@ def test_benchmark_script_runs_on_its_own(tmp_path, repo_root):
     import subprocess
     import sys
 
-    r = subprocess.run([sys.executable, str(repo_root / "benchmarks" / "accuracy.py"), "--quick", "--robots", "1",
-                        "--out", str(tmp_path)], capture_output=True, text=True, timeout=300)
+    r = subprocess.run(
+        [
+            sys.executable,
+            str(repo_root / "benchmarks" / "accuracy.py"),
+            "--quick",
+            "--robots",
+            "1",
+            "--out",
+            str(tmp_path),
+        ],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
     assert r.returncode == 0, r.stderr
     assert (tmp_path / "accuracy.csv").exists() and "paper" in r.stdout
 
@@ -100,10 +112,10 @@ def test_information_bound_matches_the_analytic_bound_for_measurement_noise():
 
     import numpy as np
 
-    from umbmark.accuracy import _geometry, information_bound
     from umbmark.correct.exact import _Problem
-    from umbmark.kinematics import ErrorParams
-    from umbmark.simulate import Motion, NoiseModel, simulate_umbmark
+    from umbmark.model.geometry import ErrorParams
+    from umbmark.model.simulate import Motion, NoiseModel, simulate_umbmark
+    from umbmark.studies.accuracy import _geometry, information_bound
 
     cfg = AccuracyConfig()
     ed, eb = 1.01, 1.3
@@ -113,7 +125,7 @@ def test_information_bound_matches_the_analytic_bound_for_measurement_noise():
     runs = simulate_umbmark(ErrorParams(ed, eb), geom, cfg.side_m, 1, None, "none", Motion(sample_period_s=None))
     prob = _Problem(runs, cfg.side_m, geom.wheelbase_m, 1.0, True, 1.0)
     J = prob.jacobian_runs(np.array([ed, eb]))
-    Sinv = np.diag([1 / 2e-3 ** 2, 1 / 2e-3 ** 2, 1 / math.radians(0.4) ** 2])
+    Sinv = np.diag([1 / 2e-3**2, 1 / 2e-3**2, 1 / math.radians(0.4) ** 2])
     info = sum(cfg.runs_per_direction * J[i].T @ Sinv @ J[i] for i in range(2))
     want = np.sqrt(np.diag(np.linalg.inv(info)))
     assert sds["ed_sd"] == pytest.approx(want[0], rel=0.12)
@@ -127,7 +139,7 @@ def test_exact_is_near_the_information_bound():
     above (an inefficient fit)."""
     import numpy as np
 
-    from umbmark.accuracy import information_bound
+    from umbmark.studies.accuracy import information_bound
 
     cfg = replace(AccuracyConfig(), sample_period_s=0.03)
     cov, sds = information_bound(cfg, 1.005, 0.95, "paper")

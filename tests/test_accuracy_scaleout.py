@@ -7,9 +7,9 @@ from dataclasses import replace
 
 import pytest
 
-from umbmark.accuracy import QUICK, run_accuracy
 from umbmark.cli import main
 from umbmark.errors import InputError
+from umbmark.studies.accuracy import QUICK, run_accuracy
 
 # --quick-sized: the quick grid's E_d, two E_b values, 2 robots per noisy cell (16 cells)
 SMALL = replace(QUICK, eb_values=(0.9995, 2.5), robots=2)
@@ -29,8 +29,10 @@ def test_pool_and_dask_give_the_serial_results():
     pool = run_accuracy(replace(SMALL, workers=2))
     assert pool["backend"] == "process pool, 2 workers"
     assert _numbers(pool) == ref
-    with distributed.LocalCluster(processes=False, n_workers=1, threads_per_worker=2,
-                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+    with (
+        distributed.LocalCluster(processes=False, n_workers=1, threads_per_worker=2, dashboard_address=None) as cluster,
+        distributed.Client(cluster) as client,
+    ):
         assert _numbers(run_accuracy(SMALL, dask=client)) == ref
         assert _numbers(run_accuracy(SMALL, dask=cluster.scheduler_address)) == ref
 
@@ -43,8 +45,12 @@ def test_bad_workers_are_rejected():
 def test_cli_workers_and_json_stay_pure(tmp_path, capsys):
     outs = []
     for w in ("1", "2"):
-        assert main(["bench", "accuracy", "--quick", "--robots", "1", "--workers", w, "--out", str(tmp_path / w),
-                     "--json"]) == 0
+        assert (
+            main(
+                ["bench", "accuracy", "--quick", "--robots", "1", "--workers", w, "--out", str(tmp_path / w), "--json"]
+            )
+            == 0
+        )
         cap = capsys.readouterr()
         assert cap.err == ""  # no progress bar when stderr is not a terminal
         outs.append(json.loads(cap.out))

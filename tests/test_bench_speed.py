@@ -5,8 +5,8 @@ import json
 
 import pytest
 
-from umbmark import speedbench
 from umbmark.cli import main
+from umbmark.studies import speed as speedbench
 
 
 def test_quick_cli_writes_results(tmp_path, capsys):
@@ -37,10 +37,27 @@ def test_quick_cli_writes_results(tmp_path, capsys):
 
 def test_dask_sweep_case_matches_pool(tmp_path, capsys):
     distributed = pytest.importorskip("distributed")
-    with distributed.LocalCluster(processes=False, n_workers=1, threads_per_worker=2,
-                                  dashboard_address=None) as cluster:
-        rc = main(["bench", "speed", "--quick", "--replay-sizes", "1000", "--robots", "1", "--workers", "2",
-                   "--dask", cluster.scheduler_address, "--out", str(tmp_path), "--json"])
+    with distributed.LocalCluster(
+        processes=False, n_workers=1, threads_per_worker=2, dashboard_address=None
+    ) as cluster:
+        rc = main(
+            [
+                "bench",
+                "speed",
+                "--quick",
+                "--replay-sizes",
+                "1000",
+                "--robots",
+                "1",
+                "--workers",
+                "2",
+                "--dask",
+                cluster.scheduler_address,
+                "--out",
+                str(tmp_path),
+                "--json",
+            ]
+        )
     assert rc == 0
     res = json.loads(capsys.readouterr().out)
     assert res["summary"]["targets"]["dask_same_numbers_as_pool"] is True

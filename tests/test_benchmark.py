@@ -5,9 +5,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from umbmark.benchmark import direction_stats, umbmark
 from umbmark.errors import InputError
-from umbmark.runs import RunsTable
+from umbmark.metrics import direction_stats, umbmark
+from umbmark.model.runs import RunsTable
 
 
 def table(cw, ccw):

@@ -4,12 +4,12 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from umbmark.benchmark import umbmark
 from umbmark.correct import bf_correction, compose
 from umbmark.errors import CorrectionUndefined
-from umbmark.kinematics import LABMATE, Calibration, ErrorParams
-from umbmark.runs import RunsTable
-from umbmark.simulate import Motion, simulate_umbmark
+from umbmark.metrics import umbmark
+from umbmark.model.geometry import LABMATE, Calibration, ErrorParams
+from umbmark.model.runs import RunsTable
+from umbmark.model.simulate import Motion, simulate_umbmark
 
 EXACT = Motion(sample_period_s=None)
 
@@ -38,8 +38,16 @@ def test_matches_the_paper_formulas(xcw, ycw, xccw, yccw, L, b):
     assume((xcw - xccw) + (ycw + yccw) != 0)  # beta = 0 is tested separately (R infinite)
     alpha, beta, R, ed, eb, cl, cr, bnew = reference_formulas(xcw, ycw, xccw, yccw, L, b)
     c = bf_correction(result_from_cgs(xcw, ycw, xccw, yccw), L, b)
-    for got, want in ((c.alpha, alpha), (c.beta, beta), (c.radius_m, R), (c.ed, ed), (c.eb, eb),
-                      (c.calibration.c_left, cl), (c.calibration.c_right, cr), (c.calibration.wheelbase_m, bnew)):
+    for got, want in (
+        (c.alpha, alpha),
+        (c.beta, beta),
+        (c.radius_m, R),
+        (c.ed, ed),
+        (c.eb, eb),
+        (c.calibration.c_left, cl),
+        (c.calibration.c_right, cr),
+        (c.calibration.wheelbase_m, bnew),
+    ):
         assert got == pytest.approx(want, rel=1e-9, abs=1e-15)
 
 

@@ -5,12 +5,12 @@ import json
 import numpy as np
 import pytest
 
-from umbmark.calibrate import calibrate_loop, compose_passes
 from umbmark.cli import main
 from umbmark.correct import correct_runs
 from umbmark.io.runs_csv import write_runs_csv
-from umbmark.kinematics import LABMATE, ErrorParams
-from umbmark.simulate import Motion, simulate_umbmark
+from umbmark.model.geometry import LABMATE, ErrorParams
+from umbmark.model.simulate import Motion, simulate_umbmark
+from umbmark.studies.iterate import calibrate_loop, compose_passes
 
 EXACT_ARC = Motion(sample_period_s=None)
 
@@ -39,8 +39,14 @@ def test_noise_free_bf_loop_hits_the_pass_limit():
 
 
 def test_noisy_loop_stops_on_the_three_sem_rule():
-    loop = calibrate_loop(ErrorParams(1.02, 0.95), noise="paper", motion=Motion(sample_period_s=0.03),
-                          method="exact", max_passes=3, seed=2)
+    loop = calibrate_loop(
+        ErrorParams(1.02, 0.95),
+        noise="paper",
+        motion=Motion(sample_period_s=0.03),
+        method="exact",
+        max_passes=3,
+        seed=2,
+    )
     last = loop.passes[-1]
     assert last.correction is None
     assert "3 x SEM" in last.decision
@@ -53,8 +59,9 @@ def test_compose_passes_matches_sequential_corrections(tmp_path):
     e = ErrorParams(1.013, 0.97)
     p1 = simulate_umbmark(e, n_runs=5, noise="paper", motion=Motion(sample_period_s=0.03), seed=1)
     c1 = correct_runs("bf", p1, 4.0, 0.34)
-    p2 = simulate_umbmark(e, n_runs=5, calibration=c1.calibration, noise="paper",
-                          motion=Motion(sample_period_s=0.03), seed=2)
+    p2 = simulate_umbmark(
+        e, n_runs=5, calibration=c1.calibration, noise="paper", motion=Motion(sample_period_s=0.03), seed=2
+    )
     c2 = correct_runs("bf", p2, 4.0, c1.calibration.wheelbase_m, c1.calibration)
     loop = compose_passes([p1, p2], 4.0, 0.34, "bf")
     assert loop.final_calibration == c2.calibration
@@ -67,8 +74,10 @@ def test_compose_passes_matches_sequential_corrections(tmp_path):
     f1, f2 = tmp_path / "p1.csv", tmp_path / "p2.csv"
     write_runs_csv(p1, f1)
     write_runs_csv(p2, f2)
-    assert main(["calibrate", str(f1), str(f2), "--wheelbase-mm", "340", "--side-mm", "4000", "--method", "bf",
-                 "--json"]) == 0
+    assert (
+        main(["calibrate", str(f1), str(f2), "--wheelbase-mm", "340", "--side-mm", "4000", "--method", "bf", "--json"])
+        == 0
+    )
 
 
 def test_compose_exact_second_pass_is_near_identity():
@@ -83,8 +92,25 @@ def test_compose_exact_second_pass_is_near_identity():
 
 
 def test_calibrate_cli_json_and_saved_runs(tmp_path, capsys):
-    assert main(["calibrate", "--ed", "1.01", "--eb", "1.05", "--noise", "none", "--seed", "1",
-                 "--save-runs", str(tmp_path), "--json"]) == 0
+    assert (
+        main(
+            [
+                "calibrate",
+                "--ed",
+                "1.01",
+                "--eb",
+                "1.05",
+                "--noise",
+                "none",
+                "--seed",
+                "1",
+                "--save-runs",
+                str(tmp_path),
+                "--json",
+            ]
+        )
+        == 0
+    )
     d = json.loads(capsys.readouterr().out)
     assert d["method"] == "exact" and d["corrections"] == 1
     assert d["final_calibration"]["wheelbase_mm"] == pytest.approx(357.0, abs=1e-3)
@@ -124,13 +150,51 @@ def test_calibrate_records_into_the_history(tmp_path, capsys):
     f1 = tmp_path / "p1.csv"
     write_runs_csv(p1, f1)
     # a real robot's passes (runs files)
-    assert main(["calibrate", str(f1), "--wheelbase-mm", "340", "--side-mm", "4000", "--method", "bf",
-                 "--robot", "r1", "--record", "--db", str(db), "--json"]) == 0
+    assert (
+        main(
+            [
+                "calibrate",
+                str(f1),
+                "--wheelbase-mm",
+                "340",
+                "--side-mm",
+                "4000",
+                "--method",
+                "bf",
+                "--robot",
+                "r1",
+                "--record",
+                "--db",
+                str(db),
+                "--json",
+            ]
+        )
+        == 0
+    )
     d = json.loads(capsys.readouterr().out)
     assert d["history"] == {"record_id": 1, "robot": "r1", "db": str(db)}
     # the simulator loop, human output
-    assert main(["calibrate", "--ed", "1.01", "--eb", "1.05", "--noise", "none", "--seed", "1",
-                 "--robot", "r1", "--record", "--db", str(db)]) == 0
+    assert (
+        main(
+            [
+                "calibrate",
+                "--ed",
+                "1.01",
+                "--eb",
+                "1.05",
+                "--noise",
+                "none",
+                "--seed",
+                "1",
+                "--robot",
+                "r1",
+                "--record",
+                "--db",
+                str(db),
+            ]
+        )
+        == 0
+    )
     assert "recorded as #2 in the history of r1" in capsys.readouterr().out
     with open_history(db, create=False) as h:
         r1, r2 = h.records("r1")

@@ -7,8 +7,18 @@ import pytest
 
 from umbmark.cli import main
 
-PINNED = ["emax_syst_mm", "alpha_deg", "beta_deg", "radius_mm", "Ed", "Eb", "c_left", "c_right",
-          "wheelbase_corrected_mm", "second_pass_recommended"]
+PINNED = [
+    "emax_syst_mm",
+    "alpha_deg",
+    "beta_deg",
+    "radius_mm",
+    "Ed",
+    "Eb",
+    "c_left",
+    "c_right",
+    "wheelbase_corrected_mm",
+    "second_pass_recommended",
+]
 PINNED_DIR = ["n", "x_cg_mm", "y_cg_mm", "r_cg_mm", "std_mm", "sem_mm"]
 
 
@@ -19,16 +29,31 @@ def run(capsys, *args):
 
 
 def analyze_json(capsys, path, *extra):
-    code, out, err = run(capsys, "analyze", str(path), "--wheelbase-mm", "340", "--side-mm", "4000", "--method", "bf",
-                         "--json", *extra)
+    code, out, err = run(
+        capsys, "analyze", str(path), "--wheelbase-mm", "340", "--side-mm", "4000", "--method", "bf", "--json", *extra
+    )
     assert code == 0, err
     return json.loads(out)
 
 
 def test_simulate_then_analyze_recovers_the_robot(tmp_path, capsys):
     f = tmp_path / "runs.csv"
-    code, _, err = run(capsys, "simulate", "--ed", "1.004", "--eb", "0.985", "--runs", "3", "--seed", "2",
-                       "--noise", "none", "--out", str(f))
+    code, _, err = run(
+        capsys,
+        "simulate",
+        "--ed",
+        "1.004",
+        "--eb",
+        "0.985",
+        "--runs",
+        "3",
+        "--seed",
+        "2",
+        "--noise",
+        "none",
+        "--out",
+        str(f),
+    )
     assert code == 0, err
     d = analyze_json(capsys, f)
     for k in PINNED:
@@ -44,8 +69,25 @@ def test_simulate_then_analyze_recovers_the_robot(tmp_path, capsys):
 
 def test_other_geometry_flags(tmp_path, capsys):
     f = tmp_path / "runs.csv"
-    assert run(capsys, "simulate", "--ed", "0.998", "--eb", "1.01", "--runs", "2", "--wheelbase-mm", "200",
-               "--side-mm", "1500", "--out", str(f))[0] == 0
+    assert (
+        run(
+            capsys,
+            "simulate",
+            "--ed",
+            "0.998",
+            "--eb",
+            "1.01",
+            "--runs",
+            "2",
+            "--wheelbase-mm",
+            "200",
+            "--side-mm",
+            "1500",
+            "--out",
+            str(f),
+        )[0]
+        == 0
+    )
     code, out, err = run(capsys, "analyze", str(f), "--wheelbase-mm", "200", "--side-mm", "1500", "--json")
     d = json.loads(out)
     assert abs(d["Ed"] - 0.998) < 3e-4 and abs(d["Eb"] - 1.01) < 3e-3
@@ -53,8 +95,7 @@ def test_other_geometry_flags(tmp_path, capsys):
 
 def test_analyze_matches_the_formulas_on_any_file(tmp_path, capsys):
     f = tmp_path / "hand.csv"
-    f.write_text("direction,x_abs,y_abs,x_odo,y_odo\n"
-                 "cw,60,70,1,2\ncw,70,60,-1,0\nccw,230,-200,3,3\nccw,220,-210,0,0\n")
+    f.write_text("direction,x_abs,y_abs,x_odo,y_odo\ncw,60,70,1,2\ncw,70,60,-1,0\nccw,230,-200,3,3\nccw,220,-210,0,0\n")
     d = analyze_json(capsys, f)
     xcw, ycw = (59 + 71) / 2, (68 + 60) / 2
     xccw, yccw = (227 + 220) / 2, (-203 - 210) / 2
@@ -64,9 +105,17 @@ def test_analyze_matches_the_formulas_on_any_file(tmp_path, capsys):
     R = (L / 2) / math.sin(beta / 2)
     ed = (R + b / 2) / (R - b / 2)
     eb = 90 / (90 - math.degrees(alpha))
-    want = {"alpha_deg": math.degrees(alpha), "beta_deg": math.degrees(beta), "radius_mm": R, "Ed": ed, "Eb": eb,
-            "c_left": 2 / (ed + 1), "c_right": 2 / (1 / ed + 1), "wheelbase_corrected_mm": eb * b,
-            "emax_syst_mm": math.hypot(xccw, yccw)}
+    want = {
+        "alpha_deg": math.degrees(alpha),
+        "beta_deg": math.degrees(beta),
+        "radius_mm": R,
+        "Ed": ed,
+        "Eb": eb,
+        "c_left": 2 / (ed + 1),
+        "c_right": 2 / (1 / ed + 1),
+        "wheelbase_corrected_mm": eb * b,
+        "emax_syst_mm": math.hypot(xccw, yccw),
+    }
     for k, v in want.items():
         assert d[k] == pytest.approx(v, rel=1e-9), k
     assert d["ccw"]["x_cg_mm"] == pytest.approx(xccw, rel=1e-12)
@@ -83,8 +132,9 @@ def test_analyze_second_pass_flags(tmp_path, capsys):
 def test_human_output_is_a_table(tmp_path, capsys):
     f = tmp_path / "r.csv"
     run(capsys, "simulate", "--ed", "1.002", "--out", str(f), "--runs", "2")
-    code, out, _ = run(capsys, "analyze", str(f), "--wheelbase-mm", "340", "--side-mm", "4000",
-                       "--plot", str(tmp_path / "s.png"))
+    code, out, _ = run(
+        capsys, "analyze", str(f), "--wheelbase-mm", "340", "--side-mm", "4000", "--plot", str(tmp_path / "s.png")
+    )
     assert code == 0
     assert "E_max,syst" in out and "c_left" in out and "[mm]" in out
     assert (tmp_path / "s.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
@@ -98,9 +148,16 @@ BAD = [
     ("nan.csv", "direction,x_abs,y_abs,x_odo,y_odo\ncw,NaN,2,3,4\nccw,1,2,3,4\n", ":2: column x_abs"),
     ("oneway.csv", "direction,x_abs,y_abs,x_odo,y_odo\ncw,1,2,3,4\ncw,1,2,3,4\n", "no ccw runs"),
     # finite but absurd (found by fuzzing: 1e308 overflowed into a calibration of E_b 1e-303)
-    ("huge.csv", "direction,x_abs,y_abs,x_odo,y_odo\ncw,1e308,2,3,4\nccw,1,2,3,4\n", ":2: column x_abs: 1e308 mm is more"),
-    ("heading.csv", "direction,x_abs,y_abs,x_odo,y_odo,theta_abs,theta_odo\ncw,1,2,3,4,1e300,0\nccw,1,2,3,4,0,0\n",
-     ":2: column theta_abs: 1e300 is not a heading"),
+    (
+        "huge.csv",
+        "direction,x_abs,y_abs,x_odo,y_odo\ncw,1e308,2,3,4\nccw,1,2,3,4\n",
+        ":2: column x_abs: 1e308 mm is more",
+    ),
+    (
+        "heading.csv",
+        "direction,x_abs,y_abs,x_odo,y_odo,theta_abs,theta_odo\ncw,1,2,3,4,1e300,0\nccw,1,2,3,4,0,0\n",
+        ":2: column theta_abs: 1e300 is not a heading",
+    ),
 ]
 
 
@@ -137,16 +194,23 @@ def test_bad_flags_one_line_exit_2(tmp_path, capsys, flags, match):
 
 
 def test_simulate_bad_values(tmp_path, capsys):
-    for flags, match in ((["--ed", "-1"], "--ed must be a number from 0.5 to 2"), (["--runs", "0"], "--runs"),
-                         (["--es", "1e308"], "--es must be a number from 0.5 to 2"),
-                         (["--eb", "1e-9"], "--eb must be a number from 0.05 to 20"),
-                         (["--noise", "loud"], "--noise")):
+    for flags, match in (
+        (["--ed", "-1"], "--ed must be a number from 0.5 to 2"),
+        (["--runs", "0"], "--runs"),
+        (["--es", "1e308"], "--es must be a number from 0.5 to 2"),
+        (["--eb", "1e-9"], "--eb must be a number from 0.05 to 20"),
+        (["--noise", "loud"], "--noise"),
+    ):
         code, _, err = run(capsys, "simulate", *flags, "--out", str(tmp_path / "x.csv"))
         assert code == 2 and err.count("\n") == 1 and match in err
     # inputs that would need more samples than memory holds (found by fuzzing: MemoryError, or
     # the process killed) are refused before anything is allocated
-    for flags in (["--side-mm", "1e12"], ["--speed", "1e-12"], ["--sample-period-ms", "1e-9"],
-                  ["--wheelbase-mm", "1e9"]):
+    for flags in (
+        ["--side-mm", "1e12"],
+        ["--speed", "1e-12"],
+        ["--sample-period-ms", "1e-9"],
+        ["--wheelbase-mm", "1e9"],
+    ):
         code, _, err = run(capsys, "simulate", *flags, "--out", str(tmp_path / "x.csv"))
         assert code == 2 and err.count("\n") == 1 and "samples (more than 5,000,000)" in err
     code, _, err = run(capsys, "simulate", "--out", str(tmp_path / "nodir" / "x.csv"))
@@ -174,9 +238,21 @@ def test_demo_is_reproducible(tmp_path, capsys):
 
 def test_console_script_has_no_traceback(tmp_path):
     """The installed entry point, in a fresh process: one line, exit 2."""
-    p = subprocess.run([sys.executable, "-c", "from umbmark.cli import main; main()", "analyze",
-                        str(tmp_path / "none.csv"), "--wheelbase-mm", "340", "--side-mm", "4000"],
-                       capture_output=True, text=True)
+    p = subprocess.run(
+        [
+            sys.executable,
+            "-c",
+            "from umbmark.cli import main; main()",
+            "analyze",
+            str(tmp_path / "none.csv"),
+            "--wheelbase-mm",
+            "340",
+            "--side-mm",
+            "4000",
+        ],
+        capture_output=True,
+        text=True,
+    )
     assert p.returncode == 2
     assert "Traceback" not in p.stderr and p.stderr.count("\n") == 1
 

@@ -57,12 +57,22 @@ def test_bash_completion_script_and_answers():
     r = subprocess.run([sys.executable, "-m", "umbmark", "--version"], capture_output=True, text=True, timeout=60)
     assert r.returncode == 0 and "umbmark" in r.stdout
     env = dict(os.environ, _UMBMARK_COMPLETE="bash_complete", COMP_WORDS="umbmark hist", COMP_CWORD="1")
-    r = subprocess.run([sys.executable, "-c", "from umbmark.cli import main; main()"], env=env,
-                       capture_output=True, text=True, timeout=60)
+    r = subprocess.run(
+        [sys.executable, "-c", "from umbmark.cli import main; main()"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert r.returncode == 0 and "plain,history" in r.stdout.split()
     env = dict(os.environ, _UMBMARK_COMPLETE="bash_source")
-    r = subprocess.run([sys.executable, "-c", "import sys; sys.argv[0] = 'umbmark'; from umbmark.cli import main; main()"],
-                       env=env, capture_output=True, text=True, timeout=60)
+    r = subprocess.run(
+        [sys.executable, "-c", "import sys; sys.argv[0] = 'umbmark'; from umbmark.cli import main; main()"],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
     assert r.returncode == 0 and "_umbmark_completion" in r.stdout and "complete -o" in r.stdout
 
 

@@ -27,11 +27,20 @@ COMMANDS = {
     "calibrate": ["calibrate", "--noise", "none", "--ed", "1.01", "--eb", "1.05"],
     "accuracy": ["bench", "accuracy", "--quick", "--robots", "1", "--workers", "1"],
     "speed": ["bench", "speed", "--quick", "--replay-sizes", "1000", "--robots", "1", "--workers", "1"],
-    "replay": ["replay", str(Path(__file__).resolve().parents[1] / "data" / "optiodom" / "square" / "230620202144"),
-               "--method", "bf"],
+    "replay": [
+        "replay",
+        str(Path(__file__).resolve().parents[1] / "data" / "optiodom" / "square" / "230620202144"),
+        "--method",
+        "bf",
+    ],
 }
-DRAWN = {"reproduce": "simulating 2 seeds", "calibrate": "simulating up to", "accuracy": "accuracy benchmark",
-         "speed": "speed benchmark", "replay": "reading logs"}
+DRAWN = {
+    "reproduce": "simulating 2 seeds",
+    "calibrate": "simulating up to",
+    "accuracy": "accuracy benchmark",
+    "speed": "speed benchmark",
+    "replay": "reading logs",
+}
 WRITES = ("accuracy", "speed")  # take --out
 
 

@@ -12,9 +12,9 @@ from umbmark.correct import correct_runs
 from umbmark.correct.exact import ExactFitError, exact_correction, odometry_turns, square_errors
 from umbmark.errors import InputError
 from umbmark.io.runs_csv import format_runs_csv, parse_runs_csv, write_runs_csv
-from umbmark.kinematics import LABMATE, Calibration, ErrorParams, Geometry, OdometryParams
-from umbmark.runs import RunsTable
-from umbmark.simulate import Motion, run_program, simulate_umbmark, square_program
+from umbmark.model.geometry import LABMATE, Calibration, ErrorParams, Geometry, OdometryParams
+from umbmark.model.runs import RunsTable
+from umbmark.model.simulate import Motion, run_program, simulate_umbmark, square_program
 
 EXACT_ARC = Motion(sample_period_s=None)
 
@@ -25,14 +25,22 @@ def _no_heading(runs: RunsTable) -> RunsTable:
 
 @settings(max_examples=40, deadline=None)
 @given(
-    ed=st.floats(0.95, 1.05), eb=st.floats(0.5, 2.5), side=st.floats(0.5, 10.0), b=st.floats(0.1, 1.0),
+    ed=st.floats(0.95, 1.05),
+    eb=st.floats(0.5, 2.5),
+    side=st.floats(0.5, 10.0),
+    b=st.floats(0.1, 1.0),
     ccw=st.booleans(),
 )
 def test_model_matches_simulator(ed, eb, side, b, ccw):
     geom = Geometry(0.1, b)
     d = "ccw" if ccw else "cw"
-    r = run_program(square_program(d, side), ErrorParams(ed, eb).true_params(geom),
-                    OdometryParams.from_geometry(geom), 1, motion=EXACT_ARC)
+    r = run_program(
+        square_program(d, side),
+        ErrorParams(ed, eb).true_params(geom),
+        OdometryParams.from_geometry(geom),
+        1,
+        motion=EXACT_ARC,
+    )
     px, py, pth = square_errors(ed, eb, side, b, 1.0 if ccw else -1.0)
     assert px == pytest.approx(float(r.true_x[0] - r.odo_x[0]), abs=1e-9 * side)
     assert py == pytest.approx(float(r.true_y[0] - r.odo_y[0]), abs=1e-9 * side)
@@ -42,8 +50,13 @@ def test_model_matches_simulator(ed, eb, side, b, ccw):
 @pytest.mark.slow
 @settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
-    ed=st.floats(0.95, 1.05), eb=st.floats(0.5, 2.5), side=st.floats(0.5, 10.0), u=st.floats(0.0, 1.0),
-    n=st.integers(1, 7), heading=st.booleans(), sampled=st.booleans(),
+    ed=st.floats(0.95, 1.05),
+    eb=st.floats(0.5, 2.5),
+    side=st.floats(0.5, 10.0),
+    u=st.floats(0.0, 1.0),
+    n=st.integers(1, 7),
+    heading=st.booleans(),
+    sampled=st.booleans(),
 )
 def test_noise_free_recovery(ed, eb, side, u, n, heading, sampled):
     """Acceptance: E_d within 1e-5 and E_b within 1e-4, on runs files (mm, deg, CSV round trip)
@@ -109,23 +122,29 @@ def test_blind_spot_is_reported(heading):
     assert c2.eb == pytest.approx(0.5, abs=1e-9) and c2.extra["alternatives"] == []
 
 
-@pytest.mark.parametrize("ed,eb,side,b,n", [
-    (0.99999, 0.5, 2.0, 0.05, 1),  # found by hypothesis in CI
-    (1.0000985912403728, 0.5, 8.41440030368107, 0.10487123975047885, 1),
-    (1.0000601806433127, 0.5, 8.234125973938584, 0.2604434027946008, 5),
-    (0.9997979623669284, 0.500001, 8.15176186749311, 0.30701611581886523, 1),
-    # ranked right, but the fits then ran in the order of the cost at the start, and a wrong
-    # basin 1 micrometre from the runs stopped the search first
-    (1.000001693876573, 0.500001, 8.944138604274878, 0.13951495303312417, 7),
-])
+@pytest.mark.parametrize(
+    "ed,eb,side,b,n",
+    [
+        (0.99999, 0.5, 2.0, 0.05, 1),  # found by hypothesis in CI
+        (1.0000985912403728, 0.5, 8.41440030368107, 0.10487123975047885, 1),
+        (1.0000601806433127, 0.5, 8.234125973938584, 0.2604434027946008, 5),
+        (0.9997979623669284, 0.500001, 8.15176186749311, 0.30701611581886523, 1),
+        # ranked right, but the fits then ran in the order of the cost at the start, and a wrong
+        # basin 1 micrometre from the runs stopped the search first
+        (1.000001693876573, 0.500001, 8.944138604274878, 0.13951495303312417, 7),
+    ],
+)
 def test_recovery_next_to_the_blind_spot(ed, eb, side, b, n):
     """E_b = 0.5 (the robot turns 180 deg per commanded 90 deg), E_d just off 1, no headings:
     the true basin of the cost is so narrow in E_b that the grid point next to it costs more
     than broad wrong basins (E_d 0.87 or 1.15 at the same E_b, 20 micrometres from the runs).
     The grid's minima are ranked, and fitted, in the order of the cost a Gauss-Newton step
     predicts; ranked by the cost at the grid point, the search missed all five."""
-    runs = _no_heading(parse_runs_csv(format_runs_csv(
-        simulate_umbmark(ErrorParams(ed, eb), Geometry(0.1, b), side, n_runs=n, motion=EXACT_ARC))))
+    runs = _no_heading(
+        parse_runs_csv(
+            format_runs_csv(simulate_umbmark(ErrorParams(ed, eb), Geometry(0.1, b), side, n_runs=n, motion=EXACT_ARC))
+        )
+    )
     c = correct_runs("exact", runs, side, b)
     assert c.ed == pytest.approx(ed, abs=1e-6)
     assert c.eb == pytest.approx(eb, abs=1e-5)
@@ -214,8 +233,16 @@ def test_one_direction_only_is_an_error():
 
 def test_runs_that_do_not_close_are_an_error(tmp_path, capsys):
     runs = simulate_umbmark(ErrorParams(1.01, 1.1), n_runs=3, motion=EXACT_ARC)
-    bad = RunsTable(runs.direction, runs.x_abs + 2.0, runs.y_abs, runs.x_odo + 2.0, runs.y_odo,
-                    runs.theta_abs, runs.theta_odo, runs.run)
+    bad = RunsTable(
+        runs.direction,
+        runs.x_abs + 2.0,
+        runs.y_abs,
+        runs.x_odo + 2.0,
+        runs.y_odo,
+        runs.theta_abs,
+        runs.theta_odo,
+        runs.run,
+    )
     with pytest.raises(ExactFitError, match="does not close"):
         correct_runs("exact", bad, 4.0, 0.34)
     p = tmp_path / "open.csv"
@@ -227,8 +254,9 @@ def test_runs_that_do_not_close_are_an_error(tmp_path, capsys):
 
 def test_wrong_units_give_a_clear_error_or_warning():
     """Runs of a 4 m square analysed as a 0.4 m square: no silent wrong number."""
-    runs = simulate_umbmark(ErrorParams(1.01, 1.1), n_runs=5, noise="paper",
-                            motion=Motion(sample_period_s=0.05), seed=2)
+    runs = simulate_umbmark(
+        ErrorParams(1.01, 1.1), n_runs=5, noise="paper", motion=Motion(sample_period_s=0.05), seed=2
+    )
     try:
         c = correct_runs("exact", runs, 0.4, 0.34)
     except InputError as e:
@@ -267,10 +295,11 @@ def test_robust_loss_resists_an_outlier_run():
 
 def test_analyze_cli_exact_json(tmp_path, capsys):
     p = tmp_path / "runs.csv"
-    write_runs_csv(simulate_umbmark(ErrorParams(1.02, 0.95), n_runs=3, noise="paper",
-                                    motion=Motion(sample_period_s=0.05), seed=1), p)
-    assert main(["analyze", str(p), "--wheelbase-mm", "340", "--side-mm", "4000", "--method", "exact",
-                 "--json"]) == 0
+    write_runs_csv(
+        simulate_umbmark(ErrorParams(1.02, 0.95), n_runs=3, noise="paper", motion=Motion(sample_period_s=0.05), seed=1),
+        p,
+    )
+    assert main(["analyze", str(p), "--wheelbase-mm", "340", "--side-mm", "4000", "--method", "exact", "--json"]) == 0
     import json
 
     d = json.loads(capsys.readouterr().out)
@@ -281,7 +310,9 @@ def test_analyze_cli_exact_json(tmp_path, capsys):
 
 
 def test_implausible_geometry_and_wide_intervals_warn():
-    runs = simulate_umbmark(ErrorParams(1.01, 1.1), n_runs=5, noise="paper", motion=Motion(sample_period_s=0.05), seed=2)
+    runs = simulate_umbmark(
+        ErrorParams(1.01, 1.1), n_runs=5, noise="paper", motion=Motion(sample_period_s=0.05), seed=2
+    )
     # the wheelbase given in the wrong unit (10 x): the square still fits, E_d does not look right
     c = correct_runs("exact", runs, 4.0, 3.4)
     assert any("E_d = " in w and "unusual" in w for w in c.extra["warnings"])
@@ -318,7 +349,8 @@ def test_recovery_benchmark_script(repo_root):
     import sys
 
     script = str(repo_root / "benchmarks" / "recovery.py")
-    r = subprocess.run([sys.executable, script, "--cases", "4", "--seed", "22", "--blind"],
-                       capture_output=True, text=True, timeout=300)
+    r = subprocess.run(
+        [sys.executable, script, "--cases", "4", "--seed", "22", "--blind"], capture_output=True, text=True, timeout=300
+    )
     assert r.returncode == 0, r.stdout + r.stderr
     assert "next to the blind spot, seed 22: 0 of 4 missed" in r.stdout

@@ -9,10 +9,10 @@ import pytest
 from umbmark.correct import correct_runs
 from umbmark.correct.exact import exact_correction
 from umbmark.io.load import load_logs
-from umbmark.kinematics import ErrorParams
-from umbmark.replay import calibrate, evaluate, prepare
-from umbmark.runs import RunsTable
-from umbmark.simulate import Motion, simulate_umbmark
+from umbmark.model.geometry import ErrorParams
+from umbmark.model.runs import RunsTable
+from umbmark.model.simulate import Motion, simulate_umbmark
+from umbmark.realrobot.replay import calibrate, evaluate, prepare
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "optiodom" / "square"
 TRUE = ErrorParams(1.01, 1.03)
@@ -66,7 +66,8 @@ def test_optiodom_square_exact_not_worse_than_before(name):
 def test_bf_and_exact_agree_on_consistent_real_runs():
     """On the 0.75 m set where bf is already at the noise, exact's E_b is within 0.1 % of bf's."""
     ds = prepare(load_logs([DATA / "230620202317"]))[0]
-    from umbmark.replay import square_runs
+    from umbmark.realrobot.replay import square_runs
+
     runs = square_runs(ds, ds.nominal, ds.directions)
     bf = correct_runs("bf", runs, ds.side_m, ds.nominal.wheelbase_m)
     ex = correct_runs("exact", runs, ds.side_m, ds.nominal.wheelbase_m)

@@ -6,14 +6,14 @@ import math
 
 import numpy as np
 import pytest
+import simlogs
 import yaml
 
-import simlogs
 from umbmark.cli import main
 from umbmark.errors import InputError
 from umbmark.io.export import ExportCalibration, calibration_from_json, format_export, ros_multipliers
-from umbmark.logs import Dataset, Run, WheelGeometry
-from umbmark.replay import replay, replay_report
+from umbmark.model.dataset import Dataset, Run, WheelGeometry
+from umbmark.realrobot.replay import replay, replay_report
 
 
 def diff_drive_odometry(pos_left, pos_right, wheel_radius, wheel_separation, left_mult, right_mult, sep_mult):
@@ -58,10 +58,21 @@ def test_ros_multipliers_reproduce_corrected_odometry(tmp_path, multipliers):
     cal = calibration_from_json(f)
     new = ros_multipliers(cal, m_l0, m_r0, m_b0)
     pos_l, pos_r = np.cumsum(al), np.cumsum(ar)
-    ddc = diff_drive_odometry(pos_l, pos_r, r, s, new["left_wheel_radius_multiplier"],
-                              new["right_wheel_radius_multiplier"], new["wheel_separation_multiplier"])
-    x, y, th, _ = replay(ds, WheelGeometry(rep["diameter_left_mm"] * 1e-3, rep["diameter_right_mm"] * 1e-3,
-                                           rep["wheelbase_corrected_mm"] * 1e-3))
+    ddc = diff_drive_odometry(
+        pos_l,
+        pos_r,
+        r,
+        s,
+        new["left_wheel_radius_multiplier"],
+        new["right_wheel_radius_multiplier"],
+        new["wheel_separation_multiplier"],
+    )
+    x, y, th, _ = replay(
+        ds,
+        WheelGeometry(
+            rep["diameter_left_mm"] * 1e-3, rep["diameter_right_mm"] * 1e-3, rep["wheelbase_corrected_mm"] * 1e-3
+        ),
+    )
     assert np.allclose(ddc[:, 0], x[0], atol=1e-9) and np.allclose(ddc[:, 1], y[0], atol=1e-9)
     assert np.allclose(ddc[:, 2], th[0], atol=1e-9)
     # and both follow the true robot (noise-free logs)
@@ -75,9 +86,11 @@ def test_ros2_and_ros1_yaml(tmp_path):
     cal = ExportCalibration(0.999, 1.001, 0.98)
     d2 = yaml.safe_load(format_export(cal, "ros2", "my_ctrl", 1.0, 1.0, 1.02))
     p = d2["my_ctrl"]["ros__parameters"]
-    assert p == {"wheel_separation_multiplier": pytest.approx(0.98 * 1.02),
-                 "left_wheel_radius_multiplier": pytest.approx(0.999),
-                 "right_wheel_radius_multiplier": pytest.approx(1.001)}
+    assert p == {
+        "wheel_separation_multiplier": pytest.approx(0.98 * 1.02),
+        "left_wheel_radius_multiplier": pytest.approx(0.999),
+        "right_wheel_radius_multiplier": pytest.approx(1.001),
+    }
     d1 = yaml.safe_load(format_export(cal, "ros1", "mobile_base_controller", wheel_radius_m=0.05))
     assert d1["mobile_base_controller"]["wheel_radius"] == 0.05
     assert d1["mobile_base_controller"]["left_wheel_radius_multiplier"] == pytest.approx(0.999)
@@ -112,8 +125,10 @@ def test_cli_export_from_replay_json(optiodom, tmp_path, capsys):
     assert main(["export", str(cal), "--format", "firmware"]) == 0
     assert "UMBMARK_RIGHT_MM_PER_PULSE" in capsys.readouterr().out
     # from analyze's JSON too
-    assert main(["convert", str(optiodom / "square/230620202144"), "--to", "runs", "--out",
-                 str(tmp_path / "runs.csv")]) == 0
+    assert (
+        main(["convert", str(optiodom / "square/230620202144"), "--to", "runs", "--out", str(tmp_path / "runs.csv")])
+        == 0
+    )
     capsys.readouterr()
     assert main(["analyze", str(tmp_path / "runs.csv"), "--wheelbase-mm", "205", "--side-mm", "750", "--json"]) == 0
     an = tmp_path / "an.json"
@@ -123,15 +138,20 @@ def test_cli_export_from_replay_json(optiodom, tmp_path, capsys):
     assert p1["wheel_separation_multiplier"] == pytest.approx(p["wheel_separation_multiplier"], rel=1e-9)
 
 
-@pytest.mark.parametrize("content, msg", [
-    ("{not json", "not valid JSON"),
-    ('{"a": 1}', "no 'c_left'"),
-    ('{"c_left": 1, "c_right": -1, "Eb": 1}', "c_right must be a positive number"),
-    ('{"c_left": 1, "c_right": 1, "wheelbase_corrected_mm": 300, "nominal": "x"}', "'nominal' must be an object"),
-    ('{"c_left": 1, "c_right": 1, "Eb": 1, "nominal": {"diameter_left_mm": "84"}}',
-     "nominal diameter_left_mm must be a positive number"),
-    ("[" * 100000 + "]" * 100000, "nested too deeply"),
-])
+@pytest.mark.parametrize(
+    "content, msg",
+    [
+        ("{not json", "not valid JSON"),
+        ('{"a": 1}', "no 'c_left'"),
+        ('{"c_left": 1, "c_right": -1, "Eb": 1}', "c_right must be a positive number"),
+        ('{"c_left": 1, "c_right": 1, "wheelbase_corrected_mm": 300, "nominal": "x"}', "'nominal' must be an object"),
+        (
+            '{"c_left": 1, "c_right": 1, "Eb": 1, "nominal": {"diameter_left_mm": "84"}}',
+            "nominal diameter_left_mm must be a positive number",
+        ),
+        ("[" * 100000 + "]" * 100000, "nested too deeply"),
+    ],
+)
 def test_cli_export_errors(tmp_path, capsys, content, msg):
     f = tmp_path / "cal.json"
     f.write_text(content)

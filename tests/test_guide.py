@@ -1,16 +1,27 @@
 """umbmark guide: the field procedure, step by step."""
 
 from umbmark.cli import main
-from umbmark.guide import STEP_TITLES, guide_text
+from umbmark.realrobot.guide import STEP_TITLES, guide_text
 
 
 def test_guide_has_every_step_in_order():
     text = guide_text()
     pos = [text.index(f"{i}. {t}") for i, t in enumerate(STEP_TITLES, 1)]
     assert pos == sorted(pos)
-    for needle in ("start frame", "perpendicular", "5 runs clockwise and 5 runs counter-clockwise",
-                   "x along the first leg", "y to the left", "front mark -> side wall", "back mark -> back wall",
-                   "umbmark measure", "umbmark analyze", "--record", "x_odo", "theta_odo"):
+    for needle in (
+        "start frame",
+        "perpendicular",
+        "5 runs clockwise and 5 runs counter-clockwise",
+        "x along the first leg",
+        "y to the left",
+        "front mark -> side wall",
+        "back mark -> back wall",
+        "umbmark measure",
+        "umbmark analyze",
+        "--record",
+        "x_odo",
+        "theta_odo",
+    ):
         assert needle in text, needle
     assert max(len(line) for line in text.splitlines()) <= 100
 

@@ -7,12 +7,21 @@ import pytest
 
 from umbmark.cli import main
 from umbmark.history import (
-    ENV_VAR, MIGRATIONS, SCHEMA_VERSION, History, HistoryError, default_db_path, export_parameters,
-    record_result, resolve_db_path, runs_from_rows, runs_to_rows,
+    ENV_VAR,
+    MIGRATIONS,
+    SCHEMA_VERSION,
+    History,
+    HistoryError,
+    default_db_path,
+    export_parameters,
+    record_result,
+    resolve_db_path,
+    runs_from_rows,
+    runs_to_rows,
 )
 from umbmark.io.runs_csv import write_runs_csv
-from umbmark.kinematics import ErrorParams
-from umbmark.simulate import simulate_umbmark
+from umbmark.model.geometry import ErrorParams
+from umbmark.model.simulate import simulate_umbmark
 
 ANALYZE = ["--wheelbase-mm", "340", "--side-mm", "4000"]
 
@@ -40,10 +49,19 @@ def test_db_path_resolution(monkeypatch, tmp_path):
 
 def test_add_and_read_back(tmp_path):
     db = tmp_path / "h.sqlite"
-    rid = record_result("r1", kind="analyze", method="bf", db=db, results={"emax_syst_mm": 300.0, "nan": float("nan")},
-                        parameters={"c_left": 0.999, "c_right": 1.001, "wheelbase_m": 0.336, "Ed": 1.002, "Eb": 0.988},
-                        inputs={"runs": [1, 2]}, input_sha256="ab" * 32, source="/x/runs.csv",
-                        parameters_in_use={"c_left": 1.0}, when="2026-01-02T03:04:05Z")
+    rid = record_result(
+        "r1",
+        kind="analyze",
+        method="bf",
+        db=db,
+        results={"emax_syst_mm": 300.0, "nan": float("nan")},
+        parameters={"c_left": 0.999, "c_right": 1.001, "wheelbase_m": 0.336, "Ed": 1.002, "Eb": 0.988},
+        inputs={"runs": [1, 2]},
+        input_sha256="ab" * 32,
+        source="/x/runs.csv",
+        parameters_in_use={"c_left": 1.0},
+        when="2026-01-02T03:04:05Z",
+    )
     with History(db) as h:
         r = h.get(rid)
         assert h.schema_version == SCHEMA_VERSION
@@ -223,11 +241,17 @@ def test_history_options_decorator_on_another_command(tmp_path):
     @click.argument("src")
     @history_options
     def fake_replay(src, robot, record, db):
-        rec = record_if_requested(robot, record, db, kind="replay", method="bf",
-                                  results={"emax_syst_mm": 12.5},
-                                  parameters={"c_left": 0.99, "c_right": 1.01, "wheelbase_m": 0.3, "Ed": 1.02,
-                                              "Eb": 1.0},
-                                  input_sha256=file_sha256(src), source=src)
+        rec = record_if_requested(
+            robot,
+            record,
+            db,
+            kind="replay",
+            method="bf",
+            results={"emax_syst_mm": 12.5},
+            parameters={"c_left": 0.99, "c_right": 1.01, "wheelbase_m": 0.3, "Ed": 1.02, "Eb": 1.0},
+            input_sha256=file_sha256(src),
+            source=src,
+        )
         click.echo(json.dumps(rec))
 
     db = tmp_path / "h.sqlite"

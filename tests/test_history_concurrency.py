@@ -16,7 +16,6 @@ import pytest
 from umbmark.history import open_history
 
 
-
 def _has_sqlalchemy():
     try:
         import sqlalchemy  # noqa: F401
@@ -143,7 +142,7 @@ def test_sigkill_at_a_random_moment_keeps_every_committed_record(db, after):
             p.kill()
     notes = _notes(db, "r")
     # every record the writer saw committed is there; at most one more (committed, not yet printed)
-    assert notes[:len(committed)] == [f"r-{i}" for i in committed]
+    assert notes[: len(committed)] == [f"r-{i}" for i in committed]
     assert len(committed) <= len(notes) <= len(committed) + 1
     assert notes == [f"r-{i}" for i in range(len(notes))]
 

@@ -9,8 +9,8 @@ import pytest
 from umbmark.cli import main
 from umbmark.history import SCHEMA_VERSION, HistoryError, display_db, open_history
 from umbmark.io.runs_csv import write_runs_csv
-from umbmark.kinematics import ErrorParams
-from umbmark.simulate import simulate_umbmark
+from umbmark.model.geometry import ErrorParams
+from umbmark.model.simulate import simulate_umbmark
 
 sa = pytest.importorskip("sqlalchemy", reason="SQLAlchemy not installed (optional extra 'db')")
 
@@ -26,8 +26,15 @@ def test_same_interface_as_the_sqlite_file(url):
     with open_history(url) as h:
         assert type(h).__name__ == "SQLAlchemyHistory" and h.schema_version == SCHEMA_VERSION
         for when, e in (("2026-03-01", 3.0), ("2026-01-01", 1.0), ("2026-02-01", 2.0)):
-            h.add("r", kind="analyze", method="bf", results={"emax_syst_mm": e, "x": float("inf")},
-                  parameters={"wheelbase_m": 0.336, "Ed": 1.001}, when=when, inputs={"runs": [1]})
+            h.add(
+                "r",
+                kind="analyze",
+                method="bf",
+                results={"emax_syst_mm": e, "x": float("inf")},
+                parameters={"wheelbase_m": 0.336, "Ed": 1.001},
+                when=when,
+                inputs={"runs": [1]},
+            )
         h.add("other", kind="replay", method="bf", results={}, parameters={})
         recs = h.records("r")
         assert [r.emax_syst_mm for r in recs] == [1.0, 2.0, 3.0]
@@ -50,11 +57,30 @@ def test_cli_with_a_database_url(url, tmp_path, capsys):
     for k in range(3):
         p = tmp_path / f"w{k}.csv"
         write_runs_csv(simulate_umbmark(ErrorParams(1.001 + k * 1e-3, 0.99), n_runs=5, noise="paper", seed=k), p)
-        assert main(["analyze", str(p), "--wheelbase-mm", "340", "--side-mm", "4000", "--robot", "r1", "--record",
-                     "--db", url, "--json"]) == 0
+        assert (
+            main(
+                [
+                    "analyze",
+                    str(p),
+                    "--wheelbase-mm",
+                    "340",
+                    "--side-mm",
+                    "4000",
+                    "--robot",
+                    "r1",
+                    "--record",
+                    "--db",
+                    url,
+                    "--json",
+                ]
+            )
+            == 0
+        )
         assert json.loads(capsys.readouterr().out)["history"]["record_id"] == k + 1
-    assert main(["history", "r1", "--db", url, "--export", str(tmp_path / "p.json"),
-                 "--plot", str(tmp_path / "p.png")]) == 0
+    assert (
+        main(["history", "r1", "--db", url, "--export", str(tmp_path / "p.json"), "--plot", str(tmp_path / "p.png")])
+        == 0
+    )
     assert "Calibration history of r1 (3 records" in capsys.readouterr().out
     assert json.loads((tmp_path / "p.json").read_text())["record_id"] == 3
     assert main(["report", "--robot", "r1", "--db", url, "--out", str(tmp_path / "h.html")]) == 0

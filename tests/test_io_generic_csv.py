@@ -4,13 +4,14 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
-
 import simlogs
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
 from umbmark.cli import main
 from umbmark.errors import InputError
 from umbmark.io.generic_csv import format_generic_csv, read_generic_csv
-from umbmark.logs import WheelGeometry, to_start_frame
+from umbmark.model.dataset import WheelGeometry, to_start_frame
 
 NOM = WheelGeometry(0.1, 0.1, 0.3)
 
@@ -30,8 +31,12 @@ def test_round_trip_of_simulated_runs(tmp_path):
 
 
 @settings(max_examples=40, deadline=None)
-@given(st.lists(st.tuples(st.integers(-50, 50), st.integers(-50, 50)), min_size=2, max_size=30),
-       st.floats(-3, 3), st.floats(-5, 5), st.floats(-5, 5))
+@given(
+    st.lists(st.tuples(st.integers(-50, 50), st.integers(-50, 50)), min_size=2, max_size=30),
+    st.floats(-3, 3),
+    st.floats(-5, 5),
+    st.floats(-5, 5),
+)
 def test_cumulative_and_incremental_agree_and_start_frame(tmp_path_factory, inc, yaw, x0, y0):
     inc = np.array(inc, dtype=float)
     inc[0] = 0
@@ -59,22 +64,27 @@ def test_cumulative_and_incremental_agree_and_start_frame(tmp_path_factory, inc,
 
 def test_end_pose_only_and_degrees(tmp_path):
     f = tmp_path / "taped.csv"
-    f.write_text("# a taped end pose\ntime_s,left_ticks,right_ticks,x_m,y_m,theta_deg\n0,0,0,,,\n1,100,120,,,\n"
-                 "2,200,230,0.5,0.1,10\n")
+    f.write_text(
+        "# a taped end pose\ntime_s,left_ticks,right_ticks,x_m,y_m,theta_deg\n0,0,0,,,\n1,100,120,,,\n"
+        "2,200,230,0.5,0.1,10\n"
+    )
     r = read_generic_csv(f, NOM, 1000).runs[0]
     assert r.gt is None and not r.has_trajectory
     assert np.allclose(r.end_truth, [0.5, 0.1, math.radians(10)])
 
 
-@pytest.mark.parametrize("text, msg, line", [
-    ("time,left,right\n0,0,0\n", "header lacks column(s) time_s, left_ticks, right_ticks", 1),
-    ("time_s,left_ticks,right_ticks\n0,0,0\n0.1,1,zz\n", "column right_ticks: 'zz' is not a number", 3),
-    ("time_s,left_ticks,right_ticks\n0,0,0\n0.1,1\n", "has 2 fields", 3),
-    ("time_s,left_ticks,right_ticks\n0,0,0\n0,1,1\n", "does not increase", 3),
-    ("time_s,left_ticks,right_ticks,x_m,y_m,theta_rad\n0,0,0,0,0,0\n0.1,1,1,1,,0\n", "all given or all empty", 3),
-    ("time_s,left_ticks,right_ticks,x_m,y_m\n0,0,0,0,0\n", "needs x_m, y_m and theta", 1),
-    ("run,time_s,left_ticks,right_ticks\na,0,0,0\na,1,1,1\nb,0,0,0\nb,1,1,1\na,2,2,2\n", "not consecutive", 6),
-])
+@pytest.mark.parametrize(
+    "text, msg, line",
+    [
+        ("time,left,right\n0,0,0\n", "header lacks column(s) time_s, left_ticks, right_ticks", 1),
+        ("time_s,left_ticks,right_ticks\n0,0,0\n0.1,1,zz\n", "column right_ticks: 'zz' is not a number", 3),
+        ("time_s,left_ticks,right_ticks\n0,0,0\n0.1,1\n", "has 2 fields", 3),
+        ("time_s,left_ticks,right_ticks\n0,0,0\n0,1,1\n", "does not increase", 3),
+        ("time_s,left_ticks,right_ticks,x_m,y_m,theta_rad\n0,0,0,0,0,0\n0.1,1,1,1,,0\n", "all given or all empty", 3),
+        ("time_s,left_ticks,right_ticks,x_m,y_m\n0,0,0,0,0\n", "needs x_m, y_m and theta", 1),
+        ("run,time_s,left_ticks,right_ticks\na,0,0,0\na,1,1,1\nb,0,0,0\nb,1,1,1\na,2,2,2\n", "not consecutive", 6),
+    ],
+)
 def test_errors_name_file_and_line(tmp_path, text, msg, line):
     f = tmp_path / "bad.csv"
     f.write_text(text)
@@ -93,8 +103,24 @@ def test_cli_convert_optiodom_to_csv_and_replay_it(optiodom, tmp_path, capsys):
     import json
 
     ref = json.loads(capsys.readouterr().out)
-    assert main(["replay", str(out), "--wheel-diameter-mm", "84", "--wheelbase-mm", "205",
-                 "--pulses-per-wheel-rev", str(43.7 * 64), "--side-mm", "750", *common]) == 0
+    assert (
+        main(
+            [
+                "replay",
+                str(out),
+                "--wheel-diameter-mm",
+                "84",
+                "--wheelbase-mm",
+                "205",
+                "--pulses-per-wheel-rev",
+                str(43.7 * 64),
+                "--side-mm",
+                "750",
+                *common,
+            ]
+        )
+        == 0
+    )
     got = json.loads(capsys.readouterr().out)
     for k in ("Ed", "Eb", "wheelbase_corrected_mm"):
         assert got[k] == pytest.approx(ref[k], rel=1e-9)

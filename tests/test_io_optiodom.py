@@ -49,15 +49,18 @@ def _copy(optiodom, tmp_path):
     return dst
 
 
-@pytest.mark.parametrize("edit, msg, line", [
-    (("metadata", "Li,0.2", "Li,abc"), "'abc' is not a number", 4),
-    (("metadata", "Li,0.2", "Li,-0.2"), "must be a positive number", 4),
-    (("metadata", "Di,0.084,0.084", "Di,0.084"), "needs 2 values", 5),
-    (("run-01", "\n", "\n0.1,0,0,0,x,1\n", 1), "column ticks_right: 'x' is not a number", 2),
-    (("run-01", "\n", "\n0.1,0,0,0\n", 1), "has 4 fields, expected 6", 2),
-    (("run-01", "\n", "\n0.0,0,0,0,1,1\n", 1), "does not increase", 2),
-    (("run-01", "\n", "\n0.01,0,0,0,1.5,1\n", 1), "not a whole number", 2),
-])
+@pytest.mark.parametrize(
+    "edit, msg, line",
+    [
+        (("metadata", "Li,0.2", "Li,abc"), "'abc' is not a number", 4),
+        (("metadata", "Li,0.2", "Li,-0.2"), "must be a positive number", 4),
+        (("metadata", "Di,0.084,0.084", "Di,0.084"), "needs 2 values", 5),
+        (("run-01", "\n", "\n0.1,0,0,0,x,1\n", 1), "column ticks_right: 'x' is not a number", 2),
+        (("run-01", "\n", "\n0.1,0,0,0\n", 1), "has 4 fields, expected 6", 2),
+        (("run-01", "\n", "\n0.0,0,0,0,1,1\n", 1), "does not increase", 2),
+        (("run-01", "\n", "\n0.01,0,0,0,1.5,1\n", 1), "not a whole number", 2),
+    ],
+)
 def test_errors_name_file_and_line(optiodom, tmp_path, edit, msg, line):
     d = _copy(optiodom, tmp_path)
     which, old, new, *count = edit

@@ -7,16 +7,17 @@ import numpy as np
 import pytest
 
 pytest.importorskip("rosbags")
+import simlogs  # noqa: E402
 from rosbags.rosbag1 import Writer as Writer1  # noqa: E402
-from rosbags.rosbag2 import StoragePlugin, Writer as Writer2  # noqa: E402
+from rosbags.rosbag2 import StoragePlugin  # noqa: E402
+from rosbags.rosbag2 import Writer as Writer2
 from rosbags.typesys import Stores, get_typestore  # noqa: E402
 
-import simlogs  # noqa: E402
 from umbmark.cli import main  # noqa: E402
 from umbmark.correct.lsq import fit_lsq  # noqa: E402
 from umbmark.errors import InputError  # noqa: E402
 from umbmark.io.rosbag import bag_info, read_bag  # noqa: E402
-from umbmark.logs import WheelGeometry  # noqa: E402
+from umbmark.model.dataset import WheelGeometry  # noqa: E402
 
 T0 = 1_700_000_000
 DT = 0.02
@@ -47,36 +48,60 @@ def _msgs(ts, ros1, pos_l, pos_r, gt, gt_kind, ticks=None):
     out = []
     for k in range(len(pos_l)):
         ns = int(round((T0 + k * DT) * 1e9))
-        js = T["sensor_msgs/msg/JointState"](header=header(k), name=["wheel_left", "caster", "wheel_right"],
-                                             position=np.array([pos_l[k], 0.3, pos_r[k]]),
-                                             velocity=np.array([], float), effort=np.array([], float))
+        js = T["sensor_msgs/msg/JointState"](
+            header=header(k),
+            name=["wheel_left", "caster", "wheel_right"],
+            position=np.array([pos_l[k], 0.3, pos_r[k]]),
+            velocity=np.array([], float),
+            effort=np.array([], float),
+        )
         out.append(("/joint_states", "sensor_msgs/msg/JointState", ns, js))
         x, y, th = gt[k]
-        pose = T["geometry_msgs/msg/Pose"](position=T["geometry_msgs/msg/Point"](x=x, y=y, z=0.0),
-                                           orientation=quat(th))
+        pose = T["geometry_msgs/msg/Pose"](position=T["geometry_msgs/msg/Point"](x=x, y=y, z=0.0), orientation=quat(th))
         if gt_kind == "pose":
-            out.append(("/mocap/pose", "geometry_msgs/msg/PoseStamped", ns,
-                        T["geometry_msgs/msg/PoseStamped"](header=header(k, "world"), pose=pose)))
+            out.append(
+                (
+                    "/mocap/pose",
+                    "geometry_msgs/msg/PoseStamped",
+                    ns,
+                    T["geometry_msgs/msg/PoseStamped"](header=header(k, "world"), pose=pose),
+                )
+            )
         elif gt_kind == "odom":
             cov = np.zeros(36)
-            tw = T["geometry_msgs/msg/Twist"](linear=T["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0),
-                                              angular=T["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0))
-            out.append(("/ground_truth", "nav_msgs/msg/Odometry", ns, T["nav_msgs/msg/Odometry"](
-                header=header(k, "world"), child_frame_id="robot",
-                pose=T["geometry_msgs/msg/PoseWithCovariance"](pose=pose, covariance=cov),
-                twist=T["geometry_msgs/msg/TwistWithCovariance"](twist=tw, covariance=cov))))
+            tw = T["geometry_msgs/msg/Twist"](
+                linear=T["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0),
+                angular=T["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0),
+            )
+            out.append(
+                (
+                    "/ground_truth",
+                    "nav_msgs/msg/Odometry",
+                    ns,
+                    T["nav_msgs/msg/Odometry"](
+                        header=header(k, "world"),
+                        child_frame_id="robot",
+                        pose=T["geometry_msgs/msg/PoseWithCovariance"](pose=pose, covariance=cov),
+                        twist=T["geometry_msgs/msg/TwistWithCovariance"](twist=tw, covariance=cov),
+                    ),
+                )
+            )
         elif gt_kind == "tf":
-            tr = T["geometry_msgs/msg/Transform"](translation=T["geometry_msgs/msg/Vector3"](x=x, y=y, z=0.0),
-                                                  rotation=quat(th))
-            other = T["geometry_msgs/msg/TransformStamped"](header=header(k, "world"), child_frame_id="decoy",
-                                                            transform=tr)
-            mine = T["geometry_msgs/msg/TransformStamped"](header=header(k, "world"), child_frame_id="robot_mocap",
-                                                           transform=tr)
+            tr = T["geometry_msgs/msg/Transform"](
+                translation=T["geometry_msgs/msg/Vector3"](x=x, y=y, z=0.0), rotation=quat(th)
+            )
+            other = T["geometry_msgs/msg/TransformStamped"](
+                header=header(k, "world"), child_frame_id="decoy", transform=tr
+            )
+            mine = T["geometry_msgs/msg/TransformStamped"](
+                header=header(k, "world"), child_frame_id="robot_mocap", transform=tr
+            )
             out.append(("/tf", "tf2_msgs/msg/TFMessage", ns, T["tf2_msgs/msg/TFMessage"](transforms=[other, mine])))
         if ticks is not None:
             arr = T["std_msgs/msg/Int64MultiArray"](
                 layout=T["std_msgs/msg/MultiArrayLayout"](dim=[], data_offset=0),
-                data=np.array([int(ticks[0][k]), int(ticks[1][k])], dtype=np.int64))
+                data=np.array([int(ticks[0][k]), int(ticks[1][k])], dtype=np.int64),
+            )
             out.append(("/encoders", "std_msgs/msg/Int64MultiArray", ns, arr))
     return out
 
@@ -136,8 +161,16 @@ def test_tf_ground_truth_and_tick_topic(tmp_path, sim):
     ppr = 4096.0
     ticks = (np.round(pos_l / (2 * math.pi) * ppr), np.round(pos_r / (2 * math.pi) * ppr))
     bag = write_ros2(tmp_path / "tf", "sqlite3", pos_l, pos_r, gt, "tf", ticks=ticks)
-    ds = read_bag(bag, nominal=NOMINAL, ticks_topic="/encoders", left_field="data[0]", right_field="data[1]",
-                  units_per_rev=ppr, gt_topic="/tf", gt_frame="robot_mocap")
+    ds = read_bag(
+        bag,
+        nominal=NOMINAL,
+        ticks_topic="/encoders",
+        left_field="data[0]",
+        right_field="data[1]",
+        units_per_rev=ppr,
+        gt_topic="/tf",
+        gt_frame="robot_mocap",
+    )
     assert ds.units_per_rev == ppr
     res = fit_lsq(ds)
     true = simlogs.true_geometry()
@@ -153,18 +186,29 @@ def test_ranges_and_stops_split_runs(tmp_path, sim):
     pad = int(3.0 / DT)
     pl = np.concatenate([pos_l, np.full(pad, pos_l[-1]), pos_l[-1] + pos_l])
     pr = np.concatenate([pos_r, np.full(pad, pos_r[-1]), pos_r[-1] + pos_r])
-    g = np.concatenate([gt, np.repeat(gt[-1:], pad, 0), simlogs.world(simlogs.simulate_wheels(
-        simlogs.general_program())[2], yaw=1.0, origin=(5.0, 5.0))])
+    g = np.concatenate(
+        [
+            gt,
+            np.repeat(gt[-1:], pad, 0),
+            simlogs.world(simlogs.simulate_wheels(simlogs.general_program())[2], yaw=1.0, origin=(5.0, 5.0)),
+        ]
+    )
     bag = write_ros2(tmp_path / "two", "mcap", pl, pr, g, "pose")
-    ds = read_bag(bag, nominal=NOMINAL, joints=("wheel_left", "wheel_right"), gt_topic="/mocap/pose", stops=True,
-                  stop_s=1.0)
+    ds = read_bag(
+        bag, nominal=NOMINAL, joints=("wheel_left", "wheel_right"), gt_topic="/mocap/pose", stops=True, stop_s=1.0
+    )
     assert len(ds.runs) == 2
     for r in ds.runs:
         assert np.allclose(r.gt[0], 0.0, atol=1e-12)
     _check_true(ds)
     t_end = (n - 1) * DT
-    ds2 = read_bag(bag, nominal=NOMINAL, joints=("wheel_left", "wheel_right"), gt_topic="/mocap/pose",
-                   ranges=[(0.0, t_end), (t_end + 2.0, 1e9)])
+    ds2 = read_bag(
+        bag,
+        nominal=NOMINAL,
+        joints=("wheel_left", "wheel_right"),
+        gt_topic="/mocap/pose",
+        ranges=[(0.0, t_end), (t_end + 2.0, 1e9)],
+    )
     assert len(ds2.runs) == 2
 
 
@@ -187,8 +231,21 @@ def test_cli_bag_info_and_replay(tmp_path, sim, capsys):
     assert {t["topic"] for t in info["topics"]} == {"/joint_states", "/mocap/pose"}
     assert main(["bag-info", str(bag)]) == 0
     assert "/mocap/pose" in capsys.readouterr().out
-    args = ["replay", str(bag), "--method", "lsq", "--joints", "wheel_left,wheel_right", "--gt-topic", "/mocap/pose",
-            "--wheel-diameter-mm", "100", "--wheelbase-mm", "300", "--json"]
+    args = [
+        "replay",
+        str(bag),
+        "--method",
+        "lsq",
+        "--joints",
+        "wheel_left,wheel_right",
+        "--gt-topic",
+        "/mocap/pose",
+        "--wheel-diameter-mm",
+        "100",
+        "--wheelbase-mm",
+        "300",
+        "--json",
+    ]
     assert main(args) == 0
     import json
 

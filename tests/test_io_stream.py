@@ -6,14 +6,15 @@ import math
 
 import numpy as np
 import pytest
-from hypothesis import given, settings, strategies as st
-
 import simlogs
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
 from umbmark.cli import main
 from umbmark.errors import InputError
 from umbmark.io.generic_csv import format_generic_csv, iter_generic_csv, read_generic_csv
-from umbmark.logs import WheelGeometry
-from umbmark.replay import evaluate, replay, stream_replay
+from umbmark.model.dataset import WheelGeometry
+from umbmark.realrobot.replay import evaluate, replay, stream_replay
 
 
 def _one_run_csv(tmp_path, whole_pulses=True, world=True):
@@ -36,8 +37,7 @@ def test_stream_equals_batch_for_any_chunking(tmp_path_factory, chunk_rows, whol
     f, batch = _one_run_csv(tmp_path_factory.mktemp("s"), whole_pulses=whole)
     ev = evaluate(batch, batch.nominal)
     x, y, th, _ = replay(batch, batch.nominal)
-    s = stream_replay(iter_generic_csv(f, chunk_rows=chunk_rows), batch.nominal, batch.units_per_rev,
-                      decimate=decimate)
+    s = stream_replay(iter_generic_csv(f, chunk_rows=chunk_rows), batch.nominal, batch.units_per_rev, decimate=decimate)
     assert s["samples"] == len(batch.runs[0])
     assert s["chunks"] == -(-s["samples"] // chunk_rows)
     assert s["end_pose"]["x_mm"] == pytest.approx(x[0, -1] * 1e3, abs=1e-6)
@@ -48,8 +48,9 @@ def test_stream_equals_batch_for_any_chunking(tmp_path_factory, chunk_rows, whol
     assert s["path_position_rms_mm"] == pytest.approx(ev["path_position_rms_mm"], rel=1e-9)
     k = s["kept"]
     assert np.array_equal(k["sample"], np.arange(decimate - 1, s["samples"], decimate))
-    assert np.allclose(k["x_m"], x[0, k["sample"]], atol=1e-9) and np.allclose(k["theta_rad"], th[0, k["sample"]],
-                                                                                atol=1e-12)
+    assert np.allclose(k["x_m"], x[0, k["sample"]], atol=1e-9) and np.allclose(
+        k["theta_rad"], th[0, k["sample"]], atol=1e-12
+    )
     assert np.allclose(k["t_s"], batch.runs[0].t[k["sample"]])
 
 
@@ -71,16 +72,22 @@ def test_end_pose_only_and_incremental_ticks(tmp_path):
         assert s["path_position_rms_mm"] is None
 
 
-@pytest.mark.parametrize("body, line, msg", [
-    ("time_s,left_ticks,right_ticks\n0,0,0\n0.1,5,x\n", 3, "not a number"),
-    ("time_s,left_ticks,right_ticks\n0,0,0\n0.1,5,5\n0.1,6,6\n", 4, "does not increase"),
-    ("run,time_s,left_ticks,right_ticks\na,0,0,0\na,0.1,5,5\nb,0.2,6,6\n", 4, "one run per file"),
-    ("time_s,left_ticks,right_ticks,x_m,y_m,theta_rad\n0,0,0,,,\n0.1,5,5,1,1,0\n0.2,6,6,,,\n", 3,
-     "must start at the first row"),
-    ("time_s,left_ticks,right_ticks,x_m,y_m,theta_rad\n0,0,0,0,0,0\n0.1,5,5,1,,0\n", 3, "all given or all empty"),
-    ("time_s,left_ticks\n0,0\n", None, "lacks column(s) right_ticks"),
-    ("time_s,left_ticks,right_ticks\n0,0,0\n", None, "at least two rows"),
-])
+@pytest.mark.parametrize(
+    "body, line, msg",
+    [
+        ("time_s,left_ticks,right_ticks\n0,0,0\n0.1,5,x\n", 3, "not a number"),
+        ("time_s,left_ticks,right_ticks\n0,0,0\n0.1,5,5\n0.1,6,6\n", 4, "does not increase"),
+        ("run,time_s,left_ticks,right_ticks\na,0,0,0\na,0.1,5,5\nb,0.2,6,6\n", 4, "one run per file"),
+        (
+            "time_s,left_ticks,right_ticks,x_m,y_m,theta_rad\n0,0,0,,,\n0.1,5,5,1,1,0\n0.2,6,6,,,\n",
+            3,
+            "must start at the first row",
+        ),
+        ("time_s,left_ticks,right_ticks,x_m,y_m,theta_rad\n0,0,0,0,0,0\n0.1,5,5,1,,0\n", 3, "all given or all empty"),
+        ("time_s,left_ticks\n0,0\n", None, "lacks column(s) right_ticks"),
+        ("time_s,left_ticks,right_ticks\n0,0,0\n", None, "at least two rows"),
+    ],
+)
 def test_stream_errors_name_file_and_line(tmp_path, body, line, msg):
     f = tmp_path / "bad.csv"
     f.write_text(body)

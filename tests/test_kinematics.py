@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from umbmark.errors import InputError
-from umbmark.kinematics import (
+from umbmark.model.geometry import (
     Calibration,
     ErrorParams,
     Geometry,

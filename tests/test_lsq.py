@@ -7,15 +7,15 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 import simlogs
+
 from umbmark.correct.lsq import fit_lsq
 from umbmark.errors import InputError
-from umbmark.kinematics import ErrorParams
-from umbmark.logs import to_start_frame
 from umbmark.io.optiodom import read_optiodom
-from umbmark.replay import pooled_report, replay_report
-from umbmark.simulate import Segment, straight_program
+from umbmark.model.dataset import to_start_frame
+from umbmark.model.geometry import ErrorParams
+from umbmark.model.simulate import Segment, straight_program
+from umbmark.realrobot.replay import pooled_report, replay_report
 
 DATA = Path(__file__).resolve().parents[1] / "data" / "optiodom"
 
@@ -72,12 +72,16 @@ def test_closed_paths_end_poses_do_not_fix_the_scale():
     assert not res.scale_fitted
     assert res.geometry.ed == pytest.approx(true.ed, abs=1e-4)
     assert res.geometry.wheelbase_m / res.geometry.diameter_avg_m == pytest.approx(
-        true.wheelbase_m / true.diameter_avg_m, rel=1e-3)
+        true.wheelbase_m / true.diameter_avg_m, rel=1e-3
+    )
 
 
 def test_open_path_end_poses_fix_the_scale():
-    progs = [straight_program(2.0), (Segment("straight", 1.0), Segment("turn", 1.0), Segment("straight", 1.0)),
-             (Segment("straight", 1.5), Segment("turn", -2.0), Segment("straight", 0.5))]
+    progs = [
+        straight_program(2.0),
+        (Segment("straight", 1.0), Segment("turn", 1.0), Segment("straight", 1.0)),
+        (Segment("straight", 1.5), Segment("turn", -2.0), Segment("straight", 0.5)),
+    ]
     ds = simlogs.dataset(progs)
     res = fit_lsq(ds, mode="end")
     assert res.scale_fitted

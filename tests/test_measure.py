@@ -13,15 +13,24 @@ from hypothesis import strategies as st
 from umbmark.cli import main
 from umbmark.cli.app import app
 from umbmark.errors import InputError
-from umbmark.guide import guide_text
 from umbmark.io.runs_csv import read_runs_csv
-from umbmark.kinematics import ErrorParams
-from umbmark.measure import (
-    MeasuredRun, RobotMarks, WallPose, distances_for_runs, distances_from_pose, format_measured_csv,
-    marks_for_direction, measure, measure_runs, parse_distances_csv, pose_from_distances, relative_pose,
+from umbmark.model.geometry import FIG11_ERRORS, ErrorParams
+from umbmark.model.simulate import simulate_umbmark
+from umbmark.realrobot.guide import guide_text
+from umbmark.realrobot.measure import (
+    MeasuredRun,
+    RobotMarks,
+    WallPose,
+    distances_for_runs,
+    distances_from_pose,
+    format_measured_csv,
+    marks_for_direction,
+    measure,
+    measure_runs,
+    parse_distances_csv,
+    pose_from_distances,
+    relative_pose,
 )
-from umbmark.simulate import simulate_umbmark
-from umbmark.workflows import FIG11_ERRORS
 
 MARKS = RobotMarks((0.15, -0.12), (-0.15, -0.12), (-0.2, 0.0))
 MARK_ARGS = ["--front", "150,-120", "--rear", "-150,-120", "--back", "-200,0"]
@@ -36,8 +45,17 @@ def _starts(n, seed, lo=0.45):
 def test_recovers_simulator_true_poses(noise, errors):
     runs = simulate_umbmark(errors, n_runs=5, noise=noise, seed=11)
     d = distances_for_runs(MARKS, runs, _starts(len(runs), 3, lo=0.9), side_wall="auto")
-    rows = [MeasuredRun(str(runs.run[i]), str(runs.direction[i]), tuple(d[i] * 1e3), runs.x_odo[i] * 1e3,
-                        runs.y_odo[i] * 1e3, math.degrees(runs.theta_odo[i])) for i in range(len(runs))]
+    rows = [
+        MeasuredRun(
+            str(runs.run[i]),
+            str(runs.direction[i]),
+            tuple(d[i] * 1e3),
+            runs.x_odo[i] * 1e3,
+            runs.y_odo[i] * 1e3,
+            math.degrees(runs.theta_odo[i]),
+        )
+        for i in range(len(runs))
+    ]
     got, m = measure_runs(MARKS, rows, resolution_mm=1.0, side_wall="auto")
     np.testing.assert_allclose(got.x_abs, runs.x_abs, atol=1e-9)
     np.testing.assert_allclose(got.y_abs, runs.y_abs, atol=1e-9)
@@ -49,10 +67,17 @@ def test_recovers_simulator_true_poses(noise, errors):
 def test_rounded_tape_readings_stay_within_the_propagated_bound():
     runs = simulate_umbmark(FIG11_ERRORS, n_runs=5, noise="paper", seed=5)
     d = distances_for_runs(MARKS, runs, _starts(len(runs), 8))
-    m = measure_runs(MARKS, [MeasuredRun(str(i), str(runs.direction[i]), tuple(np.round(d[i] * 1e3)), 0.0, 0.0)
-                             for i in range(len(runs))], resolution_mm=1.0, side_wall="auto")[1]
-    for got, true, bound in ((m.x, runs.x_abs, m.x_bound), (m.y, runs.y_abs, m.y_bound),
-                             (m.theta, runs.theta_abs, m.theta_bound)):
+    m = measure_runs(
+        MARKS,
+        [MeasuredRun(str(i), str(runs.direction[i]), tuple(np.round(d[i] * 1e3)), 0.0, 0.0) for i in range(len(runs))],
+        resolution_mm=1.0,
+        side_wall="auto",
+    )[1]
+    for got, true, bound in (
+        (m.x, runs.x_abs, m.x_bound),
+        (m.y, runs.y_abs, m.y_bound),
+        (m.theta, runs.theta_abs, m.theta_bound),
+    ):
         err = np.abs(got - true)
         assert np.all(err <= bound * 1.001 + 1e-12)
         assert np.max(err) > 0  # rounding really changed something
@@ -74,9 +99,16 @@ def test_propagated_sd_matches_monte_carlo():
 
 @settings(max_examples=150, deadline=None)
 @given(
-    fx=st.floats(0.05, 0.4), rx=st.floats(-0.4, -0.05), fy=st.floats(-0.3, 0.3), dy=st.floats(-0.02, 0.02),
-    bx=st.floats(-0.4, -0.1), by=st.floats(-0.1, 0.1), side=st.sampled_from(["left", "right"]),
-    x=st.floats(0.5, 3.0), y=st.floats(0.5, 3.0), th=st.floats(-0.4, 0.4),
+    fx=st.floats(0.05, 0.4),
+    rx=st.floats(-0.4, -0.05),
+    fy=st.floats(-0.3, 0.3),
+    dy=st.floats(-0.02, 0.02),
+    bx=st.floats(-0.4, -0.1),
+    by=st.floats(-0.1, 0.1),
+    side=st.sampled_from(["left", "right"]),
+    x=st.floats(0.5, 3.0),
+    y=st.floats(0.5, 3.0),
+    th=st.floats(-0.4, 0.4),
 )
 def test_pose_round_trip_property(fx, rx, fy, dy, bx, by, side, x, y, th):
     marks = RobotMarks((fx, fy), (rx, fy + dy), (bx, by), side)
@@ -95,38 +127,58 @@ def test_marks_for_direction_turns_away_from_the_side_wall():
 
 
 def test_inconsistent_distances_name_the_line():
-    text = ("run,direction,start_front,start_rear,start_back,end_front,end_rear,end_back,x_odo,y_odo\n"
-            "1,cw,400,400,350,300,300,450,0,0\n"
-            "2,cw,400,900,350,300,300,450,0,0\n")
+    text = (
+        "run,direction,start_front,start_rear,start_back,end_front,end_rear,end_back,x_odo,y_odo\n"
+        "1,cw,400,400,350,300,300,450,0,0\n"
+        "2,cw,400,900,350,300,300,450,0,0\n"
+    )
     rows = parse_distances_csv(text, "d.csv")
     with pytest.raises(InputError, match=r"d\.csv:3: front and rear distances differ by 500\.0 mm"):
         measure_runs(MARKS, rows, source="d.csv", side_wall="auto")
 
 
-@pytest.mark.parametrize("text,match", [
-    ("run,direction,start_front\n1,cw,1\n", r"x\.csv:1: no header .* missing start_rear"),
-    ("direction,start_front,start_rear,start_back,end_front,end_rear,end_back,x_odo,y_odo\n"
-     "cw,,,,1,2,3,0,0\n", r"x\.csv:2: the start distances are empty and there is no previous cw row"),
-    ("direction,start_front,start_rear,start_back,end_front,end_rear,end_back,x_odo,y_odo\n"
-     "cw,1,2,3,1,two,3,0,0\n", r"x\.csv:2: column end_rear: 'two' is not a number"),
-    ("direction,start_front,start_rear,start_back,end_front,end_rear,end_back,x_odo,y_odo\n"
-     "up,1,2,3,1,2,3,0,0\n", r"x\.csv:2: unknown direction 'up'"),
-    ("direction,start_front,start_rear,start_back,end_front,end_rear,end_back,x_odo,y_odo\n"
-     "cw,1,2,3,1,-2,3,0,0\n", r"x\.csv:2: column end_rear: a distance cannot be negative"),
-    ("direction,start_front,start_rear,start_back,end_front,end_rear,end_back,x_odo,y_odo,theta_odo\n"
-     "cw,1,2,3,1,2,3,0,0,1\ncw,1,2,3,1,2,3,0,0,\n", r"x\.csv:3: column theta_odo is empty here"),
-])
+@pytest.mark.parametrize(
+    "text,match",
+    [
+        ("run,direction,start_front\n1,cw,1\n", r"x\.csv:1: no header .* missing start_rear"),
+        (
+            "direction,start_front,start_rear,start_back,end_front,end_rear,end_back,x_odo,y_odo\ncw,,,,1,2,3,0,0\n",
+            r"x\.csv:2: the start distances are empty and there is no previous cw row",
+        ),
+        (
+            "direction,start_front,start_rear,start_back,end_front,end_rear,end_back,x_odo,y_odo\n"
+            "cw,1,2,3,1,two,3,0,0\n",
+            r"x\.csv:2: column end_rear: 'two' is not a number",
+        ),
+        (
+            "direction,start_front,start_rear,start_back,end_front,end_rear,end_back,x_odo,y_odo\nup,1,2,3,1,2,3,0,0\n",
+            r"x\.csv:2: unknown direction 'up'",
+        ),
+        (
+            "direction,start_front,start_rear,start_back,end_front,end_rear,end_back,x_odo,y_odo\n"
+            "cw,1,2,3,1,-2,3,0,0\n",
+            r"x\.csv:2: column end_rear: a distance cannot be negative",
+        ),
+        (
+            "direction,start_front,start_rear,start_back,end_front,end_rear,end_back,x_odo,y_odo,theta_odo\n"
+            "cw,1,2,3,1,2,3,0,0,1\ncw,1,2,3,1,2,3,0,0,\n",
+            r"x\.csv:3: column theta_odo is empty here",
+        ),
+    ],
+)
 def test_distances_file_errors(text, match):
     with pytest.raises(InputError, match=match):
         parse_distances_csv(text, "x.csv")
 
 
 def test_empty_start_reuses_previous_row():
-    text = ("direction,start_front,start_rear,start_back,end_front,end_rear,end_back,x_odo,y_odo\n"
-            "cw,400,401,350,300,302,450,1,2\n"
-            "ccw,420,421,360,300,302,450,1,2\n"
-            "cw,,,,310,311,455,3,4\n"
-            "ccw,,,,310,311,455,3,4\n")
+    text = (
+        "direction,start_front,start_rear,start_back,end_front,end_rear,end_back,x_odo,y_odo\n"
+        "cw,400,401,350,300,302,450,1,2\n"
+        "ccw,420,421,360,300,302,450,1,2\n"
+        "cw,,,,310,311,455,3,4\n"
+        "ccw,,,,310,311,455,3,4\n"
+    )
     rows = parse_distances_csv(text)
     assert rows[2].distances_mm[:3] == (400.0, 401.0, 350.0)  # the previous cw start, not the ccw one
     assert rows[3].distances_mm[:3] == (420.0, 421.0, 360.0)
@@ -152,14 +204,20 @@ def _example_rows():
     simulated LabMate with the paper's Fig. 11 errors and noise, 5 runs each way."""
     runs = simulate_umbmark(FIG11_ERRORS, n_runs=5, noise="paper", seed=2)
     d = np.round(distances_for_runs(MARKS, runs, _starts(len(runs), 21)) * 1e3)
-    out = ["# Simulated: LabMate with the errors of the paper's Fig. 11, the paper's noise, seed 2;",
-           "# marks --front 150,-120 --rear -150,-120 --back -200,0 (mirrored for cw runs); distances to 1 mm.",
-           "# Regenerated and checked by tests/test_measure.py.",
-           "run,direction,start_front,start_rear,start_back,end_front,end_rear,end_back,x_odo,y_odo,theta_odo"]
+    out = [
+        "# Simulated: LabMate with the errors of the paper's Fig. 11, the paper's noise, seed 2;",
+        "# marks --front 150,-120 --rear -150,-120 --back -200,0 (mirrored for cw runs); distances to 1 mm.",
+        "# Regenerated and checked by tests/test_measure.py.",
+        "run,direction,start_front,start_rear,start_back,end_front,end_rear,end_back,x_odo,y_odo,theta_odo",
+    ]
     for i in range(len(runs)):
-        out.append(",".join([str(runs.run[i]), str(runs.direction[i])] + [f"{v:.0f}" for v in d[i]]
-                            + [f"{runs.x_odo[i] * 1e3:.1f}", f"{runs.y_odo[i] * 1e3:.1f}",
-                               f"{math.degrees(runs.theta_odo[i]):.2f}"]))
+        out.append(
+            ",".join(
+                [str(runs.run[i]), str(runs.direction[i])]
+                + [f"{v:.0f}" for v in d[i]]
+                + [f"{runs.x_odo[i] * 1e3:.1f}", f"{runs.y_odo[i] * 1e3:.1f}", f"{math.degrees(runs.theta_odo[i]):.2f}"]
+            )
+        )
     return "\n".join(out) + "\n", runs
 
 
@@ -188,8 +246,23 @@ def test_cli_measure_file_then_analyze(tmp_path, repo_root, capsys):
 def test_cli_measure_bad_point_and_missing_file(tmp_path, capsys):
     assert main(["measure", "nope.csv", *MARK_ARGS, "--out", str(tmp_path / "r.csv")]) == 2
     assert "nope.csv: file not found" in capsys.readouterr().err
-    assert main(["measure", "nope.csv", "--front", "1;2;3", "--rear", "0,0", "--back", "0,0",
-                 "--out", str(tmp_path / "r.csv")]) == 2
+    assert (
+        main(
+            [
+                "measure",
+                "nope.csv",
+                "--front",
+                "1;2;3",
+                "--rear",
+                "0,0",
+                "--back",
+                "0,0",
+                "--out",
+                str(tmp_path / "r.csv"),
+            ]
+        )
+        == 2
+    )
     assert "not two numbers" in capsys.readouterr().err
     assert main(["measure", "nope.csv", *MARK_ARGS, "--resolution-mm", "1e308", "--out", str(tmp_path / "r.csv")]) == 2
     assert "--resolution-mm must be a number from 0 to 1000" in capsys.readouterr().err
@@ -202,12 +275,21 @@ def test_cli_measure_interactive(tmp_path):
     d = distances_for_runs(MARKS, truth, _starts(2, 1)) * 1e3
     answers = []
     for i in range(2):
-        answers += [f"{d[i, 0]:.4f}", f"{d[i, 1]:.4f}", f"{d[i, 2]:.4f}",
-                    f"{truth.x_odo[i] * 1e3:.4f}", f"{truth.y_odo[i] * 1e3:.4f}",
-                    f"{math.degrees(truth.theta_odo[i]):.4f}", f"{d[i, 3]:.4f}", f"{d[i, 4]:.4f}", f"{d[i, 5]:.4f}"]
+        answers += [
+            f"{d[i, 0]:.4f}",
+            f"{d[i, 1]:.4f}",
+            f"{d[i, 2]:.4f}",
+            f"{truth.x_odo[i] * 1e3:.4f}",
+            f"{truth.y_odo[i] * 1e3:.4f}",
+            f"{math.degrees(truth.theta_odo[i]):.4f}",
+            f"{d[i, 3]:.4f}",
+            f"{d[i, 4]:.4f}",
+            f"{d[i, 5]:.4f}",
+        ]
     out = tmp_path / "runs.csv"
-    res = CliRunner().invoke(app, ["measure", "--interactive", "--runs", "1", *MARK_ARGS, "--out", str(out)],
-                             input="\n".join(answers) + "\n")
+    res = CliRunner().invoke(
+        app, ["measure", "--interactive", "--runs", "1", *MARK_ARGS, "--out", str(out)], input="\n".join(answers) + "\n"
+    )
     assert res.exit_code == 0, res.output
     runs = read_runs_csv(out)
     np.testing.assert_allclose(runs.x_abs, truth.x_abs, atol=2e-6)
@@ -218,8 +300,10 @@ def test_cli_measure_interactive(tmp_path):
 def test_format_measured_csv_reads_back():
     runs = simulate_umbmark(FIG11_ERRORS, n_runs=2, noise="paper", seed=1)
     d = distances_for_runs(MARKS, runs, _starts(4, 2))
-    rows = [MeasuredRun(str(i), str(runs.direction[i]), tuple(d[i] * 1e3), runs.x_odo[i] * 1e3, runs.y_odo[i] * 1e3)
-            for i in range(4)]
+    rows = [
+        MeasuredRun(str(i), str(runs.direction[i]), tuple(d[i] * 1e3), runs.x_odo[i] * 1e3, runs.y_odo[i] * 1e3)
+        for i in range(4)
+    ]
     got, m = measure_runs(MARKS, rows, side_wall="auto")
     from umbmark.io.runs_csv import parse_runs_csv
 
@@ -232,8 +316,9 @@ def test_cli_measure_json(tmp_path, repo_root, capsys):
     import json
 
     src = repo_root / "data" / "examples" / "distances.csv"
-    assert main(["measure", str(src), *MARK_ARGS, "--resolution-mm", "2", "--out", str(tmp_path / "r.csv"),
-                 "--json"]) == 0
+    assert (
+        main(["measure", str(src), *MARK_ARGS, "--resolution-mm", "2", "--out", str(tmp_path / "r.csv"), "--json"]) == 0
+    )
     j = json.loads(capsys.readouterr().out)
     assert j["resolution_mm"] == 2 and len(j["runs"]) == 10
     r0 = j["runs"][0]
@@ -255,8 +340,9 @@ def test_cli_measure_interactive_without_theta_and_with_reused_start(tmp_path):
         odo = [f"{truth.x_odo[i] * 1e3:.4f}", f"{truth.y_odo[i] * 1e3:.4f}"] + ([""] if i == 0 else [])
         ans += start + odo + [f"{v:.4f}" for v in d[i, 3:]]
     out = tmp_path / "runs.csv"
-    res = CliRunner().invoke(app, ["measure", "--interactive", "--runs", "2", *MARK_ARGS, "--out", str(out)],
-                             input="\n".join(ans) + "\n")
+    res = CliRunner().invoke(
+        app, ["measure", "--interactive", "--runs", "2", *MARK_ARGS, "--out", str(out)], input="\n".join(ans) + "\n"
+    )
     assert res.exit_code == 0, res.output
     runs = read_runs_csv(out)
     assert runs.theta_odo is None and len(runs) == 4

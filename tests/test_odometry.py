@@ -1,4 +1,4 @@
-"""umbmark.odometry: fast replay against the plain numpy integrator and the per-sample loop."""
+"""umbmark.model.odometry: fast replay against the plain numpy integrator and the per-sample loop."""
 
 import numpy as np
 import pytest
@@ -6,9 +6,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from umbmark import kinematics, odometry, reference
 from umbmark.errors import InputError
-from umbmark.kinematics import OdometryParams
+from umbmark.model import geometry as kinematics
+from umbmark.model import odometry
+from umbmark.model.geometry import OdometryParams
+from umbmark.studies import reference
 
 PARAMS = OdometryParams(4.7e-5, 4.72e-5, 0.34)
 
@@ -68,7 +70,9 @@ def test_pulses_many_distinct_increments_fall_back_to_float_kernel():
     want = kinematics.odometry_from_pulses(nl, nr, PARAMS)
     _close(odometry.integrate_pulses(nl, nr, PARAMS), want, 1e-11)
     # float (non-integer) increments too
-    _close(odometry.integrate_pulses(nl + 0.25, nr, PARAMS), kinematics.odometry_from_pulses(nl + 0.25, nr, PARAMS), 1e-11)
+    _close(
+        odometry.integrate_pulses(nl + 0.25, nr, PARAMS), kinematics.odometry_from_pulses(nl + 0.25, nr, PARAMS), 1e-11
+    )
 
 
 def test_runs_axis_with_pulses():
@@ -86,8 +90,11 @@ def test_matches_per_sample_reference_loop():
     nl = rng.integers(2, 7, 20_000)
     nr = rng.integers(2, 7, 20_000)
     for method in odometry.METHODS:
-        _close(odometry.integrate_pulses(nl, nr, PARAMS, method=method),
-               reference.integrate_pulses(nl, nr, PARAMS, method=method), 1e-10)
+        _close(
+            odometry.integrate_pulses(nl, nr, PARAMS, method=method),
+            reference.integrate_pulses(nl, nr, PARAMS, method=method),
+            1e-10,
+        )
 
 
 @pytest.mark.slow
@@ -133,8 +140,12 @@ def test_replay_stream_end_and_decimation():
     np.testing.assert_array_equal(res.kept["sample"], np.arange(7, nl.size + 1, 7))
     np.testing.assert_allclose(res.kept["y"], one[1][6::7], atol=1e-12)
     # wheel travel instead of pulses, end pose only
-    res2 = odometry.replay_stream(((a * PARAMS.left_m_per_pulse, b * PARAMS.right_m_per_pulse) for a, b in chunks),
-                                  wheelbase_m=PARAMS.wheelbase_m, pose0=(1.0, 2.0, 0.5), pulses=False)
+    res2 = odometry.replay_stream(
+        ((a * PARAMS.left_m_per_pulse, b * PARAMS.right_m_per_pulse) for a, b in chunks),
+        wheelbase_m=PARAMS.wheelbase_m,
+        pose0=(1.0, 2.0, 0.5),
+        pulses=False,
+    )
     assert res2.kept is None
     assert res2.y == pytest.approx(one[1][-1], abs=1e-12)
 

@@ -9,7 +9,6 @@ import sys
 import time
 
 import pytest
-
 from conftest import REPO
 
 FENCE = re.compile(r"^\s*(```|~~~)")
@@ -54,23 +53,25 @@ def readme_commands(text: str) -> list[tuple[int, str]]:
 
 
 def test_extractor():
-    text = "\n".join([
-        "umbmark outside a block",
-        "```bash",
-        "umbmark one --a 1",
-        "  umbmark two \\",
-        "    --b 2 \\",
-        "    --c 3",
-        "pip install umbmark",
-        "python3 -m venv .venv && umbmark demo",
-        "```",
-        "```python",
-        "x = 'umbmark not a command'",
-        "```",
-        "~~~",
-        "umbmark three",
-        "~~~",
-    ])
+    text = "\n".join(
+        [
+            "umbmark outside a block",
+            "```bash",
+            "umbmark one --a 1",
+            "  umbmark two \\",
+            "    --b 2 \\",
+            "    --c 3",
+            "pip install umbmark",
+            "python3 -m venv .venv && umbmark demo",
+            "```",
+            "```python",
+            "x = 'umbmark not a command'",
+            "```",
+            "~~~",
+            "umbmark three",
+            "~~~",
+        ]
+    )
     assert readme_commands(text) == [(3, "umbmark one --a 1"), (4, "umbmark two --b 2 --c 3"), (14, "umbmark three")]
 
 
@@ -92,12 +93,14 @@ def test_every_readme_command_runs(tmp_path):
     work.mkdir()
     (work / "data").symlink_to(REPO / "data", target_is_directory=True)
     env = dict(os.environ)
-    env.update({
-        "PATH": f"{_wrapper_bin(tmp_path)}{os.pathsep}{env.get('PATH', '')}",
-        "UMBMARK_DB": str(tmp_path / "history.sqlite"),  # never the user's own history
-        "XDG_DATA_HOME": str(tmp_path / "xdg"),
-        "MPLBACKEND": "Agg",
-    })
+    env.update(
+        {
+            "PATH": f"{_wrapper_bin(tmp_path)}{os.pathsep}{env.get('PATH', '')}",
+            "UMBMARK_DB": str(tmp_path / "history.sqlite"),  # never the user's own history
+            "XDG_DATA_HOME": str(tmp_path / "xdg"),
+            "MPLBACKEND": "Agg",
+        }
+    )
     env.pop("_UMBMARK_COMPLETE", None)
     failures = []
     timings = []

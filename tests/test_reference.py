@@ -1,15 +1,17 @@
-"""umbmark.reference: the per-sample loops agree with the vectorised code they are the oracle of."""
+"""umbmark.studies.reference: the per-sample loops agree with the vectorised code they are the oracle of."""
 
 import math
 
 import numpy as np
 import pytest
 
-from umbmark import kinematics, reference, simulate
-from umbmark.benchmark import umbmark
 from umbmark.errors import InputError
-from umbmark.kinematics import LABMATE, ErrorParams, OdometryParams
-from umbmark.simulate import Motion, NoiseModel, run_seeds, square_program
+from umbmark.metrics import umbmark
+from umbmark.model import geometry as kinematics
+from umbmark.model import simulate
+from umbmark.model.geometry import LABMATE, ErrorParams, OdometryParams
+from umbmark.model.simulate import Motion, NoiseModel, run_seeds, square_program
+from umbmark.studies import reference
 
 FIG11 = ErrorParams(ed=1.00084, eb=336.17 / 340)
 

@@ -7,11 +7,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 import simlogs
+
 from umbmark.cli import main
 from umbmark.io.optiodom import read_optiodom
-from umbmark.replay import detect_directions, replay, replay_report
+from umbmark.realrobot.replay import detect_directions, replay, replay_report
 
 PINNED = "square/230620202144"
 
@@ -86,8 +86,11 @@ def test_bf_at_least_five_fold_on_every_square_set(square_reports):
 
 def test_corrected_geometries_agree_and_wrong_nominal_pulled_back(square_reports):
     ratio = {n: rep["wheelbase_per_mean_diameter"] for n, (_, rep) in square_reports.items()}
-    right = [n for n, (ds, _) in square_reports.items()
-             if ds.nominal.wheelbase_m == pytest.approx(0.2) and ds.nominal.diameter_left_m == pytest.approx(0.084)]
+    right = [
+        n
+        for n, (ds, _) in square_reports.items()
+        if ds.nominal.wheelbase_m == pytest.approx(0.2) and ds.nominal.diameter_left_m == pytest.approx(0.084)
+    ]
     ref = np.mean([ratio[n] for n in right])
     for n, r in ratio.items():
         assert abs(r / ref - 1) < 0.01, n  # wheelbase within 1 % once the diameter scale is accounted for
@@ -153,10 +156,11 @@ def test_bf_on_a_general_path_is_refused(optiodom, capsys):
 
 # --- properties of the log maths -------------------------------------------------------------
 
-from hypothesis import given, settings, strategies as st  # noqa: E402
+from hypothesis import given, settings  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
 
-from umbmark.kinematics import integrate  # noqa: E402
-from umbmark.logs import to_start_frame, wheel_travel_from_poses  # noqa: E402
+from umbmark.model.dataset import to_start_frame, wheel_travel_from_poses  # noqa: E402
+from umbmark.model.geometry import integrate  # noqa: E402
 
 _travel = st.lists(st.tuples(st.floats(-0.05, 0.05), st.floats(-0.05, 0.05)), min_size=1, max_size=40)
 
@@ -187,8 +191,9 @@ def test_replay_records_into_history(tmp_path, capsys):
 
     db = tmp_path / "h.sqlite"
     ds = str(Path(__file__).resolve().parents[1] / "data" / "optiodom" / "square" / "230620202144")
-    code = main(["replay", ds, "--method", "bf", "--no-heldout", "--robot", "optibot", "--record", "--db", str(db),
-                 "--json"])
+    code = main(
+        ["replay", ds, "--method", "bf", "--no-heldout", "--robot", "optibot", "--record", "--db", str(db), "--json"]
+    )
     out = capsys.readouterr().out
     assert code == 0
     rec = json.loads(out)["history"]
@@ -199,6 +204,7 @@ def test_replay_records_into_history(tmp_path, capsys):
 
 
 # --- the fast odometry path (issue 5) ----------------------------------------------------------
+
 
 def _numbers(a, b, path=""):
     """Pairs of numbers at the same place in two JSON-like objects."""
@@ -218,9 +224,9 @@ def _numbers(a, b, path=""):
 
 @pytest.mark.parametrize("method", ["bf", "lsq"])
 def test_fast_kernels_give_the_same_report(monkeypatch, method):
-    """Forcing the chunked kernels of umbmark.odometry (used on long logs) on a real optiodom set
+    """Forcing the chunked kernels of umbmark.model.odometry (used on long logs) on a real optiodom set
     changes no reported figure beyond rounding."""
-    import umbmark.logs as logs
+    import umbmark.model.dataset as logs
 
     ds = read_optiodom(simlogs_data() / PINNED)
     slow = replay_report(ds, method)
@@ -231,12 +237,12 @@ def test_fast_kernels_give_the_same_report(monkeypatch, method):
 
 
 @settings(max_examples=25, deadline=None)
-@given(st.integers(1, 3), st.integers(2, 400), st.booleans(), st.integers(0, 2 ** 32 - 1))
+@given(st.integers(1, 3), st.integers(2, 400), st.booleans(), st.integers(0, 2**32 - 1))
 def test_replay_increments_dispatch_matches_kinematics(rows, k, integral, seed):
     """Above FAST_MIN_SAMPLES the fast kernels (table kernel for whole-number increments, float
     kernel otherwise) give the poses of kinematics.integrate."""
-    import umbmark.logs as logs
-    from umbmark.kinematics import OdometryParams
+    import umbmark.model.dataset as logs
+    from umbmark.model.geometry import OdometryParams
 
     rng = np.random.default_rng(seed)
     dl = rng.integers(-3, 40, (rows, k)).astype(float)

@@ -10,13 +10,13 @@ from html.parser import HTMLParser
 import numpy as np
 import pytest
 
-from umbmark import workflows
 from umbmark.cli import main
+from umbmark.correct.analysis import analyze
 from umbmark.history import History
 from umbmark.io.runs_csv import write_runs_csv
-from umbmark.kinematics import ErrorParams
-from umbmark.report import analysis_report, bootstrap_intervals, cg_intervals, history_report
-from umbmark.simulate import simulate_umbmark
+from umbmark.model.geometry import FIG11_ERRORS, ErrorParams
+from umbmark.model.simulate import simulate_umbmark
+from umbmark.viz.report import analysis_report, bootstrap_intervals, cg_intervals, history_report
 
 PNG = b"\x89PNG\r\n\x1a\n"
 VOID = {"meta", "img", "br", "hr", "link", "input", "col", "area", "base", "source", "wbr"}
@@ -76,18 +76,31 @@ def check_page(page: str) -> Checker:
 
 @pytest.fixture(scope="module")
 def analysis():
-    runs = simulate_umbmark(workflows.FIG11_ERRORS, n_runs=5, noise="paper", seed=1)
-    return workflows.analyze(runs, 4.0, 0.34)
+    runs = simulate_umbmark(FIG11_ERRORS, n_runs=5, noise="paper", seed=1)
+    return analyze(runs, 4.0, 0.34)
 
 
 def test_analysis_report_is_valid_and_self_contained(analysis):
-    after = simulate_umbmark(workflows.FIG11_ERRORS, n_runs=5, noise="paper", seed=2,
-                             calibration=analysis.correction.calibration)
+    after = simulate_umbmark(FIG11_ERRORS, n_runs=5, noise="paper", seed=2, calibration=analysis.correction.calibration)
     boot = bootstrap_intervals(analysis.runs, 4.0, 0.34, n_boot=200, seed=0)
-    traj = [{"true_x": [0, 1, 1], "true_y": [0, 0, 1], "odo_x": [0, 1.01, 1.02], "odo_y": [0, 0.01, 1.0],
-             "label": "run 1 <cw>"}]
-    page = analysis_report(analysis, title="Test <report> & co", after_runs=after, trajectories=traj,
-                           exported={"params.json": '{"c_left": 0.99}'}, boot=boot, robot="r&1")
+    traj = [
+        {
+            "true_x": [0, 1, 1],
+            "true_y": [0, 0, 1],
+            "odo_x": [0, 1.01, 1.02],
+            "odo_y": [0, 0.01, 1.0],
+            "label": "run 1 <cw>",
+        }
+    ]
+    page = analysis_report(
+        analysis,
+        title="Test <report> & co",
+        after_runs=after,
+        trajectories=traj,
+        exported={"params.json": '{"c_left": 0.99}'},
+        boot=boot,
+        robot="r&1",
+    )
     c = check_page(page)
     assert len(c.images) == 2  # scatter and trajectories
     text = "".join(c.text)
@@ -107,14 +120,17 @@ def test_intervals(analysis):
     assert ci["cw"]["x"] == pytest.approx((cw.eps_x.mean() * 1e3 - half, cw.eps_x.mean() * 1e3 + half))
     b = bootstrap_intervals(runs, 4.0, 0.34, n_boot=300, seed=1)
     assert b["failed"] == 0
-    for key, est in (("Ed", analysis.correction.ed), ("Eb", analysis.correction.eb),
-                     ("wheelbase_mm", analysis.correction.calibration.wheelbase_m * 1e3)):
+    for key, est in (
+        ("Ed", analysis.correction.ed),
+        ("Eb", analysis.correction.eb),
+        ("wheelbase_mm", analysis.correction.calibration.wheelbase_m * 1e3),
+    ):
         lo, hi = b[key]
         assert lo < est < hi, key
     # the same seed gives the same intervals
     assert bootstrap_intervals(runs, 4.0, 0.34, n_boot=300, seed=1) == b
     # the wheelbase interval of a noise-free test is a point
-    exact = workflows.analyze(simulate_umbmark(workflows.FIG11_ERRORS, n_runs=3, seed=0), 4.0, 0.34)
+    exact = analyze(simulate_umbmark(FIG11_ERRORS, n_runs=3, seed=0), 4.0, 0.34)
     lo, hi = bootstrap_intervals(exact.runs, 4.0, 0.34, n_boot=50)["wheelbase_mm"]
     assert hi - lo < 1e-9
 
@@ -125,7 +141,7 @@ def test_history_report(tmp_path):
 
     for k, when in enumerate(["2026-01-10", "2026-03-10", "2026-06-10"]):
         runs = simulate_umbmark(ErrorParams(1.001 + k * 1e-3, 0.99), n_runs=5, noise="paper", seed=k)
-        record_analysis("bot", workflows.analyze(runs, 4.0, 0.34), db=db, when=when)
+        record_analysis("bot", analyze(runs, 4.0, 0.34), db=db, when=when)
     with History(db) as h:
         recs = h.records("bot")
     page = history_report(recs, db_path=str(db))
@@ -138,23 +154,57 @@ def test_history_report(tmp_path):
 
 def test_report_cli(tmp_path, capsys, monkeypatch):
     monkeypatch.setenv("UMBMARK_DB", str(tmp_path / "h.sqlite"))
-    runs = simulate_umbmark(workflows.FIG11_ERRORS, n_runs=5, noise="paper", seed=1)
-    a = workflows.analyze(runs, 4.0, 0.34)
-    after = simulate_umbmark(workflows.FIG11_ERRORS, n_runs=5, noise="paper", seed=2, calibration=a.correction.calibration)
+    runs = simulate_umbmark(FIG11_ERRORS, n_runs=5, noise="paper", seed=1)
+    a = analyze(runs, 4.0, 0.34)
+    after = simulate_umbmark(FIG11_ERRORS, n_runs=5, noise="paper", seed=2, calibration=a.correction.calibration)
     write_runs_csv(runs, tmp_path / "before.csv")
     write_runs_csv(after, tmp_path / "after.csv")
     (tmp_path / "p.json").write_text('{"c_left": 1}')
     out = tmp_path / "r.html"
-    assert main(["report", str(tmp_path / "before.csv"), "--wheelbase-mm", "340", "--side-mm", "4000",
-                 "--after", str(tmp_path / "after.csv"), "--attach", str(tmp_path / "p.json"),
-                 "--bootstrap", "100", "--out", str(out), "--json"]) == 0
+    assert (
+        main(
+            [
+                "report",
+                str(tmp_path / "before.csv"),
+                "--wheelbase-mm",
+                "340",
+                "--side-mm",
+                "4000",
+                "--after",
+                str(tmp_path / "after.csv"),
+                "--attach",
+                str(tmp_path / "p.json"),
+                "--bootstrap",
+                "100",
+                "--out",
+                str(out),
+                "--json",
+            ]
+        )
+        == 0
+    )
     j = json.loads(capsys.readouterr().out)
     assert j["bootstrap"]["n_boot"] == 100 and j["emax_syst_mm"] == pytest.approx(a.result.emax_syst * 1e3)
     text = "".join(check_page(out.read_text()).text)
     assert "improvement" in text and "p.json" in text
 
-    assert main(["analyze", str(tmp_path / "before.csv"), "--wheelbase-mm", "340", "--side-mm", "4000",
-                 "--robot", "bot", "--record", "--json"]) == 0
+    assert (
+        main(
+            [
+                "analyze",
+                str(tmp_path / "before.csv"),
+                "--wheelbase-mm",
+                "340",
+                "--side-mm",
+                "4000",
+                "--robot",
+                "bot",
+                "--record",
+                "--json",
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     assert main(["report", "--robot", "bot", "--out", str(tmp_path / "h.html")]) == 0
     check_page((tmp_path / "h.html").read_text())
@@ -183,10 +233,20 @@ def test_report_renders_in_headless_chromium(tmp_path, analysis):
     page = tmp_path / "r.html"
     page.write_text(analysis_report(analysis, title="render check"))
     shot = tmp_path / "shot.png"
-    cmd = [_browser(), "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
-           "--disable-background-networking", "--disable-component-update", "--disable-sync",
-           f"--user-data-dir={tmp_path / 'profile'}", "--window-size=1000,2400", f"--screenshot={shot}",
-           page.as_uri()]
+    cmd = [
+        _browser(),
+        "--headless",
+        "--no-sandbox",
+        "--disable-gpu",
+        "--no-first-run",
+        "--disable-background-networking",
+        "--disable-component-update",
+        "--disable-sync",
+        f"--user-data-dir={tmp_path / 'profile'}",
+        "--window-size=1000,2400",
+        f"--screenshot={shot}",
+        page.as_uri(),
+    ]
     subprocess.run(cmd, capture_output=True, timeout=120)
     assert shot.read_bytes()[:8] == PNG
     import matplotlib.image as mpimg
@@ -194,5 +254,5 @@ def test_report_renders_in_headless_chromium(tmp_path, analysis):
     px = mpimg.imread(shot)
     assert px.shape[0] == 2400 and px.shape[1] == 1000
     # the embedded scatter plot drew: a band of rows in the lower part with dark pixels (axes, markers)
-    dark = (px[..., :3].mean(axis=-1) < 0.5)
+    dark = px[..., :3].mean(axis=-1) < 0.5
     assert dark[1200:].sum() > 2000

@@ -3,15 +3,16 @@
 from __future__ import annotations
 
 import math
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from umbmark import reproduce as rep
 from umbmark.errors import InputError
-from umbmark.kinematics import LABMATE, Calibration, ErrorParams
-from umbmark.simulate import NOISE_PRESETS, simulate_umbmark
+from umbmark.model.geometry import LABMATE, Calibration, ErrorParams
+from umbmark.model.simulate import NOISE_PRESETS, simulate_umbmark
+from umbmark.studies import reproduce as rep
 
 
 @pytest.fixture(scope="module")
@@ -30,8 +31,9 @@ def test_batched_tests_equal_simulate_umbmark():
     tables = rep.simulate_tests(specs, cfg)
     for spec, rt in zip(specs, tables):
         seed = np.random.SeedSequence(spec.seed.entropy, spawn_key=spec.seed.spawn_key)
-        ref = simulate_umbmark(spec.errors, cfg.geometry, cfg.side_m, cfg.n_runs, spec.calibration, cfg.noise,
-                               cfg.motion, seed=seed)
+        ref = simulate_umbmark(
+            spec.errors, cfg.geometry, cfg.side_m, cfg.n_runs, spec.calibration, cfg.noise, cfg.motion, seed=seed
+        )
         np.testing.assert_array_equal(rt.eps_x, ref.eps_x)
         np.testing.assert_array_equal(rt.eps_y, ref.eps_y)
         assert list(rt.direction) == list(ref.direction)
@@ -157,8 +159,14 @@ def test_trajectories_start_at_the_origin_and_end_where_the_runs_end():
 
 
 def test_config_rejects_bad_values():
-    for kw in (dict(seeds=0), dict(n_runs=1), dict(sample_period_s=0.0), dict(tape_layer_m=-1e-5),
-               dict(variation=2.0), dict(seed=-1)):
+    for kw in (
+        dict(seeds=0),
+        dict(n_runs=1),
+        dict(sample_period_s=0.0),
+        dict(tape_layer_m=-1e-5),
+        dict(variation=2.0),
+        dict(seed=-1),
+    ):
         with pytest.raises(InputError):
             rep.StudyConfig(**kw)
 

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from umbmark.cli import main
-from umbmark import plot
+from umbmark.viz import plots as plot
 
 
 def run(capsys, *args):
@@ -32,8 +32,15 @@ def test_json_pinned_interface(capsys):
         assert e["second_pass"] is None or e["second_pass"]["emax_after_mm"] > 0
         assert 100 < e["emax_before_mm"] < 1000  # hundreds of mm, like the paper's
     dist = d["distribution"]
-    for k in ("seeds", "improvement_median", "improvement_p10", "improvement_p90", "emax_before_median_mm",
-              "emax_after_median_mm", "second_pass_fraction"):
+    for k in (
+        "seeds",
+        "improvement_median",
+        "improvement_p10",
+        "improvement_p90",
+        "emax_before_median_mm",
+        "emax_after_median_mm",
+        "second_pass_fraction",
+    ):
         assert k in dist
     assert dist["seeds"] == 3
     assert d["command"] == "umbmark reproduce --seed 1 --seeds 3 --no-pitfall"
@@ -113,14 +120,17 @@ def test_report_is_self_contained_and_its_images_decode(tmp_path, capsys):
         assert (other / f.name).read_bytes() == f.read_bytes(), f.name
 
 
-@pytest.mark.parametrize("args, what", [
-    (["--seeds", "0"], "--seeds"),
-    (["--tape-thickness-mm", "-1"], "--tape-thickness-mm"),
-    (["--sample-period-ms", "0"], "--sample-period-ms"),
-    (["--variation", "nan"], "variation"),
-    (["--exaggerate", "0"], "--exaggerate"),
-    (["--runs", "1"], "--runs"),
-])
+@pytest.mark.parametrize(
+    "args, what",
+    [
+        (["--seeds", "0"], "--seeds"),
+        (["--tape-thickness-mm", "-1"], "--tape-thickness-mm"),
+        (["--sample-period-ms", "0"], "--sample-period-ms"),
+        (["--variation", "nan"], "variation"),
+        (["--exaggerate", "0"], "--exaggerate"),
+        (["--runs", "1"], "--runs"),
+    ],
+)
 def test_bad_input_is_one_line_and_exit_2(capsys, args, what):
     code, out, err = run(capsys, "reproduce", "--no-pitfall", *args)
     assert code == 2
@@ -136,8 +146,13 @@ def test_report_into_a_file_is_refused(tmp_path, capsys):
 
 
 def test_exaggerated_trajectory_scales_the_deviation_only():
-    t = {"true_x": np.array([0.0, 1.0, 2.0]), "true_y": np.array([0.0, 0.1, 0.3]),
-         "odo_x": np.array([0.0, 1.0, 2.0]), "odo_y": np.array([0.0, 0.0, 0.0]), "label": "cw"}
+    t = {
+        "true_x": np.array([0.0, 1.0, 2.0]),
+        "true_y": np.array([0.0, 0.1, 0.3]),
+        "odo_x": np.array([0.0, 1.0, 2.0]),
+        "odo_y": np.array([0.0, 0.0, 0.0]),
+        "label": "cw",
+    }
     fig = plot.exaggerated_trajectory_figure([t], exaggerate=10, side_m=2.0)
     ax = fig.axes[0]
     lines = {ln.get_label(): ln for ln in ax.get_lines()}

@@ -7,8 +7,8 @@ from dataclasses import replace
 
 import pytest
 
-from umbmark import reproduce as rep
 from umbmark.cli import main
+from umbmark.studies import reproduce as rep
 
 
 def _small(**kw):
@@ -24,8 +24,7 @@ def test_seed_groups_partition_the_seeds():
     cfg = _small(seeds=5)
     groups = rep.seed_groups(cfg)
     assert groups == [[1, 2], [3, 4], [5]]
-    assert rep.seed_groups(rep.StudyConfig(seeds=60)) == [list(range(1, 26)), list(range(26, 51)),
-                                                         list(range(51, 61))]
+    assert rep.seed_groups(rep.StudyConfig(seeds=60)) == [list(range(1, 26)), list(range(26, 51)), list(range(51, 61))]
 
 
 def test_pool_and_dask_give_the_serial_study():
@@ -36,8 +35,10 @@ def test_pool_and_dask_give_the_serial_study():
     assert seen == [(2, 4), (4, 4)]
     ref = _bytes(serial)
     assert _bytes(rep.run_study(cfg, pitfall=False, workers=2)) == ref
-    with distributed.LocalCluster(processes=False, n_workers=1, threads_per_worker=2,
-                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+    with (
+        distributed.LocalCluster(processes=False, n_workers=1, threads_per_worker=2, dashboard_address=None) as cluster,
+        distributed.Client(cluster) as client,
+    ):
         assert _bytes(rep.run_study(cfg, pitfall=False, dask=client)) == ref
     # the batch a test is simulated in does not change it: one group of 4 seeds, same study
     assert _bytes(rep.run_study(_small(chunk_runs=1000), pitfall=False, workers=1)) == ref

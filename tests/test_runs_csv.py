@@ -8,7 +8,7 @@ from hypothesis import strategies as st
 
 from umbmark.errors import InputError
 from umbmark.io.runs_csv import format_runs_csv, parse_runs_csv, read_runs_csv, write_runs_csv
-from umbmark.runs import RunsTable
+from umbmark.model.runs import RunsTable
 
 GOOD = """direction,x_abs,y_abs,x_odo,y_odo
 cw,10,20,1,2
@@ -24,17 +24,20 @@ def test_reads_mm_into_metres():
 
 
 def test_optional_and_extra_columns():
-    t = parse_runs_csv("note,run,direction,x_abs,y_abs,x_odo,y_odo,theta_abs,theta_odo\n"
-                       "a,r1,CW,1,2,3,4,90,-180\n"
-                       "b,r2, ccw ,1,2,3,4,0,0\n")
+    t = parse_runs_csv(
+        "note,run,direction,x_abs,y_abs,x_odo,y_odo,theta_abs,theta_odo\n"
+        "a,r1,CW,1,2,3,4,90,-180\n"
+        "b,r2, ccw ,1,2,3,4,0,0\n"
+    )
     assert list(t.direction) == ["cw", "ccw"]
     assert t.theta_abs[0] == pytest.approx(math.pi / 2)
     assert list(t.run) == ["r1", "r2"]
 
 
 def test_comments_blank_lines_and_empty_optional_column():
-    t = parse_runs_csv("# UMBmark 2026-11-21\n\ndirection,x_abs,y_abs,x_odo,y_odo,theta_abs\n"
-                       "cw,1,2,3,4,\n\nccw,1,2,3,4,\n")
+    t = parse_runs_csv(
+        "# UMBmark 2026-11-21\n\ndirection,x_abs,y_abs,x_odo,y_odo,theta_abs\ncw,1,2,3,4,\n\nccw,1,2,3,4,\n"
+    )
     assert len(t) == 2 and t.theta_abs is None
 
 
@@ -85,8 +88,15 @@ row = st.tuples(st.sampled_from(["cw", "ccw"]), mm, mm, mm, mm, st.floats(-179, 
 def test_round_trip(rows):
     rows = [("cw",) + rows[0][1:]] + [("ccw",) + rows[1][1:]] + rows[2:]
     d, xa, ya, xo, yo, ta, to = zip(*rows)
-    t = RunsTable.from_columns(d, np.array(xa) / 1e3, np.array(ya) / 1e3, np.array(xo) / 1e3, np.array(yo) / 1e3,
-                               np.radians(ta), np.radians(to))
+    t = RunsTable.from_columns(
+        d,
+        np.array(xa) / 1e3,
+        np.array(ya) / 1e3,
+        np.array(xo) / 1e3,
+        np.array(yo) / 1e3,
+        np.radians(ta),
+        np.radians(to),
+    )
     back = parse_runs_csv(format_runs_csv(t))
     assert list(back.direction) == list(t.direction)
     for k in ("x_abs", "y_abs", "x_odo", "y_odo"):  # written to 1e-6 mm

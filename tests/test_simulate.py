@@ -3,10 +3,10 @@ import math
 import numpy as np
 import pytest
 
-from umbmark.benchmark import umbmark
 from umbmark.errors import InputError
-from umbmark.kinematics import LABMATE, Calibration, ErrorParams, OdometryParams
-from umbmark.simulate import (
+from umbmark.metrics import umbmark
+from umbmark.model.geometry import LABMATE, Calibration, ErrorParams, OdometryParams
+from umbmark.model.simulate import (
     NOISE_PRESETS,
     Motion,
     NoiseModel,

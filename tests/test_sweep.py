@@ -1,22 +1,24 @@
-"""umbmark.sweep: the process pool and a Dask cluster return exactly the numbers of a plain loop."""
+"""umbmark.studies.sweep: the process pool and a Dask cluster return exactly the numbers of a plain loop."""
 
 import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from umbmark import batch, sweep
-from umbmark.benchmark import umbmark
 from umbmark.errors import InputError
-from umbmark.kinematics import ErrorParams
+from umbmark.metrics import umbmark
+from umbmark.model import batch
+from umbmark.model.geometry import ErrorParams
+from umbmark.studies import sweep
 
 
 def emax_of_robots(item):
     """A seeded Monte Carlo task: E_max,syst [mm] of a few simulated robots (module level:
     picklable)."""
     seeds, eds = item
-    tabs = batch.simulate_batch([ErrorParams(ed=e, eb=0.99) for e in eds], side_m=1.0, n_runs=2, noise="paper",
-                                seeds=seeds)
+    tabs = batch.simulate_batch(
+        [ErrorParams(ed=e, eb=0.99) for e in eds], side_m=1.0, n_runs=2, noise="paper", seeds=seeds
+    )
     return [umbmark(t).emax_syst * 1e3 for t in tabs]
 
 
@@ -33,7 +35,7 @@ def fail_on_three(x):
 def _items():
     rng = np.random.default_rng(0)
     eds = list(1.0 + rng.normal(0, 2e-3, 8))
-    return [([s for s in range(i, i + 2)], eds[i:i + 2]) for i in range(0, 8, 2)]
+    return [([s for s in range(i, i + 2)], eds[i : i + 2]) for i in range(0, 8, 2)]
 
 
 def test_pool_equals_plain_loop():
@@ -49,8 +51,10 @@ def test_dask_local_cluster_equals_local_run():
     distributed = pytest.importorskip("distributed")
     items = _items()
     local = sweep.map(emax_of_robots, items, workers=2)
-    with distributed.LocalCluster(processes=False, n_workers=1, threads_per_worker=2,
-                                  dashboard_address=None) as cluster, distributed.Client(cluster) as client:
+    with (
+        distributed.LocalCluster(processes=False, n_workers=1, threads_per_worker=2, dashboard_address=None) as cluster,
+        distributed.Client(cluster) as client,
+    ):
         assert sweep.map(emax_of_robots, items, dask=client) == local
         # by address, as --dask tcp://host:port does
         assert sweep.map(square, [3, 1, 2], dask=cluster.scheduler_address) == [9, 1, 4]
@@ -89,9 +93,10 @@ def test_describe_backend():
 
 def test_on_progress_counts_every_item_once():
     for workers in (1, 2):
-        seen = []
-        assert sweep.map(square, range(7), workers=workers, on_progress=lambda d, t: seen.append((d, t))) == \
-            [x * x for x in range(7)]
+        seen: list = []
+        assert sweep.map(
+            square, range(7), workers=workers, on_progress=lambda d, t, seen=seen: seen.append((d, t))
+        ) == [x * x for x in range(7)]
         assert seen == [(i, 7) for i in range(1, 8)]
     seen = []
     with pytest.raises(ValueError, match="three"):

@@ -1,6 +1,6 @@
 """``python -m umbmark``: the same as the ``umbmark`` console script."""
 
-from .cli import main
+from umbmark.cli import main
 
 if __name__ == "__main__":
     main()

@@ -7,17 +7,19 @@ import sys
 
 import click
 
-from ..errors import UmbmarkError
-from .app import app
 # Each module registers its subcommands on ``app``.
-from . import core  # noqa: F401,E402  simulate, analyze, demo
-from . import real  # noqa: F401,E402  replay, export
-from . import history  # noqa: F401,E402  history, report, guide, measure
-from . import bench  # noqa: F401,E402  bench (group)
-from . import bench_speed  # noqa: F401,E402  bench speed
-from . import bench_accuracy  # noqa: F401,E402  bench accuracy
-from . import reproduce  # noqa: F401,E402  reproduce
-from . import calibrate  # noqa: F401,E402  calibrate
+from umbmark.cli import (
+    bench,  # noqa: F401,E402  bench (group)
+    bench_accuracy,  # noqa: F401,E402  bench accuracy
+    bench_speed,  # noqa: F401,E402  bench speed
+    calibrate,  # noqa: F401,E402  calibrate
+    core,  # noqa: F401,E402  simulate, analyze, demo
+    history,  # noqa: F401,E402  history, report, guide, measure
+    real,  # noqa: F401,E402  replay, export
+    reproduce,  # noqa: F401,E402  reproduce
+)
+from umbmark.cli.app import app, cli_message
+from umbmark.errors import UmbmarkError
 
 __all__ = ["app", "main"]
 
@@ -43,7 +45,7 @@ def main(argv=None) -> int:
         sys.stderr.write(f"{where}: error: {_one_line(e.format_message())}\n")
         code = 2
     except UmbmarkError as e:
-        sys.stderr.write(f"{prog}: error: {_one_line(e)}\n")
+        sys.stderr.write(f"{prog}: error: {_one_line(cli_message(str(e)))}\n")
         code = 2
     except OSError as e:
         if isinstance(e, BrokenPipeError):

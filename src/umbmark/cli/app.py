@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 import sys
 
 import click
@@ -10,8 +11,9 @@ from rich.console import Console
 from rich.markup import escape
 from rich.table import Table
 
-from .. import __version__
-from ..jsonutil import dumps
+from umbmark._version import __version__
+from umbmark.errors import InputError
+from umbmark.jsonutil import dumps
 
 CONTEXT = dict(help_option_names=["-h", "--help"], max_content_width=100)
 
@@ -54,9 +56,59 @@ def is_quiet() -> bool:
     return False
 
 
+# library parameters (named in messages as `name` or `name=value`) -> the flags that set them
+PARAM_FLAGS = {
+    "dask": "--dask",
+    "dataset": "--dataset",
+    "fmt": "--format",
+    "gt_frame": "--gt-frame",
+    "joints": "--joints",
+    "left_diameter_mm": "--left-diameter-mm",
+    "left_field": "--left-field",
+    "method": "--method",
+    "pulses_per_wheel_rev": "--pulses-per-wheel-rev",
+    "record": "--record",
+    "right_diameter_mm": "--right-diameter-mm",
+    "right_field": "--right-field",
+    "robot": "--robot NAME",
+    "scale": "--scale",
+    "side_mm": "--side-mm",
+    "stream": "--stream",
+    "wheel_diameter_mm": "--wheel-diameter-mm",
+    "wheelbase_mm": "--wheelbase-mm",
+}
+_PARAM = re.compile(r"`(\w+)(?:=([^`]*))?`")
+
+
+def cli_message(text: str) -> str:
+    """A library message in the CLI's words: `name` becomes its flag, `name="v"` the flag and v."""
+
+    def flag(m: re.Match) -> str:
+        name, value = m.group(1), m.group(2)
+        if name not in PARAM_FLAGS:
+            return m.group(0)
+        f = PARAM_FLAGS[name]
+        if value is None or value == "True":
+            return f
+        return f"{f} {value.strip(chr(34) + chr(39))}"
+
+    return _PARAM.sub(flag, text)
+
+
+def _cli_strings(obj):
+    if isinstance(obj, str):
+        return cli_message(obj)
+    if isinstance(obj, dict):
+        return {k: _cli_strings(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_cli_strings(v) for v in obj]
+    return obj
+
+
 def emit_json(obj) -> None:
-    """Print one JSON object (NaN and infinities become null: strict JSON)."""
-    sys.stdout.write(dumps(obj, indent=2) + "\n")
+    """Print one JSON object (NaN and infinities become null: strict JSON); messages in it name
+    the command's flags (see :func:`cli_message`)."""
+    sys.stdout.write(dumps(_cli_strings(obj), indent=2) + "\n")
 
 
 def fmt(v, digits: int = 1, unit: str = "") -> str:
@@ -76,8 +128,37 @@ def table(title: str, columns: list[str], rows: list[list], justify_first: str =
 
 def prior_options(f):
     """``--c-left`` / ``--c-right``: the correction factors the robot's odometry ran with."""
-    f = click.option("--c-right", type=float, default=1.0, show_default=True,
-                     help="Right-wheel correction factor the robot's odometry ran with.")(f)
-    f = click.option("--c-left", type=float, default=1.0, show_default=True,
-                     help="Left-wheel correction factor the robot's odometry ran with.")(f)
+    f = click.option(
+        "--c-right",
+        type=float,
+        default=1.0,
+        show_default=True,
+        help="Right-wheel correction factor the robot's odometry ran with.",
+    )(f)
+    f = click.option(
+        "--c-left",
+        type=float,
+        default=1.0,
+        show_default=True,
+        help="Left-wheel correction factor the robot's odometry ran with.",
+    )(f)
     return f
+
+
+def positive(name: str, value: float) -> float:
+    if value is None or not (math.isfinite(value) and value > 0):
+        raise InputError(f"{name} must be a positive number, got {value!r}")
+    return float(value)
+
+
+# the true errors a simulated robot may have: wheels differing by up to a factor of 2, an
+# effective wheelbase from 1/20 to 20 times the nominal one, a mean wheel scale 0.5 to 2
+ERROR_RANGES = {"--ed": (0.5, 2.0), "--eb": (0.05, 20.0), "--es": (0.5, 2.0)}
+
+
+def error_param(name: str, value: float) -> float:
+    """A true error factor from the command line, within :data:`ERROR_RANGES`."""
+    lo, hi = ERROR_RANGES[name]
+    if value is None or not (math.isfinite(value) and lo <= value <= hi):
+        raise InputError(f"{name} must be a number from {lo:g} to {hi:g}, got {value!r}")
+    return float(value)

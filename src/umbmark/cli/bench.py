@@ -3,7 +3,7 @@ and bench_accuracy.py (issue 7)."""
 
 from __future__ import annotations
 
-from .app import app
+from umbmark.cli.app import app
 
 
 @app.group()

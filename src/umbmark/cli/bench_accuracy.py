@@ -6,25 +6,41 @@ from dataclasses import replace
 
 import click
 
-from ..accuracy import QUICK, AccuracyConfig, run_accuracy, write_results
-from .app import console, emit_json, fmt, is_quiet, table
-from .bench import bench
-from .progress import progress
-from .scaleout import scale_options
+from umbmark.cli.app import console, emit_json, fmt, is_quiet, table
+from umbmark.cli.bench import bench
+from umbmark.cli.progress import progress
+from umbmark.cli.scaleout import scale_options
+from umbmark.studies.accuracy import QUICK, AccuracyConfig, run_accuracy, write_results
 
 
 @bench.command("accuracy")
 @click.option("--quick", is_flag=True, help="Small grid, 4 robots per cell, 50 ms sampling (seconds).")
-@click.option("--robots", type=click.IntRange(min=1), default=None,
-              help="Robots per cell with noise (default 100; quick: 4).")
+@click.option(
+    "--robots", type=click.IntRange(min=1), default=None, help="Robots per cell with noise (default 100; quick: 4)."
+)
 @click.option("--seed", type=click.IntRange(min=0), default=None, help="Seed (default 2026).")
-@click.option("--sample-period-ms", type=float, default=None,
-              help="Sampling period of the noisy simulations (default 10 ms, the paper's; quick: 50 ms).")
-@click.option("--fixed-wheelbase", type=click.Choice(["true", "nominal"]), default="true", show_default=True,
-              help="Hold the true wheelbase fixed (one physical robot, nominal = 340 mm / E_b) or the nominal one "
-                   "(true = E_b x 340 mm, e.g. a skid-steer robot's effective wheelbase).")
-@click.option("--out", "out_dir", type=click.Path(file_okay=False), default="benchmarks/results", show_default=True,
-              help="Folder for accuracy.json/.csv/.md/.png (created if missing).")
+@click.option(
+    "--sample-period-ms",
+    type=float,
+    default=None,
+    help="Sampling period of the noisy simulations (default 10 ms, the paper's; quick: 50 ms).",
+)
+@click.option(
+    "--fixed-wheelbase",
+    type=click.Choice(["true", "nominal"]),
+    default="true",
+    show_default=True,
+    help="Hold the true wheelbase fixed (one physical robot, nominal = 340 mm / E_b) or the nominal one "
+    "(true = E_b x 340 mm, e.g. a skid-steer robot's effective wheelbase).",
+)
+@click.option(
+    "--out",
+    "out_dir",
+    type=click.Path(file_okay=False),
+    default="benchmarks/results",
+    show_default=True,
+    help="Folder for accuracy.json/.csv/.md/.png (created if missing).",
+)
 @scale_options
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as one JSON object.")
 def accuracy(quick, robots, seed, sample_period_ms, fixed_wheelbase, out_dir, workers, dask, as_json):
@@ -48,7 +64,7 @@ def accuracy(quick, robots, seed, sample_period_ms, fixed_wheelbase, out_dir, wo
     changes["fixed_wheelbase"] = fixed_wheelbase
     if sample_period_ms is not None:
         if not sample_period_ms > 0:
-            from ..errors import InputError
+            from umbmark.errors import InputError
 
             raise InputError(f"--sample-period-ms must be positive, got {sample_period_ms!r}")
         changes["sample_period_s"] = sample_period_ms * 1e-3
@@ -58,23 +74,57 @@ def accuracy(quick, robots, seed, sample_period_ms, fixed_wheelbase, out_dir, wo
         res = run_accuracy(cfg, progress=lambda done, total: advance(), dask=dask)
     paths = write_results(res, out_dir)
     if as_json:
-        emit_json({"summary": res["summary"], "floors": res["floors"], "files": paths,
-                   "backend": res["backend"], "elapsed_s": res["elapsed_s"]})
+        emit_json(
+            {
+                "summary": res["summary"],
+                "floors": res["floors"],
+                "files": paths,
+                "backend": res["backend"],
+                "elapsed_s": res["elapsed_s"],
+            }
+        )
         return
     if is_quiet():
         return
     rows = []
     for noise, s in res["summary"].items():
         fl = res["floors"][noise]
-        cov = "-" if s["exact_ed_coverage"] is None else \
-            f"{100 * s['exact_ed_coverage']:.1f} / {100 * s['exact_eb_coverage']:.1f}"
-        rows.append([noise, s["cells"], s["robots"], fmt(fl["estimation_floor_mm"], 2), fmt(fl["perfect_floor_mm"], 2),
-                     f"{s['bf1_cells_within_1.15_estimation_floor']}/{s['cells']}",
-                     f"{s['exact_cells_within_1.15_estimation_floor']}/{s['cells']}",
-                     f"{s['exact2_cells_within_1.15_estimation_floor']}/{s['cells']}",
-                     fmt(s["exact_worst_over_estimation_floor"], 2), cov])
+        cov = (
+            "-"
+            if s["exact_ed_coverage"] is None
+            else f"{100 * s['exact_ed_coverage']:.1f} / {100 * s['exact_eb_coverage']:.1f}"
+        )
+        rows.append(
+            [
+                noise,
+                s["cells"],
+                s["robots"],
+                fmt(fl["estimation_floor_mm"], 2),
+                fmt(fl["perfect_floor_mm"], 2),
+                f"{s['bf1_cells_within_1.15_estimation_floor']}/{s['cells']}",
+                f"{s['exact_cells_within_1.15_estimation_floor']}/{s['cells']}",
+                f"{s['exact2_cells_within_1.15_estimation_floor']}/{s['cells']}",
+                fmt(s["exact_worst_over_estimation_floor"], 2),
+                cov,
+            ]
+        )
     c = console()
-    c.print(table("Accuracy benchmark (cells within 1.15 x the estimation floor, medians over robots)",
-                  ["noise", "cells", "robots", "est. floor [mm]", "perfect floor [mm]", "bf1", "exact",
-                   "exact2", "exact worst ratio", "exact CI cover E_d/E_b [%]"], rows))
+    c.print(
+        table(
+            "Accuracy benchmark (cells within 1.15 x the estimation floor, medians over robots)",
+            [
+                "noise",
+                "cells",
+                "robots",
+                "est. floor [mm]",
+                "perfect floor [mm]",
+                "bf1",
+                "exact",
+                "exact2",
+                "exact worst ratio",
+                "exact CI cover E_d/E_b [%]",
+            ],
+            rows,
+        )
+    )
     c.print(f"{res['elapsed_s']:.0f} s ({res['backend']}); written: {', '.join(paths.values())}")

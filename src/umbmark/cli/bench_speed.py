@@ -7,13 +7,13 @@ from pathlib import Path
 
 import click
 
-from .. import speedbench
-from ..errors import InputError
-from ..io.atomic import atomic_write
-from .app import console, emit_json, fmt, is_quiet, table
-from .bench import bench
-from .progress import progress as progress_bar
-from .scaleout import scale_options
+from umbmark.cli.app import console, emit_json, fmt, is_quiet, table
+from umbmark.cli.bench import bench
+from umbmark.cli.progress import progress as progress_bar
+from umbmark.cli.scaleout import scale_options
+from umbmark.errors import InputError
+from umbmark.io.atomic import atomic_write
+from umbmark.studies import speed as speedbench
 
 
 def _ints(text, name):
@@ -31,7 +31,10 @@ def _ints(text, name):
 def _n_cases(quick, overrides, dask, workers):
     """How many cases the benchmark will run (for the progress bar; None if unknown)."""
     try:
-        cfg = {**(speedbench.QUICK if quick else speedbench.FULL), **{k: v for k, v in overrides.items() if v is not None}}
+        cfg = {
+            **(speedbench.QUICK if quick else speedbench.FULL),
+            **{k: v for k, v in overrides.items() if v is not None},
+        }
         return len(speedbench._plan(cfg, dask, workers))
     except Exception:  # noqa: BLE001 - only the bar's total; the benchmark reports its own errors
         return None
@@ -39,14 +42,31 @@ def _n_cases(quick, overrides, dask, workers):
 
 @bench.command("speed")
 @click.option("--quick", is_flag=True, help="Small sizes (a few seconds): 1e5 samples, batches of 1 and 10 robots.")
-@click.option("--out", "out_dir", type=click.Path(file_okay=False), default="benchmarks/results", show_default=True,
-              help="Folder for speed.json and speed.md (speed-quick.* with --quick); created if missing.")
-@click.option("--replay-sizes", metavar="N,N,...", default=None,
-              help="Replay log lengths in samples (default 1e5,1e6,1e7,1e8; quick 1e5).")
-@click.option("--robots", metavar="N,N,...", default=None,
-              help="Simulation batch sizes in robots (default 1,10,100,1000,10000; quick 1,10).")
-@click.option("--isolate/--no-isolate", default=None,
-              help="Run every case in a fresh process, for its own peak RSS (default: on; off with --quick).")
+@click.option(
+    "--out",
+    "out_dir",
+    type=click.Path(file_okay=False),
+    default="benchmarks/results",
+    show_default=True,
+    help="Folder for speed.json and speed.md (speed-quick.* with --quick); created if missing.",
+)
+@click.option(
+    "--replay-sizes",
+    metavar="N,N,...",
+    default=None,
+    help="Replay log lengths in samples (default 1e5,1e6,1e7,1e8; quick 1e5).",
+)
+@click.option(
+    "--robots",
+    metavar="N,N,...",
+    default=None,
+    help="Simulation batch sizes in robots (default 1,10,100,1000,10000; quick 1,10).",
+)
+@click.option(
+    "--isolate/--no-isolate",
+    default=None,
+    help="Run every case in a fresh process, for its own peak RSS (default: on; off with --quick).",
+)
 @scale_options
 @click.option("--json", "as_json", is_flag=True, help="Print the results as JSON.")
 def bench_speed(quick, out_dir, replay_sizes, robots, isolate, workers, dask, as_json):
@@ -86,8 +106,9 @@ def bench_speed(quick, out_dir, replay_sizes, robots, isolate, workers, dask, as
                 con.print(f"  {what}: {rate:,.0f} {unit}, peak RSS {c['rss_peak_mib']:.0f} MiB")
 
     with progress_bar("speed benchmark: cases", total=_n_cases(quick, overrides, dask, workers)) as advance:
-        res = speedbench.run_benchmark(quick=quick, isolate=isolate, progress=progress, dask=dask, workers=workers,
-                                       **overrides)
+        res = speedbench.run_benchmark(
+            quick=quick, isolate=isolate, progress=progress, dask=dask, workers=workers, **overrides
+        )
     res["isolated"] = isolate
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -101,21 +122,38 @@ def bench_speed(quick, out_dir, replay_sizes, robots, isolate, workers, dask, as
         return
     rows = []
     for row in res["summary"]["replay"]:
-        def cell(k):
+
+        def cell(k, row=row):
             v = row.get(k)
             return "-" if not v else f"{v['samples_per_s'] / 1e6:.2f} ({fmt(v['x_reference'], 0)}x)"
-        rows.append([f"{row['n']:.0e}"] + [cell(k) for k in ("reference", "numpy-trig", "fast-float", "fast-pulses", "stream")]
-                    + [fmt(row.get("stream", {}).get("rss_peak_mib"), 0)])
-    con.print(table("replay: million samples/s (x reference loop)",
-                    ["samples", "reference", "numpy-trig", "fast-float", "fast-pulses", "stream", "stream RSS MiB"], rows))
+
+        rows.append(
+            [f"{row['n']:.0e}"]
+            + [cell(k) for k in ("reference", "numpy-trig", "fast-float", "fast-pulses", "stream")]
+            + [fmt(row.get("stream", {}).get("rss_peak_mib"), 0)]
+        )
+    con.print(
+        table(
+            "replay: million samples/s (x reference loop)",
+            ["samples", "reference", "numpy-trig", "fast-float", "fast-pulses", "stream", "stream RSS MiB"],
+            rows,
+        )
+    )
     rows = []
     for row in res["summary"]["sim"]:
-        def cell(k):
+
+        def cell(k, row=row):
             v = row.get(k)
             return "-" if not v else f"{v['experiments_per_s']:.1f} ({fmt(v['x_reference'], 0)}x)"
+
         rows.append([row["n"]] + [cell(k) for k in ("reference", "numpy", "numba", "numba-threads")])
-    con.print(table("simulation: UMBmark experiments/s (x reference loop)",
-                    ["robots", "reference", "numpy", "numba", "numba threads"], rows))
+    con.print(
+        table(
+            "simulation: UMBmark experiments/s (x reference loop)",
+            ["robots", "reference", "numpy", "numba", "numba threads"],
+            rows,
+        )
+    )
     for x in res["summary"].get("sweep", []):
         con.print(f"sweep {x['impl']} ({x['backend']}): {x['experiments_per_s']:.1f} experiments/s")
     for k, v in res["summary"]["targets"].items():

@@ -7,18 +7,18 @@ import hashlib
 from pathlib import Path
 
 import click
+from rich.markup import escape
 
-from .. import workflows
-from ..calibrate import calibrate_loop, compose_passes, history_fields
-from ..correct import METHODS
-from ..errors import InputError
-from ..io.runs_csv import read_runs_csv, write_runs_csv
-from ..kinematics import LABMATE, ErrorParams, Geometry
-from ..simulate import NOISE_PRESETS, Motion
-from .app import app, console, emit_json, fmt, is_quiet, table
-from .core import _prior, geometry_options, prior_options
-from .history import history_options, print_recorded, record_if_requested
-from .progress import progress
+from umbmark.cli.app import app, cli_message, console, emit_json, error_param, fmt, is_quiet, positive, table
+from umbmark.cli.core import _prior, geometry_options, prior_options
+from umbmark.cli.history import history_options, print_recorded, record_if_requested
+from umbmark.cli.progress import progress
+from umbmark.correct import METHODS
+from umbmark.errors import InputError
+from umbmark.io.runs_csv import read_runs_csv, write_runs_csv
+from umbmark.model.geometry import LABMATE, ErrorParams, Geometry
+from umbmark.model.simulate import NOISE_PRESETS, Motion
+from umbmark.studies.iterate import calibrate_loop, compose_passes, history_fields
 
 
 def _pass_rows(loop):
@@ -32,28 +32,50 @@ def _pass_rows(loop):
             lo, hi = c.extra["wheelbase_corrected_mm_ci95"]
             ci = f"[{lo:.2f}, {hi:.2f}]"
         rule = p.result.sem_rule
-        rows.append([
-            p.index if p.source is None else f"{p.index} ({Path(p.source).name})",
-            used, f"{p.wheelbase_used_m * 1e3:.2f}",
-            fmt(p.result.emax_syst * 1e3), "-" if rule is None else fmt(rule * 1e3),
-            "-" if c is None else fmt(c.ed, 6), "-" if c is None else f"{c.calibration.wheelbase_m * 1e3:.2f}", ci,
-        ])
+        rows.append(
+            [
+                p.index if p.source is None else f"{p.index} ({Path(p.source).name})",
+                used,
+                f"{p.wheelbase_used_m * 1e3:.2f}",
+                fmt(p.result.emax_syst * 1e3),
+                "-" if rule is None else fmt(rule * 1e3),
+                "-" if c is None else fmt(c.ed, 6),
+                "-" if c is None else f"{c.calibration.wheelbase_m * 1e3:.2f}",
+                ci,
+            ]
+        )
     return rows
 
 
 def _print_loop(loop, title):
     c = console()
-    c.print(table(title, ["pass", "c_left/c_right used", "b used [mm]", "E_max,syst [mm]", "3 x SEM [mm]",
-                          "E_d (total)", "b new [mm]", "b new 95 % [mm]"], _pass_rows(loop)))
+    c.print(
+        table(
+            title,
+            [
+                "pass",
+                "c_left/c_right used",
+                "b used [mm]",
+                "E_max,syst [mm]",
+                "3 x SEM [mm]",
+                "E_d (total)",
+                "b new [mm]",
+                "b new 95 % [mm]",
+            ],
+            _pass_rows(loop),
+        )
+    )
     for p in loop.passes:
         c.print(f"pass {p.index}: {p.decision}")
         if p.correction is not None:
             for w in p.correction.extra.get("warnings", []):
-                c.print(f"[yellow]warning:[/yellow] pass {p.index}: {w}")
+                c.print(f"[yellow]warning:[/yellow] pass {p.index}: {escape(cli_message(w))}")
     cal = loop.final_calibration
     if cal is not None:
-        c.print(f"final calibration: c_left = {cal.c_left:.6f}, c_right = {cal.c_right:.6f}, "
-                f"wheelbase = {cal.wheelbase_m * 1e3:.2f} mm (E_d = {cal.ed:.6f})")
+        c.print(
+            f"final calibration: c_left = {cal.c_left:.6f}, c_right = {cal.c_right:.6f}, "
+            f"wheelbase = {cal.wheelbase_m * 1e3:.2f} mm (E_d = {cal.ed:.6f})"
+        )
     if loop.errors is not None:
         e = loop.errors
         c.print(f"true robot: E_d = {e.ed:.6f}, wheelbase = {e.eb * loop.nominal_wheelbase_m * 1e3:.2f} mm")
@@ -65,22 +87,56 @@ def _print_loop(loop, title):
 @click.argument("runs_files", nargs=-1, metavar="[PASS1.csv PASS2.csv ...]")
 @click.option("--ed", type=float, default=1.02, show_default=True, help="Simulator: true E_d = D_R / D_L.")
 @click.option("--eb", type=float, default=0.95, show_default=True, help="Simulator: true E_b = b_actual / b_nominal.")
-@click.option("--runs", "n_runs", type=click.IntRange(min=2), default=5, show_default=True,
-              help="Simulator: runs per direction in each pass.")
+@click.option(
+    "--runs",
+    "n_runs",
+    type=click.IntRange(min=2),
+    default=5,
+    show_default=True,
+    help="Simulator: runs per direction in each pass.",
+)
 @click.option("--noise", type=click.Choice(sorted(NOISE_PRESETS)), default="paper", show_default=True)
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
-@click.option("--max-passes", type=click.IntRange(min=1), default=3, show_default=True,
-              help="Simulator: at most this many corrections.")
+@click.option(
+    "--max-passes",
+    type=click.IntRange(min=1),
+    default=3,
+    show_default=True,
+    help="Simulator: at most this many corrections.",
+)
 @click.option("--method", type=click.Choice(sorted(METHODS)), default="exact", show_default=True)
 @click.option("--sample-period-ms", type=float, default=10.0, show_default=True)
-@click.option("--save-runs", type=click.Path(file_okay=False), default=None,
-              help="Simulator: write each pass's runs file (pass1.csv, ...) into this existing folder.")
+@click.option(
+    "--save-runs",
+    type=click.Path(file_okay=False),
+    default=None,
+    help="Simulator: write each pass's runs file (pass1.csv, ...) into this existing folder.",
+)
 @geometry_options
 @prior_options
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @history_options
-def calibrate(runs_files, ed, eb, n_runs, noise, seed, max_passes, method, sample_period_ms, save_runs,
-              wheelbase_mm, side_mm, wheel_diameter_mm, c_left, c_right, as_json, robot=None, record=False, db=None):
+def calibrate(
+    runs_files,
+    ed,
+    eb,
+    n_runs,
+    noise,
+    seed,
+    max_passes,
+    method,
+    sample_period_ms,
+    save_runs,
+    wheelbase_mm,
+    side_mm,
+    wheel_diameter_mm,
+    c_left,
+    c_right,
+    as_json,
+    robot=None,
+    record=False,
+    db=None,
+):
     """Iterate the calibration until it stops paying.
 
     Without files (simulator): a robot with true errors --ed/--eb runs the test; while
@@ -101,8 +157,8 @@ def calibrate(runs_files, ed, eb, n_runs, noise, seed, max_passes, method, sampl
       umbmark calibrate pass1.csv pass2.csv --wheelbase-mm 340 --side-mm 4000
       umbmark calibrate pass1.csv pass2.csv --robot r1 --record
     """
-    side_m = workflows.positive("--side-mm", side_mm) * 1e-3
-    wheelbase_m = workflows.positive("--wheelbase-mm", wheelbase_mm) * 1e-3
+    side_m = positive("--side-mm", side_mm) * 1e-3
+    wheelbase_m = positive("--wheelbase-mm", wheelbase_mm) * 1e-3
     prior = _prior(c_left, c_right)
     if runs_files:
         runs = [read_runs_csv(f) for f in runs_files]
@@ -111,35 +167,59 @@ def calibrate(runs_files, ed, eb, n_runs, noise, seed, max_passes, method, sampl
     else:
         if save_runs is not None and not Path(save_runs).is_dir():
             raise InputError(f"output folder {save_runs} does not exist")
-        geom = Geometry(workflows.positive("--wheel-diameter-mm", wheel_diameter_mm) * 1e-3, wheelbase_m,
-                        LABMATE.pulses_per_rev, LABMATE.gear_ratio)
-        errors = ErrorParams(workflows.error_param("--ed", ed), workflows.error_param("--eb", eb))
-        motion = Motion(sample_period_s=workflows.positive("--sample-period-ms", sample_period_ms) * 1e-3)
+        geom = Geometry(
+            positive("--wheel-diameter-mm", wheel_diameter_mm) * 1e-3,
+            wheelbase_m,
+            LABMATE.pulses_per_rev,
+            LABMATE.gear_ratio,
+        )
+        errors = ErrorParams(error_param("--ed", ed), error_param("--eb", eb))
+        motion = Motion(sample_period_s=positive("--sample-period-ms", sample_period_ms) * 1e-3)
         with progress(f"simulating up to {max_passes + 1} tests", total=max_passes + 1) as advance:
-            loop = calibrate_loop(errors, geom, side_m, n_runs, noise, motion, method, max_passes, seed, prior,
-                                  on_progress=lambda done, total: advance())
+            loop = calibrate_loop(
+                errors,
+                geom,
+                side_m,
+                n_runs,
+                noise,
+                motion,
+                method,
+                max_passes,
+                seed,
+                prior,
+                on_progress=lambda done, total: advance(),
+            )
         if save_runs is not None:
             for p in loop.passes:
                 write_runs_csv(p.runs, Path(save_runs) / f"pass{p.index}.csv")
-        title = (f"Calibration loop ({method}): simulated robot E_d = {ed}, E_b = {eb}, noise '{noise}', "
-                 f"{n_runs} runs each way")
+        title = (
+            f"Calibration loop ({method}): simulated robot E_d = {ed}, E_b = {eb}, noise '{noise}', "
+            f"{n_runs} runs each way"
+        )
     rec = None
     if record:
         fields = history_fields(loop, method)
         if runs_files:
-            from ..history import file_sha256
+            from umbmark.history import file_sha256
 
             shas = [file_sha256(f) for f in runs_files]
-            fields["inputs"]["runs_files"] = [{"path": str(Path(f).resolve()), "sha256": h}
-                                              for f, h in zip(runs_files, shas)]
+            fields["inputs"]["runs_files"] = [
+                {"path": str(Path(f).resolve()), "sha256": h} for f, h in zip(runs_files, shas)
+            ]
             # one file: its hash; several: the hash of their hashes, in pass order
-            fields["input_sha256"] = shas[0] if len(shas) == 1 else \
-                hashlib.sha256("\n".join(shas).encode()).hexdigest()
+            fields["input_sha256"] = shas[0] if len(shas) == 1 else hashlib.sha256("\n".join(shas).encode()).hexdigest()
             fields["source"] = str(Path(runs_files[-1]).resolve())
         else:
-            fields["inputs"]["simulation"] = {"Ed": ed, "Eb": eb, "runs_per_direction": n_runs, "noise": noise,
-                                              "seed": seed, "sample_period_ms": sample_period_ms,
-                                              "max_passes": max_passes, "side_mm": side_mm}
+            fields["inputs"]["simulation"] = {
+                "Ed": ed,
+                "Eb": eb,
+                "runs_per_direction": n_runs,
+                "noise": noise,
+                "seed": seed,
+                "sample_period_ms": sample_period_ms,
+                "max_passes": max_passes,
+                "side_mm": side_mm,
+            }
             fields["note"] = "simulated robot"
         rec = record_if_requested(robot, record, db, **fields)
     if as_json:

@@ -3,7 +3,7 @@
 
 Attaching the history options to another command (e.g. ``replay`` or ``calibrate``)::
 
-    from .history import history_options, record_if_requested
+    from umbmark.cli.history import history_options, record_if_requested
 
     @app.command()
     ...
@@ -13,7 +13,7 @@ Attaching the history options to another command (e.g. ``replay`` or ``calibrate
         rec = record_if_requested(robot, record, db, kind="replay", method=..., results=result_dict,
                                   parameters={"c_left": .., "c_right": .., "wheelbase_mm": .., "Ed": .., "Eb": ..},
                                   input_sha256=file_sha256(bag), source=bag)
-        # or, with a workflows.Analysis:  record_if_requested(robot, record, db, analysis=a, kind="replay",
+        # or, with a Analysis:  record_if_requested(robot, record, db, analysis=a, kind="replay",
         #                                                     source=bag, prior=prior)
         if as_json: emit_json({..., "history": rec})   # rec is None or {"record_id", "robot", "db"}
 
@@ -40,8 +40,8 @@ from pathlib import Path
 import click
 from rich.markup import escape
 
-from ..errors import InputError
-from .app import app, console, emit_json, fmt, is_quiet, prior_options, table
+from umbmark.cli.app import app, console, emit_json, fmt, is_quiet, positive, prior_options, table
+from umbmark.errors import InputError
 
 __all__ = ["history_options", "record_if_requested", "record_report_if_requested", "print_recorded"]
 
@@ -57,24 +57,30 @@ def history_options(f):
             raise click.UsageError("--record needs --robot NAME (the robot whose history gets the result)")
         return f(*args, **kwargs)
 
-    wrapper = click.option("--db", type=click.Path(dir_okay=False), default=None,
-                           help="History database (default: $UMBMARK_DB, else "
-                                "$XDG_DATA_HOME/umbmark/history.sqlite).")(wrapper)
-    wrapper = click.option("--record", is_flag=True,
-                           help="Store the result in the robot's calibration history (needs --robot).")(wrapper)
-    wrapper = click.option("--robot", metavar="NAME", default=None,
-                           help="Robot name, for the calibration history (see --record).")(wrapper)
+    wrapper = click.option(
+        "--db",
+        type=click.Path(dir_okay=False),
+        default=None,
+        help="History database (default: $UMBMARK_DB, else $XDG_DATA_HOME/umbmark/history.sqlite).",
+    )(wrapper)
+    wrapper = click.option(
+        "--record", is_flag=True, help="Store the result in the robot's calibration history (needs --robot)."
+    )(wrapper)
+    wrapper = click.option(
+        "--robot", metavar="NAME", default=None, help="Robot name, for the calibration history (see --record)."
+    )(wrapper)
     return wrapper
 
 
-def record_if_requested(robot, record, db, *, analysis=None, kind: str = "analyze", source=None, prior=None,
-                        note=None, **fields) -> dict | None:
-    """Record when ``--record`` was given: a :class:`workflows.Analysis` (``analysis=``) or the
+def record_if_requested(
+    robot, record, db, *, analysis=None, kind: str = "analyze", source=None, prior=None, note=None, **fields
+) -> dict | None:
+    """Record when ``--record`` was given: a :class:`Analysis` (``analysis=``) or the
     raw fields of :func:`umbmark.history.record_result`. Returns ``{"record_id", "robot", "db"}``
     or None. Prints one line unless ``--quiet``/JSON (call :func:`print_recorded`)."""
     if not record:
         return None
-    from ..history import display_db, record_analysis, record_result, resolve_db
+    from umbmark.history import display_db, record_analysis, record_result, resolve_db
 
     path = resolve_db(db)
     if analysis is not None:
@@ -84,8 +90,9 @@ def record_if_requested(robot, record, db, *, analysis=None, kind: str = "analyz
     return {"record_id": rid, "robot": robot, "db": display_db(path)}
 
 
-def record_report_if_requested(robot, record, db, rep: dict, paths, *, kind: str = "replay",
-                               method: str | None = None) -> list[dict] | None:
+def record_report_if_requested(
+    robot, record, db, rep: dict, paths, *, kind: str = "replay", method: str | None = None
+) -> list[dict] | None:
     """Record a ``replay``-style JSON report (``umbmark replay --json``): one record per data
     set (``rep["datasets"]``, or ``rep["per_dataset"]`` of a pooled fit, or ``rep`` itself), each
     with the SHA-256 of its log file or folder and its path. Parameters: ``Ed``, ``Eb``,
@@ -93,7 +100,7 @@ def record_report_if_requested(robot, record, db, rep: dict, paths, *, kind: str
     odometry as it ran). Returns the list of ``{"record_id", "robot", "db"}`` or None."""
     if not record:
         return None
-    from ..history import file_sha256
+    from umbmark.history import file_sha256
 
     paths = [str(p) for p in (paths if isinstance(paths, (list, tuple)) else [paths])]
     if "datasets" in rep:
@@ -111,12 +118,23 @@ def record_report_if_requested(robot, record, db, rep: dict, paths, *, kind: str
         before = part.get("before") if isinstance(part.get("before"), dict) else {}
         results["emax_syst_mm"] = before.get("emax_syst_mm")
         nominal = part.get("nominal", rep.get("nominal"))
-        out.append(record_if_requested(
-            robot, True, db, kind=kind, method=str(method or part.get("method") or rep.get("method") or "?"),
-            results=results, parameters=params, input_sha256=sha,
-            source=None if src_path is None else str(Path(src_path).resolve() if Path(src_path).exists() else src_path),
-            parameters_in_use=nominal if isinstance(nominal, dict) else None,
-            inputs={"paths": paths, "dataset": src}))
+        out.append(
+            record_if_requested(
+                robot,
+                True,
+                db,
+                kind=kind,
+                method=str(method or part.get("method") or rep.get("method") or "?"),
+                results=results,
+                parameters=params,
+                input_sha256=sha,
+                source=None
+                if src_path is None
+                else str(Path(src_path).resolve() if Path(src_path).exists() else src_path),
+                parameters_in_use=nominal if isinstance(nominal, dict) else None,
+                inputs={"paths": paths, "dataset": src},
+            )
+        )
     return out
 
 
@@ -133,15 +151,34 @@ def print_recorded(rec) -> None:
 # -- umbmark history ----------------------------------------------------------------------------------
 @app.command("history")
 @click.argument("robot", required=False, metavar="[ROBOT]")
-@click.option("--db", type=click.Path(dir_okay=False), default=None,
-              help="History database (default: $UMBMARK_DB, else $XDG_DATA_HOME/umbmark/history.sqlite).")
-@click.option("--plot", "plot_path", type=click.Path(dir_okay=False), default=None,
-              help="Plot E_max,syst, E_d, E_b and the wheelbase over time (PNG, SVG or PDF).")
-@click.option("--export", "export_path", type=click.Path(dir_okay=False, allow_dash=True), default=None,
-              help="Write the latest recommended parameters (JSON, or YAML for .yaml/.yml; '-' = stdout).")
+@click.option(
+    "--db",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="History database (default: $UMBMARK_DB, else $XDG_DATA_HOME/umbmark/history.sqlite).",
+)
+@click.option(
+    "--plot",
+    "plot_path",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Plot E_max,syst, E_d, E_b and the wheelbase over time (PNG, SVG or PDF).",
+)
+@click.option(
+    "--export",
+    "export_path",
+    type=click.Path(dir_okay=False, allow_dash=True),
+    default=None,
+    help="Write the latest recommended parameters (JSON, or YAML for .yaml/.yml; '-' = stdout).",
+)
 @click.option("--limit", type=click.IntRange(min=1), default=None, help="Only the newest N records.")
-@click.option("--show", "show_id", type=click.IntRange(min=1), default=None,
-              help="Print one record in full (inputs and results) as JSON.")
+@click.option(
+    "--show",
+    "show_id",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Print one record in full (inputs and results) as JSON.",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 def history_cmd(robot, db, plot_path, export_path, limit, show_id, as_json):
     """List the recorded calibrations (all robots, or one robot's history).
@@ -156,7 +193,7 @@ def history_cmd(robot, db, plot_path, export_path, limit, show_id, as_json):
       umbmark history r1 --export r1-params.json        the latest parameters to load
       umbmark history --show 3                          one record in full
     """
-    from ..history import format_export, open_history
+    from umbmark.history import format_export, open_history
 
     with open_history(db, create=False) as h:
         if show_id is not None:
@@ -169,19 +206,32 @@ def history_cmd(robot, db, plot_path, export_path, limit, show_id, as_json):
             if as_json:
                 emit_json({"db": str(h.path), "robots": robots})
             elif not is_quiet():
-                rows = [[r["robot"], r["records"], (r["last_utc"] or "-")[:16].replace("T", " "),
-                         fmt(r.get("emax_syst_mm")), fmt(r.get("Ed"), 6), fmt(r.get("Eb"), 6),
-                         fmt(r.get("wheelbase_mm"), 2)] for r in robots]
-                console().print(table(f"Robots in {h.path}", ["robot", "records", "last (UTC)",
-                                                              "E_max,syst [mm]", "E_d", "E_b",
-                                                              "wheelbase [mm]"], rows))
+                rows = [
+                    [
+                        r["robot"],
+                        r["records"],
+                        (r["last_utc"] or "-")[:16].replace("T", " "),
+                        fmt(r.get("emax_syst_mm")),
+                        fmt(r.get("Ed"), 6),
+                        fmt(r.get("Eb"), 6),
+                        fmt(r.get("wheelbase_mm"), 2),
+                    ]
+                    for r in robots
+                ]
+                console().print(
+                    table(
+                        f"Robots in {h.path}",
+                        ["robot", "records", "last (UTC)", "E_max,syst [mm]", "E_d", "E_b", "wheelbase [mm]"],
+                        rows,
+                    )
+                )
             return
         recs = h.records(robot, limit=limit)
         if not recs:
             raise InputError(f"no calibrations of robot {robot!r} in the history database {h.path}" + h._known_hint())
         if plot_path:
-            from ..history import history_figure
-            from ..plot import save_figure
+            from umbmark.viz.history_plot import history_figure
+            from umbmark.viz.plots import save_figure
 
             save_figure(history_figure(recs), plot_path)
         exported = None
@@ -191,27 +241,46 @@ def history_cmd(robot, db, plot_path, export_path, limit, show_id, as_json):
             if export_path == "-":
                 sys.stdout.write(text)
             else:
-                from ..io.atomic import atomic_write
+                from umbmark.io.atomic import atomic_write
 
                 atomic_write(export_path, text)
                 exported = export_path
         if as_json:
-            emit_json({"db": str(h.path), "robot": robot, "records": [r.to_dict(full=False) for r in recs],
-                       "plot": plot_path, "export": exported})
+            emit_json(
+                {
+                    "db": str(h.path),
+                    "robot": robot,
+                    "records": [r.to_dict(full=False) for r in recs],
+                    "plot": plot_path,
+                    "export": exported,
+                }
+            )
             return
         if is_quiet() or export_path == "-":
             return
         from rich.table import Table
 
-        t = Table(title=escape(f"Calibration history of {robot} ({len(recs)} records, oldest first)"), title_justify="left",
-                  header_style="bold")
-        for i, col in enumerate(["id", "time (UTC)", "kind/method", "E_max,syst [mm]", "E_d", "E_b",
-                                 "wheelbase [mm]", "c_left", "c_right"]):
+        t = Table(
+            title=escape(f"Calibration history of {robot} ({len(recs)} records, oldest first)"),
+            title_justify="left",
+            header_style="bold",
+        )
+        for i, col in enumerate(
+            ["id", "time (UTC)", "kind/method", "E_max,syst [mm]", "E_d", "E_b", "wheelbase [mm]", "c_left", "c_right"]
+        ):
             t.add_column(escape(col), justify="left" if i < 3 else "right", no_wrap=i < 3)
         for r in recs:
-            t.add_row(f"#{r.id}", r.created_utc[:16].replace("T", " "), escape(f"{r.kind}/{r.method}"), fmt(r.emax_syst_mm),
-                      fmt(r.ed, 6), fmt(r.eb, 6), fmt(r.wheelbase_mm, 2), fmt(r.parameters.get("c_left"), 6),
-                      fmt(r.parameters.get("c_right"), 6))
+            t.add_row(
+                f"#{r.id}",
+                r.created_utc[:16].replace("T", " "),
+                escape(f"{r.kind}/{r.method}"),
+                fmt(r.emax_syst_mm),
+                fmt(r.ed, 6),
+                fmt(r.eb, 6),
+                fmt(r.wheelbase_mm, 2),
+                fmt(r.parameters.get("c_left"), 6),
+                fmt(r.parameters.get("c_right"), 6),
+            )
         c = console()
         c.print(t)
         if plot_path:
@@ -228,22 +297,61 @@ def history_cmd(robot, db, plot_path, export_path, limit, show_id, as_json):
 @click.option("--side-mm", type=float, default=None, help="With FILE.csv: side of the square.")
 @click.option("--method", default="bf", show_default=True, help="With FILE.csv: correction method.")
 @prior_options
-@click.option("--after", "after_file", type=click.Path(dir_okay=False), default=None,
-              help="Runs file of a test after calibration (drawn in the same scatter).")
-@click.option("--attach", "attach", type=click.Path(dir_okay=False), multiple=True,
-              help="Exported parameter file(s) to show in the report (repeatable).")
-@click.option("--bootstrap", "n_boot", type=click.IntRange(min=0), default=None,
-              help="Bootstrap resamples for the intervals of E_d, E_b, wheelbase (0: none). Default: 1000 "
-                   "for bf; none for other methods (they may report their own intervals).")
+@click.option(
+    "--after",
+    "after_file",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Runs file of a test after calibration (drawn in the same scatter).",
+)
+@click.option(
+    "--attach",
+    "attach",
+    type=click.Path(dir_okay=False),
+    multiple=True,
+    help="Exported parameter file(s) to show in the report (repeatable).",
+)
+@click.option(
+    "--bootstrap",
+    "n_boot",
+    type=click.IntRange(min=0),
+    default=None,
+    help="Bootstrap resamples for the intervals of E_d, E_b, wheelbase (0: none). Default: 1000 "
+    "for bf; none for other methods (they may report their own intervals).",
+)
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Bootstrap seed.")
-@click.option("--robot", metavar="NAME", default=None,
-              help="Without FILE.csv: report this robot's history. With FILE.csv: label the report.")
-@click.option("--id", "record_id", type=click.IntRange(min=1), default=None,
-              help="Report one recorded analysis of the history (by its id).")
+@click.option(
+    "--robot",
+    metavar="NAME",
+    default=None,
+    help="Without FILE.csv: report this robot's history. With FILE.csv: label the report.",
+)
+@click.option(
+    "--id",
+    "record_id",
+    type=click.IntRange(min=1),
+    default=None,
+    help="Report one recorded analysis of the history (by its id).",
+)
 @click.option("--db", type=click.Path(dir_okay=False), default=None, help="History database (see umbmark history).")
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary.")
-def report_cmd(runs_file, out_path, wheelbase_mm, side_mm, method, c_left, c_right, after_file, attach, n_boot,
-               seed, robot, record_id, db, as_json):
+def report_cmd(
+    runs_file,
+    out_path,
+    wheelbase_mm,
+    side_mm,
+    method,
+    c_left,
+    c_right,
+    after_file,
+    attach,
+    n_boot,
+    seed,
+    robot,
+    record_id,
+    db,
+    as_json,
+):
     """Write a self-contained HTML report (figures embedded): one analysis, or one robot's history.
 
     With FILE.csv: the UMBmark numbers with 95 % intervals, the scatter (before and, with
@@ -256,27 +364,28 @@ def report_cmd(runs_file, out_path, wheelbase_mm, side_mm, method, c_left, c_rig
       umbmark report runs.csv --wheelbase-mm 340 --side-mm 4000 --out report.html
       umbmark report --robot r1 --out r1-history.html
     """
-    from ..io.atomic import atomic_write
-    from ..report import analysis_report, bootstrap_intervals, history_report
-    from .progress import progress
+    from umbmark.cli.progress import progress
+    from umbmark.io.atomic import atomic_write
+    from umbmark.viz.report import analysis_report, bootstrap_intervals, history_report
 
     if runs_file is None and record_id is None:
         if robot is None:
             raise click.UsageError("give a runs file FILE.csv, --robot NAME (history) or --id N (a record)")
-        from ..history import open_history
+        from umbmark.history import open_history
 
         with open_history(db, create=False) as h:
             recs = h.records(robot)
             if not recs:
-                raise InputError(f"no calibrations of robot {robot!r} in the history database {h.path}"
-                                 + h._known_hint())
+                raise InputError(
+                    f"no calibrations of robot {robot!r} in the history database {h.path}" + h._known_hint()
+                )
             page = history_report(recs, db_path=str(h.path))
         atomic_write(out_path, page)
         summary = {"out": out_path, "robot": robot, "records": len(recs)}
     else:
-        from .. import workflows
-        from ..io.runs_csv import read_runs_csv
-        from ..kinematics import Calibration
+        from umbmark.correct.analysis import analyze
+        from umbmark.io.runs_csv import read_runs_csv
+        from umbmark.model.geometry import Calibration
 
         source = sha = None
         label = None
@@ -284,7 +393,7 @@ def report_cmd(runs_file, out_path, wheelbase_mm, side_mm, method, c_left, c_rig
         if record_id is not None:
             if runs_file is not None:
                 raise click.UsageError("give either FILE.csv or --id, not both")
-            from ..history import open_history, runs_from_rows
+            from umbmark.history import open_history, runs_from_rows
 
             with open_history(db, create=False) as h:
                 rec = h.get(record_id)
@@ -305,16 +414,16 @@ def report_cmd(runs_file, out_path, wheelbase_mm, side_mm, method, c_left, c_rig
             if wheelbase_mm is None or side_mm is None:
                 raise click.UsageError("with FILE.csv, --wheelbase-mm and --side-mm are required")
             runs = read_runs_csv(runs_file)
-            from ..history import file_sha256
+            from umbmark.history import file_sha256
 
             source, sha = str(runs_file), file_sha256(runs_file)
             for name, v in (("--c-left", c_left), ("--c-right", c_right)):
-                workflows.positive(name, v)
+                positive(name, v)
             if c_left != 1.0 or c_right != 1.0:
                 prior = Calibration(c_left, c_right, None)
-        side_m = workflows.positive("--side-mm", side_mm) * 1e-3
-        wheelbase_m = workflows.positive("--wheelbase-mm", wheelbase_mm) * 1e-3
-        a = workflows.analyze(runs, side_m, wheelbase_m, method, prior)
+        side_m = positive("--side-mm", side_mm) * 1e-3
+        wheelbase_m = positive("--wheelbase-mm", wheelbase_mm) * 1e-3
+        a = analyze(runs, side_m, wheelbase_m, method, prior)
         after = read_runs_csv(after_file) if after_file else None
         exported = {}
         for f in attach:
@@ -333,8 +442,17 @@ def report_cmd(runs_file, out_path, wheelbase_mm, side_mm, method, c_left, c_rig
                 boot = bootstrap_intervals(runs, side_m, wheelbase_m, method, prior, n_boot, seed, advance=advance)
         what = label or (Path(source).name if source else "runs")
         title = f"UMBmark report: {robot + ', ' if robot else ''}{what}"
-        page = analysis_report(a, title=title, source=source, source_sha256=sha, prior=prior, after_runs=after,
-                               exported=exported or None, boot=boot, robot=robot)
+        page = analysis_report(
+            a,
+            title=title,
+            source=source,
+            source_sha256=sha,
+            prior=prior,
+            after_runs=after,
+            exported=exported or None,
+            boot=boot,
+            robot=robot,
+        )
         atomic_write(out_path, page)
         summary = {"out": out_path, "emax_syst_mm": a.result.emax_syst * 1e3, "bootstrap": boot}
     if as_json:
@@ -358,10 +476,9 @@ def guide_cmd(side_mm, runs):
       umbmark guide
       umbmark guide --side-mm 2000 > procedure.txt
     """
-    from .. import workflows
-    from ..guide import guide_text
+    from umbmark.realrobot.guide import guide_text
 
-    workflows.positive("--side-mm", side_mm)
+    positive("--side-mm", side_mm)
     click.echo(guide_text(side_mm, runs), nl=False)
 
 
@@ -390,15 +507,31 @@ POINT = PointType()
 @click.option("--front", type=POINT, required=True, help="Front side mark in the robot frame [mm] (x fwd, y left).")
 @click.option("--rear", type=POINT, required=True, help="Rear side mark in the robot frame [mm].")
 @click.option("--back", type=POINT, required=True, help="Back mark in the robot frame [mm].")
-@click.option("--side-wall", type=click.Choice(["auto", "left", "right"]), default="auto", show_default=True,
-              help="Side of the robot the side wall is on. auto: left for cw runs, right for ccw runs "
-                   "(the square turns away from it; marks mirrored to that side).")
-@click.option("--resolution-mm", type=float, default=1.0, show_default=True,
-              help="Tape resolution; readings taken as uniform within +-resolution/2.")
+@click.option(
+    "--side-wall",
+    type=click.Choice(["auto", "left", "right"]),
+    default="auto",
+    show_default=True,
+    help="Side of the robot the side wall is on. auto: left for cw runs, right for ccw runs "
+    "(the square turns away from it; marks mirrored to that side).",
+)
+@click.option(
+    "--resolution-mm",
+    type=float,
+    default=1.0,
+    show_default=True,
+    help="Tape resolution; readings taken as uniform within +-resolution/2.",
+)
 @click.option("--out", "out_path", type=click.Path(dir_okay=False), required=True, help="Runs file to write.")
 @click.option("--interactive", is_flag=True, help="Type the distances at prompts (saved after every run).")
-@click.option("--runs", "n_runs", type=click.IntRange(min=1), default=5, show_default=True,
-              help="With --interactive: runs per direction.")
+@click.option(
+    "--runs",
+    "n_runs",
+    type=click.IntRange(min=1),
+    default=5,
+    show_default=True,
+    help="With --interactive: runs per direction.",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 def measure_cmd(distances_file, front, rear, back, side_wall, resolution_mm, out_path, interactive, n_runs, as_json):
     """Turn tape-measured wall distances into a runs file (the paper's section 3.1).
@@ -418,11 +551,13 @@ def measure_cmd(distances_file, front, rear, back, side_wall, resolution_mm, out
       umbmark measure distances.csv --front 150,-120 --rear -150,-120 --back -200,0 --out runs.csv
       umbmark measure --interactive --front 150,-120 --rear -150,-120 --back -200,0 --out runs.csv
     """
-    from ..io.atomic import atomic_write
-    from ..measure import RobotMarks, format_measured_csv, measure_runs, read_distances_csv
+    from umbmark.io.atomic import atomic_write
+    from umbmark.realrobot.measure import RobotMarks, format_measured_csv, measure_runs, read_distances_csv
 
     if resolution_mm is None or not (math.isfinite(resolution_mm) and 0 <= resolution_mm <= 1000):
-        raise InputError(f"--resolution-mm must be a number from 0 to 1000 (a tape's resolution), got {resolution_mm!r}")
+        raise InputError(
+            f"--resolution-mm must be a number from 0 to 1000 (a tape's resolution), got {resolution_mm!r}"
+        )
     marks = RobotMarks(tuple(v * 1e-3 for v in front), tuple(v * 1e-3 for v in rear), tuple(v * 1e-3 for v in back))
     if interactive:
         if distances_file:
@@ -437,26 +572,53 @@ def measure_cmd(distances_file, front, rear, back, side_wall, resolution_mm, out
     runs, m = measure_runs(marks, rows, resolution_mm, source=source, side_wall=side_wall)
     atomic_write(out_path, format_measured_csv(runs, m))
     if as_json:
-        emit_json({"out": out_path, "resolution_mm": resolution_mm, "side_wall": side_wall, "runs": [
-            {"run": str(runs.run[i]), "direction": str(runs.direction[i]),
-             "x_abs_mm": runs.x_abs[i] * 1e3, "y_abs_mm": runs.y_abs[i] * 1e3,
-             "theta_abs_deg": math.degrees(runs.theta_abs[i]),
-             "x_abs_sd_mm": m.x_sd[i] * 1e3, "y_abs_sd_mm": m.y_sd[i] * 1e3,
-             "theta_abs_sd_deg": math.degrees(m.theta_sd[i]),
-             "x_abs_bound_mm": m.x_bound[i] * 1e3, "y_abs_bound_mm": m.y_bound[i] * 1e3,
-             "theta_abs_bound_deg": math.degrees(m.theta_bound[i])} for i in range(len(runs))]})
+        emit_json(
+            {
+                "out": out_path,
+                "resolution_mm": resolution_mm,
+                "side_wall": side_wall,
+                "runs": [
+                    {
+                        "run": str(runs.run[i]),
+                        "direction": str(runs.direction[i]),
+                        "x_abs_mm": runs.x_abs[i] * 1e3,
+                        "y_abs_mm": runs.y_abs[i] * 1e3,
+                        "theta_abs_deg": math.degrees(runs.theta_abs[i]),
+                        "x_abs_sd_mm": m.x_sd[i] * 1e3,
+                        "y_abs_sd_mm": m.y_sd[i] * 1e3,
+                        "theta_abs_sd_deg": math.degrees(m.theta_sd[i]),
+                        "x_abs_bound_mm": m.x_bound[i] * 1e3,
+                        "y_abs_bound_mm": m.y_bound[i] * 1e3,
+                        "theta_abs_bound_deg": math.degrees(m.theta_bound[i]),
+                    }
+                    for i in range(len(runs))
+                ],
+            }
+        )
         return
     if is_quiet():
         return
-    trows = [[str(runs.run[i]), str(runs.direction[i]),
-              f"{runs.x_abs[i] * 1e3:.1f} ± {m.x_sd[i] * 1e3:.1f}", f"{runs.y_abs[i] * 1e3:.1f} ± {m.y_sd[i] * 1e3:.1f}",
-              f"{math.degrees(runs.theta_abs[i]):.2f} ± {math.degrees(m.theta_sd[i]):.2f}",
-              fmt(runs.x_odo[i] * 1e3), fmt(runs.y_odo[i] * 1e3),
-              fmt((runs.x_abs[i] - runs.x_odo[i]) * 1e3), fmt((runs.y_abs[i] - runs.y_odo[i]) * 1e3)]
-             for i in range(len(runs))]
-    console().print(table(f"Return poses in the start frame (± 1 sd from a {resolution_mm:g} mm tape), written to "
-                          f"{out_path}", ["run", "dir", "x_abs [mm]", "y_abs [mm]", "theta_abs [deg]", "x_odo",
-                                          "y_odo", "eps_x", "eps_y"], trows))
+    trows = [
+        [
+            str(runs.run[i]),
+            str(runs.direction[i]),
+            f"{runs.x_abs[i] * 1e3:.1f} ± {m.x_sd[i] * 1e3:.1f}",
+            f"{runs.y_abs[i] * 1e3:.1f} ± {m.y_sd[i] * 1e3:.1f}",
+            f"{math.degrees(runs.theta_abs[i]):.2f} ± {math.degrees(m.theta_sd[i]):.2f}",
+            fmt(runs.x_odo[i] * 1e3),
+            fmt(runs.y_odo[i] * 1e3),
+            fmt((runs.x_abs[i] - runs.x_odo[i]) * 1e3),
+            fmt((runs.y_abs[i] - runs.y_odo[i]) * 1e3),
+        ]
+        for i in range(len(runs))
+    ]
+    console().print(
+        table(
+            f"Return poses in the start frame (± 1 sd from a {resolution_mm:g} mm tape), written to {out_path}",
+            ["run", "dir", "x_abs [mm]", "y_abs [mm]", "theta_abs [deg]", "x_odo", "y_odo", "eps_x", "eps_y"],
+            trows,
+        )
+    )
 
 
 def _interactive(marks, side_wall, resolution_mm, out_path, n_runs):
@@ -465,18 +627,25 @@ def _interactive(marks, side_wall, resolution_mm, out_path, n_runs):
     import csv
     import io
 
-    from ..io.atomic import atomic_write
-    from ..measure import DIST_COLUMNS, MeasuredRun, format_measured_csv, measure_runs
+    from umbmark.io.atomic import atomic_write
+    from umbmark.realrobot.measure import DIST_COLUMNS, MeasuredRun, format_measured_csv, measure_runs
 
     raw_path = str(Path(out_path).with_suffix("")) + ".distances.csv"
     rows: list[MeasuredRun] = []
     prev = None
     echo = click.echo
-    echo(f"Entering {n_runs} cw and {n_runs} ccw runs. Distances in mm, perpendicular to the wall. "
-         f"Saved after every run to {out_path} and {raw_path}.")
-    labels = {"start_front": "START front mark -> side wall", "start_rear": "START rear mark -> side wall",
-              "start_back": "START back mark -> back wall", "end_front": "END front mark -> side wall",
-              "end_rear": "END rear mark -> side wall", "end_back": "END back mark -> back wall"}
+    echo(
+        f"Entering {n_runs} cw and {n_runs} ccw runs. Distances in mm, perpendicular to the wall. "
+        f"Saved after every run to {out_path} and {raw_path}."
+    )
+    labels = {
+        "start_front": "START front mark -> side wall",
+        "start_rear": "START rear mark -> side wall",
+        "start_back": "START back mark -> back wall",
+        "end_front": "END front mark -> side wall",
+        "end_rear": "END rear mark -> side wall",
+        "end_back": "END back mark -> back wall",
+    }
     want_theta = None  # asked on the first run; then on every run or on none
     for direction in ("cw", "ccw"):
         wall = side_wall if side_wall != "auto" else ("left" if direction == "cw" else "right")
@@ -490,8 +659,9 @@ def _interactive(marks, side_wall, resolution_mm, out_path, n_runs):
                     x_odo = click.prompt("  odometry x at the end [mm]", type=float)
                     y_odo = click.prompt("  odometry y at the end [mm]", type=float)
                     if want_theta is None:
-                        th = click.prompt("  odometry theta at the end [deg] (empty: not read)", default="",
-                                          show_default=False)
+                        th = click.prompt(
+                            "  odometry theta at the end [deg] (empty: not read)", default="", show_default=False
+                        )
                         want_theta = bool(str(th).strip())
                     elif want_theta:
                         th = click.prompt("  odometry theta at the end [deg]", type=float)
@@ -510,14 +680,24 @@ def _interactive(marks, side_wall, resolution_mm, out_path, n_runs):
             row = MeasuredRun(str(k), direction, d, x_odo, y_odo, theta)
             runs, m = measure_runs(marks, rows + [row], resolution_mm, source="<interactive>", side_wall=side_wall)
             rows.append(row)
-            echo(f"  -> x_abs = {runs.x_abs[-1] * 1e3:.1f} mm, y_abs = {runs.y_abs[-1] * 1e3:.1f} mm, "
-                 f"theta_abs = {math.degrees(runs.theta_abs[-1]):.2f} deg")
+            echo(
+                f"  -> x_abs = {runs.x_abs[-1] * 1e3:.1f} mm, y_abs = {runs.y_abs[-1] * 1e3:.1f} mm, "
+                f"theta_abs = {math.degrees(runs.theta_abs[-1]):.2f} deg"
+            )
             buf = io.StringIO()
             w = csv.writer(buf, lineterminator="\n")
             w.writerow(["run", "direction", *DIST_COLUMNS, "x_odo", "y_odo", "theta_odo"])
             for r in rows:
-                w.writerow([r.run, r.direction, *[f"{v:g}" for v in r.distances_mm], f"{r.x_odo_mm:g}",
-                            f"{r.y_odo_mm:g}", "" if r.theta_odo_deg is None else f"{r.theta_odo_deg:g}"])
+                w.writerow(
+                    [
+                        r.run,
+                        r.direction,
+                        *[f"{v:g}" for v in r.distances_mm],
+                        f"{r.x_odo_mm:g}",
+                        f"{r.y_odo_mm:g}",
+                        "" if r.theta_odo_deg is None else f"{r.theta_odo_deg:g}",
+                    ]
+                )
             atomic_write(raw_path, buf.getvalue())
             atomic_write(out_path, format_measured_csv(runs, m))
     return rows

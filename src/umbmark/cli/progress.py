@@ -3,7 +3,7 @@
 Drawn with rich on stderr, only when stderr is a terminal and ``--quiet`` is not given;
 otherwise the helpers do nothing (so pipes, files and tests see no bar)::
 
-    from .progress import progress, track
+    from umbmark.cli.progress import progress, track
 
     with progress("simulating", total=n) as advance:
         for i in range(n):
@@ -22,7 +22,7 @@ from contextlib import contextmanager
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
 
-from .app import is_quiet
+from umbmark.cli.app import is_quiet
 
 __all__ = ["progress", "track", "progress_enabled"]
 
@@ -44,12 +44,10 @@ def progress(description: str, total: int | None = None):
     if not progress_enabled(c):
         yield lambda n=1: None
         return
-    cols = [SpinnerColumn(), TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
-            TimeElapsedColumn()]
+    cols = [SpinnerColumn(), TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn()]
     # rich would send whatever the command prints on stdout meanwhile through the bar's console
     # (stderr): only do that when stdout is the same kind of screen, never into a pipe or file
-    with Progress(*cols, console=c, transient=True, redirect_stdout=_stdout_is_terminal(),
-                  redirect_stderr=False) as p:
+    with Progress(*cols, console=c, transient=True, redirect_stdout=_stdout_is_terminal(), redirect_stderr=False) as p:
         task = p.add_task(description, total=total)
         yield lambda n=1: p.advance(task, n)
 

@@ -6,16 +6,17 @@ import math
 from pathlib import Path
 
 import click
+from rich.markup import escape
 
-from ..errors import InputError
-from ..io.load import LOG_FORMATS, load_logs
-from .history import history_options, print_recorded, record_report_if_requested
-from .app import app, console, emit_json, fmt, is_quiet, table
-from .progress import progress, track
+from umbmark.cli.app import app, cli_message, console, emit_json, fmt, is_quiet, table
+from umbmark.cli.history import history_options, print_recorded, record_report_if_requested
+from umbmark.cli.progress import progress, track
+from umbmark.errors import InputError
+from umbmark.io.load import LOG_FORMATS, load_logs
 
 
 def _method_choices():
-    from ..replay import method_names
+    from umbmark.realrobot.replay import method_names
 
     return method_names()
 
@@ -23,18 +24,37 @@ def _method_choices():
 def log_options(f):
     """Options that describe how to read a log (geometry for formats that lack it, bag topics)."""
     opts = [
-        click.option("--format", "log_format", type=click.Choice(LOG_FORMATS), default="auto", show_default=True,
-                     help="Log format: an optiodom data-set folder, a generic CSV log, a ROS 1/2 bag."),
-        click.option("--side-mm", type=float, default=None,
-                     help="Square side: the runs are UMBmark squares (optiodom: from the metadata)."),
+        click.option(
+            "--format",
+            "log_format",
+            type=click.Choice(LOG_FORMATS),
+            default="auto",
+            show_default=True,
+            help="Log format: an optiodom data-set folder, a generic CSV log, a ROS 1/2 bag.",
+        ),
+        click.option(
+            "--side-mm",
+            type=float,
+            default=None,
+            help="Square side: the runs are UMBmark squares (optiodom: from the metadata).",
+        ),
         click.option("--wheel-diameter-mm", type=float, default=None, help="Nominal wheel diameter (CSV, bags)."),
         click.option("--left-diameter-mm", type=float, default=None, help="Nominal left wheel diameter."),
         click.option("--right-diameter-mm", type=float, default=None, help="Nominal right wheel diameter."),
         click.option("--wheelbase-mm", type=float, default=None, help="Nominal wheelbase (CSV, bags)."),
-        click.option("--pulses-per-wheel-rev", type=float, default=None,
-                     help="Encoder pulses per wheel revolution (CSV, bag ticks)."),
-        click.option("--ticks", type=click.Choice(["cumulative", "incremental"]), default="cumulative",
-                     show_default=True, help="Encoder counts are a running counter or per-sample counts."),
+        click.option(
+            "--pulses-per-wheel-rev",
+            type=float,
+            default=None,
+            help="Encoder pulses per wheel revolution (CSV, bag ticks).",
+        ),
+        click.option(
+            "--ticks",
+            type=click.Choice(["cumulative", "incremental"]),
+            default="cumulative",
+            show_default=True,
+            help="Encoder counts are a running counter or per-sample counts.",
+        ),
         click.option("--joints", default=None, metavar="LEFT,RIGHT", help="Bag: JointState names of the wheels."),
         click.option("--joint-topic", default="/joint_states", show_default=True, help="Bag: JointState topic."),
         click.option("--ticks-topic", default=None, help="Bag: topic with encoder counts."),
@@ -43,26 +63,59 @@ def log_options(f):
         click.option("--gt-topic", default=None, help="Bag: ground truth (PoseStamped, Odometry or /tf)."),
         click.option("--gt-frame", default=None, help="Bag, /tf ground truth: the tracked child frame."),
         click.option("--gt-parent", default=None, help="Bag, /tf ground truth: its parent frame (optional)."),
-        click.option("--ranges", default=None, metavar="A-B,C-D",
-                     help="Bag: cut runs at these time ranges (seconds from the first wheel sample)."),
+        click.option(
+            "--ranges",
+            default=None,
+            metavar="A-B,C-D",
+            help="Bag: cut runs at these time ranges (seconds from the first wheel sample).",
+        ),
         click.option("--split-stops", is_flag=True, help="Bag: cut runs where both wheels stand still."),
-        click.option("--stop-s", type=float, default=1.0, show_default=True,
-                     help="Bag: the stillness (seconds) that ends a run with --split-stops."),
+        click.option(
+            "--stop-s",
+            type=float,
+            default=1.0,
+            show_default=True,
+            help="Bag: the stillness (seconds) that ends a run with --split-stops.",
+        ),
     ]
     for o in reversed(opts):
         f = o(f)
     return f
 
 
-_LOG_KEYS = ("side_mm", "wheel_diameter_mm", "left_diameter_mm", "right_diameter_mm", "wheelbase_mm",
-             "pulses_per_wheel_rev", "ticks", "joints", "joint_topic", "ticks_topic", "left_field", "right_field",
-             "gt_topic", "gt_frame", "gt_parent", "ranges", "split_stops", "stop_s")
+_LOG_KEYS = (
+    "side_mm",
+    "wheel_diameter_mm",
+    "left_diameter_mm",
+    "right_diameter_mm",
+    "wheelbase_mm",
+    "pulses_per_wheel_rev",
+    "ticks",
+    "joints",
+    "joint_topic",
+    "ticks_topic",
+    "left_field",
+    "right_field",
+    "gt_topic",
+    "gt_frame",
+    "gt_parent",
+    "ranges",
+    "split_stops",
+    "stop_s",
+)
 
 
 def _load(paths, log_format, kw):
     opts = {k: kw[k] for k in _LOG_KEYS if k in kw}
-    for k in ("side_mm", "wheel_diameter_mm", "left_diameter_mm", "right_diameter_mm", "wheelbase_mm",
-              "pulses_per_wheel_rev", "stop_s"):
+    for k in (
+        "side_mm",
+        "wheel_diameter_mm",
+        "left_diameter_mm",
+        "right_diameter_mm",
+        "wheelbase_mm",
+        "pulses_per_wheel_rev",
+        "stop_s",
+    ):
         v = opts.get(k)
         if v is not None and not (math.isfinite(v) and v > 0):
             raise InputError(f"--{k.replace('_', '-')} must be a positive number, got {v!r}")
@@ -72,8 +125,9 @@ def _load(paths, log_format, kw):
 def _datasets(paths, log_format, kw):
     """Each PATH is a data set, except CSV files: all CSV files given form one data set."""
     paths = list(paths)
-    if log_format in ("csv",) or (log_format == "auto" and all(Path(p).is_file() and Path(p).suffix.lower()
-                                                                == ".csv" for p in paths)):
+    if log_format in ("csv",) or (
+        log_format == "auto" and all(Path(p).is_file() and Path(p).suffix.lower() == ".csv" for p in paths)
+    ):
         with progress(f"reading {len(paths)} CSV log(s)"):
             return [_load(paths, "csv", kw)]
     return [_load([p], log_format, kw) for p in track(paths, "reading logs")]
@@ -82,19 +136,35 @@ def _datasets(paths, log_format, kw):
 def _print_report(rep: dict):
     c = console()
     sq = rep["kind"] == "square"
-    c.print(f"[bold]{rep['dataset']}[/bold] ({rep['format']}, {len(rep['runs'])} runs, "
-            f"{'square ' + format(rep['side_mm'], '.0f') + ' mm' if sq else 'general path'}), method "
-            f"[bold]{rep['method']}[/bold]")
+    c.print(
+        f"[bold]{rep['dataset']}[/bold] ({rep['format']}, {len(rep['runs'])} runs, "
+        f"{'square ' + format(rep['side_mm'], '.0f') + ' mm' if sq else 'general path'}), method "
+        f"[bold]{rep['method']}[/bold]"
+    )
     h = rep.get("heldout", {})
     rows = []
     if sq:
-        rows.append(["E_max,syst [mm]", fmt(rep["before"]["emax_syst_mm"]), fmt(rep["after"]["emax_syst_mm"]),
-                     fmt(h.get("emax_syst_mm"))])
+        rows.append(
+            [
+                "E_max,syst [mm]",
+                fmt(rep["before"]["emax_syst_mm"]),
+                fmt(rep["after"]["emax_syst_mm"]),
+                fmt(h.get("emax_syst_mm")),
+            ]
+        )
     rows += [
-        ["end position RMS [mm]", fmt(rep["before"]["end_position_rms_mm"]), fmt(rep["after"]["end_position_rms_mm"]),
-         fmt(h.get("end_position_rms_mm"))],
-        ["along-path position RMS [mm]", fmt(rep["before"]["path_position_rms_mm"]),
-         fmt(rep["after"]["path_position_rms_mm"]), fmt(h.get("path_position_rms_mm"))],
+        [
+            "end position RMS [mm]",
+            fmt(rep["before"]["end_position_rms_mm"]),
+            fmt(rep["after"]["end_position_rms_mm"]),
+            fmt(h.get("end_position_rms_mm")),
+        ],
+        [
+            "along-path position RMS [mm]",
+            fmt(rep["before"]["path_position_rms_mm"]),
+            fmt(rep["after"]["path_position_rms_mm"]),
+            fmt(h.get("path_position_rms_mm")),
+        ],
     ]
     c.print(table("Replayed odometry vs ground truth", ["", "nominal", "calibrated (in-sample)", "held out"], rows))
     if h.get("reason"):
@@ -107,8 +177,11 @@ def _print_report(rep: dict):
         ["E_d = D_R/D_L", "1", fmt(rep["Ed"], 6)],
         ["E_b", "1", fmt(rep["Eb"], 6)],
         ["c_left / c_right", "1 / 1", f"{rep['c_left']:.6f} / {rep['c_right']:.6f}"],
-        ["wheelbase / mean diameter", fmt(n["wheelbase_mm"] / (0.5 * (n["diameter_left_mm"] + n["diameter_right_mm"])),
-                                          4), fmt(rep["wheelbase_per_mean_diameter"], 4)],
+        [
+            "wheelbase / mean diameter",
+            fmt(n["wheelbase_mm"] / (0.5 * (n["diameter_left_mm"] + n["diameter_right_mm"])), 4),
+            fmt(rep["wheelbase_per_mean_diameter"], 4),
+        ],
     ]
     if rep["method"] == "lsq":
         cal.append(["fitted", "", rep["fitted_parameters"]])
@@ -117,46 +190,109 @@ def _print_report(rep: dict):
         c.print(f"scale: {rep['scale_reason']}")
         if rep.get("tracked_point_offset_mm"):
             o, e = rep["tracked_point_offset_mm"], rep["tracked_point_offset_std_mm"]
-            c.print(f"tracked point offset from the axle midpoint: x {o[0]:.1f} +- {e[0]:.1f} mm, "
-                    f"y {o[1]:.1f} +- {e[1]:.1f} mm (robot frame)")
+            c.print(
+                f"tracked point offset from the axle midpoint: x {o[0]:.1f} +- {e[0]:.1f} mm, "
+                f"y {o[1]:.1f} +- {e[1]:.1f} mm (robot frame)"
+            )
         if rep.get("std"):
             s = rep["std"]
-            c.print(f"jackknife std: D_L {s['diameter_left_mm']:.3f} mm, D_R {s['diameter_right_mm']:.3f} mm, "
-                    f"b {s['wheelbase_mm']:.3f} mm, E_d {s['Ed']:.5f}")
+            c.print(
+                f"jackknife std: D_L {s['diameter_left_mm']:.3f} mm, D_R {s['diameter_right_mm']:.3f} mm, "
+                f"b {s['wheelbase_mm']:.3f} mm, E_d {s['Ed']:.5f}"
+            )
     for w in rep.get("warnings", []):
-        c.print(f"[yellow]warning:[/yellow] {w}")
+        c.print(f"[yellow]warning:[/yellow] {escape(cli_message(w))}")
 
 
 @app.command()
 @click.argument("paths", nargs=-1, required=True, metavar="DATASET...")
-@click.option("--method", type=click.Choice(_method_choices()), default="bf", show_default=True,
-              help="bf: the paper's correction; exact (when available); lsq: general-path least squares.")
+@click.option(
+    "--method",
+    type=click.Choice(_method_choices()),
+    default="bf",
+    show_default=True,
+    help="bf: the paper's correction; exact (when available); lsq: general-path least squares.",
+)
 @log_options
-@click.option("--pool", is_flag=True, help="lsq: fit one geometry to all data sets together (held out: "
-                                           "leave-one-data-set-out).")
-@click.option("--lsq-mode", type=click.Choice(["auto", "sampled", "end"]), default="auto", show_default=True,
-              help="lsq: minimise errors at poses sampled along the path, or end-pose errors only.")
-@click.option("--scale", type=click.Choice(["auto", "fit", "fixed"]), default="auto", show_default=True,
-              help="lsq: fit D_L, D_R, b (fit), or E_d and b with D_avg at nominal (fixed).")
-@click.option("--heading-weight-m", type=float, default=0.5, show_default=True,
-              help="lsq: metres of position error worth one radian of heading error.")
-@click.option("--points-per-run", type=click.IntRange(min=1), default=100, show_default=True,
-              help="lsq, sampled mode: poses compared per run.")
-@click.option("--fit-marker-offset", is_flag=True,
-              help="lsq, sampled mode: also fit where the tracked point sits relative to the axle midpoint.")
+@click.option(
+    "--pool", is_flag=True, help="lsq: fit one geometry to all data sets together (held out: leave-one-data-set-out)."
+)
+@click.option(
+    "--lsq-mode",
+    type=click.Choice(["auto", "sampled", "end"]),
+    default="auto",
+    show_default=True,
+    help="lsq: minimise errors at poses sampled along the path, or end-pose errors only.",
+)
+@click.option(
+    "--scale",
+    type=click.Choice(["auto", "fit", "fixed"]),
+    default="auto",
+    show_default=True,
+    help="lsq: fit D_L, D_R, b (fit), or E_d and b with D_avg at nominal (fixed).",
+)
+@click.option(
+    "--heading-weight-m",
+    type=float,
+    default=0.5,
+    show_default=True,
+    help="lsq: metres of position error worth one radian of heading error.",
+)
+@click.option(
+    "--points-per-run",
+    type=click.IntRange(min=1),
+    default=100,
+    show_default=True,
+    help="lsq, sampled mode: poses compared per run.",
+)
+@click.option(
+    "--fit-marker-offset",
+    is_flag=True,
+    help="lsq, sampled mode: also fit where the tracked point sits relative to the axle midpoint.",
+)
 @click.option("--no-heldout", is_flag=True, help="Skip the held-out (leave-one-run-out) figures.")
-@click.option("--save", type=click.Path(dir_okay=False), default=None,
-              help="Also write the JSON report to this file (input of `umbmark export`).")
-@click.option("--stream", is_flag=True, help="Replay ONE long CSV log in bounded memory with the given geometry: "
-                                             "end pose and errors only (no calibration).")
+@click.option(
+    "--save",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Also write the JSON report to this file (input of `umbmark export`).",
+)
+@click.option(
+    "--stream",
+    is_flag=True,
+    help="Replay ONE long CSV log in bounded memory with the given geometry: "
+    "end pose and errors only (no calibration).",
+)
 @click.option("--decimate", type=click.IntRange(min=1), default=None, help="--stream: keep every N-th pose.")
-@click.option("--poses-out", type=click.Path(dir_okay=False), default=None,
-              help="--stream: write the kept poses (CSV) to this file.")
+@click.option(
+    "--poses-out",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="--stream: write the kept poses (CSV) to this file.",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @history_options
-def replay(paths, method, log_format, pool, lsq_mode, scale, heading_weight_m, points_per_run, fit_marker_offset,
-           no_heldout, save, as_json, robot=None, record=False, db=None, stream=False, decimate=None, poses_out=None,
-           **kw):
+def replay(
+    paths,
+    method,
+    log_format,
+    pool,
+    lsq_mode,
+    scale,
+    heading_weight_m,
+    points_per_run,
+    fit_marker_offset,
+    no_heldout,
+    save,
+    as_json,
+    robot=None,
+    record=False,
+    db=None,
+    stream=False,
+    decimate=None,
+    poses_out=None,
+    **kw,
+):
     """Replay real-robot logs, calibrate, and compare the odometry before and after.
 
     Each DATASET is an optiodom data-set folder, a ROS bag, or (all together) CSV log files.
@@ -169,19 +305,24 @@ def replay(paths, method, log_format, pool, lsq_mode, scale, heading_weight_m, p
     Example:
       umbmark replay data/optiodom/square/230620202144 --method bf
     """
-    from ..replay import pooled_report, replay_report
+    from umbmark.realrobot.replay import pooled_report, replay_report
 
     if not (math.isfinite(heading_weight_m) and heading_weight_m >= 0):
         raise InputError(f"--heading-weight-m must be >= 0, got {heading_weight_m!r}")
     if stream or decimate or poses_out:
         if not stream:
             raise InputError("--decimate and --poses-out work with --stream")
-        from .stream import run_stream
+        from umbmark.cli.stream import run_stream
 
         return run_stream(paths, {**kw, "log_format": log_format}, decimate, poses_out, as_json)
     sets = _datasets(paths, log_format, kw)
-    lsq_opts = {"mode": lsq_mode, "scale": scale, "heading_weight_m": heading_weight_m,
-                "points_per_run": points_per_run, "fit_offset": fit_marker_offset}
+    lsq_opts = {
+        "mode": lsq_mode,
+        "scale": scale,
+        "heading_weight_m": heading_weight_m,
+        "points_per_run": points_per_run,
+        "fit_offset": fit_marker_offset,
+    }
     if pool:
         if method != "lsq":
             raise InputError("--pool works with --method lsq")
@@ -193,13 +334,27 @@ def replay(paths, method, log_format, pool, lsq_mode, scale, heading_weight_m, p
             emit_json(rep if rec is None else {**rep, "history": rec})
         elif not is_quiet():
             c = console()
-            rows = [[p["dataset"], fmt(p["before"]["end_position_rms_mm"]), fmt(p["after"]["end_position_rms_mm"]),
-                     fmt(p.get("heldout", {}).get("end_position_rms_mm"))] for p in rep["per_dataset"]]
-            c.print(table("lsq fitted to all data sets: end-position RMS [mm]",
-                          ["data set", "nominal", "pooled fit", "held out (fit on the others)"], rows))
-            c.print(f"D_L = {rep['diameter_left_mm']:.3f} mm, D_R = {rep['diameter_right_mm']:.3f} mm, wheelbase = "
-                    f"{rep['wheelbase_corrected_mm']:.3f} mm, E_d = {rep['Ed']:.6f}, "
-                    f"fitted: {rep['fitted_parameters']}")
+            rows = [
+                [
+                    p["dataset"],
+                    fmt(p["before"]["end_position_rms_mm"]),
+                    fmt(p["after"]["end_position_rms_mm"]),
+                    fmt(p.get("heldout", {}).get("end_position_rms_mm")),
+                ]
+                for p in rep["per_dataset"]
+            ]
+            c.print(
+                table(
+                    "lsq fitted to all data sets: end-position RMS [mm]",
+                    ["data set", "nominal", "pooled fit", "held out (fit on the others)"],
+                    rows,
+                )
+            )
+            c.print(
+                f"D_L = {rep['diameter_left_mm']:.3f} mm, D_R = {rep['diameter_right_mm']:.3f} mm, wheelbase = "
+                f"{rep['wheelbase_corrected_mm']:.3f} mm, E_d = {rep['Ed']:.6f}, "
+                f"fitted: {rep['fitted_parameters']}"
+            )
             print_recorded(rec)
         return
     with progress("replaying and calibrating"):
@@ -216,16 +371,23 @@ def replay(paths, method, log_format, pool, lsq_mode, scale, heading_weight_m, p
     for r in reports:
         _print_report(r)
     if "across" in rep:
-        rows = [[a["calibrated_on"], a["evaluated_on"], fmt(a["emax_syst_mm"]), fmt(a["end_position_rms_mm"])]
-                for a in rep["across"]]
-        console().print(table("Held out across data sets", ["calibrated on", "evaluated on", "E_max,syst [mm]",
-                                                             "end position RMS [mm]"], rows))
+        rows = [
+            [a["calibrated_on"], a["evaluated_on"], fmt(a["emax_syst_mm"]), fmt(a["end_position_rms_mm"])]
+            for a in rep["across"]
+        ]
+        console().print(
+            table(
+                "Held out across data sets",
+                ["calibrated on", "evaluated on", "E_max,syst [mm]", "end position RMS [mm]"],
+                rows,
+            )
+        )
 
 
 def _save(rep, path):
     if path:
-        from ..io.atomic import atomic_write
-        from ..jsonutil import dumps
+        from umbmark.io.atomic import atomic_write
+        from umbmark.jsonutil import dumps
 
         atomic_write(path, dumps(rep, indent=2) + "\n")
 
@@ -241,22 +403,32 @@ def bag_info_cmd(bag, as_json):
       umbmark bag-info recording.bag
       umbmark bag-info rosbag2_2026_11_21/ --json
     """
-    from ..io.rosbag import bag_info
+    from umbmark.io.rosbag import bag_info
 
     info = bag_info(bag)
     if as_json:
         emit_json(info)
     elif not is_quiet():
-        console().print(table(f"{bag}: {info['messages']} messages, {info['duration_s']:.1f} s",
-                              ["topic", "type", "messages"],
-                              [[t["topic"], t["type"], t["messages"]] for t in info["topics"]]))
+        console().print(
+            table(
+                f"{bag}: {info['messages']} messages, {info['duration_s']:.1f} s",
+                ["topic", "type", "messages"],
+                [[t["topic"], t["type"], t["messages"]] for t in info["topics"]],
+            )
+        )
 
 
 @app.command()
 @click.argument("paths", nargs=-1, required=True, metavar="LOG...")
 @log_options
-@click.option("--to", "target", type=click.Choice(["csv", "runs"]), default="csv", show_default=True,
-              help="csv: the generic log CSV; runs: a UMBmark runs file (square runs, nominal odometry).")
+@click.option(
+    "--to",
+    "target",
+    type=click.Choice(["csv", "runs"]),
+    default="csv",
+    show_default=True,
+    help="csv: the generic log CSV; runs: a UMBmark runs file (square runs, nominal odometry).",
+)
 @click.option("--out", type=click.Path(dir_okay=False), required=True, help="File to write.")
 def convert(paths, log_format, target, out, **kw):
     """Convert logs: to the generic CSV log, or (square runs) to a runs file for `analyze`.
@@ -265,10 +437,10 @@ def convert(paths, log_format, target, out, **kw):
     Example:
       umbmark convert data/optiodom/square/230620202144 --to runs --out runs.csv
     """
-    from ..io.atomic import atomic_write
-    from ..io.generic_csv import format_generic_csv
-    from ..io.runs_csv import write_runs_csv
-    from ..replay import prepare, square_runs
+    from umbmark.io.atomic import atomic_write
+    from umbmark.io.generic_csv import format_generic_csv
+    from umbmark.io.runs_csv import write_runs_csv
+    from umbmark.realrobot.replay import prepare, square_runs
 
     sets = _datasets(paths, log_format, kw)
     if len(sets) != 1:
@@ -285,34 +457,71 @@ def convert(paths, log_format, target, out, **kw):
         c = console()
         c.print(f"wrote {out} ({len(ds.runs)} runs)")
         if target == "runs":
-            c.print(f"analyze it with: umbmark analyze {out} --wheelbase-mm {ds.nominal.wheelbase_m * 1e3:g} "
-                    f"--side-mm {ds.side_m * 1e3:g}")
+            c.print(
+                f"analyze it with: umbmark analyze {out} --wheelbase-mm {ds.nominal.wheelbase_m * 1e3:g} "
+                f"--side-mm {ds.side_m * 1e3:g}"
+            )
 
 
 @app.command()
 @click.argument("calibration", required=False, metavar="[CAL.json]")
-@click.option("--format", "out_format", type=click.Choice(["ros2", "ros1", "json", "firmware"]), required=True,
-              help="ros2/ros1: diff_drive_controller parameters; json; firmware: C header (mm per pulse).")
+@click.option(
+    "--format",
+    "out_format",
+    type=click.Choice(["ros2", "ros1", "json", "firmware"]),
+    required=True,
+    help="ros2/ros1: diff_drive_controller parameters; json; firmware: C header (mm per pulse).",
+)
 @click.option("--dataset", default=None, help="Data set to take from a replay JSON of several.")
 @click.option("--c-left", type=float, default=None, help="Left wheel-travel factor (instead of CAL.json).")
 @click.option("--c-right", type=float, default=None, help="Right wheel-travel factor (instead of CAL.json).")
 @click.option("--eb", type=float, default=None, help="Wheelbase factor E_b (instead of CAL.json).")
 @click.option("--controller", default="diff_drive_controller", show_default=True, help="Controller name (ros).")
-@click.option("--left-multiplier", type=float, default=1.0, show_default=True,
-              help="left_wheel_radius_multiplier in use when the logs were recorded.")
-@click.option("--right-multiplier", type=float, default=1.0, show_default=True,
-              help="right_wheel_radius_multiplier in use when the logs were recorded.")
-@click.option("--separation-multiplier", type=float, default=1.0, show_default=True,
-              help="wheel_separation_multiplier in use when the logs were recorded.")
+@click.option(
+    "--left-multiplier",
+    type=float,
+    default=1.0,
+    show_default=True,
+    help="left_wheel_radius_multiplier in use when the logs were recorded.",
+)
+@click.option(
+    "--right-multiplier",
+    type=float,
+    default=1.0,
+    show_default=True,
+    help="right_wheel_radius_multiplier in use when the logs were recorded.",
+)
+@click.option(
+    "--separation-multiplier",
+    type=float,
+    default=1.0,
+    show_default=True,
+    help="wheel_separation_multiplier in use when the logs were recorded.",
+)
 @click.option("--wheel-radius-m", type=float, default=None, help="Also write wheel_radius (ros).")
 @click.option("--wheel-separation-m", type=float, default=None, help="Also write wheel_separation (ros).")
 @click.option("--wheel-diameter-mm", type=float, default=None, help="Nominal wheel diameter (json, firmware).")
 @click.option("--wheelbase-mm", type=float, default=None, help="Nominal wheelbase (json, firmware).")
 @click.option("--pulses-per-wheel-rev", type=float, default=None, help="Encoder pulses per wheel rev (firmware).")
 @click.option("--out", type=click.Path(dir_okay=False), default=None, help="File to write (default: print).")
-def export(calibration, out_format, dataset, c_left, c_right, eb, controller, left_multiplier, right_multiplier,
-           separation_multiplier, wheel_radius_m, wheel_separation_m, wheel_diameter_mm, wheelbase_mm,
-           pulses_per_wheel_rev, out):
+def export(
+    calibration,
+    out_format,
+    dataset,
+    c_left,
+    c_right,
+    eb,
+    controller,
+    left_multiplier,
+    right_multiplier,
+    separation_multiplier,
+    wheel_radius_m,
+    wheel_separation_m,
+    wheel_diameter_mm,
+    wheelbase_mm,
+    pulses_per_wheel_rev,
+    out,
+):
     """Write a calibration as ROS 2 / ROS 1 diff_drive_controller parameters, JSON or a
     firmware header.
 
@@ -327,7 +536,7 @@ def export(calibration, out_format, dataset, c_left, c_right, eb, controller, le
     """
     from dataclasses import replace
 
-    from ..io.export import ExportCalibration, calibration_from_json, format_export, write_export
+    from umbmark.io.export import ExportCalibration, calibration_from_json, format_export, write_export
 
     flags = (c_left, c_right, eb)
     if calibration is not None:
@@ -339,14 +548,23 @@ def export(calibration, out_format, dataset, c_left, c_right, eb, controller, le
             raise InputError("give CAL.json (from replay/analyze --json) or all of --c-left, --c-right, --eb")
         cal = ExportCalibration(c_left, c_right, eb, source="command line")
     if wheel_diameter_mm is not None:
-        cal = replace(cal, nominal_diameter_left_m=wheel_diameter_mm * 1e-3,
-                      nominal_diameter_right_m=wheel_diameter_mm * 1e-3)
+        cal = replace(
+            cal, nominal_diameter_left_m=wheel_diameter_mm * 1e-3, nominal_diameter_right_m=wheel_diameter_mm * 1e-3
+        )
     if wheelbase_mm is not None:
         cal = replace(cal, nominal_wheelbase_m=wheelbase_mm * 1e-3)
     if pulses_per_wheel_rev is not None:
         cal = replace(cal, pulses_per_wheel_rev=pulses_per_wheel_rev)
-    text = format_export(cal, out_format, controller, left_multiplier, right_multiplier, separation_multiplier,
-                         wheel_radius_m, wheel_separation_m)
+    text = format_export(
+        cal,
+        out_format,
+        controller,
+        left_multiplier,
+        right_multiplier,
+        separation_multiplier,
+        wheel_radius_m,
+        wheel_separation_m,
+    )
     if out:
         write_export(text, out)
         if not is_quiet():

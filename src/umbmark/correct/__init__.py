@@ -7,9 +7,9 @@ Modules register their methods in :mod:`umbmark.correct.registry`.
 
 from __future__ import annotations
 
-from . import borenstein, exact  # noqa: F401  (register their methods)
-from .borenstein import bf_correction
-from .registry import METHODS, correct_runs, register
-from .result import CorrectionResult, compose
+from umbmark.correct import bf, exact  # noqa: F401  (register their methods)
+from umbmark.correct.bf import bf_correction
+from umbmark.correct.registry import METHODS, correct_runs, register
+from umbmark.correct.result import CorrectionResult, compose
 
 __all__ = ["bf_correction", "CorrectionResult", "compose", "METHODS", "correct_runs", "register"]

@@ -66,12 +66,12 @@ import warnings as _warnings
 import numpy as np
 from scipy import optimize, stats
 
-from ..benchmark import umbmark
-from ..errors import CorrectionUndefined, InputError
-from ..kinematics import Calibration
-from .borenstein import _check_geometry, bf_correction
-from .registry import register
-from .result import CorrectionResult, compose
+from umbmark.correct.bf import _check_geometry, bf_correction
+from umbmark.correct.registry import register
+from umbmark.correct.result import CorrectionResult, compose
+from umbmark.errors import CorrectionUndefined, InputError
+from umbmark.metrics import umbmark
+from umbmark.model.geometry import Calibration
 
 __all__ = [
     "square_errors",
@@ -311,7 +311,7 @@ def _grid_starts(prob: _Problem, k: int | None = None):
     idx_ok = np.flatnonzero(ok.ravel())
     chunk = max(1, 400000 // max(prob.n, 1))
     for i in range(0, idx_ok.size, chunk):
-        sel = idx_ok[i:i + chunk]
+        sel = idx_ok[i : i + chunk]
         r = prob.residuals_matrix(flat_ed[sel], flat_eb[sel])
         cost[sel] = np.sum(r * r, axis=(1, 2))
     cost = cost.reshape(ED.shape)
@@ -321,7 +321,7 @@ def _grid_starts(prob: _Problem, k: int | None = None):
     for di in (-1, 0, 1):
         for dj in (-1, 0, 1):
             if di or dj:
-                is_min &= cost <= pad[1 + di:1 + di + cost.shape[0], 1 + dj:1 + dj + cost.shape[1]]
+                is_min &= cost <= pad[1 + di : 1 + di + cost.shape[0], 1 + dj : 1 + dj + cost.shape[1]]
     idx = np.flatnonzero(is_min.ravel())
     return _ranked(prob, [np.array([flat_ed[i], flat_eb[i]]) for i in idx], k)
 
@@ -361,8 +361,17 @@ def _fit(prob: _Problem, starts, loss: str, f_scale: float, good=None):
             break
         try:
             sol = optimize.least_squares(
-                prob.residuals, x0, jac="3-point", bounds=([0.5, 0.05], [2.0, 20.0]), loss=loss, f_scale=f_scale,
-                x_scale=[0.01, 0.01], xtol=1e-14, ftol=1e-14, gtol=1e-14, max_nfev=400,
+                prob.residuals,
+                x0,
+                jac="3-point",
+                bounds=([0.5, 0.05], [2.0, 20.0]),
+                loss=loss,
+                f_scale=f_scale,
+                x_scale=[0.01, 0.01],
+                xtol=1e-14,
+                ftol=1e-14,
+                gtol=1e-14,
+                max_nfev=400,
             )
         except (ValueError, FloatingPointError):  # pragma: no cover - defensive
             continue
@@ -429,7 +438,7 @@ def _aliases(prob: _Problem, sol, loss, f_scale):
             var.append(np.mean(np.var(r[mask], axis=0, ddof=1)))
     sigma2 = float(np.mean(var)) if var else 0.0
     cost0 = 0.5 * float(np.sum(r * r))
-    thr = cost0 + 2.0 * sigma2 + 1e-12 * prob.side_m ** 2
+    thr = cost0 + 2.0 * sigma2 + 1e-12 * prob.side_m**2
     rc = prob.residuals_matrix([ed] * len(cands), cands)
     costs = 0.5 * np.sum(rc * rc, axis=(1, 2))
     found = [sol]
@@ -553,8 +562,10 @@ def exact_correction(
     n_ccw = int(np.sum(runs.direction == "ccw"))
     if n_cw == 0 or n_ccw == 0:
         missing = "cw" if n_cw == 0 else "ccw"
-        raise ExactFitError(f"no {missing} runs: the exact fit needs runs in both directions (E_d and E_b cannot be "
-                            "told apart from one direction)")
+        raise ExactFitError(
+            f"no {missing} runs: the exact fit needs runs in both directions (E_d and E_b cannot be "
+            "told apart from one direction)"
+        )
     warns: list[str] = []
     es = 1.0
     if straight_m is not None:
@@ -572,15 +583,20 @@ def exact_correction(
         i = int(np.argmax(odo_off))
         raise ExactFitError(
             f"run {runs.run[i] if runs.run is not None else i + 1} does not close: its odometry ends "
-            f"{odo_off[i] * 1e3:.0f} mm from the start (side {side_m * 1e3:.0f} mm); is this a UMBmark square run?")
+            f"{odo_off[i] * 1e3:.0f} mm from the start (side {side_m * 1e3:.0f} mm); is this a UMBmark square run?"
+        )
     if runs.theta_odo is not None and np.max(np.abs(_wrap(runs.theta_odo))) > math.radians(30):
-        raise ExactFitError("a run's odometry heading ends more than 30 deg from the start heading: the runs do not "
-                            "close (is this a UMBmark square run, and theta_odo in degrees?)")
+        raise ExactFitError(
+            "a run's odometry heading ends more than 30 deg from the start heading: the runs do not "
+            "close (is this a UMBmark square run, and theta_odo in degrees?)"
+        )
     if np.max(np.abs(prob.dev)) > math.radians(10) or np.max(prob.odo_misfit) > 0.02 * side_m:
-        warns.append(f"the odometry of some runs ends far from the start ({np.max(odo_off) * 1e3:.0f} mm): the model "
-                     "explains it by turn over/undershoot of up to "
-                     f"{math.degrees(np.max(np.abs(prob.dev))):.1f} deg, leaving {np.max(prob.odo_misfit) * 1e3:.0f} "
-                     "mm unexplained")
+        warns.append(
+            f"the odometry of some runs ends far from the start ({np.max(odo_off) * 1e3:.0f} mm): the model "
+            "explains it by turn over/undershoot of up to "
+            f"{math.degrees(np.max(np.abs(prob.dev))):.1f} deg, leaving {np.max(prob.odo_misfit) * 1e3:.0f} "
+            "mm unexplained"
+        )
 
     # robust scale: median per-direction radial spread (or a tenth of a per cent of the side)
     spreads = []
@@ -616,13 +632,20 @@ def exact_correction(
             if global_search is False or (global_search == "auto" and _explains(prob, sol, sems)):
                 break
             searched = True
-            sol2 = _fit(prob, stage(prob), loss, f_scale,
-                        good=(lambda q: _explains(prob, q, sems)) if global_search == "auto" else None)
+            sol2 = _fit(
+                prob,
+                stage(prob),
+                loss,
+                f_scale,
+                good=(lambda q: _explains(prob, q, sems)) if global_search == "auto" else None,
+            )
             if sol is None or (sol2 is not None and sol2.cost < sol.cost):
                 sol = sol2
     if sol is None or sol.status <= 0:
-        raise ExactFitError("the exact fit did not converge (no finite solution from any start); check the runs, the "
-                            "side length, the wheelbase and the units")
+        raise ExactFitError(
+            "the exact fit did not converge (no finite solution from any start); check the runs, the "
+            "side length, the wheelbase and the units"
+        )
     alternatives = []
     with np.errstate(all="ignore"), _warnings.catch_warnings():
         _warnings.simplefilter("ignore")
@@ -631,24 +654,32 @@ def exact_correction(
         sol, alternatives = _aliases(prob, sol, loss, f_scale)
     p = sol.x
     if alternatives:
-        alt = "; ".join(f"E_d {a[0]:.6f}, E_b {a[1]:.6f} (a robot turning {90.0 * es / a[1]:.0f} deg per commanded "
-                        "90 deg)" for a in alternatives)
-        warns.append(f"ambiguous: {alt} would produce the same runs (the square test cannot tell them apart); the "
-                     f"answer assumes the robot visibly turned about {90.0 * es / p[1]:.0f} deg at each corner")
+        alt = "; ".join(
+            f"E_d {a[0]:.6f}, E_b {a[1]:.6f} (a robot turning {90.0 * es / a[1]:.0f} deg per commanded 90 deg)"
+            for a in alternatives
+        )
+        warns.append(
+            f"ambiguous: {alt} would produce the same runs (the square test cannot tell them apart); the "
+            f"answer assumes the robot visibly turned about {90.0 * es / p[1]:.0f} deg at each corner"
+        )
     for j, (lo, hi, name) in enumerate(((0.5, 2.0, "E_d"), (0.05, 20.0, "E_b"))):
         if min(p[j] - lo, hi - p[j]) < 1e-6 * (hi - lo):
-            raise ExactFitError(f"the exact fit ran into the bound of {name} ({p[j]:.4g}): no plausible calibration "
-                                "explains these runs; check the side length, wheelbase and units")
+            raise ExactFitError(
+                f"the exact fit ran into the bound of {name} ({p[j]:.4g}): no plausible calibration "
+                "explains these runs; check the side length, wheelbase and units"
+            )
     ed_pass, eb_pass = float(p[0]), float(p[1])
 
     # goodness of fit: does the model explain the centres of gravity?
     r = prob.residuals_matrix([ed_pass], [eb_pass])[0]
-    for k, (mask, sem, name) in enumerate(((prob.is_cw, sems[0], "cw"), (~prob.is_cw, sems[1], "ccw"))):
+    for mask, sem, name in ((prob.is_cw, sems[0], "cw"), (~prob.is_cw, sems[1], "ccw")):
         miss = float(np.hypot(*r[mask, :2].mean(axis=0)))
         ref = sem if sem is not None and sem > 0 else None
         if ref is not None and miss > 5.0 * ref and miss > 1e-4 * side_m:
-            warns.append(f"the model misses the {name} centre of gravity by {miss * 1e3:.1f} mm ({miss / ref:.1f} x its "
-                         "SEM): the runs may not follow the closed-loop square model (outliers? use a robust loss)")
+            warns.append(
+                f"the model misses the {name} centre of gravity by {miss * 1e3:.1f} mm ({miss / ref:.1f} x its "
+                "SEM): the runs may not follow the closed-loop square model (outliers? use a robust loss)"
+            )
 
     # outlier runs: far from the other runs of their direction (robust scale)
     for mask, name in ((prob.is_cw, "cw"), (~prob.is_cw, "ccw")):
@@ -659,8 +690,10 @@ def exact_correction(
             ids = np.asarray(runs.run)[mask] if runs.run is not None else np.flatnonzero(mask) + 1
             for i in np.flatnonzero(dist > max(6.0 * scale, 1e-4 * side_m)):
                 if loss == "linear":
-                    warns.append(f"{name} run {ids[i]} lies {dist[i] * 1e3:.0f} mm from the other {name} runs "
-                                 f"(robust spread {scale * 1e3:.0f} mm): an outlier? try a robust loss")
+                    warns.append(
+                        f"{name} run {ids[i]} lies {dist[i] * 1e3:.0f} mm from the other {name} runs "
+                        f"(robust spread {scale * 1e3:.0f} mm): an outlier? try a robust loss"
+                    )
     weights = None
     if loss != "linear":
         z = (r / f_scale) ** 2
@@ -681,19 +714,32 @@ def exact_correction(
     }
     # plausibility: errors this large usually mean a wrong side length or wheelbase (units)
     if abs(ed_pass - 1.0) > 0.1:
-        warns.append(f"E_d = {ed_pass:.4f} (wheel diameters differing by {abs(ed_pass - 1) * 100:.0f} %) is unusual: "
-                     "check the wheelbase and side length (units: mm)")
+        warns.append(
+            f"E_d = {ed_pass:.4f} (wheel diameters differing by {abs(ed_pass - 1) * 100:.0f} %) is unusual: "
+            "check the wheelbase and side length (units: mm)"
+        )
     if not (1.0 / 3.0 <= eb_pass <= 3.0):
-        warns.append(f"E_b = {eb_pass:.4f} is unusual (the effective wheelbase would be {eb_pass * wheelbase_m * 1e3:.0f} "
-                     "mm): check the wheelbase and side length (units: mm)")
+        warns.append(
+            f"E_b = {eb_pass:.4f} is unusual (the effective wheelbase would be {eb_pass * wheelbase_m * 1e3:.0f} "
+            "mm): check the wheelbase and side length (units: mm)"
+        )
     ed_total, cal = compose(ed_pass, eb_pass, wheelbase_m, prior)
     if es != 1.0:
         cal = Calibration(cal.c_left * es, cal.c_right * es, cal.wheelbase_m)
     if ist is None:
         warns.append("no confidence intervals: they need at least 2 runs in each direction and a well-conditioned fit")
-        extra.update({"Ed_ci95": None, "Eb_ci95": None, "wheelbase_corrected_mm_ci95": None,
-                      "Ed_se": None, "Eb_se": None, "Ed_pass_ci95": None,
-                      "emax_syst_after_pred_mm": None, "emax_syst_after_pred_measured_mm": None})
+        extra.update(
+            {
+                "Ed_ci95": None,
+                "Eb_ci95": None,
+                "wheelbase_corrected_mm_ci95": None,
+                "Ed_se": None,
+                "Eb_se": None,
+                "Ed_pass_ci95": None,
+                "emax_syst_after_pred_mm": None,
+                "emax_syst_after_pred_measured_mm": None,
+            }
+        )
     else:
         cov, df, _, _ = ist
         se = np.sqrt(np.maximum(np.diag(cov), 0.0))
@@ -702,24 +748,28 @@ def exact_correction(
         eb_lo, eb_hi = eb_pass - q[1] * se[1], eb_pass + q[1] * se[1]
         prior_ed = (prior or Calibration()).ed
         syst, meas = _predicted_after(prob, p, cov, sems)
-        extra.update({
-            "Ed_se": float(se[0] * prior_ed),
-            "Eb_se": float(se[1]),
-            "Ed_ci95": [float(ed_lo * prior_ed), float(ed_hi * prior_ed)],
-            "Ed_pass_ci95": [float(ed_lo), float(ed_hi)],
-            "Eb_ci95": [float(eb_lo), float(eb_hi)],
-            "wheelbase_corrected_mm_ci95": [float(eb_lo * wheelbase_m * 1e3), float(eb_hi * wheelbase_m * 1e3)],
-            "ci_dof": [float(df[0]), float(df[1])],
-            "Ed_Eb_corr": float(cov[0, 1] / (se[0] * se[1])) if se[0] > 0 and se[1] > 0 else None,
-            "emax_syst_after_pred_mm": syst * 1e3,
-            "emax_syst_after_pred_measured_mm": meas * 1e3,
-        })
+        extra.update(
+            {
+                "Ed_se": float(se[0] * prior_ed),
+                "Eb_se": float(se[1]),
+                "Ed_ci95": [float(ed_lo * prior_ed), float(ed_hi * prior_ed)],
+                "Ed_pass_ci95": [float(ed_lo), float(ed_hi)],
+                "Eb_ci95": [float(eb_lo), float(eb_hi)],
+                "wheelbase_corrected_mm_ci95": [float(eb_lo * wheelbase_m * 1e3), float(eb_hi * wheelbase_m * 1e3)],
+                "ci_dof": [float(df[0]), float(df[1])],
+                "Ed_Eb_corr": float(cov[0, 1] / (se[0] * se[1])) if se[0] > 0 and se[1] > 0 else None,
+                "emax_syst_after_pred_mm": syst * 1e3,
+                "emax_syst_after_pred_measured_mm": meas * 1e3,
+            }
+        )
         if confidence != 0.95:
             extra["confidence"] = confidence
         if (eb_hi - eb_lo) > 0.05 * eb_pass or (ed_hi - ed_lo) > 0.01:
-            warns.append(f"the runs determine the calibration poorly (E_d {ed_lo * prior_ed:.4f} to "
-                         f"{ed_hi * prior_ed:.4f}, E_b {eb_lo:.3f} to {eb_hi:.3f}): too few runs or too much "
-                         "scatter")
+            warns.append(
+                f"the runs determine the calibration poorly (E_d {ed_lo * prior_ed:.4f} to "
+                f"{ed_hi * prior_ed:.4f}, E_b {eb_lo:.3f} to {eb_hi:.3f}): too few runs or too much "
+                "scatter"
+            )
     # the paper's alpha/beta equivalents of the fitted errors, for comparison with bf
     alpha = 0.5 * math.pi * (1.0 - es / eb_pass)  # turn shortfall per 90 deg turn
     beta = 2.0 * es * (ed_pass - 1.0) / (ed_pass + 1.0) * side_m / (eb_pass * wheelbase_m)

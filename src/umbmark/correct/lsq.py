@@ -1,8 +1,8 @@
 """General-path least squares (method ``lsq``): wheel diameters and wheelbase from logs of any
 path with ground truth (circles, free driving, straight-and-spin, squares).
 
-The logged wheel increments are replayed (:func:`umbmark.logs.replay_increments`, exact arcs;
-the fast kernels of :mod:`umbmark.odometry` on long logs; end poses only in end mode) with
+The logged wheel increments are replayed (:func:`umbmark.model.dataset.replay_increments`, exact arcs;
+the fast kernels of :mod:`umbmark.model.odometry` on long logs; end poses only in end mode) with
 trial parameters, and the parameters minimise the pose errors of the replayed odometry
 against the ground truth:
 
@@ -33,7 +33,7 @@ tracked point.
 
 Uncertainty: the standard deviations from the Gauss-Newton covariance
 ``s^2 (J^T J)^-1`` (``s^2`` = residual sum of squares / (N - p)). In sampled mode the residuals
-along one run are strongly correlated, so these are optimistic; :mod:`umbmark.replay`
+along one run are strongly correlated, so these are optimistic; :mod:`umbmark.realrobot.replay`
 adds a leave-one-run-out jackknife, which is the figure to trust.
 """
 
@@ -45,9 +45,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import least_squares
 
-from ..errors import InputError
-from ..kinematics import OdometryParams
-from ..logs import FAST_MIN_SAMPLES, Dataset, WheelGeometry, replay_increments
+from umbmark.errors import InputError
+from umbmark.model.dataset import FAST_MIN_SAMPLES, Dataset, WheelGeometry, replay_increments
+from umbmark.model.geometry import OdometryParams
 
 __all__ = ["LsqResult", "fit_lsq", "LSQ_DEFAULTS"]
 
@@ -131,14 +131,19 @@ class _Problem:
         # whole-number increments (encoder pulses): checked once, not at every trial
         self.integral = None
         if self.dl.size >= FAST_MIN_SAMPLES:
-            self.integral = bool(np.all(self.dl == np.round(self.dl)) and np.all(self.dr == np.round(self.dr))
-                                 and max(np.abs(self.dl).max(), np.abs(self.dr).max()) < 2 ** 52)
+            self.integral = bool(
+                np.all(self.dl == np.round(self.dl))
+                and np.all(self.dr == np.round(self.dr))
+                and max(np.abs(self.dl).max(), np.abs(self.dr).max()) < 2**52
+            )
 
     def residuals(self, d_left, d_right, b, w, offset=None):
         p = OdometryParams(self.k * d_left, self.k * d_right, b)
         if self.end:  # one end pose per run, in run order
-            x, y, th = (np.reshape(a, -1)[self.rows]
-                        for a in replay_increments(self.dl, self.dr, p, end=True, integral=self.integral))
+            x, y, th = (
+                np.reshape(a, -1)[self.rows]
+                for a in replay_increments(self.dl, self.dr, p, end=True, integral=self.integral)
+            )
         else:
             x, y, th = replay_increments(self.dl, self.dr, p, integral=self.integral)
             sel = (self.rows, self.cols)
@@ -155,9 +160,9 @@ class _Problem:
 
 def _scale_decision(datasets, mode, scale):
     if scale == "fit":
-        return True, "asked for (--scale fit)"
+        return True, 'asked for (`scale="fit"`)'
     if scale == "fixed":
-        return False, "asked for (--scale fixed)"
+        return False, 'asked for (`scale="fixed"`)'
     if mode == "sampled":
         return True, "the ground truth along the path measures distances, so it fixes the scale"
     ratios = []
@@ -171,13 +176,21 @@ def _scale_decision(datasets, mode, scale):
     r = float(np.mean(ratios)) if ratios else 0.0
     if r >= 0.1:
         return True, f"the runs end {100 * r:.0f} % of their path length from the start, so the end poses fix the scale"
-    return False, (f"the runs end near their start ({100 * r:.1f} % of the path length): closed paths do not fix the "
-                   "scale, so D_avg is kept at nominal")
+    return False, (
+        f"the runs end near their start ({100 * r:.1f} % of the path length): closed paths do not fix the "
+        "scale, so D_avg is kept at nominal"
+    )
 
 
-def fit_lsq(datasets, mode: str = "auto", scale: str = "auto", heading_weight_m: float = 0.5,
-            points_per_run: int = 100, start: WheelGeometry | None = None,
-            fit_offset: bool = False) -> LsqResult:
+def fit_lsq(
+    datasets,
+    mode: str = "auto",
+    scale: str = "auto",
+    heading_weight_m: float = 0.5,
+    points_per_run: int = 100,
+    start: WheelGeometry | None = None,
+    fit_offset: bool = False,
+) -> LsqResult:
     """Fit the geometry to one or more data sets of the same robot (see the module docstring).
 
     The data sets may have different nominal geometries (the fit is in absolute diameters and
@@ -219,21 +232,25 @@ def fit_lsq(datasets, mode: str = "auto", scale: str = "auto", heading_weight_m:
         return math.exp(min(max(float(v), -_LOG_LIMIT), _LOG_LIMIT))
 
     if fit_scale:
+
         def unpack(p):
             return _exp(p[0]), _exp(p[1]), _exp(p[2])
+
         p0 = np.log([s0.diameter_left_m, s0.diameter_right_m, s0.wheelbase_m])
     else:
+
         def unpack(p):
             ed = _exp(p[0])
             d_l = 2.0 * d_avg0 / (1.0 + ed)
             return d_l, d_l * ed, _exp(p[1])
+
         p0 = np.array([math.log(s0.ed), math.log(s0.wheelbase_m)])
     ng = p0.size
     if fit_offset:
         p0 = np.concatenate([p0, [0.0, 0.0]])
 
     def offset_of(p):
-        return p[ng:ng + 2] if fit_offset else None
+        return p[ng : ng + 2] if fit_offset else None
 
     def fun(p):
         d_l, d_r, b = unpack(p)
@@ -244,15 +261,22 @@ def fit_lsq(datasets, mode: str = "auto", scale: str = "auto", heading_weight_m:
             parts += [ex, ey, w * eth]
         return np.concatenate(parts)
 
-    sol = least_squares(fun, p0, method="lm", x_scale=np.full(p0.size, 1e-3), xtol=1e-12, ftol=1e-12, gtol=1e-12,
-                        max_nfev=400 * p0.size)
+    sol = least_squares(
+        fun, p0, method="lm", x_scale=np.full(p0.size, 1e-3), xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=400 * p0.size
+    )
     d_l, d_r, b = unpack(sol.x)
     ratios = np.array([d_l / nominal.diameter_left_m, d_r / nominal.diameter_right_m, b / nominal.wheelbase_m])
-    if not (np.all(np.isfinite(sol.x)) and np.all(np.isfinite(ratios)) and np.all(ratios > 1.0 / _MAX_FACTOR)
-            and np.all(ratios < _MAX_FACTOR)):
-        raise InputError("lsq did not converge to a valid geometry (diameters or wheelbase more than "
-                         f"{_MAX_FACTOR:g}x off nominal: the data do not determine the fitted parameters; check the "
-                         "units and the ground truth, or use --scale fixed)")
+    if not (
+        np.all(np.isfinite(sol.x))
+        and np.all(np.isfinite(ratios))
+        and np.all(ratios > 1.0 / _MAX_FACTOR)
+        and np.all(ratios < _MAX_FACTOR)
+    ):
+        raise InputError(
+            "lsq did not converge to a valid geometry (diameters or wheelbase more than "
+            f"{_MAX_FACTOR:g}x off nominal: the data do not determine the fitted parameters; check the "
+            "units and the ground truth, or use `scale='fixed'`)"
+        )
     try:
         geom = WheelGeometry(d_l, d_r, b)
     except InputError:
@@ -280,13 +304,17 @@ def fit_lsq(datasets, mode: str = "auto", scale: str = "auto", heading_weight_m:
         G[:, j] = (derived(pp) - g0) / h
     cov_g = G @ cov_p @ G.T
     sd = np.sqrt(np.clip(np.diag(cov_g), 0, None))
-    std = {"diameter_left_mm": sd[0] * 1e3, "diameter_right_mm": sd[1] * 1e3, "wheelbase_mm": sd[2] * 1e3,
-           "Ed": sd[3], "Es": sd[4] if fit_scale else 0.0}
+    std = {
+        "diameter_left_mm": sd[0] * 1e3,
+        "diameter_right_mm": sd[1] * 1e3,
+        "wheelbase_mm": sd[2] * 1e3,
+        "Ed": sd[3],
+        "Es": sd[4] if fit_scale else 0.0,
+    }
     extra = {"heading_weight_m": w, "points_per_run": points_per_run if mode == "sampled" else 1}
     if fit_offset:
-        extra["tracked_point_offset_mm"] = [float(v) * 1e3 for v in sol.x[ng:ng + 2]]
-        extra["tracked_point_offset_std_mm"] = [float(math.sqrt(max(cov_p[i, i], 0.0))) * 1e3
-                                                for i in (ng, ng + 1)]
+        extra["tracked_point_offset_mm"] = [float(v) * 1e3 for v in sol.x[ng : ng + 2]]
+        extra["tracked_point_offset_std_mm"] = [float(math.sqrt(max(cov_p[i, i], 0.0))) * 1e3 for i in (ng, ng + 1)]
     # position / heading parts of the residuals
     pos, head = [], []
     for pr in problems:
@@ -296,8 +324,18 @@ def fit_lsq(datasets, mode: str = "auto", scale: str = "auto", heading_weight_m:
     pos = np.concatenate(pos)
     head = np.concatenate(head)
     return LsqResult(
-        geometry=geom, nominal=nominal, mode=mode, scale_fitted=fit_scale, scale_reason=reason, std=std,
-        n_runs=len(all_runs), n_residuals=n_res, rms_position_m=float(np.sqrt(np.mean(pos ** 2))),
-        rms_heading_rad=float(np.sqrt(np.mean(head ** 2))), cost=float(sol.cost), success=bool(sol.success),
-        message=str(sol.message), extra=extra,
+        geometry=geom,
+        nominal=nominal,
+        mode=mode,
+        scale_fitted=fit_scale,
+        scale_reason=reason,
+        std=std,
+        n_runs=len(all_runs),
+        n_residuals=n_res,
+        rms_position_m=float(np.sqrt(np.mean(pos**2))),
+        rms_heading_rad=float(np.sqrt(np.mean(head**2))),
+        cost=float(sol.cost),
+        success=bool(sol.success),
+        message=str(sol.message),
+        extra=extra,
     )

@@ -7,7 +7,7 @@ A method is a callable ``fn(runs, side_m, wheelbase_m, prior=None, **options)`` 
 
 from __future__ import annotations
 
-from ..errors import InputError
+from umbmark.errors import InputError
 
 METHODS: dict = {}
 

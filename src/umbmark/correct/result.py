@@ -5,8 +5,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
-from ..errors import CorrectionUndefined
-from ..kinematics import Calibration
+from umbmark.errors import CorrectionUndefined
+from umbmark.model.geometry import Calibration
 
 __all__ = ["CorrectionResult", "compose"]
 

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
+from umbmark.errors import InputError
 
 
 def read_text(path) -> str:
@@ -74,8 +74,9 @@ def numeric_rows(text: str, source: str, ncols: int | None = None, names=None, s
             try:
                 v = float(c)
             except ValueError:
-                raise InputError(f"column {col}: {c!r} is not a number" if c else f"column {col} is empty",
-                                 source, i) from None
+                raise InputError(
+                    f"column {col}: {c!r} is not a number" if c else f"column {col} is empty", source, i
+                ) from None
             if not math.isfinite(v):
                 raise InputError(f"column {col}: {c!r} is not a finite number", source, i)
             vals.append(v)

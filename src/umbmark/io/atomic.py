@@ -7,7 +7,7 @@ import tempfile
 from contextlib import contextmanager
 from pathlib import Path
 
-from ..errors import InputError
+from umbmark.errors import InputError
 
 __all__ = ["atomic_write", "atomic_path"]
 

@@ -30,8 +30,8 @@ from pathlib import Path
 
 import yaml
 
-from ..errors import InputError
-from .atomic import atomic_write
+from umbmark.errors import InputError
+from umbmark.io.atomic import atomic_write
 
 __all__ = ["ExportCalibration", "ros_multipliers", "format_export", "FORMATS", "calibration_from_json"]
 
@@ -95,8 +95,9 @@ def calibration_from_json(path, dataset: str | None = None) -> ExportCalibration
     if "datasets" in d and isinstance(d["datasets"], list) and d["datasets"] and isinstance(d["datasets"][0], dict):
         names = [x.get("dataset") for x in d["datasets"]]
         if dataset is None:
-            raise InputError(f"holds {len(names)} data sets: choose one with --dataset ({', '.join(map(str, names))})",
-                             source=src)
+            raise InputError(
+                f"holds {len(names)} data sets: choose one with `dataset` ({', '.join(map(str, names))})", source=src
+            )
         if dataset not in names:
             raise InputError(f"no data set {dataset!r} (have {', '.join(map(str, names))})", source=src)
         d = d["datasets"][names.index(dataset)]
@@ -118,8 +119,15 @@ def calibration_from_json(path, dataset: str | None = None) -> ExportCalibration
         raise InputError("no 'Eb' or wheelbase figures", source=src)
     mm = lambda v: None if v is None else v * 1e-3  # noqa: E731
     return ExportCalibration(
-        d["c_left"], d["c_right"], eb, mm(nom.get("diameter_left_mm")), mm(nom.get("diameter_right_mm")),
-        mm(nom.get("wheelbase_mm", d.get("wheelbase_mm"))), nom.get("units_per_wheel_rev"), src, d.get("method"),
+        d["c_left"],
+        d["c_right"],
+        eb,
+        mm(nom.get("diameter_left_mm")),
+        mm(nom.get("diameter_right_mm")),
+        mm(nom.get("wheelbase_mm", d.get("wheelbase_mm"))),
+        nom.get("units_per_wheel_rev"),
+        src,
+        d.get("method"),
     )
 
 
@@ -137,13 +145,22 @@ def ros_multipliers(cal: ExportCalibration, left0: float = 1.0, right0: float = 
 def _header(cal: ExportCalibration, comment: str) -> str:
     src = f" from {cal.source}" if cal.source else ""
     meth = f" (method {cal.method})" if cal.method else ""
-    return (f"{comment} umbmark calibration{src}{meth}: E_d = {cal.ed:.6f}, c_L = {cal.c_left:.6f}, "
-            f"c_R = {cal.c_right:.6f}, E_b = {cal.eb:.6f}\n")
+    return (
+        f"{comment} umbmark calibration{src}{meth}: E_d = {cal.ed:.6f}, c_L = {cal.c_left:.6f}, "
+        f"c_R = {cal.c_right:.6f}, E_b = {cal.eb:.6f}\n"
+    )
 
 
-def format_export(cal: ExportCalibration, fmt: str, controller: str = "diff_drive_controller",
-                  left0: float = 1.0, right0: float = 1.0, separation0: float = 1.0,
-                  wheel_radius_m: float | None = None, wheel_separation_m: float | None = None) -> str:
+def format_export(
+    cal: ExportCalibration,
+    fmt: str,
+    controller: str = "diff_drive_controller",
+    left0: float = 1.0,
+    right0: float = 1.0,
+    separation0: float = 1.0,
+    wheel_radius_m: float | None = None,
+    wheel_separation_m: float | None = None,
+) -> str:
     """The text of the export in format ``fmt`` (one of :data:`FORMATS`)."""
     if fmt not in FORMATS:
         raise InputError(f"unknown export format {fmt!r} (choose from {', '.join(FORMATS)})")
@@ -156,8 +173,10 @@ def format_export(cal: ExportCalibration, fmt: str, controller: str = "diff_driv
         if wheel_separation_m is not None:
             params = {"wheel_separation": _pos("wheel separation", wheel_separation_m), **params}
         body = {controller: {"ros__parameters": params}} if fmt == "ros2" else {controller: params}
-        note = ("# composed with the multipliers in use: left %.6g, right %.6g, separation %.6g\n"
-                % (left0, right0, separation0))
+        note = (
+            f"# composed with the multipliers in use: left {left0:.6g}, right {right0:.6g}, "
+            f"separation {separation0:.6g}\n"
+        )
         return _header(cal, "#") + note + yaml.safe_dump(body, sort_keys=False, default_flow_style=False)
     out = {"Ed": cal.ed, "Eb": cal.eb, "c_left": cal.c_left, "c_right": cal.c_right}
     if cal.nominal_diameter_left_m and cal.nominal_diameter_right_m:
@@ -174,8 +193,10 @@ def format_export(cal: ExportCalibration, fmt: str, controller: str = "diff_driv
         return json.dumps(out, indent=2) + "\n"
     # firmware
     if mmpp is None:
-        raise InputError("the firmware export needs the nominal wheel diameters and encoder pulses per wheel "
-                         "revolution (give --wheel-diameter-mm and --pulses-per-wheel-rev, or use replay's JSON)")
+        raise InputError(
+            "the firmware export needs the nominal wheel diameters and encoder pulses per wheel "
+            "revolution (give `wheel_diameter_mm` and `pulses_per_wheel_rev`, or use replay's JSON)"
+        )
     lines = [
         "/* " + _header(cal, "").strip() + " */",
         "#ifndef UMBMARK_CALIBRATION_H",

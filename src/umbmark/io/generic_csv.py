@@ -28,9 +28,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
-from ..logs import Dataset, Run, WheelGeometry, to_start_frame
-from ._text import csv_rows, header_columns, read_text
+from umbmark.errors import InputError
+from umbmark.io._text import csv_rows, header_columns, read_text
+from umbmark.model.dataset import Dataset, Run, WheelGeometry, to_start_frame
 
 __all__ = ["read_generic_csv", "format_generic_csv", "iter_generic_csv", "CsvChunk", "REQUIRED", "OPTIONAL"]
 
@@ -61,13 +61,18 @@ def _parse(text: str, src: str):
             header = header_columns(row)
             missing = [c for c in REQUIRED if c not in header]
             if missing:
-                raise InputError("header lacks column(s) " + ", ".join(missing)
-                                 + " (expected time_s,left_ticks,right_ticks[,x_m,y_m,theta_rad|theta_deg][,run])",
-                                 src, line)
+                raise InputError(
+                    "header lacks column(s) "
+                    + ", ".join(missing)
+                    + " (expected time_s,left_ticks,right_ticks[,x_m,y_m,theta_rad|theta_deg][,run])",
+                    src,
+                    line,
+                )
             if "theta_rad" in header and "theta_deg" in header:
                 raise InputError("give theta_rad or theta_deg, not both", src, line)
-            gt_cols = [c for c in ("x_m", "y_m") if c in header] + [c for c in ("theta_rad", "theta_deg")
-                                                                    if c in header]
+            gt_cols = [c for c in ("x_m", "y_m") if c in header] + [
+                c for c in ("theta_rad", "theta_deg") if c in header
+            ]
             if gt_cols and len(gt_cols) != 3:
                 raise InputError("ground truth needs x_m, y_m and theta_rad (or theta_deg)", src, line)
             continue
@@ -79,9 +84,15 @@ def _parse(text: str, src: str):
     return header, rows
 
 
-def read_generic_csv(paths, nominal: WheelGeometry, pulses_per_wheel_rev: float, ticks: str = "cumulative",
-                     side_m: float | None = None, name: str | None = None) -> Dataset:
-    """Read one or more generic CSV files into a :class:`~umbmark.logs.Dataset`."""
+def read_generic_csv(
+    paths,
+    nominal: WheelGeometry,
+    pulses_per_wheel_rev: float,
+    ticks: str = "cumulative",
+    side_m: float | None = None,
+    name: str | None = None,
+) -> Dataset:
+    """Read one or more generic CSV files into a :class:`~umbmark.model.dataset.Dataset`."""
     if ticks not in ("cumulative", "incremental"):
         raise InputError(f"ticks must be 'cumulative' or 'incremental', got {ticks!r}")
     if isinstance(paths, (str, Path)):
@@ -121,8 +132,9 @@ def read_generic_csv(paths, nominal: WheelGeometry, pulses_per_wheel_rev: float,
             bad = np.flatnonzero(np.diff(a[:, 0]) <= 0)
             if bad.size:
                 k = int(bad[0]) + 1
-                raise InputError(f"time {a[k, 0]:g} s does not increase (previous row: {a[k - 1, 0]:g} s)", src,
-                                 int(lines[k]))
+                raise InputError(
+                    f"time {a[k, 0]:g} s does not increase (previous row: {a[k - 1, 0]:g} s)", src, int(lines[k])
+                )
             if ticks == "cumulative":
                 dl = np.diff(a[:, 1], prepend=a[0, 1])
                 dr = np.diff(a[:, 2], prepend=a[0, 2])
@@ -143,8 +155,9 @@ def read_generic_csv(paths, nominal: WheelGeometry, pulses_per_wheel_rev: float,
                     gt_end = g3[-1]
                 elif ok.any():
                     if not ok[0]:
-                        raise InputError("the ground truth must start at the first row of a run (its start pose)", src,
-                                         int(lines[0]))
+                        raise InputError(
+                            "the ground truth must start at the first row of a run (its start pose)", src, int(lines[0])
+                        )
                     th = g3[:, 2].copy()
                     th[ok] = np.unwrap(th[ok])
                     x, y, t = to_start_frame(g3[ok, 0], g3[ok, 1], th[ok])
@@ -155,8 +168,9 @@ def read_generic_csv(paths, nominal: WheelGeometry, pulses_per_wheel_rev: float,
         raise InputError("no runs")
     if name is None:
         name = Path(paths[0]).stem if len(paths) == 1 else Path(paths[0]).parent.name or "logs"
-    return Dataset(name, nominal, float(pulses_per_wheel_rev), tuple(runs), side_m, str(paths[0]),
-                   meta={"format": "csv"})
+    return Dataset(
+        name, nominal, float(pulses_per_wheel_rev), tuple(runs), side_m, str(paths[0]), meta={"format": "csv"}
+    )
 
 
 def format_generic_csv(ds: Dataset) -> str:
@@ -164,9 +178,15 @@ def format_generic_csv(ds: Dataset) -> str:
     truth in each run's start frame)."""
     out = io.StringIO()
     w = csv.writer(out, lineterminator="\n")
-    w.writerow(["# umbmark generic log; nominal diameters left/right [mm], wheelbase [mm], pulses per wheel rev:",
-                f"{ds.nominal.diameter_left_m * 1e3:.6g}", f"{ds.nominal.diameter_right_m * 1e3:.6g}",
-                f"{ds.nominal.wheelbase_m * 1e3:.6g}", f"{ds.units_per_rev:.9g}"])
+    w.writerow(
+        [
+            "# umbmark generic log; nominal diameters left/right [mm], wheelbase [mm], pulses per wheel rev:",
+            f"{ds.nominal.diameter_left_m * 1e3:.6g}",
+            f"{ds.nominal.diameter_right_m * 1e3:.6g}",
+            f"{ds.nominal.wheelbase_m * 1e3:.6g}",
+            f"{ds.units_per_rev:.9g}",
+        ]
+    )
     w.writerow(["run", "time_s", "left_ticks", "right_ticks", "x_m", "y_m", "theta_rad"])
     f = lambda v: "" if not math.isfinite(v) else repr(round(float(v), 9))  # noqa: E731
     for r in ds.runs:
@@ -251,8 +271,12 @@ def iter_generic_csv(path, ticks: str = "cumulative", chunk_rows: int = 1 << 16)
             raise InputError("not a text (UTF-8) file", source=src) from None
         missing = [c for c in REQUIRED if c not in header]
         if missing:
-            raise InputError("header lacks column(s) " + ", ".join(missing)
-                             + " (expected time_s,left_ticks,right_ticks[,x_m,y_m,theta_rad|theta_deg][,run])", src)
+            raise InputError(
+                "header lacks column(s) "
+                + ", ".join(missing)
+                + " (expected time_s,left_ticks,right_ticks[,x_m,y_m,theta_rad|theta_deg][,run])",
+                src,
+            )
         if "theta_rad" in header and "theta_deg" in header:
             raise InputError("give theta_rad or theta_deg, not both", src)
         gt_cols = [c for c in ("x_m", "y_m", "theta_rad", "theta_deg") if c in header]
@@ -263,15 +287,29 @@ def iter_generic_csv(path, ticks: str = "cumulative", chunk_rows: int = 1 << 16)
         idx = [header.index(c) for c in use]
         run_col = header.index("run") if "run" in header else None
         need = max(idx + ([run_col] if run_col is not None else [])) + 1
-        state = {"label": None, "t": None, "l": None, "r": None, "origin": None, "theta": None,
-                 "end_only": None, "rows": 0}
+        state = {
+            "label": None,
+            "t": None,
+            "l": None,
+            "r": None,
+            "origin": None,
+            "theta": None,
+            "end_only": None,
+            "rows": 0,
+        }
         buf = []
 
         def parse(block):
             if run_col is None:  # fast path: numpy's C parser; any doubt -> the checking parser below
                 try:
-                    vals = np.loadtxt(io.StringIO("\n".join(text for _, text in block)), delimiter=",",
-                                      usecols=idx, ndmin=2, dtype=float, comments=None)
+                    vals = np.loadtxt(
+                        io.StringIO("\n".join(text for _, text in block)),
+                        delimiter=",",
+                        usecols=idx,
+                        ndmin=2,
+                        dtype=float,
+                        comments=None,
+                    )
                     if vals.shape == (len(block), len(use)) and np.all(np.isfinite(vals)):
                         return vals
                 except ValueError:
@@ -288,8 +326,9 @@ def iter_generic_csv(path, ticks: str = "cumulative", chunk_rows: int = 1 << 16)
                     if state["label"] is None:
                         state["label"] = label
                     elif label != state["label"]:
-                        raise InputError(f"streaming reads one run per file; run {label!r} follows run "
-                                         f"{state['label']!r}", src, ln)
+                        raise InputError(
+                            f"streaming reads one run per file; run {label!r} follows run {state['label']!r}", src, ln
+                        )
                 for c, (name, k) in enumerate(zip(use, idx)):
                     vals[j, c] = _cell(r[k], name, src, ln, c >= 3)
             return vals
@@ -298,8 +337,11 @@ def iter_generic_csv(path, ticks: str = "cumulative", chunk_rows: int = 1 << 16)
             a = parse(block)
             ln = np.array([b[0] for b in block])
             t, cl, cr = a[:, 0], a[:, 1], a[:, 2]
-            prev_t = np.concatenate([[state["t"]], t[:-1]]) if state["t"] is not None else np.concatenate(
-                [[-np.inf], t[:-1]])
+            prev_t = (
+                np.concatenate([[state["t"]], t[:-1]])
+                if state["t"] is not None
+                else np.concatenate([[-np.inf], t[:-1]])
+            )
             bad = np.flatnonzero(t <= prev_t)
             if bad.size:
                 k = int(bad[0])
@@ -335,12 +377,18 @@ def iter_generic_csv(path, ticks: str = "cumulative", chunk_rows: int = 1 << 16)
                 if state["end_only"]:
                     # only the run's last row may hold a (start-frame) end pose
                     if state.get("pending") is not None:
-                        raise InputError("the ground truth must start at the first row of a run (its start pose)",
-                                         src, int(state["pending"]))
+                        raise InputError(
+                            "the ground truth must start at the first row of a run (its start pose)",
+                            src,
+                            int(state["pending"]),
+                        )
                     hits = np.flatnonzero(ok)
                     if hits.size > 1 or (hits.size == 1 and hits[0] != len(g) - 1):
-                        raise InputError("the ground truth must start at the first row of a run (its start pose)",
-                                         src, int(ln[hits[0]]))
+                        raise InputError(
+                            "the ground truth must start at the first row of a run (its start pose)",
+                            src,
+                            int(ln[hits[0]]),
+                        )
                     state["pending"] = int(ln[hits[0]]) if hits.size else None
                     gt = g
                 else:

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from ..errors import InputError
-from ..logs import Dataset, WheelGeometry
+from umbmark.errors import InputError
+from umbmark.model.dataset import Dataset, WheelGeometry
 
 __all__ = ["LOG_FORMATS", "detect_format", "load_logs"]
 
@@ -13,8 +13,8 @@ LOG_FORMATS = ("auto", "optiodom", "csv", "bag")
 
 
 def detect_format(path) -> str:
-    from .optiodom import is_optiodom
-    from .rosbag import is_bag
+    from umbmark.io.optiodom import is_optiodom
+    from umbmark.io.rosbag import is_bag
 
     p = Path(path)
     if not p.exists():
@@ -25,8 +25,9 @@ def detect_format(path) -> str:
         return "bag"
     if p.is_file() and p.suffix.lower() in (".csv", ".txt"):
         return "csv"
-    raise InputError("cannot tell the log format (an optiodom folder, a .csv log or a ROS bag); give --format",
-                     source=str(path))
+    raise InputError(
+        "cannot tell the log format (an optiodom folder, a .csv log or a ROS bag); give `fmt`", source=str(path)
+    )
 
 
 def _nominal(opts: dict, source: str) -> WheelGeometry:
@@ -35,8 +36,11 @@ def _nominal(opts: dict, source: str) -> WheelGeometry:
     dr = opts.get("right_diameter_mm") or d
     b = opts.get("wheelbase_mm")
     if dl is None or dr is None or b is None:
-        raise InputError("this log format does not hold the nominal geometry: give --wheel-diameter-mm (or "
-                         "--left-diameter-mm/--right-diameter-mm) and --wheelbase-mm", source=source)
+        raise InputError(
+            "this log format does not hold the nominal geometry: give `wheel_diameter_mm` (or "
+            "`left_diameter_mm`/`right_diameter_mm`) and `wheelbase_mm`",
+            source=source,
+        )
     return WheelGeometry(dl * 1e-3, dr * 1e-3, b * 1e-3)
 
 
@@ -52,7 +56,7 @@ def load_logs(paths, fmt: str = "auto", **opts) -> Dataset:
     side = opts.get("side_mm")
     side_m = None if side is None else side * 1e-3
     if fmt == "optiodom":
-        from .optiodom import read_optiodom
+        from umbmark.io.optiodom import read_optiodom
 
         if len(paths) != 1:
             raise InputError("one optiodom folder per data set")
@@ -63,14 +67,15 @@ def load_logs(paths, fmt: str = "auto", **opts) -> Dataset:
             ds = replace(ds, side_m=side_m)
         return ds
     if fmt == "csv":
-        from .generic_csv import read_generic_csv
+        from umbmark.io.generic_csv import read_generic_csv
 
         ppr = opts.get("pulses_per_wheel_rev")
         if ppr is None:
-            raise InputError("the CSV log needs --pulses-per-wheel-rev (encoder pulses per wheel revolution)",
-                             source=str(paths[0]))
+            raise InputError(
+                "the CSV log needs `pulses_per_wheel_rev` (encoder pulses per wheel revolution)", source=str(paths[0])
+            )
         return read_generic_csv(paths, _nominal(opts, str(paths[0])), ppr, opts.get("ticks") or "cumulative", side_m)
-    from .rosbag import read_bag
+    from umbmark.io.rosbag import read_bag
 
     if len(paths) != 1:
         raise InputError("one bag per data set")
@@ -78,18 +83,28 @@ def load_logs(paths, fmt: str = "auto", **opts) -> Dataset:
     if isinstance(joints, str):
         parts = [j.strip() for j in joints.split(",")]
         if len(parts) != 2 or not all(parts):
-            raise InputError(f"--joints needs two names LEFT,RIGHT, got {joints!r}")
+            raise InputError(f"`joints` needs two names LEFT,RIGHT, got {joints!r}")
         joints = tuple(parts)
     ranges = opts.get("ranges")
     if isinstance(ranges, str):
         ranges = parse_ranges(ranges)
     return read_bag(
-        paths[0], nominal=_nominal(opts, str(paths[0])), joints=joints,
-        joint_topic=opts.get("joint_topic") or "/joint_states", ticks_topic=opts.get("ticks_topic"),
-        left_field=opts.get("left_field"), right_field=opts.get("right_field"),
-        ticks=opts.get("ticks") or "cumulative", units_per_rev=opts.get("pulses_per_wheel_rev"),
-        gt_topic=opts.get("gt_topic"), gt_frame=opts.get("gt_frame"), gt_parent=opts.get("gt_parent"),
-        ranges=ranges, stops=bool(opts.get("split_stops")), stop_s=opts.get("stop_s") or 1.0, side_m=side_m,
+        paths[0],
+        nominal=_nominal(opts, str(paths[0])),
+        joints=joints,
+        joint_topic=opts.get("joint_topic") or "/joint_states",
+        ticks_topic=opts.get("ticks_topic"),
+        left_field=opts.get("left_field"),
+        right_field=opts.get("right_field"),
+        ticks=opts.get("ticks") or "cumulative",
+        units_per_rev=opts.get("pulses_per_wheel_rev"),
+        gt_topic=opts.get("gt_topic"),
+        gt_frame=opts.get("gt_frame"),
+        gt_parent=opts.get("gt_parent"),
+        ranges=ranges,
+        stops=bool(opts.get("split_stops")),
+        stop_s=opts.get("stop_s") or 1.0,
+        side_m=side_m,
     )
 
 
@@ -105,31 +120,3 @@ def parse_ranges(text: str):
             raise InputError(f"bad time range {part.strip()!r}: need 0 <= START < END")
         out.append((a, b))
     return out
-
-
-def stream_log(path, decimate: int | None = None, chunk_rows: int = 1 << 16, fmt: str = "auto", **opts) -> dict:
-    """Replay ONE long generic CSV log with the nominal geometry of ``opts`` in bounded memory
-    (read in chunks of ``chunk_rows`` rows, see :func:`umbmark.replay.stream_replay`)."""
-    from ..replay import stream_replay
-    from .generic_csv import iter_generic_csv
-
-    if isinstance(path, (list, tuple)):
-        if len(path) != 1:
-            raise InputError("streaming replays one log file at a time")
-        path = path[0]
-    if fmt == "auto":
-        fmt = detect_format(path)
-    if fmt != "csv":
-        raise InputError(f"streaming reads the generic CSV log only (this is {fmt}; use `umbmark convert` first)",
-                         source=str(path))
-    if opts.get("side_mm") is not None:
-        raise InputError("streaming replays one run with the given geometry; UMBmark squares (--side-mm) need "
-                         "the whole data set (leave out --stream)")
-    ppr = opts.get("pulses_per_wheel_rev")
-    if ppr is None:
-        raise InputError("the CSV log needs --pulses-per-wheel-rev (encoder pulses per wheel revolution)",
-                         source=str(path))
-    nominal = _nominal(opts, str(path))
-    rep = stream_replay(iter_generic_csv(path, opts.get("ticks") or "cumulative", chunk_rows), nominal, ppr,
-                        decimate=decimate)
-    return {"dataset": Path(path).stem, "source": str(path), "format": "csv", **rep}

@@ -22,9 +22,9 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
-from ..logs import Dataset, Run, WheelGeometry, to_start_frame
-from ._text import check_increasing_time, numeric_rows, read_text
+from umbmark.errors import InputError
+from umbmark.io._text import check_increasing_time, numeric_rows, read_text
+from umbmark.model.dataset import Dataset, Run, WheelGeometry, to_start_frame
 
 __all__ = ["read_optiodom", "read_metadata", "is_optiodom"]
 
@@ -85,13 +85,14 @@ def _num(meta: dict, key: str, source: str, count: int = 1, required: bool = Tru
 
 
 def read_optiodom(folder) -> Dataset:
-    """Read one optiodom data-set folder into a :class:`~umbmark.logs.Dataset`."""
+    """Read one optiodom data-set folder into a :class:`~umbmark.model.dataset.Dataset`."""
     folder = Path(folder)
     if not folder.exists():
         raise InputError("folder not found", source=str(folder))
     if not folder.is_dir():
-        raise InputError("not a folder: an optiodom data set is a folder with a *_metadata.csv file",
-                         source=str(folder))
+        raise InputError(
+            "not a folder: an optiodom data set is a folder with a *_metadata.csv file", source=str(folder)
+        )
     mfile = _metadata_file(folder)
     src = str(mfile)
     meta = read_metadata(mfile)
@@ -119,8 +120,13 @@ def read_optiodom(folder) -> Dataset:
     if side is not None and n % 2 == 0:
         directions = tuple(["cw"] * (n // 2) + ["ccw"] * (n // 2))
     return Dataset(
-        name=folder.name, nominal=WheelGeometry(d_left, d_right, b), units_per_rev=ngear * enc, runs=tuple(runs),
-        side_m=side, source=str(folder), directions=directions,
+        name=folder.name,
+        nominal=WheelGeometry(d_left, d_right, b),
+        units_per_rev=ngear * enc,
+        runs=tuple(runs),
+        side_m=side,
+        source=str(folder),
+        directions=directions,
         meta={"format": "optiodom", "gear_ratio": ngear, "pulses_per_rev": enc, "ignored_files": extra},
     )
 
@@ -136,8 +142,9 @@ def read_run_file(path) -> Run:
         frac = np.flatnonzero(a[:, col] != np.round(a[:, col]))
         if frac.size:
             k = int(frac[0])
-            raise InputError(f"column {COLUMNS[col]}: {a[k, col]:g} is not a whole number of encoder pulses", src,
-                             int(lines[k]))
+            raise InputError(
+                f"column {COLUMNS[col]}: {a[k, col]:g} is not a whole number of encoder pulses", src, int(lines[k])
+            )
     gx, gy, gth = to_start_frame(a[:, 1], a[:, 2], a[:, 3])
     m = re.search(r"run-(\d+)", Path(path).stem)
     name = f"run-{m.group(1)}" if m else Path(path).stem

@@ -30,8 +30,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError
-from ..logs import Dataset, Run, WheelGeometry, split_at_stops
+from umbmark.errors import InputError
+from umbmark.model.dataset import Dataset, Run, WheelGeometry, split_at_stops
 
 __all__ = ["read_bag", "bag_info", "is_bag"]
 
@@ -61,8 +61,9 @@ def _open(path):
         reader = AnyReader([p], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
         reader.open()
     except Exception as e:  # rosbags raises several error types for unreadable bags
-        raise InputError(f"cannot read as a ROS bag: {' '.join(str(e).split()) or type(e).__name__}",
-                         source=str(path)) from None
+        raise InputError(
+            f"cannot read as a ROS bag: {' '.join(str(e).split()) or type(e).__name__}", source=str(path)
+        ) from None
     return reader
 
 
@@ -74,8 +75,12 @@ def bag_info(path) -> dict:
         for c in reader.connections:
             t = topics.setdefault(c.topic, {"topic": c.topic, "type": c.msgtype, "messages": 0})
             t["messages"] += c.msgcount
-        return {"bag": str(path), "duration_s": reader.duration * 1e-9 if reader.message_count else 0.0,
-                "messages": reader.message_count, "topics": sorted(topics.values(), key=lambda x: x["topic"])}
+        return {
+            "bag": str(path),
+            "duration_s": reader.duration * 1e-9 if reader.message_count else 0.0,
+            "messages": reader.message_count,
+            "topics": sorted(topics.values(), key=lambda x: x["topic"]),
+        }
     finally:
         reader.close()
 
@@ -127,12 +132,27 @@ def _topic_conns(reader, topic, source, what):
     return conns
 
 
-def read_bag(path, *, nominal: WheelGeometry, joints=None, joint_topic: str = "/joint_states",
-             ticks_topic: str | None = None, left_field: str | None = None, right_field: str | None = None,
-             ticks: str = "cumulative", units_per_rev: float | None = None, gt_topic: str | None = None,
-             gt_frame: str | None = None, gt_parent: str | None = None, ranges=None, stops: bool = False,
-             stop_s: float = 1.0, side_m: float | None = None, name: str | None = None) -> Dataset:
-    """Read one bag into a :class:`~umbmark.logs.Dataset` (see the module docstring)."""
+def read_bag(
+    path,
+    *,
+    nominal: WheelGeometry,
+    joints=None,
+    joint_topic: str = "/joint_states",
+    ticks_topic: str | None = None,
+    left_field: str | None = None,
+    right_field: str | None = None,
+    ticks: str = "cumulative",
+    units_per_rev: float | None = None,
+    gt_topic: str | None = None,
+    gt_frame: str | None = None,
+    gt_parent: str | None = None,
+    ranges=None,
+    stops: bool = False,
+    stop_s: float = 1.0,
+    side_m: float | None = None,
+    name: str | None = None,
+) -> Dataset:
+    """Read one bag into a :class:`~umbmark.model.dataset.Dataset` (see the module docstring)."""
     src = str(path)
     if (joints is None) == (ticks_topic is None):
         raise InputError("give either the wheel joint names (JointState) or a ticks topic with its fields", src)
@@ -153,13 +173,14 @@ def read_bag(path, *, nominal: WheelGeometry, joints=None, joint_topic: str = "/
                     pl.append(float(pos[names.index(left)]))
                     pr.append(float(pos[names.index(right)]))
             if not t:
-                raise InputError(f"no JointState message on {joint_topic} names both joints {left!r} and {right!r}",
-                                 src)
+                raise InputError(
+                    f"no JointState message on {joint_topic} names both joints {left!r} and {right!r}", src
+                )
             cumulative = True
             upr = 2.0 * math.pi
         else:
             if not left_field or not right_field:
-                raise InputError("a ticks topic needs --left-field and --right-field", src)
+                raise InputError("a ticks topic needs `left_field` and `right_field`", src)
             if units_per_rev is None:
                 raise InputError("encoder ticks need the pulses per wheel revolution", src)
             conns = _topic_conns(reader, ticks_topic, src, "encoder ticks")
@@ -176,10 +197,13 @@ def read_bag(path, *, nominal: WheelGeometry, joints=None, joint_topic: str = "/
             gconns = _topic_conns(reader, gt_topic, src, "ground truth")
             gtype = gconns[0].msgtype.split("/")[-1]
             if gtype not in _GT_TYPES:
-                raise InputError(f"ground-truth topic {gt_topic} has type {gconns[0].msgtype}; expected PoseStamped, "
-                                 "Odometry or TFMessage", src)
+                raise InputError(
+                    f"ground-truth topic {gt_topic} has type {gconns[0].msgtype}; expected PoseStamped, "
+                    "Odometry or TFMessage",
+                    src,
+                )
             if gtype == "TFMessage" and not gt_frame:
-                raise InputError("ground truth from /tf needs the tracked frame (--gt-frame)", src)
+                raise InputError("ground truth from /tf needs the tracked frame (`gt_frame`)", src)
             gt = []
             for c, ns, raw in reader.messages(connections=gconns):
                 msg = reader.deserialize(raw, c.msgtype)
@@ -224,10 +248,11 @@ def read_bag(path, *, nominal: WheelGeometry, joints=None, joint_topic: str = "/
         if inside.sum() < 2:
             raise InputError("the ground truth does not overlap the wheel samples in time", src)
         a, b = np.flatnonzero(inside)[[0, -1]]
-        t, dl, dr = t[a:b + 1], dl[a:b + 1].copy(), dr[a:b + 1].copy()
+        t, dl, dr = t[a : b + 1], dl[a : b + 1].copy(), dr[a : b + 1].copy()
         dl[0] = dr[0] = 0.0
-        gtk = np.column_stack([np.interp(t, g[:, 0], g[:, 1]), np.interp(t, g[:, 0], g[:, 2]),
-                               np.interp(t, g[:, 0], th)])
+        gtk = np.column_stack(
+            [np.interp(t, g[:, 0], g[:, 1]), np.interp(t, g[:, 0], g[:, 2]), np.interp(t, g[:, 0], th)]
+        )
     whole = Run("bag", t - t[0], dl, dr, gtk, None, src)
     if ranges:
         runs = []
@@ -242,5 +267,4 @@ def read_bag(path, *, nominal: WheelGeometry, joints=None, joint_topic: str = "/
             raise InputError("no motion found to split at stops", src)
     else:
         runs = [whole.slice(0, len(whole), name="run-01")]
-    return Dataset(name or Path(path).stem, nominal, upr, tuple(runs), side_m, src,
-                   meta={"format": "bag"})
+    return Dataset(name or Path(path).stem, nominal, upr, tuple(runs), side_m, src, meta={"format": "bag"})

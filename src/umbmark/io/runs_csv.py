@@ -15,10 +15,10 @@ import math
 
 import numpy as np
 
-from ..errors import InputError
-from ..runs import DIRECTIONS, RunsTable
-from ._text import csv_rows, header_columns, read_text
-from .atomic import atomic_write
+from umbmark.errors import InputError
+from umbmark.io._text import csv_rows, header_columns, read_text
+from umbmark.io.atomic import atomic_write
+from umbmark.model.runs import DIRECTIONS, RunsTable
 
 __all__ = ["read_runs_csv", "write_runs_csv", "parse_runs_csv", "format_runs_csv", "REQUIRED", "OPTIONAL"]
 
@@ -37,16 +37,20 @@ def _number(cell: str, col: str, source: str, line: int) -> float:
     try:
         v = float(cell)
     except ValueError:
-        raise InputError(f"column {col}: {cell.strip()!r} is not a number" if cell.strip() else f"column {col} is empty",
-                         source, line) from None
+        raise InputError(
+            f"column {col}: {cell.strip()!r} is not a number" if cell.strip() else f"column {col} is empty",
+            source,
+            line,
+        ) from None
     if not math.isfinite(v):
         raise InputError(f"column {col}: {cell.strip()!r} is not a finite number", source, line)
     if col.startswith("theta"):
         if abs(v) > 360.0:
             raise InputError(f"column {col}: {cell.strip()} is not a heading in degrees (-180 to 180)", source, line)
     elif abs(v) > _MAX_MM:
-        raise InputError(f"column {col}: {cell.strip()} mm is more than 10 km from the start: check the units",
-                         source, line)
+        raise InputError(
+            f"column {col}: {cell.strip()} mm is more than 10 km from the start: check the units", source, line
+        )
     return v
 
 
@@ -64,9 +68,11 @@ def parse_runs_csv(text: str, source: str = "<runs>") -> RunsTable:
             missing = [c for c in REQUIRED if c not in header]
             if missing:
                 raise InputError(
-                    "no header with the runs-file columns: missing " + ", ".join(missing)
+                    "no header with the runs-file columns: missing "
+                    + ", ".join(missing)
                     + " (expected direction,x_abs,y_abs,x_odo,y_odo[,run,theta_abs,theta_odo])",
-                    source, line,
+                    source,
+                    line,
                 )
             dup = sorted({c for c in header if header.count(c) > 1 and c in REQUIRED + OPTIONAL})
             if dup:
@@ -107,8 +113,14 @@ def parse_runs_csv(text: str, source: str = "<runs>") -> RunsTable:
     mm = lambda c: np.asarray(data[c]) * 1e-3  # noqa: E731
     rad = lambda c: np.radians(np.asarray(data[c])) if c in data else None  # noqa: E731
     return RunsTable.from_columns(
-        data["direction"], mm("x_abs"), mm("y_abs"), mm("x_odo"), mm("y_odo"),
-        rad("theta_abs"), rad("theta_odo"), np.asarray(data["run"]) if "run" in data else None,
+        data["direction"],
+        mm("x_abs"),
+        mm("y_abs"),
+        mm("x_odo"),
+        mm("y_odo"),
+        rad("theta_abs"),
+        rad("theta_odo"),
+        np.asarray(data["run"]) if "run" in data else None,
     )
 
 
@@ -122,8 +134,14 @@ def format_runs_csv(runs: RunsTable) -> str:
     w.writerow(header)
     f = lambda v: repr(round(float(v), 6))  # noqa: E731  (micrometre / micro-degree resolution)
     for i in range(len(runs)):
-        row = [runs.run[i] if runs.run is not None else i + 1, runs.direction[i],
-               f(runs.x_abs[i] * 1e3), f(runs.y_abs[i] * 1e3), f(runs.x_odo[i] * 1e3), f(runs.y_odo[i] * 1e3)]
+        row = [
+            runs.run[i] if runs.run is not None else i + 1,
+            runs.direction[i],
+            f(runs.x_abs[i] * 1e3),
+            f(runs.y_abs[i] * 1e3),
+            f(runs.x_odo[i] * 1e3),
+            f(runs.y_odo[i] * 1e3),
+        ]
         if has_theta:
             row += [f(math.degrees(runs.theta_abs[i])), f(math.degrees(runs.theta_odo[i]))]
         w.writerow(row)

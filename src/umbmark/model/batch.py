@@ -1,7 +1,7 @@
 """Batched closed-loop simulation of many robots: :func:`simulate_batch` and :func:`run_batch`.
 
 Same model, same random draws and same results (to rounding) as
-:func:`umbmark.simulate.run_program` / :func:`~umbmark.simulate.simulate_umbmark`, for a whole
+:func:`umbmark.model.simulate.run_program` / :func:`~umbmark.model.simulate.simulate_umbmark`, for a whole
 batch of robots at once (every per-run parameter may differ). Each run draws its noise from its
 own seeded generator, so a robot's result does not depend on the batch it is simulated in.
 
@@ -12,7 +12,7 @@ Engines:
   (into preallocated buffers); the loop composes the heading as a rotation (cosine and sine of
   the per-sample heading change by a short Taylor series: no trig call per sample) and
   re-synchronises it with the accumulated angle at every segment end.
-* ``"numpy"``: :func:`umbmark.simulate.run_program` on chunks of runs (the vectorised numpy
+* ``"numpy"``: :func:`umbmark.model.simulate.run_program` on chunks of runs (the vectorised numpy
   simulator, unchanged).
 
 Both run in bounded memory: runs are processed ``chunk_runs`` at a time.
@@ -27,17 +27,17 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from .errors import InputError
-from .kinematics import LABMATE, Calibration, ErrorParams, Geometry, OdometryParams, wrap_angle
-from .runs import RunsTable
-from .simulate import (
+from umbmark.errors import InputError
+from umbmark.model.geometry import LABMATE, Calibration, ErrorParams, Geometry, OdometryParams, wrap_angle
+from umbmark.model.runs import RunsTable
+from umbmark.model.simulate import (
     Motion,
+    NoiseModel,
+    SimResult,
     check_sample_count,
     child_seeds,
-    NoiseModel,
-    program_inputs,
-    SimResult,
     noise_preset,
+    program_inputs,
     run_program,
     run_seeds,
     square_program,
@@ -193,9 +193,34 @@ def _arc_py(x, y, th, c, s, dl, dr, inv_b):
 _arc = _arc_py  # replaced by its compiled version before the kernel is compiled
 
 
-def _kernel_py(kind, s_l, s_r, target, step, n_full, frac, kmax, t_l, t_r, t_b, m_l, m_r, m_b,
-               quantise, slip_k, has_slip, bump_rate, bump_loss, has_bump,
-               slip, bu, bl, doff, phase, out):
+def _kernel_py(
+    kind,
+    s_l,
+    s_r,
+    target,
+    step,
+    n_full,
+    frac,
+    kmax,
+    t_l,
+    t_r,
+    t_b,
+    m_l,
+    m_r,
+    m_b,
+    quantise,
+    slip_k,
+    has_slip,
+    bump_rate,
+    bump_loss,
+    has_bump,
+    slip,
+    bu,
+    bl,
+    doff,
+    phase,
+    out,
+):
     R, S = step.shape
     for r in range(R):
         tot = 0
@@ -341,10 +366,19 @@ def _check_engine(engine: str) -> str:
     return default_engine() if engine == "auto" else engine
 
 
-def run_batch(program, true_per_run: dict, model_per_run: dict, noise: NoiseModel | None = None,
-              motion: Motion | None = None, rngs=None, n_runs: int | None = None, engine: str = "auto",
-              chunk_runs: int | None = None, threads: int | None = 1) -> SimResult:
-    """:func:`umbmark.simulate.run_program` for a batch of runs with per-run parameters
+def run_batch(
+    program,
+    true_per_run: dict,
+    model_per_run: dict,
+    noise: NoiseModel | None = None,
+    motion: Motion | None = None,
+    rngs=None,
+    n_runs: int | None = None,
+    engine: str = "auto",
+    chunk_runs: int | None = None,
+    threads: int | None = 1,
+) -> SimResult:
+    """:func:`umbmark.model.simulate.run_program` for a batch of runs with per-run parameters
     (``true_per_run`` / ``model_per_run``: dicts of ``left_m_per_pulse``, ``right_m_per_pulse``,
     ``wheelbase_m``, scalars or arrays (R,); or :class:`OdometryParams`), without trajectories.
     ``rngs``: one generator per run (needed with noise). ``threads``: run chunks of runs on
@@ -387,10 +421,20 @@ def run_batch(program, true_per_run: dict, model_per_run: dict, noise: NoiseMode
         g = rngs[a:e] if rngs is not None else None
         if engine == "numpy":
             keys = dict(zip(_PARAM_KEYS, (v[sl] for v in T))), dict(zip(_PARAM_KEYS, (v[sl] for v in M)))
-            res = run_program(program, None, None, e - a, noise, motion, rngs=g,
-                              true_per_run=keys[0], model_per_run=keys[1])
-            out[:, sl] = [res.true_x, res.true_y, res.true_theta, res.odo_x, res.odo_y, res.odo_theta,
-                          res.abs_x, res.abs_y, res.abs_theta]
+            res = run_program(
+                program, None, None, e - a, noise, motion, rngs=g, true_per_run=keys[0], model_per_run=keys[1]
+            )
+            out[:, sl] = [
+                res.true_x,
+                res.true_y,
+                res.true_theta,
+                res.odo_x,
+                res.odo_y,
+                res.odo_theta,
+                res.abs_x,
+                res.abs_y,
+                res.abs_theta,
+            ]
             return
         t_l, t_r, t_b = (v[sl] for v in T)
         m_l, m_r, m_b = (v[sl] for v in M)
@@ -407,11 +451,34 @@ def run_batch(program, true_per_run: dict, model_per_run: dict, noise: NoiseMode
             phase = np.zeros((2, e - a))
             absn = np.zeros((3, e - a))
         part = np.zeros((6, e - a))
-        kernel(kind, s_l, s_r, target, step, n_full, frac, kmax, t_l, t_r, t_b, m_l, m_r, m_b,
-               bool(noise.quantise), float(noise.slip_m_per_sqrt_m), bool(noise.slip_m_per_sqrt_m > 0),
-               float(noise.bump_rate_per_m), float(noise.bump_loss_m),
-               bool(noise.bump_rate_per_m > 0 and noise.bump_loss_m > 0),
-               slip, bu, bl, doff, phase, part)
+        kernel(
+            kind,
+            s_l,
+            s_r,
+            target,
+            step,
+            n_full,
+            frac,
+            kmax,
+            t_l,
+            t_r,
+            t_b,
+            m_l,
+            m_r,
+            m_b,
+            bool(noise.quantise),
+            float(noise.slip_m_per_sqrt_m),
+            bool(noise.slip_m_per_sqrt_m > 0),
+            float(noise.bump_rate_per_m),
+            float(noise.bump_loss_m),
+            bool(noise.bump_rate_per_m > 0 and noise.bump_loss_m > 0),
+            slip,
+            bu,
+            bl,
+            doff,
+            phase,
+            part,
+        )
         out[:6, sl] = part
         out[6, sl] = part[0] + noise.abs_xy_std_m * absn[0]
         out[7, sl] = part[1] + noise.abs_xy_std_m * absn[1]
@@ -487,21 +554,31 @@ def simulate_batch(
         cw_ss, ccw_ss = child_seeds(s, 2)
         per_dir["cw"].extend(run_seeds(cw_ss, n_runs))
         per_dir["ccw"].extend(run_seeds(ccw_ss, n_runs))
-    res = {d: run_batch(square_program(d, side_m), T, M, noise, motion, per_dir[d], n * n_runs, engine, chunk_runs,
-                          threads)
-           for d in ("cw", "ccw")}
+    res = {
+        d: run_batch(
+            square_program(d, side_m), T, M, noise, motion, per_dir[d], n * n_runs, engine, chunk_runs, threads
+        )
+        for d in ("cw", "ccw")
+    }
     direction = np.array(["cw"] * n_runs + ["ccw"] * n_runs)
     run = np.concatenate([np.arange(1, n_runs + 1)] * 2)
     tables = []
     for i in range(n):
         sl = slice(i * n_runs, (i + 1) * n_runs)
 
-        def both(attr):
+        def both(attr, sl=sl):
             return np.concatenate([getattr(res["cw"], attr)[sl], getattr(res["ccw"], attr)[sl]])
 
-        tables.append(RunsTable.from_columns(
-            direction=direction, x_abs=both("abs_x"), y_abs=both("abs_y"), x_odo=both("odo_x"),
-            y_odo=both("odo_y"), theta_abs=wrap_angle(both("abs_theta")), theta_odo=wrap_angle(both("odo_theta")),
-            run=run,
-        ))
+        tables.append(
+            RunsTable.from_columns(
+                direction=direction,
+                x_abs=both("abs_x"),
+                y_abs=both("abs_y"),
+                x_odo=both("odo_x"),
+                y_odo=both("odo_y"),
+                theta_abs=wrap_angle(both("abs_theta")),
+                theta_odo=wrap_angle(both("odo_theta")),
+                run=run,
+            )
+        )
     return tables

@@ -23,9 +23,9 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .errors import InputError
-from . import odometry as _fast
-from .kinematics import Calibration, OdometryParams, integrate, integrate_end
+from umbmark.errors import InputError
+from umbmark.model import odometry as _fast
+from umbmark.model.geometry import Calibration, OdometryParams, integrate, integrate_end
 
 __all__ = [
     "WheelGeometry",
@@ -39,8 +39,8 @@ __all__ = [
 ]
 
 # Below this many samples (runs x samples) the plain numpy replay of
-# :func:`umbmark.kinematics.integrate` is as fast as the chunked kernels of
-# :mod:`umbmark.odometry` (their set-up costs more than they save); above it the fast kernels
+# :func:`umbmark.model.geometry.integrate` is as fast as the chunked kernels of
+# :mod:`umbmark.model.odometry` (their set-up costs more than they save); above it the fast kernels
 # win (integer increments: the table kernel, 2-4x; end pose only: more) and keep the working
 # memory bounded. Measured on this machine: see the README, real robots section.
 FAST_MIN_SAMPLES = 1 << 17
@@ -74,7 +74,7 @@ class WheelGeometry:
         k = math.pi / units_per_rev
         return OdometryParams(k * self.diameter_left_m, k * self.diameter_right_m, self.wheelbase_m)
 
-    def relative_to(self, nominal: "WheelGeometry") -> dict:
+    def relative_to(self, nominal: WheelGeometry) -> dict:
         """This (corrected) geometry against ``nominal``: the ratios and absolute sizes every
         calibration report gives (``Ed``, ``Eb``, ``Es``, ``c_left``, ``c_right``, mm values)."""
         return {
@@ -88,15 +88,18 @@ class WheelGeometry:
             "diameter_right_mm": self.diameter_right_m * 1e3,
         }
 
-    def calibrated(self, cal: Calibration) -> "WheelGeometry":
+    def calibrated(self, cal: Calibration) -> WheelGeometry:
         """This (nominal) geometry with correction factors applied (Eq. 4.33)."""
         b = self.wheelbase_m if cal.wheelbase_m is None else cal.wheelbase_m
         return WheelGeometry(cal.c_left * self.diameter_left_m, cal.c_right * self.diameter_right_m, b)
 
-    def calibration_from(self, nominal: "WheelGeometry") -> Calibration:
+    def calibration_from(self, nominal: WheelGeometry) -> Calibration:
         """The correction factors that turn ``nominal`` into this geometry."""
-        return Calibration(self.diameter_left_m / nominal.diameter_left_m,
-                           self.diameter_right_m / nominal.diameter_right_m, self.wheelbase_m)
+        return Calibration(
+            self.diameter_left_m / nominal.diameter_left_m,
+            self.diameter_right_m / nominal.diameter_right_m,
+            self.wheelbase_m,
+        )
 
     def to_dict(self) -> dict:
         return {
@@ -148,7 +151,7 @@ class Run:
             return self.gt[-1]
         return None
 
-    def slice(self, start: int, stop: int, name: str | None = None) -> "Run":
+    def slice(self, start: int, stop: int, name: str | None = None) -> Run:
         """Samples ``start..stop-1`` as a run of its own (its ground truth re-expressed in the
         new start frame; the first increment dropped: it happened before the new start)."""
         sl = slice(start, stop)
@@ -159,8 +162,7 @@ class Run:
         if self.gt is not None:
             g = self.gt[sl]
             gt = None if not np.all(np.isfinite(g[0])) else np.column_stack(to_start_frame(*g.T))
-        return Run(name or f"{self.name}[{start}:{stop}]", self.t[sl] - self.t[start], d_l, d_r, gt, None,
-                   self.source)
+        return Run(name or f"{self.name}[{start}:{stop}]", self.t[sl] - self.t[start], d_l, d_r, gt, None, self.source)
 
 
 @dataclass(frozen=True)
@@ -186,19 +188,20 @@ class Dataset:
         if not self.runs:
             raise InputError("no runs", source=self.source or self.name)
         if not (math.isfinite(self.units_per_rev) and self.units_per_rev > 0):
-            raise InputError(f"units per wheel revolution must be positive, got {self.units_per_rev!r}",
-                             source=self.source)
+            raise InputError(
+                f"units per wheel revolution must be positive, got {self.units_per_rev!r}", source=self.source
+            )
 
     @property
     def is_square(self) -> bool:
         return self.side_m is not None
 
-    def subset(self, idx) -> "Dataset":
+    def subset(self, idx) -> Dataset:
         idx = list(idx)
         dirs = None if self.directions is None else tuple(self.directions[i] for i in idx)
         return replace(self, runs=tuple(self.runs[i] for i in idx), directions=dirs)
 
-    def with_runs(self, runs) -> "Dataset":
+    def with_runs(self, runs) -> Dataset:
         return replace(self, runs=tuple(runs), directions=None)
 
     def padded(self):
@@ -227,7 +230,7 @@ def to_start_frame(x, y, theta):
 
 def wheel_travel_from_poses(x, y, theta, wheelbase_m):
     """Per-sample wheel travel (left, right) [m] that an odometry with this wheelbase turned
-    into these poses (exact-arc model: the inverse of :func:`umbmark.kinematics.integrate`).
+    into these poses (exact-arc model: the inverse of :func:`umbmark.model.geometry.integrate`).
 
     Useful for logs that hold only the robot's own odometry poses (e.g. ``nav_msgs/Odometry``)
     and for producing wheel logs from simulated trajectories. Sample 0 gets zero travel.
@@ -244,8 +247,9 @@ def wheel_travel_from_poses(x, y, theta, wheelbase_m):
     return du - half, du + half
 
 
-def split_at_stops(run: Run, units_per_rev: float, stop_s: float = 1.0, min_samples: int = 5,
-                   still_units: float = 0.0) -> list:
+def split_at_stops(
+    run: Run, units_per_rev: float, stop_s: float = 1.0, min_samples: int = 5, still_units: float = 0.0
+) -> list:
     """Split a run where both wheels stand still for at least ``stop_s`` seconds.
 
     A sample is still when neither wheel turned more than ``still_units`` log units. The
@@ -275,15 +279,16 @@ def split_at_stops(run: Run, units_per_rev: float, stop_s: float = 1.0, min_samp
     return out
 
 
-def replay_increments(d_left, d_right, params: OdometryParams, method: str = "exact", end: bool = False,
-                      integral: bool | None = None):
+def replay_increments(
+    d_left, d_right, params: OdometryParams, method: str = "exact", end: bool = False, integral: bool | None = None
+):
     """Odometry from logged wheel increments (arrays (..., K), log units) with ``params``
     (metres per unit of each wheel, wheelbase): the poses after each sample ``(x, y, theta)``,
     or with ``end=True`` only the end pose (arrays of the leading shape).
 
     Small logs (fewer than :data:`FAST_MIN_SAMPLES` samples in all) are replayed with
-    :func:`umbmark.kinematics.integrate`; larger ones with the chunked kernels of
-    :mod:`umbmark.odometry` (same poses to rounding, ~1e-11 m): the table kernel when every
+    :func:`umbmark.model.geometry.integrate`; larger ones with the chunked kernels of
+    :mod:`umbmark.model.odometry` (same poses to rounding, ~1e-11 m): the table kernel when every
     increment is a whole number (``integral``: known already, or None to check), else the
     float kernel.
     """
@@ -291,13 +296,16 @@ def replay_increments(d_left, d_right, params: OdometryParams, method: str = "ex
     d_right = np.asarray(d_right, dtype=float)
     if d_left.size >= FAST_MIN_SAMPLES:
         if integral is None:
-            integral = bool(np.all(d_left == np.round(d_left)) and np.all(d_right == np.round(d_right))
-                            and np.abs(d_left).max(initial=0) < 2 ** 52 and np.abs(d_right).max(initial=0) < 2 ** 52)
+            integral = bool(
+                np.all(d_left == np.round(d_left))
+                and np.all(d_right == np.round(d_right))
+                and np.abs(d_left).max(initial=0) < 2**52
+                and np.abs(d_right).max(initial=0) < 2**52
+            )
         if integral:
             f = _fast.integrate_pulses_end if end else _fast.integrate_pulses
             return f(d_left.astype(np.int64), d_right.astype(np.int64), params, method=method)
         f = _fast.integrate_end if end else _fast.integrate
     else:
         f = integrate_end if end else integrate
-    return f(d_left * params.left_m_per_pulse, d_right * params.right_m_per_pulse, params.wheelbase_m,
-             method=method)
+    return f(d_left * params.left_m_per_pulse, d_right * params.right_m_per_pulse, params.wheelbase_m, method=method)

@@ -1,7 +1,7 @@
 """Fast odometry replay: vectorised over samples and runs, chunked so memory stays bounded.
 
-This module computes the same poses as :func:`umbmark.kinematics.integrate` /
-:func:`~umbmark.kinematics.integrate_end` (same arguments, same results to rounding), only
+This module computes the same poses as :func:`umbmark.model.geometry.integrate` /
+:func:`~umbmark.model.geometry.integrate_end` (same arguments, same results to rounding), only
 faster, and in chunks of bounded size so that logs of any length can be replayed.
 
 Two kernels, chosen automatically:
@@ -19,7 +19,7 @@ Two kernels, chosen automatically:
   a_L * S_L``, so ``exp(i theta)`` is a product of looked-up complex exponentials (the counts
   split into high and low bits): no trig call per sample at all.
 
-Methods (as in :func:`umbmark.kinematics.integrate`): ``"exact"`` (constant wheel speeds within
+Methods (as in :func:`umbmark.model.geometry.integrate`): ``"exact"`` (constant wheel speeds within
 a sample: exact circular arcs), ``"midpoint"`` (straight chord along the mid-sample heading,
 chord length = travelled distance) and ``"euler"`` (heading at the sample start).
 
@@ -28,7 +28,7 @@ chunk boundaries do not change the poses beyond rounding (tested to 1e-9 m over 
 each chunk starts from the pose the previous one ended on. :func:`replay_stream` replays an
 iterable of chunks and keeps only what is asked (end pose, or every ``decimate``-th pose).
 
-Mapping to :mod:`umbmark.kinematics`::
+Mapping to :mod:`umbmark.model.geometry`::
 
     kinematics.integrate(dl, dr, b, pose0, method)      == odometry.integrate(dl, dr, b, pose0, method)
     kinematics.integrate_end(dl, dr, b, pose0, method)  == odometry.integrate_end(dl, dr, b, pose0, method)
@@ -43,8 +43,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import InputError
-from .kinematics import OdometryParams
+from umbmark.errors import InputError
+from umbmark.model.geometry import OdometryParams
 
 __all__ = [
     "METHODS",
@@ -278,8 +278,15 @@ class Odometer:
     ``poses=False``); :attr:`pose` is the current pose.
     """
 
-    def __init__(self, wheelbase_m=None, pose0=(0.0, 0.0, 0.0), method: str = "exact",
-                 shape: tuple = (), params: OdometryParams | None = None, chunk: int = DEFAULT_CHUNK):
+    def __init__(
+        self,
+        wheelbase_m=None,
+        pose0=(0.0, 0.0, 0.0),
+        method: str = "exact",
+        shape: tuple = (),
+        params: OdometryParams | None = None,
+        chunk: int = DEFAULT_CHUNK,
+    ):
         _check_method(method)
         if wheelbase_m is None:
             if params is None:
@@ -352,8 +359,7 @@ class Odometer:
                     dr = b_[:, s:e] * self.params.right_m_per_pulse
                 else:
                     dl, dr = a[:, s:e], b_[:, s:e]
-                res = _float_chunk(dl, dr, self._b, self._x, self._y, self._th, self.method, poses, dest,
-                                   self._work)
+                res = _float_chunk(dl, dr, self._b, self._x, self._y, self._th, self.method, poses, dest, self._work)
             if poses:
                 for o, r in zip(dest, res):
                     if r is not o:
@@ -372,9 +378,21 @@ class Odometer:
         p = self.params
         rows = []
         for i in range(nl.shape[0]):
-            r = _table_row(nl[i], nr[i], p.left_m_per_pulse, p.right_m_per_pulse, float(self._b[i]),
-                           float(self._x[i]), float(self._y[i]), float(self._th[i]), self.method, poses,
-                           self._cache, None if dest is None else tuple(d[i] for d in dest), self._work)
+            r = _table_row(
+                nl[i],
+                nr[i],
+                p.left_m_per_pulse,
+                p.right_m_per_pulse,
+                float(self._b[i]),
+                float(self._x[i]),
+                float(self._y[i]),
+                float(self._th[i]),
+                self.method,
+                poses,
+                self._cache,
+                None if dest is None else tuple(d[i] for d in dest),
+                self._work,
+            )
             if r is None:
                 return None
             rows.append(r)
@@ -388,27 +406,44 @@ def _leading(d):
 
 
 def integrate(d_left, d_right, wheelbase_m, pose0=(0.0, 0.0, 0.0), method: str = "exact", chunk: int = DEFAULT_CHUNK):
-    """Fast :func:`umbmark.kinematics.integrate`: poses (x, y, theta) after each sample,
+    """Fast :func:`umbmark.model.geometry.integrate`: poses (x, y, theta) after each sample,
     arrays (..., K); leading axes are independent runs."""
     d_left = np.asarray(d_left, dtype=float)
     d_right = np.asarray(d_right, dtype=float)
     if d_left.ndim == 0 or d_left.shape != d_right.shape:
-        raise InputError(f"d_left and d_right must be arrays of one shape (..., K), got {d_left.shape} and {d_right.shape}")
+        raise InputError(
+            f"d_left and d_right must be arrays of one shape (..., K), got {d_left.shape} and {d_right.shape}"
+        )
     shape = _leading(d_left)
-    odo = Odometer(np.broadcast_to(np.asarray(wheelbase_m, dtype=float), shape), pose0=_pose_for(pose0, shape),
-                   method=method, shape=shape, chunk=chunk)
+    odo = Odometer(
+        np.broadcast_to(np.asarray(wheelbase_m, dtype=float), shape),
+        pose0=_pose_for(pose0, shape),
+        method=method,
+        shape=shape,
+        chunk=chunk,
+    )
     return odo.update(d_left, d_right, poses=True)
 
 
-def integrate_end(d_left, d_right, wheelbase_m, pose0=(0.0, 0.0, 0.0), method: str = "exact", chunk: int = DEFAULT_CHUNK):
-    """Fast :func:`umbmark.kinematics.integrate_end`: the end pose, arrays of the leading shape."""
+def integrate_end(
+    d_left, d_right, wheelbase_m, pose0=(0.0, 0.0, 0.0), method: str = "exact", chunk: int = DEFAULT_CHUNK
+):
+    """Fast :func:`umbmark.model.geometry.integrate_end`: the end pose, arrays of the leading shape."""
     d_left = np.asarray(d_left, dtype=float)
     d_right = np.asarray(d_right, dtype=float)
     if d_left.ndim == 0 or d_left.shape != d_right.shape or d_left.shape[-1] < 1:
-        raise InputError(f"d_left and d_right must be arrays of one shape (..., K) with K >= 1, got {d_left.shape} and {d_right.shape}")
+        raise InputError(
+            "d_left and d_right must be arrays of one shape (..., K) with K >= 1, "
+            f"got {d_left.shape} and {d_right.shape}"
+        )
     shape = _leading(d_left)
-    odo = Odometer(np.broadcast_to(np.asarray(wheelbase_m, dtype=float), shape), pose0=_pose_for(pose0, shape),
-                   method=method, shape=shape, chunk=chunk)
+    odo = Odometer(
+        np.broadcast_to(np.asarray(wheelbase_m, dtype=float), shape),
+        pose0=_pose_for(pose0, shape),
+        method=method,
+        shape=shape,
+        chunk=chunk,
+    )
     x, y, th = odo.update(d_left, d_right, poses=False)
     return (np.asarray(x), np.asarray(y), np.asarray(th)) if shape else (np.float64(x), np.float64(y), np.float64(th))
 
@@ -417,26 +452,33 @@ def _pose_for(pose0, shape):
     return tuple(np.broadcast_to(np.asarray(p, dtype=float), shape) for p in pose0)
 
 
-def integrate_pulses(n_left, n_right, params: OdometryParams, pose0=(0.0, 0.0, 0.0), method: str = "exact",
-                     chunk: int = DEFAULT_CHUNK):
+def integrate_pulses(
+    n_left, n_right, params: OdometryParams, pose0=(0.0, 0.0, 0.0), method: str = "exact", chunk: int = DEFAULT_CHUNK
+):
     """Poses from encoder pulse increments (Eqs. 2.2, 2.3), like
-    :func:`umbmark.kinematics.odometry_from_pulses`; integer increments use the table kernel."""
+    :func:`umbmark.model.geometry.odometry_from_pulses`; integer increments use the table kernel."""
     n_left = np.asarray(n_left)
     n_right = np.asarray(n_right)
     if n_left.ndim == 0 or n_left.shape != n_right.shape:
-        raise InputError(f"n_left and n_right must be arrays of one shape (..., K), got {n_left.shape} and {n_right.shape}")
+        raise InputError(
+            f"n_left and n_right must be arrays of one shape (..., K), got {n_left.shape} and {n_right.shape}"
+        )
     shape = _leading(n_left)
     odo = Odometer(None, _pose_for(pose0, shape), method, shape, params=params, chunk=chunk)
     return odo.update_pulses(n_left, n_right, poses=True)
 
 
-def integrate_pulses_end(n_left, n_right, params: OdometryParams, pose0=(0.0, 0.0, 0.0), method: str = "exact",
-                         chunk: int = DEFAULT_CHUNK):
+def integrate_pulses_end(
+    n_left, n_right, params: OdometryParams, pose0=(0.0, 0.0, 0.0), method: str = "exact", chunk: int = DEFAULT_CHUNK
+):
     """End pose only of :func:`integrate_pulses`."""
     n_left = np.asarray(n_left)
     n_right = np.asarray(n_right)
     if n_left.ndim == 0 or n_left.shape != n_right.shape or n_left.shape[-1] < 1:
-        raise InputError(f"n_left and n_right must be arrays of one shape (..., K) with K >= 1, got {n_left.shape} and {n_right.shape}")
+        raise InputError(
+            "n_left and n_right must be arrays of one shape (..., K) with K >= 1, "
+            f"got {n_left.shape} and {n_right.shape}"
+        )
     shape = _leading(n_left)
     odo = Odometer(None, _pose_for(pose0, shape), method, shape, params=params, chunk=chunk)
     return odo.update_pulses(n_left, n_right, poses=False)
@@ -454,9 +496,16 @@ class StreamResult:
     kept: dict | None = None
 
 
-def replay_stream(chunks, params: OdometryParams | None = None, wheelbase_m: float | None = None,
-                  pose0=(0.0, 0.0, 0.0), method: str = "exact", pulses: bool = True,
-                  decimate: int | None = None, chunk: int = DEFAULT_CHUNK) -> StreamResult:
+def replay_stream(
+    chunks,
+    params: OdometryParams | None = None,
+    wheelbase_m: float | None = None,
+    pose0=(0.0, 0.0, 0.0),
+    method: str = "exact",
+    pulses: bool = True,
+    decimate: int | None = None,
+    chunk: int = DEFAULT_CHUNK,
+) -> StreamResult:
     """Replay one log given as an iterable of ``(left, right)`` chunks (1-D arrays), in
     bounded memory: only the current chunk and the kept poses are held.
 

@@ -24,8 +24,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import __version__
-from .errors import CorrectionUndefined
+from umbmark._version import __version__
+from umbmark.errors import CorrectionUndefined
 
 __all__ = ["analysis_report", "history_report", "figure_data_uri", "bootstrap_intervals", "cg_intervals"]
 
@@ -33,7 +33,8 @@ _CSS = """
 body{font-family:system-ui,-apple-system,"Segoe UI",Helvetica,Arial,sans-serif;margin:2em auto;max-width:60em;
      color:#222;line-height:1.45;padding:0 1em}
 h1{font-size:1.6em;margin-bottom:.2em}h2{font-size:1.2em;margin-top:1.8em;border-bottom:1px solid #ddd}
-table{border-collapse:collapse;margin:.6em 0;font-size:.9em}.scroll{overflow-x:auto}th,td{border:1px solid #ccc;padding:.25em .6em;text-align:right}
+table{border-collapse:collapse;margin:.6em 0;font-size:.9em}.scroll{overflow-x:auto}
+th,td{border:1px solid #ccc;padding:.25em .6em;text-align:right}
 th{background:#f3f3f3}td:first-child,th:first-child{text-align:left}
 .meta{color:#555;font-size:.9em}.box{background:#eef6ee;border:1px solid #9c9;padding:.6em 1em;display:inline-block}
 .warn{color:#a40}img{max-width:100%;height:auto;border:1px solid #eee}pre{background:#f7f7f7;padding:.6em;
@@ -80,10 +81,12 @@ def _img(uri: str, alt: str) -> str:
 
 
 def _page(title: str, body: str) -> str:
-    return (f'<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
-            f'<meta name="viewport" content="width=device-width, initial-scale=1">\n'
-            f'<meta name="generator" content="umbmark {_e(__version__)}">\n'
-            f"<title>{_e(title)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n{body}\n</body>\n</html>\n")
+    return (
+        f'<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
+        f'<meta name="viewport" content="width=device-width, initial-scale=1">\n'
+        f'<meta name="generator" content="umbmark {_e(__version__)}">\n'
+        f"<title>{_e(title)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n{body}\n</body>\n</html>\n"
+    )
 
 
 def cg_intervals(runs, level: float = 0.95) -> dict:
@@ -105,13 +108,22 @@ def cg_intervals(runs, level: float = 0.95) -> dict:
     return out
 
 
-def bootstrap_intervals(runs, side_m: float, wheelbase_m: float, method: str = "bf", prior=None,
-                        n_boot: int = 1000, seed: int = 0, level: float = 0.95, advance=None) -> dict:
+def bootstrap_intervals(
+    runs,
+    side_m: float,
+    wheelbase_m: float,
+    method: str = "bf",
+    prior=None,
+    n_boot: int = 1000,
+    seed: int = 0,
+    level: float = 0.95,
+    advance=None,
+) -> dict:
     """Percentile bootstrap intervals of Ed, Eb, wheelbase_mm, c_left, c_right.
 
     Returns ``{"n_boot": B, "failed": k, "Ed": (lo, hi), ...}``; ``failed`` counts resamples
     where the correction is undefined (they are left out). ``advance``: called once per resample."""
-    from .correct import correct_runs
+    from umbmark.correct import correct_runs
 
     rng = np.random.default_rng(seed)
     idx = {d: np.flatnonzero(runs.direction == d) for d in ("cw", "ccw")}
@@ -147,18 +159,32 @@ def _analysis_sections(analysis, boot: dict | None, prior=None) -> str:
     rows = []
     for st in (res.cw, res.ccw):
         s = st.to_dict()
-        rows.append([st.direction, st.n, _f(s["x_cg_mm"]), _ci(ci[st.direction]["x"], 1), _f(s["y_cg_mm"]),
-                     _ci(ci[st.direction]["y"], 1), _f(s["r_cg_mm"]), _f(s["std_mm"]), _f(s["sem_mm"])])
-    parts = ["<h2>UMBmark return position errors</h2>",
-             "<p>Return position error of each run: absolute minus odometry (Eq. 3.1), in the start frame "
-             "(x along the first leg, y to the left), millimetres. 95 % intervals: Student-t.</p>",
-             _table(["direction", "n", "x_cg", "x_cg 95 %", "y_cg", "y_cg 95 %", "r_cg", "std (radial)", "SEM"],
-                    rows)]
+        rows.append(
+            [
+                st.direction,
+                st.n,
+                _f(s["x_cg_mm"]),
+                _ci(ci[st.direction]["x"], 1),
+                _f(s["y_cg_mm"]),
+                _ci(ci[st.direction]["y"], 1),
+                _f(s["r_cg_mm"]),
+                _f(s["std_mm"]),
+                _f(s["sem_mm"]),
+            ]
+        )
+    parts = [
+        "<h2>UMBmark return position errors</h2>",
+        "<p>Return position error of each run: absolute minus odometry (Eq. 3.1), in the start frame "
+        "(x along the first leg, y to the left), millimetres. 95 % intervals: Student-t.</p>",
+        _table(["direction", "n", "x_cg", "x_cg 95 %", "y_cg", "y_cg 95 %", "r_cg", "std (radial)", "SEM"], rows),
+    ]
     rule = "-" if d["three_sem_mm"] is None else f"{d['three_sem_mm']:.1f} mm"
-    parts.append(f'<p class="big">E<sub>max,syst</sub> = {_f(d["emax_syst_mm"])} mm</p>'
-                 f"<p>3 &times; SEM = {_e(rule)}; a further compensation pass is "
-                 f"{'recommended' if d['second_pass_recommended'] else 'not expected to help'} "
-                 f"(E<sub>max,syst</sub> {'&ge;' if d['second_pass_recommended'] else '&lt;'} 3 SEM).</p>")
+    parts.append(
+        f'<p class="big">E<sub>max,syst</sub> = {_f(d["emax_syst_mm"])} mm</p>'
+        f"<p>3 &times; SEM = {_e(rule)}; a further compensation pass is "
+        f"{'recommended' if d['second_pass_recommended'] else 'not expected to help'} "
+        f"(E<sub>max,syst</sub> {'&ge;' if d['second_pass_recommended'] else '&lt;'} 3 SEM).</p>"
+    )
     corr = analysis.correction
     cal = corr.calibration
     parts.append(f"<h2>Correction (method {_e(corr.method)})</h2>")
@@ -181,35 +207,52 @@ def _analysis_sections(analysis, boot: dict | None, prior=None) -> str:
     for k, v in d.items():
         if k.endswith("_ci95") and isinstance(v, (list, tuple)) and len(v) == 2:
             prow.append([f"{k} (method)", "", _ci(v, 6)])
-    used = (f"c_left = {_f(prior.c_left, 6)}, c_right = {_f(prior.c_right, 6)}, " if prior is not None else
-            "c_left = c_right = 1 (uncalibrated), ")
-    parts.append('<h2>Recommended parameters</h2><div class="box">'
-                 f"<p>Load into the odometry: <b>c_left = {_f(cal.c_left, 6)}</b>, "
-                 f"<b>c_right = {_f(cal.c_right, 6)}</b>, <b>wheelbase = {_f(cal.wheelbase_m * 1e3, 2)} mm</b>.</p>"
-                 f"<p>The runs were made with {used}wheelbase = {_f(analysis.wheelbase_m * 1e3, 2)} mm; "
-                 f"square side {_f(analysis.side_m * 1e3, 0)} mm.</p></div>")
+    used = (
+        f"c_left = {_f(prior.c_left, 6)}, c_right = {_f(prior.c_right, 6)}, "
+        if prior is not None
+        else "c_left = c_right = 1 (uncalibrated), "
+    )
+    parts.append(
+        '<h2>Recommended parameters</h2><div class="box">'
+        f"<p>Load into the odometry: <b>c_left = {_f(cal.c_left, 6)}</b>, "
+        f"<b>c_right = {_f(cal.c_right, 6)}</b>, <b>wheelbase = {_f(cal.wheelbase_m * 1e3, 2)} mm</b>.</p>"
+        f"<p>The runs were made with {used}wheelbase = {_f(analysis.wheelbase_m * 1e3, 2)} mm; "
+        f"square side {_f(analysis.side_m * 1e3, 0)} mm.</p></div>"
+    )
     hdr = ["", "value", "95 % bootstrap" if boot else "interval"]
     parts.append(_table(hdr, prow))
     if boot:
-        parts.append(f"<p class=\"meta\">Bootstrap: {b['n_boot']} resamples of the runs within each direction "
-                     f"(seed {b['seed']}); {b['failed']} resamples had no defined correction. With few runs per "
-                     "direction the bootstrap intervals are rough.</p>")
+        parts.append(
+            f'<p class="meta">Bootstrap: {b["n_boot"]} resamples of the runs within each direction '
+            f"(seed {b['seed']}); {b['failed']} resamples had no defined correction. With few runs per "
+            "direction the bootstrap intervals are rough.</p>"
+        )
     for w in d.get("warnings", []):
         parts.append(f'<p class="warn">Warning: {_e(w)}</p>')
     return "\n".join(parts)
 
 
-def analysis_report(analysis, *, title: str | None = None, source: str | None = None, source_sha256=None,
-                    prior=None, after_runs=None, trajectories: list[dict] | None = None,
-                    exported: dict[str, str] | None = None, boot: dict | None = None,
-                    robot: str | None = None, when: str | None = None) -> str:
-    """HTML page of one analysis (a :class:`umbmark.workflows.Analysis`).
+def analysis_report(
+    analysis,
+    *,
+    title: str | None = None,
+    source: str | None = None,
+    source_sha256=None,
+    prior=None,
+    after_runs=None,
+    trajectories: list[dict] | None = None,
+    exported: dict[str, str] | None = None,
+    boot: dict | None = None,
+    robot: str | None = None,
+    when: str | None = None,
+) -> str:
+    """HTML page of one analysis (a :class:`umbmark.correct.analysis.Analysis`).
 
     ``after_runs``: runs after calibration (drawn filled in the scatter); ``trajectories``: see
-    :func:`umbmark.plot.trajectory_figure`; ``exported``: file name -> text of exported
+    :func:`umbmark.viz.plots.trajectory_figure`; ``exported``: file name -> text of exported
     parameter files (shown verbatim); ``boot``: :func:`bootstrap_intervals` output."""
-    from .benchmark import umbmark
-    from .plot import scatter_figure, trajectory_figure
+    from umbmark.metrics import umbmark
+    from umbmark.viz.plots import scatter_figure, trajectory_figure
 
     title = title or "UMBmark report"
     when = when or datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
@@ -223,16 +266,19 @@ def analysis_report(analysis, *, title: str | None = None, source: str | None = 
     body.append("<h2>Return position errors: scatter</h2>")
     if after_runs is not None:
         after = umbmark(after_runs)
-        body.append(f"<p>Before: E<sub>max,syst</sub> = {_f(analysis.result.emax_syst * 1e3)} mm; after: "
-                    f"{_f(after.emax_syst * 1e3)} mm (improvement "
-                    f"{_f(analysis.result.emax_syst / after.emax_syst if after.emax_syst > 0 else math.inf)}-fold)."
-                    "</p>")
+        body.append(
+            f"<p>Before: E<sub>max,syst</sub> = {_f(analysis.result.emax_syst * 1e3)} mm; after: "
+            f"{_f(after.emax_syst * 1e3)} mm (improvement "
+            f"{_f(analysis.result.emax_syst / after.emax_syst if after.emax_syst > 0 else math.inf)}-fold)."
+            "</p>"
+        )
     fig = scatter_figure(analysis.runs, after_runs, title=title)
     body.append(_img(figure_data_uri(fig), "return position error scatter"))
     if trajectories:
         body.append("<h2>Trajectories</h2>")
-        body.append(_img(figure_data_uri(trajectory_figure(trajectories, title="True and odometry paths")),
-                         "trajectories"))
+        body.append(
+            _img(figure_data_uri(trajectory_figure(trajectories, title="True and odometry paths")), "trajectories")
+        )
     if exported:
         body.append("<h2>Exported files</h2>")
         for name, text in exported.items():
@@ -242,18 +288,21 @@ def analysis_report(analysis, *, title: str | None = None, source: str | None = 
 
 
 def _definitions() -> str:
-    return ("<h2>Definitions</h2><p class=\"meta\">Return position error eps = absolute &minus; odometry "
-            "(Eq. 3.1); centre of gravity per direction (Eq. 3.2), r_cg its distance from the origin; "
-            "E<sub>max,syst</sub> = max(r_cg,cw, r_cg,ccw) (Eq. 3.4). std: radial sample standard deviation "
-            "of the return errors about their centre of gravity; SEM = std / sqrt(n). E_d = D_R / D_L, "
-            "E_b = b_actual / b_nominal, c_left = 2 / (E_d + 1), c_right = 2 / (1/E_d + 1) (Borenstein &amp; "
-            "Feng, Eqs. 4.20 &ndash; 4.32).</p>")
+    return (
+        '<h2>Definitions</h2><p class="meta">Return position error eps = absolute &minus; odometry '
+        "(Eq. 3.1); centre of gravity per direction (Eq. 3.2), r_cg its distance from the origin; "
+        "E<sub>max,syst</sub> = max(r_cg,cw, r_cg,ccw) (Eq. 3.4). std: radial sample standard deviation "
+        "of the return errors about their centre of gravity; SEM = std / sqrt(n). E_d = D_R / D_L, "
+        "E_b = b_actual / b_nominal, c_left = 2 / (E_d + 1), c_right = 2 / (1/E_d + 1) (Borenstein &amp; "
+        "Feng, Eqs. 4.20 &ndash; 4.32).</p>"
+    )
 
 
 def history_report(records, *, title: str | None = None, db_path: str | None = None) -> str:
     """HTML page of one robot's calibration history (records oldest first)."""
-    from .history import export_parameters, history_figure, runs_from_rows
-    from .plot import scatter_figure
+    from umbmark.history import export_parameters, runs_from_rows
+    from umbmark.viz.history_plot import history_figure
+    from umbmark.viz.plots import scatter_figure
 
     if not records:
         raise ValueError("no records")
@@ -268,27 +317,60 @@ def history_report(records, *, title: str | None = None, db_path: str | None = N
     for r in records:
         p = r.parameters
         src = Path(r.source).name if r.source else (r.input_sha256 or "-")[:12]
-        rows.append([f"#{r.id}", r.created_utc[:16].replace("T", " "), r.kind, r.method, _f(r.emax_syst_mm),
-                     _f(r.ed, 6), _f(r.eb, 6), _f(r.wheelbase_mm, 2), _f(p.get("c_left"), 6),
-                     _f(p.get("c_right"), 6), r.software_version, src])
+        rows.append(
+            [
+                f"#{r.id}",
+                r.created_utc[:16].replace("T", " "),
+                r.kind,
+                r.method,
+                _f(r.emax_syst_mm),
+                _f(r.ed, 6),
+                _f(r.eb, 6),
+                _f(r.wheelbase_mm, 2),
+                _f(p.get("c_left"), 6),
+                _f(p.get("c_right"), 6),
+                r.software_version,
+                src,
+            ]
+        )
     body.append("<h2>Records</h2>")
-    body.append(_table(["id", "time (UTC)", "kind", "method", "E_max,syst [mm]", "E_d", "E_b", "wheelbase [mm]",
-                        "c_left", "c_right", "umbmark", "input"], rows))
+    body.append(
+        _table(
+            [
+                "id",
+                "time (UTC)",
+                "kind",
+                "method",
+                "E_max,syst [mm]",
+                "E_d",
+                "E_b",
+                "wheelbase [mm]",
+                "c_left",
+                "c_right",
+                "umbmark",
+                "input",
+            ],
+            rows,
+        )
+    )
     body.append("<h2>Over time</h2>")
     body.append(_img(figure_data_uri(history_figure(records)), "history plot"))
     latest = records[-1]
     ex = export_parameters(latest)
     body.append("<h2>Latest recommended parameters</h2>")
-    body.append(f'<div class="box"><p>Record #{latest.id} ({_e(latest.created_utc)}): '
-                f"<b>c_left = {_f(ex['c_left'], 6)}</b>, <b>c_right = {_f(ex['c_right'], 6)}</b>, "
-                f"<b>wheelbase = {_f(ex['wheelbase_mm'], 2)} mm</b>.</p></div>")
+    body.append(
+        f'<div class="box"><p>Record #{latest.id} ({_e(latest.created_utc)}): '
+        f"<b>c_left = {_f(ex['c_left'], 6)}</b>, <b>c_right = {_f(ex['c_right'], 6)}</b>, "
+        f"<b>wheelbase = {_f(ex['wheelbase_mm'], 2)} mm</b>.</p></div>"
+    )
     runs_rows = latest.inputs.get("runs") if isinstance(latest.inputs, dict) else None
     if runs_rows:
         try:
             runs = runs_from_rows(runs_rows)
             body.append("<h2>Latest runs</h2>")
-            body.append(_img(figure_data_uri(scatter_figure(runs, title=f"{robot}: record #{latest.id}")),
-                             "latest scatter"))
+            body.append(
+                _img(figure_data_uri(scatter_figure(runs, title=f"{robot}: record #{latest.id}")), "latest scatter")
+            )
         except Exception:  # noqa: BLE001  a malformed stored input must not stop the report
             body.append('<p class="warn">The latest record\'s runs could not be drawn.</p>')
     body.append(_definitions())

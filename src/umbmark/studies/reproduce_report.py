@@ -1,6 +1,6 @@
 """Figures and a self-contained HTML report of the paper reproduction (issue 6). No printing.
 
-:func:`study_figures` builds the figures of a :class:`~umbmark.reproduce.Study`;
+:func:`study_figures` builds the figures of a :class:`~umbmark.studies.reproduce.Study`;
 :func:`write_report` writes them (PNG and SVG) and ``index.html`` (figures embedded as base64
 PNG, so the page stands alone; the files beside it are for reuse) into a folder.
 """
@@ -14,11 +14,11 @@ import math
 import os
 from pathlib import Path
 
-from . import __version__
-from .errors import InputError
-from .io.atomic import atomic_write
-from .plot import distribution_figure, exaggerated_trajectory_figure, pitfall_figure, scatter_figure
-from .reproduce import FIG11_ERRORS, PAPER_SEM_MM, PAPER_SIGMA_MM, PAPER_TABLE_I, Study, run_trajectories
+from umbmark._version import __version__
+from umbmark.errors import InputError
+from umbmark.io.atomic import atomic_write
+from umbmark.studies.reproduce import FIG11_ERRORS, PAPER_SEM_MM, PAPER_SIGMA_MM, PAPER_TABLE_I, Study, run_trajectories
+from umbmark.viz.plots import distribution_figure, exaggerated_trajectory_figure, pitfall_figure, scatter_figure
 
 __all__ = ["FIGURES", "study_figures", "save_study_figures", "write_report", "table_rows"]
 
@@ -69,21 +69,28 @@ def study_figures(study: Study, exaggerate: float = 1.0) -> dict:
     e1 = study.experiments[0]
     figs = {}
     figs["scatter"] = scatter_figure(
-        e1.before_runs, e1.first.runs,
+        e1.before_runs,
+        e1.first.runs,
         title=f"Experiment 1 (Fig. 11 robot), seed {cfg.seed}: E_max,syst {e1.emax_before * 1e3:.0f} mm -> "
-              f"{e1.emax_after * 1e3:.0f} mm")
+        f"{e1.emax_after * 1e3:.0f} mm",
+    )
     traj = run_trajectories(FIG11_ERRORS, None, cfg)
     ex = f", deviation exaggerated x{exaggerate:g}" if exaggerate != 1 else ""
     figs["trajectories"] = exaggerated_trajectory_figure(
-        traj, exaggerate, cfg.side_m, title=f"Uncalibrated Fig. 11 robot, one cw and one ccw run{ex}")
+        traj, exaggerate, cfg.side_m, title=f"Uncalibrated Fig. 11 robot, one cw and one ccw run{ex}"
+    )
     if study.pitfall is not None:
         figs["pitfall"] = pitfall_figure(study.pitfall)
     d = study.distribution
     figs["distribution"] = distribution_figure(
-        d.emax_before * 1e3, d.emax_after * 1e3, d.emax_final * 1e3, d.improvement_final,
+        d.emax_before * 1e3,
+        d.emax_after * 1e3,
+        d.emax_final * 1e3,
+        d.improvement_final,
         paper_after_mm=[_paper_final(p) for p in PAPER_TABLE_I],
         paper_improvement=[p["before_mm"] / _paper_final(p) for p in PAPER_TABLE_I],
-        title=f"{d.emax_before.size} simulated experiments ({len(d.seeds)} seeds x 8)")
+        title=f"{d.emax_before.size} simulated experiments ({len(d.seeds)} seeds x 8)",
+    )
     return figs
 
 
@@ -139,30 +146,41 @@ def table_rows(study: Study) -> list[dict]:
     for e, p in zip(study.experiments, PAPER_TABLE_I):
         d = e.to_dict()
         sp = d["second_pass"]
-        rows.append({
-            "id": str(e.id),
-            "ed": f"{e.errors.ed:.5f}",
-            "b": f"{d['true_wheelbase_mm']:.2f}",
-            "before": _f(d["emax_before_mm"], 0),
-            "paper_before": _f(p["before_mm"], 0),
-            "after": _f(d["emax_after_mm"]),
-            "paper_after": _f(p["after_mm"], 0),
-            "three_sem": _f(d["three_sem_after_mm"]),
-            "rule": "2nd pass" if d["second_pass_recommended"] else "stop",
-            "second": "-" if sp is None else _f(sp["emax_after_mm"]),
-            "paper_second": "-" if p["second_mm"] is None else _f(p["second_mm"], 0),
-            "improvement": f"{d['improvement_final']:.1f}-fold",
-            "paper_improvement": p["improvement"],
-            "comment": p["comment"],
-        })
+        rows.append(
+            {
+                "id": str(e.id),
+                "ed": f"{e.errors.ed:.5f}",
+                "b": f"{d['true_wheelbase_mm']:.2f}",
+                "before": _f(d["emax_before_mm"], 0),
+                "paper_before": _f(p["before_mm"], 0),
+                "after": _f(d["emax_after_mm"]),
+                "paper_after": _f(p["after_mm"], 0),
+                "three_sem": _f(d["three_sem_after_mm"]),
+                "rule": "2nd pass" if d["second_pass_recommended"] else "stop",
+                "second": "-" if sp is None else _f(sp["emax_after_mm"]),
+                "paper_second": "-" if p["second_mm"] is None else _f(p["second_mm"], 0),
+                "improvement": f"{d['improvement_final']:.1f}-fold",
+                "paper_improvement": p["improvement"],
+                "comment": p["comment"],
+            }
+        )
     return rows
 
 
 _COLUMNS = [
-    ("id", "exp."), ("ed", "true E<sub>d</sub>"), ("b", "true b [mm]"), ("before", "E<sub>max,syst</sub> before [mm]"),
-    ("paper_before", "paper"), ("after", "after 1st pass [mm]"), ("paper_after", "paper"),
-    ("three_sem", "3&times;SEM after [mm]"), ("rule", "rule"), ("second", "after 2nd pass [mm]"),
-    ("paper_second", "paper"), ("improvement", "improvement (final)"), ("paper_improvement", "paper"),
+    ("id", "exp."),
+    ("ed", "true E<sub>d</sub>"),
+    ("b", "true b [mm]"),
+    ("before", "E<sub>max,syst</sub> before [mm]"),
+    ("paper_before", "paper"),
+    ("after", "after 1st pass [mm]"),
+    ("paper_after", "paper"),
+    ("three_sem", "3&times;SEM after [mm]"),
+    ("rule", "rule"),
+    ("second", "after 2nd pass [mm]"),
+    ("paper_second", "paper"),
+    ("improvement", "improvement (final)"),
+    ("paper_improvement", "paper"),
     ("comment", "paper's comment"),
 ]
 
@@ -184,8 +202,10 @@ code, pre { background: #f6f6f6; padding: 0.1em 0.3em; }
 
 
 def _html_table(headers, rows, left=()):
-    out = ["<table>", "<tr>" + "".join(f'<th class="{"l" if i in left else ""}">{h}</th>'
-                                       for i, h in enumerate(headers)) + "</tr>"]
+    out = [
+        "<table>",
+        "<tr>" + "".join(f'<th class="{"l" if i in left else ""}">{h}</th>' for i, h in enumerate(headers)) + "</tr>",
+    ]
     for r in rows:
         out.append("<tr>" + "".join(f'<td class="{c}">{html.escape(str(v))}</td>' for v, c in r) + "</tr>")
     out.append("</table>")
@@ -197,9 +217,14 @@ def render_html(study: Study, pngs: dict, command: str) -> str:
     dd = study.distribution.to_dict()
     e = html.escape
     parts = [
-        "<!DOCTYPE html>", '<html lang="en">', "<head>", '<meta charset="utf-8">',
-        "<title>umbmark: reproducing Borenstein &amp; Feng, section 5</title>", f"<style>{_CSS}</style>",
-        "</head>", "<body>",
+        "<!DOCTYPE html>",
+        '<html lang="en">',
+        "<head>",
+        '<meta charset="utf-8">',
+        "<title>umbmark: reproducing Borenstein &amp; Feng, section 5</title>",
+        f"<style>{_CSS}</style>",
+        "</head>",
+        "<body>",
         "<h1>Reproducing the paper in simulation</h1>",
         "<p>Borenstein &amp; Feng, <i>Measurement and correction of systematic odometry errors in mobile "
         "robots</i>, section 5 and Table I, with the simulated LabMate of umbmark: "
@@ -216,43 +241,86 @@ def render_html(study: Study, pngs: dict, command: str) -> str:
         "their correction factors, as in the paper.</p>",
     ]
     rows = table_rows(study)
-    parts.append(_html_table(
-        [h for _, h in _COLUMNS],
-        [[(r[k], "paper" if k.startswith("paper") else ("l" if k in ("comment", "id") else ""))
-          for k, _ in _COLUMNS] for r in rows],
-        left=(0, 13)))
+    parts.append(
+        _html_table(
+            [h for _, h in _COLUMNS],
+            [
+                [
+                    (r[k], "paper" if k.startswith("paper") else ("l" if k in ("comment", "id") else ""))
+                    for k, _ in _COLUMNS
+                ]
+                for r in rows
+            ],
+            left=(0, 13),
+        )
+    )
     parts.append(
         f"<p class=small>Paper: per-run spread &sigma; &asymp; {PAPER_SIGMA_MM:g} mm, SEM {PAPER_SEM_MM:g} mm. "
-        f"Simulated: median radial standard deviation after calibration {dd['std_after_median_mm']:.1f} mm.</p>")
+        f"Simulated: median radial standard deviation after calibration {dd['std_after_median_mm']:.1f} mm.</p>"
+    )
     parts.append(f"<h2>Distribution over {dd['seeds']} seeds ({dd['seed_first']}..{dd['seed_last']})</h2>")
     dist_rows = [
         ("E_max,syst before [mm]", dd["emax_before_median_mm"], dd["emax_before_p10_mm"], dd["emax_before_p90_mm"]),
-        ("E_max,syst after 1st pass [mm]", dd["emax_after_median_mm"], dd["emax_after_p10_mm"], dd["emax_after_p90_mm"]),
+        (
+            "E_max,syst after 1st pass [mm]",
+            dd["emax_after_median_mm"],
+            dd["emax_after_p10_mm"],
+            dd["emax_after_p90_mm"],
+        ),
         ("E_max,syst final [mm]", dd["emax_final_median_mm"], dd["emax_final_p10_mm"], dd["emax_final_p90_mm"]),
-        ("improvement, 1st pass", dd["improvement_first_pass_median"], dd["improvement_first_pass_p10"],
-         dd["improvement_first_pass_p90"]),
+        (
+            "improvement, 1st pass",
+            dd["improvement_first_pass_median"],
+            dd["improvement_first_pass_p10"],
+            dd["improvement_first_pass_p90"],
+        ),
         ("improvement, final", dd["improvement_median"], dd["improvement_p10"], dd["improvement_p90"]),
     ]
-    parts.append(_html_table(["", "median", "10th percentile", "90th percentile"],
-                             [[(n, "l"), (_f(m), ""), (_f(a), ""), (_f(b), "")] for n, m, a, b in dist_rows],
-                             left=(0,)))
+    parts.append(
+        _html_table(
+            ["", "median", "10th percentile", "90th percentile"],
+            [[(n, "l"), (_f(m), ""), (_f(a), ""), (_f(b), "")] for n, m, a, b in dist_rows],
+            left=(0,),
+        )
+    )
     parts.append(
         f"<p>Second pass called for by the rule in {dd['second_pass_fraction'] * 100:.1f}% of the experiments; "
         f"final improvement at least 10-fold in {dd['fraction_improvement_at_least_10'] * 100:.1f}%. "
-        "Paper: 10- to 22-fold, 12-35 mm after calibration.</p>")
+        "Paper: 10- to 22-fold, 12-35 mm after calibration.</p>"
+    )
     ex = study.second_pass_examples
     if ex:
         parts.append("<h2>Second compensation passes</h2>")
         parts.append(
             f"<p>The first {len(ex)} experiments, in seed order, where the 3&times;SEM rule called for a second pass "
             "(the correction measured on the calibrated robot, composed with the first, then fresh runs). The paper's "
-            "experiment 7: 423 mm, 66 mm after the first pass (3&times;SEM = 33.6 mm), 20 mm after the second.</p>")
-        parts.append(_html_table(
-            ["seed", "exp.", "E<sub>max,syst</sub> before [mm]", "after 1st pass [mm]", "3&times;SEM [mm]",
-             "after 2nd pass [mm]", "improvement (final)"],
-            [[(str(x.seed), ""), (str(x.id), ""), (_f(x.emax_before * 1e3, 0), ""), (_f(x.emax_after * 1e3), ""),
-              (_f(x.first.result.sem_rule * 1e3), ""), (_f(x.emax_final * 1e3), ""),
-              (f"{x.improvement_final:.1f}-fold", "")] for x in ex]))
+            "experiment 7: 423 mm, 66 mm after the first pass (3&times;SEM = 33.6 mm), 20 mm after the second.</p>"
+        )
+        parts.append(
+            _html_table(
+                [
+                    "seed",
+                    "exp.",
+                    "E<sub>max,syst</sub> before [mm]",
+                    "after 1st pass [mm]",
+                    "3&times;SEM [mm]",
+                    "after 2nd pass [mm]",
+                    "improvement (final)",
+                ],
+                [
+                    [
+                        (str(x.seed), ""),
+                        (str(x.id), ""),
+                        (_f(x.emax_before * 1e3, 0), ""),
+                        (_f(x.emax_after * 1e3), ""),
+                        (_f(x.first.result.sem_rule * 1e3), ""),
+                        (_f(x.emax_final * 1e3), ""),
+                        (f"{x.improvement_final:.1f}-fold", ""),
+                    ]
+                    for x in ex
+                ],
+            )
+        )
     order = ["distribution", "scatter", "trajectories", "pitfall"]
     for name in order:
         if name not in pngs:
@@ -268,9 +336,12 @@ def render_html(study: Study, pngs: dict, command: str) -> str:
                 f"{pd['uni_directionally_tuned']['cw_r_cg_mm']:.0f} mm, ccw r<sub>cg</sub> "
                 f"{pd['uni_directionally_tuned']['ccw_r_cg_mm']:.0f} mm (uncalibrated: "
                 f"{pd['uncalibrated']['emax_syst_mm']:.0f} mm). UMBmark + the paper's correction: b = "
-                f"{pd['bf_wheelbase_mm']:.2f} mm, E_max,syst {pd['bi_directional_bf']['emax_syst_mm']:.0f} mm.</p>")
-        parts.append(f'<figure><img src="data:image/png;base64,{b64}" alt="{e(title)}">'
-                     f"<figcaption>{e(text)} Files: {name}.png, {name}.svg.</figcaption></figure>")
+                f"{pd['bf_wheelbase_mm']:.2f} mm, E_max,syst {pd['bi_directional_bf']['emax_syst_mm']:.0f} mm.</p>"
+            )
+        parts.append(
+            f'<figure><img src="data:image/png;base64,{b64}" alt="{e(title)}">'
+            f"<figcaption>{e(text)} Files: {name}.png, {name}.svg.</figcaption></figure>"
+        )
     tm = study.to_dict()["tape_model"]
     parts += [
         "<h2>Models and assumptions</h2>",
@@ -285,8 +356,11 @@ def render_html(study: Study, pngs: dict, command: str) -> str:
         "effective value inferred from experiment 7's before figure, not a measured one.</li>",
         "<li>Noise: the <code>paper</code> preset's wheel slip, floor bumps and sonar measurement noise "
         "(2 mm, 0.4&deg;)"
-        + (", encoders not quantised so that every segment stops exactly on its target." if not cfg.noise.quantise
-           else ", quantised encoders (the robot stops at the first sample past its target).")
+        + (
+            ", encoders not quantised so that every segment stops exactly on its target."
+            if not cfg.noise.quantise
+            else ", quantised encoders (the robot stops at the first sample past its target)."
+        )
         + "</li>",
         "</ul>",
         "</body></html>",

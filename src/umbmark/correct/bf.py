@@ -17,11 +17,11 @@ from __future__ import annotations
 
 import math
 
-from ..benchmark import UMBmarkResult, umbmark
-from ..errors import CorrectionUndefined, InputError
-from ..kinematics import Calibration
-from .registry import register
-from .result import CorrectionResult, compose
+from umbmark.correct.registry import register
+from umbmark.correct.result import CorrectionResult, compose
+from umbmark.errors import CorrectionUndefined, InputError
+from umbmark.metrics import UMBmarkResult, umbmark
+from umbmark.model.geometry import Calibration
 
 __all__ = ["bf_correction", "alpha_beta", "ed_from_beta", "eb_from_alpha"]
 
@@ -42,8 +42,12 @@ def alpha_beta(result: UMBmarkResult, side_m: float) -> dict:
     beta_y = (cw.y_cg + ccw.y_cg) / k
     alpha_y = (cw.y_cg - ccw.y_cg) / k
     return {
-        "alpha_x": alpha_x, "alpha_y": alpha_y, "alpha": 0.5 * (alpha_x + alpha_y),
-        "beta_x": beta_x, "beta_y": beta_y, "beta": 0.5 * (beta_x + beta_y),
+        "alpha_x": alpha_x,
+        "alpha_y": alpha_y,
+        "alpha": 0.5 * (alpha_x + alpha_y),
+        "beta_x": beta_x,
+        "beta_y": beta_y,
+        "beta": 0.5 * (beta_x + beta_y),
     }
 
 
@@ -84,8 +88,10 @@ def bf_correction(
     ed_total, cal = compose(ed_pass, eb, wheelbase_m, prior)
     deg = math.degrees
     extra = {
-        "alpha_x_deg": deg(ab["alpha_x"]), "alpha_y_deg": deg(ab["alpha_y"]),
-        "beta_x_deg": deg(ab["beta_x"]), "beta_y_deg": deg(ab["beta_y"]),
+        "alpha_x_deg": deg(ab["alpha_x"]),
+        "alpha_y_deg": deg(ab["alpha_y"]),
+        "beta_x_deg": deg(ab["beta_x"]),
+        "beta_y_deg": deg(ab["beta_y"]),
     }
     for axis in ("x", "y"):  # the paper's footnote 2: both estimates, for comparison
         try:
@@ -100,9 +106,11 @@ def bf_correction(
     warns = []
     a_deg, b_deg = deg(ab["alpha"]), deg(ab["beta"])
     if a_deg <= -90.0 or abs(b_deg) >= 180.0:
-        warns.append(f"alpha = {a_deg:.1f} deg, beta = {b_deg:.1f} deg: far beyond the small angles the paper's "
-                     "formulas assume, so this correction means little (an outlier run, wrong units, or a very "
-                     "large error: try --method exact)")
+        warns.append(
+            f"alpha = {a_deg:.1f} deg, beta = {b_deg:.1f} deg: far beyond the small angles the paper's "
+            "formulas assume, so this correction means little (an outlier run, wrong units, or a very "
+            'large error: try `method="exact"`)'
+        )
     extra["warnings"] = warns
     return CorrectionResult("bf", ed_total, ed_pass, eb, cal, ab["alpha"], ab["beta"], radius, extra)
 

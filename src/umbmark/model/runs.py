@@ -10,7 +10,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .errors import InputError
+from umbmark.errors import InputError
 
 __all__ = ["RunsTable", "DIRECTIONS"]
 
@@ -50,26 +50,34 @@ class RunsTable:
     def __len__(self) -> int:
         return len(self.direction)
 
-    def select(self, mask) -> "RunsTable":
+    def select(self, mask) -> RunsTable:
         """The rows where ``mask`` is true."""
         m = np.asarray(mask)
-        pick = (lambda a: None if a is None else a[m])
+        pick = lambda a: None if a is None else a[m]
         return RunsTable(
-            self.direction[m], self.x_abs[m], self.y_abs[m], self.x_odo[m], self.y_odo[m],
-            pick(self.theta_abs), pick(self.theta_odo), pick(self.run),
+            self.direction[m],
+            self.x_abs[m],
+            self.y_abs[m],
+            self.x_odo[m],
+            self.y_odo[m],
+            pick(self.theta_abs),
+            pick(self.theta_odo),
+            pick(self.run),
         )
 
-    def direction_rows(self, direction: str) -> "RunsTable":
+    def direction_rows(self, direction: str) -> RunsTable:
         return self.select(self.direction == direction)
 
-    def concat(self, other: "RunsTable") -> "RunsTable":
+    def concat(self, other: RunsTable) -> RunsTable:
         def cat(a, b):
             return None if a is None or b is None else np.concatenate([a, b])
 
         return RunsTable(
             np.concatenate([self.direction, other.direction]),
             *(np.concatenate([getattr(self, k), getattr(other, k)]) for k in ("x_abs", "y_abs", "x_odo", "y_odo")),
-            cat(self.theta_abs, other.theta_abs), cat(self.theta_odo, other.theta_odo), cat(self.run, other.run),
+            cat(self.theta_abs, other.theta_abs),
+            cat(self.theta_odo, other.theta_odo),
+            cat(self.run, other.run),
         )
 
     @property

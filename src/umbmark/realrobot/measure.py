@@ -40,14 +40,29 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
-from .io._text import csv_rows, header_columns
-from .runs import DIRECTIONS, RunsTable
+from umbmark.errors import InputError
+from umbmark.io._text import csv_rows, header_columns
+from umbmark.model.runs import DIRECTIONS, RunsTable
 
 __all__ = [
-    "RobotMarks", "WallPose", "Measurement", "MeasuredRun", "pose_from_distances", "distances_from_pose", "distances_for_runs",
-    "relative_pose", "marks_for_direction", "measure", "measure_run", "measure_runs", "read_distances_csv", "parse_distances_csv",
-    "format_measured_csv", "DIST_COLUMNS", "START_COLUMNS", "END_COLUMNS",
+    "RobotMarks",
+    "WallPose",
+    "Measurement",
+    "MeasuredRun",
+    "pose_from_distances",
+    "distances_from_pose",
+    "distances_for_runs",
+    "relative_pose",
+    "marks_for_direction",
+    "measure",
+    "measure_run",
+    "measure_runs",
+    "read_distances_csv",
+    "parse_distances_csv",
+    "format_measured_csv",
+    "DIST_COLUMNS",
+    "START_COLUMNS",
+    "END_COLUMNS",
 ]
 
 START_COLUMNS = ("start_front", "start_rear", "start_back")
@@ -77,14 +92,16 @@ class RobotMarks:
             if len(p) != 2 or not all(math.isfinite(float(v)) for v in p):
                 raise InputError(f"reference point {name} must be two finite numbers (x, y), got {p!r}")
         if math.hypot(self.front[0] - self.rear[0], self.front[1] - self.rear[1]) < 1e-3:
-            raise InputError("the front and rear reference points must be at least 1 mm apart "
-                             "(their distances to the side wall give the orientation)")
+            raise InputError(
+                "the front and rear reference points must be at least 1 mm apart "
+                "(their distances to the side wall give the orientation)"
+            )
 
     @property
     def sign(self) -> float:
         return 1.0 if self.side_wall == "right" else -1.0
 
-    def mirrored(self) -> "RobotMarks":
+    def mirrored(self) -> RobotMarks:
         """The marks mirrored about the robot's centre line (y -> -y), side wall swapped."""
         m = lambda p: (float(p[0]), -float(p[1]))  # noqa: E731
         return RobotMarks(m(self.front), m(self.rear), m(self.back), "left" if self.side_wall == "right" else "right")
@@ -163,8 +180,7 @@ def distances_for_runs(marks: RobotMarks, runs: RunsTable, start: WallPose, side
     return out
 
 
-def pose_from_distances(marks: RobotMarks, d_front, d_rear, d_back, source: str | None = None,
-                        line=None) -> WallPose:
+def pose_from_distances(marks: RobotMarks, d_front, d_rear, d_back, source: str | None = None, line=None) -> WallPose:
     """Pose in the wall frame from the three distances (metres; scalars or arrays).
 
     ``line``: optional array of file line numbers, for error messages."""
@@ -182,7 +198,9 @@ def pose_from_distances(marks: RobotMarks, d_front, d_rear, d_back, source: str 
         raise InputError(
             f"front and rear distances differ by {abs(np.atleast_1d(df - dr)[i]) * 1e3:.1f} mm, more than the "
             f"{r * 1e3:.1f} mm between the front and rear reference points: check the readings and the marks",
-            source, ln)
+            source,
+            ln,
+        )
     asn = np.arcsin(ratio)
     # a sin(t) + b cos(t) = r sin(t + phi): t = asin(ratio) - phi  or  pi - asin(ratio) - phi
     t1 = _wrap(asn - phi)
@@ -249,12 +267,22 @@ def measure(marks: RobotMarks, distances, resolution_m: float = 1e-3, source=Non
         diff[..., 2] = _wrap(diff[..., 2])
         cols.append(diff / (2 * h))
     jac = np.stack(cols, axis=-1)  # (..., 3, 6)
-    var = resolution_m ** 2 / 12.0
+    var = resolution_m**2 / 12.0
     cov = var * jac @ np.swapaxes(jac, -1, -2)
     sd = np.sqrt(np.diagonal(cov, axis1=-2, axis2=-1))
     bound = np.abs(jac).sum(axis=-1) * resolution_m / 2.0
-    return Measurement(pose[..., 0], pose[..., 1], pose[..., 2], sd[..., 0], sd[..., 1], sd[..., 2],
-                       bound[..., 0], bound[..., 1], bound[..., 2], cov)
+    return Measurement(
+        pose[..., 0],
+        pose[..., 1],
+        pose[..., 2],
+        sd[..., 0],
+        sd[..., 1],
+        sd[..., 2],
+        bound[..., 0],
+        bound[..., 1],
+        bound[..., 2],
+        cov,
+    )
 
 
 @dataclass(frozen=True)
@@ -274,8 +302,9 @@ def measure_run(marks: RobotMarks, row: MeasuredRun, resolution_mm: float = 1.0,
     return measure(marks, np.asarray(row.distances_mm) * 1e-3, resolution_mm * 1e-3, source, row.line)
 
 
-def measure_runs(marks: RobotMarks, rows: list[MeasuredRun], resolution_mm: float = 1.0, source=None,
-                 side_wall: str | None = None):
+def measure_runs(
+    marks: RobotMarks, rows: list[MeasuredRun], resolution_mm: float = 1.0, source=None, side_wall: str | None = None
+):
     """All rows at once: ``(RunsTable, Measurement)``.
 
     ``side_wall``: None uses ``marks`` as they are for every run; otherwise see
@@ -304,8 +333,11 @@ def measure_runs(marks: RobotMarks, rows: list[MeasuredRun], resolution_mm: floa
     m = Measurement(**fields, covariance=cov)
     has_theta = all(r.theta_odo_deg is not None for r in rows)
     runs = RunsTable.from_columns(
-        [r.direction for r in rows], m.x, m.y,
-        [r.x_odo_mm * 1e-3 for r in rows], [r.y_odo_mm * 1e-3 for r in rows],
+        [r.direction for r in rows],
+        m.x,
+        m.y,
+        [r.x_odo_mm * 1e-3 for r in rows],
+        [r.y_odo_mm * 1e-3 for r in rows],
         m.theta,
         np.radians([r.theta_odo_deg for r in rows]) if has_theta else None,
         np.array([r.run for r in rows]),
@@ -317,8 +349,11 @@ def _num(cell: str, col: str, source, line) -> float:
     try:
         v = float(cell)
     except ValueError:
-        raise InputError(f"column {col}: {cell.strip()!r} is not a number" if cell.strip()
-                         else f"column {col} is empty", source, line) from None
+        raise InputError(
+            f"column {col}: {cell.strip()!r} is not a number" if cell.strip() else f"column {col} is empty",
+            source,
+            line,
+        ) from None
     if not math.isfinite(v):
         raise InputError(f"column {col}: {cell.strip()!r} is not a finite number", source, line)
     return v
@@ -354,12 +389,21 @@ def parse_distances_csv(text: str, source: str = "<distances>") -> list[Measured
             header = header_columns(row)
             missing = [c for c in required if c not in header]
             if missing:
-                raise InputError("no header with the distances-file columns: missing " + ", ".join(missing)
-                                 + " (expected direction," + ",".join(DIST_COLUMNS) + ",x_odo,y_odo[,run,theta_odo])",
-                                 source, line)
+                raise InputError(
+                    "no header with the distances-file columns: missing "
+                    + ", ".join(missing)
+                    + " (expected direction,"
+                    + ",".join(DIST_COLUMNS)
+                    + ",x_odo,y_odo[,run,theta_odo])",
+                    source,
+                    line,
+                )
             continue
         col = {c: header.index(c) for c in required + ("run", "theta_odo") if c in header}
-        cell = lambda c: row[col[c]].strip() if col[c] < len(row) else ""  # noqa: E731
+
+        def cell(c, row=row, col=col):
+            return row[col[c]].strip() if col[c] < len(row) else ""
+
         if len(row) < max(col[c] for c in required) + 1:
             raise InputError(f"has {len(row)} fields, the header has {len(header)}", source, line)
         d = cell("direction").lower()
@@ -368,8 +412,9 @@ def parse_distances_csv(text: str, source: str = "<distances>") -> list[Measured
         starts = [cell(c) for c in START_COLUMNS]
         if all(not s for s in starts):
             if d not in prev_start:
-                raise InputError(f"the start distances are empty and there is no previous {d} row to reuse", source,
-                                 line)
+                raise InputError(
+                    f"the start distances are empty and there is no previous {d} row to reuse", source, line
+                )
             start = prev_start[d]
         else:
             start = tuple(_num(cell(c), c, source, line) for c in START_COLUMNS)
@@ -382,8 +427,17 @@ def parse_distances_csv(text: str, source: str = "<distances>") -> list[Measured
         if "theta_odo" in col and cell("theta_odo"):
             theta = _num(cell("theta_odo"), "theta_odo", source, line)
         run = cell("run") if "run" in col and cell("run") else str(sum(1 for r in out if r.direction == d) + 1)
-        out.append(MeasuredRun(run, d, start + end, _num(cell("x_odo"), "x_odo", source, line),
-                               _num(cell("y_odo"), "y_odo", source, line), theta, line))
+        out.append(
+            MeasuredRun(
+                run,
+                d,
+                start + end,
+                _num(cell("x_odo"), "x_odo", source, line),
+                _num(cell("y_odo"), "y_odo", source, line),
+                theta,
+                line,
+            )
+        )
     if header is None:
         raise InputError("empty file: no header and no runs", source)
     if not out:
@@ -391,8 +445,9 @@ def parse_distances_csv(text: str, source: str = "<distances>") -> list[Measured
     with_theta = [r.theta_odo_deg is not None for r in out]
     if any(with_theta) and not all(with_theta):
         r = out[with_theta.index(False)]
-        raise InputError("column theta_odo is empty here but filled on other rows (fill it on every row or none)",
-                         source, r.line)
+        raise InputError(
+            "column theta_odo is empty here but filled on other rows (fill it on every row or none)", source, r.line
+        )
     return out
 
 
@@ -409,8 +464,14 @@ def format_measured_csv(runs: RunsTable, m: Measurement) -> str:
     w.writerow(header)
     f = lambda v, nd=3: repr(round(float(v), nd))  # noqa: E731
     for i in range(len(runs)):
-        row = [runs.run[i], runs.direction[i], f(runs.x_abs[i] * 1e3), f(runs.y_abs[i] * 1e3),
-               f(runs.x_odo[i] * 1e3), f(runs.y_odo[i] * 1e3)]
+        row = [
+            runs.run[i],
+            runs.direction[i],
+            f(runs.x_abs[i] * 1e3),
+            f(runs.y_abs[i] * 1e3),
+            f(runs.x_odo[i] * 1e3),
+            f(runs.y_odo[i] * 1e3),
+        ]
         row += [f(math.degrees(runs.theta_abs[i]), 4)]
         if has_theta:
             row += [f(math.degrees(runs.theta_odo[i]), 4)]

@@ -1,6 +1,6 @@
 """Scale-out of Monte Carlo sweeps: a process pool over all local cores, or a Dask cluster.
 
-    from umbmark import sweep
+    from umbmark.studies import sweep
     results = sweep.map(fn, items)                      # all local cores
     results = sweep.map(fn, items, workers=1)           # in this process, one by one
     results = sweep.map(fn, items, dask="tcp://10.0.0.5:8786")   # an existing Dask cluster
@@ -21,7 +21,7 @@ import os
 from collections.abc import Callable, Iterable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 
-from .errors import InputError
+from umbmark.errors import InputError
 
 __all__ = ["map", "local_cores", "split", "describe_backend"]
 
@@ -66,8 +66,15 @@ def _check_workers(workers):
     return workers
 
 
-def map(fn: Callable, items: Iterable, workers: int | None = None, dask=None, chunksize: int = 1,
-        mp_context=None, on_progress: Callable[[int, int], None] | None = None) -> list:
+def map(
+    fn: Callable,
+    items: Iterable,
+    workers: int | None = None,
+    dask=None,
+    chunksize: int = 1,
+    mp_context=None,
+    on_progress: Callable[[int, int], None] | None = None,
+) -> list:
     """``[fn(item) for item in items]``, in parallel.
 
     ``workers``: local processes (``None``: all cores of this machine; ``1``: no pool, in this
@@ -114,7 +121,9 @@ def _dask_map(fn, items, dask, workers, tick=lambda: None):
     try:
         from distributed import Client, LocalCluster
     except ImportError:
-        raise InputError('Dask is not installed: pip install -e ".[dask]" (or pip install "dask[distributed]")') from None
+        raise InputError(
+            'Dask is not installed: pip install -e ".[dask]" (or pip install "dask[distributed]")'
+        ) from None
     if not items:
         return []
     own = []
@@ -131,7 +140,7 @@ def _dask_map(fn, items, dask, workers, tick=lambda: None):
                 except (OSError, TimeoutError) as e:
                     raise InputError(f"cannot reach the Dask scheduler at {dask}: {e}") from None
             else:
-                raise InputError(f"--dask wants a scheduler address such as tcp://host:8786 or 'local', got {dask!r}")
+                raise InputError(f"`dask` wants a scheduler address such as tcp://host:8786 or 'local', got {dask!r}")
             own.insert(0, client)
         else:
             client = dask

@@ -2,7 +2,7 @@
 
 Nothing here is vectorised on purpose. :func:`integrate` / :func:`integrate_pulses` replay
 odometry one sample at a time with ``math.cos`` / ``math.sin``; :func:`run_program` drives the
-closed-loop simulation of :func:`umbmark.simulate.run_program` one run and one sample at a
+closed-loop simulation of :func:`umbmark.model.simulate.run_program` one run and one sample at a
 time, drawing the same random numbers from the same per-run generators (the draw layout is
 part of the simulator's definition), so that both give the same results to rounding.
 """
@@ -13,14 +13,14 @@ import math
 
 import numpy as np
 
-from .errors import InputError
-from .kinematics import LABMATE, Calibration, ErrorParams, Geometry, OdometryParams
-from .runs import RunsTable
-from .simulate import (
+from umbmark.errors import InputError
+from umbmark.model.geometry import LABMATE, Calibration, ErrorParams, Geometry, OdometryParams
+from umbmark.model.runs import RunsTable
+from umbmark.model.simulate import (
     Motion,
-    child_seeds,
     NoiseModel,
     SimResult,
+    child_seeds,
     noise_preset,
     program_inputs,
     run_seeds,
@@ -67,12 +67,14 @@ def integrate(d_left, d_right, wheelbase_m: float, pose0=(0.0, 0.0, 0.0), method
 def integrate_pulses(n_left, n_right, params: OdometryParams, pose0=(0.0, 0.0, 0.0), method: str = "exact"):
     """One log of encoder increments: poses after each sample, one at a time (Eqs. 2.2, 2.3)."""
     ml, mr = params.left_m_per_pulse, params.right_m_per_pulse
-    return integrate([ml * float(v) for v in n_left], [mr * float(v) for v in n_right], params.wheelbase_m, pose0, method)
+    return integrate(
+        [ml * float(v) for v in n_left], [mr * float(v) for v in n_right], params.wheelbase_m, pose0, method
+    )
 
 
 def _plan(program, motion, noise, m_l, m_r, m_b):
     """Per segment: (kind, sign_l, sign_r, target, step, n_full, frac, kmax) for one run, as
-    :func:`umbmark.simulate.run_program` plans it."""
+    :func:`umbmark.model.simulate.run_program` plans it."""
     dt = motion.sample_period_s
     out = []
     for seg in program:
@@ -97,10 +99,18 @@ def _plan(program, motion, noise, m_l, m_r, m_b):
     return out
 
 
-def run_program(program, true: OdometryParams, model: OdometryParams, n_runs: int | None = None,
-                noise: NoiseModel | None = None, motion: Motion | None = None, rngs=None,
-                true_per_run: dict | None = None, model_per_run: dict | None = None) -> SimResult:
-    """The closed-loop simulation of :func:`umbmark.simulate.run_program`, one run and one
+def run_program(
+    program,
+    true: OdometryParams,
+    model: OdometryParams,
+    n_runs: int | None = None,
+    noise: NoiseModel | None = None,
+    motion: Motion | None = None,
+    rngs=None,
+    true_per_run: dict | None = None,
+    model_per_run: dict | None = None,
+) -> SimResult:
+    """The closed-loop simulation of :func:`umbmark.model.simulate.run_program`, one run and one
     sample at a time (same arguments, same random draws, same results to rounding)."""
     program, noise, motion = program_inputs(program, noise, motion)
     if n_runs is None:
@@ -188,16 +198,31 @@ def run_program(program, true: OdometryParams, model: OdometryParams, n_runs: in
                 if noise.quantise:  # pragma: no cover - the margin makes this unreachable
                     raise RuntimeError("internal: quantised segment did not reach its target")
             pos += kmax
-        out[:, r] = (tx, ty, tth, ox, oy, oth,
-                     tx + noise.abs_xy_std_m * absn[0], ty + noise.abs_xy_std_m * absn[1],
-                     tth + noise.abs_theta_std_rad * absn[2])
+        out[:, r] = (
+            tx,
+            ty,
+            tth,
+            ox,
+            oy,
+            oth,
+            tx + noise.abs_xy_std_m * absn[0],
+            ty + noise.abs_xy_std_m * absn[1],
+            tth + noise.abs_theta_std_rad * absn[2],
+        )
     return SimResult(*out)
 
 
-def simulate_umbmark(errors: ErrorParams, geometry: Geometry = LABMATE, side_m: float = 4.0, n_runs: int = 5,
-                     calibration: Calibration | None = None, noise: NoiseModel | str = "none",
-                     motion: Motion | None = None, seed=0) -> RunsTable:
-    """:func:`umbmark.simulate.simulate_umbmark` with the per-sample reference loop (same seeds)."""
+def simulate_umbmark(
+    errors: ErrorParams,
+    geometry: Geometry = LABMATE,
+    side_m: float = 4.0,
+    n_runs: int = 5,
+    calibration: Calibration | None = None,
+    noise: NoiseModel | str = "none",
+    motion: Motion | None = None,
+    seed=0,
+) -> RunsTable:
+    """:func:`umbmark.model.simulate.simulate_umbmark` with the per-sample reference loop (same seeds)."""
     if isinstance(noise, str):
         noise = noise_preset(noise)
     ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
@@ -205,7 +230,8 @@ def simulate_umbmark(errors: ErrorParams, geometry: Geometry = LABMATE, side_m: 
     model = OdometryParams.from_geometry(geometry, calibration)
     parts = []
     for direction, s in zip(("cw", "ccw"), child_seeds(ss, 2)):
-        res = run_program(square_program(direction, side_m), true, model, n_runs, noise, motion,
-                          rngs=run_seeds(s, n_runs))
+        res = run_program(
+            square_program(direction, side_m), true, model, n_runs, noise, motion, rngs=run_seeds(s, n_runs)
+        )
         parts.append((direction, res))
     return runs_table(parts, n_runs)

@@ -18,9 +18,10 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from .errors import InputError
+from umbmark.errors import InputError
 
 __all__ = [
+    "FIG11_ERRORS",
     "Geometry",
     "Calibration",
     "OdometryParams",
@@ -66,7 +67,7 @@ class Geometry:
         """Eq. 2.1: c_m, metres of wheel travel per encoder pulse."""
         return math.pi * self.wheel_diameter_m / (self.gear_ratio * self.pulses_per_rev)
 
-    def with_wheelbase(self, wheelbase_m: float) -> "Geometry":
+    def with_wheelbase(self, wheelbase_m: float) -> Geometry:
         return replace(self, wheelbase_m=wheelbase_m)
 
 
@@ -104,7 +105,7 @@ class OdometryParams:
     wheelbase_m: float
 
     @classmethod
-    def from_geometry(cls, geometry: Geometry, calibration: Calibration | None = None) -> "OdometryParams":
+    def from_geometry(cls, geometry: Geometry, calibration: Calibration | None = None) -> OdometryParams:
         cal = calibration or Calibration()
         cm = geometry.m_per_pulse
         b = geometry.wheelbase_m if cal.wheelbase_m is None else cal.wheelbase_m
@@ -199,3 +200,7 @@ def odometry_from_pulses(n_left, n_right, params: OdometryParams, pose0=(0.0, 0.
         pose0,
         method,
     )
+
+
+# The paper's Fig. 11 robot: after calibration b = 336.17 mm, D_R/D_L = 1.00084.
+FIG11_ERRORS = ErrorParams(ed=1.00084, eb=336.17 / 340.0)

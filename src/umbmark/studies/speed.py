@@ -5,17 +5,17 @@ Measures, side by side with the obvious alternatives and in the same run:
 * **replay** of a synthetic encoder log (1 kHz, integer increments of a robot driving at
   about 0.2 m/s with slowly varying wheel speeds) for 10^5 .. 10^8 samples: samples per second
   and peak RSS of the per-sample Python loop (``reference``), the plain numpy vectorisation
-  with one cos and sin per sample (``numpy-trig``: :func:`umbmark.kinematics.odometry_from_pulses`),
-  the fast float kernel (``fast-float``: :func:`umbmark.odometry.integrate`), the integer
-  table kernel with every pose kept (``fast-pulses``: :func:`umbmark.odometry.integrate_pulses`)
+  with one cos and sin per sample (``numpy-trig``: :func:`umbmark.model.geometry.odometry_from_pulses`),
+  the fast float kernel (``fast-float``: :func:`umbmark.model.odometry.integrate`), the integer
+  table kernel with every pose kept (``fast-pulses``: :func:`umbmark.model.odometry.integrate_pulses`)
   and the streaming replay in chunks with only the end pose kept (``stream``:
-  :func:`umbmark.odometry.replay_stream`). In-memory cases stop at 10^7 samples.
+  :func:`umbmark.model.odometry.replay_stream`). In-memory cases stop at 10^7 samples.
 * **simulation** of UMBmark experiments (LabMate geometry, 4 m square, 0.2 m/s, 10 ms
   sampling, 5 cw + 5 ccw runs, ``paper`` noise) for batches of 1 .. 10^4 random robots:
   experiments per second and peak RSS of the per-sample reference loop, the vectorised numpy
-  simulator (:func:`umbmark.simulate.run_program`) and the batched numba engine
-  (:func:`umbmark.batch.simulate_batch`), on one thread and on all cores; and the same batch
-  split over a process pool or a Dask cluster (:func:`umbmark.sweep.map`).
+  simulator (:func:`umbmark.model.simulate.run_program`) and the batched numba engine
+  (:func:`umbmark.model.batch.simulate_batch`), on one thread and on all cores; and the same batch
+  split over a process pool or a Dask cluster (:func:`umbmark.studies.sweep.map`).
 
 Every case runs in a fresh subprocess (peak RSS from ``resource.getrusage``, in MiB, includes
 the interpreter and numpy: ``rss_base_mib`` is the peak before the case). The slow baselines
@@ -43,7 +43,7 @@ import time
 
 import numpy as np
 
-from .errors import InputError
+from umbmark.errors import InputError
 
 __all__ = ["FULL", "QUICK", "machine_info", "run_case_here", "run_benchmark", "markdown"]
 
@@ -67,7 +67,7 @@ QUICK = dict(
 )
 
 CHUNK = 1 << 16
-M_PER_PULSE = math.pi * 0.150 / (20 * 500)  # LabMate geometry of umbmark.kinematics.LABMATE
+M_PER_PULSE = math.pi * 0.150 / (20 * 500)  # LabMate geometry of umbmark.model.geometry.LABMATE
 
 
 def machine_info() -> dict:
@@ -120,7 +120,7 @@ def _log(n, seed=1):
 
 
 def _robots(n, seed=7):
-    from .kinematics import ErrorParams
+    from umbmark.model.geometry import ErrorParams
 
     z = np.random.default_rng(seed).standard_normal((n, 2))  # robot i is the same for every n
     return [ErrorParams(ed=1.0 + 2e-3 * float(a), eb=1.0 + 1e-2 * float(b)) for a, b in z]
@@ -136,7 +136,9 @@ def _rss_mib():
 
 # ---------------------------------------------------------------- one case, in this process
 def _replay_case(c):
-    from . import kinematics, odometry, reference
+    from umbmark.model import geometry as kinematics
+    from umbmark.model import odometry
+    from umbmark.studies import reference
 
     n, impl = c["n"], c["impl"]
     params = kinematics.OdometryParams(M_PER_PULSE, M_PER_PULSE * 1.0005, 0.340)
@@ -159,14 +161,22 @@ def _replay_case(c):
             t0 = _clock()
             res = odometry.replay_stream(chunks(n), params=params)
             best = np.minimum(best, _clock() - t0 - gen)  # generating the synthetic log is not timed
-        return dict(seconds=best[0], cpu_seconds=best[1], timed_samples=n, generation_seconds=gen[0],
-                    end=[res.x, res.y, res.theta], rss_base_mib=rss0)
+        return dict(
+            seconds=best[0],
+            cpu_seconds=best[1],
+            timed_samples=n,
+            generation_seconds=gen[0],
+            end=[res.x, res.y, res.theta],
+            rss_base_mib=rss0,
+        )
     m = min(n, c.get("cap", n))
     nl, nr = _log(m)
     if impl == "reference":
+
         def fn(a, b):
             return reference.integrate_pulses(a, b, params)
     elif impl == "numpy-trig":
+
         def fn(a, b):
             return kinematics.odometry_from_pulses(a, b, params)
     elif impl == "fast-float":
@@ -176,6 +186,7 @@ def _replay_case(c):
         def fn(a, b):
             return odometry.integrate(a, b, params.wheelbase_m)
     elif impl == "fast-pulses":
+
         def fn(a, b):
             return odometry.integrate_pulses(a, b, params)
     else:
@@ -198,7 +209,8 @@ def _replay_case(c):
 
 
 def _sim_case(c):
-    from . import batch, reference
+    from umbmark.model import batch
+    from umbmark.studies import reference
 
     n, impl = c["n"], c["impl"]
     m = min(n, c.get("cap", n))
@@ -207,18 +219,29 @@ def _sim_case(c):
     if impl.startswith("numba"):
         batch.simulate_batch(robots[:1], n_runs=1, noise="paper", engine="numba")  # compile / load the cache
     if impl == "reference":
+
         def fn():
             return [reference.simulate_umbmark(e, n_runs=5, noise="paper", seed=s) for e, s in zip(robots, seeds)]
     elif impl == "numpy":
+
         def fn():
             return batch.simulate_batch(robots, n_runs=5, noise="paper", seeds=seeds, engine="numpy")
     elif impl == "numba":
+
         def fn():
             return batch.simulate_batch(robots, n_runs=5, noise="paper", seeds=seeds, engine="numba", threads=1)
     elif impl == "numba-threads":
+
         def fn():
-            return batch.simulate_batch(robots, n_runs=5, noise="paper", seeds=seeds, engine="numba",
-                                        threads=c.get("threads") or len(os.sched_getaffinity(0)), chunk_runs=64)
+            return batch.simulate_batch(
+                robots,
+                n_runs=5,
+                noise="paper",
+                seeds=seeds,
+                engine="numba",
+                threads=c.get("threads") or len(os.sched_getaffinity(0)),
+                chunk_runs=64,
+            )
     else:
         raise InputError(f"unknown simulation implementation {impl!r}")
     rss0 = _rss_mib()
@@ -231,25 +254,32 @@ def _sim_case(c):
         tabs = fn()
         best = np.minimum(best, _clock() - t0)
     first = tabs[0]
-    return dict(seconds=best[0], cpu_seconds=best[1], timed_robots=m, repeats=repeat,
-                first_x_abs_mm=[round(float(v) * 1e3, 6) for v in np.asarray(first.x_abs)[:2]], rss_base_mib=rss0)
+    return dict(
+        seconds=best[0],
+        cpu_seconds=best[1],
+        timed_robots=m,
+        repeats=repeat,
+        first_x_abs_mm=[round(float(v) * 1e3, 6) for v in np.asarray(first.x_abs)[:2]],
+        rss_base_mib=rss0,
+    )
 
 
 def _sweep_part(args):
     """One task of the sweep case: a part of the robots simulated as one batch (module level:
     picklable)."""
-    from . import batch
+    from umbmark.model import batch
 
     seeds, ed, eb = args
-    from .kinematics import ErrorParams
+    from umbmark.model.geometry import ErrorParams
 
-    tabs = batch.simulate_batch([ErrorParams(ed=a, eb=b) for a, b in zip(ed, eb)], n_runs=5, noise="paper",
-                                seeds=seeds, engine="auto")
+    tabs = batch.simulate_batch(
+        [ErrorParams(ed=a, eb=b) for a, b in zip(ed, eb)], n_runs=5, noise="paper", seeds=seeds, engine="auto"
+    )
     return [float(np.asarray(t.x_abs)[0]) for t in tabs]
 
 
 def _sweep_case(c):
-    from . import sweep
+    from umbmark.studies import sweep
 
     n = c["n"]
     robots = _robots(n)
@@ -261,8 +291,13 @@ def _sweep_case(c):
     res = sweep.map(_sweep_part, items, workers=workers, dask=c.get("dask"))
     t = (_clock() - t0)[0]
     flat = [v for r in res for v in r]
-    return dict(seconds=t, timed_robots=n, first_x_abs_mm=[round(v * 1e3, 6) for v in flat[:2]],
-                backend=sweep.describe_backend(workers, c.get("dask")), rss_base_mib=rss0)
+    return dict(
+        seconds=t,
+        timed_robots=n,
+        first_x_abs_mm=[round(v * 1e3, 6) for v in flat[:2]],
+        backend=sweep.describe_backend(workers, c.get("dask")),
+        rss_base_mib=rss0,
+    )
 
 
 def run_case_here(c: dict) -> dict:
@@ -275,8 +310,12 @@ def run_case_here(c: dict) -> dict:
 
 
 def _run_isolated(c: dict, timeout: float) -> dict:
-    p = subprocess.run([sys.executable, "-m", "umbmark._bench_child", json.dumps(c)], capture_output=True,
-                       text=True, timeout=timeout)
+    p = subprocess.run(
+        [sys.executable, "-m", "umbmark.studies._speed_child", json.dumps(c)],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+    )
     if p.returncode != 0:
         err = (p.stderr.strip().splitlines() or ["no output"])[-1]
         return dict(c, error=err)
@@ -306,8 +345,15 @@ def _plan(cfg, dask=None, workers=None):
     return cases
 
 
-def run_benchmark(quick: bool = False, isolate: bool = True, progress=None, dask=None, workers=None,
-                  timeout: float = 3600.0, **overrides) -> dict:
+def run_benchmark(
+    quick: bool = False,
+    isolate: bool = True,
+    progress=None,
+    dask=None,
+    workers=None,
+    timeout: float = 3600.0,
+    **overrides,
+) -> dict:
     """Run the benchmark; returns a JSON-able dict (machine, cases, summary). ``overrides``
     replace entries of :data:`FULL` / :data:`QUICK`. ``progress``: called with each finished case."""
     cfg = dict(QUICK if quick else FULL)
@@ -330,7 +376,9 @@ def run_benchmark(quick: bool = False, isolate: bool = True, progress=None, dask
 def _rates(r):
     if "error" in r:
         return
-    key, size = ("samples_per_s", r["timed_samples"]) if r["kind"] == "replay" else ("experiments_per_s", r["timed_robots"])
+    key, size = (
+        ("samples_per_s", r["timed_samples"]) if r["kind"] == "replay" else ("experiments_per_s", r["timed_robots"])
+    )
     r[key + "_wall"] = size / r["seconds"] if r["seconds"] > 0 else None
     cpu = r.get("cpu_seconds")
     r[key + "_cpu"] = size / cpu if cpu else None
@@ -355,8 +403,11 @@ def _summary(results):
         for impl in ("reference", "numpy-trig", "fast-float", "fast-pulses", "stream"):
             r = _get(results, "replay", impl, n)
             if r:
-                row[impl] = dict(samples_per_s=r["samples_per_s"], rss_peak_mib=r["rss_peak_mib"],
-                                 x_reference=(r["samples_per_s"] / ref["samples_per_s"]) if ref else None)
+                row[impl] = dict(
+                    samples_per_s=r["samples_per_s"],
+                    rss_peak_mib=r["rss_peak_mib"],
+                    x_reference=(r["samples_per_s"] / ref["samples_per_s"]) if ref else None,
+                )
         s["replay"].append(row)
     for n in sorted({r["n"] for r in results if r["kind"] == "sim"}):
         ref = _get(results, "sim", "reference", n)
@@ -364,21 +415,28 @@ def _summary(results):
         for impl in ("reference", "numpy", "numba", "numba-threads"):
             r = _get(results, "sim", impl, n)
             if r:
-                row[impl] = dict(experiments_per_s=r["experiments_per_s"], rss_peak_mib=r["rss_peak_mib"],
-                                 x_reference=(r["experiments_per_s"] / ref["experiments_per_s"]) if ref else None)
+                row[impl] = dict(
+                    experiments_per_s=r["experiments_per_s"],
+                    rss_peak_mib=r["rss_peak_mib"],
+                    x_reference=(r["experiments_per_s"] / ref["experiments_per_s"]) if ref else None,
+                )
         s["sim"].append(row)
     for r in results:
         if r["kind"] == "sweep" and "error" not in r:
-            s.setdefault("sweep", []).append(dict(impl=r["impl"], n=r["n"], backend=r.get("backend"),
-                                                  experiments_per_s=r["experiments_per_s"]))
+            s.setdefault("sweep", []).append(
+                dict(impl=r["impl"], n=r["n"], backend=r.get("backend"), experiments_per_s=r["experiments_per_s"])
+            )
     t = s["targets"]
     big = [row for row in s["replay"] if row["n"] >= 10**6]
     best = [max((row.get(k, {}).get("samples_per_s") or 0) for k in ("fast-pulses", "stream")) for row in big]
     if big:
         t["replay_min_samples_per_s_at_1e6_plus"] = min(best)
         t["replay_min_x_reference_at_1e6_plus"] = min(
-            max((row.get(k, {}).get("x_reference") or 0) for k in ("fast-pulses", "stream")) for row in big)
-        t["replay_target_met"] = t["replay_min_samples_per_s_at_1e6_plus"] >= 20e6 and t["replay_min_x_reference_at_1e6_plus"] >= 10
+            max((row.get(k, {}).get("x_reference") or 0) for k in ("fast-pulses", "stream")) for row in big
+        )
+        t["replay_target_met"] = (
+            t["replay_min_samples_per_s_at_1e6_plus"] >= 20e6 and t["replay_min_x_reference_at_1e6_plus"] >= 10
+        )
     st = _get(results, "replay", "stream", 10**8)
     if st:
         t["stream_1e8_rss_peak_mib"] = st["rss_peak_mib"]
@@ -403,14 +461,20 @@ def _f(v, digits=1, scale=1.0):
 def markdown(res: dict) -> str:
     """The results as Markdown tables (written beside the JSON)."""
     m = res["machine"]
-    lines = [f"# Speed benchmark{' (quick)' if res['quick'] else ''}", "",
-             f"Machine: {m['cpu_model']}, nproc {m['nproc']}, Python {m['python']}, numpy {m['numpy']}, "
-             f"numba {m.get('numba')}, load average at start {m.get('load_average')}.", "",
-             "Rates per CPU-second of the benchmark process for one-thread cases, wall clock for threads "
-             "and process pools (see umbmark/speedbench.py).", "",
-             "## Replay (million samples/s; x = ratio to the per-sample Python loop; peak RSS MiB)", "",
-             "| samples | reference | numpy-trig | fast-float | fast-pulses | stream | stream RSS |",
-             "|---|---|---|---|---|---|---|"]
+    lines = [
+        f"# Speed benchmark{' (quick)' if res['quick'] else ''}",
+        "",
+        f"Machine: {m['cpu_model']}, nproc {m['nproc']}, Python {m['python']}, numpy {m['numpy']}, "
+        f"numba {m.get('numba')}, load average at start {m.get('load_average')}.",
+        "",
+        "Rates per CPU-second of the benchmark process for one-thread cases, wall clock for threads "
+        "and process pools (see umbmark/speedbench.py).",
+        "",
+        "## Replay (million samples/s; x = ratio to the per-sample Python loop; peak RSS MiB)",
+        "",
+        "| samples | reference | numpy-trig | fast-float | fast-pulses | stream | stream RSS |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for row in res["summary"]["replay"]:
         cells = []
         for impl in ("reference", "numpy-trig", "fast-float", "fast-pulses", "stream"):
@@ -418,8 +482,13 @@ def markdown(res: dict) -> str:
             cells.append("-" if not v else f"{_f(v['samples_per_s'], 2, 1e6)} ({_f(v['x_reference'], 0)}x)")
         rss = row.get("stream", {}).get("rss_peak_mib")
         lines.append(f"| {row['n']:.0e} | " + " | ".join(cells) + f" | {_f(rss, 0)} |")
-    lines += ["", "## Simulation (UMBmark experiments/s, 10 runs each, paper noise, 10 ms; x = ratio to the reference loop)", "",
-              "| robots | reference | numpy | numba (1 thread) | numba (threads) | numba RSS |", "|---|---|---|---|---|---|"]
+    lines += [
+        "",
+        "## Simulation (UMBmark experiments/s, 10 runs each, paper noise, 10 ms; x = ratio to the reference loop)",
+        "",
+        "| robots | reference | numpy | numba (1 thread) | numba (threads) | numba RSS |",
+        "|---|---|---|---|---|---|",
+    ]
     for row in res["summary"]["sim"]:
         cells = []
         for impl in ("reference", "numpy", "numba", "numba-threads"):
@@ -430,7 +499,9 @@ def markdown(res: dict) -> str:
     if res["summary"].get("sweep"):
         lines += ["", "## Sweep scale-out (experiments/s)", ""]
         for x in res["summary"]["sweep"]:
-            lines.append(f"- {x['impl']} ({x['backend']}): {x['n']} robots, {_f(x['experiments_per_s'], 1)} experiments/s")
+            lines.append(
+                f"- {x['impl']} ({x['backend']}): {x['n']} robots, {_f(x['experiments_per_s'], 1)} experiments/s"
+            )
     lines += ["", "## Targets", ""]
     for k, v in res["summary"]["targets"].items():
         lines.append(f"- {k}: {v}")

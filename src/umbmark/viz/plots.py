@@ -11,13 +11,19 @@ import matplotlib.pyplot as plt  # noqa: E402
 import matplotlib.ticker  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .benchmark import umbmark  # noqa: E402
-from .errors import InputError  # noqa: E402
-from .io.atomic import atomic_path  # noqa: E402
-from .runs import RunsTable  # noqa: E402
+from umbmark.errors import InputError  # noqa: E402
+from umbmark.io.atomic import atomic_path  # noqa: E402
+from umbmark.metrics import umbmark  # noqa: E402
+from umbmark.model.runs import RunsTable  # noqa: E402
 
-__all__ = ["scatter_figure", "save_figure", "trajectory_figure", "exaggerated_trajectory_figure", "pitfall_figure",
-           "distribution_figure"]
+__all__ = [
+    "scatter_figure",
+    "save_figure",
+    "trajectory_figure",
+    "exaggerated_trajectory_figure",
+    "pitfall_figure",
+    "distribution_figure",
+]
 
 _STYLE = {
     "cw": dict(marker="s", color="tab:blue"),
@@ -31,11 +37,24 @@ def _draw_runs(ax, runs: RunsTable, label: str, filled: bool):
         rows = runs.direction_rows(d)
         style = _STYLE[d]
         face = style["color"] if filled else "none"
-        ax.scatter(rows.eps_x * 1e3, rows.eps_y * 1e3, marker=style["marker"], facecolors=face,
-                   edgecolors=style["color"], s=36, label=f"{d} runs, {label}")
-        ax.scatter([st.x_cg * 1e3], [st.y_cg * 1e3], marker="+" if filled else "x", s=260, linewidths=2.2,
-                   color=style["color"],
-                   label=f"{d} centre of gravity, {label} (r = {st.r_cg * 1e3:.0f} mm)")
+        ax.scatter(
+            rows.eps_x * 1e3,
+            rows.eps_y * 1e3,
+            marker=style["marker"],
+            facecolors=face,
+            edgecolors=style["color"],
+            s=36,
+            label=f"{d} runs, {label}",
+        )
+        ax.scatter(
+            [st.x_cg * 1e3],
+            [st.y_cg * 1e3],
+            marker="+" if filled else "x",
+            s=260,
+            linewidths=2.2,
+            color=style["color"],
+            label=f"{d} centre of gravity, {label} (r = {st.r_cg * 1e3:.0f} mm)",
+        )
     return res
 
 
@@ -54,8 +73,9 @@ def scatter_figure(before: RunsTable, after: RunsTable | None = None, title: str
     ax.set_xlabel("return position error x [mm] (start frame, x along the first leg)")
     ax.set_ylabel("return position error y [mm]")
     ax.set_title(title or "UMBmark return position errors")
-    ax.text(0.02, 0.98, text, transform=ax.transAxes, va="top", ha="left",
-            bbox=dict(boxstyle="round", fc="white", ec="0.7"))
+    ax.text(
+        0.02, 0.98, text, transform=ax.transAxes, va="top", ha="left", bbox=dict(boxstyle="round", fc="white", ec="0.7")
+    )
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.09), ncol=2, fontsize=7, frameon=False)
     ax.grid(True, lw=0.3)
     fig.tight_layout()
@@ -69,9 +89,17 @@ def trajectory_figure(trajectories: list[dict], title: str | None = None):
     for i, t in enumerate(trajectories):
         c = f"C{i % 10}"
         lab = t.get("label", f"run {i + 1}")
-        ax.plot(np.asarray(t["true_x"]) * 1e3, np.asarray(t["true_y"]) * 1e3, color=c, lw=1.4, label=f"{lab}: true path")
-        ax.plot(np.asarray(t["odo_x"]) * 1e3, np.asarray(t["odo_y"]) * 1e3, color=c, lw=1.0, ls="--",
-                label=f"{lab}: odometry")
+        ax.plot(
+            np.asarray(t["true_x"]) * 1e3, np.asarray(t["true_y"]) * 1e3, color=c, lw=1.4, label=f"{lab}: true path"
+        )
+        ax.plot(
+            np.asarray(t["odo_x"]) * 1e3,
+            np.asarray(t["odo_y"]) * 1e3,
+            color=c,
+            lw=1.0,
+            ls="--",
+            label=f"{lab}: odometry",
+        )
     ax.plot([0], [0], "k*", ms=10, label="start")
     ax.set_aspect("equal", adjustable="datalim")
     ax.set_xlabel("x [mm]")
@@ -90,8 +118,10 @@ def save_figure(fig, path) -> Path:
     supported = fig.canvas.get_supported_filetypes()
     try:
         if fmt not in supported:
-            raise InputError(f"cannot write a .{fmt} figure (use one of: "
-                             f"{', '.join('.' + k for k in sorted(supported))})", source=str(path))
+            raise InputError(
+                f"cannot write a .{fmt} figure (use one of: {', '.join('.' + k for k in sorted(supported))})",
+                source=str(path),
+            )
         with atomic_path(path) as tmp:
             fig.savefig(tmp, format=fmt, dpi=120)
     finally:
@@ -103,8 +133,9 @@ def save_figure(fig, path) -> Path:
 # Figures of the paper reproduction (issue 6)
 
 
-def exaggerated_trajectory_figure(trajectories: list[dict], exaggerate: float = 1.0, side_m: float | None = None,
-                                  title: str | None = None):
+def exaggerated_trajectory_figure(
+    trajectories: list[dict], exaggerate: float = 1.0, side_m: float | None = None, title: str | None = None
+):
     """True (solid) and odometry (dashed) paths of runs, like the paper's Figs. 3-5.
 
     ``exaggerate`` > 1 draws the true path as ``odometry + exaggerate * (true - odometry)``: the
@@ -145,28 +176,47 @@ def pitfall_figure(pitfall, title: str | None = None):
     fig, (a, b) = plt.subplots(1, 2, figsize=(13, 6.2), gridspec_kw=dict(width_ratios=[1.1, 1]))
     g = pitfall.grid_m * 1e3
     a.plot(g, pitfall.cw_r_cg * 1e3, color=_STYLE["cw"]["color"], lw=1.8, label="cw runs (tuned on)")
-    a.plot(g, pitfall.ccw_r_cg * 1e3, color=_STYLE["ccw"]["color"], lw=1.8, ls="--",
-           label="ccw runs (never run by the experimenter)")
+    a.plot(
+        g,
+        pitfall.ccw_r_cg * 1e3,
+        color=_STYLE["ccw"]["color"],
+        lw=1.8,
+        ls="--",
+        label="ccw runs (never run by the experimenter)",
+    )
     tb = pitfall.tuned_wheelbase_m * 1e3
     a.axvline(tb, color="k", lw=1, label=f"uni-directionally tuned b = {tb:.2f} mm")
     true_b = pitfall.errors.eb * pitfall.wheelbase_nominal_m * 1e3
     a.axvline(true_b, color="tab:green", lw=1, ls=":", label=f"true b = {true_b:.2f} mm")
-    a.axvline(pitfall.wheelbase_nominal_m * 1e3, color="0.5", lw=1, ls="-.",
-              label=f"nominal b = {pitfall.wheelbase_nominal_m * 1e3:.2f} mm")
+    a.axvline(
+        pitfall.wheelbase_nominal_m * 1e3,
+        color="0.5",
+        lw=1,
+        ls="-.",
+        label=f"nominal b = {pitfall.wheelbase_nominal_m * 1e3:.2f} mm",
+    )
     a.set_xlabel("wheelbase b in the odometry [mm]")
     a.set_ylabel("distance of the centre of gravity from the origin, r_cg [mm]")
     a.set_title("(a) trial and error on the wheelbase, cw runs only")
     a.set_ylim(bottom=0)
     a.grid(True, lw=0.3)
     a.legend(fontsize=7, loc="upper center")
-    for res, runs, lab, filled in ((pitfall.tuned, pitfall.tuned_runs, "b tuned on cw only", False),
-                                   (pitfall.bf, pitfall.bf_runs, "UMBmark + paper's correction", True)):
+    for res, runs, lab, filled in (
+        (pitfall.tuned, pitfall.tuned_runs, "b tuned on cw only", False),
+        (pitfall.bf, pitfall.bf_runs, "UMBmark + paper's correction", True),
+    ):
         for st in (res.cw, res.ccw):
             rows = runs.direction_rows(st.direction)
             sty = _STYLE[st.direction]
-            b.scatter(rows.eps_x * 1e3, rows.eps_y * 1e3, marker=sty["marker"], s=34,
-                      facecolors=sty["color"] if filled else "none", edgecolors=sty["color"],
-                      label=f"{st.direction}, {lab} (r_cg = {st.r_cg * 1e3:.0f} mm)")
+            b.scatter(
+                rows.eps_x * 1e3,
+                rows.eps_y * 1e3,
+                marker=sty["marker"],
+                s=34,
+                facecolors=sty["color"] if filled else "none",
+                edgecolors=sty["color"],
+                label=f"{st.direction}, {lab} (r_cg = {st.r_cg * 1e3:.0f} mm)",
+            )
     b.axhline(0, color="0.6", lw=0.8)
     b.axvline(0, color="0.6", lw=0.8)
     b.set_aspect("equal", adjustable="datalim")
@@ -181,8 +231,15 @@ def pitfall_figure(pitfall, title: str | None = None):
     return fig
 
 
-def distribution_figure(emax_before_mm, emax_after_mm, emax_final_mm, improvement_final, paper_after_mm=(),
-                        paper_improvement=(), title: str | None = None):
+def distribution_figure(
+    emax_before_mm,
+    emax_after_mm,
+    emax_final_mm,
+    improvement_final,
+    paper_after_mm=(),
+    paper_improvement=(),
+    title: str | None = None,
+):
     """Histograms of the study over many seeds: E_max,syst after calibration (first pass and
     final) and the final improvement factor, with the paper's values marked."""
     fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.6))
@@ -190,8 +247,14 @@ def distribution_figure(emax_before_mm, emax_after_mm, emax_final_mm, improvemen
     final = np.asarray(emax_final_mm, dtype=float).ravel()
     bins = np.linspace(0, max(80.0, float(np.percentile(after, 99.5))), 41)
     a.hist(after, bins=bins, color="tab:blue", alpha=0.5, label=f"after 1st pass (median {np.median(after):.1f} mm)")
-    a.hist(final, bins=bins, histtype="step", color="k", lw=1.4,
-           label=f"final, after rule-driven 2nd pass (median {np.median(final):.1f} mm)")
+    a.hist(
+        final,
+        bins=bins,
+        histtype="step",
+        color="k",
+        lw=1.4,
+        label=f"final, after rule-driven 2nd pass (median {np.median(final):.1f} mm)",
+    )
     for i, v in enumerate(paper_after_mm):
         a.axvline(v, color="tab:red", lw=0.9, ls="--", label="paper, Table I (final)" if i == 0 else None)
     a.axvspan(12, 35, color="tab:red", alpha=0.06)
@@ -209,8 +272,7 @@ def distribution_figure(emax_before_mm, emax_after_mm, emax_final_mm, improvemen
     b.axvline(10, color="k", lw=1, label="10-fold")
     b.set_xscale("log")
     b.xaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:g}"))
-    b.xaxis.set_minor_formatter(matplotlib.ticker.FuncFormatter(
-        lambda v, _: f"{v:g}" if f"{v:g}"[0] in "235" else ""))
+    b.xaxis.set_minor_formatter(matplotlib.ticker.FuncFormatter(lambda v, _: f"{v:g}" if f"{v:g}"[0] in "235" else ""))
     for axis in (a, b):
         axis.yaxis.set_major_locator(matplotlib.ticker.MaxNLocator(integer=True))
     b.set_xlabel("improvement factor E_max,syst before / final")

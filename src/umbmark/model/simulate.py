@@ -29,8 +29,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import InputError
-from .kinematics import (
+from umbmark.errors import InputError
+from umbmark.model.geometry import (
     LABMATE,
     Calibration,
     ErrorParams,
@@ -40,7 +40,7 @@ from .kinematics import (
     integrate_end,
     wrap_angle,
 )
-from .runs import RunsTable
+from umbmark.model.runs import RunsTable
 
 __all__ = [
     "NoiseModel",
@@ -221,8 +221,10 @@ def child_seeds(seed: int | np.random.SeedSequence, n: int) -> list[np.random.Se
     object passed twice would give two different simulations; this does not (it equals the
     first ``spawn(n)`` of a fresh copy)."""
     ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
-    return [np.random.SeedSequence(ss.entropy, spawn_key=tuple(ss.spawn_key) + (i,), pool_size=ss.pool_size)
-            for i in range(n)]
+    return [
+        np.random.SeedSequence(ss.entropy, spawn_key=tuple(ss.spawn_key) + (i,), pool_size=ss.pool_size)
+        for i in range(n)
+    ]
 
 
 def run_seeds(seed: int | np.random.SeedSequence, n: int) -> list[np.random.Generator]:
@@ -241,7 +243,8 @@ def check_sample_count(samples_per_run, motion: Motion) -> None:
     if n > MAX_SAMPLES_PER_RUN:
         raise InputError(
             f"a run would need {n:,} samples (more than {MAX_SAMPLES_PER_RUN:,}): check the side length, "
-            f"wheelbase, speed ({motion.speed_m_s:g} m/s) and sample period ({motion.sample_period_s:g} s)")
+            f"wheelbase, speed ({motion.speed_m_s:g} m/s) and sample period ({motion.sample_period_s:g} s)"
+        )
 
 
 def run_program(
@@ -321,7 +324,7 @@ def run_program(
             margin = 0
             if noise.quantise:
                 # quantised odometry lags the commanded travel by at most one pulse per wheel
-                margin = (np.ceil(np.maximum(m_l, m_r) / step).astype(np.int64) + 2)
+                margin = np.ceil(np.maximum(m_l, m_r) / step).astype(np.int64) + 2
             kmax_run = n_full + (frac > 0) + margin
         seg_info.append((seg, a_l_sign, a_r_sign, target, gain, steps, n_full, frac, kmax_run))
 
@@ -357,10 +360,10 @@ def run_program(
             for j, n in enumerate(lens):
                 sl = slice(offs[j], offs[j] + n)
                 if slip is not None:
-                    slip[:, r, sl] = draws["slip"][:, pos:pos + n]
+                    slip[:, r, sl] = draws["slip"][:, pos : pos + n]
                 if bump_u is not None:
-                    bump_u[:, r, sl] = draws["bu"][:, pos:pos + n]
-                    bump_loss[:, r, sl] = draws["bl"][:, pos:pos + n]
+                    bump_u[:, r, sl] = draws["bu"][:, pos : pos + n]
+                    bump_loss[:, r, sl] = draws["bl"][:, pos : pos + n]
                 pos += n
 
     # --- closed-loop execution, segment by segment
@@ -369,7 +372,7 @@ def run_program(
     rot_l = np.zeros((R, K))  # wheel rotation expressed in pulses (continuous)
     rot_r = np.zeros((R, K))
     cont = phase.copy() if phase is not None else None  # continuous encoder position (pulses)
-    for j, (seg, sl_sign, sr_sign, target, gain, steps, n_full, frac, kmax_run) in enumerate(seg_info):
+    for j, (seg, sl_sign, sr_sign, target, _gain, steps, n_full, frac, _kmax_run) in enumerate(seg_info):
         kj = seg_k[j]
         cols = slice(offs[j], offs[j] + kj)
         idx = np.arange(kj)[None, :]
@@ -453,8 +456,14 @@ def simulate_runs(
     true = errors.true_params(geometry)
     model = OdometryParams.from_geometry(geometry, calibration)
     return run_program(
-        square_program(direction, side_m), true, model, n_runs, noise, motion,
-        rngs=run_seeds(seed, n_runs), trajectory=trajectory,
+        square_program(direction, side_m),
+        true,
+        model,
+        n_runs,
+        noise,
+        motion,
+        rngs=run_seeds(seed, n_runs),
+        trajectory=trajectory,
     )
 
 
@@ -487,7 +496,11 @@ def runs_table(parts, n_runs: int) -> RunsTable:
     cat = lambda attr: np.concatenate([getattr(r, attr) for _, r in parts])  # noqa: E731
     return RunsTable.from_columns(
         direction=np.array([d for d, _ in parts for _ in range(n_runs)]),
-        x_abs=cat("abs_x"), y_abs=cat("abs_y"), x_odo=cat("odo_x"), y_odo=cat("odo_y"),
-        theta_abs=wrap_angle(cat("abs_theta")), theta_odo=wrap_angle(cat("odo_theta")),
+        x_abs=cat("abs_x"),
+        y_abs=cat("abs_y"),
+        x_odo=cat("odo_x"),
+        y_odo=cat("odo_y"),
+        theta_abs=wrap_angle(cat("abs_theta")),
+        theta_odo=wrap_angle(cat("odo_theta")),
         run=np.concatenate([np.arange(1, n_runs + 1)] * len(parts)),
     )

@@ -22,8 +22,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import InputError
-from .runs import DIRECTIONS, RunsTable
+from umbmark.errors import InputError
+from umbmark.model.runs import DIRECTIONS, RunsTable
 
 __all__ = ["DirectionStats", "UMBmarkResult", "direction_stats", "umbmark"]
 

@@ -2,8 +2,8 @@
 with held-out figures.
 
 * :func:`replay`: odometry poses of every run of a data set for a geometry (vectorised over
-  runs and samples, exact arcs: :func:`umbmark.logs.replay_increments`, which uses the fast
-  chunked kernels of :mod:`umbmark.odometry` for long logs).
+  runs and samples, exact arcs: :func:`umbmark.model.dataset.replay_increments`, which uses the fast
+  chunked kernels of :mod:`umbmark.model.odometry` for long logs).
 * :func:`detect_directions`: cw / ccw of square runs from the nominal odometry's total turn
   (negative: clockwise).
 * :func:`square_runs`: the UMBmark runs table of square runs (replayed end pose as the
@@ -23,19 +23,31 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from pathlib import Path
 
 import numpy as np
 
-from .benchmark import umbmark
-from .correct import METHODS, correct_runs
-from .correct.lsq import LSQ_DEFAULTS, fit_lsq
-from .errors import InputError
-from .logs import Dataset, WheelGeometry, replay_increments
-from .runs import RunsTable
+from umbmark.correct import METHODS, correct_runs
+from umbmark.correct.lsq import LSQ_DEFAULTS, fit_lsq
+from umbmark.errors import InputError
+from umbmark.metrics import umbmark
+from umbmark.model.dataset import Dataset, WheelGeometry, replay_increments
+from umbmark.model.runs import RunsTable
 
 __all__ = [
-    "replay", "end_poses", "detect_directions", "square_runs", "Calibrated", "calibrate", "evaluate",
-    "replay_report", "pooled_report", "prepare", "method_names", "stream_replay",
+    "stream_log",
+    "replay",
+    "end_poses",
+    "detect_directions",
+    "square_runs",
+    "Calibrated",
+    "calibrate",
+    "evaluate",
+    "replay_report",
+    "pooled_report",
+    "prepare",
+    "method_names",
+    "stream_replay",
 ]
 
 
@@ -67,13 +79,17 @@ def detect_directions(ds: Dataset) -> tuple[list[str], np.ndarray, list[str]]:
     warnings = []
     for run, t in zip(ds.runs, turn):
         if abs(abs(math.degrees(t)) - 360.0) > 45.0:
-            warnings.append(f"{ds.name}/{run.name}: the odometry turns {math.degrees(t):.0f} deg in total, not about "
-                            "+-360 deg as on a UMBmark square")
+            warnings.append(
+                f"{ds.name}/{run.name}: the odometry turns {math.degrees(t):.0f} deg in total, not about "
+                "+-360 deg as on a UMBmark square"
+            )
     if ds.directions is not None:
         for run, d, decl in zip(ds.runs, dirs, ds.directions):
             if d != decl:
-                warnings.append(f"{ds.name}/{run.name}: detected direction {d} differs from the declared {decl} "
-                                "(the detected one is used)")
+                warnings.append(
+                    f"{ds.name}/{run.name}: detected direction {d} differs from the declared {decl} "
+                    "(the detected one is used)"
+                )
     return dirs, turn, warnings
 
 
@@ -88,8 +104,16 @@ def square_runs(ds: Dataset, geometry: WheelGeometry, directions) -> RunsTable:
         truth.append(e)
     truth = np.asarray(truth)
     wrap = lambda a: np.mod(a + np.pi, 2 * np.pi) - np.pi  # noqa: E731
-    return RunsTable.from_columns(list(directions), truth[:, 0], truth[:, 1], odo[:, 0], odo[:, 1],
-                                  wrap(truth[:, 2]), wrap(odo[:, 2]), run=[r.name for r in ds.runs])
+    return RunsTable.from_columns(
+        list(directions),
+        truth[:, 0],
+        truth[:, 1],
+        odo[:, 0],
+        odo[:, 1],
+        wrap(truth[:, 2]),
+        wrap(odo[:, 2]),
+        run=[r.name for r in ds.runs],
+    )
 
 
 @dataclass(frozen=True)
@@ -133,8 +157,10 @@ def calibrate(ds, method: str, lsq_options: dict | None = None) -> Calibrated:
             raise InputError(f"method {method} calibrates on one data set at a time")
         ds = ds[0]
     if not ds.is_square:
-        raise InputError(f"method {method} needs UMBmark square runs (a square side); use --method lsq for "
-                         "other paths", source=ds.source)
+        raise InputError(
+            f"method {method} needs UMBmark square runs (a square side); use `method='lsq'` for other paths",
+            source=ds.source,
+        )
     if ds.directions is None:
         ds = prepare(ds)[0]
     runs = square_runs(ds, ds.nominal, ds.directions)
@@ -161,26 +187,32 @@ def _path_errors(ds: Dataset, geometry: WheelGeometry) -> dict:
             g = run.gt
             ok = np.all(np.isfinite(g), axis=1)
             d = np.hypot(g[ok, 0] - x[i, : n[i]][ok], g[ok, 1] - y[i, : n[i]][ok])
-            path_rms.append(float(np.sqrt(np.mean(d ** 2))))
+            path_rms.append(float(np.sqrt(np.mean(d**2))))
         else:
             path_rms.append(float("nan"))
-    return {"end_position_error_m": np.array(end_pos), "end_heading_error_rad": np.array(end_head),
-            "path_position_rms_m": np.array(path_rms)}
+    return {
+        "end_position_error_m": np.array(end_pos),
+        "end_heading_error_rad": np.array(end_head),
+        "path_position_rms_m": np.array(path_rms),
+    }
 
 
 def _rms(a):
     a = np.asarray(a, dtype=float)
     a = a[np.isfinite(a)]
-    return float(np.sqrt(np.mean(a ** 2))) if a.size else None
+    return float(np.sqrt(np.mean(a**2))) if a.size else None
 
 
 def _summary(errs: dict, runs: RunsTable | None) -> dict:
     d = {
-        "end_position_rms_mm": None if _rms(errs["end_position_error_m"]) is None
+        "end_position_rms_mm": None
+        if _rms(errs["end_position_error_m"]) is None
         else _rms(errs["end_position_error_m"]) * 1e3,
-        "end_heading_rms_deg": None if _rms(errs["end_heading_error_rad"]) is None
+        "end_heading_rms_deg": None
+        if _rms(errs["end_heading_error_rad"]) is None
         else math.degrees(_rms(errs["end_heading_error_rad"])),
-        "path_position_rms_mm": None if _rms(errs["path_position_rms_m"]) is None
+        "path_position_rms_mm": None
+        if _rms(errs["path_position_rms_m"]) is None
         else _rms(errs["path_position_rms_m"]) * 1e3,
     }
     if runs is not None:
@@ -200,9 +232,12 @@ def evaluate(ds: Dataset, geometry: WheelGeometry) -> dict:
     out = _summary(errs, runs)
     per_run = []
     for i, run in enumerate(ds.runs):
-        r = {"run": run.name, "end_position_error_mm": errs["end_position_error_m"][i] * 1e3,
-             "end_heading_error_deg": math.degrees(errs["end_heading_error_rad"][i]),
-             "path_position_rms_mm": errs["path_position_rms_m"][i] * 1e3}
+        r = {
+            "run": run.name,
+            "end_position_error_mm": errs["end_position_error_m"][i] * 1e3,
+            "end_heading_error_deg": math.degrees(errs["end_heading_error_rad"][i]),
+            "path_position_rms_mm": errs["path_position_rms_m"][i] * 1e3,
+        }
         if runs is not None:
             r.update({"direction": runs.direction[i], "eps_x_mm": runs.eps_x[i] * 1e3, "eps_y_mm": runs.eps_y[i] * 1e3})
         per_run.append(r)
@@ -217,17 +252,25 @@ def _heldout_loo(ds: Dataset, method: str, lsq_options: dict | None, full: Calib
     if ds.is_square:
         scheme += "; held-out return errors benchmarked per direction"
     if n < 2:
-        return {"scheme": scheme, "emax_syst_mm": None, "end_position_rms_mm": None,
-                "reason": "only one run: nothing to hold out (give several data sets for held-out figures across "
-                          "data sets)"}
+        return {
+            "scheme": scheme,
+            "emax_syst_mm": None,
+            "end_position_rms_mm": None,
+            "reason": "only one run: nothing to hold out (give several data sets for held-out figures across "
+            "data sets)",
+        }
     if ds.is_square:
         counts = {d: list(ds.directions).count(d) for d in ("cw", "ccw")}
         if min(counts.values()) < 2:
-            return {"scheme": scheme, "emax_syst_mm": None, "end_position_rms_mm": None,
-                    "reason": f"leave-one-run-out needs at least 2 runs in both directions (this set has "
-                              f"{counts['cw']} cw and {counts['ccw']} ccw): without a run, a direction would be "
-                              "missing from the calibration (give several data sets for held-out figures across "
-                              "data sets)"}
+            return {
+                "scheme": scheme,
+                "emax_syst_mm": None,
+                "end_position_rms_mm": None,
+                "reason": f"leave-one-run-out needs at least 2 runs in both directions (this set has "
+                f"{counts['cw']} cw and {counts['ccw']} ccw): without a run, a direction would be "
+                "missing from the calibration (give several data sets for held-out figures across "
+                "data sets)",
+            }
     geoms, failed = [], []
     for i in range(n):
         sub = ds.subset([j for j in range(n) if j != i])
@@ -242,16 +285,23 @@ def _heldout_loo(ds: Dataset, method: str, lsq_options: dict | None, full: Calib
             geoms.append(None)
             failed.append(f"{ds.runs[i].name}: {e}")
     if any(g is None for g in geoms):
-        return {"scheme": scheme, "emax_syst_mm": None, "end_position_rms_mm": None,
-                "reason": "cannot calibrate without a run: " + "; ".join(failed)}
+        return {
+            "scheme": scheme,
+            "emax_syst_mm": None,
+            "end_position_rms_mm": None,
+            "reason": "cannot calibrate without a run: " + "; ".join(failed),
+        }
     odo = np.array([end_poses(ds.subset([i]), g)[0] for i, g in enumerate(geoms)])
-    errs = {k: np.array([_path_errors(ds.subset([i]), g)[k][0] for i, g in enumerate(geoms)])
-            for k in ("end_position_error_m", "end_heading_error_rad", "path_position_rms_m")}
+    errs = {
+        k: np.array([_path_errors(ds.subset([i]), g)[k][0] for i, g in enumerate(geoms)])
+        for k in ("end_position_error_m", "end_heading_error_rad", "path_position_rms_m")
+    }
     runs = None
     if ds.is_square:
         truth = np.array([r.end_truth for r in ds.runs])
-        runs = RunsTable.from_columns(list(ds.directions), truth[:, 0], truth[:, 1], odo[:, 0], odo[:, 1],
-                                      run=[r.name for r in ds.runs])
+        runs = RunsTable.from_columns(
+            list(ds.directions), truth[:, 0], truth[:, 1], odo[:, 0], odo[:, 1], run=[r.name for r in ds.runs]
+        )
     out = {"scheme": scheme, **_summary(errs, runs)}
     # jackknife spread of the leave-one-out calibrations (uncertainty of the full calibration)
     if n >= 3:
@@ -261,11 +311,17 @@ def _heldout_loo(ds: Dataset, method: str, lsq_options: dict | None, full: Calib
             "wheelbase_mm": [g.wheelbase_m * 1e3 for g in geoms],
             "Ed": [g.ed for g in geoms],
         }
-        out["jackknife_std"] = {k: float(math.sqrt((n - 1) / n * np.sum((np.array(v) - np.mean(v)) ** 2)))
-                                for k, v in vals.items()}
-    out["runs"] = [{"run": r.name, "calibrated_without_it": g.to_dict(),
-                    "end_position_error_mm": errs["end_position_error_m"][i] * 1e3}
-                   for i, (r, g) in enumerate(zip(ds.runs, geoms))]
+        out["jackknife_std"] = {
+            k: float(math.sqrt((n - 1) / n * np.sum((np.array(v) - np.mean(v)) ** 2))) for k, v in vals.items()
+        }
+    out["runs"] = [
+        {
+            "run": r.name,
+            "calibrated_without_it": g.to_dict(),
+            "end_position_error_mm": errs["end_position_error_m"][i] * 1e3,
+        }
+        for i, (r, g) in enumerate(zip(ds.runs, geoms))
+    ]
     return out
 
 
@@ -301,16 +357,29 @@ def replay_report(datasets, method: str = "bf", lsq_options: dict | None = None,
             "method": method,
             "nominal": {**ds.nominal.to_dict(), "units_per_wheel_rev": ds.units_per_rev},
             "side_mm": None if ds.side_m is None else ds.side_m * 1e3,
-            "runs": [{"run": r.name, "samples": len(r), "duration_s": float(r.t[-1] - r.t[0]),
-                      **({"direction": ds.directions[i], "total_turn_deg": math.degrees(turn[i])}
-                         if ds.is_square else {})} for i, r in enumerate(ds.runs)],
+            "runs": [
+                {
+                    "run": r.name,
+                    "samples": len(r),
+                    "duration_s": float(r.t[-1] - r.t[0]),
+                    **(
+                        {"direction": ds.directions[i], "total_turn_deg": math.degrees(turn[i])} if ds.is_square else {}
+                    ),
+                }
+                for i, r in enumerate(ds.runs)
+            ],
             **cal.to_dict(),
             "before": before,
             "after": after,
-            "improvement": (before["emax_syst_mm"] / after["emax_syst_mm"]
-                            if ds.is_square and after["emax_syst_mm"] else
-                            (before["end_position_rms_mm"] / after["end_position_rms_mm"]
-                             if before["end_position_rms_mm"] and after["end_position_rms_mm"] else None)),
+            "improvement": (
+                before["emax_syst_mm"] / after["emax_syst_mm"]
+                if ds.is_square and after["emax_syst_mm"]
+                else (
+                    before["end_position_rms_mm"] / after["end_position_rms_mm"]
+                    if before["end_position_rms_mm"] and after["end_position_rms_mm"]
+                    else None
+                )
+            ),
             "warnings": warnings,
         }
         if heldout:
@@ -327,9 +396,15 @@ def replay_report(datasets, method: str = "bf", lsq_options: dict | None = None,
             if i == j:
                 continue
             ev = evaluate(dst, _transfer(src, dst))
-            rows.append({"calibrated_on": prepared[i].name, "evaluated_on": dst.name,
-                         "emax_syst_mm": ev["emax_syst_mm"], "end_position_rms_mm": ev["end_position_rms_mm"],
-                         "path_position_rms_mm": ev["path_position_rms_mm"]})
+            rows.append(
+                {
+                    "calibrated_on": prepared[i].name,
+                    "evaluated_on": dst.name,
+                    "emax_syst_mm": ev["emax_syst_mm"],
+                    "end_position_rms_mm": ev["end_position_rms_mm"],
+                    "path_position_rms_mm": ev["path_position_rms_mm"],
+                }
+            )
         across += rows
         if heldout:
             vals = [r["emax_syst_mm"] for r in rows if r["emax_syst_mm"] is not None]
@@ -355,34 +430,46 @@ def pooled_report(datasets, lsq_options: dict | None = None, heldout: bool = Tru
     for i, ds in enumerate(prepared):
         before = evaluate(ds, ds.nominal)
         after = evaluate(ds, cal.geometry)
-        row = {"dataset": ds.name, "kind": "square" if ds.is_square else "path",
-               "before": {k: before[k] for k in ("emax_syst_mm", "end_position_rms_mm", "path_position_rms_mm")},
-               "after": {k: after[k] for k in ("emax_syst_mm", "end_position_rms_mm", "path_position_rms_mm")}}
+        row = {
+            "dataset": ds.name,
+            "kind": "square" if ds.is_square else "path",
+            "before": {k: before[k] for k in ("emax_syst_mm", "end_position_rms_mm", "path_position_rms_mm")},
+            "after": {k: after[k] for k in ("emax_syst_mm", "end_position_rms_mm", "path_position_rms_mm")},
+        }
         if heldout and len(prepared) > 1:
             others = [d for j, d in enumerate(prepared) if j != i]
             g = calibrate(others, "lsq", {**(lsq_options or {}), "start": cal.geometry}).geometry
             ev = evaluate(ds, g)
-            row["heldout"] = {"scheme": "fitted on the other data sets", "calibrated_without_it": g.to_dict(),
-                              **{k: ev[k] for k in ("emax_syst_mm", "end_position_rms_mm", "path_position_rms_mm")}}
+            row["heldout"] = {
+                "scheme": "fitted on the other data sets",
+                "calibrated_without_it": g.to_dict(),
+                **{k: ev[k] for k in ("emax_syst_mm", "end_position_rms_mm", "path_position_rms_mm")},
+            }
         per.append(row)
     out = {"method": "lsq", "pooled": True, "datasets": [d.name for d in prepared], **cal.to_dict(), "per_dataset": per}
     if heldout and len(prepared) > 1:
+
         def agg(key, part):
             v = [r[part][key] for r in per if r[part][key] is not None]
             return float(np.sqrt(np.mean(np.square(v)))) if v else None
+
         out["before"] = {"end_position_rms_mm": agg("end_position_rms_mm", "before")}
         out["after"] = {"end_position_rms_mm": agg("end_position_rms_mm", "after")}
-        out["heldout"] = {"scheme": "leave-one-data-set-out",
-                          "end_position_rms_mm": agg("end_position_rms_mm", "heldout"), "emax_syst_mm": None}
+        out["heldout"] = {
+            "scheme": "leave-one-data-set-out",
+            "end_position_rms_mm": agg("end_position_rms_mm", "heldout"),
+            "emax_syst_mm": None,
+        }
     return out
 
 
-def stream_replay(chunks, geometry: WheelGeometry, units_per_rev: float, decimate: int | None = None,
-                  method: str = "exact") -> dict:
+def stream_replay(
+    chunks, geometry: WheelGeometry, units_per_rev: float, decimate: int | None = None, method: str = "exact"
+) -> dict:
     """Replay ONE long run given as an iterable of chunks (e.g.
     :func:`umbmark.io.generic_csv.iter_generic_csv`: objects with ``t``, ``d_left``,
     ``d_right``, ``gt``) in bounded memory: only the current chunk, the running sums and the kept
-    poses are held (:class:`umbmark.odometry.Odometer`; whole-number increments use its table
+    poses are held (:class:`umbmark.model.odometry.Odometer`; whole-number increments use its table
     kernel).
 
     Returns the odometry's end pose, the ground-truth end pose and the end-pose errors when the
@@ -390,7 +477,7 @@ def stream_replay(chunks, geometry: WheelGeometry, units_per_rev: float, decimat
     (``path_position_rms_mm``, as in :func:`evaluate`), and with ``decimate=n`` the poses after
     every n-th sample (``kept``: arrays ``sample``, ``t_s``, ``x_m``, ``y_m``, ``theta_rad``).
     """
-    from .odometry import Odometer
+    from umbmark.model.odometry import Odometer
 
     if decimate is not None and decimate < 1:
         raise InputError(f"decimate must be >= 1, got {decimate}")
@@ -407,8 +494,11 @@ def stream_replay(chunks, geometry: WheelGeometry, units_per_rev: float, decimat
         if k == 0:
             continue
         chunks_read += 1
-        integral = bool(np.all(dl == np.round(dl)) and np.all(dr == np.round(dr))
-                        and max(np.abs(dl).max(), np.abs(dr).max()) < 2 ** 52)
+        integral = bool(
+            np.all(dl == np.round(dl))
+            and np.all(dr == np.round(dr))
+            and max(np.abs(dl).max(), np.abs(dr).max()) < 2**52
+        )
         want = bool(decimate) or ch.gt is not None
         if integral:
             res = odo.update_pulses(dl.astype(np.int64), dr.astype(np.int64), poses=want)
@@ -453,3 +543,36 @@ def stream_replay(chunks, geometry: WheelGeometry, units_per_rev: float, decimat
         out["kept"] = {k: (np.concatenate(v) if v else np.empty(0)) for k, v in kept.items()}
         out["decimate"] = decimate
     return out
+
+
+def stream_log(path, decimate: int | None = None, chunk_rows: int = 1 << 16, fmt: str = "auto", **opts) -> dict:
+    """Replay ONE long generic CSV log with the nominal geometry of ``opts`` in bounded memory
+    (read in chunks of ``chunk_rows`` rows, see :func:`umbmark.realrobot.replay.stream_replay`)."""
+    from umbmark.io.generic_csv import iter_generic_csv
+    from umbmark.io.load import _nominal, detect_format
+
+    if isinstance(path, (list, tuple)):
+        if len(path) != 1:
+            raise InputError("streaming replays one log file at a time")
+        path = path[0]
+    if fmt == "auto":
+        fmt = detect_format(path)
+    if fmt != "csv":
+        raise InputError(
+            f"streaming reads the generic CSV log only (this is {fmt}; use `umbmark convert` first)", source=str(path)
+        )
+    if opts.get("side_mm") is not None:
+        raise InputError(
+            "streaming replays one run with the given geometry; UMBmark squares (`side_mm`) need "
+            "the whole data set (replay it without `stream`)"
+        )
+    ppr = opts.get("pulses_per_wheel_rev")
+    if ppr is None:
+        raise InputError(
+            "the CSV log needs `pulses_per_wheel_rev` (encoder pulses per wheel revolution)", source=str(path)
+        )
+    nominal = _nominal(opts, str(path))
+    rep = stream_replay(
+        iter_generic_csv(path, opts.get("ticks") or "cumulative", chunk_rows), nominal, ppr, decimate=decimate
+    )
+    return {"dataset": Path(path).stem, "source": str(path), "format": "csv", **rep}

@@ -2,7 +2,7 @@
 database URL in ``--db`` or ``UMBMARK_DB``, e.g. ``postgresql+psycopg://user:pw@host/umbmark``.
 
 Needs the optional extra ``db`` (SQLAlchemy) or ``postgres`` (SQLAlchemy + psycopg). Same tables
-and columns as the SQLite backend (:mod:`umbmark.history`); the schema version is kept in a
+and columns as the SQLite backend (:mod:`umbmark.history.sqlite_backend`); the schema version is kept in a
 one-row table ``umbmark_schema`` (SQLite's ``user_version`` is not portable). Each record is one
 transaction; on PostgreSQL a client killed mid-transaction is rolled back by the server, and two
 writers creating the same robot at once are resolved with a savepoint (the loser re-reads the
@@ -13,23 +13,41 @@ from __future__ import annotations
 
 from contextlib import contextmanager
 
-from . import __version__
-from .errors import InputError
-from .history import SCHEMA_VERSION, HistoryError, Record, _Backend, _record, display_db, retry_while_locked
+from umbmark._version import __version__
+from umbmark.errors import InputError
+from umbmark.history.base import SCHEMA_VERSION, HistoryError, Record, _Backend, _record, display_db, retry_while_locked
 
 __all__ = ["SQLAlchemyHistory"]
 
-_COLS = ("id", "name", "created_utc", "kind", "method", "software_version", "inputs_json", "input_sha256", "source",
-         "results_json", "parameters_json", "parameters_in_use_json", "emax_syst_mm", "ed", "eb", "wheelbase_mm",
-         "note", "host")
+_COLS = (
+    "id",
+    "name",
+    "created_utc",
+    "kind",
+    "method",
+    "software_version",
+    "inputs_json",
+    "input_sha256",
+    "source",
+    "results_json",
+    "parameters_json",
+    "parameters_in_use_json",
+    "emax_syst_mm",
+    "ed",
+    "eb",
+    "wheelbase_mm",
+    "note",
+    "host",
+)
 
 
 def _import():
     try:
         import sqlalchemy as sa
     except ImportError:
-        raise HistoryError("a database URL needs SQLAlchemy: pip install 'umbmark[db]' "
-                           "(or 'umbmark[postgres]' for PostgreSQL)") from None
+        raise HistoryError(
+            "a database URL needs SQLAlchemy: pip install 'umbmark[db]' (or 'umbmark[postgres]' for PostgreSQL)"
+        ) from None
     return sa
 
 
@@ -37,13 +55,15 @@ def _tables(sa):
     md = sa.MetaData()
     schema = sa.Table("umbmark_schema", md, sa.Column("version", sa.Integer, nullable=False))
     robots = sa.Table(
-        "robots", md,
+        "robots",
+        md,
         sa.Column("id", sa.Integer, primary_key=True, autoincrement=True),
         sa.Column("name", sa.String(200), nullable=False, unique=True),
         sa.Column("created_utc", sa.String(32), nullable=False),
     )
     cal = sa.Table(
-        "calibrations", md,
+        "calibrations",
+        md,
         sa.Column("id", sa.Integer, primary_key=True, autoincrement=True),
         sa.Column("robot_id", sa.Integer, sa.ForeignKey("robots.id"), nullable=False),
         sa.Column("created_utc", sa.String(32), nullable=False),
@@ -68,7 +88,7 @@ def _tables(sa):
 
 
 class SQLAlchemyHistory(_Backend):
-    """Same interface as :class:`umbmark.history.History`, on an SQLAlchemy engine."""
+    """Same interface as :class:`umbmark.history.sqlite_backend.History`, on an SQLAlchemy engine."""
 
     def __init__(self, url: str, timeout_s: float = 60.0, create: bool = True):
         sa = self._sa = _import()
@@ -96,6 +116,7 @@ class SQLAlchemyHistory(_Backend):
             @sa.event.listens_for(self._engine, "begin")
             def _begin(conn):
                 conn.exec_driver_sql("BEGIN IMMEDIATE" if conn.info.get("umbmark_write") else "BEGIN")
+
         self._md, self._schema, self._robots, self._cal = _tables(sa)
         self.journal_mode = None
         try:
@@ -105,8 +126,9 @@ class SQLAlchemyHistory(_Backend):
             raise
         except sa.exc.SQLAlchemyError as e:
             self._engine.dispose()
-            raise HistoryError(f"cannot use the history database {self._shown}: {e.__class__.__name__}: "
-                               f"{str(e).splitlines()[0]}") from None
+            raise HistoryError(
+                f"cannot use the history database {self._shown}: {e.__class__.__name__}: {str(e).splitlines()[0]}"
+            ) from None
 
     def close(self):
         self._engine.dispose()
@@ -140,17 +162,23 @@ class SQLAlchemyHistory(_Backend):
                     if v is None:
                         names = set(sa.inspect(conn).get_table_names())
                         if not create:
-                            raise HistoryError(f"no umbmark history in {self._shown} (record a calibration with "
-                                               "--robot NAME --record)")
+                            raise HistoryError(
+                                f"no umbmark history in {self._shown} "
+                                "(record a calibration with `robot` and `record=True`)"
+                            )
                         if names & {"robots", "calibrations"}:
-                            raise HistoryError(f"{self._shown} has robots/calibrations tables but no umbmark schema "
-                                               "version: not an umbmark history")
+                            raise HistoryError(
+                                f"{self._shown} has robots/calibrations tables but no umbmark schema "
+                                "version: not an umbmark history"
+                            )
                         self._md.create_all(conn)
                         conn.execute(self._schema.insert().values(version=SCHEMA_VERSION))
                         return
                     if v > SCHEMA_VERSION:
-                        raise HistoryError(f"the history database {self._shown} has schema version {v}, newer than "
-                                           f"this umbmark ({__version__}, schema {SCHEMA_VERSION}): upgrade umbmark")
+                        raise HistoryError(
+                            f"the history database {self._shown} has schema version {v}, newer than "
+                            f"this umbmark ({__version__}, schema {SCHEMA_VERSION}): upgrade umbmark"
+                        )
                     # versions below the current one do not exist on this backend yet
                     return
             except sa.exc.IntegrityError:
@@ -173,8 +201,10 @@ class SQLAlchemyHistory(_Backend):
             else:
                 res = "ok"
             orphans = conn.execute(
-                sa.select(sa.func.count()).select_from(self._cal.outerjoin(self._robots))
-                .where(self._robots.c.id.is_(None))).scalar()
+                sa.select(sa.func.count())
+                .select_from(self._cal.outerjoin(self._robots))
+                .where(self._robots.c.id.is_(None))
+            ).scalar()
         return res if not orphans else f"{res}; records without a robot: {orphans}"
 
     def _insert(self, conn, row: dict) -> int:
@@ -219,8 +249,12 @@ class SQLAlchemyHistory(_Backend):
     def _robot_counts(self):
         sa = self._sa
         c, r = self._cal.c, self._robots.c
-        q = (sa.select(r.name, sa.func.count(c.id), sa.func.min(c.created_utc), sa.func.max(c.created_utc))
-             .select_from(self._robots.outerjoin(self._cal)).group_by(r.id, r.name).order_by(r.name))
+        q = (
+            sa.select(r.name, sa.func.count(c.id), sa.func.min(c.created_utc), sa.func.max(c.created_utc))
+            .select_from(self._robots.outerjoin(self._cal))
+            .group_by(r.id, r.name)
+            .order_by(r.name)
+        )
         with self._engine.connect() as conn:
             return conn.execute(q).all()
 

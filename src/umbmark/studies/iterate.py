@@ -17,12 +17,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .benchmark import UMBmarkResult, umbmark
-from .correct import CorrectionResult, correct_runs
-from .errors import InputError
-from .kinematics import LABMATE, Calibration, ErrorParams, Geometry
-from .runs import RunsTable
-from .simulate import Motion, NoiseModel, simulate_umbmark
+from umbmark.correct import CorrectionResult, correct_runs
+from umbmark.errors import InputError
+from umbmark.metrics import UMBmarkResult, umbmark
+from umbmark.model.geometry import LABMATE, Calibration, ErrorParams, Geometry
+from umbmark.model.runs import RunsTable
+from umbmark.model.simulate import Motion, NoiseModel, simulate_umbmark
 
 __all__ = ["Pass", "LoopResult", "calibrate_loop", "compose_passes", "history_fields"]
 
@@ -45,8 +45,11 @@ class Pass:
         d = {
             "pass": self.index,
             "source": self.source,
-            "calibration_used": {"c_left": cal.c_left, "c_right": cal.c_right,
-                                 "wheelbase_mm": self.wheelbase_used_m * 1e3},
+            "calibration_used": {
+                "c_left": cal.c_left,
+                "c_right": cal.c_right,
+                "wheelbase_mm": self.wheelbase_used_m * 1e3,
+            },
             "emax_syst_mm": self.result.emax_syst * 1e3,
             "three_sem_mm": None if self.result.sem_rule is None else self.result.sem_rule * 1e3,
             "second_pass_recommended": self.result.second_pass_recommended,
@@ -74,19 +77,38 @@ class LoopResult:
             "passes": [p.to_dict() for p in self.passes],
             "corrections": self.corrections,
             "stopped": self.stopped,
-            "final_calibration": {"c_left": cal.c_left, "c_right": cal.c_right, "Ed": cal.ed,
-                                  "wheelbase_mm": (cal.wheelbase_m or self.nominal_wheelbase_m) * 1e3},
+            "final_calibration": {
+                "c_left": cal.c_left,
+                "c_right": cal.c_right,
+                "Ed": cal.ed,
+                "wheelbase_mm": (cal.wheelbase_m or self.nominal_wheelbase_m) * 1e3,
+            },
         }
         if self.errors is not None:
-            d["true"] = {"Ed": self.errors.ed, "Eb": self.errors.eb, "Es": self.errors.es,
-                         "wheelbase_mm": self.errors.eb * self.nominal_wheelbase_m * 1e3}
+            d["true"] = {
+                "Ed": self.errors.ed,
+                "Eb": self.errors.eb,
+                "Es": self.errors.es,
+                "wheelbase_mm": self.errors.eb * self.nominal_wheelbase_m * 1e3,
+            }
         return d
 
 
-def calibrate_loop(errors: ErrorParams, geometry: Geometry = LABMATE, side_m: float = 4.0, n_runs: int = 5,
-                   noise: NoiseModel | str = "paper", motion: Motion | None = None, method: str = "exact",
-                   max_passes: int = 3, seed: int = 0, prior: Calibration | None = None, tol_m: float = 1e-5,
-                   on_progress=None, **options) -> LoopResult:
+def calibrate_loop(
+    errors: ErrorParams,
+    geometry: Geometry = LABMATE,
+    side_m: float = 4.0,
+    n_runs: int = 5,
+    noise: NoiseModel | str = "paper",
+    motion: Motion | None = None,
+    method: str = "exact",
+    max_passes: int = 3,
+    seed: int = 0,
+    prior: Calibration | None = None,
+    tol_m: float = 1e-5,
+    on_progress=None,
+    **options,
+) -> LoopResult:
     """Simulate: run, correct, re-run until the 3 x SEM rule says stop (at most ``max_passes``
     corrections). ``tol_m``: also stop when E_max,syst is below this (noise-free runs have
     SEM = 0, so the rule alone would never stop). ``on_progress(done, total)``: called after
@@ -109,8 +131,10 @@ def calibrate_loop(errors: ErrorParams, geometry: Geometry = LABMATE, side_m: fl
         if res.emax_syst < tol_m:
             decision = stopped = f"stop: E_max,syst {res.emax_syst * 1e3:.3g} mm is below the tolerance"
         elif not res.second_pass_recommended:
-            decision = stopped = (f"stop: E_max,syst {res.emax_syst * 1e3:.1f} mm < 3 x SEM = {rule * 1e3:.1f} mm "
-                                  "(a further pass is unlikely to help)")
+            decision = stopped = (
+                f"stop: E_max,syst {res.emax_syst * 1e3:.1f} mm < 3 x SEM = {rule * 1e3:.1f} mm "
+                "(a further pass is unlikely to help)"
+            )
         elif k == max_passes:
             decision = stopped = f"stop: {max_passes} correction passes done (E_max,syst still >= 3 x SEM)"
         else:
@@ -119,15 +143,31 @@ def calibrate_loop(errors: ErrorParams, geometry: Geometry = LABMATE, side_m: fl
             passes.append(Pass(k + 1, runs, res, cal, b_used, None, decision))
             break
         corr = correct_runs(method, runs, side_m, b_used, cal, **options)
-        passes.append(Pass(k + 1, runs, res, cal, b_used, corr,
-                           f"correct ({method}): E_max,syst {res.emax_syst * 1e3:.1f} mm"
-                           + ("" if rule is None else f" >= 3 x SEM = {rule * 1e3:.1f} mm")))
+        passes.append(
+            Pass(
+                k + 1,
+                runs,
+                res,
+                cal,
+                b_used,
+                corr,
+                f"correct ({method}): E_max,syst {res.emax_syst * 1e3:.1f} mm"
+                + ("" if rule is None else f" >= 3 x SEM = {rule * 1e3:.1f} mm"),
+            )
+        )
         cal = corr.calibration
     return LoopResult(passes, cal, geometry.wheelbase_m, stopped, errors)
 
 
-def compose_passes(runs_list, side_m: float, wheelbase_m: float, method: str = "exact",
-                   prior: Calibration | None = None, sources=None, **options) -> LoopResult:
+def compose_passes(
+    runs_list,
+    side_m: float,
+    wheelbase_m: float,
+    method: str = "exact",
+    prior: Calibration | None = None,
+    sources=None,
+    **options,
+) -> LoopResult:
     """Real robots: successive passes, pass k made with the calibration from passes 1..k-1.
 
     ``wheelbase_m``: the wheelbase the odometry used in pass 1 (nominal); ``prior``: the
@@ -150,14 +190,27 @@ def compose_passes(runs_list, side_m: float, wheelbase_m: float, method: str = "
             raise
         rule = res.sem_rule
         note = "" if res.second_pass_recommended else " (E_max,syst < 3 x SEM: this pass was probably not needed)"
-        passes.append(Pass(k + 1, runs, res, cal, b_used, corr,
-                           f"correct ({method}): E_max,syst {res.emax_syst * 1e3:.1f} mm"
-                           + ("" if rule is None else f", 3 x SEM = {rule * 1e3:.1f} mm") + note, sources[k]))
+        passes.append(
+            Pass(
+                k + 1,
+                runs,
+                res,
+                cal,
+                b_used,
+                corr,
+                f"correct ({method}): E_max,syst {res.emax_syst * 1e3:.1f} mm"
+                + ("" if rule is None else f", 3 x SEM = {rule * 1e3:.1f} mm")
+                + note,
+                sources[k],
+            )
+        )
         cal = corr.calibration
     last = passes[-1].result
-    stopped = ("load the final calibration and run the test again to check it"
-               if last.second_pass_recommended else
-               "the last pass was already below 3 x SEM: the final calibration is as good as these runs allow")
+    stopped = (
+        "load the final calibration and run the test again to check it"
+        if last.second_pass_recommended
+        else "the last pass was already below 3 x SEM: the final calibration is as good as these runs allow"
+    )
     return LoopResult(passes, cal, wheelbase_m, stopped, None)
 
 
@@ -167,7 +220,7 @@ def history_fields(loop: LoopResult, method: str) -> dict:
     (``Eb`` relative to the wheelbase of pass 1); ``results["emax_syst_mm"]`` is pass 1's (the
     odometry as the robot ran before these calibrations), ``emax_syst_last_pass_mm`` the last
     pass's; ``parameters_in_use`` are pass 1's. The runs of every pass go into ``inputs``."""
-    from .history import runs_to_rows
+    from umbmark.history import runs_to_rows
 
     first, last = loop.passes[0], loop.passes[-1]
     b0 = first.wheelbase_used_m
@@ -182,8 +235,13 @@ def history_fields(loop: LoopResult, method: str) -> dict:
         "kind": "calibrate",
         "method": method,
         "results": results,
-        "parameters": {"c_left": cal.c_left, "c_right": cal.c_right, "wheelbase_mm": b * 1e3, "Ed": cal.ed,
-                       "Eb": b / b0},
+        "parameters": {
+            "c_left": cal.c_left,
+            "c_right": cal.c_right,
+            "wheelbase_mm": b * 1e3,
+            "Ed": cal.ed,
+            "Eb": b / b0,
+        },
         "parameters_in_use": {"c_left": used.c_left, "c_right": used.c_right, "wheelbase_mm": b0 * 1e3},
         "inputs": {"passes": [{"source": p.source, "runs": runs_to_rows(p.runs)} for p in loop.passes]},
     }

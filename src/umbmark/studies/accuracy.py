@@ -46,17 +46,24 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from .benchmark import umbmark
-from .correct import correct_runs
-from .correct.exact import _Problem
-from .correct.result import compose
-from .errors import InputError, UmbmarkError
-from .jsonutil import dumps
-from .kinematics import LABMATE, ErrorParams, Geometry
-from .simulate import Motion, simulate_umbmark
+from umbmark.correct import correct_runs
+from umbmark.correct.exact import _Problem
+from umbmark.correct.result import compose
+from umbmark.errors import InputError, UmbmarkError
+from umbmark.jsonutil import dumps
+from umbmark.metrics import umbmark
+from umbmark.model.geometry import LABMATE, ErrorParams, Geometry
+from umbmark.model.simulate import Motion, simulate_umbmark
 
-__all__ = ["AccuracyConfig", "QUICK", "run_accuracy", "robot_trial", "coverage_trial", "format_markdown",
-           "write_results"]
+__all__ = [
+    "AccuracyConfig",
+    "QUICK",
+    "run_accuracy",
+    "robot_trial",
+    "coverage_trial",
+    "format_markdown",
+    "write_results",
+]
 
 METHODS = ("bf1", "bf2", "exact", "exact2", "perfect", "bound")
 FITTED = ("bf1", "bf2", "exact", "exact2")
@@ -100,8 +107,9 @@ class AccuracyConfig:
 
 
 # --quick: small grid, few robots, coarse sampling (tests and README examples)
-QUICK = AccuracyConfig(ed_departures=(0.0005, 0.02), eb_values=(0.9995, 0.95, 2.5), robots=4,
-                       sample_period_s=0.05, workers=1)
+QUICK = AccuracyConfig(
+    ed_departures=(0.0005, 0.02), eb_values=(0.9995, 0.95, 2.5), robots=4, sample_period_s=0.05, workers=1
+)
 
 
 def _geometry(cfg: AccuracyConfig, eb: float) -> Geometry:
@@ -133,9 +141,16 @@ def information_bound(cfg: AccuracyConfig, ed: float, eb: float, noise: str, run
     if noise == "none":
         return None, {"ed_sd": 0.0, "eb_sd": 0.0}
     geom = _geometry(cfg, eb)
-    runs = simulate_umbmark(ErrorParams(ed, eb), geom, cfg.side_m, runs_for_covariance, None, noise,
-                            Motion(sample_period_s=cfg.sample_period_s),
-                            seed=np.random.SeedSequence([cfg.seed, _BOUND_KEY, _BOUND_KEY, 1]))
+    runs = simulate_umbmark(
+        ErrorParams(ed, eb),
+        geom,
+        cfg.side_m,
+        runs_for_covariance,
+        None,
+        noise,
+        Motion(sample_period_s=cfg.sample_period_s),
+        seed=np.random.SeedSequence([cfg.seed, _BOUND_KEY, _BOUND_KEY, 1]),
+    )
     prob = _Problem(runs, cfg.side_m, geom.wheelbase_m, 1.0, runs.eps_theta is not None, 1.0)
     p = np.array([ed, eb])
     r = prob.residuals_matrix([ed], [eb])[0]
@@ -241,11 +256,11 @@ def run_accuracy(cfg: AccuracyConfig = AccuracyConfig(), progress=None, dask=Non
     """Run the benchmark; returns ``{"config", "cells": [row...], "floors", "summary"}``.
 
     The cells (one noise level, ``E_d``, ``E_b`` each) are the items of a sweep
-    (:func:`umbmark.sweep.map`): ``cfg.workers`` local processes (``None``: all cores) or a Dask
+    (:func:`umbmark.studies.sweep.map`): ``cfg.workers`` local processes (``None``: all cores) or a Dask
     cluster (``dask``: an address, ``"local"`` or a ``distributed.Client``). Robot ``i`` of a
     cell carries its own seed, so every backend gives the same numbers. ``progress(done,
     total)`` is called as cells finish."""
-    from . import sweep
+    from umbmark.studies import sweep
 
     cfg.validate()
     t0 = time.time()
@@ -256,12 +271,16 @@ def run_accuracy(cfg: AccuracyConfig = AccuracyConfig(), progress=None, dask=Non
     floors, summary = {}, {}
     for noise in cfg.noises:
         trials = [t for r in results for t in r if t["noise"] == noise]
-        smallest = [t for t in trials if abs(abs(t["ed"] - 1) - small_ed) < 1e-12
-                    and abs(abs(t["eb"] - 1) - small_eb) < 1e-12]
+        smallest = [
+            t for t in trials if abs(abs(t["ed"] - 1) - small_ed) < 1e-12 and abs(abs(t["eb"] - 1) - small_eb) < 1e-12
+        ]
         est = float(np.median([t["emax_bf1_mm"] for t in smallest]))
         perf = float(np.median([t["emax_perfect_mm"] for t in trials]))
-        floors[noise] = {"estimation_floor_mm": est, "perfect_floor_mm": perf,
-                         "estimation_floor_cells": sorted({(t["ed"], t["eb"]) for t in smallest})}
+        floors[noise] = {
+            "estimation_floor_mm": est,
+            "perfect_floor_mm": perf,
+            "estimation_floor_cells": sorted({(t["ed"], t["eb"]) for t in smallest}),
+        }
         cells = [r for r in rows if r["noise"] == noise]
         for r in cells:
             for m in FITTED + ("bound",):
@@ -278,37 +297,64 @@ def run_accuracy(cfg: AccuracyConfig = AccuracyConfig(), progress=None, dask=Non
             "exact_worst_over_estimation_floor": worst["exact_over_estimation_floor"],
             "exact_worst_cell": [worst["Ed"], worst["Eb"]],
             "exact_cells_within_1.15_estimation_floor": sum(
-                1 for r in cells if r["exact_over_estimation_floor"] is not None
-                and r["exact_over_estimation_floor"] <= 1.15),
+                1
+                for r in cells
+                if r["exact_over_estimation_floor"] is not None and r["exact_over_estimation_floor"] <= 1.15
+            ),
             "bf1_cells_within_1.15_estimation_floor": sum(
-                1 for r in cells if r["bf1_over_estimation_floor"] is not None and r["bf1_over_estimation_floor"] <= 1.15),
+                1
+                for r in cells
+                if r["bf1_over_estimation_floor"] is not None and r["bf1_over_estimation_floor"] <= 1.15
+            ),
             "exact_max_ed_abs_err": max((r["ed_abs_err_exact"] or 0.0) for r in cells),
             "exact_max_eb_abs_err": max((r["eb_abs_err_exact"] or 0.0) for r in cells),
             "exact_ci_robots": len(cov),
             "exact_ed_coverage": float(np.mean([t["ed_covered"] for t in cov])) if cov else None,
             "exact_eb_coverage": float(np.mean([t["eb_covered"] for t in cov])) if cov else None,
             "exact2_cells_within_1.15_estimation_floor": sum(
-                1 for r in cells if r["exact2_over_estimation_floor"] is not None
-                and r["exact2_over_estimation_floor"] <= 1.15),
-            "exact_cells_over_1.15": [[r["Ed"], r["Eb"], r["exact_over_estimation_floor"]] for r in cells
-                                      if (r["exact_over_estimation_floor"] or 0.0) > 1.15],
+                1
+                for r in cells
+                if r["exact2_over_estimation_floor"] is not None and r["exact2_over_estimation_floor"] <= 1.15
+            ),
+            "exact_cells_over_1.15": [
+                [r["Ed"], r["Eb"], r["exact_over_estimation_floor"]]
+                for r in cells
+                if (r["exact_over_estimation_floor"] or 0.0) > 1.15
+            ],
             "failures": {m: sum(r[f"failures_{m}"] for r in cells) for m in FITTED},
             # cells where even an efficient one-pass estimator cannot reach 1.15 x the floor
-            "bound_cells_over_1.15": [[r["Ed"], r["Eb"], r["bound_over_estimation_floor"]] for r in cells
-                                      if (r["bound_over_estimation_floor"] or 0.0) > 1.15],
+            "bound_cells_over_1.15": [
+                [r["Ed"], r["Eb"], r["bound_over_estimation_floor"]]
+                for r in cells
+                if (r["bound_over_estimation_floor"] or 0.0) > 1.15
+            ],
             "exact_worst_over_bound": max((r["exact_over_bound"] or 0.0) for r in cells) or None,
             "bound_worst_over_estimation_floor": max((r["bound_over_estimation_floor"] or 0.0) for r in cells),
-            "exact_cells_within_1.15_bound": sum(1 for r in cells if r["exact_over_bound"] is not None
-                                                 and r["exact_over_bound"] <= 1.15),
+            "exact_cells_within_1.15_bound": sum(
+                1 for r in cells if r["exact_over_bound"] is not None and r["exact_over_bound"] <= 1.15
+            ),
         }
     cfg_d = asdict(cfg)
-    return {"config": cfg_d, "cells": rows, "floors": floors, "summary": summary,
-            "backend": sweep.describe_backend(cfg.workers, dask), "elapsed_s": time.time() - t0}
+    return {
+        "config": cfg_d,
+        "cells": rows,
+        "floors": floors,
+        "summary": summary,
+        "backend": sweep.describe_backend(cfg.workers, dask),
+        "elapsed_s": time.time() - t0,
+    }
 
 
-def coverage_trial(robots: int = 200, seed: int = 7, sample_period_s: float = 0.02, noise: str = "paper",
-                   ed_max_departure: float = 0.05, eb_range=(0.5, 2.5), side_m: float = 4.0,
-                   runs_per_direction: int = 5) -> dict:
+def coverage_trial(
+    robots: int = 200,
+    seed: int = 7,
+    sample_period_s: float = 0.02,
+    noise: str = "paper",
+    ed_max_departure: float = 0.05,
+    eb_range=(0.5, 2.5),
+    side_m: float = 4.0,
+    runs_per_direction: int = 5,
+) -> dict:
     """Coverage of ``exact``'s 95 % intervals over seeded robots with random true errors
     (E_d uniform in 1 +- ed_max_departure, E_b log-uniform in eb_range, nominal LabMate)."""
     rng = np.random.default_rng(seed)
@@ -317,8 +363,16 @@ def coverage_trial(robots: int = 200, seed: int = 7, sample_period_s: float = 0.
     for i in range(robots):
         ed = 1.0 + rng.uniform(-ed_max_departure, ed_max_departure)
         eb = float(np.exp(rng.uniform(math.log(eb_range[0]), math.log(eb_range[1]))))
-        runs = simulate_umbmark(ErrorParams(ed, eb), LABMATE, side_m, runs_per_direction, None, noise,
-                                Motion(sample_period_s=sample_period_s), seed=np.random.SeedSequence([seed, i]))
+        runs = simulate_umbmark(
+            ErrorParams(ed, eb),
+            LABMATE,
+            side_m,
+            runs_per_direction,
+            None,
+            noise,
+            Motion(sample_period_s=sample_period_s),
+            seed=np.random.SeedSequence([seed, i]),
+        )
         c = correct_runs("exact", runs, side_m, LABMATE.wheelbase_m)
         if not c.extra.get("Ed_ci95"):
             continue
@@ -329,8 +383,13 @@ def coverage_trial(robots: int = 200, seed: int = 7, sample_period_s: float = 0.
         hit_b += lo <= eb <= hi
         z.append(((c.ed - ed) / c.extra["Ed_se"], (c.eb - eb) / c.extra["Eb_se"]))
     zz = np.array(z) if z else np.zeros((0, 2))
-    return {"robots": n, "ed_coverage": hit_d / n if n else None, "eb_coverage": hit_b / n if n else None,
-            "z_mean": zz.mean(axis=0).tolist() if n else None, "z_std": zz.std(axis=0).tolist() if n else None}
+    return {
+        "robots": n,
+        "ed_coverage": hit_d / n if n else None,
+        "eb_coverage": hit_b / n if n else None,
+        "z_mean": zz.mean(axis=0).tolist() if n else None,
+        "z_std": zz.std(axis=0).tolist() if n else None,
+    }
 
 
 def _f(v, d=1):
@@ -341,55 +400,70 @@ def format_markdown(res: dict) -> str:
     """The results as Markdown tables (one per noise level) with the floors and the summary."""
     lines = ["# Accuracy benchmark (umbmark, issue 7)", ""]
     c = res["config"]
-    lines.append(f"Grid: |E_d - 1| in {list(c['ed_departures'])} (both signs), E_b in {list(c['eb_values'])}; "
-                 f"{c['robots']} robots per cell with noise (1 without), {c['runs_per_direction']} runs per "
-                 f"direction, {c['side_m']} m square, {_design(c)}, sampling period "
-                 f"{c['sample_period_s'] * 1e3:.0f} ms with noise, "
-                 f"seed {c['seed']}. Elapsed {res['elapsed_s']:.0f} s.")
+    lines.append(
+        f"Grid: |E_d - 1| in {list(c['ed_departures'])} (both signs), E_b in {list(c['eb_values'])}; "
+        f"{c['robots']} robots per cell with noise (1 without), {c['runs_per_direction']} runs per "
+        f"direction, {c['side_m']} m square, {_design(c)}, sampling period "
+        f"{c['sample_period_s'] * 1e3:.0f} ms with noise, "
+        f"seed {c['seed']}. Elapsed {res['elapsed_s']:.0f} s."
+    )
     lines.append("")
     for noise, fl in res["floors"].items():
         sm = res["summary"][noise]
         lines.append(f"## noise: {noise}")
         lines.append("")
-        lines.append(f"Estimation floor (bf one pass, smallest errors): {fl['estimation_floor_mm']:.4g} mm; "
-                     f"perfect floor (true parameters): {fl['perfect_floor_mm']:.4g} mm. "
-                     f"exact within 1.15 x estimation floor in {sm['exact_cells_within_1.15_estimation_floor']} / "
-                     f"{sm['cells']} cells (worst {_f(sm['exact_worst_over_estimation_floor'], 3)} at "
-                     f"E_d {sm['exact_worst_cell'][0]}, E_b {sm['exact_worst_cell'][1]}); bf one pass in "
-                     f"{sm['bf1_cells_within_1.15_estimation_floor']}, exact two passes in "
-                     f"{sm['exact2_cells_within_1.15_estimation_floor']}. exact 95 % interval coverage over "
-                     f"{sm['exact_ci_robots']} robots: E_d {_f(sm['exact_ed_coverage'] and 100 * sm['exact_ed_coverage'])} %, "
-                     f"E_b {_f(sm['exact_eb_coverage'] and 100 * sm['exact_eb_coverage'])} %. Failures (no answer): "
-                     f"{sm['failures']}." + ("" if noise == "none" else
-                     f" Information bound (an efficient unbiased one-pass estimator, Cramer-Rao): above 1.15 x the "
-                     f"estimation floor in {len(sm['bound_cells_over_1.15'])} cells"
-                     f"{_cells(sm['bound_cells_over_1.15'])}; exact within 1.15 x the bound in "
-                     f"{sm['exact_cells_within_1.15_bound']} / {sm['cells']} cells (worst "
-                     f"{_f(sm['exact_worst_over_bound'], 2)})."))
+        lines.append(
+            f"Estimation floor (bf one pass, smallest errors): {fl['estimation_floor_mm']:.4g} mm; "
+            f"perfect floor (true parameters): {fl['perfect_floor_mm']:.4g} mm. "
+            f"exact within 1.15 x estimation floor in {sm['exact_cells_within_1.15_estimation_floor']} / "
+            f"{sm['cells']} cells (worst {_f(sm['exact_worst_over_estimation_floor'], 3)} at "
+            f"E_d {sm['exact_worst_cell'][0]}, E_b {sm['exact_worst_cell'][1]}); bf one pass in "
+            f"{sm['bf1_cells_within_1.15_estimation_floor']}, exact two passes in "
+            f"{sm['exact2_cells_within_1.15_estimation_floor']}. exact 95 % interval coverage over "
+            f"{sm['exact_ci_robots']} robots: E_d {_f(sm['exact_ed_coverage'] and 100 * sm['exact_ed_coverage'])} %, "
+            f"E_b {_f(sm['exact_eb_coverage'] and 100 * sm['exact_eb_coverage'])} %. Failures (no answer): "
+            f"{sm['failures']}."
+            + (
+                ""
+                if noise == "none"
+                else f" Information bound (an efficient unbiased one-pass estimator, Cramer-Rao): above 1.15 x the "
+                f"estimation floor in {len(sm['bound_cells_over_1.15'])} cells"
+                f"{_cells(sm['bound_cells_over_1.15'])}; exact within 1.15 x the bound in "
+                f"{sm['exact_cells_within_1.15_bound']} / {sm['cells']} cells (worst "
+                f"{_f(sm['exact_worst_over_bound'], 2)})."
+            )
+        )
         lines.append("")
         if noise != "none":
             lines += _by_eb(res, noise)
-        lines.append("| E_d | E_b | before [mm] | bf1 [mm] | bf2 [mm] | exact [mm] | exact2 [mm] | perfect [mm] "
-                     "| exact / est. floor | exact / perfect | exact2 / est. floor | bf1 / est. floor "
-                     "| exact abs err E_d | exact abs err E_b | bf1 abs err E_d | bf1 abs err E_b "
-                     "| exact CI cover E_d / E_b | bound [mm] | bound / est. floor | exact / bound "
-                     "| bound sd E_d | exact rms err E_d | bound sd E_b | exact rms err E_b |")
+        lines.append(
+            "| E_d | E_b | before [mm] | bf1 [mm] | bf2 [mm] | exact [mm] | exact2 [mm] | perfect [mm] "
+            "| exact / est. floor | exact / perfect | exact2 / est. floor | bf1 / est. floor "
+            "| exact abs err E_d | exact abs err E_b | bf1 abs err E_d | bf1 abs err E_b "
+            "| exact CI cover E_d / E_b | bound [mm] | bound / est. floor | exact / bound "
+            "| bound sd E_d | exact rms err E_d | bound sd E_b | exact rms err E_b |"
+        )
         lines.append("|" + "---|" * 24)
         for r in res["cells"]:
             if r["noise"] != noise:
                 continue
-            cov = "-" if r["exact_ed_coverage"] is None else \
-                f"{100 * r['exact_ed_coverage']:.0f} / {100 * r['exact_eb_coverage']:.0f} %"
+            cov = (
+                "-"
+                if r["exact_ed_coverage"] is None
+                else f"{100 * r['exact_ed_coverage']:.0f} / {100 * r['exact_eb_coverage']:.0f} %"
+            )
             lines.append(
                 f"| {r['Ed']:.4f} | {r['Eb']:.4f} | {_f(r['emax_before_mm'])} | {_f(r['emax_bf1_mm'])} | "
                 f"{_f(r['emax_bf2_mm'])} | {_f(r['emax_exact_mm'], 2)} | {_f(r['emax_exact2_mm'], 2)} | "
                 f"{_f(r['emax_perfect_mm'], 2)} | "
                 f"{_f(r['exact_over_estimation_floor'], 2)} | {_f(r['exact_over_perfect_floor'], 2)} | "
-                f"{_f(r['exact2_over_estimation_floor'], 2)} | {_f(r['bf1_over_estimation_floor'], 2)} | {_g(r['ed_abs_err_exact'])} | {_g(r['eb_abs_err_exact'])} | "
+                f"{_f(r['exact2_over_estimation_floor'], 2)} | {_f(r['bf1_over_estimation_floor'], 2)} | "
+                f"{_g(r['ed_abs_err_exact'])} | {_g(r['eb_abs_err_exact'])} | "
                 f"{_g(r['ed_abs_err_bf1'])} | {_g(r['eb_abs_err_bf1'])} | {cov} | {_f(r['emax_bound_mm'], 2)} | "
                 f"{_f(r['bound_over_estimation_floor'], 2)} | {_f(r['exact_over_bound'], 2)} | "
                 f"{_g(r['bound_ed_sd'])} | {_g(r['exact_ed_rms_err'])} | {_g(r['bound_eb_sd'])} | "
-                f"{_g(r['exact_eb_rms_err'])} |")
+                f"{_g(r['exact_eb_rms_err'])} |"
+            )
         lines.append("")
     return "\n".join(lines) + "\n"
 
@@ -397,11 +471,20 @@ def format_markdown(res: dict) -> str:
 def _by_eb(res: dict, noise: str) -> list[str]:
     """Ranges over the E_d values of each true E_b: the ratios to the floors and the bound."""
     rows = [r for r in res["cells"] if r["noise"] == noise]
-    cols = (("exact_over_estimation_floor", "exact / est. floor"), ("bound_over_estimation_floor", "bound / est. floor"),
-            ("exact_over_bound", "exact / bound"), ("exact_over_perfect_floor", "exact / perfect"),
-            ("exact2_over_estimation_floor", "exact2 / est. floor"), ("bf1_over_estimation_floor", "bf1 / est. floor"))
-    out = ["By true E_b (ranges over the E_d values):", "",
-           "| true E_b | " + " | ".join(c[1] for c in cols) + " |", "|---|" + "---|" * len(cols)]
+    cols = (
+        ("exact_over_estimation_floor", "exact / est. floor"),
+        ("bound_over_estimation_floor", "bound / est. floor"),
+        ("exact_over_bound", "exact / bound"),
+        ("exact_over_perfect_floor", "exact / perfect"),
+        ("exact2_over_estimation_floor", "exact2 / est. floor"),
+        ("bf1_over_estimation_floor", "bf1 / est. floor"),
+    )
+    out = [
+        "By true E_b (ranges over the E_d values):",
+        "",
+        "| true E_b | " + " | ".join(c[1] for c in cols) + " |",
+        "|---|" + "---|" * len(cols),
+    ]
     for eb in sorted({r["Eb"] for r in rows}):
         cells = [r for r in rows if r["Eb"] == eb]
         parts = []
@@ -432,22 +515,57 @@ def _g(v):
     return "-" if v is None or not math.isfinite(v) else f"{v:.2g}"
 
 
-CSV_COLUMNS = ("noise", "Ed", "Eb", "robots", "emax_before_mm", "emax_bf1_mm", "emax_bf2_mm", "emax_exact_mm",
-               "emax_exact2_mm", "emax_perfect_mm", "bf1_over_estimation_floor", "bf2_over_estimation_floor",
-               "exact_over_estimation_floor", "exact2_over_estimation_floor", "exact_over_perfect_floor",
-               "bf1_over_perfect_floor", "ed_abs_err_bf1", "eb_abs_err_bf1", "ed_abs_err_bf2", "eb_abs_err_bf2",
-               "ed_abs_err_exact", "eb_abs_err_exact", "ed_abs_err_exact2", "eb_abs_err_exact2",
-               "exact_ed_coverage", "exact_eb_coverage", "exact_pred_after_mm",
-               "emax_bound_mm", "bound_over_estimation_floor", "exact_over_bound", "bound_ed_sd", "bound_eb_sd",
-               "exact_ed_rms_err", "exact_eb_rms_err",
-               "failures_bf1", "failures_bf2", "failures_exact", "failures_exact2", "exact_warnings")
+CSV_COLUMNS = (
+    "noise",
+    "Ed",
+    "Eb",
+    "robots",
+    "emax_before_mm",
+    "emax_bf1_mm",
+    "emax_bf2_mm",
+    "emax_exact_mm",
+    "emax_exact2_mm",
+    "emax_perfect_mm",
+    "bf1_over_estimation_floor",
+    "bf2_over_estimation_floor",
+    "exact_over_estimation_floor",
+    "exact2_over_estimation_floor",
+    "exact_over_perfect_floor",
+    "bf1_over_perfect_floor",
+    "ed_abs_err_bf1",
+    "eb_abs_err_bf1",
+    "ed_abs_err_bf2",
+    "eb_abs_err_bf2",
+    "ed_abs_err_exact",
+    "eb_abs_err_exact",
+    "ed_abs_err_exact2",
+    "eb_abs_err_exact2",
+    "exact_ed_coverage",
+    "exact_eb_coverage",
+    "exact_pred_after_mm",
+    "emax_bound_mm",
+    "bound_over_estimation_floor",
+    "exact_over_bound",
+    "bound_ed_sd",
+    "bound_eb_sd",
+    "exact_ed_rms_err",
+    "exact_eb_rms_err",
+    "failures_bf1",
+    "failures_bf2",
+    "failures_exact",
+    "failures_exact2",
+    "exact_warnings",
+)
 
 
 def format_csv(res: dict) -> str:
     out = [",".join(CSV_COLUMNS)]
     for r in res["cells"]:
-        out.append(",".join("" if r.get(k) is None else (repr(r[k]) if isinstance(r[k], float) else str(r[k]))
-                            for k in CSV_COLUMNS))
+        out.append(
+            ",".join(
+                "" if r.get(k) is None else (repr(r[k]) if isinstance(r[k], float) else str(r[k])) for k in CSV_COLUMNS
+            )
+        )
     return "\n".join(out) + "\n"
 
 
@@ -463,8 +581,14 @@ def figure(res: dict):
     cells.sort(key=lambda r: (r["Eb"], r["Ed"]))
     x = np.arange(len(cells))
     fig, ax = plt.subplots(figsize=(max(8, 0.22 * len(cells) + 3), 5))
-    for m, style in (("bf1", "o-"), ("bf2", "s-"), ("exact", "^-"), ("exact2", "v-"), ("perfect", "x:"),
-                     ("bound", "d--")):
+    for m, style in (
+        ("bf1", "o-"),
+        ("bf2", "s-"),
+        ("exact", "^-"),
+        ("exact2", "v-"),
+        ("perfect", "x:"),
+        ("bound", "d--"),
+    ):
         ax.plot(x, [max(r[f"emax_{m}_mm"], 1e-9) for r in cells], style, label=f"{m} (median)", ms=4)
     fl = res["floors"][noise]
     ax.axhline(fl["estimation_floor_mm"], color="k", ls="--", lw=1, label="estimation floor")
@@ -484,7 +608,7 @@ def write_results(res: dict, out_dir, stem: str = "accuracy") -> dict:
     """Write ``<stem>.json``, ``.csv``, ``.md`` and ``.png`` into ``out_dir`` (created)."""
     from pathlib import Path
 
-    from .io.atomic import atomic_path, atomic_write
+    from umbmark.io.atomic import atomic_path, atomic_write
 
     out = Path(out_dir)
     if out.exists() and not out.is_dir():

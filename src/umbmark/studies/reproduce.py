@@ -5,7 +5,7 @@ The study
 A simulated LabMate (340 mm nominal wheelbase, 4 x 4 m square, 0.2 m/s, stop and turn on the
 spot, 5 runs per direction) runs the bi-directional square test (UMBmark), is calibrated with
 the paper's correction (method ``bf``), and runs it again. Where the 3 x SEM rule
-(:attr:`umbmark.benchmark.UMBmarkResult.second_pass_recommended`) says so, a second
+(:attr:`umbmark.metrics.UMBmarkResult.second_pass_recommended`) says so, a second
 compensation pass is made on top of the first (the robot with its first calibration is "a new
 uncompensated robot", :func:`umbmark.correct.result.compose`) and the test is run a third time.
 
@@ -24,7 +24,7 @@ The eight experiments of the paper's Table I:
   tape's thickness to the wheel's diameter (:func:`tape_errors`); see :data:`TAPE_LAYER_M`.
 
 Every simulated test has its own seed, ``SeedSequence(study_seed, spawn_key=(1, exp, pass))``,
-split like :func:`umbmark.simulate.simulate_umbmark` (cw runs, then ccw runs, one generator per
+split like :func:`umbmark.model.simulate.simulate_umbmark` (cw runs, then ccw runs, one generator per
 run), so a test's runs do not depend on the batch they are simulated in, nor on how many study
 seeds are run: the default seed's table is the first seed of the distribution.
 
@@ -46,13 +46,28 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from .benchmark import UMBmarkResult, umbmark
-from .correct import CorrectionResult, bf_correction
-from .errors import InputError
-from .kinematics import LABMATE, Calibration, ErrorParams, Geometry, OdometryParams, wrap_angle
-from .runs import RunsTable
-from .simulate import NOISE_PRESETS, Motion, NoiseModel, child_seeds, run_program, run_seeds, square_program
-from .workflows import FIG11_ERRORS  # the paper's Fig. 11 robot: E_d = 1.00084, b = 336.17 mm
+from umbmark.correct import CorrectionResult, bf_correction
+from umbmark.errors import InputError
+from umbmark.metrics import UMBmarkResult, umbmark
+from umbmark.model.geometry import (
+    FIG11_ERRORS,  # the paper's Fig. 11 robot: E_d = 1.00084, b = 336.17 mm
+    LABMATE,
+    Calibration,
+    ErrorParams,
+    Geometry,
+    OdometryParams,
+    wrap_angle,
+)
+from umbmark.model.runs import RunsTable
+from umbmark.model.simulate import (
+    NOISE_PRESETS,
+    Motion,
+    NoiseModel,
+    child_seeds,
+    run_program,
+    run_seeds,
+    square_program,
+)
 
 __all__ = [
     "FIG11_ERRORS",
@@ -83,18 +98,37 @@ __all__ = [
 
 # Table I of the paper: E_max,syst [mm] before / after compensation, the improvement it states.
 PAPER_TABLE_I: tuple[dict, ...] = (
-    dict(id=1, before_mm=317.0, after_mm=21.0, second_mm=None, improvement="15-fold",
-         comment="details shown in Fig. 11"),
+    dict(
+        id=1, before_mm=317.0, after_mm=21.0, second_mm=None, improvement="15-fold", comment="details shown in Fig. 11"
+    ),
     dict(id=2, before_mm=349.0, after_mm=32.0, second_mm=None, improvement="11-fold", comment=""),
-    dict(id=3, before_mm=310.0, after_mm=31.0, second_mm=None, improvement="10-fold",
-         comment="exps 3-5: same uncalibrated runs and correction factors"),
+    dict(
+        id=3,
+        before_mm=310.0,
+        after_mm=31.0,
+        second_mm=None,
+        improvement="10-fold",
+        comment="exps 3-5: same uncalibrated runs and correction factors",
+    ),
     dict(id=4, before_mm=310.0, after_mm=14.0, second_mm=None, improvement="22-fold", comment=""),
     dict(id=5, before_mm=310.0, after_mm=26.0, second_mm=None, improvement="12-fold", comment=""),
     dict(id=6, before_mm=403.0, after_mm=35.0, second_mm=None, improvement="11-fold", comment=""),
-    dict(id=7, before_mm=423.0, after_mm=66.0, second_mm=20.0, improvement="21-fold",
-         comment="right wheel + 3 loops of masking tape; two compensation passes"),
-    dict(id=8, before_mm=232.0, after_mm=12.0, second_mm=None, improvement="19-fold",
-         comment="left wheel + 5 loops of masking tape"),
+    dict(
+        id=7,
+        before_mm=423.0,
+        after_mm=66.0,
+        second_mm=20.0,
+        improvement="21-fold",
+        comment="right wheel + 3 loops of masking tape; two compensation passes",
+    ),
+    dict(
+        id=8,
+        before_mm=232.0,
+        after_mm=12.0,
+        second_mm=None,
+        improvement="19-fold",
+        comment="left wheel + 5 loops of masking tape",
+    ),
 )
 PAPER_SIGMA_MM = 25.0
 PAPER_SEM_MM = 11.2
@@ -125,8 +159,9 @@ _PITFALL_KEY = 2
 _TRAJ_KEY = 3
 
 
-def tape_errors(base: ErrorParams, geometry: Geometry, right_layers: int = 0, left_layers: int = 0,
-                layer_m: float = TAPE_LAYER_M) -> ErrorParams:
+def tape_errors(
+    base: ErrorParams, geometry: Geometry, right_layers: int = 0, left_layers: int = 0, layer_m: float = TAPE_LAYER_M
+) -> ErrorParams:
     """The errors of a robot whose wheels got ``right_layers``/``left_layers`` loops of tape:
     each loop adds ``2 * layer_m`` to that wheel's diameter (E_d and E_s change, E_b does not)."""
     if right_layers < 0 or left_layers < 0:
@@ -213,8 +248,9 @@ def experiment_robots(seed: int, cfg: StudyConfig | None = None) -> list[ErrorPa
     ed1, eb1 = FIG11_ERRORS.ed - 1.0, FIG11_ERRORS.eb - 1.0
 
     def varied(k):
-        return ErrorParams(ed=1.0 + ed1 * math.exp(cfg.variation * z[k, 0]),
-                           eb=1.0 + eb1 * math.exp(cfg.variation * z[k, 1]))
+        return ErrorParams(
+            ed=1.0 + ed1 * math.exp(cfg.variation * z[k, 0]), eb=1.0 + eb1 * math.exp(cfg.variation * z[k, 1])
+        )
 
     r2, r35, r6 = varied(0), varied(1), varied(2)
     r7 = tape_errors(FIG11_ERRORS, cfg.geometry, right_layers=3, layer_m=cfg.tape_layer_m)
@@ -273,7 +309,13 @@ def simulate_tests(tests: list[TestSpec], cfg: StudyConfig) -> list[RunsTable]:
         out = {k: np.empty(total) for k in ("abs_x", "abs_y", "abs_theta", "odo_x", "odo_y", "odo_theta")}
         for sl in _chunks(total, cfg.chunk_runs):
             res = run_program(
-                prog, None, None, sl.stop - sl.start, cfg.noise, cfg.motion, rngs=rngs[sl],
+                prog,
+                None,
+                None,
+                sl.stop - sl.start,
+                cfg.noise,
+                cfg.motion,
+                rngs=rngs[sl],
                 true_per_run={k: v[sl] for k, v in true_all.items()},
                 model_per_run={k: v[sl] for k, v in model_all.items()},
             )
@@ -284,16 +326,18 @@ def simulate_tests(tests: list[TestSpec], cfg: StudyConfig) -> list[RunsTable]:
     for i in range(len(tests)):
         sl = slice(i * n, (i + 1) * n)
         parts = [per_dir["cw"], per_dir["ccw"]]
-        tables.append(RunsTable.from_columns(
-            direction=np.array(["cw"] * n + ["ccw"] * n),
-            x_abs=np.concatenate([p["abs_x"][sl] for p in parts]),
-            y_abs=np.concatenate([p["abs_y"][sl] for p in parts]),
-            x_odo=np.concatenate([p["odo_x"][sl] for p in parts]),
-            y_odo=np.concatenate([p["odo_y"][sl] for p in parts]),
-            theta_abs=wrap_angle(np.concatenate([p["abs_theta"][sl] for p in parts])),
-            theta_odo=wrap_angle(np.concatenate([p["odo_theta"][sl] for p in parts])),
-            run=np.concatenate([np.arange(1, n + 1)] * 2),
-        ))
+        tables.append(
+            RunsTable.from_columns(
+                direction=np.array(["cw"] * n + ["ccw"] * n),
+                x_abs=np.concatenate([p["abs_x"][sl] for p in parts]),
+                y_abs=np.concatenate([p["abs_y"][sl] for p in parts]),
+                x_odo=np.concatenate([p["odo_x"][sl] for p in parts]),
+                y_odo=np.concatenate([p["odo_y"][sl] for p in parts]),
+                theta_abs=wrap_angle(np.concatenate([p["abs_theta"][sl] for p in parts])),
+                theta_odo=wrap_angle(np.concatenate([p["odo_theta"][sl] for p in parts])),
+                run=np.concatenate([np.arange(1, n + 1)] * 2),
+            )
+        )
     return tables
 
 
@@ -404,13 +448,18 @@ def run_seed_experiments(seeds: list[int], cfg: StudyConfig) -> dict[int, list[E
     # pass 1: runs with the first calibration (every experiment)
     keys1 = [(s, e) for s in seeds for e in range(1, 9)]
     runs1 = simulate_tests(
-        [TestSpec(robots[s][e - 1], before[(s, _GROUP_OF[e])][2].calibration, test_seed(s, e, _PASS_AFTER))
-         for s, e in keys1], cfg)
+        [
+            TestSpec(robots[s][e - 1], before[(s, _GROUP_OF[e])][2].calibration, test_seed(s, e, _PASS_AFTER))
+            for s, e in keys1
+        ],
+        cfg,
+    )
     exps = {}
     for (s, e), rt in zip(keys1, runs1):
         rt0, res0, corr = before[(s, _GROUP_OF[e])]
-        exps[(s, e)] = Experiment(e, s, robots[s][e - 1], rt0, res0, PassResult(corr, rt, umbmark(rt)),
-                                  wheelbase_nominal_m=b_nom)
+        exps[(s, e)] = Experiment(
+            e, s, robots[s][e - 1], rt0, res0, PassResult(corr, rt, umbmark(rt)), wheelbase_nominal_m=b_nom
+        )
     # pass 2: where the 3 x SEM rule calls for it, a second compensation on top of the first
     keys2, specs2, corr2 = [], [], []
     for k in keys1:
@@ -498,7 +547,7 @@ class Study:
     config: StudyConfig
     experiments: list[Experiment]  # the default seed's (the first seed)
     distribution: Distribution
-    pitfall: "Pitfall | None" = None
+    pitfall: Pitfall | None = None
     second_pass_examples: list[Experiment] = field(default_factory=list)
     extra: dict = field(default_factory=dict)
 
@@ -551,7 +600,8 @@ def tape_model(cfg: StudyConfig) -> dict:
 
 
 def _noise_free_emax(errors: ErrorParams, cfg: StudyConfig, calibration: Calibration | None = None) -> float:
-    from .simulate import simulate_umbmark
+    from umbmark.model.simulate import simulate_umbmark
+
     rt = simulate_umbmark(errors, cfg.geometry, cfg.side_m, 1, calibration, "none", Motion(sample_period_s=None))
     return umbmark(rt).emax_syst
 
@@ -561,7 +611,7 @@ def seed_groups(cfg: StudyConfig) -> list[list[int]]:
     about ``cfg.chunk_runs`` runs); each group is one task of the sweep in :func:`run_study`."""
     seeds = cfg.seed_list
     per_group = max(1, cfg.chunk_runs // (cfg.n_runs * 8))
-    return [seeds[i:i + per_group] for i in range(0, len(seeds), per_group)]
+    return [seeds[i : i + per_group] for i in range(0, len(seeds), per_group)]
 
 
 def _seed_group_task(task: tuple[list[int], StudyConfig]) -> dict[int, list[Experiment]]:
@@ -570,18 +620,19 @@ def _seed_group_task(task: tuple[list[int], StudyConfig]) -> dict[int, list[Expe
     return run_seed_experiments(seeds, cfg)
 
 
-def run_study(cfg: StudyConfig | None = None, pitfall: bool = True, workers: int | None = None, dask=None,
-              on_progress=None) -> Study:
+def run_study(
+    cfg: StudyConfig | None = None, pitfall: bool = True, workers: int | None = None, dask=None, on_progress=None
+) -> Study:
     """The whole study: Table I for the first seed, the distribution over all seeds, and the
     uni-directional pitfall (first seed).
 
-    The groups of seeds (:func:`seed_groups`) are simulated through :func:`umbmark.sweep.map`:
+    The groups of seeds (:func:`seed_groups`) are simulated through :func:`umbmark.studies.sweep.map`:
     ``workers`` local processes (``None``: all cores; ``1``: in this process) or a Dask
     cluster (``dask``: an address, ``"local"`` or a ``distributed.Client``). Every test carries
     its own seed and the groups are the same whatever the backend, so the study is identical
     (to the bit) on every backend. ``on_progress(seeds_done, seeds_total)`` is called as groups
     finish."""
-    from . import sweep
+    from umbmark.studies import sweep
 
     cfg = cfg or StudyConfig()
     seeds = cfg.seed_list
@@ -594,8 +645,7 @@ def run_study(cfg: StudyConfig | None = None, pitfall: bool = True, workers: int
             on_progress(min(done * per_group, len(seeds)), len(seeds))
 
     all_exps: dict[int, list[Experiment]] = {}
-    for part in sweep.map(_seed_group_task, [(g, cfg) for g in groups], workers=workers, dask=dask,
-                          on_progress=tick):
+    for part in sweep.map(_seed_group_task, [(g, cfg) for g in groups], workers=workers, dask=dask, on_progress=tick):
         all_exps.update(part)
     arr = lambda f: np.array([[f(e) for e in all_exps[s]] for s in seeds], dtype=float)  # noqa: E731
     dist = Distribution(
@@ -661,8 +711,11 @@ def _bi_dict(r: UMBmarkResult) -> dict:
     return {"cw_r_cg_mm": r.cw.r_cg * 1e3, "ccw_r_cg_mm": r.ccw.r_cg * 1e3, "emax_syst_mm": r.emax_syst * 1e3}
 
 
-def uni_directional_pitfall(cfg: StudyConfig | None = None, errors: ErrorParams = FIG11_ERRORS,
-                            grid_mm: tuple[float, float, float] = (325.0, 355.0, 0.25)) -> Pitfall:
+def uni_directional_pitfall(
+    cfg: StudyConfig | None = None,
+    errors: ErrorParams = FIG11_ERRORS,
+    grid_mm: tuple[float, float, float] = (325.0, 355.0, 0.25),
+) -> Pitfall:
     """Simulate the trial-and-error wheelbase tuning of section 3.1 on ``errors``' robot.
 
     For each wheelbase on the grid the experimenter runs ``n_runs`` cw squares and keeps the
@@ -687,9 +740,18 @@ def uni_directional_pitfall(cfg: StudyConfig | None = None, errors: ErrorParams 
             for _ in g:  # common random numbers: every trial sees the same run seeds
                 rngs += run_seeds(np.random.SeedSequence(ss.entropy, spawn_key=ss.spawn_key), n)
             res = run_program(
-                square_program(direction, cfg.side_m), tp, None, len(g) * n, cfg.noise, cfg.motion, rngs=rngs,
-                model_per_run=dict(left_m_per_pulse=np.full(len(g) * n, cm), right_m_per_pulse=np.full(len(g) * n, cm),
-                                   wheelbase_m=np.repeat(g, n)),
+                square_program(direction, cfg.side_m),
+                tp,
+                None,
+                len(g) * n,
+                cfg.noise,
+                cfg.motion,
+                rngs=rngs,
+                model_per_run=dict(
+                    left_m_per_pulse=np.full(len(g) * n, cm),
+                    right_m_per_pulse=np.full(len(g) * n, cm),
+                    wheelbase_m=np.repeat(g, n),
+                ),
             )
             ex = (res.abs_x - res.odo_x).reshape(len(g), n).mean(axis=1)
             ey = (res.abs_y - res.odo_y).reshape(len(g), n).mean(axis=1)
@@ -704,13 +766,28 @@ def uni_directional_pitfall(cfg: StudyConfig | None = None, errors: ErrorParams 
     unc = umbmark(unc_runs)
     corr = bf_correction(unc, cfg.side_m, geo.wheelbase_m)
     tuned_runs, bf_runs = simulate_tests(
-        [TestSpec(errors, Calibration(wheelbase_m=tuned_b), s1), TestSpec(errors, corr.calibration, s2)], cfg)
-    return Pitfall(errors, grid, r_cg["cw"], r_cg["ccw"], tuned_b, unc_runs, unc, tuned_runs, umbmark(tuned_runs),
-                   corr, bf_runs, umbmark(bf_runs), geo.wheelbase_m)
+        [TestSpec(errors, Calibration(wheelbase_m=tuned_b), s1), TestSpec(errors, corr.calibration, s2)], cfg
+    )
+    return Pitfall(
+        errors,
+        grid,
+        r_cg["cw"],
+        r_cg["ccw"],
+        tuned_b,
+        unc_runs,
+        unc,
+        tuned_runs,
+        umbmark(tuned_runs),
+        corr,
+        bf_runs,
+        umbmark(bf_runs),
+        geo.wheelbase_m,
+    )
 
 
-def run_trajectories(errors: ErrorParams, calibration: Calibration | None, cfg: StudyConfig | None = None,
-                     seed: int | None = None) -> list[dict]:
+def run_trajectories(
+    errors: ErrorParams, calibration: Calibration | None, cfg: StudyConfig | None = None, seed: int | None = None
+) -> list[dict]:
     """One cw and one ccw run with their true and odometry trajectories (metres), for figures."""
     cfg = cfg or StudyConfig()
     seed = int(cfg.seed if seed is None else seed)
@@ -719,8 +796,16 @@ def run_trajectories(errors: ErrorParams, calibration: Calibration | None, cfg: 
     out = []
     for di, direction in enumerate(("cw", "ccw")):
         ss = np.random.SeedSequence(seed, spawn_key=(_TRAJ_KEY, di))
-        res = run_program(square_program(direction, cfg.side_m), tp, mp, 1, cfg.noise, cfg.motion,
-                          rngs=run_seeds(ss, 1), trajectory=True)
+        res = run_program(
+            square_program(direction, cfg.side_m),
+            tp,
+            mp,
+            1,
+            cfg.noise,
+            cfg.motion,
+            rngs=run_seeds(ss, 1),
+            trajectory=True,
+        )
         t = {k: np.concatenate([[0.0], v[0]]) for k, v in res.trajectory.items()}
         t["label"] = direction
         out.append(t)

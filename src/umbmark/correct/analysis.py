@@ -1,0 +1,49 @@
+"""Analyse a runs table: the UMBmark figures and a calibration by one correction method."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from umbmark.correct.registry import correct_runs
+from umbmark.correct.result import CorrectionResult
+from umbmark.errors import InputError
+from umbmark.metrics import UMBmarkResult, umbmark
+from umbmark.model.geometry import Calibration
+from umbmark.model.runs import RunsTable
+
+__all__ = ["Analysis", "analyze"]
+
+
+def _positive(name: str, value: float) -> float:
+    if value is None or not (math.isfinite(value) and value > 0):
+        raise InputError(f"{name} must be a positive number, got {value!r}")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class Analysis:
+    runs: RunsTable
+    result: UMBmarkResult
+    correction: CorrectionResult
+    side_m: float
+    wheelbase_m: float
+
+    def to_dict(self) -> dict:
+        d = self.result.to_dict()
+        d.update(self.correction.to_dict())
+        d["side_mm"] = self.side_m * 1e3
+        d["wheelbase_mm"] = self.wheelbase_m * 1e3
+        d["warnings"] = list(self.result.warnings) + list(self.correction.extra.get("warnings", []))
+        return d
+
+
+def analyze(
+    runs: RunsTable, side_m: float, wheelbase_m: float, method: str = "bf", prior: Calibration | None = None, **options
+) -> Analysis:
+    """UMBmark metrics and a calibration from square runs."""
+    _positive("side_m", side_m)
+    _positive("wheelbase_m", wheelbase_m)
+    result = umbmark(runs)
+    corr = correct_runs(method, runs, side_m, wheelbase_m, prior, **options)
+    return Analysis(runs, result, corr, side_m, wheelbase_m)

@@ -1,0 +1,173 @@
+"""Calibration history per robot, in an embedded SQLite database (standard library ``sqlite3``).
+
+Every ``analyze`` / ``replay`` / ``calibrate`` result can be recorded: robot, time (UTC), kind of
+command, method, inputs (the runs themselves, or a SHA-256 content hash of the logs and where
+they came from), results, the parameters the robot ran with and the recommended ones, and the
+umbmark version.
+
+Where the database lives (first match): an explicit path (``--db``), the environment variable
+``UMBMARK_DB``, ``$XDG_DATA_HOME/umbmark/history.sqlite`` (default
+``~/.local/share/umbmark/history.sqlite``; ``%LOCALAPPDATA%\\umbmark`` on Windows,
+``~/Library/Application Support/umbmark`` on macOS).
+
+Integrity: the schema version is SQLite's ``user_version``; :data:`MIGRATIONS` upgrade an older
+database in one transaction when it is opened; a database written by a newer umbmark is refused.
+Every write is one ``BEGIN IMMEDIATE`` ... ``COMMIT`` transaction in WAL mode with
+``synchronous=FULL`` and a busy timeout, so a writer killed mid-way leaves no partial record and
+two processes writing at once queue up instead of failing (tests/test_history_concurrency.py
+kills writers with SIGKILL and runs writers in parallel processes).
+
+A database URL (``--db postgresql+psycopg://user@host/db``, or in ``UMBMARK_DB``) selects the
+SQLAlchemy backend in :mod:`umbmark.history.sqlalchemy_backend` (optional extras ``db`` / ``postgres``),
+for a fleet sharing one PostgreSQL server.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from umbmark.history.base import (
+    ENV_VAR,
+    KINDS,
+    MIGRATIONS,
+    SCHEMA_VERSION,
+    HistoryError,
+    Record,
+    default_db_path,
+    display_db,
+    export_parameters,
+    file_sha256,
+    format_export,
+    is_url,
+    make_row,
+    parameters_from_analysis,
+    resolve_db,
+    resolve_db_path,
+    runs_from_rows,
+    runs_to_rows,
+)
+from umbmark.history.sqlite_backend import History
+
+__all__ = [
+    "SCHEMA_VERSION",
+    "MIGRATIONS",
+    "ENV_VAR",
+    "KINDS",
+    "Record",
+    "HistoryError",
+    "default_db_path",
+    "resolve_db_path",
+    "resolve_db",
+    "is_url",
+    "display_db",
+    "make_row",
+    "parameters_from_analysis",
+    "file_sha256",
+    "export_parameters",
+    "format_export",
+    "runs_to_rows",
+    "runs_from_rows",
+    "History",
+    "open_history",
+    "record_result",
+    "record_analysis",
+]
+
+
+def open_history(db=None, create: bool = True):
+    """Open the history: :class:`History` (SQLite file, standard library) or, for a database URL,
+    :class:`umbmark.history.sqlalchemy_backend.SQLAlchemyHistory` (needs the ``db`` or ``postgres``
+    extra). Both have the same methods."""
+    r = resolve_db(db)
+    if isinstance(r, str):
+        from umbmark.history.sqlalchemy_backend import SQLAlchemyHistory
+
+        return SQLAlchemyHistory(r, create=create)
+    return History(r, create=create)
+
+
+def record_result(
+    robot: str,
+    *,
+    kind: str,
+    method: str,
+    results: dict,
+    parameters: dict,
+    db=None,
+    inputs: dict | None = None,
+    input_sha256: str | None = None,
+    source=None,
+    parameters_in_use: dict | None = None,
+    note: str | None = None,
+    when=None,
+) -> int:
+    """Open the history database (``db``, ``$UMBMARK_DB`` or the default), store one
+    calibration in one transaction, close it; returns the record id.
+
+    ``results``: the command's result dict (``emax_syst_mm`` is picked up for the plots);
+    ``parameters``: the recommended odometry parameters, keys ``c_left``, ``c_right``,
+    ``wheelbase_mm`` (or ``wheelbase_m``), ``Ed``, ``Eb``; ``parameters_in_use``: the ones the
+    robot ran with; ``inputs``: the runs (or anything JSON) and/or ``input_sha256`` plus ``source``
+    (the file or folder the input came from: see :func:`file_sha256`)."""
+    with open_history(db) as h:
+        return h.add(
+            robot,
+            kind=kind,
+            method=method,
+            results=results,
+            parameters=parameters,
+            inputs=inputs,
+            input_sha256=input_sha256,
+            source=source,
+            parameters_in_use=parameters_in_use,
+            note=note,
+            when=when,
+        )
+
+
+def record_analysis(
+    robot: str,
+    analysis,
+    *,
+    kind: str = "analyze",
+    source=None,
+    db=None,
+    prior=None,
+    note: str | None = None,
+    when=None,
+    extra_inputs: dict | None = None,
+) -> int:
+    """Record a :class:`umbmark.correct.analysis.Analysis` (the runs are stored in the record; the
+    source file, if given and readable, is hashed). ``prior``: the
+    :class:`umbmark.model.geometry.Calibration` the robot ran with, or None."""
+    recommended, in_use = parameters_from_analysis(analysis)
+    if prior is not None:
+        in_use.update({"c_left": prior.c_left, "c_right": prior.c_right})
+        if prior.wheelbase_m is not None:
+            in_use["wheelbase_mm"] = prior.wheelbase_m * 1e3
+    else:
+        in_use.update({"c_left": 1.0, "c_right": 1.0})
+    sha = None
+    if source is not None and Path(source).exists():
+        sha = file_sha256(source)
+    inputs = {
+        "runs": runs_to_rows(analysis.runs),
+        "side_mm": analysis.side_m * 1e3,
+        "wheelbase_mm": analysis.wheelbase_m * 1e3,
+    }
+    inputs.update(extra_inputs or {})
+    results = analysis.to_dict()
+    return record_result(
+        robot,
+        kind=kind,
+        method=analysis.correction.method,
+        results=results,
+        parameters=recommended,
+        db=db,
+        inputs=inputs,
+        input_sha256=sha,
+        source=None if source is None else str(Path(source).resolve()),
+        parameters_in_use=in_use,
+        note=note,
+        when=when,
+    )

@@ -1,0 +1,472 @@
+"""What every history backend shares: where the database is, the schema, the record type,
+the rows, the base class of the backends, and the parameter export of a record.
+
+Imports only the standard library, :mod:`umbmark.errors` and :mod:`umbmark.jsonutil`."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import socket
+import sys
+import time
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+
+from umbmark._version import __version__
+from umbmark.errors import InputError, UmbmarkError
+from umbmark.jsonutil import dumps, jsonable
+
+ENV_VAR = "UMBMARK_DB"
+KINDS = ("analyze", "replay", "calibrate", "measure", "other")
+
+# Schema migrations: MIGRATIONS[v] upgrades a database at version v - 1 to version v.
+MIGRATIONS: dict[int, list[str]] = {
+    1: [
+        """CREATE TABLE robots (
+               id INTEGER PRIMARY KEY,
+               name TEXT NOT NULL UNIQUE,
+               created_utc TEXT NOT NULL)""",
+        """CREATE TABLE calibrations (
+               id INTEGER PRIMARY KEY,
+               robot_id INTEGER NOT NULL REFERENCES robots(id),
+               created_utc TEXT NOT NULL,
+               kind TEXT NOT NULL,
+               method TEXT NOT NULL,
+               software_version TEXT NOT NULL,
+               inputs_json TEXT NOT NULL,
+               input_sha256 TEXT,
+               source TEXT,
+               results_json TEXT NOT NULL,
+               parameters_json TEXT NOT NULL,
+               parameters_in_use_json TEXT NOT NULL,
+               emax_syst_mm REAL,
+               ed REAL,
+               eb REAL,
+               wheelbase_mm REAL)""",
+    ],
+    2: [
+        "ALTER TABLE calibrations ADD COLUMN note TEXT",
+        "ALTER TABLE calibrations ADD COLUMN host TEXT",
+        "CREATE INDEX calibrations_robot_time ON calibrations (robot_id, created_utc, id)",
+    ],
+}
+SCHEMA_VERSION = max(MIGRATIONS)
+
+
+class HistoryError(UmbmarkError):
+    """The history database cannot be used (locked for too long, newer schema, not a database)."""
+
+
+def default_db_path() -> Path:
+    """The per-user default location (without looking at ``UMBMARK_DB``)."""
+    if sys.platform == "win32":
+        base = Path(os.environ.get("LOCALAPPDATA") or Path.home() / "AppData" / "Local")
+    elif sys.platform == "darwin":
+        base = Path.home() / "Library" / "Application Support"
+    else:
+        xdg = os.environ.get("XDG_DATA_HOME")
+        base = Path(xdg) if xdg and Path(xdg).is_absolute() else Path.home() / ".local" / "share"
+    return base / "umbmark" / "history.sqlite"
+
+
+def is_url(db) -> bool:
+    """True for an SQLAlchemy database URL (``postgresql+psycopg://...``, ``sqlite:///...``)."""
+    return isinstance(db, str) and "://" in db
+
+
+def resolve_db(db=None):
+    """``db`` if given, else ``$UMBMARK_DB``, else :func:`default_db_path`; a URL stays a string,
+    a file becomes a :class:`Path`."""
+    db = db or os.environ.get(ENV_VAR) or None
+    if db is None:
+        return default_db_path()
+    if is_url(str(db)):
+        return str(db)
+    return Path(db).expanduser()
+
+
+def display_db(db) -> str:
+    """A database file or URL for messages, with any password in a URL masked."""
+    import re
+
+    return re.sub(r"(://[^:/@]*:)[^@]*@", r"\1***@", str(db))
+
+
+def resolve_db_path(db=None) -> Path:
+    """Like :func:`resolve_db`, for a database file (not a URL)."""
+    r = resolve_db(db)
+    if isinstance(r, str):
+        raise InputError(f"{r!r} is a database URL, not a file")
+    return r
+
+
+def _now_utc() -> str:
+    return datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
+
+
+def _utc_string(when) -> str:
+    if when is None:
+        return _now_utc()
+    if isinstance(when, str):
+        try:
+            when = datetime.fromisoformat(when.replace("Z", "+00:00"))
+        except ValueError:
+            raise InputError(f"time {when!r} is not an ISO 8601 date/time (e.g. 2026-05-01T14:30)") from None
+    if when.tzinfo is None:
+        when = when.replace(tzinfo=timezone.utc)
+    return when.astimezone(timezone.utc).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
+
+
+def _dumps(o) -> str:
+    return dumps(o, sort_keys=True)
+
+
+def _num(v):
+    try:
+        v = float(v)
+    except (TypeError, ValueError):
+        return None
+    return v if math.isfinite(v) else None
+
+
+def file_sha256(path) -> str:
+    """SHA-256 of a file's bytes, or of a folder's files (sorted relative paths and contents)."""
+    p = Path(path)
+    h = hashlib.sha256()
+    if p.is_dir():
+        for f in sorted(q for q in p.rglob("*") if q.is_file()):
+            h.update(str(f.relative_to(p)).encode() + b"\0")
+            with open(f, "rb") as fh:
+                for chunk in iter(lambda: fh.read(1 << 20), b""):
+                    h.update(chunk)
+        return h.hexdigest()
+    with open(p, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+@dataclass(frozen=True)
+class Record:
+    """One recorded calibration (a row of the ``calibrations`` table)."""
+
+    id: int
+    robot: str
+    created_utc: str
+    kind: str
+    method: str
+    software_version: str
+    inputs: dict
+    input_sha256: str | None
+    source: str | None
+    results: dict
+    parameters: dict
+    parameters_in_use: dict
+    emax_syst_mm: float | None
+    ed: float | None
+    eb: float | None
+    wheelbase_mm: float | None
+    note: str | None = None
+    host: str | None = None
+
+    @property
+    def time(self) -> datetime:
+        return datetime.fromisoformat(self.created_utc.replace("Z", "+00:00"))
+
+    def to_dict(self, full: bool = True) -> dict:
+        d = {
+            "id": self.id,
+            "robot": self.robot,
+            "time_utc": self.created_utc,
+            "kind": self.kind,
+            "method": self.method,
+            "software_version": self.software_version,
+            "source": self.source,
+            "input_sha256": self.input_sha256,
+            "emax_syst_mm": self.emax_syst_mm,
+            "Ed": self.ed,
+            "Eb": self.eb,
+            "wheelbase_mm": self.wheelbase_mm,
+            "parameters": self.parameters,
+            "parameters_in_use": self.parameters_in_use,
+            "note": self.note,
+            "host": self.host,
+        }
+        if full:
+            d["inputs"] = self.inputs
+            d["results"] = self.results
+        return d
+
+
+_SELECT = """SELECT c.id, r.name, c.created_utc, c.kind, c.method, c.software_version, c.inputs_json,
+                    c.input_sha256, c.source, c.results_json, c.parameters_json, c.parameters_in_use_json,
+                    c.emax_syst_mm, c.ed, c.eb, c.wheelbase_mm, c.note, c.host
+             FROM calibrations c JOIN robots r ON r.id = c.robot_id"""
+
+
+def _record(row) -> Record:
+    return Record(
+        row[0],
+        row[1],
+        row[2],
+        row[3],
+        row[4],
+        row[5],
+        json.loads(row[6]),
+        row[7],
+        row[8],
+        json.loads(row[9]),
+        json.loads(row[10]),
+        json.loads(row[11]),
+        row[12],
+        row[13],
+        row[14],
+        row[15],
+        row[16],
+        row[17],
+    )
+
+
+def retry_while_locked(fn, timeout_s: float, errors):
+    """Call ``fn`` until it does not raise a "database is locked" error (one of ``errors``) or
+    ``timeout_s`` has passed. SQLite answers "locked" at once, without waiting for its busy
+    timeout, in a few cases: two processes switching a new file to WAL at the same moment, or a
+    read transaction that must become a write transaction."""
+    deadline = time.monotonic() + timeout_s
+    delay = 0.01
+    while True:
+        try:
+            return fn()
+        except errors as e:
+            if "locked" not in str(e) or time.monotonic() > deadline:
+                raise
+            time.sleep(delay)
+            delay = min(2 * delay, 0.25)
+
+
+class _Backend:
+    """What every history backend shares. A backend provides ``path`` (for messages),
+    :meth:`close`, :meth:`transaction`, ``_insert(conn, row)``, :meth:`records` and
+    ``_robot_counts()`` (name, number of records, first and last time per robot)."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def add(
+        self,
+        robot: str,
+        *,
+        kind: str,
+        method: str,
+        results: dict,
+        parameters: dict,
+        inputs: dict | None = None,
+        input_sha256: str | None = None,
+        source: str | None = None,
+        parameters_in_use: dict | None = None,
+        note: str | None = None,
+        when=None,
+        software_version: str | None = None,
+    ) -> int:
+        """Store one calibration in one transaction; returns its id."""
+        row = self._row(
+            robot,
+            kind,
+            method,
+            results,
+            parameters,
+            inputs,
+            input_sha256,
+            source,
+            parameters_in_use,
+            note,
+            when,
+            software_version,
+        )
+        with self.transaction() as c:
+            return self._insert(c, row)
+
+    @staticmethod
+    def _row(*args) -> dict:
+        return make_row(*args)
+
+    def latest(self, robot: str) -> Record:
+        recs = self.records(robot, limit=1)
+        if not recs:
+            raise InputError(
+                f"no calibrations of robot {robot!r} in the history database {self.path}" + self._known_hint()
+            )
+        return recs[0]
+
+    def robots(self) -> list[dict]:
+        """One summary per robot: name, number of records, first and last time, latest values."""
+        out = []
+        for name, n, first, last in self._robot_counts():
+            d = {"robot": name, "records": n, "first_utc": first, "last_utc": last}
+            if n:
+                rec = self.latest(name)
+                d.update(
+                    {
+                        "latest_id": rec.id,
+                        "emax_syst_mm": rec.emax_syst_mm,
+                        "Ed": rec.ed,
+                        "Eb": rec.eb,
+                        "wheelbase_mm": rec.wheelbase_mm,
+                    }
+                )
+            out.append(d)
+        return out
+
+    def _known_hint(self) -> str:
+        names = [r["robot"] for r in self.robots()]
+        return f" (robots: {', '.join(names)})" if names else " (it holds no robots yet)"
+
+
+def make_row(
+    robot,
+    kind,
+    method,
+    results,
+    parameters,
+    inputs,
+    input_sha256,
+    source,
+    parameters_in_use,
+    note,
+    when,
+    software_version,
+) -> dict:
+    """The column values of one ``calibrations`` row (plus ``robot``), for any backend."""
+    robot = _check_robot(robot)
+    if kind not in KINDS:
+        raise InputError(f"unknown record kind {kind!r} (one of {', '.join(KINDS)})")
+    parameters = dict(parameters or {})
+    results = dict(results or {})
+    wb = _num(parameters.get("wheelbase_mm"))
+    if wb is None and _num(parameters.get("wheelbase_m")) is not None:
+        wb = _num(parameters.get("wheelbase_m")) * 1e3
+    return {
+        "robot": robot,
+        "created_utc": _utc_string(when),
+        "kind": kind,
+        "method": str(method),
+        "software_version": software_version or __version__,
+        "inputs_json": _dumps(inputs or {}),
+        "input_sha256": input_sha256,
+        "source": None if source is None else str(source),
+        "results_json": _dumps(results),
+        "parameters_json": _dumps(parameters),
+        "parameters_in_use_json": _dumps(parameters_in_use or {}),
+        "emax_syst_mm": _num(results.get("emax_syst_mm")),
+        "ed": _num(parameters.get("Ed", results.get("Ed"))),
+        "eb": _num(parameters.get("Eb", results.get("Eb"))),
+        "wheelbase_mm": wb,
+        "note": note,
+        "host": socket.gethostname(),
+    }
+
+
+def _check_robot(robot) -> str:
+    if robot is None or not str(robot).strip():
+        raise InputError("a robot name is needed to record a calibration (`robot`)")
+    robot = str(robot).strip()
+    if len(robot) > 200 or any(ord(ch) < 32 for ch in robot):
+        raise InputError(f"robot name {robot[:40]!r} must be at most 200 printable characters")
+    return robot
+
+
+def parameters_from_analysis(analysis) -> tuple[dict, dict]:
+    """``(recommended, in_use)`` parameter dicts of a :class:`umbmark.correct.analysis.Analysis`."""
+    corr = analysis.correction
+    cal = corr.calibration
+    recommended = {
+        "c_left": cal.c_left,
+        "c_right": cal.c_right,
+        "wheelbase_mm": cal.wheelbase_m * 1e3,
+        "Ed": corr.ed,
+        "Eb": corr.eb,
+    }
+    in_use = {"wheelbase_mm": analysis.wheelbase_m * 1e3}
+    return recommended, in_use
+
+
+def runs_to_rows(runs) -> list[dict]:
+    """A runs table as JSON-able rows in millimetres and degrees."""
+    rows = []
+    for i in range(len(runs)):
+        r = {
+            "run": str(runs.run[i]) if runs.run is not None else str(i + 1),
+            "direction": str(runs.direction[i]),
+            "x_abs": float(runs.x_abs[i]) * 1e3,
+            "y_abs": float(runs.y_abs[i]) * 1e3,
+            "x_odo": float(runs.x_odo[i]) * 1e3,
+            "y_odo": float(runs.y_odo[i]) * 1e3,
+        }
+        if runs.theta_abs is not None:
+            r["theta_abs"] = math.degrees(float(runs.theta_abs[i]))
+        if runs.theta_odo is not None:
+            r["theta_odo"] = math.degrees(float(runs.theta_odo[i]))
+        rows.append(r)
+    return rows
+
+
+def runs_from_rows(rows: list[dict]):
+    """Inverse of :func:`runs_to_rows` (for reports of recorded analyses)."""
+    import numpy as np
+
+    from umbmark.model.runs import RunsTable
+
+    g = lambda k: np.array([r[k] for r in rows], dtype=float) * 1e-3  # noqa: E731
+    th = lambda k: np.radians([r[k] for r in rows]) if rows and all(k in r for r in rows) else None  # noqa: E731
+    return RunsTable.from_columns(
+        [r["direction"] for r in rows],
+        g("x_abs"),
+        g("y_abs"),
+        g("x_odo"),
+        g("y_odo"),
+        th("theta_abs"),
+        th("theta_odo"),
+        np.array([r["run"] for r in rows]),
+    )
+
+
+def export_parameters(record: Record) -> dict:
+    """The parameters to load into the robot's odometry, from one record (JSON-able)."""
+    p = record.parameters
+    wb_mm = _num(p.get("wheelbase_mm"))
+    if wb_mm is None and _num(p.get("wheelbase_m")) is not None:
+        wb_mm = _num(p.get("wheelbase_m")) * 1e3
+    return {
+        "robot": record.robot,
+        "record_id": record.id,
+        "time_utc": record.created_utc,
+        "kind": record.kind,
+        "method": record.method,
+        "c_left": _num(p.get("c_left")),
+        "c_right": _num(p.get("c_right")),
+        "wheelbase_m": None if wb_mm is None else wb_mm * 1e-3,
+        "wheelbase_mm": wb_mm,
+        "Ed": record.ed,
+        "Eb": record.eb,
+        "emax_syst_mm_measured": record.emax_syst_mm,
+        "software_version": record.software_version,
+    }
+
+
+def format_export(record: Record, fmt: str = "json") -> str:
+    """:func:`export_parameters` as JSON or YAML text."""
+    d = jsonable(export_parameters(record))
+    if fmt == "json":
+        return json.dumps(d, indent=2, allow_nan=False) + "\n"
+    if fmt == "yaml":
+        import yaml
+
+        return yaml.safe_dump(d, sort_keys=False)
+    raise InputError(f"unknown export format {fmt!r} (json or yaml)")

@@ -1,0 +1,67 @@
+"""The calibration history of one robot over time, as a figure."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+from umbmark.history.base import Record
+
+
+@dataclass
+class _Series:
+    """Time series of one robot's records, for plots."""
+
+    times: list = field(default_factory=list)
+    emax_syst_mm: list = field(default_factory=list)
+    ed: list = field(default_factory=list)
+    eb: list = field(default_factory=list)
+    wheelbase_mm: list = field(default_factory=list)
+    ids: list = field(default_factory=list)
+
+
+def series(records: list[Record]) -> _Series:
+    s = _Series()
+    for r in records:
+        s.times.append(r.time)
+        s.emax_syst_mm.append(r.emax_syst_mm)
+        s.ed.append(r.ed)
+        s.eb.append(r.eb)
+        s.wheelbase_mm.append(r.wheelbase_mm)
+        s.ids.append(r.id)
+    return s
+
+
+def history_figure(records: list[Record], title: str | None = None):
+    """E_max,syst, E_d, E_b and the recommended wheelbase over time (one panel each)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.dates as mdates
+    import matplotlib.pyplot as plt
+
+    s = series(records)
+    fig, axes = plt.subplots(4, 1, figsize=(8, 9), sharex=True)
+    panels = [
+        (s.emax_syst_mm, "E_max,syst [mm]\n(measured, before)"),
+        (s.ed, "E_d = D_R / D_L"),
+        (s.eb, "E_b"),
+        (s.wheelbase_mm, "wheelbase [mm]\n(recommended)"),
+    ]
+    for ax, (vals, label) in zip(axes, panels):
+        pts = [(t, v) for t, v in zip(s.times, vals) if v is not None]
+        if pts:
+            ax.plot([p[0] for p in pts], [p[1] for p in pts], "o-", color="tab:blue", ms=5)
+            for (t, v), rid in zip(pts, [i for i, v in zip(s.ids, vals) if v is not None]):
+                ax.annotate(f"#{rid}", (t, v), textcoords="offset points", xytext=(4, 4), fontsize=7, color="0.35")
+        ax.set_ylabel(label, fontsize=8)
+        ax.grid(True, lw=0.3)
+        ax.ticklabel_format(axis="y", useOffset=False, style="plain")
+    axes[0].set_ylim(bottom=0)
+    loc = mdates.AutoDateLocator()
+    axes[-1].xaxis.set_major_locator(loc)
+    axes[-1].xaxis.set_major_formatter(mdates.ConciseDateFormatter(loc))
+    axes[-1].set_xlabel("time (UTC)")
+    robot = records[0].robot if records else ""
+    fig.suptitle(title or f"Calibration history of {robot} ({len(records)} records)")
+    fig.tight_layout()
+    return fig

@@ -1,0 +1,201 @@
+"""The import contract of the package layers, read from the source (every import statement,
+including those inside functions):
+
+* a layer imports only the layers listed for it in ``ALLOWED`` (lower ones);
+* only ``umbmark.cli`` imports click or names command-line flags;
+* no import cycle between modules;
+* the top-level ``umbmark`` package loads its public names lazily (importing it imports no layer).
+"""
+
+from __future__ import annotations
+
+import ast
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from conftest import REPO
+
+SRC = REPO / "src" / "umbmark"
+
+# layer -> the layers it may import (besides itself); the base modules are open to all
+BASE = {"errors", "jsonutil", "_version"}
+ALLOWED: dict[str, set[str]] = {
+    "model": set(),
+    "metrics": {"model"},
+    "io": {"model"},
+    "correct": {"model", "metrics"},
+    "history": {"model"},
+    "realrobot": {"model", "metrics", "io", "correct"},
+    "viz": {"model", "metrics", "io", "correct", "realrobot", "history"},
+    "studies": {"model", "metrics", "io", "correct", "realrobot", "history", "viz"},
+    "cli": {"model", "metrics", "io", "correct", "realrobot", "history", "viz", "studies"},
+}
+FLAG = re.compile(r"(?<![\w-])--[a-z][a-z0-9]*(?:-[a-z0-9]+)*")
+
+
+def module_name(path: Path) -> str:
+    parts = list(path.relative_to(SRC.parent).with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts.pop()
+    return ".".join(parts)
+
+
+MODULES = {module_name(p): p for p in sorted(SRC.rglob("*.py"))}
+
+
+def layer_of(module: str) -> str:
+    parts = module.split(".")
+    return parts[1] if len(parts) > 1 else ""
+
+
+def imports_of(path: Path) -> list[tuple[int, str]]:
+    """``(line, module)`` for every umbmark module (or package) an import statement loads."""
+    mod = module_name(path)
+    return imports_in(path.read_text(), mod if path.name == "__init__.py" else mod.rpartition(".")[0])
+
+
+def imports_in(source: str, package: str) -> list[tuple[int, str]]:
+    out = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            out += [(node.lineno, a.name) for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = package.split(".")[: len(package.split(".")) - node.level + 1]
+                target = ".".join(base + ([node.module] if node.module else []))
+            else:
+                target = node.module or ""
+            for a in node.names:
+                sub = f"{target}.{a.name}"
+                out.append((node.lineno, sub if sub in MODULES else target))
+    return [(line, m) for line, m in out if m == "umbmark" or m.startswith("umbmark.") or m == "click"]
+
+
+def test_every_module_is_in_a_known_layer():
+    unknown = {m for m in MODULES if m != "umbmark" and layer_of(m) not in ALLOWED and layer_of(m) not in BASE}
+    unknown -= {"umbmark.__main__"}
+    assert not unknown, f"modules outside the layers: {sorted(unknown)}"
+
+
+def test_layers_import_only_lower_layers():
+    bad = []
+    for mod, path in MODULES.items():
+        layer = layer_of(mod)
+        if layer not in ALLOWED:
+            continue
+        for line, target in imports_of(path):
+            if target == "click":
+                continue
+            tl = layer_of(target)
+            if target == "umbmark" or (tl != layer and tl not in BASE and tl not in ALLOWED[layer]):
+                bad.append(f"{path.relative_to(REPO)}:{line}: {layer} imports {target}")
+    assert not bad, "\n".join(bad)
+
+
+def test_base_modules_import_no_layer():
+    bad = [
+        f"{MODULES[m].relative_to(REPO)}:{line}: imports {t}"
+        for m in MODULES
+        if layer_of(m) in BASE
+        for line, t in imports_of(MODULES[m])
+        if t != "click" and layer_of(t) not in BASE
+    ]
+    assert not bad, "\n".join(bad)
+
+
+def test_only_the_cli_imports_click():
+    bad = [
+        f"{p.relative_to(REPO)}:{line}"
+        for m, p in MODULES.items()
+        if layer_of(m) != "cli"
+        for line, t in imports_of(p)
+        if t == "click"
+    ]
+    assert not bad, "click imported outside umbmark.cli: " + ", ".join(bad)
+
+
+def _strings(tree: ast.AST):
+    """String constants, without docstrings (a docstring may show a command line)."""
+    docs = set()
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.Module, ast.FunctionDef, ast.AsyncFunctionDef, ast.ClassDef)):
+            body = node.body
+            if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant):
+                docs.add(id(body[0].value))
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in docs:
+            yield node
+
+
+def test_only_the_cli_names_flags():
+    """Library messages name parameters (``wheelbase_m``); the CLI maps them to its flags."""
+    bad = []
+    for mod, path in MODULES.items():
+        if layer_of(mod) == "cli" or mod == "umbmark.realrobot.guide":
+            continue  # the field guide prints the commands to type
+        for node in _strings(ast.parse(path.read_text())):
+            for flag in FLAG.findall(node.value):
+                bad.append(f"{path.relative_to(REPO)}:{node.lineno}: {flag}")
+    assert not bad, "flags named outside umbmark.cli:\n" + "\n".join(bad)
+
+
+def _graph() -> dict[str, set[str]]:
+    g: dict[str, set[str]] = {m: set() for m in MODULES}
+    for mod, path in MODULES.items():
+        for _, t in imports_of(path):
+            if t in MODULES and t != mod:
+                g[mod].add(t)
+        # importing a module first imports its packages
+        parts = mod.split(".")
+        for i in range(1, len(parts)):
+            parent = ".".join(parts[:i])
+            if parent in MODULES and parent != "umbmark":
+                g[mod].add(parent)
+    return g
+
+
+def test_no_import_cycles():
+    g = _graph()
+    # a package importing its own submodules is the usual re-export, not a cycle
+    for mod in g:
+        g[mod] = {t for t in g[mod] if not (MODULES[mod].name == "__init__.py" and t.startswith(mod + "."))}
+    state: dict[str, int] = {}
+    cycles = []
+
+    def visit(m, stack):
+        state[m] = 1
+        stack.append(m)
+        for t in sorted(g[m]):
+            if state.get(t) == 1:
+                cycles.append(" -> ".join(stack[stack.index(t) :] + [t]))
+            elif t not in state:
+                visit(t, stack)
+        stack.pop()
+        state[m] = 2
+
+    for m in sorted(g):
+        if m not in state:
+            visit(m, [])
+    assert not cycles, "\n".join(cycles)
+
+
+def test_the_contract_sees_a_violation():
+    """The reading above finds what a violation would look like, lazy imports included."""
+    source = "import click\n\ndef f():\n    from ..cli import app\n    from umbmark.viz.plots import save_figure\n"
+    found = {t for _, t in imports_in(source, "umbmark.model")}
+    assert found == {"click", "umbmark.cli.app", "umbmark.viz.plots"}
+
+
+@pytest.mark.parametrize("statement", ["import umbmark", "import umbmark.cli"])
+def test_importing_is_light(statement):
+    """``import umbmark`` and the CLI's start import neither scipy nor matplotlib."""
+    code = (
+        f"{statement}\nimport sys\n"
+        "heavy = [m for m in ('scipy', 'matplotlib', 'numba', 'rosbags', 'yaml') if m in sys.modules]\n"
+        "print(','.join(heavy))"
+    )
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
+    assert out == "", f"{statement} imports {out}"
