@@ -1,24 +1,37 @@
-"""Every `umbmark ...` command line in a fenced code block of README.md runs, in order, in one
-temporary folder (with `data` pointing at the repository's data folder), with exit status 0."""
+"""Every `umbmark ...` command line in a fenced code block of README.md and of every page of the
+documentation (docs/**/*.md) runs with exit status 0.
 
+Each file runs in its own temporary folder, its commands in order, with `data` pointing at the
+repository's data folder and a history database of its own. The files run concurrently (one
+worker per core). Blocks whose info string is ``console`` are not run: they hold commands that
+take minutes, or that need a robot or a ROS installation. Pages that use the example ROS bags
+(`calibration_bag`, `check_bag`) get simulated bags of that name in their folder first.
+"""
+
+import math
 import os
 import re
 import stat
 import subprocess
 import sys
 import time
+from concurrent.futures import ThreadPoolExecutor
 
+import numpy as np
 import pytest
 from conftest import REPO
 
-FENCE = re.compile(r"^\s*(```|~~~)")
+FENCE = re.compile(r"^\s*(```|~~~)\s*([^\s`]*)")
+SKIP_INFO = {"console"}  # fenced blocks that are shown, not run
 
 
 def readme_commands(text: str) -> list[tuple[int, str]]:
     """``(line number, command)`` for every line starting with ``umbmark `` inside fenced code
-    blocks; a trailing backslash continues the command on the next line."""
+    blocks (except ``console`` blocks); a trailing backslash continues the command on the next
+    line."""
     out = []
     in_block = False
+    skip = False
     fence = None
     pending = None
     for i, line in enumerate(text.splitlines(), 1):
@@ -29,8 +42,9 @@ def readme_commands(text: str) -> list[tuple[int, str]]:
                 pending = None
             in_block = not in_block
             fence = m.group(1) if in_block else None
+            skip = in_block and m.group(2).lower() in SKIP_INFO
             continue
-        if not in_block:
+        if not in_block or skip:
             continue
         if pending is not None:
             start, cmd = pending
@@ -70,9 +84,126 @@ def test_extractor():
             "~~~",
             "umbmark three",
             "~~~",
+            "```console",
+            "umbmark slow --full",
+            "```",
+            "    ```bash",
+            "    umbmark four",
+            "    ```",
         ]
     )
-    assert readme_commands(text) == [(3, "umbmark one --a 1"), (4, "umbmark two --b 2 --c 3"), (14, "umbmark three")]
+    assert readme_commands(text) == [
+        (3, "umbmark one --a 1"),
+        (4, "umbmark two --b 2 --c 3"),
+        (14, "umbmark three"),
+        (20, "umbmark four"),
+    ]
+
+
+# --- example ROS bags: simulated, written with rosbags alone -----------------------------------------
+
+BAG_DT = 0.05  # 20 Hz joint states and motion-capture poses
+# The robot of docs/ros.md: nominal wheel_radius 0.05 m, wheel_separation 0.30 m; true wheels 99.3 and
+# 99.7 mm, true wheelbase 306 mm. check_bag: the same robot with the calibration of the page loaded.
+BAG_ROBOTS = {
+    "calibration_bag": dict(model=(0.100, 0.100, 0.300), seed=1),
+    "check_bag": dict(model=(0.0993107, 0.0997054, 0.306005), seed=2),
+}
+BAG_TRUE = (0.0993, 0.0997, 0.306)
+
+
+def _square_session(true, model, n_runs=5, side_m=2.0, speed=0.3, turn_speed=0.15, seed=0):
+    """Cumulative wheel angles (rad) and world poses of a robot driving n_runs cw, then n_runs ccw
+    UMBmark squares closed-loop on its odometry (``model``: diameters and wheelbase it uses), with
+    short stops after every segment and 3 s pauses between runs; motion-capture noise 0.5 mm and
+    0.1 deg in a world frame rotated by 0.6 rad."""
+    (dl_t, dr_t, b_t), (dl_m, dr_m, b_m) = true, model
+    segs = [("pause", 1.0)]
+    for d in ["cw"] * n_runs + ["ccw"] * n_runs:
+        s = -1.0 if d == "cw" else 1.0
+        arc = math.pi / 2 * b_m / 2  # model wheel travel of a 90 deg turn on the spot
+        for _ in range(4):
+            segs += [
+                ("move", side_m, side_m, speed),
+                ("pause", 0.4),
+                ("move", -s * arc, s * arc, turn_speed),
+                ("pause", 0.4),
+            ]
+        segs.append(("pause", 3.0))
+    inc = []
+    for seg in segs:
+        if seg[0] == "pause":
+            inc += [(0.0, 0.0)] * int(round(seg[1] / BAG_DT))
+            continue
+        _, ul, ur, v = seg
+        dur = max(abs(ul), abs(ur)) / v
+        n = math.ceil(dur / BAG_DT - 1e-9)
+        frac = np.diff(np.minimum(np.arange(n + 1) * BAG_DT / dur, 1.0))
+        inc += [(f * ul / (dl_m / 2), f * ur / (dr_m / 2)) for f in frac]
+    inc = np.array([(0.0, 0.0)] + inc)
+    phi_l, phi_r = np.cumsum(inc[:, 0]), np.cumsum(inc[:, 1])
+    sl, sr = inc[:, 0] * dl_t / 2, inc[:, 1] * dr_t / 2
+    ds, dth = (sl + sr) / 2, (sr - sl) / b_t
+    th0 = np.concatenate([[0.0], np.cumsum(dth)[:-1]])
+    small = np.abs(dth) < 1e-12
+    k = np.where(small, 0.0, ds / np.where(small, 1.0, dth))
+    dx = np.where(small, ds * np.cos(th0), k * (np.sin(th0 + dth) - np.sin(th0)))
+    dy = np.where(small, ds * np.sin(th0), -k * (np.cos(th0 + dth) - np.cos(th0)))
+    x, y, th = np.cumsum(dx), np.cumsum(dy), th0 + dth
+    rng = np.random.default_rng(seed)
+    yaw, c, s_ = 0.6, math.cos(0.6), math.sin(0.6)
+    wx = 1.5 + c * x - s_ * y + rng.normal(0, 5e-4, len(x))
+    wy = -0.8 + s_ * x + c * y + rng.normal(0, 5e-4, len(x))
+    wth = th + yaw + rng.normal(0, math.radians(0.1), len(x))
+    return phi_l, phi_r, np.column_stack([wx, wy, wth])
+
+
+def _write_ros2_bag(path, phi_l, phi_r, pose, t0=1_760_000_000.0):
+    from rosbags.rosbag2 import StoragePlugin, Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    T = ts.types
+
+    def header(t, frame):
+        sec = int(t)
+        return T["std_msgs/msg/Header"](
+            stamp=T["builtin_interfaces/msg/Time"](sec=sec, nanosec=int(round((t - sec) * 1e9))), frame_id=frame
+        )
+
+    with Writer(path, version=9, storage_plugin=StoragePlugin.MCAP) as w:
+        cj = w.add_connection("/joint_states", "sensor_msgs/msg/JointState", typestore=ts)
+        cg = w.add_connection("/mocap/robot/pose", "geometry_msgs/msg/PoseStamped", typestore=ts)
+        for k in range(len(phi_l)):
+            t = t0 + k * BAG_DT
+            ns = int(round(t * 1e9))
+            js = T["sensor_msgs/msg/JointState"](
+                header=header(t, ""),
+                name=["left_wheel_joint", "right_wheel_joint"],
+                position=np.array([phi_l[k], phi_r[k]]),
+                velocity=np.array([], float),
+                effort=np.array([], float),
+            )
+            w.write(cj, ns, ts.serialize_cdr(js, "sensor_msgs/msg/JointState"))
+            x, y, th = pose[k]
+            ps = T["geometry_msgs/msg/PoseStamped"](
+                header=header(t, "world"),
+                pose=T["geometry_msgs/msg/Pose"](
+                    position=T["geometry_msgs/msg/Point"](x=x, y=y, z=0.0),
+                    orientation=T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=math.sin(th / 2), w=math.cos(th / 2)),
+                ),
+            )
+            w.write(cg, ns, ts.serialize_cdr(ps, "geometry_msgs/msg/PoseStamped"))
+
+
+def write_example_bags(folder, text):
+    """The example bags a page mentions, simulated into ``folder``."""
+    for name, spec in BAG_ROBOTS.items():
+        if name in text:
+            _write_ros2_bag(folder / name, *_square_session(BAG_TRUE, spec["model"], seed=spec["seed"]))
+
+
+# --- running the pages -------------------------------------------------------------------------------
 
 
 def _wrapper_bin(tmp_path):
@@ -85,31 +216,79 @@ def _wrapper_bin(tmp_path):
     return b
 
 
-@pytest.mark.slow
-def test_every_readme_command_runs(tmp_path):
-    cmds = readme_commands((REPO / "README.md").read_text(encoding="utf-8"))
-    assert len(cmds) >= 5
-    work = tmp_path / "work"
-    work.mkdir()
+def doc_files():
+    return [REPO / "README.md"] + sorted((REPO / "docs").rglob("*.md"))
+
+
+def run_file(md, root, bin_dir):
+    """Run the commands of one Markdown file in a fresh folder: (commands, failures, timings)."""
+    text = md.read_text(encoding="utf-8")
+    cmds = readme_commands(text)
+    rel = md.relative_to(REPO).as_posix()
+    if not cmds:
+        return cmds, [], []
+    base = root / re.sub(r"[^A-Za-z0-9]+", "_", rel)
+    work = base / "work"
+    work.mkdir(parents=True)
     (work / "data").symlink_to(REPO / "data", target_is_directory=True)
+    write_example_bags(work, text)
     env = dict(os.environ)
     env.update(
         {
-            "PATH": f"{_wrapper_bin(tmp_path)}{os.pathsep}{env.get('PATH', '')}",
-            "UMBMARK_DB": str(tmp_path / "history.sqlite"),  # never the user's own history
-            "XDG_DATA_HOME": str(tmp_path / "xdg"),
+            "PATH": f"{bin_dir}{os.pathsep}{env.get('PATH', '')}",
+            "UMBMARK_DB": str(base / "history.sqlite"),  # never the user's own history
+            "XDG_DATA_HOME": str(base / "xdg"),
             "MPLBACKEND": "Agg",
         }
     )
     env.pop("_UMBMARK_COMPLETE", None)
-    failures = []
-    timings = []
+    failures, timings = [], []
     for line, cmd in cmds:
         t0 = time.monotonic()
         r = subprocess.run(["bash", "-c", cmd], cwd=work, env=env, capture_output=True, text=True, timeout=600)
-        timings.append((time.monotonic() - t0, cmd))
+        timings.append((time.monotonic() - t0, f"{rel}:{line}: {cmd}"))
         if r.returncode != 0:
             tail = (r.stderr or r.stdout).strip().splitlines()[-3:]
-            failures.append(f"README.md:{line}: exit {r.returncode}: {cmd}\n    " + "\n    ".join(tail))
+            failures.append(f"{rel}:{line}: exit {r.returncode}: {cmd}\n    " + "\n    ".join(tail))
+    return cmds, failures, timings
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory):
+    """Every file's commands, run once for the tests below: {relative path: (cmds, failures, timings)}."""
+    root = tmp_path_factory.mktemp("docs_commands")
+    bin_dir = _wrapper_bin(root)
+    files = doc_files()
+    with ThreadPoolExecutor(max_workers=max(1, min(len(files), os.cpu_count() or 1))) as pool:
+        results = pool.map(lambda md: run_file(md, root, bin_dir), files)
+        return {md.relative_to(REPO).as_posix(): res for md, res in zip(files, results)}
+
+
+def _check(results):
+    failures = [f for _, fails, _ in results for f in fails]
+    timings = [t for _, _, ts in results for t in ts]
     slow = [f"{t:.1f} s: {c}" for t, c in sorted(timings, reverse=True)[:3]]
     assert not failures, "\n".join(failures) + "\nslowest: " + "; ".join(slow)
+
+
+@pytest.mark.slow
+def test_every_readme_command_runs(runs):
+    cmds, _, _ = runs["README.md"]
+    assert len(cmds) >= 5
+    _check([runs["README.md"]])
+
+
+@pytest.mark.slow
+def test_every_docs_command_runs(runs):
+    pages = {k: v for k, v in runs.items() if k.startswith("docs/")}
+    assert sum(len(c) for c, _, _ in pages.values()) >= 50
+    for page in (
+        "docs/getting-started.md",
+        "docs/tape-measure.md",
+        "docs/ros.md",
+        "docs/logs.md",
+        "docs/history.md",
+        "docs/methods.md",
+    ):
+        assert pages[page][0], f"{page} has no commands to run"
+    _check(pages.values())
