@@ -1,15 +1,45 @@
-"""Correction methods, one module each: ``borenstein`` (the paper's, ``bf``), ``exact`` ...
+"""Correction methods, one module each, behind one registry (:mod:`umbmark.correct.registry`).
 
-Every method takes the runs, the square's side, the wheelbase the odometry used and the
-calibration the robot ran with, and returns a :class:`~umbmark.correct.result.CorrectionResult`.
-Modules register their methods in :mod:`umbmark.correct.registry`.
+* Square methods: ``bf`` (:mod:`umbmark.correct.bf`, the paper's linearised correction) and
+  ``exact`` (:mod:`umbmark.correct.exact`, the non-linear fit of the closed-loop model). Each
+  takes the runs, the square's side, the wheelbase the odometry used and the calibration the
+  robot ran with, and returns a :class:`~umbmark.correct.result.CorrectionResult`
+  (:func:`correct_runs`).
+* Path methods: ``lsq`` (:mod:`umbmark.correct.lsq`, least squares on logs of any path with
+  ground truth), returning the fitted wheel geometry (:func:`correct_paths`).
+
+Importing this package registers them all; it imports no scipy (the fits import it when they
+run).
 """
 
 from __future__ import annotations
 
-from umbmark.correct import bf, exact  # noqa: F401  (register their methods)
+from umbmark.correct import bf, exact, lsq  # noqa: F401  (register their methods)
 from umbmark.correct.bf import bf_correction
-from umbmark.correct.registry import METHODS, correct_runs, register
+from umbmark.correct.registry import (
+    METHODS,
+    PATH_METHODS,
+    PathMethod,
+    PathResult,
+    SquareMethod,
+    correct_paths,
+    correct_runs,
+    register,
+    register_path,
+)
 from umbmark.correct.result import CorrectionResult, compose
 
-__all__ = ["bf_correction", "CorrectionResult", "compose", "METHODS", "correct_runs", "register"]
+__all__ = [
+    "bf_correction",
+    "CorrectionResult",
+    "compose",
+    "METHODS",
+    "PATH_METHODS",
+    "SquareMethod",
+    "PathMethod",
+    "PathResult",
+    "correct_runs",
+    "correct_paths",
+    "register",
+    "register_path",
+]

@@ -16,6 +16,7 @@ alpha > 0: the robot turns less than commanded; beta > 0: the legs curve to the 
 from __future__ import annotations
 
 import math
+from typing import Any
 
 from umbmark.correct.registry import register
 from umbmark.correct.result import CorrectionResult, compose
@@ -87,7 +88,7 @@ def bf_correction(
     eb = eb_from_alpha(ab["alpha"])
     ed_total, cal = compose(ed_pass, eb, wheelbase_m, prior)
     deg = math.degrees
-    extra = {
+    extra: dict[str, Any] = {
         "alpha_x_deg": deg(ab["alpha_x"]),
         "alpha_y_deg": deg(ab["alpha_y"]),
         "beta_x_deg": deg(ab["beta_x"]),

@@ -40,31 +40,72 @@ adds a leave-one-run-out jackknife, which is the figure to trust.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 import numpy as np
-from scipy.optimize import least_squares
+import numpy.typing as npt
 
+from umbmark.correct.registry import register_path
 from umbmark.errors import InputError
 from umbmark.model.dataset import FAST_MIN_SAMPLES, Dataset, WheelGeometry, replay_increments
 from umbmark.model.geometry import OdometryParams
 
-__all__ = ["LsqResult", "fit_lsq", "LSQ_DEFAULTS"]
+__all__ = ["LsqResult", "fit_lsq", "lsq_method", "LSQ_DEFAULTS"]
 
 _LOG_LIMIT = 30.0  # trial log-parameters are clipped to +-this (no overflow on a diverging fit)
 _MAX_FACTOR = 10.0  # a fitted diameter or wheelbase further than this factor from nominal: no fit
 
-LSQ_DEFAULTS = {"mode": "auto", "scale": "auto", "heading_weight_m": 0.5, "points_per_run": 100, "fit_offset": False}
+LSQ_DEFAULTS: dict[str, Any] = {
+    "mode": "auto",
+    "scale": "auto",
+    "heading_weight_m": 0.5,
+    "points_per_run": 100,
+    "fit_offset": False,
+}
 
 
 @dataclass(frozen=True)
 class LsqResult:
+    """The geometry fitted by :func:`fit_lsq`, and the figures of the fit.
+
+    Parameters
+    ----------
+    geometry : WheelGeometry
+        The fitted wheel diameters and wheelbase.
+    nominal : WheelGeometry
+        The first data set's nominal geometry (the reference of the relative figures).
+    mode : str
+        ``sampled`` or ``end`` (see the module docstring).
+    scale_fitted : bool
+        Whether D_avg was fitted (``fit``) or kept at nominal (``fixed``).
+    scale_reason : str
+        Why.
+    std : dict
+        Gauss-Newton standard deviations: ``diameter_left_mm``, ``diameter_right_mm``,
+        ``wheelbase_mm``, ``Ed``, ``Es``.
+    n_runs, n_residuals : int
+        Runs and residuals fitted.
+    rms_position_m, rms_heading_rad : float
+        RMS of the position and heading residuals at the fit.
+    cost : float
+        Final least-squares cost.
+    success : bool
+        Whether the optimiser converged.
+    message : str
+        The optimiser's message.
+    extra : dict
+        ``heading_weight_m``, ``points_per_run`` and, with ``fit_offset``, the tracked
+        point's offset and its standard deviation.
+    """
+
     geometry: WheelGeometry
     nominal: WheelGeometry
     mode: str
     scale_fitted: bool
     scale_reason: str
-    std: dict
+    std: dict[str, float]
     n_runs: int
     n_residuals: int
     rms_position_m: float
@@ -72,13 +113,22 @@ class LsqResult:
     cost: float
     success: bool
     message: str
-    extra: dict = field(default_factory=dict)
+    extra: dict[str, Any] = field(default_factory=dict)
 
     @property
     def fitted_parameters(self) -> str:
+        """The parameters the fit adjusted, in words."""
         return "D_L, D_R, b" if self.scale_fitted else "E_d, b (D_avg kept at nominal)"
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
+        """The fit as a JSON-ready dict (millimetres, degrees).
+
+        Returns
+        -------
+        dict
+            ``method`` (``lsq``), the mode and scale decision, the geometry relative to the
+            nominal one, ``std_model``, the residual figures and the ``extra`` keys.
+        """
         g, n = self.geometry, self.nominal
         return {
             "method": "lsq",
@@ -100,7 +150,7 @@ class LsqResult:
 class _Problem:
     """Pre-computed arrays of one data set: padded increments, chosen samples, ground truth."""
 
-    def __init__(self, ds: Dataset, mode: str, points_per_run: int):
+    def __init__(self, ds: Dataset, mode: str, points_per_run: int) -> None:
         self.ds = ds
         self.dl, self.dr, n = ds.padded()
         rows, cols, gts = [], [], []
@@ -129,7 +179,7 @@ class _Problem:
             kmax = int(self.cols.max()) + 1
             self.dl, self.dr = self.dl[:, :kmax], self.dr[:, :kmax]
         # whole-number increments (encoder pulses): checked once, not at every trial
-        self.integral = None
+        self.integral: bool | None = None
         if self.dl.size >= FAST_MIN_SAMPLES:
             self.integral = bool(
                 np.all(self.dl == np.round(self.dl))
@@ -137,7 +187,25 @@ class _Problem:
                 and max(np.abs(self.dl).max(), np.abs(self.dr).max()) < 2**52
             )
 
-    def residuals(self, d_left, d_right, b, w, offset=None):
+    def residuals(
+        self, d_left: float, d_right: float, b: float, w: float, offset: npt.ArrayLike | None = None
+    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Pose errors ``(ex, ey, etheta)`` of the replayed odometry at the compared samples.
+
+        Parameters
+        ----------
+        d_left, d_right, b : float
+            Trial wheel diameters and wheelbase [m].
+        w : float
+            Heading weight [m/rad] (the caller applies it).
+        offset : array_like or None
+            The tracked point's position in the robot frame [m]; ``None``: the axle midpoint.
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            Position errors [m] and wrapped heading errors [rad].
+        """
         p = OdometryParams(self.k * d_left, self.k * d_right, b)
         if self.end:  # one end pose per run, in run order
             x, y, th = (
@@ -149,16 +217,18 @@ class _Problem:
             sel = (self.rows, self.cols)
             x, y, th = x[sel], y[sel], th[sel]
         if offset is not None:  # the tracked point sits at ``offset`` in the robot frame
+            off = np.asarray(offset, dtype=float)
             c, s = np.cos(th), np.sin(th)
-            x = x + (c - 1.0) * offset[0] - s * offset[1]
-            y = y + s * offset[0] + (c - 1.0) * offset[1]
+            x = x + (c - 1.0) * off[0] - s * off[1]
+            y = y + s * off[0] + (c - 1.0) * off[1]
         ex = x - self.gt[:, 0]
         ey = y - self.gt[:, 1]
         eth = np.mod(th - self.gt[:, 2] + np.pi, 2 * np.pi) - np.pi
         return ex, ey, eth
 
 
-def _scale_decision(datasets, mode, scale):
+def _scale_decision(datasets: Sequence[Dataset], mode: str, scale: str) -> tuple[bool, str]:
+    """Whether to fit the scale (D_avg), and why (see ``scale`` in the module docstring)."""
     if scale == "fit":
         return True, 'asked for (`scale="fit"`)'
     if scale == "fixed":
@@ -183,7 +253,7 @@ def _scale_decision(datasets, mode, scale):
 
 
 def fit_lsq(
-    datasets,
+    datasets: Dataset | Sequence[Dataset],
     mode: str = "auto",
     scale: str = "auto",
     heading_weight_m: float = 0.5,
@@ -196,10 +266,39 @@ def fit_lsq(
     The data sets may have different nominal geometries (the fit is in absolute diameters and
     wheelbase; their encoder units must describe the same wheels). The first data set's nominal
     geometry is the reference for E_b, E_s and the fixed-scale D_avg.
+
+    Parameters
+    ----------
+    datasets : Dataset or sequence of Dataset
+        The logs, fitted jointly.
+    mode : {"auto", "sampled", "end"}
+        Compare poses along the path (``sampled``) or end poses only (``end``); ``auto``:
+        sampled where every run has ground truth along its path.
+    scale : {"auto", "fit", "fixed"}
+        Fit D_L, D_R and b (``fit``), or E_d and b with D_avg at nominal (``fixed``).
+    heading_weight_m : float
+        Metres of position error one radian of heading error counts as (>= 0).
+    points_per_run : int
+        Samples compared per run in sampled mode (>= 1).
+    start : WheelGeometry or None
+        Start of the fit; ``None``: the nominal geometry.
+    fit_offset : bool
+        Also fit the tracked point's offset from the axle midpoint (sampled mode).
+
+    Returns
+    -------
+    LsqResult
+        The fitted geometry and the figures of the fit.
+
+    Raises
+    ------
+    InputError
+        No data, unknown options, runs without the ground truth the mode needs, or no valid
+        geometry (the fit diverged).
     """
-    if isinstance(datasets, Dataset):
-        datasets = [datasets]
-    datasets = list(datasets)
+    from scipy.optimize import least_squares
+
+    datasets = [datasets] if isinstance(datasets, Dataset) else list(datasets)
     if not datasets:
         raise InputError("lsq: no data")
     if mode not in ("auto", "sampled", "end"):
@@ -228,18 +327,19 @@ def fit_lsq(
     d_avg0 = nominal.diameter_avg_m
     s0 = start or nominal
 
-    def _exp(v):  # a diverging trial must not overflow (the result is checked below)
+    def _exp(v: float) -> float:  # a diverging trial must not overflow (the result is checked below)
         return math.exp(min(max(float(v), -_LOG_LIMIT), _LOG_LIMIT))
 
+    unpack: Callable[[np.ndarray], tuple[float, float, float]]
     if fit_scale:
 
-        def unpack(p):
+        def unpack(p: np.ndarray) -> tuple[float, float, float]:
             return _exp(p[0]), _exp(p[1]), _exp(p[2])
 
         p0 = np.log([s0.diameter_left_m, s0.diameter_right_m, s0.wheelbase_m])
     else:
 
-        def unpack(p):
+        def unpack(p: np.ndarray) -> tuple[float, float, float]:
             ed = _exp(p[0])
             d_l = 2.0 * d_avg0 / (1.0 + ed)
             return d_l, d_l * ed, _exp(p[1])
@@ -249,10 +349,10 @@ def fit_lsq(
     if fit_offset:
         p0 = np.concatenate([p0, [0.0, 0.0]])
 
-    def offset_of(p):
+    def offset_of(p: np.ndarray) -> np.ndarray | None:
         return p[ng : ng + 2] if fit_offset else None
 
-    def fun(p):
+    def fun(p: np.ndarray) -> np.ndarray:
         d_l, d_r, b = unpack(p)
         off = offset_of(p)
         parts = []
@@ -291,7 +391,7 @@ def fit_lsq(
     except np.linalg.LinAlgError:
         cov_p = np.full((p0.size, p0.size), np.nan)
 
-    def derived(p):
+    def derived(p: np.ndarray) -> np.ndarray:
         dl_, dr_, b_ = unpack(p)
         return np.array([dl_, dr_, b_, dr_ / dl_, 0.5 * (dl_ + dr_) / nominal.diameter_avg_m])
 
@@ -311,18 +411,18 @@ def fit_lsq(
         "Ed": sd[3],
         "Es": sd[4] if fit_scale else 0.0,
     }
-    extra = {"heading_weight_m": w, "points_per_run": points_per_run if mode == "sampled" else 1}
+    extra: dict[str, Any] = {"heading_weight_m": w, "points_per_run": points_per_run if mode == "sampled" else 1}
     if fit_offset:
         extra["tracked_point_offset_mm"] = [float(v) * 1e3 for v in sol.x[ng : ng + 2]]
         extra["tracked_point_offset_std_mm"] = [float(math.sqrt(max(cov_p[i, i], 0.0))) * 1e3 for i in (ng, ng + 1)]
     # position / heading parts of the residuals
-    pos, head = [], []
+    pos_parts, head_parts = [], []
     for pr in problems:
         ex, ey, eth = pr.residuals(d_l, d_r, b, w, offset_of(sol.x))
-        pos.append(np.hypot(ex, ey))
-        head.append(eth)
-    pos = np.concatenate(pos)
-    head = np.concatenate(head)
+        pos_parts.append(np.hypot(ex, ey))
+        head_parts.append(eth)
+    pos = np.concatenate(pos_parts)
+    head = np.concatenate(head_parts)
     return LsqResult(
         geometry=geom,
         nominal=nominal,
@@ -339,3 +439,22 @@ def fit_lsq(
         message=str(sol.message),
         extra=extra,
     )
+
+
+@register_path("lsq")
+def lsq_method(datasets: Dataset | Sequence[Dataset], **options: Any) -> LsqResult:
+    """Registry entry: :func:`fit_lsq` with :data:`LSQ_DEFAULTS` for the options not given.
+
+    Parameters
+    ----------
+    datasets : Dataset or sequence of Dataset
+        The logs, fitted jointly.
+    **options
+        Keyword options of :func:`fit_lsq`.
+
+    Returns
+    -------
+    LsqResult
+        As :func:`fit_lsq`.
+    """
+    return fit_lsq(datasets, **{**LSQ_DEFAULTS, **options})

@@ -1,9 +1,10 @@
-"""What every correction method returns, and the composition with a calibration in use."""
+"""What every square correction method returns, and the composition with a calibration in use."""
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import Any
 
 from umbmark.errors import CorrectionUndefined
 from umbmark.model.geometry import Calibration
@@ -11,15 +12,37 @@ from umbmark.model.geometry import Calibration
 __all__ = ["CorrectionResult", "compose"]
 
 
-def compose(ed_pass: float, eb_pass: float, wheelbase_used_m: float, prior: Calibration | None = None):
-    """Compose a correction measured on a robot that already runs ``prior`` (a second pass is
-    "a new uncompensated robot with different parameters", section 4).
+def compose(
+    ed_pass: float, eb_pass: float, wheelbase_used_m: float, prior: Calibration | None = None
+) -> tuple[float, Calibration]:
+    """Compose a correction measured on a robot that already runs ``prior``.
 
-    ``ed_pass``/``eb_pass``: the diameter ratio and wheelbase ratio measured in this pass,
-    relative to the odometry the runs were made with. Returns ``(ed_total, calibration)``:
-    ``ed_total = (c_R0 / c_L0) * ed_pass``, ``b = b_used * eb_pass``, and correction factors
-    that keep the mean of the prior factors (Eqs. 4.31, 4.32: ``c_L = 2 / (E_d + 1)``,
-    ``c_R = 2 / (1 / E_d + 1)`` for a robot without prior calibration).
+    A second pass is "a new uncompensated robot with different parameters" (section 4). The
+    correction factors keep the mean of the prior factors (Eqs. 4.31, 4.32:
+    ``c_L = 2 / (E_d + 1)``, ``c_R = 2 / (1 / E_d + 1)`` for a robot without prior
+    calibration).
+
+    Parameters
+    ----------
+    ed_pass, eb_pass : float
+        The diameter ratio and wheelbase ratio measured in this pass, relative to the odometry
+        the runs were made with.
+    wheelbase_used_m : float
+        The wheelbase the odometry used during the runs [m].
+    prior : Calibration or None
+        The calibration the robot ran with (``None``: none).
+
+    Returns
+    -------
+    ed_total : float
+        The robot's diameter ratio ``(c_R0 / c_L0) * ed_pass``.
+    calibration : Calibration
+        The factors and the wheelbase ``b_used * eb_pass`` to load into the odometry.
+
+    Raises
+    ------
+    CorrectionUndefined
+        ``ed_pass`` or ``eb_pass`` is not a positive number.
     """
     prior = prior or Calibration()
     if not (math.isfinite(ed_pass) and ed_pass > 0):
@@ -37,9 +60,24 @@ def compose(ed_pass: float, eb_pass: float, wheelbase_used_m: float, prior: Cali
 class CorrectionResult:
     """A calibration estimate. Angles in radians, lengths in metres.
 
-    ``ed``: the robot's diameter ratio D_R/D_L (composed with the prior calibration, if any);
-    ``ed_pass``/``eb``: the ratios measured in this pass relative to the odometry in use;
-    ``calibration``: the factors and wheelbase to load into the odometry.
+    Parameters
+    ----------
+    method : str
+        The method's registered name.
+    ed : float
+        The robot's diameter ratio D_R/D_L (composed with the prior calibration, if any).
+    ed_pass, eb : float
+        The diameter and wheelbase ratios measured in this pass, relative to the odometry in
+        use.
+    calibration : Calibration
+        The factors and wheelbase to load into the odometry.
+    alpha, beta : float or None
+        The paper's turn error per 90 deg turn and heading gained per leg (or their
+        equivalents).
+    radius_m : float or None
+        The legs' curvature radius (infinite for straight legs).
+    extra : dict
+        The method's own figures; ``warnings`` (list of str) where it has any.
     """
 
     method: str
@@ -50,21 +88,30 @@ class CorrectionResult:
     alpha: float | None = None
     beta: float | None = None
     radius_m: float | None = None
-    extra: dict = field(default_factory=dict)
+    extra: dict[str, Any] = field(default_factory=dict)
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
+        """The result as a JSON-ready dict (degrees and millimetres), ``extra`` merged in.
+
+        Returns
+        -------
+        dict
+            ``method``, ``alpha_deg``, ``beta_deg``, ``radius_mm``, ``Ed``, ``Ed_pass``,
+            ``Eb``, ``c_left``, ``c_right``, ``wheelbase_corrected_mm`` and the ``extra`` keys.
+        """
         deg = lambda v: None if v is None else math.degrees(v)  # noqa: E731
-        d = {
+        radius, wheelbase = self.radius_m, self.calibration.wheelbase_m
+        d: dict[str, Any] = {
             "method": self.method,
             "alpha_deg": deg(self.alpha),
             "beta_deg": deg(self.beta),
-            "radius_mm": None if self.radius_m is None or not math.isfinite(self.radius_m) else self.radius_m * 1e3,
+            "radius_mm": None if radius is None or not math.isfinite(radius) else radius * 1e3,
             "Ed": self.ed,
             "Ed_pass": self.ed_pass,
             "Eb": self.eb,
             "c_left": self.calibration.c_left,
             "c_right": self.calibration.c_right,
-            "wheelbase_corrected_mm": self.calibration.wheelbase_m * 1e3,
+            "wheelbase_corrected_mm": None if wheelbase is None else wheelbase * 1e3,
         }
         d.update(self.extra)
         return d

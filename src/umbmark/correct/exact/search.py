@@ -1,0 +1,381 @@
+"""Where the exact fit starts, and the local fits from there.
+
+* :func:`_bf_start`: the paper's linearised estimate, the first start.
+* :func:`_heading_starts`: candidates from the mean measured heading errors (all 2 pi
+  ambiguities).
+* :func:`_grid_starts`: the best local minima of the cost on a global grid over the heading
+  gained per leg and ``E_b,pass``.
+* :func:`_ranked`: starts in the order of the cost one Gauss-Newton step from each predicts.
+* :func:`_fit`: bounded local least-squares fits from the starts, in that order.
+* :func:`_explains`: whether a fit explains both centres of gravity (the search stops there).
+* :func:`_aliases`: the turn-angle aliases that explain the runs as well.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from typing import Protocol
+
+import numpy as np
+import numpy.typing as npt
+
+from umbmark.correct.bf import bf_correction
+from umbmark.correct.exact.model import FloatArray, _Problem
+from umbmark.errors import CorrectionUndefined
+from umbmark.metrics import umbmark
+from umbmark.model.runs import RunsTable
+
+__all__: list[str] = []
+
+# global search grid (relative to the odometry in use)
+_GRID_BETA_STEP = np.pi / 105  # the cost varies with the heading gained per leg on about this scale
+_GRID_BETA_MIN = 157 * _GRID_BETA_STEP  # about +-270 deg at least
+_GRID_EB = np.geomspace(0.3, 4.0, 401)
+_GRID_ED = (0.85, 1.15)
+
+
+class _Solution(Protocol):
+    """What the fit uses of a :class:`scipy.optimize.OptimizeResult`."""
+
+    x: FloatArray
+    cost: float
+    status: int
+    nfev: int
+
+
+def _grid_beta(prob: _Problem) -> FloatArray:
+    """The grid of the heading gained per leg.
+
+    Step pi/105, wide enough for every E_d,pass in [0.85, 1.15] at the smallest E_b,pass of
+    the grid (a long side on a narrow robot: the leg may curve by several turns), and at least
+    +-270 deg.
+
+    Parameters
+    ----------
+    prob : _Problem
+        The runs.
+
+    Returns
+    -------
+    numpy.ndarray
+        The grid values [rad], symmetric about 0.
+    """
+    q = (_GRID_ED[1] - 1.0) / (_GRID_ED[1] + 1.0)
+    need = 2.0 * q * prob.es * prob.side_m / (_GRID_EB[0] * prob.b)
+    half = max(_GRID_BETA_MIN, need)
+    k = int(math.ceil(half / _GRID_BETA_STEP))
+    return _GRID_BETA_STEP * np.arange(-k, k + 1)
+
+
+def _bf_start(runs: RunsTable, side_m: float, wheelbase_m: float) -> FloatArray | None:
+    """The paper's estimate ``(E_d,pass, E_b,pass)`` as a start, where it is plausible.
+
+    Parameters
+    ----------
+    runs : RunsTable
+        The square runs.
+    side_m, wheelbase_m : float
+        Side of the square and the wheelbase the odometry used [m].
+
+    Returns
+    -------
+    numpy.ndarray or None
+        ``None`` where the paper's correction is undefined or far outside E_d in (0.5, 2),
+        E_b in (0.1, 10).
+    """
+    try:
+        bf = bf_correction(umbmark(runs), side_m, wheelbase_m)
+    except CorrectionUndefined:
+        return None
+    if not (0.5 < bf.ed_pass < 2.0 and 0.1 < bf.eb < 10.0):
+        return None
+    return np.array([bf.ed_pass, bf.eb])
+
+
+def _heading_starts(prob: _Problem) -> list[FloatArray]:
+    """Candidates from the mean heading errors alone (when measured), best first.
+
+    Per direction ``eps_theta = 4 beta' -+ 2 pi (E_s / E_b - 1)`` (cw: -, ccw: +) with
+    ``beta'`` the heading gained per leg, up to multiples of 2 pi (the headings are wrapped).
+
+    Parameters
+    ----------
+    prob : _Problem
+        The runs.
+
+    Returns
+    -------
+    list of numpy.ndarray
+        The candidates ``(E_d,pass, E_b,pass)`` in the order of :func:`_ranked`; empty without
+        headings.
+    """
+    if not prob.heading or prob.eth is None:
+        return []
+    out = []
+    m = []
+    for mask in (prob.is_cw, ~prob.is_cw):
+        e = prob.eth[mask]
+        m.append(float(np.angle(np.mean(np.exp(1j * e)))))  # circular mean
+    for kc in range(-2, 3):
+        for kw in range(-2, 3):
+            cw, ccw = m[0] + 2 * np.pi * kc, m[1] + 2 * np.pi * kw
+            beta = (cw + ccw) / 8.0
+            ratio = (ccw - cw) / (4 * np.pi) + 1.0  # E_s / E_b
+            if ratio <= 0:
+                continue
+            eb = prob.es / ratio
+            q = beta * eb * prob.b / (2.0 * prob.es * prob.side_m)
+            if not abs(q) < 0.3 or not 0.05 < eb < 20:
+                continue
+            out.append(np.array([(1 + q) / (1 - q), eb]))
+    return _ranked(prob, out)
+
+
+def _grid_starts(prob: _Problem, k: int | None = None) -> list[FloatArray]:
+    """The best local minima of the cost on a global grid, best first.
+
+    The grid spans ``E_b,pass`` in [0.3, 4] (401 points, log-spaced) and the heading gained
+    per leg ``beta'`` (:func:`_grid_beta`; the cost varies with E_d on the scale of
+    ``b / L``, so E_d is gridded through ``beta'``), limited to ``E_d,pass`` in [0.85, 1.15].
+
+    Parameters
+    ----------
+    prob : _Problem
+        The runs.
+    k : int or None
+        How many minima to keep (:func:`_ranked`); default: 8 per 315 grid values of
+        ``beta'``, at most 128.
+
+    Returns
+    -------
+    list of numpy.ndarray
+        The starts ``(E_d,pass, E_b,pass)``.
+    """
+    beta = _grid_beta(prob)
+    if k is None:  # wider grids (curlier legs) have more local minima: keep more of them
+        k = int(min(128, max(8, math.ceil(8 * beta.size / 315))))
+    BETA, EB = np.meshgrid(beta, _GRID_EB, indexing="ij")
+    q = BETA * EB * prob.b / (2.0 * prob.es * prob.side_m)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ED = (1.0 + q) / (1.0 - q)
+    ok = (np.abs(q) < 0.5) & (ED > _GRID_ED[0]) & (ED < _GRID_ED[1])
+    flat_ed, flat_eb = ED.ravel(), EB.ravel()
+    cost = np.full(flat_ed.size, np.inf)
+    idx_ok = np.flatnonzero(ok.ravel())
+    chunk = max(1, 400000 // max(prob.n, 1))
+    for i in range(0, idx_ok.size, chunk):
+        sel = idx_ok[i : i + chunk]
+        r = prob.residuals_matrix(flat_ed[sel], flat_eb[sel])
+        cost[sel] = np.sum(r * r, axis=(1, 2))
+    grid: FloatArray = cost.reshape(ED.shape)
+    # local minima on the grid (8-neighbourhood, edges padded with +inf)
+    n_beta, n_eb = grid.shape
+    pad = np.pad(grid, 1, constant_values=np.inf)
+    is_min = np.isfinite(grid)
+    for di in (-1, 0, 1):
+        for dj in (-1, 0, 1):
+            if di or dj:
+                is_min &= grid <= pad[1 + di : 1 + di + n_beta, 1 + dj : 1 + dj + n_eb]
+    idx = np.flatnonzero(is_min.ravel())
+    return _ranked(prob, [np.array([flat_ed[i], flat_eb[i]]) for i in idx], k)
+
+
+def _ranked(prob: _Problem, starts: Sequence[FloatArray], k: int | None = None) -> list[FloatArray]:
+    """The starts with the lowest cost one Gauss-Newton step from each predicts, best first.
+
+    Not the cost at the start itself: a narrow basin sampled off its centre (E_b near 0.5,
+    where each turn is most sensitive to it) must not lose to broad, shallow basins that
+    merely sit near a start, nor be fitted after them (the search stops at the first fit that
+    explains the runs).
+
+    Parameters
+    ----------
+    prob : _Problem
+        The runs.
+    starts : sequence of numpy.ndarray
+        Candidate ``(E_d,pass, E_b,pass)`` pairs.
+    k : int or None
+        Keep the ``k`` best; ``None``: all.
+
+    Returns
+    -------
+    list of numpy.ndarray
+        The kept starts, best first.
+    """
+    if len(starts) < 2:
+        return list(starts)
+    P = np.array(starts)
+    order = np.argsort(_gauss_newton_cost(prob, P[:, 0], P[:, 1]))[:k]
+    return [starts[i] for i in order]
+
+
+def _gauss_newton_cost(prob: _Problem, ed: npt.ArrayLike, eb: npt.ArrayLike) -> FloatArray:
+    """The least-squares cost after one Gauss-Newton step from each ``(ed, eb)``.
+
+    The part of the residual vector the model's local linearisation cannot remove.
+
+    Parameters
+    ----------
+    prob : _Problem
+        The runs.
+    ed, eb : array_like
+        Shape (P,): the parameter pairs.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (P,): the predicted sums of squared residuals.
+    """
+    ed = np.asarray(ed, dtype=float)
+    r = prob.residuals_matrix(ed, eb).reshape(ed.size, -1)  # (P, m)
+    J = -prob.jacobian_matrix(ed, eb).reshape(ed.size, -1, 2)  # of the residuals: (P, m, 2)
+    JtJ = np.einsum("pmi,pmj->pij", J, J)
+    Jtr = np.einsum("pmi,pm->pi", J, r)
+    ridge = 1e-12 * np.trace(JtJ, axis1=1, axis2=2)[:, None, None] * np.eye(2) + 1e-300 * np.eye(2)
+    step = np.linalg.solve(JtJ + ridge, Jtr[..., None])[..., 0]
+    out: FloatArray = np.sum(r * r, axis=1) - np.einsum("pi,pi->p", Jtr, step)
+    return out
+
+
+def _fit(
+    prob: _Problem,
+    starts: Sequence[FloatArray | None],
+    loss: str,
+    f_scale: float,
+    good: Callable[[_Solution], bool] | None = None,
+) -> _Solution | None:
+    """Bounded local least-squares fits from each start, in the order given.
+
+    Parameters
+    ----------
+    prob : _Problem
+        The runs (its heading weight ``w`` as set).
+    starts : sequence of numpy.ndarray
+        Starts ``(E_d,pass, E_b,pass)``, fitted in this order (see :func:`_ranked`).
+    loss : str
+        The least-squares loss (:data:`umbmark.correct.exact.LOSSES`).
+    f_scale : float
+        Its scale [m].
+    good : callable or None
+        ``good(solution)``: stop as soon as the best solution so far passes this test.
+
+    Returns
+    -------
+    scipy.optimize.OptimizeResult or None
+        The solution with the lowest final cost; ``None`` when no fit ended finite.
+    """
+    from scipy import optimize
+
+    best: _Solution | None = None
+    for x0 in starts:
+        if best is not None and good is not None and good(best):
+            break
+        try:
+            sol = optimize.least_squares(
+                prob.residuals,
+                x0,
+                jac="3-point",
+                bounds=([0.5, 0.05], [2.0, 20.0]),
+                loss=loss,
+                f_scale=f_scale,
+                x_scale=[0.01, 0.01],
+                xtol=1e-14,
+                ftol=1e-14,
+                gtol=1e-14,
+                max_nfev=400,
+            )
+        except (ValueError, FloatingPointError):  # pragma: no cover - defensive
+            continue
+        if not np.all(np.isfinite(sol.x)):
+            continue
+        if best is None or sol.cost < best.cost:
+            best = sol
+    return best
+
+
+def _explains(prob: _Problem, sol: _Solution | None, sems: Sequence[float | None]) -> bool:
+    """Whether a fit explains both centres of gravity: no need to look elsewhere.
+
+    Parameters
+    ----------
+    prob : _Problem
+        The runs.
+    sol : scipy.optimize.OptimizeResult or None
+        The fit.
+    sems : sequence of float or None
+        The standard errors of the cw and ccw centres of gravity [m] (``None``: one run).
+
+    Returns
+    -------
+    bool
+        True when the model misses each centre of gravity by at most 3 SEM plus a micrometre
+        per metre of side (noise-free runs).
+    """
+    if sol is None:
+        return False
+    r = prob.residuals_matrix([sol.x[0]], [sol.x[1]])[0]
+    for mask, sem in ((prob.is_cw, sems[0]), (~prob.is_cw, sems[1])):
+        if sem is None:
+            return False
+        miss = float(np.hypot(*r[mask, :2].mean(axis=0)))
+        if miss > 3.0 * sem + 1e-6 * prob.side_m:
+            return False
+    return True
+
+
+def _aliases(prob: _Problem, sol: _Solution, loss: str, f_scale: float) -> tuple[_Solution, list[tuple[float, float]]]:
+    """Other calibrations that explain the runs as well.
+
+    The square test is blind to some: a robot that really turns 180 deg per commanded 90 deg
+    with equal wheels ends exactly where a perfect one does. Probes the turn-angle aliases
+    (true turn +- multiples of 90 deg).
+
+    Parameters
+    ----------
+    prob : _Problem
+        The runs.
+    sol : scipy.optimize.OptimizeResult
+        The fit found.
+    loss : str
+        The least-squares loss.
+    f_scale : float
+        Its scale [m].
+
+    Returns
+    -------
+    chosen : scipy.optimize.OptimizeResult
+        Of the equally good solutions, the one whose E_b is nearest 1 (the nominal wheelbase).
+    alternatives : list of tuple of float
+        The others, as ``(E_d,pass, E_b,pass)`` pairs.
+    """
+    ed, eb = sol.x
+    turn = 90.0 * prob.es / eb  # true degrees per commanded 90
+    cands = [90.0 * prob.es / (turn + 90.0 * k) for k in (-3, -2, -1, 1, 2, 3) if 10.0 < turn + 90.0 * k < 350.0]
+    cands = [c for c in cands if 0.05 < c < 20.0]
+    if not cands:
+        return sol, []
+    r = prob.residuals_matrix([ed], [eb])[0]
+    var = []
+    for mask in (prob.is_cw, ~prob.is_cw):
+        if mask.sum() >= 2:
+            var.append(np.mean(np.var(r[mask], axis=0, ddof=1)))
+    sigma2 = float(np.mean(var)) if var else 0.0
+    cost0 = 0.5 * float(np.sum(r * r))
+    thr = cost0 + 2.0 * sigma2 + 1e-12 * prob.side_m**2
+    rc = prob.residuals_matrix([ed] * len(cands), cands)
+    costs = 0.5 * np.sum(rc * rc, axis=(1, 2))
+    found = [sol]
+    for c, cc in zip(cands, costs):
+        if cc > 10.0 * thr:
+            continue
+        s2 = _fit(prob, [np.array([ed, c])], loss, f_scale)
+        if s2 is None:
+            continue
+        r2 = prob.residuals_matrix([s2.x[0]], [s2.x[1]])[0]
+        if 0.5 * float(np.sum(r2 * r2)) <= thr and all(abs(math.log(s2.x[1] / f.x[1])) > 1e-3 for f in found):
+            found.append(s2)
+    if len(found) == 1:
+        return sol, []
+    found.sort(key=lambda f: abs(math.log(f.x[1])))
+    return found[0], [(float(f.x[0]), float(f.x[1])) for f in found[1:]]
