@@ -256,3 +256,40 @@ def test_report_renders_in_headless_chromium(tmp_path, analysis):
     # the embedded scatter plot drew: a band of rows in the lower part with dark pixels (axes, markers)
     dark = px[..., :3].mean(axis=-1) < 0.5
     assert dark[1200:].sum() > 2000
+
+
+BACKEND_PROBE = """
+import sys, matplotlib
+from matplotlib import rcParams
+{choose}
+before = dict.__getitem__(rcParams, "backend")
+import umbmark.viz.plots as plots, umbmark.viz.history_plot, umbmark.viz.report
+from umbmark.model.geometry import ErrorParams
+from umbmark.model.simulate import simulate_umbmark
+runs = simulate_umbmark(ErrorParams(1.002, 0.99), n_runs=2)
+plots.save_figure(plots.scatter_figure(runs, runs), sys.argv[1])
+after = dict.__getitem__(rcParams, "backend")
+print(repr(before) + "|" + repr(after) + "|" + str("matplotlib.pyplot" in sys.modules))
+"""
+
+
+@pytest.mark.parametrize("choose", ["", "matplotlib.use('svg')"], ids=["nothing chosen", "svg chosen"])
+def test_figures_leave_the_matplotlib_backend_alone(tmp_path, choose):
+    """Importing the figure modules, making and saving a figure: matplotlib's backend is what it was
+    (nothing chosen stays nothing chosen, so a notebook keeps its own), and pyplot is not loaded."""
+    import os
+    import sys
+
+    env = {k: v for k, v in os.environ.items() if k != "MPLBACKEND"}
+    out = tmp_path / "scatter.png"
+    p = subprocess.run(
+        [sys.executable, "-c", BACKEND_PROBE.format(choose=choose), str(out)],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=120,
+        check=True,
+    )
+    before, after, pyplot = p.stdout.strip().split("|")
+    assert before == after and pyplot == "False"
+    assert out.read_bytes()[:8] == PNG

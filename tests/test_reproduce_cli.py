@@ -161,6 +161,6 @@ def test_exaggerated_trajectory_scales_the_deviation_only():
     np.testing.assert_allclose(lines["cw: odometry"].get_ydata(), [0, 0, 0])
     assert ax.get_aspect() == 1.0 and "[mm]" in ax.get_xlabel() and "[mm]" in ax.get_ylabel()
     assert ax.get_legend() is not None
-    plot.plt.close(fig)
+    plot.close_figure(fig)
     with pytest.raises(ValueError):
         plot.exaggerated_trajectory_figure([t], exaggerate=0)

@@ -1,4 +1,4 @@
-"""Accuracy benchmark of the correction methods (issue 7): Monte Carlo over a grid of true errors.
+"""Accuracy benchmark of the correction methods: Monte Carlo over a grid of true errors.
 
 For every cell of the grid (true ``E_d``, ``E_b``) and every noise level, ``robots`` seeded
 robots each run the bi-directional test (5 runs per direction), are corrected, and run it
@@ -54,6 +54,7 @@ from umbmark.jsonutil import dumps
 from umbmark.metrics import umbmark
 from umbmark.model.geometry import LABMATE, ErrorParams, Geometry
 from umbmark.model.simulate import Motion, simulate_umbmark
+from umbmark.viz.text import fmt
 
 __all__ = [
     "AccuracyConfig",
@@ -392,13 +393,23 @@ def coverage_trial(
     }
 
 
-def _f(v, d=1):
-    return "-" if v is None or (isinstance(v, float) and not math.isfinite(v)) else f"{v:.{d}f}"
+TITLE = "# Accuracy benchmark of the correction methods (umbmark)"
 
 
 def format_markdown(res: dict) -> str:
-    """The results as Markdown tables (one per noise level) with the floors and the summary."""
-    lines = ["# Accuracy benchmark (umbmark, issue 7)", ""]
+    """The results as Markdown: the grid, then per noise level the floors, the summary and the cells.
+
+    Parameters
+    ----------
+    res : dict
+        The output of :func:`run_accuracy`.
+
+    Returns
+    -------
+    str
+        One Markdown page (see :data:`TITLE`), ending with a newline.
+    """
+    lines = [TITLE, ""]
     c = res["config"]
     lines.append(
         f"Grid: |E_d - 1| in {list(c['ed_departures'])} (both signs), E_b in {list(c['eb_values'])}; "
@@ -409,63 +420,85 @@ def format_markdown(res: dict) -> str:
     )
     lines.append("")
     for noise, fl in res["floors"].items():
-        sm = res["summary"][noise]
-        lines.append(f"## noise: {noise}")
-        lines.append("")
-        lines.append(
-            f"Estimation floor (bf one pass, smallest errors): {fl['estimation_floor_mm']:.4g} mm; "
-            f"perfect floor (true parameters): {fl['perfect_floor_mm']:.4g} mm. "
-            f"exact within 1.15 x estimation floor in {sm['exact_cells_within_1.15_estimation_floor']} / "
-            f"{sm['cells']} cells (worst {_f(sm['exact_worst_over_estimation_floor'], 3)} at "
-            f"E_d {sm['exact_worst_cell'][0]}, E_b {sm['exact_worst_cell'][1]}); bf one pass in "
-            f"{sm['bf1_cells_within_1.15_estimation_floor']}, exact two passes in "
-            f"{sm['exact2_cells_within_1.15_estimation_floor']}. exact 95 % interval coverage over "
-            f"{sm['exact_ci_robots']} robots: E_d {_f(sm['exact_ed_coverage'] and 100 * sm['exact_ed_coverage'])} %, "
-            f"E_b {_f(sm['exact_eb_coverage'] and 100 * sm['exact_eb_coverage'])} %. Failures (no answer): "
-            f"{sm['failures']}."
-            + (
-                ""
-                if noise == "none"
-                else f" Information bound (an efficient unbiased one-pass estimator, Cramer-Rao): above 1.15 x the "
-                f"estimation floor in {len(sm['bound_cells_over_1.15'])} cells"
-                f"{_cells(sm['bound_cells_over_1.15'])}; exact within 1.15 x the bound in "
-                f"{sm['exact_cells_within_1.15_bound']} / {sm['cells']} cells (worst "
-                f"{_f(sm['exact_worst_over_bound'], 2)})."
-            )
-        )
-        lines.append("")
+        lines += [f"## noise: {noise}", "", _noise_summary(noise, fl, res["summary"][noise]), ""]
         if noise != "none":
             lines += _by_eb(res, noise)
-        lines.append(
-            "| E_d | E_b | before [mm] | bf1 [mm] | bf2 [mm] | exact [mm] | exact2 [mm] | perfect [mm] "
-            "| exact / est. floor | exact / perfect | exact2 / est. floor | bf1 / est. floor "
-            "| exact abs err E_d | exact abs err E_b | bf1 abs err E_d | bf1 abs err E_b "
-            "| exact CI cover E_d / E_b | bound [mm] | bound / est. floor | exact / bound "
-            "| bound sd E_d | exact rms err E_d | bound sd E_b | exact rms err E_b |"
-        )
-        lines.append("|" + "---|" * 24)
-        for r in res["cells"]:
-            if r["noise"] != noise:
-                continue
-            cov = (
-                "-"
-                if r["exact_ed_coverage"] is None
-                else f"{100 * r['exact_ed_coverage']:.0f} / {100 * r['exact_eb_coverage']:.0f} %"
-            )
-            lines.append(
-                f"| {r['Ed']:.4f} | {r['Eb']:.4f} | {_f(r['emax_before_mm'])} | {_f(r['emax_bf1_mm'])} | "
-                f"{_f(r['emax_bf2_mm'])} | {_f(r['emax_exact_mm'], 2)} | {_f(r['emax_exact2_mm'], 2)} | "
-                f"{_f(r['emax_perfect_mm'], 2)} | "
-                f"{_f(r['exact_over_estimation_floor'], 2)} | {_f(r['exact_over_perfect_floor'], 2)} | "
-                f"{_f(r['exact2_over_estimation_floor'], 2)} | {_f(r['bf1_over_estimation_floor'], 2)} | "
-                f"{_g(r['ed_abs_err_exact'])} | {_g(r['eb_abs_err_exact'])} | "
-                f"{_g(r['ed_abs_err_bf1'])} | {_g(r['eb_abs_err_bf1'])} | {cov} | {_f(r['emax_bound_mm'], 2)} | "
-                f"{_f(r['bound_over_estimation_floor'], 2)} | {_f(r['exact_over_bound'], 2)} | "
-                f"{_g(r['bound_ed_sd'])} | {_g(r['exact_ed_rms_err'])} | {_g(r['bound_eb_sd'])} | "
-                f"{_g(r['exact_eb_rms_err'])} |"
-            )
+        lines += _cells_table(res, noise)
         lines.append("")
     return "\n".join(lines) + "\n"
+
+
+def _noise_summary(noise: str, fl: dict, sm: dict) -> str:
+    """The paragraph of one noise level: the floors, the cells within them, coverage, the bound."""
+    text = (
+        f"Estimation floor (bf one pass, smallest errors): {fl['estimation_floor_mm']:.4g} mm; "
+        f"perfect floor (true parameters): {fl['perfect_floor_mm']:.4g} mm. "
+        f"exact within 1.15 x estimation floor in {sm['exact_cells_within_1.15_estimation_floor']} / "
+        f"{sm['cells']} cells (worst {fmt(sm['exact_worst_over_estimation_floor'], 3)} at "
+        f"E_d {sm['exact_worst_cell'][0]}, E_b {sm['exact_worst_cell'][1]}); bf one pass in "
+        f"{sm['bf1_cells_within_1.15_estimation_floor']}, exact two passes in "
+        f"{sm['exact2_cells_within_1.15_estimation_floor']}. exact 95 % interval coverage over "
+        f"{sm['exact_ci_robots']} robots: E_d {fmt(sm['exact_ed_coverage'] and 100 * sm['exact_ed_coverage'])} %, "
+        f"E_b {fmt(sm['exact_eb_coverage'] and 100 * sm['exact_eb_coverage'])} %. Failures (no answer): "
+        f"{sm['failures']}."
+    )
+    if noise == "none":
+        return text
+    return text + (
+        f" Information bound (an efficient unbiased one-pass estimator, Cramer-Rao): above 1.15 x the "
+        f"estimation floor in {len(sm['bound_cells_over_1.15'])} cells"
+        f"{_cells(sm['bound_cells_over_1.15'])}; exact within 1.15 x the bound in "
+        f"{sm['exact_cells_within_1.15_bound']} / {sm['cells']} cells (worst "
+        f"{fmt(sm['exact_worst_over_bound'], 2)})."
+    )
+
+
+# the cells table: (header, key, digits, spec) per column; key None: the coverage column
+_CELL_COLUMNS = (
+    ("E_d", "Ed", 4, "f"),
+    ("E_b", "Eb", 4, "f"),
+    ("before [mm]", "emax_before_mm", 1, "f"),
+    ("bf1 [mm]", "emax_bf1_mm", 1, "f"),
+    ("bf2 [mm]", "emax_bf2_mm", 1, "f"),
+    ("exact [mm]", "emax_exact_mm", 2, "f"),
+    ("exact2 [mm]", "emax_exact2_mm", 2, "f"),
+    ("perfect [mm]", "emax_perfect_mm", 2, "f"),
+    ("exact / est. floor", "exact_over_estimation_floor", 2, "f"),
+    ("exact / perfect", "exact_over_perfect_floor", 2, "f"),
+    ("exact2 / est. floor", "exact2_over_estimation_floor", 2, "f"),
+    ("bf1 / est. floor", "bf1_over_estimation_floor", 2, "f"),
+    ("exact abs err E_d", "ed_abs_err_exact", 2, "g"),
+    ("exact abs err E_b", "eb_abs_err_exact", 2, "g"),
+    ("bf1 abs err E_d", "ed_abs_err_bf1", 2, "g"),
+    ("bf1 abs err E_b", "eb_abs_err_bf1", 2, "g"),
+    ("exact CI cover E_d / E_b", None, 0, "f"),
+    ("bound [mm]", "emax_bound_mm", 2, "f"),
+    ("bound / est. floor", "bound_over_estimation_floor", 2, "f"),
+    ("exact / bound", "exact_over_bound", 2, "f"),
+    ("bound sd E_d", "bound_ed_sd", 2, "g"),
+    ("exact rms err E_d", "exact_ed_rms_err", 2, "g"),
+    ("bound sd E_b", "bound_eb_sd", 2, "g"),
+    ("exact rms err E_b", "exact_eb_rms_err", 2, "g"),
+)
+
+
+def _cells_table(res: dict, noise: str) -> list[str]:
+    """One Markdown row per cell of one noise level (see :data:`_CELL_COLUMNS`)."""
+    lines = ["| " + " | ".join(h for h, *_ in _CELL_COLUMNS) + " |", "|" + "---|" * len(_CELL_COLUMNS)]
+    for r in res["cells"]:
+        if r["noise"] != noise:
+            continue
+        cells = []
+        for _, key, digits, spec in _CELL_COLUMNS:
+            if key is None:
+                cov = r["exact_ed_coverage"]
+                cells.append("-" if cov is None else f"{100 * cov:.0f} / {100 * r['exact_eb_coverage']:.0f} %")
+            elif key in ("Ed", "Eb"):
+                cells.append(f"{r[key]:.4f}")
+            else:
+                cells.append(fmt(r[key], digits, spec=spec))
+        lines.append("| " + " | ".join(cells) + " |")
+    return lines
 
 
 def _by_eb(res: dict, noise: str) -> list[str]:
@@ -509,10 +542,6 @@ def _ratio(v):
 
 def _cells(cells):
     return "" if not cells else " (" + ", ".join(f"E_d {c[0]:g} / E_b {c[1]:g}: {c[2]:.2f}" for c in cells) + ")"
-
-
-def _g(v):
-    return "-" if v is None or not math.isfinite(v) else f"{v:.2g}"
 
 
 CSV_COLUMNS = (
@@ -571,16 +600,14 @@ def format_csv(res: dict) -> str:
 
 def figure(res: dict):
     """Median E_max,syst after correction per cell (noise 'paper' if present), log scale."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from umbmark.viz.plots import new_figure
 
     noise = "paper" if "paper" in res["floors"] else next(iter(res["floors"]))
     cells = [r for r in res["cells"] if r["noise"] == noise]
     cells.sort(key=lambda r: (r["Eb"], r["Ed"]))
     x = np.arange(len(cells))
-    fig, ax = plt.subplots(figsize=(max(8, 0.22 * len(cells) + 3), 5))
+    fig = new_figure((max(8, 0.22 * len(cells) + 3), 5))
+    ax = fig.subplots()
     for m, style in (
         ("bf1", "o-"),
         ("bf2", "s-"),
@@ -622,7 +649,4 @@ def write_results(res: dict, out_dir, stem: str = "accuracy") -> dict:
     fig = figure(res)
     with atomic_path(paths["png"]) as tmp:
         fig.savefig(tmp, dpi=110, format="png")
-    import matplotlib.pyplot as plt
-
-    plt.close(fig)
     return {k: str(v) for k, v in paths.items()}

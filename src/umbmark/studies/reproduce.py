@@ -1,4 +1,4 @@
-"""Reproduce the paper's section 5 in simulation (issue 6). Library side: no printing.
+"""Reproduce the paper's section 5 in simulation. Library side: no printing.
 
 The study
 ---------

@@ -1,4 +1,4 @@
-"""Figures and a self-contained HTML report of the paper reproduction (issue 6). No printing.
+"""Figures and a self-contained HTML report of the paper reproduction. No printing.
 
 :func:`study_figures` builds the figures of a :class:`~umbmark.studies.reproduce.Study`;
 :func:`write_report` writes them (PNG and SVG) and ``index.html`` (figures embedded as base64
@@ -19,6 +19,7 @@ from umbmark.errors import InputError
 from umbmark.io.atomic import atomic_write
 from umbmark.studies.reproduce import FIG11_ERRORS, PAPER_SEM_MM, PAPER_SIGMA_MM, PAPER_TABLE_I, Study, run_trajectories
 from umbmark.viz.plots import distribution_figure, exaggerated_trajectory_figure, pitfall_figure, scatter_figure
+from umbmark.viz.text import fmt
 
 __all__ = ["FIGURES", "study_figures", "save_study_figures", "write_report", "table_rows"]
 
@@ -104,14 +105,14 @@ def save_study_figures(figs: dict, out_dir, formats=("png", "svg")) -> dict:
         buf = io.BytesIO()
         fig.savefig(buf, format="png", dpi=110)
         paths[name]["_png"] = buf.getvalue()
-        for fmt in formats:
-            if fmt == "png":
+        for kind in formats:
+            if kind == "png":
                 p = out_dir / f"{name}.png"
                 atomic_write(p, paths[name]["_png"])
             else:
-                p = out_dir / f"{name}.{fmt}"
+                p = out_dir / f"{name}.{kind}"
                 save_figure_keep_open(fig, p)
-            paths[name][fmt] = p
+            paths[name][kind] = p
         _close(fig)
     return paths
 
@@ -120,24 +121,18 @@ def save_figure_keep_open(fig, path):
     import matplotlib
 
     buf = io.BytesIO()
-    fmt = Path(path).suffix.lstrip(".")
+    kind = Path(path).suffix.lstrip(".")
     # no date and fixed element ids: the same study gives the same SVG bytes
     with matplotlib.rc_context({"svg.hashsalt": "umbmark-reproduce"}):
-        fig.savefig(buf, format=fmt, dpi=110, metadata={"Date": None} if fmt == "svg" else None)
+        fig.savefig(buf, format=kind, dpi=110, metadata={"Date": None} if kind == "svg" else None)
     atomic_write(path, buf.getvalue())
     return Path(path)
 
 
 def _close(fig):
-    import matplotlib.pyplot as plt
+    from umbmark.viz.plots import close_figure
 
-    plt.close(fig)
-
-
-def _f(v, digits=1):
-    if v is None or (isinstance(v, float) and not math.isfinite(v)):
-        return "-"
-    return f"{v:.{digits}f}"
+    close_figure(fig)
 
 
 def table_rows(study: Study) -> list[dict]:
@@ -151,14 +146,14 @@ def table_rows(study: Study) -> list[dict]:
                 "id": str(e.id),
                 "ed": f"{e.errors.ed:.5f}",
                 "b": f"{d['true_wheelbase_mm']:.2f}",
-                "before": _f(d["emax_before_mm"], 0),
-                "paper_before": _f(p["before_mm"], 0),
-                "after": _f(d["emax_after_mm"]),
-                "paper_after": _f(p["after_mm"], 0),
-                "three_sem": _f(d["three_sem_after_mm"]),
+                "before": fmt(d["emax_before_mm"], 0),
+                "paper_before": fmt(p["before_mm"], 0),
+                "after": fmt(d["emax_after_mm"]),
+                "paper_after": fmt(p["after_mm"], 0),
+                "three_sem": fmt(d["three_sem_after_mm"]),
                 "rule": "2nd pass" if d["second_pass_recommended"] else "stop",
-                "second": "-" if sp is None else _f(sp["emax_after_mm"]),
-                "paper_second": "-" if p["second_mm"] is None else _f(p["second_mm"], 0),
+                "second": "-" if sp is None else fmt(sp["emax_after_mm"]),
+                "paper_second": "-" if p["second_mm"] is None else fmt(p["second_mm"], 0),
                 "improvement": f"{d['improvement_final']:.1f}-fold",
                 "paper_improvement": p["improvement"],
                 "comment": p["comment"],
@@ -279,7 +274,7 @@ def render_html(study: Study, pngs: dict, command: str) -> str:
     parts.append(
         _html_table(
             ["", "median", "10th percentile", "90th percentile"],
-            [[(n, "l"), (_f(m), ""), (_f(a), ""), (_f(b), "")] for n, m, a, b in dist_rows],
+            [[(n, "l"), (fmt(m), ""), (fmt(a), ""), (fmt(b), "")] for n, m, a, b in dist_rows],
             left=(0,),
         )
     )
@@ -311,10 +306,10 @@ def render_html(study: Study, pngs: dict, command: str) -> str:
                     [
                         (str(x.seed), ""),
                         (str(x.id), ""),
-                        (_f(x.emax_before * 1e3, 0), ""),
-                        (_f(x.emax_after * 1e3), ""),
-                        (_f(x.first.result.sem_rule * 1e3), ""),
-                        (_f(x.emax_final * 1e3), ""),
+                        (fmt(x.emax_before * 1e3, 0), ""),
+                        (fmt(x.emax_after * 1e3), ""),
+                        (fmt(x.first.result.sem_rule * 1e3), ""),
+                        (fmt(x.emax_final * 1e3), ""),
                         (f"{x.improvement_final:.1f}-fold", ""),
                     ]
                     for x in ex

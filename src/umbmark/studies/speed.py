@@ -44,6 +44,7 @@ import time
 import numpy as np
 
 from umbmark.errors import InputError
+from umbmark.viz.text import fmt
 
 __all__ = ["FULL", "QUICK", "machine_info", "run_case_here", "run_benchmark", "markdown"]
 
@@ -454,10 +455,6 @@ def _summary(results):
     return s
 
 
-def _f(v, digits=1, scale=1.0):
-    return "-" if v is None else f"{v / scale:.{digits}f}"
-
-
 def markdown(res: dict) -> str:
     """The results as Markdown tables (written beside the JSON)."""
     m = res["machine"]
@@ -468,7 +465,7 @@ def markdown(res: dict) -> str:
         f"numba {m.get('numba')}, load average at start {m.get('load_average')}.",
         "",
         "Rates per CPU-second of the benchmark process for one-thread cases, wall clock for threads "
-        "and process pools (see umbmark/speedbench.py).",
+        "and process pools (see umbmark/studies/speed.py).",
         "",
         "## Replay (million samples/s; x = ratio to the per-sample Python loop; peak RSS MiB)",
         "",
@@ -479,9 +476,9 @@ def markdown(res: dict) -> str:
         cells = []
         for impl in ("reference", "numpy-trig", "fast-float", "fast-pulses", "stream"):
             v = row.get(impl)
-            cells.append("-" if not v else f"{_f(v['samples_per_s'], 2, 1e6)} ({_f(v['x_reference'], 0)}x)")
+            cells.append("-" if not v else f"{fmt(v['samples_per_s'], 2, scale=1e6)} ({fmt(v['x_reference'], 0)}x)")
         rss = row.get("stream", {}).get("rss_peak_mib")
-        lines.append(f"| {row['n']:.0e} | " + " | ".join(cells) + f" | {_f(rss, 0)} |")
+        lines.append(f"| {row['n']:.0e} | " + " | ".join(cells) + f" | {fmt(rss, 0)} |")
     lines += [
         "",
         "## Simulation (UMBmark experiments/s, 10 runs each, paper noise, 10 ms; x = ratio to the reference loop)",
@@ -493,14 +490,14 @@ def markdown(res: dict) -> str:
         cells = []
         for impl in ("reference", "numpy", "numba", "numba-threads"):
             v = row.get(impl)
-            cells.append("-" if not v else f"{_f(v['experiments_per_s'], 1)} ({_f(v['x_reference'], 0)}x)")
+            cells.append("-" if not v else f"{fmt(v['experiments_per_s'], 1)} ({fmt(v['x_reference'], 0)}x)")
         rss = row.get("numba", {}).get("rss_peak_mib")
-        lines.append(f"| {row['n']} | " + " | ".join(cells) + f" | {_f(rss, 0)} |")
+        lines.append(f"| {row['n']} | " + " | ".join(cells) + f" | {fmt(rss, 0)} |")
     if res["summary"].get("sweep"):
         lines += ["", "## Sweep scale-out (experiments/s)", ""]
         for x in res["summary"]["sweep"]:
             lines.append(
-                f"- {x['impl']} ({x['backend']}): {x['n']} robots, {_f(x['experiments_per_s'], 1)} experiments/s"
+                f"- {x['impl']} ({x['backend']}): {x['n']} robots, {fmt(x['experiments_per_s'], 1)} experiments/s"
             )
     lines += ["", "## Targets", ""]
     for k, v in res["summary"]["targets"].items():

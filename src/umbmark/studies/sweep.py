@@ -4,7 +4,7 @@
     results = sweep.map(fn, items)                      # all local cores
     results = sweep.map(fn, items, workers=1)           # in this process, one by one
     results = sweep.map(fn, items, dask="tcp://10.0.0.5:8786")   # an existing Dask cluster
-    results = sweep.map(fn, items, dask="local")        # a Dask cluster on this machine
+    results = sweep.map(fn, items, dask="local")        # a Dask cluster on the local machine
 
 ``fn`` is called once per item and must be picklable (a module-level function, not a lambda);
 results come back in input order. Carry the seeds in the items (``fn`` must not draw from a
@@ -77,9 +77,9 @@ def map(
 ) -> list:
     """``[fn(item) for item in items]``, in parallel.
 
-    ``workers``: local processes (``None``: all cores of this machine; ``1``: no pool, in this
+    ``workers``: local processes (``None``: all local cores; ``1``: no pool, in this
     process). ``dask``: ``None`` (local pool), a scheduler address such as
-    ``"tcp://host:8786"``, ``"local"`` (start a Dask cluster on this machine with ``workers``
+    ``"tcp://host:8786"``, ``"local"`` (start a Dask cluster on the local machine with ``workers``
     processes) or a ``distributed.Client``. ``chunksize``: items sent to a pool worker at a
     time. An exception raised by ``fn`` is raised here. ``on_progress(done, total)``: called
     in this process each time an item has finished (``done`` items of ``total``; for a bar).

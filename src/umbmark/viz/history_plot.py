@@ -1,10 +1,13 @@
-"""The calibration history of one robot over time, as a figure."""
+"""The calibration history of one robot over time, as a figure (made without pyplot, as in
+:mod:`umbmark.viz.plots`)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 
 from umbmark.history.base import Record
+
+__all__ = ["series", "history_figure"]
 
 
 @dataclass
@@ -20,6 +23,18 @@ class _Series:
 
 
 def series(records: list[Record]) -> _Series:
+    """The records' times, E_max,syst, E_d, E_b, recommended wheelbase and ids, as lists.
+
+    Parameters
+    ----------
+    records : list of Record
+        One robot's records, oldest first.
+
+    Returns
+    -------
+    _Series
+        One list per quantity, in the order of ``records`` (``None`` where a record has no value).
+    """
     s = _Series()
     for r in records:
         s.times.append(r.time)
@@ -32,15 +47,26 @@ def series(records: list[Record]) -> _Series:
 
 
 def history_figure(records: list[Record], title: str | None = None):
-    """E_max,syst, E_d, E_b and the recommended wheelbase over time (one panel each)."""
-    import matplotlib
+    """E_max,syst, E_d, E_b and the recommended wheelbase over time (one panel each).
 
-    matplotlib.use("Agg")
+    Parameters
+    ----------
+    records : list of Record
+        One robot's records, oldest first.
+    title : str, optional
+        The figure's title (default: the robot's name and the number of records).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     import matplotlib.dates as mdates
-    import matplotlib.pyplot as plt
+
+    from umbmark.viz.plots import new_figure
 
     s = series(records)
-    fig, axes = plt.subplots(4, 1, figsize=(8, 9), sharex=True)
+    fig = new_figure((8, 9))
+    axes = fig.subplots(4, 1, sharex=True)
     panels = [
         (s.emax_syst_mm, "E_max,syst [mm]\n(measured, before)"),
         (s.ed, "E_d = D_R / D_L"),

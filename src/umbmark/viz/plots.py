@@ -1,20 +1,23 @@
-"""Figures (matplotlib, headless Agg backend). Axes in millimetres, equal aspect."""
+"""Figures of runs, paths and studies. Axes in millimetres, equal aspect.
+
+Every figure is a :class:`matplotlib.figure.Figure` made without pyplot: building and saving one
+needs no display and leaves matplotlib's backend and pyplot's figures alone, so it works on a
+headless server and in a notebook alike (there, with the inline backend, ``display(fig)`` shows
+one); :func:`save_figure` writes one to a file.
+"""
 
 from __future__ import annotations
 
 from pathlib import Path
 
-import matplotlib
+import matplotlib.ticker
+import numpy as np
+from matplotlib.figure import Figure
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import matplotlib.ticker  # noqa: E402
-import numpy as np  # noqa: E402
-
-from umbmark.errors import InputError  # noqa: E402
-from umbmark.io.atomic import atomic_path  # noqa: E402
-from umbmark.metrics import umbmark  # noqa: E402
-from umbmark.model.runs import RunsTable  # noqa: E402
+from umbmark.errors import InputError
+from umbmark.io.atomic import atomic_path
+from umbmark.metrics import umbmark
+from umbmark.model.runs import RunsTable
 
 __all__ = [
     "scatter_figure",
@@ -23,12 +26,29 @@ __all__ = [
     "exaggerated_trajectory_figure",
     "pitfall_figure",
     "distribution_figure",
+    "new_figure",
+    "close_figure",
 ]
 
 _STYLE = {
     "cw": dict(marker="s", color="tab:blue"),
     "ccw": dict(marker="o", color="tab:red"),
 }
+
+
+def new_figure(figsize: tuple[float, float]) -> Figure:
+    """An empty figure of ``figsize`` inches, not registered with pyplot.
+
+    Parameters
+    ----------
+    figsize : tuple of float
+        Width and height in inches.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    return Figure(figsize=figsize)
 
 
 def _draw_runs(ax, runs: RunsTable, label: str, filled: bool):
@@ -61,7 +81,8 @@ def _draw_runs(ax, runs: RunsTable, label: str, filled: bool):
 def scatter_figure(before: RunsTable, after: RunsTable | None = None, title: str | None = None):
     """Return-position errors (Eq. 3.1) of the cw and ccw runs with their centres of gravity,
     before (open markers) and after calibration (filled), like the paper's Figs. 6 and 11."""
-    fig, ax = plt.subplots(figsize=(8, 9))
+    fig = new_figure((8, 9))
+    ax = fig.subplots()
     r0 = _draw_runs(ax, before, "before", filled=False)
     text = f"E_max,syst before: {r0.emax_syst * 1e3:.0f} mm"
     if after is not None:
@@ -85,7 +106,8 @@ def scatter_figure(before: RunsTable, after: RunsTable | None = None, title: str
 def trajectory_figure(trajectories: list[dict], title: str | None = None):
     """True (solid) and odometry (dashed) paths; each item: dict with ``true_x``, ``true_y``,
     ``odo_x``, ``odo_y`` (metres, 1-D) and optional ``label``."""
-    fig, ax = plt.subplots(figsize=(7.5, 7.5))
+    fig = new_figure((7.5, 7.5))
+    ax = fig.subplots()
     for i, t in enumerate(trajectories):
         c = f"C{i % 10}"
         lab = t.get("label", f"run {i + 1}")
@@ -111,8 +133,44 @@ def trajectory_figure(trajectories: list[dict], title: str | None = None):
     return fig
 
 
+def close_figure(fig) -> None:
+    """Release a figure: close it in pyplot when pyplot manages it (a figure made elsewhere).
+
+    The figures of this module are not registered with pyplot; they are freed with their last
+    reference, and this does nothing to them. pyplot is not imported by this function.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+    """
+    import sys
+
+    plt = sys.modules.get("matplotlib.pyplot")
+    if plt is not None:
+        plt.close(fig)  # a no-op for a figure pyplot does not know
+
+
 def save_figure(fig, path) -> Path:
-    """Save (format from the suffix: .png, .svg, .pdf) atomically and close the figure."""
+    """Write a figure to a file atomically, in the format its suffix names, and release it.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure (one of this module's, or any other).
+    path : str or Path
+        The file; its suffix (``.png``, ``.svg``, ``.pdf``, ...) chooses the format, PNG when
+        there is none. Written at 120 dpi.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    InputError
+        If matplotlib cannot write that format (nothing is written).
+    """
     path = Path(path)
     fmt = path.suffix.lstrip(".").lower() or "png"
     supported = fig.canvas.get_supported_filetypes()
@@ -125,12 +183,12 @@ def save_figure(fig, path) -> Path:
         with atomic_path(path) as tmp:
             fig.savefig(tmp, format=fmt, dpi=120)
     finally:
-        plt.close(fig)
+        close_figure(fig)
     return path
 
 
 # ---------------------------------------------------------------------------------------------
-# Figures of the paper reproduction (issue 6)
+# Figures of the paper reproduction
 
 
 def exaggerated_trajectory_figure(
@@ -143,7 +201,8 @@ def exaggerated_trajectory_figure(
     drawn as it is. ``side_m``: also draw the nominal square (cw and ccw)."""
     if not (np.isfinite(exaggerate) and exaggerate > 0):
         raise ValueError(f"exaggeration must be positive, got {exaggerate!r}")
-    fig, ax = plt.subplots(figsize=(7.5, 8.5))
+    fig = new_figure((7.5, 8.5))
+    ax = fig.subplots()
     if side_m:
         s = side_m * 1e3
         ax.plot([0, s, s, 0, 0], [0, 0, s, s, 0], color="0.8", lw=3, zorder=0, label="nominal square (ccw)")
@@ -173,7 +232,8 @@ def pitfall_figure(pitfall, title: str | None = None):
     """The uni-directional pitfall (paper section 3.1): (a) what the experimenter saw while
     tuning the wheelbase on cw runs only, and what the ccw runs would have shown; (b) the
     bi-directional test of the tuned robot against the paper's bi-directional correction."""
-    fig, (a, b) = plt.subplots(1, 2, figsize=(13, 6.2), gridspec_kw=dict(width_ratios=[1.1, 1]))
+    fig = new_figure((13, 6.2))
+    a, b = fig.subplots(1, 2, gridspec_kw=dict(width_ratios=[1.1, 1]))
     g = pitfall.grid_m * 1e3
     a.plot(g, pitfall.cw_r_cg * 1e3, color=_STYLE["cw"]["color"], lw=1.8, label="cw runs (tuned on)")
     a.plot(
@@ -242,7 +302,8 @@ def distribution_figure(
 ):
     """Histograms of the study over many seeds: E_max,syst after calibration (first pass and
     final) and the final improvement factor, with the paper's values marked."""
-    fig, (a, b) = plt.subplots(1, 2, figsize=(12, 4.6))
+    fig = new_figure((12, 4.6))
+    a, b = fig.subplots(1, 2)
     after = np.asarray(emax_after_mm, dtype=float).ravel()
     final = np.asarray(emax_final_mm, dtype=float).ravel()
     bins = np.linspace(0, max(80.0, float(np.percentile(after, 99.5))), 41)

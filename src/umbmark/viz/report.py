@@ -26,6 +26,7 @@ import numpy as np
 
 from umbmark._version import __version__
 from umbmark.errors import CorrectionUndefined
+from umbmark.viz.text import fmt
 
 __all__ = ["analysis_report", "history_report", "figure_data_uri", "bootstrap_intervals", "cg_intervals"]
 
@@ -43,14 +44,26 @@ th{background:#f3f3f3}td:first-child,th:first-child{text-align:left}
 
 
 def figure_data_uri(fig, dpi: int = 100) -> str:
-    """A matplotlib figure as a ``data:image/png;base64,...`` URI (the figure is closed)."""
-    import matplotlib.pyplot as plt
+    """A figure as a ``data:image/png;base64,...`` URI, to embed in a page.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure; released afterwards (:func:`umbmark.viz.plots.close_figure`).
+    dpi : int
+        Resolution of the PNG.
+
+    Returns
+    -------
+    str
+    """
+    from umbmark.viz.plots import close_figure
 
     buf = io.BytesIO()
     try:
         fig.savefig(buf, format="png", dpi=dpi)
     finally:
-        plt.close(fig)
+        close_figure(fig)
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
 
 
@@ -58,16 +71,10 @@ def _e(v) -> str:
     return html.escape(str(v), quote=True)
 
 
-def _f(v, digits=1) -> str:
-    if v is None or (isinstance(v, float) and not math.isfinite(v)):
-        return "-"
-    return f"{v:.{digits}f}"
-
-
 def _ci(lo_hi, digits) -> str:
     if not lo_hi or lo_hi[0] is None or lo_hi[1] is None:
         return "-"
-    return f"[{lo_hi[0]:.{digits}f}, {lo_hi[1]:.{digits}f}]"
+    return f"[{fmt(lo_hi[0], digits)}, {fmt(lo_hi[1], digits)}]"
 
 
 def _table(header, rows) -> str:
@@ -163,13 +170,13 @@ def _analysis_sections(analysis, boot: dict | None, prior=None) -> str:
             [
                 st.direction,
                 st.n,
-                _f(s["x_cg_mm"]),
+                fmt(s["x_cg_mm"]),
                 _ci(ci[st.direction]["x"], 1),
-                _f(s["y_cg_mm"]),
+                fmt(s["y_cg_mm"]),
                 _ci(ci[st.direction]["y"], 1),
-                _f(s["r_cg_mm"]),
-                _f(s["std_mm"]),
-                _f(s["sem_mm"]),
+                fmt(s["r_cg_mm"]),
+                fmt(s["std_mm"]),
+                fmt(s["sem_mm"]),
             ]
         )
     parts = [
@@ -180,7 +187,7 @@ def _analysis_sections(analysis, boot: dict | None, prior=None) -> str:
     ]
     rule = "-" if d["three_sem_mm"] is None else f"{d['three_sem_mm']:.1f} mm"
     parts.append(
-        f'<p class="big">E<sub>max,syst</sub> = {_f(d["emax_syst_mm"])} mm</p>'
+        f'<p class="big">E<sub>max,syst</sub> = {fmt(d["emax_syst_mm"])} mm</p>'
         f"<p>3 &times; SEM = {_e(rule)}; a further compensation pass is "
         f"{'recommended' if d['second_pass_recommended'] else 'not expected to help'} "
         f"(E<sub>max,syst</sub> {'&ge;' if d['second_pass_recommended'] else '&lt;'} 3 SEM).</p>"
@@ -190,34 +197,34 @@ def _analysis_sections(analysis, boot: dict | None, prior=None) -> str:
     parts.append(f"<h2>Correction (method {_e(corr.method)})</h2>")
     if corr.alpha is not None:
         crow = [
-            ["alpha [deg]", _f(d.get("alpha_x_deg"), 4), _f(d.get("alpha_y_deg"), 4), _f(d.get("alpha_deg"), 4)],
-            ["beta [deg]", _f(d.get("beta_x_deg"), 4), _f(d.get("beta_y_deg"), 4), _f(d.get("beta_deg"), 4)],
-            ["E_d (this pass)", _f(d.get("Ed_x"), 6), _f(d.get("Ed_y"), 6), _f(d.get("Ed_pass"), 6)],
-            ["E_b", _f(d.get("Eb_x"), 6), _f(d.get("Eb_y"), 6), _f(d.get("Eb"), 6)],
+            ["alpha [deg]", fmt(d.get("alpha_x_deg"), 4), fmt(d.get("alpha_y_deg"), 4), fmt(d.get("alpha_deg"), 4)],
+            ["beta [deg]", fmt(d.get("beta_x_deg"), 4), fmt(d.get("beta_y_deg"), 4), fmt(d.get("beta_deg"), 4)],
+            ["E_d (this pass)", fmt(d.get("Ed_x"), 6), fmt(d.get("Ed_y"), 6), fmt(d.get("Ed_pass"), 6)],
+            ["E_b", fmt(d.get("Eb_x"), 6), fmt(d.get("Eb_y"), 6), fmt(d.get("Eb"), 6)],
         ]
         parts.append(_table(["", "from x", "from y", "used"], crow))
     b = boot or {}
     prow = [
-        ["E_d = D_R / D_L", _f(corr.ed, 6), _ci(b.get("Ed"), 6)],
-        ["E_b", _f(corr.eb, 6), _ci(b.get("Eb"), 6)],
-        ["c_left", _f(cal.c_left, 6), _ci(b.get("c_left"), 6)],
-        ["c_right", _f(cal.c_right, 6), _ci(b.get("c_right"), 6)],
-        ["wheelbase [mm]", _f(cal.wheelbase_m * 1e3, 2), _ci(b.get("wheelbase_mm"), 2)],
+        ["E_d = D_R / D_L", fmt(corr.ed, 6), _ci(b.get("Ed"), 6)],
+        ["E_b", fmt(corr.eb, 6), _ci(b.get("Eb"), 6)],
+        ["c_left", fmt(cal.c_left, 6), _ci(b.get("c_left"), 6)],
+        ["c_right", fmt(cal.c_right, 6), _ci(b.get("c_right"), 6)],
+        ["wheelbase [mm]", fmt(cal.wheelbase_m * 1e3, 2), _ci(b.get("wheelbase_mm"), 2)],
     ]
     for k, v in d.items():
         if k.endswith("_ci95") and isinstance(v, (list, tuple)) and len(v) == 2:
             prow.append([f"{k} (method)", "", _ci(v, 6)])
     used = (
-        f"c_left = {_f(prior.c_left, 6)}, c_right = {_f(prior.c_right, 6)}, "
+        f"c_left = {fmt(prior.c_left, 6)}, c_right = {fmt(prior.c_right, 6)}, "
         if prior is not None
         else "c_left = c_right = 1 (uncalibrated), "
     )
     parts.append(
         '<h2>Recommended parameters</h2><div class="box">'
-        f"<p>Load into the odometry: <b>c_left = {_f(cal.c_left, 6)}</b>, "
-        f"<b>c_right = {_f(cal.c_right, 6)}</b>, <b>wheelbase = {_f(cal.wheelbase_m * 1e3, 2)} mm</b>.</p>"
-        f"<p>The runs were made with {used}wheelbase = {_f(analysis.wheelbase_m * 1e3, 2)} mm; "
-        f"square side {_f(analysis.side_m * 1e3, 0)} mm.</p></div>"
+        f"<p>Load into the odometry: <b>c_left = {fmt(cal.c_left, 6)}</b>, "
+        f"<b>c_right = {fmt(cal.c_right, 6)}</b>, <b>wheelbase = {fmt(cal.wheelbase_m * 1e3, 2)} mm</b>.</p>"
+        f"<p>The runs were made with {used}wheelbase = {fmt(analysis.wheelbase_m * 1e3, 2)} mm; "
+        f"square side {fmt(analysis.side_m * 1e3, 0)} mm.</p></div>"
     )
     hdr = ["", "value", "95 % bootstrap" if boot else "interval"]
     parts.append(_table(hdr, prow))
@@ -267,9 +274,9 @@ def analysis_report(
     if after_runs is not None:
         after = umbmark(after_runs)
         body.append(
-            f"<p>Before: E<sub>max,syst</sub> = {_f(analysis.result.emax_syst * 1e3)} mm; after: "
-            f"{_f(after.emax_syst * 1e3)} mm (improvement "
-            f"{_f(analysis.result.emax_syst / after.emax_syst if after.emax_syst > 0 else math.inf)}-fold)."
+            f"<p>Before: E<sub>max,syst</sub> = {fmt(analysis.result.emax_syst * 1e3)} mm; after: "
+            f"{fmt(after.emax_syst * 1e3)} mm (improvement "
+            f"{fmt(analysis.result.emax_syst / after.emax_syst if after.emax_syst > 0 else math.inf)}-fold)."
             "</p>"
         )
     fig = scatter_figure(analysis.runs, after_runs, title=title)
@@ -323,12 +330,12 @@ def history_report(records, *, title: str | None = None, db_path: str | None = N
                 r.created_utc[:16].replace("T", " "),
                 r.kind,
                 r.method,
-                _f(r.emax_syst_mm),
-                _f(r.ed, 6),
-                _f(r.eb, 6),
-                _f(r.wheelbase_mm, 2),
-                _f(p.get("c_left"), 6),
-                _f(p.get("c_right"), 6),
+                fmt(r.emax_syst_mm),
+                fmt(r.ed, 6),
+                fmt(r.eb, 6),
+                fmt(r.wheelbase_mm, 2),
+                fmt(p.get("c_left"), 6),
+                fmt(p.get("c_right"), 6),
                 r.software_version,
                 src,
             ]
@@ -360,8 +367,8 @@ def history_report(records, *, title: str | None = None, db_path: str | None = N
     body.append("<h2>Latest recommended parameters</h2>")
     body.append(
         f'<div class="box"><p>Record #{latest.id} ({_e(latest.created_utc)}): '
-        f"<b>c_left = {_f(ex['c_left'], 6)}</b>, <b>c_right = {_f(ex['c_right'], 6)}</b>, "
-        f"<b>wheelbase = {_f(ex['wheelbase_mm'], 2)} mm</b>.</p></div>"
+        f"<b>c_left = {fmt(ex['c_left'], 6)}</b>, <b>c_right = {fmt(ex['c_right'], 6)}</b>, "
+        f"<b>wheelbase = {fmt(ex['wheelbase_mm'], 2)} mm</b>.</p></div>"
     )
     runs_rows = latest.inputs.get("runs") if isinstance(latest.inputs, dict) else None
     if runs_rows:
