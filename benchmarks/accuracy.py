@@ -1,10 +1,11 @@
 #!/usr/bin/env python3
-"""Accuracy benchmark of the correction methods (issue 7); same as ``umbmark bench accuracy``.
+"""Accuracy benchmark of the correction methods; same as ``umbmark bench accuracy``.
 
     python benchmarks/accuracy.py            # full grid, 100 robots per cell (about 8 min on 2 cores)
     python benchmarks/accuracy.py --quick    # small grid, 4 robots per cell (seconds)
+    python benchmarks/accuracy.py --out benchmarks/results    # the results kept in the repository
 
-Writes accuracy.{json,csv,md,png} into benchmarks/results/ (or --out). See
+Writes accuracy.{json,csv,md,png} into --out (default: a new folder ./umbmark-bench-accuracy). See
 umbmark.studies.accuracy for the definitions (floors, grid, seeds, sampling period).
 """
 
@@ -13,13 +14,12 @@ from __future__ import annotations
 import argparse
 import sys
 from dataclasses import replace
-from pathlib import Path
+
+DEFAULT_OUT = "umbmark-bench-accuracy"
 
 
-def main(argv=None) -> int:
-    from umbmark.errors import InputError
-    from umbmark.studies.accuracy import QUICK, AccuracyConfig, coverage_trial, run_accuracy, write_results
-
+def parser() -> argparse.ArgumentParser:
+    """The command-line options of this script."""
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true", help="small grid, few robots (tests, examples)")
     p.add_argument("--robots", type=int, default=None, help="robots per cell with noise")
@@ -43,8 +43,15 @@ def main(argv=None) -> int:
     )
     p.add_argument("--eb", type=float, nargs="+", default=None, help="E_b values of the grid (default: all)")
     p.add_argument("--stem", default="accuracy", help="file name stem of the results")
-    p.add_argument("--out", default=str(Path(__file__).resolve().parent / "results"))
-    a = p.parse_args(argv)
+    p.add_argument("--out", default=DEFAULT_OUT, help=f"results folder (default ./{DEFAULT_OUT})")
+    return p
+
+
+def main(argv=None) -> int:
+    from umbmark.errors import InputError
+    from umbmark.studies.accuracy import QUICK, AccuracyConfig, coverage_trial, run_accuracy, write_results
+
+    a = parser().parse_args(argv)
     cfg = QUICK if a.quick else AccuracyConfig()
     changes = {k: v for k, v in (("robots", a.robots), ("seed", a.seed)) if v is not None}
     changes["workers"] = a.workers  # None: all local cores

@@ -4,9 +4,10 @@ The preset is meant to reproduce the paper's sigma of about 25 mm per direction 
 square with the LabMate (0.2 m/s, 10 ms sampling). sigma is the radial sample standard
 deviation defined in umbmark.metrics.
 
-    python benchmarks/noise_preset.py [--runs 1000] [--seed 11]
+    python benchmarks/noise_preset.py [--runs 1000] [--seed 11] [--out FILE]
 
-Writes benchmarks/results/noise_preset.json and prints it.
+Writes noise_preset.json into a new folder ./umbmark-bench-noise-preset (or the file --out, e.g.
+benchmarks/results/noise_preset.json) and prints it.
 """
 
 from __future__ import annotations
@@ -21,13 +22,20 @@ from umbmark.metrics import umbmark
 from umbmark.model.geometry import FIG11_ERRORS
 from umbmark.model.simulate import NOISE_PRESETS, Motion, simulate_umbmark
 
+DEFAULT_OUT = Path("umbmark-bench-noise-preset") / "noise_preset.json"
 
-def main(argv=None):
+
+def parser() -> argparse.ArgumentParser:
+    """The command-line options of this script."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=1000, help="runs per direction")
     ap.add_argument("--seed", type=int, default=11)
-    ap.add_argument("--out", type=Path, default=Path(__file__).parent / "results" / "noise_preset.json")
-    a = ap.parse_args(argv)
+    ap.add_argument("--out", type=Path, default=DEFAULT_OUT, help=f"JSON file to write (default ./{DEFAULT_OUT})")
+    return ap
+
+
+def main(argv=None):
+    a = parser().parse_args(argv)
     out = {"preset": asdict(NOISE_PRESETS["paper"]), "runs_per_direction": a.runs, "seed": a.seed, "by_period": {}}
     for period in (0.01, 0.05):
         t = time.perf_counter()

@@ -11,9 +11,10 @@ distributions:
 
 and it times the default study (200 seeds, no report).
 
-    python benchmarks/reproduce_sampling.py [--seeds 40]
+    python benchmarks/reproduce_sampling.py [--seeds 40] [--out FILE]
 
-Writes benchmarks/results/reproduce_sampling.json and prints it. Takes about a minute.
+Writes reproduce_sampling.json into a new folder ./umbmark-bench-reproduce-sampling (or the file
+--out, e.g. benchmarks/results/reproduce_sampling.json) and prints it. Takes about a minute.
 """
 
 from __future__ import annotations
@@ -38,11 +39,19 @@ KEYS = (
 )
 
 
-def main(argv=None):
+DEFAULT_OUT = Path("umbmark-bench-reproduce-sampling") / "reproduce_sampling.json"
+
+
+def parser() -> argparse.ArgumentParser:
+    """The command-line options of this script."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=40)
-    ap.add_argument("--out", type=Path, default=Path(__file__).parent / "results" / "reproduce_sampling.json")
-    a = ap.parse_args(argv)
+    ap.add_argument("--out", type=Path, default=DEFAULT_OUT, help=f"JSON file to write (default ./{DEFAULT_OUT})")
+    return ap
+
+
+def main(argv=None):
+    a = parser().parse_args(argv)
     out = {"seeds": a.seeds, "variants": {}}
     for name, period, noise in (
         ("50 ms, exact stops", 0.05, rep.STUDY_NOISE),

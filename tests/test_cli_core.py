@@ -267,3 +267,113 @@ def test_plot_format_must_be_one_matplotlib_writes(tmp_path, capsys):
     ok = tmp_path / "out.SVG"
     assert run(capsys, "analyze", str(f), "--wheelbase-mm", "340", "--side-mm", "4000", "--plot", str(ok))[0] == 0
     assert ok.read_bytes().lstrip().startswith(b"<?xml")
+
+
+def _keys(obj) -> set[str]:
+    if isinstance(obj, dict):
+        return set(obj) | {k for v in obj.values() for k in _keys(v)}
+    if isinstance(obj, list):
+        return {k for v in obj for k in _keys(v)}
+    return set()
+
+
+def _headers_and_labels(text: str) -> list[str]:
+    """The column headers and the first-column labels of the tables in ``text`` (rich boxes)."""
+    cells = []
+    for line in text.splitlines():
+        if line.startswith("┃"):
+            cells += [c.strip() for c in line.strip("┃").split("┃")]
+        elif line.startswith("│"):
+            cells.append(line.strip("│").split("│")[0].strip())
+    return [c for c in cells if c]
+
+
+def _text_and_json(capsys, monkeypatch, *args):
+    monkeypatch.setenv("COLUMNS", "80")
+    code, text, err = run(capsys, *args)
+    assert code == 0, err
+    code, out, err = run(capsys, *args, "--json")
+    assert code == 0, err
+    return text, json.loads(out)
+
+
+def _check_newcomer_text(text: str, d: dict, shown: list[str], paths=()):
+    # commands to copy and file names are printed unbroken; everything else fits 80 columns
+    unbroken = [ln for ln in text.splitlines() if ln.startswith("  umbmark") or any(str(p) in ln for p in paths)]
+    assert max(len(line) for line in text.splitlines() if line not in unbroken) <= 80
+    assert "…" not in text  # nothing cut to fit
+    for s in shown:
+        assert s in text, f"{s!r} is not printed in full"
+    raw = {k for k in _keys(d) if "_" in k} - {"c_left", "c_right"}  # c_left, c_right: the paper's names
+    for cell in _headers_and_labels(text):
+        assert cell not in raw and not any(k in cell for k in raw if len(k) > 6), f"raw JSON key in {cell!r}"
+    for word in ("E_max,syst", "3 x SEM", "E_d", "E_b", "c_left", "wheelbase", "SEM = std / sqrt(runs)"):
+        assert word in text
+    nxt = text[text.index("Next") :]
+    assert "umbmark export" in nxt and "--format ros2" in nxt
+
+
+def test_analyze_text_explains_every_figure_at_80_columns(tmp_path, capsys, monkeypatch):
+    f = tmp_path / "runs.csv"
+    run(capsys, "simulate", "--ed", "1.002", "--eb", "0.99", "--seed", "1", "--noise", "paper", "--out", str(f))
+    for method in ("bf", "exact"):
+        text, d = _text_and_json(
+            capsys, monkeypatch, "analyze", str(f), "--wheelbase-mm", "340", "--side-mm", "4000", "--method", method
+        )
+        shown = [
+            f"{d['emax_syst_mm']:.1f} mm",
+            f"{d['three_sem_mm']:.1f} mm",
+            f"{d['Ed']:.6f}",
+            f"{d['Eb']:.6f}",
+            f"{d['c_left']:.6f}",
+            f"{d['c_right']:.6f}",
+            f"{d['wheelbase_corrected_mm']:.2f}",
+            f"{d['alpha_deg']:.4f}",
+            f"{d['beta_deg']:.4f}",
+        ] + [f"{d[s][k]:.1f}" for s in ("cw", "ccw") for k in ("x_cg_mm", "y_cg_mm", "r_cg_mm", "std_mm", "sem_mm")]
+        if method == "exact":
+            shown += [f"{v:.6f}" for v in d["Ed_ci95"] + d["Eb_ci95"]]
+            shown += [f"{v:.2f}" for v in d["wheelbase_corrected_mm_ci95"]]
+            shown += [f"{d['emax_syst_after_pred_mm']:.1f} / {d['emax_syst_after_pred_measured_mm']:.1f}"]
+        _check_newcomer_text(text, d, shown, paths=[tmp_path])
+        # the commands of the next step: the second pass with the calibration loaded, and the export
+        assert f"--wheelbase-mm {d['wheelbase_corrected_mm']:.2f}" in text
+        assert f"--c-left {d['c_left']:.6f} --c-right {d['c_right']:.6f}" in text
+        assert f"umbmark analyze {f} --wheelbase-mm 340 --side-mm 4000" in text
+
+
+def test_demo_text_explains_every_figure_at_80_columns(tmp_path, capsys, monkeypatch):
+    text, d = _text_and_json(capsys, monkeypatch, "demo", "--out", str(tmp_path))
+    b, a = d["before"], d["after"]
+    shown = [
+        f"{d['true_Ed']:.5f}",
+        f"{d['true_Eb']:.5f}",
+        f"{d['true_wheelbase_mm']:.2f} mm",
+        f"{b['Ed']:.6f}",
+        f"{b['Eb']:.6f}",
+        f"{b['emax_syst_mm']:.1f}",
+        f"{a['emax_syst_mm']:.1f}",
+        f"{b['three_sem_mm']:.1f}",
+        f"{a['three_sem_mm']:.1f}",
+        f"{b['c_left']:.6f} / {b['c_right']:.6f}",
+        f"{b['wheelbase_corrected_mm']:.2f}",
+        f"{d['improvement']:.1f}-fold",
+        d["files"]["scatter_png"],
+    ]
+    _check_newcomer_text(text, d, shown, paths=[tmp_path])
+    assert "umbmark guide" in text
+
+
+def test_demo_json_is_the_library_result(tmp_path, capsys):
+    """The CLI prints the library's DemoResult.to_dict() as it is."""
+    from umbmark.jsonutil import jsonable
+    from umbmark.studies.demo import FILE_NAMES, demo
+
+    code, out, _ = run(capsys, "demo", "--out", str(tmp_path), "--seed", "3", "--runs", "3", "--json")
+    assert code == 0
+    r = demo(seed=3, n_runs=3)
+    assert "files" not in r.to_dict()
+    saved = r.save(tmp_path)
+    assert saved.files == {k: str(tmp_path / name) for k, name in FILE_NAMES.items()}
+    assert json.loads(out) == jsonable(saved.to_dict())
+    assert list(json.loads(out)) == list(saved.to_dict())

@@ -3,17 +3,54 @@
 from __future__ import annotations
 
 import math
+import os
 import re
 import sys
+from typing import TYPE_CHECKING
 
 import click
-from rich.console import Console
-from rich.markup import escape
-from rich.table import Table
 
 from umbmark._version import __version__
 from umbmark.errors import InputError
 from umbmark.jsonutil import dumps
+from umbmark.viz.text import fmt
+
+if TYPE_CHECKING:
+    from rich.console import Console
+    from rich.table import Table
+
+__all__ = [
+    "CONTEXT",
+    "ERROR_RANGES",
+    "LABMATE_WHEEL_DIAMETER_MM",
+    "LABMATE_WHEELBASE_MM",
+    "LOG_FORMAT_CHOICES",
+    "METHOD_CHOICES",
+    "NOISE_CHOICES",
+    "PARAM_FLAGS",
+    "REPRODUCE_TAPE_LAYER_MM",
+    "REPRODUCE_VARIATION",
+    "app",
+    "cli_message",
+    "console",
+    "emit_json",
+    "error_param",
+    "fmt",
+    "is_quiet",
+    "positive",
+    "prior_options",
+    "table",
+]
+
+# Names and defaults the option declarations show, written out here so that building the command
+# line imports no numerical module (tests/test_cli_help.py checks each against the library).
+METHOD_CHOICES = ("bf", "exact")  # sorted(umbmark.correct.METHODS)
+NOISE_CHOICES = ("none", "paper")  # sorted(umbmark.model.simulate.NOISE_PRESETS)
+LOG_FORMAT_CHOICES = ("auto", "optiodom", "csv", "bag")  # umbmark.io.load.LOG_FORMATS
+LABMATE_WHEEL_DIAMETER_MM = 150.0  # umbmark.model.geometry.LABMATE.wheel_diameter_m, in mm
+LABMATE_WHEELBASE_MM = 340.0  # umbmark.model.geometry.LABMATE.wheelbase_m, in mm
+REPRODUCE_TAPE_LAYER_MM = 0.02  # umbmark.studies.reproduce.TAPE_LAYER_M, in mm
+REPRODUCE_VARIATION = 0.15  # umbmark.studies.reproduce.ROBOT_VARIATION
 
 CONTEXT = dict(help_option_names=["-h", "--help"], max_content_width=100)
 
@@ -40,14 +77,27 @@ def app(ctx, quiet):
 
 
 def console() -> Console:
-    """Rich console on stdout; colour only on a terminal, 120 columns when not a terminal."""
+    """The rich console on stdout the commands print to.
+
+    Colour only on a terminal. Off a terminal (a pipe, a file) the width is ``$COLUMNS`` when
+    set, else 120 columns.
+
+    Returns
+    -------
+    rich.console.Console
+    """
+    from rich.console import Console
+
     c = Console(highlight=False, soft_wrap=False)
     if not c.is_terminal:
-        c = Console(highlight=False, soft_wrap=False, width=120, no_color=True)
+        columns = os.environ.get("COLUMNS", "")
+        width = int(columns) if columns.isdigit() and int(columns) > 0 else 120
+        c = Console(highlight=False, soft_wrap=False, width=width, no_color=True)
     return c
 
 
 def is_quiet() -> bool:
+    """True when ``--quiet`` was given to the running command (or a group above it)."""
     ctx = click.get_current_context(silent=True)
     while ctx is not None:
         if ctx.obj and ctx.obj.get("quiet"):
@@ -111,13 +161,15 @@ def emit_json(obj) -> None:
     sys.stdout.write(dumps(_cli_strings(obj), indent=2) + "\n")
 
 
-def fmt(v, digits: int = 1, unit: str = "") -> str:
-    if v is None or (isinstance(v, float) and not math.isfinite(v)):
-        return "-"
-    return f"{v:.{digits}f}{unit}"
-
-
 def table(title: str, columns: list[str], rows: list[list], justify_first: str = "left") -> Table:
+    """A rich table: a title, a header of ``columns``, the ``rows`` (any values, shown with ``str``).
+
+    The first column is justified as ``justify_first``, the others right; no markup is read in
+    the title, the headers or the cells.
+    """
+    from rich.markup import escape
+    from rich.table import Table
+
     t = Table(title=escape(title), title_justify="left", header_style="bold")
     for i, c in enumerate(columns):
         t.add_column(escape(c), justify=justify_first if i == 0 else "right")
@@ -146,6 +198,7 @@ def prior_options(f):
 
 
 def positive(name: str, value: float) -> float:
+    """``value`` as a float if it is a finite positive number, else an :class:`InputError` naming ``name``."""
     if value is None or not (math.isfinite(value) and value > 0):
         raise InputError(f"{name} must be a positive number, got {value!r}")
     return float(value)

@@ -2,15 +2,14 @@
 
 from __future__ import annotations
 
-from dataclasses import replace
-
 import click
 
 from umbmark.cli.app import console, emit_json, fmt, is_quiet, table
-from umbmark.cli.bench import bench
+from umbmark.cli.bench import BENCH_ACCURACY_OUT, bench
 from umbmark.cli.progress import progress
 from umbmark.cli.scaleout import scale_options
-from umbmark.studies.accuracy import QUICK, AccuracyConfig, run_accuracy, write_results
+
+__all__ = ["accuracy"]
 
 
 @bench.command("accuracy")
@@ -37,7 +36,7 @@ from umbmark.studies.accuracy import QUICK, AccuracyConfig, run_accuracy, write_
     "--out",
     "out_dir",
     type=click.Path(file_okay=False),
-    default="benchmarks/results",
+    default=BENCH_ACCURACY_OUT,
     show_default=True,
     help="Folder for accuracy.json/.csv/.md/.png (created if missing).",
 )
@@ -58,6 +57,10 @@ def accuracy(quick, robots, seed, sample_period_ms, fixed_wheelbase, out_dir, wo
     Example:
       umbmark bench accuracy --quick --out acc/
     """
+    from dataclasses import replace
+
+    from umbmark.studies.accuracy import QUICK, AccuracyConfig, run_accuracy, write_results
+
     cfg = QUICK if quick else AccuracyConfig()
     changes = {k: v for k, v in (("robots", robots), ("seed", seed)) if v is not None}
     changes["workers"] = workers  # None: all local cores

@@ -8,12 +8,12 @@ from pathlib import Path
 import click
 
 from umbmark.cli.app import console, emit_json, fmt, is_quiet, table
-from umbmark.cli.bench import bench
+from umbmark.cli.bench import BENCH_SPEED_OUT, bench
 from umbmark.cli.progress import progress as progress_bar
 from umbmark.cli.scaleout import scale_options
 from umbmark.errors import InputError
-from umbmark.io.atomic import atomic_write
-from umbmark.studies import speed as speedbench
+
+__all__ = ["bench_speed"]
 
 
 def _ints(text, name):
@@ -30,6 +30,8 @@ def _ints(text, name):
 
 def _n_cases(quick, overrides, dask, workers):
     """How many cases the benchmark will run (for the progress bar; None if unknown)."""
+    from umbmark.studies import speed as speedbench
+
     try:
         cfg = {
             **(speedbench.QUICK if quick else speedbench.FULL),
@@ -46,7 +48,7 @@ def _n_cases(quick, overrides, dask, workers):
     "--out",
     "out_dir",
     type=click.Path(file_okay=False),
-    default="benchmarks/results",
+    default=BENCH_SPEED_OUT,
     show_default=True,
     help="Folder for speed.json and speed.md (speed-quick.* with --quick); created if missing.",
 )
@@ -81,6 +83,9 @@ def bench_speed(quick, out_dir, replay_sizes, robots, isolate, workers, dask, as
       umbmark bench speed --quick --out bench-quick
       umbmark bench speed
     """
+    from umbmark.io.atomic import atomic_write
+    from umbmark.studies import speed as speedbench
+
     sizes = _ints(replay_sizes, "--replay-sizes")
     rob = _ints(robots, "--robots")
     if isolate is None:

@@ -1,14 +1,21 @@
-"""``umbmark simulate``, ``umbmark analyze`` and ``umbmark demo``."""
+"""``umbmark simulate``, ``umbmark analyze`` and ``umbmark demo``.
+
+Building these commands imports no numerical module: the library is imported when a command runs.
+"""
 
 from __future__ import annotations
 
-import math
+import shlex
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
-from rich.markup import escape
 
 from umbmark.cli.app import (
+    LABMATE_WHEEL_DIAMETER_MM,
+    LABMATE_WHEELBASE_MM,
+    METHOD_CHOICES,
+    NOISE_CHOICES,
     app,
     cli_message,
     console,
@@ -22,37 +29,81 @@ from umbmark.cli.app import (
 )
 from umbmark.cli.history import history_options, print_recorded, record_if_requested
 from umbmark.cli.progress import progress
-from umbmark.correct import METHODS
-from umbmark.correct.analysis import Analysis
-from umbmark.correct.analysis import analyze as analyze_runs
-from umbmark.io.runs_csv import read_runs_csv, write_runs_csv
-from umbmark.metrics import UMBmarkResult, umbmark
-from umbmark.model.geometry import LABMATE, Calibration, ErrorParams, Geometry
-from umbmark.model.simulate import NOISE_PRESETS, Motion, simulate_umbmark
-from umbmark.studies.demo import demo as run_demo
+
+if TYPE_CHECKING:
+    from umbmark.correct.analysis import Analysis
+    from umbmark.metrics import UMBmarkResult
+    from umbmark.model.geometry import Calibration
+    from umbmark.studies.demo import DemoResult
+
+__all__ = ["analyze", "demo", "geometry_options", "prior_options", "simulate"]
 
 
 def geometry_options(f):
+    """``--wheelbase-mm``, ``--side-mm`` and ``--wheel-diameter-mm`` (the LabMate's by default)."""
     f = click.option(
         "--wheel-diameter-mm",
         type=float,
-        default=LABMATE.wheel_diameter_m * 1e3,
+        default=LABMATE_WHEEL_DIAMETER_MM,
         show_default=True,
         help="Nominal wheel diameter.",
     )(f)
     f = click.option("--side-mm", type=float, default=4000.0, show_default=True, help="Side of the square path.")(f)
     f = click.option(
-        "--wheelbase-mm", type=float, default=LABMATE.wheelbase_m * 1e3, show_default=True, help="Nominal wheelbase."
+        "--wheelbase-mm", type=float, default=LABMATE_WHEELBASE_MM, show_default=True, help="Nominal wheelbase."
     )(f)
     return f
 
 
 def _prior(c_left, c_right, wheelbase_mm=None) -> Calibration | None:
+    from umbmark.model.geometry import Calibration
+
     for name, v in (("--c-left", c_left), ("--c-right", c_right)):
         positive(name, v)
     if c_left == 1.0 and c_right == 1.0 and wheelbase_mm is None:
         return None
     return Calibration(c_left, c_right, None if wheelbase_mm is None else wheelbase_mm * 1e-3)
+
+
+# one line per figure a newcomer meets, printed under the table or line that shows it
+LEGEND_RUNS = (
+    "x_cg, y_cg: centre of gravity of the return errors of one direction (absolute - odometry: "
+    "where the robot stopped, seen from where its odometry said it stopped); r_cg: its distance "
+    "from the origin; std: radial spread of the runs about it; SEM = std / sqrt(runs)."
+)
+LEGEND_EMAX = (
+    "E_max,syst: the larger r_cg of cw and ccw, the systematic odometry error (the paper's "
+    "measure, Eq. 3.4). 3 x SEM: three standard errors of the direction that sets it; while "
+    "E_max,syst is at least that, a calibration pass can still reduce it (the paper's rule)."
+)
+LEGEND_ANGLES = (
+    "alpha: extra rotation in every 90 deg turn (a wrong wheelbase); beta: heading gained along "
+    "each leg (unequal wheels)."
+)
+LEGEND_FROM_XY = (
+    " from x, from y: the estimates from the x and from the y coordinates of the centres of "
+    "gravity; used: their average."
+)
+LEGEND_CALIBRATION = (
+    "E_d: right / left wheel diameter; E_b: effective / nominal wheelbase; c_left, c_right: "
+    "multiply each wheel's distance per encoder pulse by these; wheelbase: the value the odometry "
+    "should use instead of the one it ran with."
+)
+LEGEND_PREDICTED = (
+    "predicted E_max,syst after, systematic / measured: what the uncertainty of this calibration "
+    "leaves, and what a re-run with as many runs would measure."
+)
+LEGEND_DEMO = (
+    "E_d, E_b used by the odometry: the right / left wheel-diameter ratio and the wheelbase / nominal "
+    "wheelbase it assumes; c_left, c_right: the factors on each wheel's distance per encoder pulse "
+    "that make its E_d so; wheelbase: the one it uses for turns."
+)
+
+
+def _legend(text: str) -> str:
+    from rich.markup import escape
+
+    return f"[dim]{escape(text)}[/dim]"
 
 
 def _stats_table(title: str, res: UMBmarkResult):
@@ -70,52 +121,125 @@ def _stats_table(title: str, res: UMBmarkResult):
                 fmt(d["sem_mm"]),
             ]
         )
-    return table(title, ["direction", "n", "x_cg [mm]", "y_cg [mm]", "r_cg [mm]", "std [mm]", "SEM [mm]"], rows)
+    return table(title, ["direction", "runs", "x_cg [mm]", "y_cg [mm]", "r_cg [mm]", "std [mm]", "SEM [mm]"], rows)
 
 
-def _print_analysis(a: Analysis):
+_CI_LABELS = {
+    "Ed_ci95": ("E_d, 95 % interval", 6),
+    "Eb_ci95": ("E_b, 95 % interval", 6),
+    "wheelbase_corrected_mm_ci95": ("wheelbase [mm], 95 % interval", 2),
+}
+
+
+def _angles_table(a: Analysis, d: dict):
+    """alpha, beta, E_d, E_b of the correction: from x, from y and used (the bf method), or used only.
+
+    Returns the table and whether it has the from x / from y columns.
+    """
+    spec = (
+        ("alpha [deg]", "alpha_x_deg", "alpha_y_deg", "alpha_deg", 4),
+        ("beta [deg]", "beta_x_deg", "beta_y_deg", "beta_deg", 4),
+        ("E_d (this pass)", "Ed_x", "Ed_y", "Ed_pass", 6),
+        ("E_b", "Eb_x", "Eb_y", "Eb", 6),
+    )
+    method = a.correction.method
+    if any(d.get(kx) is not None for _, kx, _, _, _ in spec):
+        rows = [[name, fmt(d.get(kx), n), fmt(d.get(ky), n), fmt(d.get(k), n)] for name, kx, ky, k, n in spec]
+        title = f"Correction ({method}): from x, from y, used (average)"
+        return table(title, ["", "from x", "from y", "used"], rows), True
+    rows = [[name, fmt(d.get(k), n)] for name, _, _, k, n in spec]
+    return table(f"Correction ({method})", ["", "value"], rows), False
+
+
+def _calibration_rows(a: Analysis, d: dict) -> list[list[str]]:
+    rows = [
+        ["curvature radius of the legs R", "-" if d["radius_mm"] is None else f"{d['radius_mm'] / 1e3:.1f} m"],
+        ["E_d = D_R / D_L", fmt(d["Ed"], 6)],
+        ["E_b = b_actual / b_nominal", fmt(d["Eb"], 6)],
+        ["c_left", fmt(d["c_left"], 6)],
+        ["c_right", fmt(d["c_right"], 6)],
+        ["wheelbase [mm]", f"{a.wheelbase_m * 1e3:.2f} -> {d['wheelbase_corrected_mm']:.2f}"],
+    ]
+    for key, (label, digits) in _CI_LABELS.items():
+        if d.get(key):
+            lo, hi = d[key]
+            rows.append([label, f"[{fmt(lo, digits)}, {fmt(hi, digits)}]"])
+    if d.get("emax_syst_after_pred_measured_mm") is not None:
+        rows.append(
+            [
+                "predicted E_max,syst after [mm]",
+                f"{d['emax_syst_after_pred_mm']:.1f} / {d['emax_syst_after_pred_measured_mm']:.1f}",
+            ]
+        )
+    return rows
+
+
+def _next_commands(a: Analysis, runs_file, side_mm, method, c_left, c_right, loss, straight_mm) -> tuple[str, str]:
+    """The commands that analyse the calibrated robot's runs, and that save this analysis as JSON."""
+    q = shlex.quote
+    cal = a.correction.calibration
+    common = f"--side-mm {side_mm:.10g}" + ("" if method == "bf" else f" --method {method}")
+    if loss is not None:
+        common += f" --loss {loss}"
+    again = (
+        f"umbmark analyze NEW.csv --wheelbase-mm {cal.wheelbase_m * 1e3:.2f} {common} "
+        f"--c-left {fmt(cal.c_left, 6)} --c-right {fmt(cal.c_right, 6)}"
+    )
+    save = f"umbmark analyze {q(str(runs_file))} --wheelbase-mm {a.wheelbase_m * 1e3:.10g} {common}"
+    if (c_left, c_right) != (1.0, 1.0):
+        save += f" --c-left {c_left:.10g} --c-right {c_right:.10g}"
+    if straight_mm:
+        save += f" --straight-mm {straight_mm[0]:.10g} {straight_mm[1]:.10g}"
+    export = f"{save} --json > cal.json && umbmark export cal.json --format ros2 --out params.yaml"
+    return again, export
+
+
+def _print_analysis(a: Analysis, again: str, export: str) -> None:
+    """The human output of ``umbmark analyze``: the figures, what each means, and what to do next.
+
+    ``again``: the command that analyses the runs of the calibrated robot; ``export``: the
+    command that writes this analysis as JSON for ``umbmark export``.
+    """
+    from rich.markup import escape
+
     c = console()
     d = a.to_dict()
-    c.print(_stats_table("UMBmark return position errors (absolute - odometry)", a.result))
+    res = a.result
+    c.print(
+        _stats_table(
+            f"UMBmark return position errors (absolute - odometry), {res.cw.n} cw and {res.ccw.n} ccw runs", res
+        )
+    )
+    c.print(_legend(LEGEND_RUNS))
     rule = "-" if d["three_sem_mm"] is None else f"{d['three_sem_mm']:.1f} mm"
     c.print(
         f"E_max,syst = [bold]{d['emax_syst_mm']:.1f} mm[/bold]   3 x SEM = {rule}   "
         f"second pass recommended: {'yes' if d['second_pass_recommended'] else 'no'}"
     )
-    corr = a.correction
-    rows = []
-    if corr.alpha is not None:
-        ex = d
-        rows += [
-            ["alpha [deg]", fmt(ex.get("alpha_x_deg"), 4), fmt(ex.get("alpha_y_deg"), 4), fmt(d["alpha_deg"], 4)],
-            ["beta [deg]", fmt(ex.get("beta_x_deg"), 4), fmt(ex.get("beta_y_deg"), 4), fmt(d["beta_deg"], 4)],
-            ["E_d", fmt(ex.get("Ed_x"), 6), fmt(ex.get("Ed_y"), 6), fmt(d["Ed_pass"], 6)],
-            ["E_b", fmt(ex.get("Eb_x"), 6), fmt(ex.get("Eb_y"), 6), fmt(d["Eb"], 6)],
-        ]
-        c.print(
-            table(f"Correction ({corr.method}): from x, from y, used (average)", ["", "from x", "from y", "used"], rows)
-        )
-    out = [
-        ["curvature radius R", "-" if d["radius_mm"] is None else f"{d['radius_mm'] / 1e3:.1f} m"],
-        ["E_d = D_R/D_L", fmt(d["Ed"], 6)],
-        ["E_b", fmt(d["Eb"], 6)],
-        ["c_left", fmt(d["c_left"], 6)],
-        ["c_right", fmt(d["c_right"], 6)],
-        ["wheelbase", f"{a.wheelbase_m * 1e3:.2f} -> {d['wheelbase_corrected_mm']:.2f} mm"],
-    ]
-    for k in ("Ed_ci95", "Eb_ci95", "wheelbase_corrected_mm_ci95"):
-        if d.get(k):
-            out.append([f"{k} (95 %)", f"[{d[k][0]:.6g}, {d[k][1]:.6g}]"])
+    c.print(_legend(LEGEND_EMAX))
+    if a.correction.alpha is not None:
+        angles, from_xy = _angles_table(a, d)
+        c.print(angles)
+        c.print(_legend(LEGEND_ANGLES + (LEGEND_FROM_XY if from_xy else "")))
+    c.print(table("Calibration to load into the odometry", ["", "value"], _calibration_rows(a, d)))
+    c.print(_legend(LEGEND_CALIBRATION))
     if d.get("emax_syst_after_pred_measured_mm") is not None:
-        out.append(
-            [
-                "predicted E_max,syst after (systematic / measured)",
-                f"{d['emax_syst_after_pred_mm']:.1f} / {d['emax_syst_after_pred_measured_mm']:.1f} mm",
-            ]
-        )
-    c.print(table("Calibration to load into the odometry", ["", "value"], out))
+        c.print(_legend(LEGEND_PREDICTED))
     for w in d.get("warnings", []):
         c.print(f"[yellow]warning:[/yellow] {escape(cli_message(w))}")
+    if d["second_pass_recommended"]:
+        why = "E_max,syst is at least 3 x SEM: this calibration should reduce it."
+    else:
+        why = "E_max,syst is below 3 x SEM: what is left is within the scatter of the runs; a calibration may not help."
+    c.print(f"[bold]Next[/bold]: {why}")
+    c.print(
+        f"Load c_left = {fmt(d['c_left'], 6)}, c_right = {fmt(d['c_right'], 6)} and the wheelbase "
+        f"{d['wheelbase_corrected_mm']:.2f} mm into the robot's odometry, drive the test again and "
+        "analyse the new runs with the calibration they ran with:"
+    )
+    c.print(f"  {escape(again)}", soft_wrap=True)
+    c.print("For a ROS 2 diff_drive_controller, save this analysis and export it:")
+    c.print(f"  {escape(export)}", soft_wrap=True)
 
 
 @app.command()
@@ -126,7 +250,7 @@ def _print_analysis(a: Analysis):
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
 @click.option(
     "--noise",
-    type=click.Choice(sorted(NOISE_PRESETS)),
+    type=click.Choice(NOISE_CHOICES),
     default="none",
     show_default=True,
     help="Non-systematic errors: none, or the paper's (sigma about 25 mm on the 4 m square).",
@@ -168,6 +292,11 @@ def simulate(
     Example:
       umbmark simulate --ed 1.002 --eb 0.99 --runs 5 --seed 1 --noise paper --out runs.csv
     """
+    from umbmark.io.runs_csv import write_runs_csv
+    from umbmark.metrics import umbmark
+    from umbmark.model.geometry import LABMATE, ErrorParams, Geometry
+    from umbmark.model.simulate import Motion, simulate_umbmark
+
     geom = Geometry(
         positive("--wheel-diameter-mm", wheel_diameter_mm) * 1e-3,
         positive("--wheelbase-mm", wheelbase_mm) * 1e-3,
@@ -207,7 +336,7 @@ def simulate(
 @click.option("--side-mm", type=float, required=True, help="Side of the square path.")
 @click.option(
     "--method",
-    type=click.Choice(sorted(METHODS)),
+    type=click.Choice(METHOD_CHOICES),
     default="bf",
     show_default=True,
     help="bf: the paper's linearised correction; exact: non-linear fit of the closed-loop model with 95 % intervals.",
@@ -266,6 +395,9 @@ def analyze(
       umbmark analyze runs.csv --wheelbase-mm 340 --side-mm 4000 --json
       umbmark analyze runs.csv --wheelbase-mm 340 --side-mm 4000 --robot r1 --record
     """
+    from umbmark.correct.analysis import analyze as analyze_runs
+    from umbmark.io.runs_csv import read_runs_csv
+
     side_m = positive("--side-mm", side_mm) * 1e-3
     wheelbase_m = positive("--wheelbase-mm", wheelbase_mm) * 1e-3
     options = {}
@@ -291,7 +423,7 @@ def analyze(
             out["history"] = rec
         emit_json(out)
     elif not is_quiet():
-        _print_analysis(a)
+        _print_analysis(a, *_next_commands(a, runs_file, side_mm, method, c_left, c_right, loss, straight_mm))
         if plot_path:
             console().print(f"scatter plot: {plot_path}")
         print_recorded(rec)
@@ -308,7 +440,7 @@ def analyze(
 )
 @click.option("--seed", type=click.IntRange(min=0), default=1, show_default=True)
 @click.option("--runs", "n_runs", type=click.IntRange(min=2), default=5, show_default=True, help="Runs per direction.")
-@click.option("--noise", type=click.Choice(sorted(NOISE_PRESETS)), default="paper", show_default=True)
+@click.option("--noise", type=click.Choice(NOISE_CHOICES), default="paper", show_default=True)
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 def demo(out_dir, seed, n_runs, noise, as_json):
     """The paper's experiment in simulation, end to end.
@@ -323,65 +455,71 @@ def demo(out_dir, seed, n_runs, noise, as_json):
     Example:
       umbmark demo --out results/
     """
-    out = Path(out_dir)
-    if not out.is_dir():
+    from umbmark.studies.demo import demo as run_demo
+
+    if not Path(out_dir).is_dir():
         from umbmark.errors import InputError
 
-        raise InputError(f"output folder {out} does not exist")
+        raise InputError(f"output folder {Path(out_dir)} does not exist")
     with progress("simulating the test before and after calibration"):
-        d = run_demo(n_runs=n_runs, noise=noise, seed=seed)
-    from umbmark.viz.plots import save_figure, scatter_figure
-
-    png = out / "umbmark-demo-scatter.png"
-    before_csv, after_csv = out / "umbmark-demo-before.csv", out / "umbmark-demo-after.csv"
-    write_runs_csv(d.before.runs, before_csv)
-    write_runs_csv(d.after_runs, after_csv)
-    save_figure(
-        scatter_figure(
-            d.before.runs, d.after_runs, title="UMBmark, simulated LabMate (paper's Fig. 11 errors): before and after"
-        ),
-        png,
-    )
-    cal = d.before.correction.calibration
-    summary = {
-        "true_Ed": d.errors.ed,
-        "true_Eb": d.errors.eb,
-        "true_wheelbase_mm": d.errors.eb * d.geometry.wheelbase_m * 1e3,
-        "nominal_wheelbase_mm": d.geometry.wheelbase_m * 1e3,
-        "side_mm": d.side_m * 1e3,
-        "runs_per_direction": n_runs,
-        "noise": noise,
-        "seed": seed,
-        "before": d.before.to_dict(),
-        "after": d.after.to_dict(),
-        "improvement": d.improvement,
-        "files": {"scatter_png": str(png), "before_csv": str(before_csv), "after_csv": str(after_csv)},
-    }
+        result = run_demo(n_runs=n_runs, noise=noise, seed=seed)
+    result = result.save(out_dir)
     if as_json:
-        emit_json(summary)
-        return
-    if is_quiet():
-        return
+        emit_json(result.to_dict())
+    elif not is_quiet():
+        _print_demo(result)
+
+
+def _print_demo(r: DemoResult) -> None:
+    """The human output of ``umbmark demo``: the figures, what each means, and what to do next."""
+    from rich.markup import escape
+
+    d = r.to_dict()
+    before, after = d["before"], d["after"]
+    cal = r.before.correction.calibration
+    side = f"{d['side_mm'] / 1e3:g}"
     c = console()
     c.print(
-        f"[bold]umbmark demo[/bold]: simulated LabMate, true E_d = {d.errors.ed:.5f}, true wheelbase = "
-        f"{summary['true_wheelbase_mm']:.2f} mm (nominal {summary['nominal_wheelbase_mm']:.2f} mm), "
-        f"4 x 4 m square, {n_runs} runs each way, noise '{noise}', seed {seed}"
+        f"[bold]umbmark demo[/bold]: a simulated LabMate with the errors of the paper's Fig. 11 (true E_d = "
+        f"{d['true_Ed']:.5f}, true E_b = {d['true_Eb']:.5f}: wheelbase {d['true_wheelbase_mm']:.2f} mm, nominal "
+        f"{d['nominal_wheelbase_mm']:.2f} mm) drives the {side} x {side} m square {d['runs_per_direction']} times "
+        f"each way, noise '{escape(str(d['noise']))}', seed {d['seed']}. Its odometry is calibrated from these "
+        "runs (the paper's correction) and the test is run again."
     )
-    c.print(_stats_table("Before calibration", d.before.result))
-    c.print(_stats_table("After calibration (correction loaded into the odometry, fresh runs)", d.after))
+    c.print(_stats_table("Before calibration", r.before.result))
+    c.print(_stats_table("After calibration (correction loaded into the odometry, fresh runs)", r.after))
+    c.print(_legend(LEGEND_RUNS))
+    yes_no = lambda v: "yes" if v else "no"  # noqa: E731
     rows = [
-        ["E_max,syst [mm]", fmt(d.before.result.emax_syst * 1e3), fmt(d.after.emax_syst * 1e3)],
-        ["E_d used by odometry", "1.000000", fmt(cal.ed, 6)],
-        ["wheelbase used by odometry [mm]", fmt(d.geometry.wheelbase_m * 1e3, 2), fmt(cal.wheelbase_m * 1e3, 2)],
-        ["c_left / c_right", "1 / 1", f"{cal.c_left:.6f} / {cal.c_right:.6f}"],
+        ["E_max,syst [mm]", fmt(before["emax_syst_mm"]), fmt(after["emax_syst_mm"])],
+        ["3 x SEM [mm]", fmt(before["three_sem_mm"]), fmt(after["three_sem_mm"])],
         [
-            "second pass recommended (3 x SEM rule)",
-            "yes" if d.before.result.second_pass_recommended else "no",
-            "yes" if d.after.second_pass_recommended else "no",
+            "second pass recommended",
+            yes_no(before["second_pass_recommended"]),
+            yes_no(after["second_pass_recommended"]),
         ],
+        ["E_d used by the odometry", "1.000000", fmt(cal.ed, 6)],
+        ["E_b used by the odometry", "1.000000", fmt(before["Eb"], 6)],
+        ["wheelbase used by the odometry [mm]", fmt(d["nominal_wheelbase_mm"], 2), fmt(cal.wheelbase_m * 1e3, 2)],
+        ["c_left / c_right", "1 / 1", f"{fmt(cal.c_left, 6)} / {fmt(cal.c_right, 6)}"],
     ]
     c.print(table("Before / after", ["", "before", "after"], rows))
-    imp = "inf" if math.isinf(d.improvement) else f"{d.improvement:.1f}"
-    c.print(f"improvement: [bold]{imp}-fold[/bold]  (paper, Fig. 11: 317 mm -> 21 mm, 15-fold)")
-    c.print(f"scatter plot: {png}\nruns files: {before_csv}, {after_csv}")
+    c.print(_legend(LEGEND_EMAX))
+    c.print(_legend(LEGEND_DEMO))
+    imp = d["improvement"]
+    imp_text = "inf" if imp == float("inf") else f"{imp:.1f}"
+    c.print(f"improvement: [bold]{imp_text}-fold[/bold]  (paper, Fig. 11: 317 mm -> 21 mm, 15-fold)")
+    files = d["files"]
+    c.print(f"scatter plot: {escape(files['scatter_png'])}", soft_wrap=True)
+    c.print(f"runs files: {escape(files['before_csv'])}, {escape(files['after_csv'])}", soft_wrap=True)
+    c.print("[bold]Next[/bold]: calibrate a real robot the same way:")
+    for line in (
+        "umbmark guide                         how to drive and measure the test",
+        "umbmark analyze RUNS.csv --wheelbase-mm 340 --side-mm 4000 --json > cal.json",
+        "umbmark export cal.json --format ros2 --out params.yaml",
+    ):
+        c.print(f"  {line}", soft_wrap=True)
+    c.print(
+        "The analysis prints c_left, c_right and the wheelbase to load into the odometry; the export writes "
+        "them as ROS 2 diff_drive_controller parameters (or --format ros1, json, firmware)."
+    )

@@ -18,16 +18,19 @@ from __future__ import annotations
 
 import sys
 from contextlib import contextmanager
-
-from rich.console import Console
-from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+from typing import TYPE_CHECKING
 
 from umbmark.cli.app import is_quiet
+
+if TYPE_CHECKING:
+    from rich.console import Console
 
 __all__ = ["progress", "track", "progress_enabled"]
 
 
 def _console() -> Console:
+    from rich.console import Console
+
     return Console(stderr=True)
 
 
@@ -44,6 +47,8 @@ def progress(description: str, total: int | None = None):
     if not progress_enabled(c):
         yield lambda n=1: None
         return
+    from rich.progress import BarColumn, MofNCompleteColumn, Progress, SpinnerColumn, TextColumn, TimeElapsedColumn
+
     cols = [SpinnerColumn(), TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(), TimeElapsedColumn()]
     # rich would send whatever the command prints on stdout meanwhile through the bar's console
     # (stderr): only do that when stdout is the same kind of screen, never into a pipe or file

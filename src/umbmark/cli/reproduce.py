@@ -1,14 +1,23 @@
-"""CLI commands of issue 6 (reproduce the paper). Registers on ``app`` from ``.app``."""
+"""``umbmark reproduce``: the paper's section 5 in simulation. Registers on ``app``."""
 
 from __future__ import annotations
 
 import click
 
-from umbmark.cli.app import app, console, emit_json, fmt, is_quiet, table
+from umbmark.cli.app import (
+    REPRODUCE_TAPE_LAYER_MM,
+    REPRODUCE_VARIATION,
+    app,
+    console,
+    emit_json,
+    fmt,
+    is_quiet,
+    table,
+)
 from umbmark.cli.progress import progress
 from umbmark.cli.scaleout import scale_options
-from umbmark.model.simulate import NOISE_PRESETS
-from umbmark.studies import reproduce as rep
+
+__all__ = ["reproduce_cmd", "DEFAULT_SEEDS"]
 
 DEFAULT_SEEDS = 200
 
@@ -53,14 +62,14 @@ DEFAULT_SEEDS = 200
 @click.option(
     "--tape-thickness-mm",
     type=click.FloatRange(min=0, max=1, max_open=True),
-    default=rep.TAPE_LAYER_M * 1e3,
+    default=REPRODUCE_TAPE_LAYER_MM,
     show_default=True,
     help="Effective thickness of one loop of masking tape (experiments 7 and 8).",
 )
 @click.option(
     "--variation",
     type=click.FloatRange(min=0, max=1),
-    default=rep.ROBOT_VARIATION,
+    default=REPRODUCE_VARIATION,
     show_default=True,
     help="Relative (log-normal) day-to-day variation of the robot's errors in experiments 2-6.",
 )
@@ -109,6 +118,9 @@ def reproduce_cmd(
       umbmark reproduce --json > study.json
       umbmark reproduce --report reproduce-report
     """
+    from umbmark.model.simulate import NOISE_PRESETS
+    from umbmark.studies import reproduce as rep
+
     noise = NOISE_PRESETS["paper"] if quantise else rep.STUDY_NOISE
     cfg = rep.StudyConfig(
         seed=seed,
@@ -147,6 +159,8 @@ def reproduce_cmd(
 
 
 def _command(cfg, seeds, quantise, no_pitfall) -> str:
+    from umbmark.studies import reproduce as rep
+
     parts = ["umbmark reproduce", f"--seed {cfg.seed}", f"--seeds {seeds}"]
     if cfg.n_runs != 5:
         parts.append(f"--runs {cfg.n_runs}")
@@ -164,6 +178,8 @@ def _command(cfg, seeds, quantise, no_pitfall) -> str:
 
 
 def _print(study, d):
+    from umbmark.studies import reproduce as rep
+
     c = console()
     cfg = d["config"]
     rows = []

@@ -7,15 +7,18 @@ from __future__ import annotations
 
 import click
 
+__all__ = ["scale_options"]
+
 
 def scale_options(f):
+    """``--workers N`` and ``--dask ADDRESS`` on a command (see the module docstring)."""
     f = click.option(
         "--dask",
         "dask",
         metavar="ADDRESS",
         default=None,
         help="Run the sweep on a Dask cluster: a scheduler address (tcp://host:8786) or "
-        "'local' (a cluster on this machine). Needs: pip install -e \".[dask]\".",
+        "'local' (a cluster on the local machine). Needs: pip install -e \".[dask]\".",
     )(f)
     f = click.option(
         "--workers",

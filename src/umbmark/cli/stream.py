@@ -4,8 +4,15 @@ from __future__ import annotations
 
 from umbmark.cli.app import console, emit_json, fmt, is_quiet, table
 
+__all__ = ["run_stream"]
+
 
 def run_stream(paths, kw: dict, decimate, poses_out, as_json) -> None:
+    """Replay ``paths`` as one streamed log (:func:`umbmark.realrobot.replay.stream_log`) and print it.
+
+    ``kw``: the replay command's reader options; ``decimate``: keep every N-th pose;
+    ``poses_out``: CSV file for the kept poses; ``as_json``: print one JSON object instead.
+    """
     from umbmark.realrobot.replay import stream_log
 
     opts = {k: v for k, v in kw.items() if k not in ("log_format",)}
