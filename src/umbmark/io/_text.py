@@ -11,8 +11,26 @@ import numpy as np
 
 from umbmark.errors import InputError
 
+__all__ = ["read_text", "csv_rows", "header_columns", "numeric_rows", "check_increasing_time"]
+
 
 def read_text(path) -> str:
+    """The text of a UTF-8 file (a byte-order mark dropped).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    InputError
+        A missing file, a folder, not UTF-8, unreadable.
+    """
     p = Path(path)
     if not p.exists():
         raise InputError("file not found", source=str(path))
@@ -27,9 +45,29 @@ def read_text(path) -> str:
 
 
 def csv_rows(text: str, source: str):
-    """Yield ``(line, cells)`` of the CSV rows of ``text`` that carry data: blank lines and lines
-    whose first cell starts with ``#`` are skipped. ``line`` is the 1-based number of the row's
-    last physical line. Malformed CSV raises an :class:`InputError` naming the line."""
+    """The CSV rows of a text that carry data.
+
+    Blank lines and lines whose first cell starts with ``#`` are skipped.
+
+    Parameters
+    ----------
+    text : str
+        The CSV text.
+    source : str
+        Its name, for error messages.
+
+    Yields
+    ------
+    line : int
+        The 1-based number of the row's last physical line.
+    cells : list of str
+        The row.
+
+    Raises
+    ------
+    InputError
+        Malformed CSV (the line named).
+    """
     reader = csv.reader(io.StringIO(text, newline=None))
     while True:
         try:
@@ -44,16 +82,53 @@ def csv_rows(text: str, source: str):
 
 
 def header_columns(row) -> list[str]:
-    """A header row's column names: stripped, lower case."""
+    """A header row's column names: stripped, lower case.
+
+    Parameters
+    ----------
+    row : list of str
+        The header row.
+
+    Returns
+    -------
+    list of str
+    """
     return [c.strip().lower() for c in row]
 
 
 def numeric_rows(text: str, source: str, ncols: int | None = None, names=None, skip=(), delimiter=","):
-    """Parse CSV lines of numbers into a (K, ncols) array.
+    """Parse lines of numbers into an array.
 
     Blank lines and lines starting with ``#`` are skipped, as are the 1-based line numbers in
-    ``skip`` (e.g. a header). Returns ``(array, line_numbers)``. Every problem raises an
-    :class:`InputError` naming the file and line.
+    ``skip`` (e.g. a header).
+
+    Parameters
+    ----------
+    text : str
+        The text.
+    source : str
+        Its name, for error messages.
+    ncols : int, optional
+        The number of columns (default: the first data line's).
+    names : sequence of str, optional
+        Column names, for error messages.
+    skip : iterable of int
+        Line numbers to skip.
+    delimiter : str
+        The cell separator.
+
+    Returns
+    -------
+    array : numpy.ndarray
+        (K, ncols) numbers.
+    lines : numpy.ndarray
+        The line number of each row.
+
+    Raises
+    ------
+    InputError
+        A wrong number of fields, a cell that is not a finite number, no data rows (file and
+        line named).
     """
     rows, lines = [], []
     skip = set(skip)
@@ -87,7 +162,23 @@ def numeric_rows(text: str, source: str, ncols: int | None = None, names=None, s
     return np.asarray(rows, dtype=float), np.asarray(lines)
 
 
-def check_increasing_time(t, lines, source: str):
+def check_increasing_time(t, lines, source: str) -> None:
+    """Check that sample times increase.
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        The times [s].
+    lines : numpy.ndarray
+        Their line numbers.
+    source : str
+        The file, for error messages.
+
+    Raises
+    ------
+    InputError
+        A time that does not increase (file and line named).
+    """
     bad = np.flatnonzero(np.diff(t) <= 0)
     if bad.size:
         k = int(bad[0]) + 1

@@ -8,8 +8,9 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from umbmark.errors import InputError
+from umbmark.jsonutil import dumps
 
-__all__ = ["atomic_write", "atomic_path"]
+__all__ = ["atomic_write", "atomic_path", "write_json"]
 
 
 def _umask() -> int:
@@ -20,10 +21,26 @@ def _umask() -> int:
 
 @contextmanager
 def atomic_path(path):
-    """Yield a temporary path beside ``path``; it replaces ``path`` only if the block succeeds.
+    """A temporary path beside ``path`` that replaces ``path`` only if the block succeeds.
 
     A symbolic link is written through (its target is replaced, the link stays); a special
-    file that exists (``/dev/stdout``, a named pipe) gets the finished content written into it."""
+    file that exists (``/dev/stdout``, a named pipe) gets the finished content written into it.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write.
+
+    Yields
+    ------
+    Path
+        The temporary file to write to.
+
+    Raises
+    ------
+    InputError
+        No file name, a folder, or a folder that does not exist.
+    """
     if not str(path):
         raise InputError("cannot write '': no file name given")
     path = Path(path)
@@ -70,10 +87,36 @@ def _special(path: Path):
         os.unlink(tmp)
 
 
-def atomic_write(path, text: str | bytes):
-    """Write ``text`` to ``path`` atomically (temporary file + rename)."""
+def atomic_write(path, text: str | bytes) -> None:
+    """Write a file whole or not at all (a temporary file beside it, then renamed over it).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write (see :func:`atomic_path` for links and special files).
+    text : str or bytes
+        The content (text is written as UTF-8).
+
+    Raises
+    ------
+    InputError
+        No file name, a folder, or a folder that does not exist.
+    """
     with atomic_path(path) as tmp:
         if isinstance(text, bytes):
             tmp.write_bytes(text)
         else:
             tmp.write_text(text, encoding="utf-8")
+
+
+def write_json(path, obj) -> None:
+    """Write a JSON document (indented by two spaces, one final newline), atomically.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file to write.
+    obj
+        A JSON-ready object (NaN and infinities are written as null: see :func:`umbmark.jsonutil.dumps`).
+    """
+    atomic_write(path, dumps(obj, indent=2) + "\n")

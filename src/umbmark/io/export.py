@@ -28,12 +28,10 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-import yaml
-
 from umbmark.errors import InputError
 from umbmark.io.atomic import atomic_write
 
-__all__ = ["ExportCalibration", "ros_multipliers", "format_export", "FORMATS", "calibration_from_json"]
+__all__ = ["ExportCalibration", "ros_multipliers", "format_export", "write_export", "FORMATS", "calibration_from_json"]
 
 FORMATS = ("ros2", "ros1", "json", "firmware")
 
@@ -46,11 +44,27 @@ def _pos(name, v, source=None):
 
 @dataclass(frozen=True)
 class ExportCalibration:
-    """Correction relative to the odometry the data were recorded/replayed with.
+    """A correction relative to the odometry the data were recorded or replayed with.
 
-    ``c_left``/``c_right``: factors on each wheel's travel; ``eb``: factor on the wheelbase.
-    Optional absolute nominal values (for ``json`` and ``firmware``): nominal wheel
-    diameters and wheelbase [m], encoder pulses per wheel revolution.
+    Attributes
+    ----------
+    c_left, c_right : float
+        Factors on each wheel's travel.
+    eb : float
+        Factor on the wheelbase.
+    nominal_diameter_left_m, nominal_diameter_right_m, nominal_wheelbase_m : float or None
+        The nominal geometry (for ``json`` and ``firmware``).
+    pulses_per_wheel_rev : float or None
+        Encoder pulses per wheel revolution (for ``firmware``).
+    source : str or None
+        Where the calibration came from.
+    method : str or None
+        The method that computed it.
+
+    Raises
+    ------
+    InputError
+        A factor or size that is not a positive number.
     """
 
     c_left: float
@@ -72,12 +86,30 @@ class ExportCalibration:
 
     @property
     def ed(self) -> float:
+        """E_d = c_R / c_L."""
         return self.c_right / self.c_left
 
 
 def calibration_from_json(path, dataset: str | None = None) -> ExportCalibration:
-    """Read the calibration from the JSON printed by ``umbmark replay --json`` (one data set,
-    pooled, or several with ``dataset`` naming one) or ``umbmark analyze --json``."""
+    """Read a calibration from the JSON of ``umbmark replay --json`` or ``umbmark analyze --json``.
+
+    Parameters
+    ----------
+    path : str or Path
+        The JSON file (one data set, a pooled fit, or several data sets).
+    dataset : str, optional
+        The data set to take from a report of several.
+
+    Returns
+    -------
+    ExportCalibration
+        With the nominal geometry when the JSON has it.
+
+    Raises
+    ------
+    InputError
+        Not such a JSON file; several data sets and no (or an unknown) ``dataset``.
+    """
     src = str(path)
     p = Path(path)
     if not p.is_file():
@@ -132,7 +164,26 @@ def calibration_from_json(path, dataset: str | None = None) -> ExportCalibration
 
 
 def ros_multipliers(cal: ExportCalibration, left0: float = 1.0, right0: float = 1.0, separation0: float = 1.0) -> dict:
-    """The new diff_drive_controller multipliers, composed with those in use (see module)."""
+    """The new diff_drive_controller multipliers, composed with those in use (see the module docstring).
+
+    Parameters
+    ----------
+    cal : ExportCalibration
+        The correction.
+    left0, right0, separation0 : float
+        The multipliers in use when the logs were recorded.
+
+    Returns
+    -------
+    dict
+        ``wheel_separation_multiplier``, ``left_wheel_radius_multiplier``,
+        ``right_wheel_radius_multiplier``.
+
+    Raises
+    ------
+    InputError
+        A multiplier that is not a positive number.
+    """
     for n, v in (("left multiplier", left0), ("right multiplier", right0), ("separation multiplier", separation0)):
         _pos(n, v)
     return {
@@ -161,7 +212,32 @@ def format_export(
     wheel_radius_m: float | None = None,
     wheel_separation_m: float | None = None,
 ) -> str:
-    """The text of the export in format ``fmt`` (one of :data:`FORMATS`)."""
+    """The text of an export.
+
+    Parameters
+    ----------
+    cal : ExportCalibration
+        The correction.
+    fmt : str
+        One of :data:`FORMATS`.
+    controller : str
+        The controller's name (``ros2``, ``ros1``).
+    left0, right0, separation0 : float
+        The multipliers in use when the logs were recorded (``ros2``, ``ros1``).
+    wheel_radius_m, wheel_separation_m : float, optional
+        Also write ``wheel_radius`` / ``wheel_separation`` (``ros2``, ``ros1``).
+
+    Returns
+    -------
+    str
+        The file's text.
+
+    Raises
+    ------
+    InputError
+        An unknown format, a bad controller name, a firmware export without the nominal
+        diameters and pulses per revolution.
+    """
     if fmt not in FORMATS:
         raise InputError(f"unknown export format {fmt!r} (choose from {', '.join(FORMATS)})")
     if fmt in ("ros2", "ros1"):
@@ -177,6 +253,8 @@ def format_export(
             f"# composed with the multipliers in use: left {left0:.6g}, right {right0:.6g}, "
             f"separation {separation0:.6g}\n"
         )
+        import yaml
+
         return _header(cal, "#") + note + yaml.safe_dump(body, sort_keys=False, default_flow_style=False)
     out = {"Ed": cal.ed, "Eb": cal.eb, "c_left": cal.c_left, "c_right": cal.c_right}
     if cal.nominal_diameter_left_m and cal.nominal_diameter_right_m:
@@ -211,4 +289,13 @@ def format_export(
 
 
 def write_export(text: str, path) -> None:
+    """Write an export's text to a file, atomically.
+
+    Parameters
+    ----------
+    text : str
+        What :func:`format_export` gave.
+    path : str or Path
+        The file.
+    """
     atomic_write(path, text)

@@ -53,28 +53,39 @@ def _cell(v: str, col: str, src: str, line: int, allow_empty: bool) -> float:
     return x
 
 
+def _check_ticks(ticks: str) -> None:
+    if ticks not in ("cumulative", "incremental"):
+        raise InputError(f"ticks must be 'cumulative' or 'incremental', got {ticks!r}")
+
+
+def _check_header(header: list[str], src: str, line: int | None) -> list[str]:
+    """The ground-truth columns of a header (none, or x, y and one heading column), after
+    checking it has the required columns."""
+    missing = [c for c in REQUIRED if c not in header]
+    if missing:
+        raise InputError(
+            "header lacks column(s) "
+            + ", ".join(missing)
+            + " (expected time_s,left_ticks,right_ticks[,x_m,y_m,theta_rad|theta_deg][,run])",
+            src,
+            line,
+        )
+    if "theta_rad" in header and "theta_deg" in header:
+        raise InputError("give theta_rad or theta_deg, not both", src, line)
+    gt_cols = [c for c in ("x_m", "y_m", "theta_rad", "theta_deg") if c in header]
+    if gt_cols and len(gt_cols) != 3:
+        raise InputError("ground truth needs x_m, y_m and theta_rad (or theta_deg)", src, line)
+    return gt_cols
+
+
 def _parse(text: str, src: str):
+    """The header and the ``(line, cells)`` data rows of a generic CSV file."""
     header = None
     rows = []
     for line, row in csv_rows(text, src):
         if header is None:
             header = header_columns(row)
-            missing = [c for c in REQUIRED if c not in header]
-            if missing:
-                raise InputError(
-                    "header lacks column(s) "
-                    + ", ".join(missing)
-                    + " (expected time_s,left_ticks,right_ticks[,x_m,y_m,theta_rad|theta_deg][,run])",
-                    src,
-                    line,
-                )
-            if "theta_rad" in header and "theta_deg" in header:
-                raise InputError("give theta_rad or theta_deg, not both", src, line)
-            gt_cols = [c for c in ("x_m", "y_m") if c in header] + [
-                c for c in ("theta_rad", "theta_deg") if c in header
-            ]
-            if gt_cols and len(gt_cols) != 3:
-                raise InputError("ground truth needs x_m, y_m and theta_rad (or theta_deg)", src, line)
+            _check_header(header, src, line)
             continue
         rows.append((line, row))
     if header is None:
@@ -82,6 +93,83 @@ def _parse(text: str, src: str):
     if not rows:
         raise InputError("no data rows after the header", src)
     return header, rows
+
+
+def _group_runs(path, header: list[str], rows, src: str) -> list[tuple[str, list]]:
+    """The rows of each run, in file order: ``(label, [(line, values)])``; values are time,
+    left and right ticks and (when the file has them) x, y, theta of the ground truth."""
+    col = {c: header.index(c) for c in REQUIRED + OPTIONAL if c in header}
+    theta_col = "theta_rad" if "theta_rad" in col else "theta_deg"
+    groups: dict = {}
+    order = []
+    for line, r in rows:
+        need = max(col.values()) + 1
+        if len(r) < need:
+            raise InputError(f"has {len(r)} fields, the header has {len(header)}", src, line)
+        label = r[col["run"]].strip() if "run" in col else Path(path).stem
+        if "run" in col and not label:
+            raise InputError("column run is empty", src, line)
+        if label not in groups:
+            groups[label] = []
+            order.append(label)
+        elif order[-1] != label:
+            raise InputError(f"rows of run {label!r} are not consecutive", src, line)
+        vals = [_cell(r[col[c]], c, src, line, False) for c in REQUIRED]
+        if "x_m" in col:
+            vals += [_cell(r[col[c]], c, src, line, True) for c in ("x_m", "y_m", theta_col)]
+        groups[label].append((line, vals))
+    return [(label, groups[label]) for label in order]
+
+
+def _increments(a: np.ndarray, ticks: str) -> tuple[np.ndarray, np.ndarray]:
+    """Per-sample wheel increments of one run's tick columns (the first sample: 0)."""
+    if ticks == "cumulative":
+        return np.diff(a[:, 1], prepend=a[0, 1]), np.diff(a[:, 2], prepend=a[0, 2])
+    dl, dr = a[:, 1].copy(), a[:, 2].copy()
+    dl[0] = dr[0] = 0.0
+    return dl, dr
+
+
+def _ground_truth(g3: np.ndarray, lines: np.ndarray, degrees: bool, src: str):
+    """``(gt, gt_end)`` of one run from its x, y, theta columns (NaN: empty cells): a track in
+    the start frame, or only a measured end pose (the last row alone), or neither."""
+    g3 = g3.copy()
+    if degrees:
+        g3[:, 2] = np.radians(g3[:, 2])
+    partial = np.isfinite(g3).any(axis=1) & ~np.isfinite(g3).all(axis=1)
+    if partial.any():
+        k = int(np.flatnonzero(partial)[0])
+        raise InputError("ground truth x_m, y_m, theta must be all given or all empty", src, int(lines[k]))
+    ok = np.isfinite(g3[:, 0])
+    if ok.sum() == 1 and ok[-1]:
+        return None, g3[-1]
+    if not ok.any():
+        return None, None
+    if not ok[0]:
+        raise InputError("the ground truth must start at the first row of a run (its start pose)", src, int(lines[0]))
+    th = g3[:, 2].copy()
+    th[ok] = np.unwrap(th[ok])
+    x, y, t = to_start_frame(g3[ok, 0], g3[ok, 1], th[ok])
+    gt = np.full_like(g3, np.nan)
+    gt[ok] = np.column_stack([x, y, t])
+    return gt, None
+
+
+def _batch_run(label: str, rows: list, src: str, where: str, ticks: str, degrees: bool) -> Run:
+    """One run from its ``(line, values)`` rows (see :func:`_group_runs`)."""
+    lines = np.array([ln for ln, _ in rows])
+    a = np.array([v for _, v in rows], dtype=float)
+    if len(a) < 2:
+        raise InputError("a run needs at least two rows", where, int(lines[0]))
+    bad = np.flatnonzero(np.diff(a[:, 0]) <= 0)
+    if bad.size:
+        k = int(bad[0]) + 1
+        raise InputError(f"time {a[k, 0]:g} s does not increase (previous row: {a[k - 1, 0]:g} s)", src, int(lines[k]))
+    dl, dr = _increments(a, ticks)
+    gt = gt_end = None
+    if a.shape[1] > 3:
+        gt, gt_end = _ground_truth(a[:, 3:6], lines, degrees, src)
+    return Run(label, a[:, 0] - a[0, 0], dl, dr, gt, gt_end, where)
 
 
 def read_generic_csv(
@@ -92,78 +180,44 @@ def read_generic_csv(
     side_m: float | None = None,
     name: str | None = None,
 ) -> Dataset:
-    """Read one or more generic CSV files into a :class:`~umbmark.model.dataset.Dataset`."""
-    if ticks not in ("cumulative", "incremental"):
-        raise InputError(f"ticks must be 'cumulative' or 'incremental', got {ticks!r}")
+    """Read one or more generic CSV logs into a data set.
+
+    Parameters
+    ----------
+    paths : str, Path or sequence of them
+        The files (each one run, or several runs told apart by a ``run`` column).
+    nominal : WheelGeometry
+        The nominal geometry the logs were recorded with.
+    pulses_per_wheel_rev : float
+        Encoder pulses per wheel revolution.
+    ticks : str
+        ``cumulative`` (a running counter) or ``incremental`` (pulses counted in each sample).
+    side_m : float, optional
+        The side of the square: the runs are UMBmark squares.
+    name : str, optional
+        The data set's name (default: the file's name, or the folder's for several files).
+
+    Returns
+    -------
+    Dataset
+
+    Raises
+    ------
+    InputError
+        A missing or unreadable file, or bad content (file and line named).
+    """
+    _check_ticks(ticks)
     if isinstance(paths, (str, Path)):
         paths = [paths]
     runs = []
     for path in paths:
         src = str(path)
         header, rows = _parse(read_text(path), src)
-        col = {c: header.index(c) for c in REQUIRED + OPTIONAL if c in header}
-        has_gt = "x_m" in col
-        theta_col = "theta_rad" if "theta_rad" in col else "theta_deg"
-        groups: dict = {}
-        order = []
-        for line, r in rows:
-            need = max(col.values()) + 1
-            if len(r) < need:
-                raise InputError(f"has {len(r)} fields, the header has {len(header)}", src, line)
-            label = r[col["run"]].strip() if "run" in col else Path(path).stem
-            if "run" in col and not label:
-                raise InputError("column run is empty", src, line)
-            if label not in groups:
-                groups[label] = []
-                order.append(label)
-            elif order[-1] != label:
-                raise InputError(f"rows of run {label!r} are not consecutive", src, line)
-            vals = [_cell(r[col[c]], c, src, line, False) for c in REQUIRED]
-            if has_gt:
-                vals += [_cell(r[col[c]], c, src, line, True) for c in ("x_m", "y_m", theta_col)]
-            groups[label].append((line, vals))
-        for label in order:
-            g = groups[label]
-            lines = np.array([ln for ln, _ in g])
-            a = np.array([v for _, v in g], dtype=float)
-            where = f"{src} (run {label})" if "run" in col else src
-            if len(a) < 2:
-                raise InputError("a run needs at least two rows", where, int(lines[0]))
-            bad = np.flatnonzero(np.diff(a[:, 0]) <= 0)
-            if bad.size:
-                k = int(bad[0]) + 1
-                raise InputError(
-                    f"time {a[k, 0]:g} s does not increase (previous row: {a[k - 1, 0]:g} s)", src, int(lines[k])
-                )
-            if ticks == "cumulative":
-                dl = np.diff(a[:, 1], prepend=a[0, 1])
-                dr = np.diff(a[:, 2], prepend=a[0, 2])
-            else:
-                dl, dr = a[:, 1].copy(), a[:, 2].copy()
-                dl[0] = dr[0] = 0.0
-            gt = gt_end = None
-            if has_gt:
-                g3 = a[:, 3:6].copy()
-                if theta_col == "theta_deg":
-                    g3[:, 2] = np.radians(g3[:, 2])
-                partial = np.isfinite(g3).any(axis=1) & ~np.isfinite(g3).all(axis=1)
-                if partial.any():
-                    k = int(np.flatnonzero(partial)[0])
-                    raise InputError("ground truth x_m, y_m, theta must be all given or all empty", src, int(lines[k]))
-                ok = np.isfinite(g3[:, 0])
-                if ok.sum() == 1 and ok[-1]:
-                    gt_end = g3[-1]
-                elif ok.any():
-                    if not ok[0]:
-                        raise InputError(
-                            "the ground truth must start at the first row of a run (its start pose)", src, int(lines[0])
-                        )
-                    th = g3[:, 2].copy()
-                    th[ok] = np.unwrap(th[ok])
-                    x, y, t = to_start_frame(g3[ok, 0], g3[ok, 1], th[ok])
-                    gt = np.full_like(g3, np.nan)
-                    gt[ok] = np.column_stack([x, y, t])
-            runs.append(Run(label, a[:, 0] - a[0, 0], dl, dr, gt, gt_end, where))
+        with_runs = "run" in header
+        degrees = "theta_rad" not in header
+        for label, group in _group_runs(path, header, rows, src):
+            where = f"{src} (run {label})" if with_runs else src
+            runs.append(_batch_run(label, group, src, where, ticks, degrees))
     if not runs:
         raise InputError("no runs")
     if name is None:
@@ -174,8 +228,21 @@ def read_generic_csv(
 
 
 def format_generic_csv(ds: Dataset) -> str:
-    """Write a data set as the generic CSV (one file, ``run`` column, cumulative ticks; ground
-    truth in each run's start frame)."""
+    """A data set as one generic CSV file.
+
+    A ``run`` column, cumulative ticks, the ground truth in each run's start frame; a first
+    comment line records the nominal geometry (the reader does not use it).
+
+    Parameters
+    ----------
+    ds : Dataset
+        The data set.
+
+    Returns
+    -------
+    str
+        The file's text.
+    """
     out = io.StringIO()
     w = csv.writer(out, lineterminator="\n")
     w.writerow(
@@ -208,9 +275,20 @@ def format_generic_csv(ds: Dataset) -> str:
 
 @dataclass
 class CsvChunk:
-    """Consecutive rows of a streamed generic CSV run: times [s] from the run start, wheel
-    increments (log units; row 0 of the run has 0), ground truth (K, 3) in the run's start frame
-    (NaN rows: none) or None when the file has no ground-truth columns, and the line numbers."""
+    """Consecutive rows of a streamed generic CSV run.
+
+    Attributes
+    ----------
+    t : numpy.ndarray
+        Times [s] from the run's start.
+    d_left, d_right : numpy.ndarray
+        Wheel increments in log units (the run's first row: 0).
+    gt : numpy.ndarray or None
+        Ground truth (K, 3) in the run's start frame (NaN rows: none), or None when the file
+        has no ground-truth columns.
+    lines : numpy.ndarray
+        The rows' line numbers.
+    """
 
     t: np.ndarray
     d_left: np.ndarray
@@ -240,17 +318,140 @@ def _data_lines(f, src):
         raise InputError("empty file: no header", src)
 
 
-def iter_generic_csv(path, ticks: str = "cumulative", chunk_rows: int = 1 << 16):
-    """Read ONE run of a generic CSV log in chunks of ``chunk_rows`` rows (bounded memory:
-    only the current chunk is held). Yields :class:`CsvChunk` objects; the same checks and
-    conventions as :func:`read_generic_csv` (errors name the file and line). A ``run`` column
-    may be present but must hold one label. Only the ground-truth layouts "a track from the
-    first row on" and "only the last row: a measured end pose in the start frame" are read.
-    """
-    if ticks not in ("cumulative", "incremental"):
-        raise InputError(f"ticks must be 'cumulative' or 'incremental', got {ticks!r}")
-    if chunk_rows < 1:
-        raise InputError(f"chunk rows must be >= 1, got {chunk_rows}")
+class _StreamedRun:
+    """One run read chunk by chunk: what a chunk needs of the rows before it (the last time and
+    counters, the ground truth's start pose and last heading)."""
+
+    def __init__(self, header: list[str], src: str, ticks: str):
+        gt_cols = _check_header(header, src, None)
+        self.src, self.ticks, self.header = src, ticks, header
+        self.has_gt = bool(gt_cols)
+        self.use = list(REQUIRED) + gt_cols
+        self.idx = [header.index(c) for c in self.use]
+        self.run_col = header.index("run") if "run" in header else None
+        self.need = max(self.idx + ([self.run_col] if self.run_col is not None else [])) + 1
+        self.label = None  # the run column's label
+        self.rows = 0
+        self.t0 = self.t = self.left = self.right = None  # first time; last time and counters
+        self.origin = None  # x, y, cos, sin, theta of the first ground-truth pose
+        self.theta = None  # the last unwrapped ground-truth heading
+        self.end_only = None  # only the last row may hold a (start-frame) end pose
+        self.pending = None  # the line of such an end pose seen in an earlier chunk
+
+    def parse(self, block) -> np.ndarray:
+        """The used columns of ``(line, text)`` rows as numbers (empty ground truth: NaN)."""
+        if self.run_col is None:  # fast path: numpy's C parser; any doubt -> the checking parser below
+            try:
+                vals = np.loadtxt(
+                    io.StringIO("\n".join(text for _, text in block)),
+                    delimiter=",",
+                    usecols=self.idx,
+                    ndmin=2,
+                    dtype=float,
+                    comments=None,
+                )
+                if vals.shape == (len(block), len(self.use)) and np.all(np.isfinite(vals)):
+                    return vals
+            except ValueError:
+                pass
+        src = self.src
+        vals = np.empty((len(block), len(self.use)))
+        for j, (ln, text) in enumerate(block):
+            r = next(csv.reader([text]))
+            if len(r) < self.need:
+                raise InputError(f"has {len(r)} fields, the header has {len(self.header)}", src, ln)
+            if self.run_col is not None:
+                self._check_label(r[self.run_col].strip(), ln)
+            for c, (name, k) in enumerate(zip(self.use, self.idx)):
+                vals[j, c] = _cell(r[k], name, src, ln, c >= 3)
+        return vals
+
+    def _check_label(self, label: str, ln: int) -> None:
+        if not label:
+            raise InputError("column run is empty", self.src, ln)
+        if self.label is None:
+            self.label = label
+        elif label != self.label:
+            raise InputError(
+                f"streaming reads one run per file; run {label!r} follows run {self.label!r}", self.src, ln
+            )
+
+    def _wheels(self, a: np.ndarray, ln: np.ndarray, first: bool):
+        t, cl, cr = a[:, 0], a[:, 1], a[:, 2]
+        prev_t = np.concatenate([[self.t if self.t is not None else -np.inf], t[:-1]])
+        bad = np.flatnonzero(t <= prev_t)
+        if bad.size:
+            k = int(bad[0])
+            raise InputError(f"time {t[k]:g} s does not increase (previous row: {prev_t[k]:g} s)", self.src, int(ln[k]))
+        if first:
+            self.t0 = t[0]
+        if self.ticks == "cumulative":
+            dl = np.diff(cl, prepend=cl[0] if first else self.left)
+            dr = np.diff(cr, prepend=cr[0] if first else self.right)
+        else:
+            dl, dr = cl.copy(), cr.copy()
+            if first:
+                dl[0] = dr[0] = 0.0
+        self.t, self.left, self.right = t[-1], cl[-1], cr[-1]
+        return t, dl, dr
+
+    def _truth(self, a: np.ndarray, ln: np.ndarray, first: bool) -> np.ndarray:
+        src = self.src
+        g = a[:, 3:6].copy()
+        if "theta_deg" in self.use:
+            g[:, 2] = np.radians(g[:, 2])
+        fin = np.isfinite(g)
+        partial = fin.any(axis=1) & ~fin.all(axis=1)
+        if partial.any():
+            k = int(np.flatnonzero(partial)[0])
+            raise InputError("ground truth x_m, y_m, theta must be all given or all empty", src, int(ln[k]))
+        ok = fin[:, 0]
+        if first:
+            self.end_only = not ok[0]
+            if ok[0]:
+                x0, y0, th0 = g[0]
+                self.origin = (x0, y0, math.cos(th0), math.sin(th0), th0)
+                self.theta = th0
+        if self.end_only:
+            if self.pending is not None:
+                raise InputError(
+                    "the ground truth must start at the first row of a run (its start pose)", src, int(self.pending)
+                )
+            hits = np.flatnonzero(ok)
+            if hits.size > 1 or (hits.size == 1 and hits[0] != len(g) - 1):
+                raise InputError(
+                    "the ground truth must start at the first row of a run (its start pose)", src, int(ln[hits[0]])
+                )
+            self.pending = int(ln[hits[0]]) if hits.size else None
+            return g
+        x0, y0, c, s, th0 = self.origin
+        th = g[:, 2].copy()
+        if ok.any():  # unwrap across chunks, from the last heading seen
+            tt = np.unwrap(np.concatenate([[self.theta], th[ok]]))
+            th[ok] = tt[1:]
+            self.theta = tt[-1]
+        dx, dy = g[:, 0] - x0, g[:, 1] - y0
+        return np.column_stack([c * dx + s * dy, -s * dx + c * dy, th - th0])
+
+    def chunk(self, block) -> CsvChunk:
+        """The next chunk of the run from its ``(line, text)`` rows."""
+        a = self.parse(block)
+        ln = np.array([b[0] for b in block])
+        first = self.rows == 0
+        t, dl, dr = self._wheels(a, ln, first)
+        gt = self._truth(a, ln, first) if self.has_gt else None
+        self.rows += len(block)
+        return CsvChunk(t - self.t0, dl, dr, gt, ln)
+
+    def finish(self) -> None:
+        """Check the run, once every row was read."""
+        if self.rows == 0:
+            raise InputError("no data rows after the header", self.src)
+        if self.rows < 2:
+            raise InputError("a run needs at least two rows", self.src)
+
+
+def _open_text(path):
     src = str(path)
     p = Path(path)
     if not p.exists():
@@ -258,10 +459,42 @@ def iter_generic_csv(path, ticks: str = "cumulative", chunk_rows: int = 1 << 16)
     if p.is_dir():
         raise InputError("is a folder, not a file", source=src)
     try:
-        f = open(p, encoding="utf-8-sig", newline="")
+        return open(p, encoding="utf-8-sig", newline="")
     except OSError as e:
         raise InputError(f"cannot read: {e.strerror}", source=src) from None
-    with f:
+
+
+def iter_generic_csv(path, ticks: str = "cumulative", chunk_rows: int = 1 << 16):
+    """Read ONE run of a generic CSV log in chunks (bounded memory: only the current chunk is held).
+
+    The same checks and conventions as :func:`read_generic_csv`. A ``run`` column may be
+    present but must hold one label. Only the ground-truth layouts "a track from the first row
+    on" and "only the last row: a measured end pose in the start frame" are read.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    ticks : str
+        ``cumulative`` or ``incremental``.
+    chunk_rows : int
+        Rows per chunk.
+
+    Yields
+    ------
+    CsvChunk
+        Consecutive rows of the run.
+
+    Raises
+    ------
+    InputError
+        A missing or unreadable file, or bad content (file and line named).
+    """
+    _check_ticks(ticks)
+    if chunk_rows < 1:
+        raise InputError(f"chunk rows must be >= 1, got {chunk_rows}")
+    src = str(path)
+    with _open_text(path) as f:
         lines = _data_lines(f, src)
         try:
             _, header = next(lines)
@@ -269,152 +502,16 @@ def iter_generic_csv(path, ticks: str = "cumulative", chunk_rows: int = 1 << 16)
             raise InputError("empty file: no header", src) from None
         except UnicodeDecodeError:
             raise InputError("not a text (UTF-8) file", source=src) from None
-        missing = [c for c in REQUIRED if c not in header]
-        if missing:
-            raise InputError(
-                "header lacks column(s) "
-                + ", ".join(missing)
-                + " (expected time_s,left_ticks,right_ticks[,x_m,y_m,theta_rad|theta_deg][,run])",
-                src,
-            )
-        if "theta_rad" in header and "theta_deg" in header:
-            raise InputError("give theta_rad or theta_deg, not both", src)
-        gt_cols = [c for c in ("x_m", "y_m", "theta_rad", "theta_deg") if c in header]
-        if gt_cols and len(gt_cols) != 3:
-            raise InputError("ground truth needs x_m, y_m and theta_rad (or theta_deg)", src)
-        has_gt = bool(gt_cols)
-        use = list(REQUIRED) + gt_cols
-        idx = [header.index(c) for c in use]
-        run_col = header.index("run") if "run" in header else None
-        need = max(idx + ([run_col] if run_col is not None else [])) + 1
-        state = {
-            "label": None,
-            "t": None,
-            "l": None,
-            "r": None,
-            "origin": None,
-            "theta": None,
-            "end_only": None,
-            "rows": 0,
-        }
+        run = _StreamedRun(header, src, ticks)
         buf = []
-
-        def parse(block):
-            if run_col is None:  # fast path: numpy's C parser; any doubt -> the checking parser below
-                try:
-                    vals = np.loadtxt(
-                        io.StringIO("\n".join(text for _, text in block)),
-                        delimiter=",",
-                        usecols=idx,
-                        ndmin=2,
-                        dtype=float,
-                        comments=None,
-                    )
-                    if vals.shape == (len(block), len(use)) and np.all(np.isfinite(vals)):
-                        return vals
-                except ValueError:
-                    pass
-            vals = np.empty((len(block), len(use)))
-            for j, (ln, text) in enumerate(block):
-                r = next(csv.reader([text]))
-                if len(r) < need:
-                    raise InputError(f"has {len(r)} fields, the header has {len(header)}", src, ln)
-                if run_col is not None:
-                    label = r[run_col].strip()
-                    if not label:
-                        raise InputError("column run is empty", src, ln)
-                    if state["label"] is None:
-                        state["label"] = label
-                    elif label != state["label"]:
-                        raise InputError(
-                            f"streaming reads one run per file; run {label!r} follows run {state['label']!r}", src, ln
-                        )
-                for c, (name, k) in enumerate(zip(use, idx)):
-                    vals[j, c] = _cell(r[k], name, src, ln, c >= 3)
-            return vals
-
-        def emit(block):
-            a = parse(block)
-            ln = np.array([b[0] for b in block])
-            t, cl, cr = a[:, 0], a[:, 1], a[:, 2]
-            prev_t = (
-                np.concatenate([[state["t"]], t[:-1]])
-                if state["t"] is not None
-                else np.concatenate([[-np.inf], t[:-1]])
-            )
-            bad = np.flatnonzero(t <= prev_t)
-            if bad.size:
-                k = int(bad[0])
-                raise InputError(f"time {t[k]:g} s does not increase (previous row: {prev_t[k]:g} s)", src, int(ln[k]))
-            first = state["rows"] == 0
-            if first:
-                state["t0"] = t[0]
-            if ticks == "cumulative":
-                dl = np.diff(cl, prepend=cl[0] if first else state["l"])
-                dr = np.diff(cr, prepend=cr[0] if first else state["r"])
-            else:
-                dl, dr = cl.copy(), cr.copy()
-                if first:
-                    dl[0] = dr[0] = 0.0
-            state["t"], state["l"], state["r"] = t[-1], cl[-1], cr[-1]
-            gt = None
-            if has_gt:
-                g = a[:, 3:6].copy()
-                if "theta_deg" in use:
-                    g[:, 2] = np.radians(g[:, 2])
-                fin = np.isfinite(g)
-                partial = fin.any(axis=1) & ~fin.all(axis=1)
-                if partial.any():
-                    k = int(np.flatnonzero(partial)[0])
-                    raise InputError("ground truth x_m, y_m, theta must be all given or all empty", src, int(ln[k]))
-                ok = fin[:, 0]
-                if first:
-                    state["end_only"] = not ok[0]
-                    if ok[0]:
-                        x0, y0, th0 = g[0]
-                        state["origin"] = (x0, y0, math.cos(th0), math.sin(th0), th0)
-                        state["theta"] = th0
-                if state["end_only"]:
-                    # only the run's last row may hold a (start-frame) end pose
-                    if state.get("pending") is not None:
-                        raise InputError(
-                            "the ground truth must start at the first row of a run (its start pose)",
-                            src,
-                            int(state["pending"]),
-                        )
-                    hits = np.flatnonzero(ok)
-                    if hits.size > 1 or (hits.size == 1 and hits[0] != len(g) - 1):
-                        raise InputError(
-                            "the ground truth must start at the first row of a run (its start pose)",
-                            src,
-                            int(ln[hits[0]]),
-                        )
-                    state["pending"] = int(ln[hits[0]]) if hits.size else None
-                    gt = g
-                else:
-                    x0, y0, c, s, th0 = state["origin"]
-                    th = g[:, 2].copy()
-                    if ok.any():  # unwrap across chunks, from the last heading seen
-                        tt = np.concatenate([[state["theta"]], th[ok]])
-                        tt = np.unwrap(tt)
-                        th[ok] = tt[1:]
-                        state["theta"] = tt[-1]
-                    dx, dy = g[:, 0] - x0, g[:, 1] - y0
-                    gt = np.column_stack([c * dx + s * dy, -s * dx + c * dy, th - th0])
-            state["rows"] += len(block)
-            return CsvChunk(t - state["t0"], dl, dr, gt, ln)
-
         try:
             for ln, text in lines:
                 buf.append((ln, text))
                 if len(buf) >= chunk_rows:
-                    yield emit(buf)
+                    yield run.chunk(buf)
                     buf = []
         except UnicodeDecodeError:
             raise InputError("not a text (UTF-8) file", source=src) from None
         if buf:
-            yield emit(buf)
-        if state["rows"] == 0:
-            raise InputError("no data rows after the header", src)
-        if state["rows"] < 2:
-            raise InputError("a run needs at least two rows", src)
+            yield run.chunk(buf)
+        run.finish()

@@ -26,12 +26,22 @@ from umbmark.errors import InputError
 from umbmark.io._text import check_increasing_time, numeric_rows, read_text
 from umbmark.model.dataset import Dataset, Run, WheelGeometry, to_start_frame
 
-__all__ = ["read_optiodom", "read_metadata", "is_optiodom"]
+__all__ = ["read_optiodom", "read_metadata", "read_run_file", "is_optiodom", "COLUMNS"]
 
 COLUMNS = ("time", "x_gt", "y_gt", "theta_gt", "ticks_right", "ticks_left")
 
 
 def is_optiodom(path) -> bool:
+    """Whether ``path`` is an optiodom data-set folder (it holds a ``*_metadata.csv`` file).
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    bool
+    """
     p = Path(path)
     return p.is_dir() and any(p.glob("*_metadata.csv"))
 
@@ -49,7 +59,23 @@ def _metadata_file(folder: Path) -> Path:
 
 
 def read_metadata(path) -> dict:
-    """The metadata rows as ``{key: (line, [values])}`` (empty cells dropped)."""
+    """Read the metadata file of a data set.
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``ID_metadata.csv`` file.
+
+    Returns
+    -------
+    dict
+        ``{key: (line, [values])}`` of every row (empty cells dropped).
+
+    Raises
+    ------
+    InputError
+        A missing or unreadable file.
+    """
     text = read_text(path)
     meta = {}
     for i, raw in enumerate(text.splitlines(), 1):
@@ -85,7 +111,24 @@ def _num(meta: dict, key: str, source: str, count: int = 1, required: bool = Tru
 
 
 def read_optiodom(folder) -> Dataset:
-    """Read one optiodom data-set folder into a :class:`~umbmark.model.dataset.Dataset`."""
+    """Read one optiodom data-set folder (see the module docstring).
+
+    Parameters
+    ----------
+    folder : str or Path
+        The data set's folder.
+
+    Returns
+    -------
+    Dataset
+        Square data sets (a side ``L``) with the declared directions: the first half of the
+        runs cw, the second half ccw.
+
+    Raises
+    ------
+    InputError
+        Not such a folder, bad metadata, a missing or bad run file (file and line named).
+    """
     folder = Path(folder)
     if not folder.exists():
         raise InputError("folder not found", source=str(folder))
@@ -132,7 +175,23 @@ def read_optiodom(folder) -> Dataset:
 
 
 def read_run_file(path) -> Run:
-    """One ``ID_run-NN.csv`` file."""
+    """Read one run file of a data set.
+
+    Parameters
+    ----------
+    path : str or Path
+        An ``ID_run-NN.csv`` file.
+
+    Returns
+    -------
+    Run
+        Named ``run-NN``, the ground truth in the start frame.
+
+    Raises
+    ------
+    InputError
+        Bad content (file and line named).
+    """
     src = str(path)
     a, lines = numeric_rows(read_text(path), src, ncols=6, names=COLUMNS)
     if len(a) < 2:

@@ -39,6 +39,17 @@ _GT_TYPES = ("PoseStamped", "Odometry", "TFMessage", "PoseWithCovarianceStamped"
 
 
 def is_bag(path) -> bool:
+    """Whether ``path`` is a bag: a ``.bag``, ``.mcap`` or ``.db3`` file, or a folder with a
+    ROS 2 ``metadata.yaml``.
+
+    Parameters
+    ----------
+    path : str or Path
+
+    Returns
+    -------
+    bool
+    """
     p = Path(path)
     if p.is_file():
         return p.suffix in (".bag", ".mcap", ".db3")
@@ -68,7 +79,24 @@ def _open(path):
 
 
 def bag_info(path) -> dict:
-    """Topics, types, message counts and duration of a bag."""
+    """The topics, types, message counts and duration of a bag.
+
+    Parameters
+    ----------
+    path : str or Path
+        The bag.
+
+    Returns
+    -------
+    dict
+        ``bag``, ``duration_s``, ``messages`` and ``topics`` (each ``topic``, ``type``,
+        ``messages``), as ``umbmark bag-info --json`` prints it.
+
+    Raises
+    ------
+    InputError
+        Not a readable bag, or the ``rosbags`` package missing.
+    """
     reader = _open(path)
     try:
         topics = {}
@@ -132,98 +160,70 @@ def _topic_conns(reader, topic, source, what):
     return conns
 
 
-def read_bag(
-    path,
-    *,
-    nominal: WheelGeometry,
-    joints=None,
-    joint_topic: str = "/joint_states",
-    ticks_topic: str | None = None,
-    left_field: str | None = None,
-    right_field: str | None = None,
-    ticks: str = "cumulative",
-    units_per_rev: float | None = None,
-    gt_topic: str | None = None,
-    gt_frame: str | None = None,
-    gt_parent: str | None = None,
-    ranges=None,
-    stops: bool = False,
-    stop_s: float = 1.0,
-    side_m: float | None = None,
-    name: str | None = None,
-) -> Dataset:
-    """Read one bag into a :class:`~umbmark.model.dataset.Dataset` (see the module docstring)."""
-    src = str(path)
-    if (joints is None) == (ticks_topic is None):
-        raise InputError("give either the wheel joint names (JointState) or a ticks topic with its fields", src)
-    if ticks not in ("cumulative", "incremental"):
-        raise InputError(f"ticks must be 'cumulative' or 'incremental', got {ticks!r}", src)
-    reader = _open(path)
-    try:
-        if joints is not None:
-            left, right = joints
-            conns = _topic_conns(reader, joint_topic, src, "wheel joints")
-            t, pl, pr = [], [], []
-            for c, ns, raw in reader.messages(connections=conns):
-                msg = reader.deserialize(raw, c.msgtype)
-                names = list(getattr(msg, "name", []))
-                if left in names and right in names:
-                    pos = msg.position
-                    t.append(_stamp(msg, ns))
-                    pl.append(float(pos[names.index(left)]))
-                    pr.append(float(pos[names.index(right)]))
-            if not t:
-                raise InputError(
-                    f"no JointState message on {joint_topic} names both joints {left!r} and {right!r}", src
-                )
-            cumulative = True
-            upr = 2.0 * math.pi
-        else:
-            if not left_field or not right_field:
-                raise InputError("a ticks topic needs `left_field` and `right_field`", src)
-            if units_per_rev is None:
-                raise InputError("encoder ticks need the pulses per wheel revolution", src)
-            conns = _topic_conns(reader, ticks_topic, src, "encoder ticks")
-            t, pl, pr = [], [], []
-            for c, ns, raw in reader.messages(connections=conns):
-                msg = reader.deserialize(raw, c.msgtype)
-                t.append(_stamp(msg, ns))
-                pl.append(_field(msg, left_field, src))
-                pr.append(_field(msg, right_field, src))
-            cumulative = ticks == "cumulative"
-            upr = float(units_per_rev)
-        gt = None
-        if gt_topic is not None:
-            gconns = _topic_conns(reader, gt_topic, src, "ground truth")
-            gtype = gconns[0].msgtype.split("/")[-1]
-            if gtype not in _GT_TYPES:
-                raise InputError(
-                    f"ground-truth topic {gt_topic} has type {gconns[0].msgtype}; expected PoseStamped, "
-                    "Odometry or TFMessage",
-                    src,
-                )
-            if gtype == "TFMessage" and not gt_frame:
-                raise InputError("ground truth from /tf needs the tracked frame (`gt_frame`)", src)
-            gt = []
-            for c, ns, raw in reader.messages(connections=gconns):
-                msg = reader.deserialize(raw, c.msgtype)
-                if gtype == "TFMessage":
-                    for tr in msg.transforms:
-                        if tr.child_frame_id.lstrip("/") != gt_frame.lstrip("/"):
-                            continue
-                        if gt_parent and tr.header.frame_id.lstrip("/") != gt_parent.lstrip("/"):
-                            continue
-                        p, q = tr.transform.translation, tr.transform.rotation
-                        gt.append((_stamp(tr, ns), p.x, p.y, _yaw(q)))
-                else:
-                    pose = msg.pose.pose if gtype in ("Odometry", "PoseWithCovarianceStamped") else msg.pose
-                    gt.append((_stamp(msg, ns), pose.position.x, pose.position.y, _yaw(pose.orientation)))
-            if not gt:
-                frame = f" for frame {gt_frame!r}" if gt_frame else ""
-                raise InputError(f"no ground-truth poses on {gt_topic}{frame}", src)
-    finally:
-        reader.close()
+def _read_joints(reader, joints, joint_topic: str, src: str):
+    """Times and positions [rad] of the two wheel joints in JointState messages."""
+    left, right = joints
+    conns = _topic_conns(reader, joint_topic, src, "wheel joints")
+    t, pl, pr = [], [], []
+    for c, ns, raw in reader.messages(connections=conns):
+        msg = reader.deserialize(raw, c.msgtype)
+        names = list(getattr(msg, "name", []))
+        if left in names and right in names:
+            pos = msg.position
+            t.append(_stamp(msg, ns))
+            pl.append(float(pos[names.index(left)]))
+            pr.append(float(pos[names.index(right)]))
+    if not t:
+        raise InputError(f"no JointState message on {joint_topic} names both joints {left!r} and {right!r}", src)
+    return t, pl, pr
 
+
+def _read_ticks(reader, ticks_topic: str, left_field, right_field, src: str):
+    """Times and counts of the two wheels' encoders in the messages of ``ticks_topic``."""
+    conns = _topic_conns(reader, ticks_topic, src, "encoder ticks")
+    t, pl, pr = [], [], []
+    for c, ns, raw in reader.messages(connections=conns):
+        msg = reader.deserialize(raw, c.msgtype)
+        t.append(_stamp(msg, ns))
+        pl.append(_field(msg, left_field, src))
+        pr.append(_field(msg, right_field, src))
+    return t, pl, pr
+
+
+def _read_truth(reader, gt_topic: str, gt_frame, gt_parent, src: str) -> list[tuple[float, float, float, float]]:
+    """``(time, x, y, yaw)`` of every ground-truth pose on ``gt_topic``."""
+    gconns = _topic_conns(reader, gt_topic, src, "ground truth")
+    gtype = gconns[0].msgtype.split("/")[-1]
+    if gtype not in _GT_TYPES:
+        raise InputError(
+            f"ground-truth topic {gt_topic} has type {gconns[0].msgtype}; expected PoseStamped, Odometry or TFMessage",
+            src,
+        )
+    if gtype == "TFMessage" and not gt_frame:
+        raise InputError("ground truth from /tf needs the tracked frame (`gt_frame`)", src)
+    gt = []
+    for c, ns, raw in reader.messages(connections=gconns):
+        msg = reader.deserialize(raw, c.msgtype)
+        if gtype == "TFMessage":
+            for tr in msg.transforms:
+                if tr.child_frame_id.lstrip("/") != gt_frame.lstrip("/"):
+                    continue
+                if gt_parent and tr.header.frame_id.lstrip("/") != gt_parent.lstrip("/"):
+                    continue
+                p, q = tr.transform.translation, tr.transform.rotation
+                gt.append((_stamp(tr, ns), p.x, p.y, _yaw(q)))
+        else:
+            pose = msg.pose.pose if gtype in ("Odometry", "PoseWithCovarianceStamped") else msg.pose
+            gt.append((_stamp(msg, ns), pose.position.x, pose.position.y, _yaw(pose.orientation)))
+    if not gt:
+        frame = f" for frame {gt_frame!r}" if gt_frame else ""
+        raise InputError(f"no ground-truth poses on {gt_topic}{frame}", src)
+    return gt
+
+
+def _whole_run(t, pl, pr, cumulative: bool, gt, src: str) -> Run:
+    """The bag as one run: wheel samples in time order (repeated times dropped), increments,
+    and the ground truth interpolated to the wheel samples (the run limited to its span)."""
     t = np.asarray(t)
     order = np.argsort(t, kind="stable")
     t, pl, pr = t[order], np.asarray(pl)[order], np.asarray(pr)[order]
@@ -253,7 +253,11 @@ def read_bag(
         gtk = np.column_stack(
             [np.interp(t, g[:, 0], g[:, 1]), np.interp(t, g[:, 0], g[:, 2]), np.interp(t, g[:, 0], th)]
         )
-    whole = Run("bag", t - t[0], dl, dr, gtk, None, src)
+    return Run("bag", t - t[0], dl, dr, gtk, None, src)
+
+
+def _cut_runs(whole: Run, ranges, stops: bool, stop_s: float, units_per_rev: float, src: str) -> list[Run]:
+    """The runs of the bag: cut at time ranges, or at stops, or the whole bag."""
     if ranges:
         runs = []
         for n, (a, b) in enumerate(ranges, 1):
@@ -261,10 +265,97 @@ def read_bag(
             if idx.size < 2:
                 raise InputError(f"time range {a:g}-{b:g} s holds fewer than two wheel samples", src)
             runs.append(whole.slice(int(idx[0]), int(idx[-1]) + 1, name=f"range-{n}"))
-    elif stops:
-        runs = split_at_stops(whole, upr, stop_s=stop_s)
+        return runs
+    if stops:
+        runs = split_at_stops(whole, units_per_rev, stop_s=stop_s)
         if not runs:
             raise InputError("no motion found to split at stops", src)
-    else:
-        runs = [whole.slice(0, len(whole), name="run-01")]
+        return runs
+    return [whole.slice(0, len(whole), name="run-01")]
+
+
+def read_bag(
+    path,
+    *,
+    nominal: WheelGeometry,
+    joints=None,
+    joint_topic: str = "/joint_states",
+    ticks_topic: str | None = None,
+    left_field: str | None = None,
+    right_field: str | None = None,
+    ticks: str = "cumulative",
+    units_per_rev: float | None = None,
+    gt_topic: str | None = None,
+    gt_frame: str | None = None,
+    gt_parent: str | None = None,
+    ranges=None,
+    stops: bool = False,
+    stop_s: float = 1.0,
+    side_m: float | None = None,
+    name: str | None = None,
+) -> Dataset:
+    """Read one bag into a data set (see the module docstring).
+
+    Parameters
+    ----------
+    path : str or Path
+        A ROS 1 ``.bag``, a ROS 2 bag folder, or its ``.db3`` / ``.mcap`` file.
+    nominal : WheelGeometry
+        The nominal geometry the robot ran with.
+    joints : (str, str), optional
+        The left and right wheel joints of ``sensor_msgs/JointState`` messages; or:
+    ticks_topic, left_field, right_field : str, optional
+        A topic of encoder counts and the fields of the left and right count.
+    joint_topic : str
+        The JointState topic.
+    ticks : str
+        ``cumulative`` or ``incremental`` counts.
+    units_per_rev : float, optional
+        Encoder pulses per wheel revolution (needed with ``ticks_topic``).
+    gt_topic : str, optional
+        The ground-truth topic (PoseStamped, Odometry or /tf).
+    gt_frame, gt_parent : str, optional
+        For /tf: the tracked child frame and (optionally) its parent.
+    ranges : list of (float, float), optional
+        Cut runs at these times (seconds from the first wheel sample).
+    stops : bool
+        Cut runs where both wheels stand still for ``stop_s`` seconds.
+    stop_s : float
+        The stillness that ends a run.
+    side_m : float, optional
+        The side of the square: the runs are UMBmark squares.
+    name : str, optional
+        The data set's name (default: the bag's).
+
+    Returns
+    -------
+    Dataset
+
+    Raises
+    ------
+    InputError
+        Unreadable bags, missing topics, joints or fields, and bad content.
+    """
+    src = str(path)
+    if (joints is None) == (ticks_topic is None):
+        raise InputError("give either the wheel joint names (JointState) or a ticks topic with its fields", src)
+    if ticks not in ("cumulative", "incremental"):
+        raise InputError(f"ticks must be 'cumulative' or 'incremental', got {ticks!r}", src)
+    reader = _open(path)
+    try:
+        if joints is not None:
+            t, pl, pr = _read_joints(reader, joints, joint_topic, src)
+            cumulative, upr = True, 2.0 * math.pi
+        else:
+            if not left_field or not right_field:
+                raise InputError("a ticks topic needs `left_field` and `right_field`", src)
+            if units_per_rev is None:
+                raise InputError("encoder ticks need the pulses per wheel revolution", src)
+            t, pl, pr = _read_ticks(reader, ticks_topic, left_field, right_field, src)
+            cumulative, upr = ticks == "cumulative", float(units_per_rev)
+        gt = None if gt_topic is None else _read_truth(reader, gt_topic, gt_frame, gt_parent, src)
+    finally:
+        reader.close()
+    whole = _whole_run(t, pl, pr, cumulative, gt, src)
+    runs = _cut_runs(whole, ranges, stops, stop_s, upr, src)
     return Dataset(name or Path(path).stem, nominal, upr, tuple(runs), side_m, src, meta={"format": "bag"})

@@ -28,7 +28,23 @@ _NUMERIC = ("x_abs", "y_abs", "x_odo", "y_odo", "theta_abs", "theta_odo")
 
 
 def read_runs_csv(path) -> RunsTable:
-    """Read a runs file (mm, deg) into a :class:`RunsTable` (m, rad)."""
+    """Read a runs file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file (mm, deg).
+
+    Returns
+    -------
+    RunsTable
+        In metres and radians.
+
+    Raises
+    ------
+    InputError
+        A missing or unreadable file, or bad content (file and line named).
+    """
     text = read_text(path)
     return parse_runs_csv(text, source=str(path))
 
@@ -58,6 +74,26 @@ _MAX_MM = 1e7  # positions (mm) of a square run: anything beyond 10 km is a unit
 
 
 def parse_runs_csv(text: str, source: str = "<runs>") -> RunsTable:
+    """Parse the text of a runs file (see the module docstring).
+
+    Parameters
+    ----------
+    text : str
+        The file's content (mm, deg).
+    source : str
+        Its name, for error messages.
+
+    Returns
+    -------
+    RunsTable
+        In metres and radians.
+
+    Raises
+    ------
+    InputError
+        A missing column, a bad cell, a position beyond 10 km or a heading beyond 360 deg, no
+        runs in a direction (file and line named).
+    """
     rows = []
     header = None
     header_line = None
@@ -125,6 +161,19 @@ def parse_runs_csv(text: str, source: str = "<runs>") -> RunsTable:
 
 
 def format_runs_csv(runs: RunsTable) -> str:
+    """The text of a runs file (mm, deg; micrometre and micro-degree resolution).
+
+    Parameters
+    ----------
+    runs : RunsTable
+        The runs.
+
+    Returns
+    -------
+    str
+        The header ``run, direction, x_abs, y_abs, x_odo, y_odo`` (and ``theta_abs,
+        theta_odo`` when both headings are known) and one line per run.
+    """
     out = io.StringIO()
     w = csv.writer(out, lineterminator="\n")
     has_theta = runs.theta_abs is not None and runs.theta_odo is not None
@@ -149,5 +198,13 @@ def format_runs_csv(runs: RunsTable) -> str:
 
 
 def write_runs_csv(runs: RunsTable, path) -> None:
-    """Write a runs file (mm, deg), atomically."""
+    """Write a runs file (mm, deg), atomically.
+
+    Parameters
+    ----------
+    runs : RunsTable
+        The runs.
+    path : str or Path
+        The file.
+    """
     atomic_write(path, format_runs_csv(runs))
