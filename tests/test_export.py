@@ -52,9 +52,9 @@ def test_ros_multipliers_reproduce_corrected_odometry(tmp_path, multipliers):
     nominal = WheelGeometry(2 * r * m_l0, 2 * r * m_r0, s * m_b0)
     al, ar, pose = simlogs.simulate_wheels(simlogs.general_program())
     ds = Dataset("sim", nominal, 2 * math.pi, (Run("run-01", np.arange(len(al)) * 0.02, al, ar, pose),))
-    rep = replay_report(ds, "lsq", heldout=False)
+    rep = replay_report(ds, "lsq", heldout=False).to_dict()
     f = tmp_path / "cal.json"
-    f.write_text(json.dumps(rep, default=float))
+    f.write_text(json.dumps(rep))
     cal = calibration_from_json(f)
     new = ros_multipliers(cal, m_l0, m_r0, m_b0)
     pos_l, pos_r = np.cumsum(al), np.cumsum(ar)

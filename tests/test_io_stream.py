@@ -37,7 +37,10 @@ def test_stream_equals_batch_for_any_chunking(tmp_path_factory, chunk_rows, whol
     f, batch = _one_run_csv(tmp_path_factory.mktemp("s"), whole_pulses=whole)
     ev = evaluate(batch, batch.nominal)
     x, y, th, _ = replay(batch, batch.nominal)
-    s = stream_replay(iter_generic_csv(f, chunk_rows=chunk_rows), batch.nominal, batch.units_per_rev, decimate=decimate)
+    rep = stream_replay(
+        iter_generic_csv(f, chunk_rows=chunk_rows), batch.nominal, batch.units_per_rev, decimate=decimate
+    )
+    s, ev = rep.to_dict(), ev.to_dict()
     assert s["samples"] == len(batch.runs[0])
     assert s["chunks"] == -(-s["samples"] // chunk_rows)
     assert s["end_pose"]["x_mm"] == pytest.approx(x[0, -1] * 1e3, abs=1e-6)
@@ -46,12 +49,13 @@ def test_stream_equals_batch_for_any_chunking(tmp_path_factory, chunk_rows, whol
     assert s["end_position_error_mm"] == pytest.approx(ev["end_position_rms_mm"], rel=1e-9)
     assert abs(s["end_heading_error_deg"]) == pytest.approx(ev["end_heading_rms_deg"], rel=1e-9)
     assert s["path_position_rms_mm"] == pytest.approx(ev["path_position_rms_mm"], rel=1e-9)
-    k = s["kept"]
-    assert np.array_equal(k["sample"], np.arange(decimate - 1, s["samples"], decimate))
-    assert np.allclose(k["x_m"], x[0, k["sample"]], atol=1e-9) and np.allclose(
-        k["theta_rad"], th[0, k["sample"]], atol=1e-12
-    )
-    assert np.allclose(k["t_s"], batch.runs[0].t[k["sample"]])
+    k = rep.kept
+    assert s["kept_poses"] == len(k) and s["decimate"] == decimate
+    assert np.array_equal(k.sample, np.arange(decimate - 1, s["samples"], decimate))
+    assert np.allclose(k.x_m, x[0, k.sample], atol=1e-9) and np.allclose(k.theta_rad, th[0, k.sample], atol=1e-12)
+    assert np.allclose(k.t_s, batch.runs[0].t[k.sample])
+    # the SI fields are what the JSON reports
+    assert rep.end_pose[0] * 1e3 == s["end_pose"]["x_mm"] and rep.path_position_rms_m * 1e3 == s["path_position_rms_mm"]
 
 
 def test_end_pose_only_and_incremental_ticks(tmp_path):
@@ -64,9 +68,9 @@ def test_end_pose_only_and_incremental_ticks(tmp_path):
     f.write_text("\n".join(rows) + "\n")
     nom = WheelGeometry(0.1, 0.1, 0.3)
     batch = read_generic_csv(f, nom, 1000.0, ticks="incremental")
-    ev = evaluate(batch, nom)
+    ev = evaluate(batch, nom).to_dict()
     for chunk in (1, 17, 1000):
-        s = stream_replay(iter_generic_csv(f, ticks="incremental", chunk_rows=chunk), nom, 1000.0)
+        s = stream_replay(iter_generic_csv(f, ticks="incremental", chunk_rows=chunk), nom, 1000.0).to_dict()
         assert s["end_truth"] == pytest.approx({"x_mm": 1500.0, "y_mm": 200.0, "theta_deg": 10.0})
         assert s["end_position_error_mm"] == pytest.approx(ev["end_position_rms_mm"], rel=1e-9)
         assert s["path_position_rms_mm"] is None

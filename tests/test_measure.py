@@ -56,7 +56,8 @@ def test_recovers_simulator_true_poses(noise, errors):
         )
         for i in range(len(runs))
     ]
-    got, m = measure_runs(MARKS, rows, resolution_mm=1.0, side_wall="auto")
+    res = measure_runs(MARKS, rows, resolution_m=1e-3, side_wall="auto")
+    got, m = res.runs, res.measurement
     np.testing.assert_allclose(got.x_abs, runs.x_abs, atol=1e-9)
     np.testing.assert_allclose(got.y_abs, runs.y_abs, atol=1e-9)
     np.testing.assert_allclose(got.theta_abs, runs.theta_abs, atol=1e-9)
@@ -70,9 +71,9 @@ def test_rounded_tape_readings_stay_within_the_propagated_bound():
     m = measure_runs(
         MARKS,
         [MeasuredRun(str(i), str(runs.direction[i]), tuple(np.round(d[i] * 1e3)), 0.0, 0.0) for i in range(len(runs))],
-        resolution_mm=1.0,
+        resolution_m=1e-3,
         side_wall="auto",
-    )[1]
+    ).measurement
     for got, true, bound in (
         (m.x, runs.x_abs, m.x_bound),
         (m.y, runs.y_abs, m.y_bound),
@@ -193,7 +194,8 @@ def test_guide_example_rows_measure_to_the_simulated_pose():
     text = guide_text()
     lines = [ln.strip() for ln in text.splitlines() if ln.strip().startswith(("run,direction", "1,cw", "1,ccw"))]
     rows = parse_distances_csv("\n".join(lines))
-    runs, m = measure_runs(MARKS, rows, side_wall="auto")
+    res = measure_runs(MARKS, rows, side_wall="auto")
+    runs, m = res.runs, res.measurement
     truth = simulate_umbmark(FIG11_ERRORS, n_runs=1, noise="paper", seed=4)
     assert np.all(np.abs(runs.x_abs - truth.x_abs) <= m.x_bound + 1e-9)
     assert np.all(np.abs(runs.y_abs - truth.y_abs) <= m.y_bound + 1e-9)
@@ -225,7 +227,8 @@ def test_example_distances_file_is_what_the_simulator_gives(repo_root):
     text, truth = _example_rows()
     path = repo_root / "data" / "examples" / "distances.csv"
     assert path.read_text() == text
-    runs, m = measure_runs(MARKS, parse_distances_csv(text), side_wall="auto")
+    res = measure_runs(MARKS, parse_distances_csv(text), side_wall="auto")
+    runs, m = res.runs, res.measurement
     # odometry typed to 0.1 mm, distances to 1 mm: within the tape bound (+0.1 mm)
     assert np.all(np.abs(runs.x_abs - truth.x_abs) <= m.x_bound + 1e-9)
     assert np.all(np.abs(runs.y_abs - truth.y_abs) <= m.y_bound + 1e-9)
@@ -304,10 +307,11 @@ def test_format_measured_csv_reads_back():
         MeasuredRun(str(i), str(runs.direction[i]), tuple(d[i] * 1e3), runs.x_odo[i] * 1e3, runs.y_odo[i] * 1e3)
         for i in range(4)
     ]
-    got, m = measure_runs(MARKS, rows, side_wall="auto")
+    res = measure_runs(MARKS, rows, side_wall="auto")
+    got = res.runs
     from umbmark.io.runs_csv import parse_runs_csv
 
-    back = parse_runs_csv(format_measured_csv(got, m))
+    back = parse_runs_csv(format_measured_csv(got, res.measurement))
     np.testing.assert_allclose(back.x_abs, got.x_abs, atol=1e-6)
     assert back.theta_odo is None and back.theta_abs is not None
 

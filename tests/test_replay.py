@@ -43,10 +43,10 @@ def test_directions_detected_from_total_turn():
 def test_simulated_square_bf_and_lsq():
     ds = simlogs.dataset(simlogs.squares(2), side_m=2.0)
     true = simlogs.true_geometry()
-    bf = replay_report(ds, "bf")
+    bf = replay_report(ds, "bf").to_dict()
     assert bf["after"]["emax_syst_mm"] < bf["before"]["emax_syst_mm"] / 20
     assert bf["Ed"] == pytest.approx(true.ed, abs=2e-4)  # linearised: close, not exact
-    lsq = replay_report(ds, "lsq")
+    lsq = replay_report(ds, "lsq").to_dict()
     assert lsq["Ed"] == pytest.approx(true.ed, abs=1e-6)
     assert lsq["wheelbase_corrected_mm"] == pytest.approx(true.wheelbase_m * 1e3, rel=1e-6)
     assert lsq["after"]["emax_syst_mm"] < 1e-3
@@ -58,7 +58,7 @@ def square_reports():
     out = {}
     for d in sorted(glob.glob(str(simlogs_data() / "square/*"))):
         ds = read_optiodom(d)
-        out[ds.name] = (ds, replay_report(ds, "bf"))
+        out[ds.name] = (ds, replay_report(ds, "bf").to_dict())
     return out
 
 
@@ -114,7 +114,7 @@ def _is_number(v):
 @pytest.mark.parametrize("method", ["bf", "exact", "lsq"])
 @pytest.mark.parametrize("dataset", PINNED_SETS)
 def test_pinned_cli_json(optiodom, capsys, dataset, method):
-    """The pinned interface of issue 3, for every method on one set per side length."""
+    """The pinned JSON interface of replay, for every method on one set per side length."""
     assert main(["replay", str(optiodom / dataset), "--format", "optiodom", "--method", method, "--json"]) == 0
     d = json.loads(capsys.readouterr().out)
     for k in PINNED_NUMBERS:
@@ -160,7 +160,7 @@ from hypothesis import given, settings  # noqa: E402
 from hypothesis import strategies as st  # noqa: E402
 
 from umbmark.model.dataset import to_start_frame, wheel_travel_from_poses  # noqa: E402
-from umbmark.model.geometry import integrate  # noqa: E402
+from umbmark.studies.reference import integrate  # noqa: E402  (the per-sample oracle)
 
 _travel = st.lists(st.tuples(st.floats(-0.05, 0.05), st.floats(-0.05, 0.05)), min_size=1, max_size=40)
 
@@ -203,7 +203,7 @@ def test_replay_records_into_history(tmp_path, capsys):
     assert "replay" in json.dumps(hist) and "201.4" in json.dumps(hist)
 
 
-# --- the fast odometry path (issue 5) ----------------------------------------------------------
+# --- the fast odometry path ----------------------------------------------------------
 
 
 def _numbers(a, b, path=""):
@@ -229,18 +229,18 @@ def test_fast_kernels_give_the_same_report(monkeypatch, method):
     import umbmark.model.dataset as logs
 
     ds = read_optiodom(simlogs_data() / PINNED)
-    slow = replay_report(ds, method)
+    slow = replay_report(ds, method).to_dict()
     monkeypatch.setattr(logs, "FAST_MIN_SAMPLES", 0)
-    fast = replay_report(ds, method)
+    fast = replay_report(ds, method).to_dict()
     worst = max(abs(x - y) / max(abs(x), 1e-3) for _, x, y in _numbers(slow, fast))
     assert worst < 1e-6
 
 
 @settings(max_examples=25, deadline=None)
 @given(st.integers(1, 3), st.integers(2, 400), st.booleans(), st.integers(0, 2**32 - 1))
-def test_replay_increments_dispatch_matches_kinematics(rows, k, integral, seed):
+def test_replay_increments_dispatch_matches_the_oracle(rows, k, integral, seed):
     """Above FAST_MIN_SAMPLES the fast kernels (table kernel for whole-number increments, float
-    kernel otherwise) give the poses of kinematics.integrate."""
+    kernel otherwise) give the poses of the per-sample oracle."""
     import umbmark.model.dataset as logs
     from umbmark.model.geometry import OdometryParams
 
@@ -250,7 +250,8 @@ def test_replay_increments_dispatch_matches_kinematics(rows, k, integral, seed):
     if not integral:
         dl += rng.uniform(-0.5, 0.5, dl.shape)
     p = OdometryParams(1.1e-4, 0.9e-4, 0.21)
-    ref = integrate(dl * p.left_m_per_pulse, dr * p.right_m_per_pulse, p.wheelbase_m)
+    per_row = [integrate(a, c, p.wheelbase_m) for a, c in zip(dl * p.left_m_per_pulse, dr * p.right_m_per_pulse)]
+    ref = [np.array(v) for v in zip(*per_row)]  # x, y, theta, each (rows, k)
     old = logs.FAST_MIN_SAMPLES
     try:
         logs.FAST_MIN_SAMPLES = 0
@@ -261,3 +262,51 @@ def test_replay_increments_dispatch_matches_kinematics(rows, k, integral, seed):
     for r, g, e in zip(ref, got, end):
         assert np.allclose(g, r, rtol=0, atol=1e-10)
         assert np.allclose(e, r[..., -1], rtol=0, atol=1e-10)
+
+
+# --- the library's results: SI dataclasses whose to_dict() is the JSON ---------------------------
+
+
+def test_replay_method_choices_are_the_librarys():
+    from umbmark.cli.real import REPLAY_METHOD_CHOICES
+    from umbmark.realrobot.replay import method_names
+
+    assert list(REPLAY_METHOD_CHOICES) == method_names()
+
+
+def test_report_fields_are_si_and_to_dict_is_the_json(square_reports):
+    ds = read_optiodom(simlogs_data() / PINNED)
+    rep = replay_report(ds, "bf")
+    d = rep.to_dict()
+    assert d == square_reports[ds.name][1]
+    assert rep.before.emax_syst_m * 1e3 == d["before"]["emax_syst_mm"]
+    assert rep.after.end_heading_rms_rad is not None
+    assert math.degrees(rep.after.end_heading_rms_rad) == d["after"]["end_heading_rms_deg"]
+    assert rep.calibration.geometry.wheelbase_m * 1e3 == d["wheelbase_corrected_mm"]
+    assert rep.calibration.c_left == d["c_left"] and rep.calibration.ed == d["Ed"] and rep.calibration.eb == d["Eb"]
+    assert rep.improvement == d["improvement"] > 5
+    assert [r.direction for r in rep.runs] == [r["direction"] for r in d["runs"]]
+    jk = rep.heldout.jackknife_std
+    assert jk is not None and jk.wheelbase_m * 1e3 == pytest.approx(d["heldout"]["jackknife_std"]["wheelbase_mm"])
+    assert rep.heldout.emax_syst_m * 1e3 == d["heldout"]["emax_syst_mm"]
+
+
+def test_history_fields_of_single_several_and_pooled_reports(optiodom):
+    from umbmark.realrobot.replay import history_fields, pooled_report
+
+    paths = [optiodom / "free" / "030120210006", optiodom / "free" / "020120212354"]
+    sets = [read_optiodom(p) for p in paths]
+    pooled = pooled_report(sets, {"points_per_run": 20}, heldout=False)
+    fields = history_fields(pooled, paths, file_hash=lambda p: f"hash of {Path(p).name}")
+    assert [f["inputs"]["dataset"] for f in fields] == [s.name for s in sets]
+    assert [f["input_sha256"] for f in fields] == [f"hash of {p.name}" for p in paths]
+    assert [f["source"] for f in fields] == [str(p.resolve()) for p in paths]
+    for f in fields:  # the pooled geometry is each data set's recommendation
+        assert f["method"] == "lsq" and f["kind"] == "replay"
+        assert f["parameters"]["wheelbase_mm"] == pooled.calibration.geometry.wheelbase_m * 1e3
+        assert f["parameters"]["Ed"] == pooled.calibration.ed
+    one = replay_report(sets[0], "lsq", {"points_per_run": 20}, heldout=False)
+    [f] = history_fields(one, paths[:1])
+    assert f["input_sha256"] is None and f["results"]["dataset"] == sets[0].name
+    assert f["parameters_in_use"] == one.to_dict()["nominal"]
+    assert history_fields(one.to_dict(), paths[:1]) == [f]

@@ -1,31 +1,24 @@
 """``umbmark history``, ``umbmark report``, ``umbmark guide``, ``umbmark measure``, and the
 ``--robot NAME`` / ``--record`` / ``--db PATH`` options any command can attach.
 
-Attaching the history options to another command (e.g. ``replay`` or ``calibrate``)::
+Attaching the history options to another command::
 
-    from umbmark.cli.history import history_options, record_if_requested
+    from umbmark.cli.history import history_options, print_recorded, record_if_requested
 
     @app.command()
     ...
     @history_options                      # adds robot, record, db keyword arguments
-    def replay(..., robot, record, db):
+    def mycommand(..., robot=None, record=False, db=None):
         ...
-        rec = record_if_requested(robot, record, db, kind="replay", method=..., results=result_dict,
-                                  parameters={"c_left": .., "c_right": .., "wheelbase_mm": .., "Ed": .., "Eb": ..},
-                                  input_sha256=file_sha256(bag), source=bag)
-        # or, with a Analysis:  record_if_requested(robot, record, db, analysis=a, kind="replay",
-        #                                                     source=bag, prior=prior)
-        if as_json: emit_json({..., "history": rec})   # rec is None or {"record_id", "robot", "db"}
+        rec = record_if_requested(robot, record, db, **fields)   # the fields of a library result
+        # or, with an Analysis:  record_if_requested(robot, record, db, analysis=a, kind="analyze",
+        #                                            source=runs_file, prior=prior)
+        if as_json: emit_json({**result.to_dict(), "history": rec})   # rec: None or {"record_id", "robot", "db"}
+        else: print_recorded(rec)
 
-A command that prints a replay-style JSON report (``replay``) records it in one line, one
-record per data set with the log's SHA-256::
-
-    @history_options
-    def replay(paths, method, ..., robot=None, record=False, db=None, **kw):
-        ...
-        rep = replay_report(...)
-        rec = record_report_if_requested(robot, record, db, rep, paths, kind="replay", method=method)
-        if as_json: rep = {**rep, "history": rec} ... else: print_recorded(rec)
+A replay report (``umbmark replay``) is recorded with :func:`record_report_if_requested`: one
+record per data set, with the SHA-256 of its log file or folder
+(:func:`umbmark.realrobot.replay.history_fields`).
 
 ``--record`` without ``--robot`` is a usage error raised before the command body runs.
 """
@@ -38,7 +31,6 @@ import sys
 from pathlib import Path
 
 import click
-from rich.markup import escape
 
 from umbmark.cli.app import app, console, emit_json, fmt, is_quiet, positive, prior_options, table
 from umbmark.errors import InputError
@@ -48,8 +40,18 @@ __all__ = ["history_options", "record_if_requested", "record_report_if_requested
 
 # -- the options other commands attach --------------------------------------------------------------
 def history_options(f):
-    """Add ``--robot NAME``, ``--record`` and ``--db PATH`` (keyword arguments ``robot``,
-    ``record``, ``db``) to a click command."""
+    """Add ``--robot NAME``, ``--record`` and ``--db PATH`` to a click command.
+
+    Parameters
+    ----------
+    f : callable
+        The command function; it receives the keyword arguments ``robot``, ``record`` and ``db``.
+
+    Returns
+    -------
+    callable
+        The decorated command (``--record`` without ``--robot`` is a usage error).
+    """
 
     @functools.wraps(f)
     def wrapper(*args, **kwargs):
@@ -75,9 +77,25 @@ def history_options(f):
 def record_if_requested(
     robot, record, db, *, analysis=None, kind: str = "analyze", source=None, prior=None, note=None, **fields
 ) -> dict | None:
-    """Record when ``--record`` was given: a :class:`Analysis` (``analysis=``) or the
-    raw fields of :func:`umbmark.history.record_result`. Returns ``{"record_id", "robot", "db"}``
-    or None. Prints one line unless ``--quiet``/JSON (call :func:`print_recorded`)."""
+    """Record a result in the robot's history when ``--record`` was given.
+
+    Parameters
+    ----------
+    robot, record, db
+        The values of ``--robot``, ``--record`` and ``--db``.
+    analysis : Analysis, optional
+        Record this analysis (:func:`umbmark.history.record_analysis`, with ``kind``,
+        ``source``, ``prior`` and ``note``).
+    **fields
+        Otherwise: the keyword arguments of :func:`umbmark.history.record_result` (as a library
+        result's history fields give them).
+
+    Returns
+    -------
+    dict or None
+        ``{"record_id", "robot", "db"}``, or None without ``--record``. Nothing is printed (see
+        :func:`print_recorded`).
+    """
     if not record:
         return None
     from umbmark.history import display_db, record_analysis, record_result, resolve_db
@@ -91,60 +109,52 @@ def record_if_requested(
 
 
 def record_report_if_requested(
-    robot, record, db, rep: dict, paths, *, kind: str = "replay", method: str | None = None
+    robot, record, db, rep, paths, *, kind: str = "replay", method: str | None = None
 ) -> list[dict] | None:
-    """Record a ``replay``-style JSON report (``umbmark replay --json``): one record per data
-    set (``rep["datasets"]``, or ``rep["per_dataset"]`` of a pooled fit, or ``rep`` itself), each
-    with the SHA-256 of its log file or folder and its path. Parameters: ``Ed``, ``Eb``,
-    ``c_left``, ``c_right``, ``wheelbase_corrected_mm``; E_max,syst: ``before.emax_syst_mm`` (the
-    odometry as it ran). Returns the list of ``{"record_id", "robot", "db"}`` or None."""
+    """Record a replay report when ``--record`` was given: one record per data set.
+
+    Parameters
+    ----------
+    robot, record, db
+        The values of ``--robot``, ``--record`` and ``--db``.
+    rep : ReplayReport, MultiReplayReport, PooledReport or dict
+        The report, or its JSON (``umbmark replay --json``).
+    paths : sequence of str or Path
+        The logs the report was made from (each hashed with SHA-256).
+    kind, method : str
+        The records' kind and method (default method: the report's).
+
+    Returns
+    -------
+    list of dict or None
+        ``{"record_id", "robot", "db"}`` per record, or None without ``--record``.
+    """
     if not record:
         return None
     from umbmark.history import file_sha256
+    from umbmark.realrobot.replay import history_fields
 
-    paths = [str(p) for p in (paths if isinstance(paths, (list, tuple)) else [paths])]
-    if "datasets" in rep:
-        parts = list(rep["datasets"])
-    else:
-        parts = [rep]
-    out = []
-    for i, part in enumerate(parts):
-        src = part.get("source") or part.get("dataset") or (paths[i] if i < len(paths) else None)
-        src_path = next((p for p in paths if src and (p == src or Path(p).name == Path(str(src)).name)), src)
-        sha = file_sha256(src_path) if src_path and Path(src_path).exists() else None
-        params = {k: part.get(k, rep.get(k)) for k in ("Ed", "Eb", "c_left", "c_right")}
-        params["wheelbase_mm"] = part.get("wheelbase_corrected_mm", rep.get("wheelbase_corrected_mm"))
-        results = dict(part)
-        before = part.get("before") if isinstance(part.get("before"), dict) else {}
-        results["emax_syst_mm"] = before.get("emax_syst_mm")
-        nominal = part.get("nominal", rep.get("nominal"))
-        out.append(
-            record_if_requested(
-                robot,
-                True,
-                db,
-                kind=kind,
-                method=str(method or part.get("method") or rep.get("method") or "?"),
-                results=results,
-                parameters=params,
-                input_sha256=sha,
-                source=None
-                if src_path is None
-                else str(Path(src_path).resolve() if Path(src_path).exists() else src_path),
-                parameters_in_use=nominal if isinstance(nominal, dict) else None,
-                inputs={"paths": paths, "dataset": src},
-            )
-        )
-    return out
+    return [
+        record_if_requested(robot, True, db, **fields)
+        for fields in history_fields(rep, paths, kind=kind, method=method, file_hash=file_sha256)
+    ]
 
 
 def print_recorded(rec) -> None:
-    """One line per record (``rec``: a dict, a list of dicts, or None), unless ``--quiet``."""
+    """Print one line per record unless ``--quiet``.
+
+    Parameters
+    ----------
+    rec : dict, list of dict or None
+        What :func:`record_if_requested` or :func:`record_report_if_requested` returned.
+    """
     if isinstance(rec, list):
         for r in rec:
             print_recorded(r)
         return
     if rec and not is_quiet():
+        from rich.markup import escape
+
         console().print(escape(f"recorded as #{rec['record_id']} in the history of {rec['robot']} ({rec['db']})"))
 
 
@@ -226,9 +236,8 @@ def history_cmd(robot, db, plot_path, export_path, limit, show_id, as_json):
                     )
                 )
             return
+        h.latest(robot)  # no records of this robot: an error naming the robots there are
         recs = h.records(robot, limit=limit)
-        if not recs:
-            raise InputError(f"no calibrations of robot {robot!r} in the history database {h.path}" + h._known_hint())
         if plot_path:
             from umbmark.viz.history_plot import history_figure
             from umbmark.viz.plots import save_figure
@@ -258,6 +267,7 @@ def history_cmd(robot, db, plot_path, export_path, limit, show_id, as_json):
             return
         if is_quiet() or export_path == "-":
             return
+        from rich.markup import escape
         from rich.table import Table
 
         t = Table(
@@ -374,11 +384,8 @@ def report_cmd(
         from umbmark.history import open_history
 
         with open_history(db, create=False) as h:
+            h.latest(robot)  # no records of this robot: an error naming the robots there are
             recs = h.records(robot)
-            if not recs:
-                raise InputError(
-                    f"no calibrations of robot {robot!r} in the history database {h.path}" + h._known_hint()
-                )
             page = history_report(recs, db_path=str(h.path))
         atomic_write(out_path, page)
         summary = {"out": out_path, "robot": robot, "records": len(recs)}
@@ -458,6 +465,8 @@ def report_cmd(
     if as_json:
         emit_json(summary)
     elif not is_quiet():
+        from rich.markup import escape
+
         console().print(escape(f"report: {out_path}"))
 
 
@@ -551,53 +560,31 @@ def measure_cmd(distances_file, front, rear, back, side_wall, resolution_mm, out
       umbmark measure distances.csv --front 150,-120 --rear -150,-120 --back -200,0 --out runs.csv
       umbmark measure --interactive --front 150,-120 --rear -150,-120 --back -200,0 --out runs.csv
     """
-    from umbmark.io.atomic import atomic_write
-    from umbmark.realrobot.measure import RobotMarks, format_measured_csv, measure_runs, read_distances_csv
+    from umbmark.realrobot.measure import RobotMarks, measure_runs, read_distances_csv
 
     if resolution_mm is None or not (math.isfinite(resolution_mm) and 0 <= resolution_mm <= 1000):
         raise InputError(
             f"--resolution-mm must be a number from 0 to 1000 (a tape's resolution), got {resolution_mm!r}"
         )
     marks = RobotMarks(tuple(v * 1e-3 for v in front), tuple(v * 1e-3 for v in rear), tuple(v * 1e-3 for v in back))
+    resolution_m = resolution_mm * 1e-3
     if interactive:
         if distances_file:
             raise click.UsageError("give DISTANCES.csv or --interactive, not both")
-        rows = _interactive(marks, side_wall, resolution_mm, out_path, n_runs)
+        rows = _interactive(marks, side_wall, resolution_m, out_path, n_runs)
         source = "<interactive>"
     else:
         if not distances_file:
             raise click.UsageError("give a DISTANCES.csv file, or --interactive")
         rows = read_distances_csv(distances_file)
         source = distances_file
-    runs, m = measure_runs(marks, rows, resolution_mm, source=source, side_wall=side_wall)
-    atomic_write(out_path, format_measured_csv(runs, m))
+    res = measure_runs(marks, rows, resolution_m, source=source, side_wall=side_wall).write(out_path)
     if as_json:
-        emit_json(
-            {
-                "out": out_path,
-                "resolution_mm": resolution_mm,
-                "side_wall": side_wall,
-                "runs": [
-                    {
-                        "run": str(runs.run[i]),
-                        "direction": str(runs.direction[i]),
-                        "x_abs_mm": runs.x_abs[i] * 1e3,
-                        "y_abs_mm": runs.y_abs[i] * 1e3,
-                        "theta_abs_deg": math.degrees(runs.theta_abs[i]),
-                        "x_abs_sd_mm": m.x_sd[i] * 1e3,
-                        "y_abs_sd_mm": m.y_sd[i] * 1e3,
-                        "theta_abs_sd_deg": math.degrees(m.theta_sd[i]),
-                        "x_abs_bound_mm": m.x_bound[i] * 1e3,
-                        "y_abs_bound_mm": m.y_bound[i] * 1e3,
-                        "theta_abs_bound_deg": math.degrees(m.theta_bound[i]),
-                    }
-                    for i in range(len(runs))
-                ],
-            }
-        )
+        emit_json(res.to_dict())
         return
     if is_quiet():
         return
+    runs, m = res.runs, res.measurement
     trows = [
         [
             str(runs.run[i]),
@@ -621,14 +608,11 @@ def measure_cmd(distances_file, front, rear, back, side_wall, resolution_mm, out
     )
 
 
-def _interactive(marks, side_wall, resolution_mm, out_path, n_runs):
+def _interactive(marks, side_wall, resolution_m, out_path, n_runs):
     """Prompt for every run; after each run, save the distances (``<out>.distances.csv``) and the
     runs file so far."""
-    import csv
-    import io
-
     from umbmark.io.atomic import atomic_write
-    from umbmark.realrobot.measure import DIST_COLUMNS, MeasuredRun, format_measured_csv, measure_runs
+    from umbmark.realrobot.measure import DIST_COLUMNS, MeasuredRun, format_distances_csv, measure_runs
 
     raw_path = str(Path(out_path).with_suffix("")) + ".distances.csv"
     rows: list[MeasuredRun] = []
@@ -678,26 +662,13 @@ def _interactive(marks, side_wall, resolution_mm, out_path, n_runs):
             d = tuple(vals[c] for c in DIST_COLUMNS)
             prev = d
             row = MeasuredRun(str(k), direction, d, x_odo, y_odo, theta)
-            runs, m = measure_runs(marks, rows + [row], resolution_mm, source="<interactive>", side_wall=side_wall)
+            res = measure_runs(marks, rows + [row], resolution_m, source="<interactive>", side_wall=side_wall)
             rows.append(row)
+            runs = res.runs
             echo(
                 f"  -> x_abs = {runs.x_abs[-1] * 1e3:.1f} mm, y_abs = {runs.y_abs[-1] * 1e3:.1f} mm, "
                 f"theta_abs = {math.degrees(runs.theta_abs[-1]):.2f} deg"
             )
-            buf = io.StringIO()
-            w = csv.writer(buf, lineterminator="\n")
-            w.writerow(["run", "direction", *DIST_COLUMNS, "x_odo", "y_odo", "theta_odo"])
-            for r in rows:
-                w.writerow(
-                    [
-                        r.run,
-                        r.direction,
-                        *[f"{v:g}" for v in r.distances_mm],
-                        f"{r.x_odo_mm:g}",
-                        f"{r.y_odo_mm:g}",
-                        "" if r.theta_odo_deg is None else f"{r.theta_odo_deg:g}",
-                    ]
-                )
-            atomic_write(raw_path, buf.getvalue())
-            atomic_write(out_path, format_measured_csv(runs, m))
+            atomic_write(raw_path, format_distances_csv(rows))
+            res.write(out_path)
     return rows

@@ -1,4 +1,9 @@
-"""CLI commands of issue 3 (real robots): ``replay``, ``export``, ``convert``, ``bag-info``."""
+"""Real-robot commands: ``replay``, ``bag-info``, ``convert``, ``export``.
+
+The library does the work (:mod:`umbmark.realrobot.replay`, :mod:`umbmark.io`); these commands
+parse the options, call it, and print its result's ``to_dict()`` or a table made from it. No
+numerical module is imported before a command runs.
+"""
 
 from __future__ import annotations
 
@@ -6,28 +11,32 @@ import math
 from pathlib import Path
 
 import click
-from rich.markup import escape
 
-from umbmark.cli.app import app, cli_message, console, emit_json, fmt, is_quiet, table
+from umbmark.cli.app import LOG_FORMAT_CHOICES, app, cli_message, console, emit_json, fmt, is_quiet, table
 from umbmark.cli.history import history_options, print_recorded, record_report_if_requested
 from umbmark.cli.progress import progress, track
 from umbmark.errors import InputError
-from umbmark.io.load import LOG_FORMATS, load_logs
+
+__all__ = ["REPLAY_METHOD_CHOICES", "log_options", "replay", "bag_info_cmd", "convert", "export"]
+
+# umbmark.realrobot.replay.method_names(), written out so that building the command line imports
+# no numerical module (tests/test_replay.py checks it against the library)
+REPLAY_METHOD_CHOICES = ("bf", "exact", "lsq")
 
 
-def _method_choices():
-    from umbmark.realrobot.replay import method_names
-
-    return method_names()
+def _mm(v: float | None) -> float | None:
+    return None if v is None else v * 1e3
 
 
 def log_options(f):
-    """Options that describe how to read a log (geometry for formats that lack it, bag topics)."""
+    """Add the options that describe how to read a log (geometry for formats that lack it, bag
+    topics) to a click command; they arrive as the keyword arguments of
+    :func:`umbmark.io.load.load_logs` (and ``log_format``)."""
     opts = [
         click.option(
             "--format",
             "log_format",
-            type=click.Choice(LOG_FORMATS),
+            type=click.Choice(LOG_FORMAT_CHOICES),
             default="auto",
             show_default=True,
             help="Log format: an optiodom data-set folder, a generic CSV log, a ROS 1/2 bag.",
@@ -106,6 +115,8 @@ _LOG_KEYS = (
 
 
 def _load(paths, log_format, kw):
+    from umbmark.io.load import load_logs
+
     opts = {k: kw[k] for k in _LOG_KEYS if k in kw}
     for k in (
         "side_mm",
@@ -133,82 +144,153 @@ def _datasets(paths, log_format, kw):
     return [_load([p], log_format, kw) for p in track(paths, "reading logs")]
 
 
-def _print_report(rep: dict):
+def _print_report(rep) -> None:
+    """A :class:`~umbmark.realrobot.results.ReplayReport` as tables."""
     c = console()
-    sq = rep["kind"] == "square"
+    sq = rep.kind == "square"
     c.print(
-        f"[bold]{rep['dataset']}[/bold] ({rep['format']}, {len(rep['runs'])} runs, "
-        f"{'square ' + format(rep['side_mm'], '.0f') + ' mm' if sq else 'general path'}), method "
-        f"[bold]{rep['method']}[/bold]"
+        f"[bold]{rep.dataset}[/bold] ({rep.format}, {len(rep.runs)} runs, "
+        f"{'square ' + format(rep.side_m * 1e3, '.0f') + ' mm' if sq else 'general path'}), method "
+        f"[bold]{rep.method}[/bold]"
     )
-    h = rep.get("heldout", {})
+    h = rep.heldout.summary if rep.heldout is not None else None
     rows = []
     if sq:
         rows.append(
             [
                 "E_max,syst [mm]",
-                fmt(rep["before"]["emax_syst_mm"]),
-                fmt(rep["after"]["emax_syst_mm"]),
-                fmt(h.get("emax_syst_mm")),
+                fmt(_mm(rep.before.emax_syst_m)),
+                fmt(_mm(rep.after.emax_syst_m)),
+                fmt(None if h is None else _mm(h.emax_syst_m)),
             ]
         )
     rows += [
         [
             "end position RMS [mm]",
-            fmt(rep["before"]["end_position_rms_mm"]),
-            fmt(rep["after"]["end_position_rms_mm"]),
-            fmt(h.get("end_position_rms_mm")),
+            fmt(_mm(rep.before.end_position_rms_m)),
+            fmt(_mm(rep.after.end_position_rms_m)),
+            fmt(None if h is None else _mm(h.end_position_rms_m)),
         ],
         [
             "along-path position RMS [mm]",
-            fmt(rep["before"]["path_position_rms_mm"]),
-            fmt(rep["after"]["path_position_rms_mm"]),
-            fmt(h.get("path_position_rms_mm")),
+            fmt(_mm(rep.before.path_position_rms_m)),
+            fmt(_mm(rep.after.path_position_rms_m)),
+            fmt(None if h is None else _mm(h.path_position_rms_m)),
         ],
     ]
     c.print(table("Replayed odometry vs ground truth", ["", "nominal", "calibrated (in-sample)", "held out"], rows))
-    if h.get("reason"):
-        c.print(f"held out: {h['reason']}")
-    n = rep["nominal"]
-    cal = [
-        ["D_L [mm]", fmt(n["diameter_left_mm"], 4), fmt(rep["diameter_left_mm"], 4)],
-        ["D_R [mm]", fmt(n["diameter_right_mm"], 4), fmt(rep["diameter_right_mm"], 4)],
-        ["wheelbase [mm]", fmt(n["wheelbase_mm"], 3), fmt(rep["wheelbase_corrected_mm"], 3)],
-        ["E_d = D_R/D_L", "1", fmt(rep["Ed"], 6)],
-        ["E_b", "1", fmt(rep["Eb"], 6)],
-        ["c_left / c_right", "1 / 1", f"{rep['c_left']:.6f} / {rep['c_right']:.6f}"],
+    if rep.heldout is not None and rep.heldout.reason:
+        c.print(f"held out: {rep.heldout.reason}")
+    n, cal = rep.nominal, rep.calibration
+    g = cal.geometry
+    cal_rows = [
+        ["D_L [mm]", fmt(n.diameter_left_m * 1e3, 4), fmt(g.diameter_left_m * 1e3, 4)],
+        ["D_R [mm]", fmt(n.diameter_right_m * 1e3, 4), fmt(g.diameter_right_m * 1e3, 4)],
+        ["wheelbase [mm]", fmt(n.wheelbase_m * 1e3, 3), fmt(g.wheelbase_m * 1e3, 3)],
+        ["E_d = D_R/D_L", "1", fmt(cal.ed, 6)],
+        ["E_b", "1", fmt(cal.eb, 6)],
+        ["c_left / c_right", "1 / 1", f"{cal.c_left:.6f} / {cal.c_right:.6f}"],
         [
             "wheelbase / mean diameter",
-            fmt(n["wheelbase_mm"] / (0.5 * (n["diameter_left_mm"] + n["diameter_right_mm"])), 4),
-            fmt(rep["wheelbase_per_mean_diameter"], 4),
+            fmt(n.wheelbase_m / n.diameter_avg_m, 4),
+            fmt(cal.wheelbase_per_mean_diameter, 4),
         ],
     ]
-    if rep["method"] == "lsq":
-        cal.append(["fitted", "", rep["fitted_parameters"]])
-    c.print(table("Calibration", ["", "nominal", "corrected"], cal))
-    if rep["method"] == "lsq":
-        c.print(f"scale: {rep['scale_reason']}")
-        if rep.get("tracked_point_offset_mm"):
-            o, e = rep["tracked_point_offset_mm"], rep["tracked_point_offset_std_mm"]
+    lsq = cal.lsq
+    if lsq is not None:
+        cal_rows.append(["fitted", "", lsq.fitted_parameters])
+    c.print(table("Calibration", ["", "nominal", "corrected"], cal_rows))
+    if lsq is not None:
+        c.print(f"scale: {lsq.scale_reason}")
+        if lsq.extra.get("tracked_point_offset_mm"):
+            o, e = lsq.extra["tracked_point_offset_mm"], lsq.extra["tracked_point_offset_std_mm"]
             c.print(
                 f"tracked point offset from the axle midpoint: x {o[0]:.1f} +- {e[0]:.1f} mm, "
                 f"y {o[1]:.1f} +- {e[1]:.1f} mm (robot frame)"
             )
-        if rep.get("std"):
-            s = rep["std"]
+        s = rep.std
+        if s is not None:
             c.print(
-                f"jackknife std: D_L {s['diameter_left_mm']:.3f} mm, D_R {s['diameter_right_mm']:.3f} mm, "
-                f"b {s['wheelbase_mm']:.3f} mm, E_d {s['Ed']:.5f}"
+                f"jackknife std: D_L {s.diameter_left_m * 1e3:.3f} mm, D_R {s.diameter_right_m * 1e3:.3f} mm, "
+                f"b {s.wheelbase_m * 1e3:.3f} mm, E_d {s.ed:.5f}"
             )
-    for w in rep.get("warnings", []):
+    from rich.markup import escape
+
+    for w in rep.warnings:
         c.print(f"[yellow]warning:[/yellow] {escape(cli_message(w))}")
+
+
+def _print_pooled(rep) -> None:
+    """A :class:`~umbmark.realrobot.results.PooledReport` as a table and a line."""
+    c = console()
+    rows = [
+        [
+            p.dataset,
+            fmt(_mm(p.before.end_position_rms_m)),
+            fmt(_mm(p.after.end_position_rms_m)),
+            fmt(None if p.heldout is None else _mm(p.heldout.end_position_rms_m)),
+        ]
+        for p in rep.per_dataset
+    ]
+    c.print(
+        table(
+            "lsq fitted to all data sets: end-position RMS [mm]",
+            ["data set", "nominal", "pooled fit", "held out (fit on the others)"],
+            rows,
+        )
+    )
+    g, cal = rep.calibration.geometry, rep.calibration
+    c.print(
+        f"D_L = {g.diameter_left_m * 1e3:.3f} mm, D_R = {g.diameter_right_m * 1e3:.3f} mm, wheelbase = "
+        f"{g.wheelbase_m * 1e3:.3f} mm, E_d = {cal.ed:.6f}, "
+        f"fitted: {cal.lsq.fitted_parameters}"
+    )
+
+
+def _print_across(rep) -> None:
+    """The across-data-set rows of a :class:`~umbmark.realrobot.results.MultiReplayReport`."""
+    rows = [
+        [a.calibrated_on, a.evaluated_on, fmt(_mm(a.evaluation.emax_syst_m)), fmt(_mm(a.evaluation.end_position_rms_m))]
+        for a in rep.across
+    ]
+    console().print(
+        table(
+            "Held out across data sets",
+            ["calibrated on", "evaluated on", "E_max,syst [mm]", "end position RMS [mm]"],
+            rows,
+        )
+    )
+
+
+def _print_stream(rep) -> None:
+    """A :class:`~umbmark.realrobot.results.StreamReport` as a table and lines."""
+    e, g = rep.end_pose, rep.end_truth or (None, None, None)
+    rows = [
+        ["x [mm]", fmt(e[0] * 1e3), fmt(_mm(g[0]))],
+        ["y [mm]", fmt(e[1] * 1e3), fmt(_mm(g[1]))],
+        ["theta [deg]", fmt(math.degrees(e[2]), 3), fmt(None if g[2] is None else math.degrees(g[2]), 3)],
+    ]
+    c = console()
+    c.print(
+        table(
+            f"{rep.dataset}: {rep.samples} samples, {rep.duration_s:.1f} s, streamed in {rep.chunks} chunks",
+            ["end pose", "odometry (nominal)", "ground truth"],
+            rows,
+        )
+    )
+    c.print(
+        f"end position error {fmt(_mm(rep.end_position_error_m))} mm, along-path position RMS "
+        f"{fmt(_mm(rep.path_position_rms_m))} mm"
+    )
+    if rep.poses_out is not None:
+        c.print(f"wrote {len(rep.kept)} poses to {rep.poses_out}")
 
 
 @app.command()
 @click.argument("paths", nargs=-1, required=True, metavar="DATASET...")
 @click.option(
     "--method",
-    type=click.Choice(_method_choices()),
+    type=click.Choice(REPLAY_METHOD_CHOICES),
     default="bf",
     show_default=True,
     help="bf: the paper's correction; exact (when available); lsq: general-path least squares.",
@@ -305,16 +387,16 @@ def replay(
     Example:
       umbmark replay data/optiodom/square/230620202144 --method bf
     """
-    from umbmark.realrobot.replay import pooled_report, replay_report
-
     if not (math.isfinite(heading_weight_m) and heading_weight_m >= 0):
         raise InputError(f"--heading-weight-m must be >= 0, got {heading_weight_m!r}")
     if stream or decimate or poses_out:
         if not stream:
             raise InputError("--decimate and --poses-out work with --stream")
-        from umbmark.cli.stream import run_stream
+        if poses_out and not decimate:
+            raise InputError("--poses-out needs --decimate N (keep the pose after every N-th sample)")
+        return _stream(paths, log_format, decimate, poses_out, as_json, kw)
+    from umbmark.realrobot.replay import pooled_report, replay_report
 
-        return run_stream(paths, {**kw, "log_format": log_format}, decimate, poses_out, as_json)
     sets = _datasets(paths, log_format, kw)
     lsq_opts = {
         "mode": lsq_mode,
@@ -328,68 +410,43 @@ def replay(
             raise InputError("--pool works with --method lsq")
         with progress("fitting and replaying"):
             rep = pooled_report(sets, lsq_opts, heldout=not no_heldout)
-        _save(rep, save)
-        rec = record_report_if_requested(robot, record, db, rep, list(paths), kind="replay", method=method)
-        if as_json:
-            emit_json(rep if rec is None else {**rep, "history": rec})
-        elif not is_quiet():
-            c = console()
-            rows = [
-                [
-                    p["dataset"],
-                    fmt(p["before"]["end_position_rms_mm"]),
-                    fmt(p["after"]["end_position_rms_mm"]),
-                    fmt(p.get("heldout", {}).get("end_position_rms_mm")),
-                ]
-                for p in rep["per_dataset"]
-            ]
-            c.print(
-                table(
-                    "lsq fitted to all data sets: end-position RMS [mm]",
-                    ["data set", "nominal", "pooled fit", "held out (fit on the others)"],
-                    rows,
-                )
-            )
-            c.print(
-                f"D_L = {rep['diameter_left_mm']:.3f} mm, D_R = {rep['diameter_right_mm']:.3f} mm, wheelbase = "
-                f"{rep['wheelbase_corrected_mm']:.3f} mm, E_d = {rep['Ed']:.6f}, "
-                f"fitted: {rep['fitted_parameters']}"
-            )
-            print_recorded(rec)
-        return
-    with progress("replaying and calibrating"):
-        rep = replay_report(sets, method, lsq_opts, heldout=not no_heldout)
-    _save(rep, save)
+    else:
+        with progress("replaying and calibrating"):
+            rep = replay_report(sets, method, lsq_opts, heldout=not no_heldout)
+    if save:
+        from umbmark.io.atomic import write_json
+
+        write_json(save, rep.to_dict())
     rec = record_report_if_requested(robot, record, db, rep, list(paths), kind="replay", method=method)
     if as_json:
-        emit_json(rep if rec is None else {**rep, "history": rec})
+        d = rep.to_dict()
+        emit_json(d if rec is None else {**d, "history": rec})
         return
     if is_quiet():
         return
+    if pool:
+        _print_pooled(rep)
+        print_recorded(rec)
+        return
+    from umbmark.realrobot.results import MultiReplayReport
+
     print_recorded(rec)
-    reports = rep["datasets"] if "datasets" in rep else [rep]
-    for r in reports:
+    several = isinstance(rep, MultiReplayReport)
+    for r in rep.reports if several else (rep,):
         _print_report(r)
-    if "across" in rep:
-        rows = [
-            [a["calibrated_on"], a["evaluated_on"], fmt(a["emax_syst_mm"]), fmt(a["end_position_rms_mm"])]
-            for a in rep["across"]
-        ]
-        console().print(
-            table(
-                "Held out across data sets",
-                ["calibrated on", "evaluated on", "E_max,syst [mm]", "end position RMS [mm]"],
-                rows,
-            )
-        )
+    if several:
+        _print_across(rep)
 
 
-def _save(rep, path):
-    if path:
-        from umbmark.io.atomic import atomic_write
-        from umbmark.jsonutil import dumps
+def _stream(paths, log_format, decimate, poses_out, as_json, kw) -> None:
+    """``replay --stream``: one long CSV log in bounded memory (no calibration)."""
+    from umbmark.realrobot.replay import stream_log
 
-        atomic_write(path, dumps(rep, indent=2) + "\n")
+    rep = stream_log(list(paths), decimate=decimate, fmt=log_format or "auto", poses_out=poses_out, **kw)
+    if as_json:
+        emit_json(rep.to_dict())
+    elif not is_quiet():
+        _print_stream(rep)
 
 
 @app.command(name="bag-info")

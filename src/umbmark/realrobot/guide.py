@@ -18,7 +18,22 @@ STEP_TITLES = (
 
 
 def guide_text(side_mm: float = 4000.0, runs: int = 5, speed_m_s: float = 0.2) -> str:
-    """The field procedure, step by step (plain text, 100 columns)."""
+    """The field procedure of the UMBmark test, step by step.
+
+    Parameters
+    ----------
+    side_mm : float
+        The side of the square.
+    runs : int
+        Runs per direction.
+    speed_m_s : float
+        The driving speed the procedure names.
+
+    Returns
+    -------
+    str
+        Plain text, at most 100 columns, one numbered step per :data:`STEP_TITLES` entry.
+    """
     L = f"{side_mm:g}"
     Lm = f"{side_mm / 1000:g}"
     steps = [

@@ -35,13 +35,14 @@ from __future__ import annotations
 import csv
 import io
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
 
 from umbmark.errors import InputError
 from umbmark.io._text import csv_rows, header_columns
+from umbmark.model.geometry import wrap_angle
 from umbmark.model.runs import DIRECTIONS, RunsTable
 
 __all__ = [
@@ -49,6 +50,7 @@ __all__ = [
     "WallPose",
     "Measurement",
     "MeasuredRun",
+    "MeasuredRuns",
     "pose_from_distances",
     "distances_from_pose",
     "distances_for_runs",
@@ -60,6 +62,7 @@ __all__ = [
     "read_distances_csv",
     "parse_distances_csv",
     "format_measured_csv",
+    "format_distances_csv",
     "DIST_COLUMNS",
     "START_COLUMNS",
     "END_COLUMNS",
@@ -70,14 +73,25 @@ END_COLUMNS = ("end_front", "end_rear", "end_back")
 DIST_COLUMNS = START_COLUMNS + END_COLUMNS
 
 
-def _wrap(a):
-    return np.mod(np.asarray(a, dtype=float) + np.pi, 2 * np.pi) - np.pi
-
-
 @dataclass(frozen=True)
 class RobotMarks:
-    """The three reference points on the robot, in the robot frame (metres), and which side
-    of the robot the side wall is on at the start."""
+    """The three reference points on the robot and the side the side wall is on at the start.
+
+    Attributes
+    ----------
+    front, rear : (float, float)
+        Two points on the robot's side that faces the side wall, in the robot frame [m]
+        (at least 1 mm apart).
+    back : (float, float)
+        A point at the robot's back, measured to the back wall [m].
+    side_wall : str
+        ``right`` or ``left``: the side of the robot the side wall is on.
+
+    Raises
+    ------
+    InputError
+        A point that is not two finite numbers, front and rear too close, another side.
+    """
 
     front: tuple[float, float]
     rear: tuple[float, float]
@@ -99,10 +113,16 @@ class RobotMarks:
 
     @property
     def sign(self) -> float:
+        """+1 for a side wall on the robot's right, -1 on its left."""
         return 1.0 if self.side_wall == "right" else -1.0
 
     def mirrored(self) -> RobotMarks:
-        """The marks mirrored about the robot's centre line (y -> -y), side wall swapped."""
+        """The marks mirrored about the robot's centre line (y -> -y), side wall swapped.
+
+        Returns
+        -------
+        RobotMarks
+        """
         m = lambda p: (float(p[0]), -float(p[1]))  # noqa: E731
         return RobotMarks(m(self.front), m(self.rear), m(self.back), "left" if self.side_wall == "right" else "right")
 
@@ -110,11 +130,28 @@ class RobotMarks:
 def marks_for_direction(marks: RobotMarks, direction: str, side_wall: str = "auto") -> RobotMarks:
     """The marks used for the runs of one direction.
 
-    ``side_wall="auto"``: the square turns away from the side wall, so the wall is on the robot's
-    left for cw runs and on its right for ccw runs; the front and rear marks are taken on that
-    side (mirrored about the centre line when they were given on the other side, i.e. the robot
-    carries the same marks on both sides). ``"left"`` / ``"right"``: the wall is on that side for
-    every run and the marks are used as given."""
+    Parameters
+    ----------
+    marks : RobotMarks
+        The marks as given.
+    direction : str
+        ``cw`` or ``ccw``.
+    side_wall : str
+        ``auto``: the square turns away from the side wall, so the wall is on the robot's left
+        for cw runs and on its right for ccw runs; the front and rear marks are taken on that
+        side (mirrored about the centre line when they were given on the other side, i.e. the
+        robot carries the same marks on both sides). ``left`` / ``right``: the wall is on that
+        side for every run and the marks are used as given.
+
+    Returns
+    -------
+    RobotMarks
+
+    Raises
+    ------
+    InputError
+        Another ``side_wall``.
+    """
     if side_wall in ("left", "right"):
         return RobotMarks(marks.front, marks.rear, marks.back, side_wall)
     if side_wall != "auto":
@@ -126,7 +163,15 @@ def marks_for_direction(marks: RobotMarks, direction: str, side_wall: str = "aut
 
 @dataclass(frozen=True)
 class WallPose:
-    """Pose of the robot frame in the wall frame (metres, radians); arrays or scalars."""
+    """The pose of the robot frame in the wall frame; arrays or scalars.
+
+    Attributes
+    ----------
+    x, y : numpy.ndarray
+        Position [m] (X along the side wall, away from the back wall).
+    theta : numpy.ndarray
+        Heading [rad] from X.
+    """
 
     x: np.ndarray
     y: np.ndarray
@@ -134,9 +179,25 @@ class WallPose:
 
 
 def distances_from_pose(marks: RobotMarks, pose: WallPose):
-    """The three distances (front, rear, back) a person would measure, metres.
+    """The three distances a person would measure from a pose.
 
-    Raises :class:`InputError` if a mark would be on the wrong side of its wall."""
+    Parameters
+    ----------
+    marks : RobotMarks
+        The reference points.
+    pose : WallPose
+        The robot's pose in the wall frame.
+
+    Returns
+    -------
+    d_front, d_rear, d_back : numpy.ndarray
+        Front and rear mark to the side wall, back mark to the back wall [m].
+
+    Raises
+    ------
+    InputError
+        A mark would be behind its wall.
+    """
     x, y, th = (np.asarray(v, dtype=float) for v in (pose.x, pose.y, pose.theta))
     c, s = np.cos(th), np.sin(th)
 
@@ -152,12 +213,32 @@ def distances_from_pose(marks: RobotMarks, pose: WallPose):
 
 
 def distances_for_runs(marks: RobotMarks, runs: RunsTable, start: WallPose, side_wall: str | None = "auto"):
-    """The six distances (n, 6) a person would measure for each run of ``runs`` (metres), the
-    robot starting at ``start`` (wall frame; arrays of length n or scalars) and stopping at the
-    run's true end pose (``x_abs, y_abs, theta_abs`` in the start frame). The forward model of
-    :func:`measure`, for tests and examples. With ``side_wall="auto"`` the start's Y is taken
-    as given for ccw runs (wall on the right, Y > 0) and mirrored (Y -> -Y, theta -> -theta) for cw
-    runs (wall on the left)."""
+    """The six distances a person would measure for each run: the forward model of
+    :func:`measure`, for tests and examples.
+
+    Parameters
+    ----------
+    marks : RobotMarks
+        The reference points.
+    runs : RunsTable
+        The runs; each stops at its true end pose (``x_abs, y_abs, theta_abs`` in the start frame).
+    start : WallPose
+        Where each run starts, in the wall frame (arrays of length n or scalars).
+    side_wall : str or None
+        As in :func:`marks_for_direction` (None: ``marks`` as they are). With ``auto`` the
+        start's Y is taken as given for ccw runs (wall on the right, Y > 0) and mirrored
+        (Y -> -Y, theta -> -theta) for cw runs (wall on the left).
+
+    Returns
+    -------
+    numpy.ndarray
+        (n, 6) distances [m] in the order of :data:`DIST_COLUMNS`.
+
+    Raises
+    ------
+    InputError
+        Runs without ``theta_abs``; a mark behind its wall.
+    """
     if runs.theta_abs is None:
         raise InputError("the runs need theta_abs (the true end orientation)")
     n = len(runs)
@@ -181,9 +262,29 @@ def distances_for_runs(marks: RobotMarks, runs: RunsTable, start: WallPose, side
 
 
 def pose_from_distances(marks: RobotMarks, d_front, d_rear, d_back, source: str | None = None, line=None) -> WallPose:
-    """Pose in the wall frame from the three distances (metres; scalars or arrays).
+    """The pose in the wall frame from the three distances.
 
-    ``line``: optional array of file line numbers, for error messages."""
+    Parameters
+    ----------
+    marks : RobotMarks
+        The reference points.
+    d_front, d_rear, d_back : float or array_like
+        The distances [m].
+    source : str, optional
+        The distances file, for error messages.
+    line : array_like of int, optional
+        The file's line numbers of the readings, for error messages.
+
+    Returns
+    -------
+    WallPose
+        Of the two headings the readings allow, the one nearest 0.
+
+    Raises
+    ------
+    InputError
+        Front and rear readings that differ by more than the marks are apart.
+    """
     df, dr, db = (np.asarray(v, dtype=float) for v in (d_front, d_rear, d_back))
     sgn = marks.sign
     a = marks.front[0] - marks.rear[0]
@@ -203,8 +304,8 @@ def pose_from_distances(marks: RobotMarks, d_front, d_rear, d_back, source: str 
         )
     asn = np.arcsin(ratio)
     # a sin(t) + b cos(t) = r sin(t + phi): t = asin(ratio) - phi  or  pi - asin(ratio) - phi
-    t1 = _wrap(asn - phi)
-    t2 = _wrap(np.pi - asn - phi)
+    t1 = wrap_angle(asn - phi)
+    t2 = wrap_angle(np.pi - asn - phi)
     theta = np.where(np.abs(t1) <= np.abs(t2), t1, t2)
     c, s = np.cos(theta), np.sin(theta)
     y = sgn * df - (marks.front[0] * s + marks.front[1] * c)
@@ -213,11 +314,22 @@ def pose_from_distances(marks: RobotMarks, d_front, d_rear, d_back, source: str 
 
 
 def relative_pose(start: WallPose, end: WallPose):
-    """End pose expressed in the start pose's frame: ``(x, y, theta)`` (metres, radians)."""
+    """An end pose expressed in the frame of a start pose.
+
+    Parameters
+    ----------
+    start, end : WallPose
+        The two poses in the wall frame.
+
+    Returns
+    -------
+    x, y, theta : numpy.ndarray
+        The end pose in the start frame [m, m, rad; theta wrapped].
+    """
     dx = np.asarray(end.x) - np.asarray(start.x)
     dy = np.asarray(end.y) - np.asarray(start.y)
     c, s = np.cos(start.theta), np.sin(start.theta)
-    return c * dx + s * dy, -s * dx + c * dy, _wrap(np.asarray(end.theta) - np.asarray(start.theta))
+    return c * dx + s * dy, -s * dx + c * dy, wrap_angle(np.asarray(end.theta) - np.asarray(start.theta))
 
 
 def _return_pose(marks: RobotMarks, d6: np.ndarray, source=None, line=None) -> np.ndarray:
@@ -230,7 +342,19 @@ def _return_pose(marks: RobotMarks, d6: np.ndarray, source=None, line=None) -> n
 
 @dataclass(frozen=True)
 class Measurement:
-    """The return pose of one or more runs with its propagated uncertainty (SI)."""
+    """The return pose of one or more runs with its propagated uncertainty.
+
+    Attributes
+    ----------
+    x, y, theta : numpy.ndarray
+        The return pose in the start frame [m, m, rad].
+    x_sd, y_sd, theta_sd : numpy.ndarray
+        Their standard deviations from the tape's resolution.
+    x_bound, y_bound, theta_bound : numpy.ndarray
+        Their worst-case errors (every reading off by half the resolution).
+    covariance : numpy.ndarray
+        (..., 3, 3) covariance of x, y, theta.
+    """
 
     x: np.ndarray
     y: np.ndarray
@@ -245,8 +369,31 @@ class Measurement:
 
 
 def measure(marks: RobotMarks, distances, resolution_m: float = 1e-3, source=None, line=None) -> Measurement:
-    """Return poses in the start frame from the six distances (array (..., 6), metres, in the
-    order of :data:`DIST_COLUMNS`), with the tape resolution propagated."""
+    """Return poses in the start frame from the six distances, with the tape's resolution
+    propagated (see the module docstring).
+
+    Parameters
+    ----------
+    marks : RobotMarks
+        The reference points.
+    distances : array_like
+        (..., 6) distances [m] in the order of :data:`DIST_COLUMNS`.
+    resolution_m : float
+        The tape's resolution.
+    source : str, optional
+        The distances file, for error messages.
+    line : array_like of int, optional
+        The file's line numbers, for error messages.
+
+    Returns
+    -------
+    Measurement
+
+    Raises
+    ------
+    InputError
+        A negative resolution or distance, not six distances, inconsistent readings.
+    """
     if not (math.isfinite(resolution_m) and resolution_m >= 0):
         raise InputError(f"tape resolution must be a non-negative number, got {resolution_m!r}")
     d6 = np.asarray(distances, dtype=float)
@@ -264,7 +411,7 @@ def measure(marks: RobotMarks, distances, resolution_m: float = 1e-3, source=Non
         hi = _return_pose(marks, d6 + e)
         lo = _return_pose(marks, np.maximum(d6 - e, 0.0))
         diff = hi - lo
-        diff[..., 2] = _wrap(diff[..., 2])
+        diff[..., 2] = wrap_angle(diff[..., 2])
         cols.append(diff / (2 * h))
     jac = np.stack(cols, axis=-1)  # (..., 3, 6)
     var = resolution_m**2 / 12.0
@@ -287,7 +434,23 @@ def measure(marks: RobotMarks, distances, resolution_m: float = 1e-3, source=Non
 
 @dataclass(frozen=True)
 class MeasuredRun:
-    """One row of a distances file (millimetres and degrees, as typed)."""
+    """One row of a distances file (millimetres and degrees, as typed).
+
+    Attributes
+    ----------
+    run : str
+        The run's label.
+    direction : str
+        ``cw`` or ``ccw``.
+    distances_mm : tuple of float
+        The six distances in the order of :data:`DIST_COLUMNS`.
+    x_odo_mm, y_odo_mm : float
+        The odometry's end position.
+    theta_odo_deg : float or None
+        The odometry's end heading (None: not read).
+    line : int or None
+        The row's line in the file.
+    """
 
     run: str
     direction: str
@@ -298,17 +461,125 @@ class MeasuredRun:
     line: int | None = None
 
 
-def measure_run(marks: RobotMarks, row: MeasuredRun, resolution_mm: float = 1.0, source=None) -> Measurement:
-    return measure(marks, np.asarray(row.distances_mm) * 1e-3, resolution_mm * 1e-3, source, row.line)
+def measure_run(marks: RobotMarks, row: MeasuredRun, resolution_m: float = 1e-3, source=None) -> Measurement:
+    """The return pose of one row of a distances file.
+
+    Parameters
+    ----------
+    marks : RobotMarks
+        The reference points, with the side the wall is on.
+    row : MeasuredRun
+        The six distances (mm, as typed).
+    resolution_m : float
+        The tape's resolution.
+    source : str, optional
+        The distances file, for error messages.
+
+    Returns
+    -------
+    Measurement
+    """
+    return measure(marks, np.asarray(row.distances_mm) * 1e-3, resolution_m, source, row.line)
+
+
+@dataclass(frozen=True)
+class MeasuredRuns:
+    """Runs whose return poses were measured with a tape.
+
+    Attributes
+    ----------
+    runs : RunsTable
+        The runs table: the measured return poses (``x_abs``, ``y_abs``, ``theta_abs``) and the
+        odometry's, in the start frame.
+    measurement : Measurement
+        The measured poses with their propagated uncertainty.
+    resolution_m : float
+        The tape's resolution.
+    side_wall : str or None
+        How the side wall was placed (``auto``, ``left``, ``right``; None: as the marks say).
+    out : str or None
+        The runs file written (:meth:`write`).
+    """
+
+    runs: RunsTable
+    measurement: Measurement
+    resolution_m: float
+    side_wall: str | None = None
+    out: str | None = None
+
+    def write(self, path) -> MeasuredRuns:
+        """Write the runs file with the standard deviations (:func:`format_measured_csv`), atomically.
+
+        Parameters
+        ----------
+        path : str or Path
+            The file to write.
+
+        Returns
+        -------
+        MeasuredRuns
+            This result with ``out`` set.
+        """
+        from umbmark.io.atomic import atomic_write
+
+        atomic_write(path, format_measured_csv(self.runs, self.measurement))
+        return replace(self, out=str(path))
+
+    def to_dict(self) -> dict:
+        """The JSON of ``umbmark measure --json``: the file written, the tape resolution and
+        every run's measured return pose with its standard deviation and worst-case bound (mm, deg)."""
+        runs, m = self.runs, self.measurement
+        return {
+            "out": self.out,
+            "resolution_mm": self.resolution_m * 1e3,
+            "side_wall": self.side_wall,
+            "runs": [
+                {
+                    "run": str(runs.run[i]),
+                    "direction": str(runs.direction[i]),
+                    "x_abs_mm": runs.x_abs[i] * 1e3,
+                    "y_abs_mm": runs.y_abs[i] * 1e3,
+                    "theta_abs_deg": math.degrees(runs.theta_abs[i]),
+                    "x_abs_sd_mm": m.x_sd[i] * 1e3,
+                    "y_abs_sd_mm": m.y_sd[i] * 1e3,
+                    "theta_abs_sd_deg": math.degrees(m.theta_sd[i]),
+                    "x_abs_bound_mm": m.x_bound[i] * 1e3,
+                    "y_abs_bound_mm": m.y_bound[i] * 1e3,
+                    "theta_abs_bound_deg": math.degrees(m.theta_bound[i]),
+                }
+                for i in range(len(runs))
+            ],
+        }
 
 
 def measure_runs(
-    marks: RobotMarks, rows: list[MeasuredRun], resolution_mm: float = 1.0, source=None, side_wall: str | None = None
-):
-    """All rows at once: ``(RunsTable, Measurement)``.
+    marks: RobotMarks, rows: list[MeasuredRun], resolution_m: float = 1e-3, source=None, side_wall: str | None = None
+) -> MeasuredRuns:
+    """The return poses of every row of a distances file, at once.
 
-    ``side_wall``: None uses ``marks`` as they are for every run; otherwise see
-    :func:`marks_for_direction` (``"auto"``, ``"left"``, ``"right"``)."""
+    Parameters
+    ----------
+    marks : RobotMarks
+        The reference points.
+    rows : list of MeasuredRun
+        The rows (mm, as typed).
+    resolution_m : float
+        The tape's resolution.
+    source : str, optional
+        The distances file, for error messages.
+    side_wall : str, optional
+        None: ``marks`` as they are for every run; otherwise ``auto``, ``left`` or ``right``
+        (see :func:`marks_for_direction`).
+
+    Returns
+    -------
+    MeasuredRuns
+
+    Raises
+    ------
+    InputError
+        No rows, or distances that no pose explains (file and line named).
+    """
     if not rows:
         raise InputError("no runs to measure", source)
     d = np.array([r.distances_mm for r in rows], dtype=float) * 1e-3
@@ -320,7 +591,7 @@ def measure_runs(
         sel = direction == dn
         if sel.any():
             mk = marks if side_wall is None else marks_for_direction(marks, dn, side_wall)
-            parts[dn] = (sel, measure(mk, d[sel], resolution_mm * 1e-3, source, lines[sel] if has_lines else None))
+            parts[dn] = (sel, measure(mk, d[sel], resolution_m, source, lines[sel] if has_lines else None))
     fields = {}
     for name in ("x", "y", "theta", "x_sd", "y_sd", "theta_sd", "x_bound", "y_bound", "theta_bound"):
         a = np.empty(len(rows))
@@ -342,7 +613,7 @@ def measure_runs(
         np.radians([r.theta_odo_deg for r in rows]) if has_theta else None,
         np.array([r.run for r in rows]),
     )
-    return runs, m
+    return MeasuredRuns(runs, m, resolution_m, side_wall)
 
 
 def _num(cell: str, col: str, source, line) -> float:
@@ -360,6 +631,22 @@ def _num(cell: str, col: str, source, line) -> float:
 
 
 def read_distances_csv(path) -> list[MeasuredRun]:
+    """Read a distances file (see :func:`parse_distances_csv`).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+
+    Returns
+    -------
+    list of MeasuredRun
+
+    Raises
+    ------
+    InputError
+        A missing or unreadable file, or bad content (file and line named).
+    """
     p = Path(path)
     if not p.exists():
         raise InputError("file not found", source=str(path))
@@ -379,7 +666,24 @@ def parse_distances_csv(text: str, source: str = "<distances>") -> list[Measured
     x_odo, y_odo``; optional ``run``, ``theta_odo``. The three start cells of a row may be left
     empty together: the start of the previous row of the same direction is reused (the robot was
     put back on the same marked start; cw and ccw runs start at different corners). Blank lines
-    and lines starting with ``#`` are skipped."""
+    and lines starting with ``#`` are skipped.
+
+    Parameters
+    ----------
+    text : str
+        The file's content.
+    source : str
+        Its name, for error messages.
+
+    Returns
+    -------
+    list of MeasuredRun
+
+    Raises
+    ------
+    InputError
+        A missing column, a bad cell, a start to reuse that is not there (file and line named).
+    """
     required = ("direction",) + DIST_COLUMNS + ("x_odo", "y_odo")
     header = None
     out: list[MeasuredRun] = []
@@ -452,8 +756,22 @@ def parse_distances_csv(text: str, source: str = "<distances>") -> list[Measured
 
 
 def format_measured_csv(runs: RunsTable, m: Measurement) -> str:
-    """The runs file (mm, deg) with the propagated standard deviations as extra columns
-    ``x_abs_sd, y_abs_sd`` (mm) and ``theta_abs_sd`` (deg), which the runs-file reader ignores."""
+    """The runs file (mm, deg) of measured runs, with the propagated standard deviations as
+    extra columns ``x_abs_sd, y_abs_sd`` (mm) and ``theta_abs_sd`` (deg), which the runs-file
+    reader ignores.
+
+    Parameters
+    ----------
+    runs : RunsTable
+        The measured runs.
+    m : Measurement
+        Their uncertainty.
+
+    Returns
+    -------
+    str
+        The file's text.
+    """
     out = io.StringIO()
     w = csv.writer(out, lineterminator="\n")
     has_theta = runs.theta_odo is not None
@@ -478,3 +796,34 @@ def format_measured_csv(runs: RunsTable, m: Measurement) -> str:
         row += [f(m.x_sd[i] * 1e3), f(m.y_sd[i] * 1e3), f(math.degrees(m.theta_sd[i]), 4)]
         w.writerow(row)
     return out.getvalue()
+
+
+def format_distances_csv(rows: list[MeasuredRun]) -> str:
+    """A distances file (mm, deg) of the rows, as :func:`parse_distances_csv` reads it.
+
+    Parameters
+    ----------
+    rows : list of MeasuredRun
+        The rows.
+
+    Returns
+    -------
+    str
+        The header ``run, direction, start_front, ..., end_back, x_odo, y_odo, theta_odo`` and
+        one line per row (an empty ``theta_odo`` when the heading was not read).
+    """
+    buf = io.StringIO()
+    w = csv.writer(buf, lineterminator="\n")
+    w.writerow(["run", "direction", *DIST_COLUMNS, "x_odo", "y_odo", "theta_odo"])
+    for r in rows:
+        w.writerow(
+            [
+                r.run,
+                r.direction,
+                *[f"{v:g}" for v in r.distances_mm],
+                f"{r.x_odo_mm:g}",
+                f"{r.y_odo_mm:g}",
+                "" if r.theta_odo_deg is None else f"{r.theta_odo_deg:g}",
+            ]
+        )
+    return buf.getvalue()

@@ -16,13 +16,20 @@ with held-out figures.
 * :func:`replay_report`: all of it for one or several data sets, with held-out figures:
   leave-one-run-out (calibrate without run i, evaluate run i; for squares the held-out
   return errors are benchmarked per direction) and, with several data sets, across data
-  sets (calibrate on one, evaluate on each of the others).
+  sets (calibrate on one, evaluate on each of the others). :func:`pooled_report`: one ``lsq``
+  fit of all data sets, held out by data set.
+* :func:`stream_replay` / :func:`stream_log`: one long log replayed in bounded memory.
+* :func:`history_fields`: the calibration-history records of a report.
+
+The results are the dataclasses of :mod:`umbmark.realrobot.results` (SI units); their
+``to_dict()`` is the JSON of ``umbmark replay``.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, replace
+from collections.abc import Callable, Iterable
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -32,48 +39,117 @@ from umbmark.correct.lsq import LSQ_DEFAULTS, fit_lsq
 from umbmark.errors import InputError
 from umbmark.metrics import umbmark
 from umbmark.model.dataset import Dataset, WheelGeometry, replay_increments
+from umbmark.model.geometry import wrap_angle
 from umbmark.model.runs import RunsTable
+from umbmark.realrobot.results import (
+    AcrossHeldOut,
+    AcrossRow,
+    Calibrated,
+    ErrorSummary,
+    Evaluation,
+    HeldOut,
+    HeldOutRun,
+    KeptPoses,
+    MultiReplayReport,
+    PooledReport,
+    PooledRow,
+    ReplayReport,
+    RunErrors,
+    RunInfo,
+    StreamReport,
+)
 
 __all__ = [
-    "stream_log",
+    "method_names",
     "replay",
     "end_poses",
     "detect_directions",
     "square_runs",
+    "prepare",
     "Calibrated",
     "calibrate",
     "evaluate",
     "replay_report",
     "pooled_report",
-    "prepare",
-    "method_names",
     "stream_replay",
+    "stream_log",
+    "history_fields",
 ]
 
 
 def method_names() -> list[str]:
-    """Every method replay accepts: the registered square methods and ``lsq``."""
+    """Every method replay accepts.
+
+    Returns
+    -------
+    list of str
+        The registered square methods and ``lsq``, sorted.
+    """
     return sorted(set(METHODS) | {"lsq"})
 
 
 def replay(ds: Dataset, geometry: WheelGeometry, method: str = "exact"):
-    """Odometry of every run for ``geometry``: arrays (R, K) x, y, theta (zero-padded runs keep
-    their last pose) and the run lengths."""
+    """The odometry of every run of a data set, replayed with a geometry.
+
+    Parameters
+    ----------
+    ds : Dataset
+        The logged runs.
+    geometry : WheelGeometry
+        The geometry to replay with.
+    method : str
+        The integration of one sample (see :func:`umbmark.model.dataset.replay_increments`).
+
+    Returns
+    -------
+    x, y, theta : numpy.ndarray
+        (R, K) poses in each run's start frame (zero-padded runs keep their last pose).
+    n : numpy.ndarray
+        The length of each run.
+    """
     dl, dr, n = ds.padded()
     x, y, th = replay_increments(dl, dr, geometry.params(ds.units_per_rev), method=method)
     return x, y, th, n
 
 
 def end_poses(ds: Dataset, geometry: WheelGeometry) -> np.ndarray:
-    """(R, 3) replayed end poses (x, y, theta unwrapped)."""
+    """The replayed end pose of every run.
+
+    Parameters
+    ----------
+    ds : Dataset
+        The logged runs.
+    geometry : WheelGeometry
+        The geometry to replay with.
+
+    Returns
+    -------
+    numpy.ndarray
+        (R, 3): x, y [m] and theta [rad, unwrapped] in each run's start frame.
+    """
     dl, dr, _ = ds.padded()
     x, y, th = replay_increments(dl, dr, geometry.params(ds.units_per_rev), end=True)
     return np.column_stack([np.reshape(x, -1), np.reshape(y, -1), np.reshape(th, -1)])
 
 
 def detect_directions(ds: Dataset) -> tuple[list[str], np.ndarray, list[str]]:
-    """cw / ccw of each run from the nominal odometry's total turn; also the total turns
-    (radians) and warnings (direction differs from the declared one; odd total turn)."""
+    """The direction of each square run, from the nominal odometry's total turn.
+
+    Parameters
+    ----------
+    ds : Dataset
+        Square runs.
+
+    Returns
+    -------
+    directions : list of str
+        ``cw`` (negative total turn) or ``ccw`` per run.
+    turn : numpy.ndarray
+        The total turns [rad].
+    warnings : list of str
+        A detected direction that differs from the declared one; a total turn far from one
+        revolution.
+    """
     turn = end_poses(ds, ds.nominal)[:, 2]
     dirs = ["cw" if t < 0 else "ccw" for t in turn]
     warnings = []
@@ -94,7 +170,27 @@ def detect_directions(ds: Dataset) -> tuple[list[str], np.ndarray, list[str]]:
 
 
 def square_runs(ds: Dataset, geometry: WheelGeometry, directions) -> RunsTable:
-    """The UMBmark runs table: replayed end pose (odometry) vs ground-truth end pose."""
+    """The UMBmark runs table of square runs: replayed end pose (odometry) against the
+    ground-truth end pose (absolute), in the start frame.
+
+    Parameters
+    ----------
+    ds : Dataset
+        Square runs, each with a ground-truth end pose.
+    geometry : WheelGeometry
+        The geometry the odometry is replayed with.
+    directions : sequence of str
+        ``cw`` / ``ccw`` of each run.
+
+    Returns
+    -------
+    RunsTable
+
+    Raises
+    ------
+    InputError
+        A run has no ground-truth end pose.
+    """
     odo = end_poses(ds, geometry)
     truth = []
     for run in ds.runs:
@@ -103,53 +199,73 @@ def square_runs(ds: Dataset, geometry: WheelGeometry, directions) -> RunsTable:
             raise InputError("no ground-truth end pose for this run", source=run.source or f"{ds.name}/{run.name}")
         truth.append(e)
     truth = np.asarray(truth)
-    wrap = lambda a: np.mod(a + np.pi, 2 * np.pi) - np.pi  # noqa: E731
     return RunsTable.from_columns(
         list(directions),
         truth[:, 0],
         truth[:, 1],
         odo[:, 0],
         odo[:, 1],
-        wrap(truth[:, 2]),
-        wrap(odo[:, 2]),
+        wrap_angle(truth[:, 2]),
+        wrap_angle(odo[:, 2]),
         run=[r.name for r in ds.runs],
     )
 
 
-@dataclass(frozen=True)
-class Calibrated:
-    """A calibration result: the corrected absolute geometry and the method's figures."""
-
-    method: str
-    geometry: WheelGeometry
-    nominal: WheelGeometry
-    figures: dict = field(default_factory=dict)
-    lsq: object | None = None
-
-    def to_dict(self) -> dict:
-        g, n = self.geometry, self.nominal
-        d = {**g.relative_to(n), "wheelbase_per_mean_diameter": g.wheelbase_m / g.diameter_avg_m}
-        for k, v in self.figures.items():
-            d.setdefault(k, v)
-        return d
-
-
 def prepare(ds: Dataset) -> tuple[Dataset, list[str], np.ndarray]:
-    """For square data: the data set with its detected directions, warnings, total turns."""
+    """A square data set with its detected directions set.
+
+    Parameters
+    ----------
+    ds : Dataset
+        Any data set.
+
+    Returns
+    -------
+    dataset : Dataset
+        ``ds`` with ``directions`` detected (:func:`detect_directions`); unchanged when it is not
+        a square data set.
+    warnings : list of str
+        The detection's warnings.
+    turn : numpy.ndarray
+        The runs' total turns [rad] (empty for general paths).
+    """
     if not ds.is_square:
         return ds, [], np.array([])
     dirs, turn, warnings = detect_directions(ds)
     return replace(ds, directions=tuple(dirs)), warnings, turn
 
 
+def _check_method(method: str) -> None:
+    if method not in method_names():
+        raise InputError(f"unknown method {method!r} (choose from {', '.join(method_names())})")
+
+
 def calibrate(ds, method: str, lsq_options: dict | None = None) -> Calibrated:
-    """Calibrate with ``method`` (a registered square method, or ``lsq``). ``ds``: a data set
-    (square methods need a square data set whose ``directions`` are set: see :func:`prepare`)
-    or, for ``lsq``, a list of data sets fitted jointly."""
+    """Calibrate a geometry from logged runs.
+
+    Parameters
+    ----------
+    ds : Dataset or sequence of Dataset
+        A data set. Square methods need square runs (their directions are detected when not
+        set: :func:`prepare`); ``lsq`` also takes several data sets, fitted jointly.
+    method : str
+        A registered square method (``bf``, ``exact``, ...) or ``lsq``.
+    lsq_options : dict, optional
+        Options of :func:`umbmark.correct.lsq.fit_lsq` (over :data:`LSQ_DEFAULTS`).
+
+    Returns
+    -------
+    Calibrated
+
+    Raises
+    ------
+    InputError
+        An unknown method; a square method given a general path or several data sets.
+    """
     if method == "lsq":
         sets = ds if isinstance(ds, (list, tuple)) else [ds]
         res = fit_lsq(sets, **{**LSQ_DEFAULTS, **(lsq_options or {})})
-        return Calibrated("lsq", res.geometry, res.nominal, res.to_dict(), res)
+        return Calibrated("lsq", res.geometry, res.nominal, lsq=res)
     if method not in METHODS:
         raise InputError(f"unknown method {method!r} (choose from {', '.join(method_names())})")
     if isinstance(ds, (list, tuple)):
@@ -165,317 +281,297 @@ def calibrate(ds, method: str, lsq_options: dict | None = None) -> Calibrated:
         ds = prepare(ds)[0]
     runs = square_runs(ds, ds.nominal, ds.directions)
     corr = correct_runs(method, runs, ds.side_m, ds.nominal.wheelbase_m)
-    geom = ds.nominal.calibrated(corr.calibration)
-    fig = corr.to_dict()
-    fig.pop("wheelbase_corrected_mm", None)
-    return Calibrated(method, geom, ds.nominal, {"correction": fig, "Ed": corr.ed, "Eb": corr.eb})
+    return Calibrated(method, ds.nominal.calibrated(corr.calibration), ds.nominal, correction=corr)
 
 
-def _path_errors(ds: Dataset, geometry: WheelGeometry) -> dict:
+def _run_errors(ds: Dataset, geometry: WheelGeometry) -> list[tuple[float, float, float]]:
+    """Per run: end-position error, end-heading error, along-path RMS position error (NaN: no
+    ground truth for it)."""
     x, y, th, n = replay(ds, geometry)
-    end_pos, end_head, path_rms = [], [], []
+    out = []
     for i, run in enumerate(ds.runs):
         e = run.end_truth
         k = n[i] - 1
         if e is not None:
-            end_pos.append(math.hypot(e[0] - x[i, k], e[1] - y[i, k]))
-            end_head.append(float(np.mod(e[2] - th[i, k] + np.pi, 2 * np.pi) - np.pi))
+            end_pos = math.hypot(e[0] - x[i, k], e[1] - y[i, k])
+            end_head = float(wrap_angle(e[2] - th[i, k]))
         else:
-            end_pos.append(float("nan"))
-            end_head.append(float("nan"))
+            end_pos = end_head = float("nan")
+        path_rms = float("nan")
         if run.has_trajectory:
             g = run.gt
             ok = np.all(np.isfinite(g), axis=1)
             d = np.hypot(g[ok, 0] - x[i, : n[i]][ok], g[ok, 1] - y[i, : n[i]][ok])
-            path_rms.append(float(np.sqrt(np.mean(d**2))))
-        else:
-            path_rms.append(float("nan"))
-    return {
-        "end_position_error_m": np.array(end_pos),
-        "end_heading_error_rad": np.array(end_head),
-        "path_position_rms_m": np.array(path_rms),
-    }
+            path_rms = float(np.sqrt(np.mean(d**2)))
+        out.append((end_pos, end_head, path_rms))
+    return out
 
 
-def _rms(a):
+def _rms(a) -> float | None:
     a = np.asarray(a, dtype=float)
     a = a[np.isfinite(a)]
     return float(np.sqrt(np.mean(a**2))) if a.size else None
 
 
-def _summary(errs: dict, runs: RunsTable | None) -> dict:
-    d = {
-        "end_position_rms_mm": None
-        if _rms(errs["end_position_error_m"]) is None
-        else _rms(errs["end_position_error_m"]) * 1e3,
-        "end_heading_rms_deg": None
-        if _rms(errs["end_heading_error_rad"]) is None
-        else math.degrees(_rms(errs["end_heading_error_rad"])),
-        "path_position_rms_mm": None
-        if _rms(errs["path_position_rms_m"]) is None
-        else _rms(errs["path_position_rms_m"]) * 1e3,
+def _summary(errors: list[tuple[float, float, float]], runs: RunsTable | None) -> dict:
+    """The fields of an :class:`ErrorSummary` from per-run errors (and square runs' table)."""
+    cols = np.array(errors, dtype=float).reshape(-1, 3)
+    return {
+        "benchmark": None if runs is None else umbmark(runs),
+        "end_position_rms_m": _rms(cols[:, 0]),
+        "end_heading_rms_rad": _rms(cols[:, 1]),
+        "path_position_rms_m": _rms(cols[:, 2]),
     }
-    if runs is not None:
-        res = umbmark(runs)
-        d = {**res.to_dict(), **d}
-    else:
-        d = {"emax_syst_mm": None, **d}
-    return d
 
 
-def evaluate(ds: Dataset, geometry: WheelGeometry) -> dict:
-    """Errors of the odometry replayed with ``geometry``: UMBmark figures for square data
-    (``emax_syst_mm``, ``cw``, ``ccw``, ...), end-pose and along-path RMS errors, per-run
-    errors (``runs``)."""
-    errs = _path_errors(ds, geometry)
+def evaluate(ds: Dataset, geometry: WheelGeometry) -> Evaluation:
+    """The errors of the odometry replayed with a geometry, against the ground truth.
+
+    Parameters
+    ----------
+    ds : Dataset
+        The logged runs (square runs are benchmarked when their ``directions`` are set).
+    geometry : WheelGeometry
+        The geometry to replay with.
+
+    Returns
+    -------
+    Evaluation
+        UMBmark figures of square runs, end-pose and along-path RMS errors, per-run errors.
+    """
+    errors = _run_errors(ds, geometry)
     runs = square_runs(ds, geometry, ds.directions) if ds.is_square and ds.directions is not None else None
-    out = _summary(errs, runs)
     per_run = []
-    for i, run in enumerate(ds.runs):
-        r = {
-            "run": run.name,
-            "end_position_error_mm": errs["end_position_error_m"][i] * 1e3,
-            "end_heading_error_deg": math.degrees(errs["end_heading_error_rad"][i]),
-            "path_position_rms_mm": errs["path_position_rms_m"][i] * 1e3,
-        }
+    for i, (run, (end_pos, end_head, path_rms)) in enumerate(zip(ds.runs, errors)):
+        extra = {}
         if runs is not None:
-            r.update({"direction": runs.direction[i], "eps_x_mm": runs.eps_x[i] * 1e3, "eps_y_mm": runs.eps_y[i] * 1e3})
-        per_run.append(r)
-    out["runs"] = per_run
-    return out
+            extra = {"direction": str(runs.direction[i]), "eps_x_m": runs.eps_x[i], "eps_y_m": runs.eps_y[i]}
+        per_run.append(RunErrors(run.name, end_pos, end_head, path_rms, **extra))
+    return Evaluation(**_summary(errors, runs), runs=tuple(per_run))
 
 
-def _heldout_loo(ds: Dataset, method: str, lsq_options: dict | None, full: Calibrated) -> dict:
-    """Leave-one-run-out: calibrate without run i, evaluate run i."""
-    n = len(ds.runs)
-    scheme = "leave-one-run-out (calibrate without run i, evaluate run i)"
-    if ds.is_square:
-        scheme += "; held-out return errors benchmarked per direction"
-    if n < 2:
-        return {
-            "scheme": scheme,
-            "emax_syst_mm": None,
-            "end_position_rms_mm": None,
-            "reason": "only one run: nothing to hold out (give several data sets for held-out figures across "
-            "data sets)",
-        }
+_LOO_SCHEME = "leave-one-run-out (calibrate without run i, evaluate run i)"
+_ACROSS_HINT = "give several data sets for held-out figures across data sets"
+
+
+def _loo_obstacle(ds: Dataset) -> str | None:
+    """Why leave-one-run-out cannot be done on ``ds`` (None: it can)."""
+    if len(ds.runs) < 2:
+        return f"only one run: nothing to hold out ({_ACROSS_HINT})"
     if ds.is_square:
         counts = {d: list(ds.directions).count(d) for d in ("cw", "ccw")}
         if min(counts.values()) < 2:
-            return {
-                "scheme": scheme,
-                "emax_syst_mm": None,
-                "end_position_rms_mm": None,
-                "reason": f"leave-one-run-out needs at least 2 runs in both directions (this set has "
+            return (
+                f"leave-one-run-out needs at least 2 runs in both directions (this set has "
                 f"{counts['cw']} cw and {counts['ccw']} ccw): without a run, a direction would be "
-                "missing from the calibration (give several data sets for held-out figures across "
-                "data sets)",
-            }
+                f"missing from the calibration ({_ACROSS_HINT})"
+            )
+    return None
+
+
+def _heldout_loo(ds: Dataset, method: str, lsq_options: dict | None, full: Calibrated) -> HeldOut:
+    """Leave-one-run-out: calibrate without run i, evaluate run i."""
+    n = len(ds.runs)
+    scheme = _LOO_SCHEME + ("; held-out return errors benchmarked per direction" if ds.is_square else "")
+    reason = _loo_obstacle(ds)
+    if reason is not None:
+        return HeldOut(scheme, reason=reason)
     geoms, failed = [], []
     for i in range(n):
         sub = ds.subset([j for j in range(n) if j != i])
         try:
-            if ds.is_square:
-                dirs = set(sub.directions)
-                if dirs != {"cw", "ccw"}:
-                    raise InputError("runs in both directions are needed")
+            if ds.is_square and set(sub.directions) != {"cw", "ccw"}:
+                raise InputError("runs in both directions are needed")
             opts = {**(lsq_options or {}), "start": full.geometry} if method == "lsq" else lsq_options
             geoms.append(calibrate(sub, method, opts).geometry)
         except InputError as e:
             geoms.append(None)
             failed.append(f"{ds.runs[i].name}: {e}")
-    if any(g is None for g in geoms):
-        return {
-            "scheme": scheme,
-            "emax_syst_mm": None,
-            "end_position_rms_mm": None,
-            "reason": "cannot calibrate without a run: " + "; ".join(failed),
-        }
+    if failed:
+        return HeldOut(scheme, reason="cannot calibrate without a run: " + "; ".join(failed))
     odo = np.array([end_poses(ds.subset([i]), g)[0] for i, g in enumerate(geoms)])
-    errs = {
-        k: np.array([_path_errors(ds.subset([i]), g)[k][0] for i, g in enumerate(geoms)])
-        for k in ("end_position_error_m", "end_heading_error_rad", "path_position_rms_m")
-    }
+    errors = [_run_errors(ds.subset([i]), g)[0] for i, g in enumerate(geoms)]
     runs = None
     if ds.is_square:
         truth = np.array([r.end_truth for r in ds.runs])
         runs = RunsTable.from_columns(
             list(ds.directions), truth[:, 0], truth[:, 1], odo[:, 0], odo[:, 1], run=[r.name for r in ds.runs]
         )
-    out = {"scheme": scheme, **_summary(errs, runs)}
-    # jackknife spread of the leave-one-out calibrations (uncertainty of the full calibration)
-    if n >= 3:
-        vals = {
-            "diameter_left_mm": [g.diameter_left_m * 1e3 for g in geoms],
-            "diameter_right_mm": [g.diameter_right_m * 1e3 for g in geoms],
-            "wheelbase_mm": [g.wheelbase_m * 1e3 for g in geoms],
-            "Ed": [g.ed for g in geoms],
-        }
-        out["jackknife_std"] = {
-            k: float(math.sqrt((n - 1) / n * np.sum((np.array(v) - np.mean(v)) ** 2))) for k, v in vals.items()
-        }
-    out["runs"] = [
-        {
-            "run": r.name,
-            "calibrated_without_it": g.to_dict(),
-            "end_position_error_mm": errs["end_position_error_m"][i] * 1e3,
-        }
-        for i, (r, g) in enumerate(zip(ds.runs, geoms))
-    ]
-    return out
+    held = tuple(HeldOutRun(r.name, g, e[0]) for r, g, e in zip(ds.runs, geoms, errors))
+    return HeldOut(scheme, ErrorSummary(**_summary(errors, runs)), held)
 
 
-def _transfer(src: Calibrated, dst: Dataset) -> WheelGeometry:
-    """The same absolute geometry, used on another data set (same robot and encoders)."""
-    return src.geometry
+def _report(ds: Dataset, method: str, cal: Calibrated, turn, warnings, heldout: HeldOut | None) -> ReplayReport:
+    runs = tuple(
+        RunInfo(r.name, len(r), float(r.t[-1] - r.t[0]), *((ds.directions[i], turn[i]) if ds.is_square else ()))
+        for i, r in enumerate(ds.runs)
+    )
+    return ReplayReport(
+        dataset=ds.name,
+        source=ds.source,
+        format=ds.meta.get("format"),
+        kind="square" if ds.is_square else "path",
+        method=method,
+        nominal=ds.nominal,
+        units_per_rev=ds.units_per_rev,
+        side_m=ds.side_m,
+        runs=runs,
+        calibration=cal,
+        before=evaluate(ds, ds.nominal),
+        after=evaluate(ds, cal.geometry),
+        warnings=tuple(warnings),
+        heldout=heldout,
+    )
 
 
-def replay_report(datasets, method: str = "bf", lsq_options: dict | None = None, heldout: bool = True) -> dict:
-    """Replay, calibrate and evaluate each data set; held-out figures (see module docstring).
+def replay_report(
+    datasets, method: str = "bf", lsq_options: dict | None = None, heldout: bool = True
+) -> ReplayReport | MultiReplayReport:
+    """Replay, calibrate and evaluate each data set, with held-out figures.
 
-    One data set: one report dict. Several: ``{"datasets": [...], "across": [...]}`` where
-    each report also holds the across-data-set held-out figures of its data set.
+    Parameters
+    ----------
+    datasets : Dataset or iterable of Dataset
+        The data sets (of one robot).
+    method : str
+        The calibration method (:func:`method_names`).
+    lsq_options : dict, optional
+        Options of the ``lsq`` fit.
+    heldout : bool
+        Also compute the held-out figures: leave-one-run-out and, with several data sets,
+        across data sets (see the module docstring).
+
+    Returns
+    -------
+    ReplayReport or MultiReplayReport
+        One data set: its report. Several: every report (each also holding the
+        across-data-set figures of its data set) and every (calibrated on, evaluated on) pair.
+
+    Raises
+    ------
+    InputError
+        An unknown method; a data set the method cannot calibrate.
     """
     if isinstance(datasets, Dataset):
         datasets = [datasets]
     datasets = list(datasets)
-    if method not in method_names():
-        raise InputError(f"unknown method {method!r} (choose from {', '.join(method_names())})")
-    reports, cals, prepared = [], [], []
+    _check_method(method)
+    parts = []
     for ds in datasets:
         ds, warnings, turn = prepare(ds)
-        prepared.append(ds)
         cal = calibrate(ds, method, lsq_options)
-        cals.append(cal)
-        before = evaluate(ds, ds.nominal)
-        after = evaluate(ds, cal.geometry)
-        rep = {
-            "dataset": ds.name,
-            "source": ds.source,
-            "format": ds.meta.get("format"),
-            "kind": "square" if ds.is_square else "path",
-            "method": method,
-            "nominal": {**ds.nominal.to_dict(), "units_per_wheel_rev": ds.units_per_rev},
-            "side_mm": None if ds.side_m is None else ds.side_m * 1e3,
-            "runs": [
-                {
-                    "run": r.name,
-                    "samples": len(r),
-                    "duration_s": float(r.t[-1] - r.t[0]),
-                    **(
-                        {"direction": ds.directions[i], "total_turn_deg": math.degrees(turn[i])} if ds.is_square else {}
-                    ),
-                }
-                for i, r in enumerate(ds.runs)
-            ],
-            **cal.to_dict(),
-            "before": before,
-            "after": after,
-            "improvement": (
-                before["emax_syst_mm"] / after["emax_syst_mm"]
-                if ds.is_square and after["emax_syst_mm"]
-                else (
-                    before["end_position_rms_mm"] / after["end_position_rms_mm"]
-                    if before["end_position_rms_mm"] and after["end_position_rms_mm"]
-                    else None
-                )
-            ),
-            "warnings": warnings,
-        }
-        if heldout:
-            rep["heldout"] = _heldout_loo(ds, method, lsq_options, cal)
-            if cal.lsq is not None and "jackknife_std" in rep["heldout"]:
-                rep["std"] = rep["heldout"]["jackknife_std"]
-        reports.append(rep)
-    if len(datasets) == 1:
-        return reports[0]
-    across = []
-    for j, dst in enumerate(prepared):
-        rows = []
-        for i, src in enumerate(cals):
-            if i == j:
-                continue
-            ev = evaluate(dst, _transfer(src, dst))
-            rows.append(
-                {
-                    "calibrated_on": prepared[i].name,
-                    "evaluated_on": dst.name,
-                    "emax_syst_mm": ev["emax_syst_mm"],
-                    "end_position_rms_mm": ev["end_position_rms_mm"],
-                    "path_position_rms_mm": ev["path_position_rms_mm"],
-                }
-            )
+        loo = _heldout_loo(ds, method, lsq_options, cal) if heldout else None
+        parts.append((ds, cal, turn, warnings, loo))
+    if len(parts) == 1:
+        ds, cal, turn, warnings, loo = parts[0]
+        return _report(ds, method, cal, turn, warnings, loo)
+    across, reports = [], []
+    for j, (dst, dst_cal, turn, warnings, loo) in enumerate(parts):
+        rows = tuple(
+            AcrossRow(src.name, dst.name, evaluate(dst, cal.geometry))
+            for i, (src, cal, *_) in enumerate(parts)
+            if i != j
+        )
         across += rows
-        if heldout:
-            vals = [r["emax_syst_mm"] for r in rows if r["emax_syst_mm"] is not None]
-            ends = [r["end_position_rms_mm"] for r in rows if r["end_position_rms_mm"] is not None]
-            reports[j]["heldout"]["across_datasets"] = {
-                "scheme": "calibrated on each other data set, evaluated on this one",
-                "emax_syst_mm_mean": float(np.mean(vals)) if vals else None,
-                "emax_syst_mm_max": float(np.max(vals)) if vals else None,
-                "end_position_rms_mm_mean": float(np.mean(ends)) if ends else None,
-                "from": rows,
-            }
-    return {"method": method, "datasets": reports, "across": across}
+        if loo is not None:
+            loo = replace(loo, across=AcrossHeldOut(rows))
+        reports.append(_report(dst, method, dst_cal, turn, warnings, loo))
+    return MultiReplayReport(method, tuple(reports), tuple(across))
 
 
-def pooled_report(datasets, lsq_options: dict | None = None, heldout: bool = True) -> dict:
-    """``lsq`` fitted jointly on all data sets (same robot); held out: leave-one-data-set-out
-    (fit on the others, evaluate the one left out)."""
+def pooled_report(datasets, lsq_options: dict | None = None, heldout: bool = True) -> PooledReport:
+    """One ``lsq`` geometry fitted to all data sets together (same robot).
+
+    Parameters
+    ----------
+    datasets : iterable of Dataset
+        The data sets.
+    lsq_options : dict, optional
+        Options of the ``lsq`` fit.
+    heldout : bool
+        Also leave-one-data-set-out: fit on the others, evaluate the one left out (with at
+        least two data sets).
+
+    Returns
+    -------
+    PooledReport
+
+    Raises
+    ------
+    InputError
+        No data sets; the fit fails.
+    """
     prepared = [prepare(ds)[0] for ds in datasets]
     if len(prepared) < 1:
         raise InputError("no data sets")
     cal = calibrate(prepared, "lsq", lsq_options)
     per = []
     for i, ds in enumerate(prepared):
-        before = evaluate(ds, ds.nominal)
-        after = evaluate(ds, cal.geometry)
-        row = {
-            "dataset": ds.name,
-            "kind": "square" if ds.is_square else "path",
-            "before": {k: before[k] for k in ("emax_syst_mm", "end_position_rms_mm", "path_position_rms_mm")},
-            "after": {k: after[k] for k in ("emax_syst_mm", "end_position_rms_mm", "path_position_rms_mm")},
-        }
+        row = PooledRow(
+            ds.name, "square" if ds.is_square else "path", evaluate(ds, ds.nominal), evaluate(ds, cal.geometry)
+        )
         if heldout and len(prepared) > 1:
             others = [d for j, d in enumerate(prepared) if j != i]
             g = calibrate(others, "lsq", {**(lsq_options or {}), "start": cal.geometry}).geometry
-            ev = evaluate(ds, g)
-            row["heldout"] = {
-                "scheme": "fitted on the other data sets",
-                "calibrated_without_it": g.to_dict(),
-                **{k: ev[k] for k in ("emax_syst_mm", "end_position_rms_mm", "path_position_rms_mm")},
-            }
+            row = replace(row, heldout_geometry=g, heldout=evaluate(ds, g))
         per.append(row)
-    out = {"method": "lsq", "pooled": True, "datasets": [d.name for d in prepared], **cal.to_dict(), "per_dataset": per}
-    if heldout and len(prepared) > 1:
+    return PooledReport(tuple(d.name for d in prepared), cal, tuple(per))
 
-        def agg(key, part):
-            v = [r[part][key] for r in per if r[part][key] is not None]
-            return float(np.sqrt(np.mean(np.square(v)))) if v else None
 
-        out["before"] = {"end_position_rms_mm": agg("end_position_rms_mm", "before")}
-        out["after"] = {"end_position_rms_mm": agg("end_position_rms_mm", "after")}
-        out["heldout"] = {
-            "scheme": "leave-one-data-set-out",
-            "end_position_rms_mm": agg("end_position_rms_mm", "heldout"),
-            "emax_syst_mm": None,
-        }
-    return out
+# --- streaming: one long run in bounded memory --------------------------------------------------
+
+
+class _PoseKeeper:
+    """Collects the poses after every ``decimate``-th sample across chunks."""
+
+    def __init__(self, decimate: int):
+        self.decimate = decimate
+        self.parts: dict[str, list] = {"sample": [], "t_s": [], "x_m": [], "y_m": [], "theta_rad": []}
+
+    def add(self, first: int, t, poses) -> None:
+        sel = np.arange((-(first + 1)) % self.decimate, len(t), self.decimate)
+        self.parts["sample"].append(first + sel)
+        self.parts["t_s"].append(np.asarray(t, dtype=float)[sel])
+        for name, arr in zip(("x_m", "y_m", "theta_rad"), poses):
+            self.parts[name].append(np.asarray(arr)[sel])
+
+    def poses(self) -> KeptPoses:
+        return KeptPoses(**{k: (np.concatenate(v) if v else np.empty(0)) for k, v in self.parts.items()})
 
 
 def stream_replay(
-    chunks, geometry: WheelGeometry, units_per_rev: float, decimate: int | None = None, method: str = "exact"
-) -> dict:
-    """Replay ONE long run given as an iterable of chunks (e.g.
-    :func:`umbmark.io.generic_csv.iter_generic_csv`: objects with ``t``, ``d_left``,
-    ``d_right``, ``gt``) in bounded memory: only the current chunk, the running sums and the kept
-    poses are held (:class:`umbmark.model.odometry.Odometer`; whole-number increments use its table
-    kernel).
+    chunks: Iterable, geometry: WheelGeometry, units_per_rev: float, decimate: int | None = None, method: str = "exact"
+) -> StreamReport:
+    """Replay ONE long run given as chunks, in bounded memory.
 
-    Returns the odometry's end pose, the ground-truth end pose and the end-pose errors when the
-    last row has ground truth, the RMS position error over every sample with ground truth
-    (``path_position_rms_mm``, as in :func:`evaluate`), and with ``decimate=n`` the poses after
-    every n-th sample (``kept``: arrays ``sample``, ``t_s``, ``x_m``, ``y_m``, ``theta_rad``).
+    Only the current chunk, the running sums and the kept poses are held
+    (:class:`umbmark.model.odometry.Odometer`; whole-number increments use its table kernel).
+
+    Parameters
+    ----------
+    chunks : iterable
+        Objects with ``t``, ``d_left``, ``d_right`` and ``gt`` (e.g. the chunks of
+        :func:`umbmark.io.generic_csv.iter_generic_csv`).
+    geometry : WheelGeometry
+        The geometry to replay with.
+    units_per_rev : float
+        Log units per wheel revolution.
+    decimate : int, optional
+        Keep the pose after every ``decimate``-th sample.
+    method : str
+        The integration of one sample.
+
+    Returns
+    -------
+    StreamReport
+        The odometry's end pose; the ground-truth end pose and the end-pose errors when the last
+        row has ground truth; the RMS position error over every sample with ground truth (as in
+        :func:`evaluate`); the kept poses.
+
+    Raises
+    ------
+    InputError
+        ``decimate`` below 1; fewer than two samples.
     """
     from umbmark.model.odometry import Odometer
 
@@ -483,7 +579,7 @@ def stream_replay(
         raise InputError(f"decimate must be >= 1, got {decimate}")
     p = geometry.params(units_per_rev)
     odo = Odometer(None, params=p, method=method)
-    kept = {"sample": [], "t_s": [], "x_m": [], "y_m": [], "theta_rad": []} if decimate else None
+    keeper = _PoseKeeper(decimate) if decimate else None
     n = 0
     sq_sum, n_gt = 0.0, 0
     last_gt, t_end, chunks_read = None, 0.0, 0
@@ -511,45 +607,80 @@ def stream_replay(
                 sq_sum += float(np.sum((g[ok, 0] - res[0][ok]) ** 2 + (g[ok, 1] - res[1][ok]) ** 2))
                 n_gt += int(ok.sum())
             last_gt = g[-1] if ok[-1] else None
-        if decimate:
-            sel = np.arange((-(n + 1)) % decimate, k, decimate)
-            kept["sample"].append(n + sel)
-            kept["t_s"].append(np.asarray(ch.t, dtype=float)[sel])
-            for name, arr in zip(("x_m", "y_m", "theta_rad"), res):
-                kept[name].append(np.asarray(arr)[sel])
+        if keeper is not None:
+            keeper.add(n, ch.t, res)
         n += k
         t_end = float(ch.t[-1])
     if n < 2:
         raise InputError("a run needs at least two samples")
     x, y, th = odo.pose
-    out = {
-        "mode": "stream",
-        "samples": n,
-        "chunks": chunks_read,
-        "duration_s": t_end,
-        "nominal": {**geometry.to_dict(), "units_per_wheel_rev": units_per_rev},
-        "end_pose": {"x_mm": x * 1e3, "y_mm": y * 1e3, "theta_deg": math.degrees(th)},
-        "end_truth": None,
-        "end_position_error_mm": None,
-        "end_heading_error_deg": None,
-        "path_position_rms_mm": math.sqrt(sq_sum / n_gt) * 1e3 if n_gt >= 2 else None,
-        "samples_with_truth": n_gt,
-    }
+    truth = err_pos = err_head = None
     if last_gt is not None:
-        out["end_truth"] = {"x_mm": last_gt[0] * 1e3, "y_mm": last_gt[1] * 1e3, "theta_deg": math.degrees(last_gt[2])}
-        out["end_position_error_mm"] = math.hypot(last_gt[0] - x, last_gt[1] - y) * 1e3
-        out["end_heading_error_deg"] = math.degrees(float(np.mod(last_gt[2] - th + np.pi, 2 * np.pi) - np.pi))
-    if kept is not None:
-        out["kept"] = {k: (np.concatenate(v) if v else np.empty(0)) for k, v in kept.items()}
-        out["decimate"] = decimate
-    return out
+        truth = (float(last_gt[0]), float(last_gt[1]), float(last_gt[2]))
+        err_pos = math.hypot(last_gt[0] - x, last_gt[1] - y)
+        err_head = float(wrap_angle(last_gt[2] - th))
+    return StreamReport(
+        dataset=None,
+        source=None,
+        format=None,
+        samples=n,
+        chunks=chunks_read,
+        duration_s=t_end,
+        nominal=geometry,
+        units_per_rev=units_per_rev,
+        end_pose=(x, y, th),
+        end_truth=truth,
+        end_position_error_m=err_pos,
+        end_heading_error_rad=err_head,
+        path_position_rms_m=math.sqrt(sq_sum / n_gt) if n_gt >= 2 else None,
+        samples_with_truth=n_gt,
+        kept=None if keeper is None else keeper.poses(),
+        decimate=decimate,
+    )
 
 
-def stream_log(path, decimate: int | None = None, chunk_rows: int = 1 << 16, fmt: str = "auto", **opts) -> dict:
-    """Replay ONE long generic CSV log with the nominal geometry of ``opts`` in bounded memory
-    (read in chunks of ``chunk_rows`` rows, see :func:`umbmark.realrobot.replay.stream_replay`)."""
+def stream_log(
+    path,
+    decimate: int | None = None,
+    chunk_rows: int = 1 << 16,
+    fmt: str = "auto",
+    poses_out=None,
+    **opts,
+) -> StreamReport:
+    """Replay ONE long generic CSV log with its nominal geometry in bounded memory.
+
+    Parameters
+    ----------
+    path : str or Path, or a sequence of one
+        The CSV log (one run).
+    decimate : int, optional
+        Keep the pose after every ``decimate``-th sample.
+    chunk_rows : int
+        Rows read at a time.
+    fmt : str
+        The log format (``auto`` or ``csv``: streaming reads the generic CSV only).
+    poses_out : str or Path, optional
+        Write the kept poses to this CSV file (needs ``decimate``;
+        :func:`umbmark.io.poses_csv.write_poses_csv`).
+    **opts
+        The reader options of :func:`umbmark.io.load.load_logs`: ``wheel_diameter_mm`` (or
+        ``left_diameter_mm``/``right_diameter_mm``), ``wheelbase_mm``,
+        ``pulses_per_wheel_rev``, ``ticks``.
+
+    Returns
+    -------
+    StreamReport
+        See :func:`stream_replay`; with the log's name, path and format.
+
+    Raises
+    ------
+    InputError
+        Several files, another format, a square side, missing geometry, ``poses_out`` without
+        ``decimate``, or a bad log (file and line named).
+    """
     from umbmark.io.generic_csv import iter_generic_csv
-    from umbmark.io.load import _nominal, detect_format
+    from umbmark.io.load import detect_format, nominal_geometry
+    from umbmark.io.poses_csv import write_poses_csv
 
     if isinstance(path, (list, tuple)):
         if len(path) != 1:
@@ -571,8 +702,88 @@ def stream_log(path, decimate: int | None = None, chunk_rows: int = 1 << 16, fmt
         raise InputError(
             "the CSV log needs `pulses_per_wheel_rev` (encoder pulses per wheel revolution)", source=str(path)
         )
-    nominal = _nominal(opts, str(path))
+    nominal = nominal_geometry(opts, str(path))
     rep = stream_replay(
         iter_generic_csv(path, opts.get("ticks") or "cumulative", chunk_rows), nominal, ppr, decimate=decimate
     )
-    return {"dataset": Path(path).stem, "source": str(path), "format": "csv", **rep}
+    rep = replace(rep, dataset=Path(path).stem, source=str(path), format="csv")
+    if poses_out is not None:
+        if rep.kept is None:
+            raise InputError("`poses_out` needs `decimate` (keep the pose after every N-th sample)")
+        k = rep.kept
+        write_poses_csv(poses_out, k.sample, k.t_s, k.x_m, k.y_m, k.theta_rad)
+        rep = replace(rep, poses_out=str(poses_out))
+    return rep
+
+
+# --- the calibration history --------------------------------------------------------------------
+
+
+def _report_parts(rep: dict) -> list[dict]:
+    if rep.get("pooled"):
+        return list(rep.get("per_dataset") or [])
+    if isinstance(rep.get("datasets"), list):
+        return list(rep["datasets"])
+    return [rep]
+
+
+def history_fields(
+    report,
+    paths,
+    *,
+    kind: str = "replay",
+    method: str | None = None,
+    file_hash: Callable[[str], str] | None = None,
+) -> list[dict]:
+    """The calibration-history records of a replay report, one per data set.
+
+    Parameters
+    ----------
+    report : ReplayReport, MultiReplayReport, PooledReport or dict
+        A report, or its ``to_dict()`` (the JSON of ``umbmark replay --json``).
+    paths : str, Path or sequence of them
+        The log files or folders the report was made from (each data set's is found by its
+        source or name).
+    kind : str
+        The record's kind.
+    method : str, optional
+        The record's method (default: the report's).
+    file_hash : callable, optional
+        The content hash of a log file or folder (:func:`umbmark.history.file_sha256`);
+        None: no hash.
+
+    Returns
+    -------
+    list of dict
+        The keyword arguments of :func:`umbmark.history.record_result` (without ``robot`` and
+        ``db``): ``parameters`` ``Ed``, ``Eb``, ``c_left``, ``c_right``, ``wheelbase_mm`` (the
+        corrected one); ``results``: the data set's report with ``emax_syst_mm`` of the odometry
+        as it ran (``before``); ``parameters_in_use``: the nominal geometry; ``input_sha256``,
+        ``source`` and ``inputs`` (``paths``, ``dataset``).
+    """
+    rep = report.to_dict() if hasattr(report, "to_dict") else report
+    paths = [str(p) for p in (paths if isinstance(paths, (list, tuple)) else [paths])]
+    out = []
+    for i, part in enumerate(_report_parts(rep)):
+        src = part.get("source") or part.get("dataset") or (paths[i] if i < len(paths) else None)
+        src_path = next((p for p in paths if src and (p == src or Path(p).name == Path(str(src)).name)), src)
+        exists = bool(src_path) and Path(src_path).exists()
+        params = {k: part.get(k, rep.get(k)) for k in ("Ed", "Eb", "c_left", "c_right")}
+        params["wheelbase_mm"] = part.get("wheelbase_corrected_mm", rep.get("wheelbase_corrected_mm"))
+        results = dict(part)
+        before = part.get("before") if isinstance(part.get("before"), dict) else {}
+        results["emax_syst_mm"] = before.get("emax_syst_mm")
+        nominal = part.get("nominal", rep.get("nominal"))
+        out.append(
+            {
+                "kind": kind,
+                "method": str(method or part.get("method") or rep.get("method") or "?"),
+                "results": results,
+                "parameters": params,
+                "input_sha256": file_hash(src_path) if exists and file_hash is not None else None,
+                "source": None if src_path is None else str(Path(src_path).resolve() if exists else src_path),
+                "parameters_in_use": nominal if isinstance(nominal, dict) else None,
+                "inputs": {"paths": paths, "dataset": src},
+            }
+        )
+    return out
