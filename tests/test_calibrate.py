@@ -122,7 +122,7 @@ def test_calibrate_cli_errors(tmp_path, capsys):
     assert "missing.csv" in capsys.readouterr().err
     assert main(["calibrate", "--ed", "-1"]) == 2
     assert "--ed" in capsys.readouterr().err
-    assert main(["calibrate", "--ed", "1e308"]) == 2  # accepted before (fuzzing)
+    assert main(["calibrate", "--ed", "1e308"]) == 2  # finite but absurd
     assert "--ed must be a number from 0.5 to 2" in capsys.readouterr().err
     assert main(["calibrate", "--save-runs", str(tmp_path / "nope")]) == 2
     err = capsys.readouterr().err
@@ -210,3 +210,47 @@ def test_calibrate_records_into_the_history(tmp_path, capsys):
     assert main(["calibrate", "--noise", "none", "--record", "--db", str(db)]) == 2
     with open_history(db, create=False) as h:
         assert len(h.records("r1")) == 2
+
+
+def test_choices_are_the_librarys():
+    from umbmark.cli.app import METHOD_CHOICES, NOISE_CHOICES
+    from umbmark.correct import METHODS
+    from umbmark.model.simulate import NOISE_PRESETS
+
+    assert list(METHOD_CHOICES) == sorted(METHODS) and list(NOISE_CHOICES) == sorted(NOISE_PRESETS)
+
+
+def test_history_fields_of_a_simulated_loop_and_of_runs_files(tmp_path):
+    from umbmark.history import file_sha256
+    from umbmark.studies.iterate import history_fields
+
+    loop = calibrate_loop(ErrorParams(1.01, 1.05), noise="none", motion=EXACT_ARC, method="bf", max_passes=1, seed=3)
+    f = history_fields(loop)
+    assert f["kind"] == "calibrate" and f["method"] == "bf" and f["note"] == "simulated robot"
+    assert f["inputs"]["simulation"] == {
+        "Ed": 1.01,
+        "Eb": 1.05,
+        "runs_per_direction": 5,
+        "noise": "none",
+        "seed": 3,
+        "sample_period_ms": None,
+        "max_passes": 1,
+        "side_mm": 4000.0,
+    }
+    assert f["results"] == {
+        **loop.to_dict(),
+        "emax_syst_mm": loop.passes[0].result.emax_syst * 1e3,
+        "emax_syst_last_pass_mm": loop.passes[-1].result.emax_syst * 1e3,
+    }
+    assert f["parameters"]["wheelbase_mm"] == loop.final_calibration.wheelbase_m * 1e3
+    # runs files: each one hashed, the record's hash the hash of the hashes
+    files = []
+    for p in loop.passes:
+        files.append(tmp_path / f"pass{p.index}.csv")
+        write_runs_csv(p.runs, files[-1])
+    real = compose_passes([p.runs for p in loop.passes], 4.0, 0.34, "bf", sources=[str(f) for f in files])
+    g = history_fields(real)
+    assert "simulation" not in g["inputs"] and "note" not in g
+    assert [r["sha256"] for r in g["inputs"]["runs_files"]] == [file_sha256(f) for f in files]
+    assert g["source"] == str(files[-1].resolve()) and len(g["input_sha256"]) == 64
+    assert real.to_dict()["method"] == "bf" and real.simulation is None

@@ -1,24 +1,32 @@
 """``umbmark calibrate``: iterate run / correct / re-run (simulator), or compose the passes of
-a real robot from its runs files (issue 7). Registers on ``app`` from ``.app``."""
+a real robot from its runs files (:mod:`umbmark.studies.iterate`). No numerical module is
+imported before the command runs."""
 
 from __future__ import annotations
 
-import hashlib
 from pathlib import Path
 
 import click
-from rich.markup import escape
 
-from umbmark.cli.app import app, cli_message, console, emit_json, error_param, fmt, is_quiet, positive, table
+from umbmark.cli.app import (
+    METHOD_CHOICES,
+    NOISE_CHOICES,
+    app,
+    cli_message,
+    console,
+    emit_json,
+    error_param,
+    fmt,
+    is_quiet,
+    positive,
+    table,
+)
 from umbmark.cli.core import _prior, geometry_options, prior_options
 from umbmark.cli.history import history_options, print_recorded, record_if_requested
 from umbmark.cli.progress import progress
-from umbmark.correct import METHODS
 from umbmark.errors import InputError
-from umbmark.io.runs_csv import read_runs_csv, write_runs_csv
-from umbmark.model.geometry import LABMATE, ErrorParams, Geometry
-from umbmark.model.simulate import NOISE_PRESETS, Motion
-from umbmark.studies.iterate import calibrate_loop, compose_passes, history_fields
+
+__all__ = ["calibrate"]
 
 
 def _pass_rows(loop):
@@ -48,6 +56,8 @@ def _pass_rows(loop):
 
 
 def _print_loop(loop, title):
+    from rich.markup import escape
+
     c = console()
     c.print(
         table(
@@ -95,7 +105,7 @@ def _print_loop(loop, title):
     show_default=True,
     help="Simulator: runs per direction in each pass.",
 )
-@click.option("--noise", type=click.Choice(sorted(NOISE_PRESETS)), default="paper", show_default=True)
+@click.option("--noise", type=click.Choice(NOISE_CHOICES), default="paper", show_default=True)
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
 @click.option(
     "--max-passes",
@@ -104,7 +114,7 @@ def _print_loop(loop, title):
     show_default=True,
     help="Simulator: at most this many corrections.",
 )
-@click.option("--method", type=click.Choice(sorted(METHODS)), default="exact", show_default=True)
+@click.option("--method", type=click.Choice(METHOD_CHOICES), default="exact", show_default=True)
 @click.option("--sample-period-ms", type=float, default=10.0, show_default=True)
 @click.option(
     "--save-runs",
@@ -157,6 +167,9 @@ def calibrate(
       umbmark calibrate pass1.csv pass2.csv --wheelbase-mm 340 --side-mm 4000
       umbmark calibrate pass1.csv pass2.csv --robot r1 --record
     """
+    from umbmark.io.runs_csv import read_runs_csv, write_runs_csv
+    from umbmark.studies.iterate import calibrate_loop, compose_passes, history_fields
+
     side_m = positive("--side-mm", side_mm) * 1e-3
     wheelbase_m = positive("--wheelbase-mm", wheelbase_mm) * 1e-3
     prior = _prior(c_left, c_right)
@@ -165,6 +178,9 @@ def calibrate(
         loop = compose_passes(runs, side_m, wheelbase_m, method, prior, sources=runs_files)
         title = f"Successive calibrations of {len(runs)} runs files ({method})"
     else:
+        from umbmark.model.geometry import LABMATE, ErrorParams, Geometry
+        from umbmark.model.simulate import Motion
+
         if save_runs is not None and not Path(save_runs).is_dir():
             raise InputError(f"output folder {save_runs} does not exist")
         geom = Geometry(
@@ -196,38 +212,10 @@ def calibrate(
             f"Calibration loop ({method}): simulated robot E_d = {ed}, E_b = {eb}, noise '{noise}', "
             f"{n_runs} runs each way"
         )
-    rec = None
-    if record:
-        fields = history_fields(loop, method)
-        if runs_files:
-            from umbmark.history import file_sha256
-
-            shas = [file_sha256(f) for f in runs_files]
-            fields["inputs"]["runs_files"] = [
-                {"path": str(Path(f).resolve()), "sha256": h} for f, h in zip(runs_files, shas)
-            ]
-            # one file: its hash; several: the hash of their hashes, in pass order
-            fields["input_sha256"] = shas[0] if len(shas) == 1 else hashlib.sha256("\n".join(shas).encode()).hexdigest()
-            fields["source"] = str(Path(runs_files[-1]).resolve())
-        else:
-            fields["inputs"]["simulation"] = {
-                "Ed": ed,
-                "Eb": eb,
-                "runs_per_direction": n_runs,
-                "noise": noise,
-                "seed": seed,
-                "sample_period_ms": sample_period_ms,
-                "max_passes": max_passes,
-                "side_mm": side_mm,
-            }
-            fields["note"] = "simulated robot"
-        rec = record_if_requested(robot, record, db, **fields)
+    rec = record_if_requested(robot, record, db, **history_fields(loop)) if record else None
     if as_json:
         d = loop.to_dict()
-        d["method"] = method
-        if rec:
-            d["history"] = rec
-        emit_json(d)
+        emit_json(d if rec is None else {**d, "history": rec})
     elif not is_quiet():
         _print_loop(loop, title)
         print_recorded(rec)
