@@ -129,6 +129,7 @@ def parser() -> argparse.ArgumentParser:
 
 
 def main(argv=None) -> int:
+    """Measure, write startup.json and startup.md, print the ratios; 1 when --help is too slow."""
     a = parser().parse_args(argv)
     if a.repeat < 1:
         print("error: --repeat must be at least 1", file=sys.stderr)

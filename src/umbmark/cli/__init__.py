@@ -29,7 +29,18 @@ def _one_line(text: str) -> str:
 
 
 def main(argv=None) -> int:
-    """Entry point of the ``umbmark`` console script."""
+    """Entry point of the ``umbmark`` console script.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        The arguments (default: ``sys.argv[1:]``, and the process exits with the status).
+
+    Returns
+    -------
+    int
+        The exit status: 0, 1 (aborted) or 2 (an error, reported in one line on stderr).
+    """
     args = sys.argv[1:] if argv is None else list(argv)
     prog = "umbmark"
     try:

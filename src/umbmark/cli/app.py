@@ -131,7 +131,18 @@ _PARAM = re.compile(r"`(\w+)(?:=([^`]*))?`")
 
 
 def cli_message(text: str) -> str:
-    """A library message in the CLI's words: `name` becomes its flag, `name="v"` the flag and v."""
+    """A library message in the CLI's words: `name` becomes its flag, `name="v"` the flag and v.
+
+    Parameters
+    ----------
+    text : str
+        The message; parameters are named in backticks (see :data:`PARAM_FLAGS`).
+
+    Returns
+    -------
+    str
+        The message with each known parameter replaced by its flag (unknown names are kept).
+    """
 
     def flag(m: re.Match) -> str:
         name, value = m.group(1), m.group(2)
@@ -156,16 +167,37 @@ def _cli_strings(obj):
 
 
 def emit_json(obj) -> None:
-    """Print one JSON object (NaN and infinities become null: strict JSON); messages in it name
-    the command's flags (see :func:`cli_message`)."""
+    """Print one JSON object on stdout, indented.
+
+    NaN and infinities become null (strict JSON); the messages in it name the command's flags
+    (see :func:`cli_message`).
+
+    Parameters
+    ----------
+    obj : dict
+        JSON-able values (numpy values and paths allowed).
+    """
     sys.stdout.write(dumps(_cli_strings(obj), indent=2) + "\n")
 
 
 def table(title: str, columns: list[str], rows: list[list], justify_first: str = "left") -> Table:
     """A rich table: a title, a header of ``columns``, the ``rows`` (any values, shown with ``str``).
 
-    The first column is justified as ``justify_first``, the others right; no markup is read in
-    the title, the headers or the cells.
+    Parameters
+    ----------
+    title : str
+        Shown above the table.
+    columns : list of str
+        The headers.
+    rows : list of list
+        The cells of each row.
+    justify_first : str
+        Justification of the first column; the others are right-justified.
+
+    Returns
+    -------
+    rich.table.Table
+        No markup is read in the title, the headers or the cells.
     """
     from rich.markup import escape
     from rich.table import Table
@@ -179,7 +211,18 @@ def table(title: str, columns: list[str], rows: list[list], justify_first: str =
 
 
 def prior_options(f):
-    """``--c-left`` / ``--c-right``: the correction factors the robot's odometry ran with."""
+    """Add ``--c-left`` / ``--c-right`` (the correction factors the robot's odometry ran with) to a command.
+
+    Parameters
+    ----------
+    f : callable
+        The command function (it receives ``c_left`` and ``c_right``).
+
+    Returns
+    -------
+    callable
+        ``f`` with the two options.
+    """
     f = click.option(
         "--c-right",
         type=float,
@@ -198,7 +241,24 @@ def prior_options(f):
 
 
 def positive(name: str, value: float) -> float:
-    """``value`` as a float if it is a finite positive number, else an :class:`InputError` naming ``name``."""
+    """A finite positive number from the command line.
+
+    Parameters
+    ----------
+    name : str
+        The flag, for the message.
+    value : float
+        The value.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    InputError
+        If ``value`` is missing, not finite or not positive.
+    """
     if value is None or not (math.isfinite(value) and value > 0):
         raise InputError(f"{name} must be a positive number, got {value!r}")
     return float(value)
@@ -210,7 +270,24 @@ ERROR_RANGES = {"--ed": (0.5, 2.0), "--eb": (0.05, 20.0), "--es": (0.5, 2.0)}
 
 
 def error_param(name: str, value: float) -> float:
-    """A true error factor from the command line, within :data:`ERROR_RANGES`."""
+    """A true error factor from the command line, within :data:`ERROR_RANGES`.
+
+    Parameters
+    ----------
+    name : str
+        The flag: ``--ed``, ``--eb`` or ``--es``.
+    value : float
+        The value.
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    InputError
+        If ``value`` is outside the flag's range.
+    """
     lo, hi = ERROR_RANGES[name]
     if value is None or not (math.isfinite(value) and lo <= value <= hi):
         raise InputError(f"{name} must be a number from {lo:g} to {hi:g}, got {value!r}")

@@ -89,6 +89,11 @@ def accuracy(quick, robots, seed, sample_period_ms, fixed_wheelbase, out_dir, wo
         return
     if is_quiet():
         return
+    _print_accuracy(res, paths)
+
+
+def _print_accuracy(res: dict, paths: dict) -> None:
+    """The summary table of the accuracy benchmark and the files written."""
     rows = []
     for noise, s in res["summary"].items():
         fl = res["floors"][noise]

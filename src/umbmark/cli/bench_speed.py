@@ -125,6 +125,11 @@ def bench_speed(quick, out_dir, replay_sizes, robots, isolate, workers, dask, as
         return
     if is_quiet():
         return
+    _print_speed(res, con, out, stem)
+
+
+def _print_speed(res: dict, con, out, stem: str) -> None:
+    """The replay and simulation tables of the speed benchmark, the sweeps, the targets, the files."""
     rows = []
     for row in res["summary"]["replay"]:
 

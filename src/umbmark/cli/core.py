@@ -40,7 +40,18 @@ __all__ = ["analyze", "demo", "geometry_options", "prior_options", "simulate"]
 
 
 def geometry_options(f):
-    """``--wheelbase-mm``, ``--side-mm`` and ``--wheel-diameter-mm`` (the LabMate's by default)."""
+    """Add ``--wheelbase-mm``, ``--side-mm`` and ``--wheel-diameter-mm`` (the LabMate's by default).
+
+    Parameters
+    ----------
+    f : callable
+        The command function (it receives ``wheelbase_mm``, ``side_mm``, ``wheel_diameter_mm``).
+
+    Returns
+    -------
+    callable
+        ``f`` with the three options.
+    """
     f = click.option(
         "--wheel-diameter-mm",
         type=float,

@@ -35,14 +35,37 @@ def _console() -> Console:
 
 
 def progress_enabled(console: Console | None = None) -> bool:
-    """True when a bar would be drawn: stderr is a terminal and not --quiet."""
+    """True when a bar would be drawn: stderr is a terminal and not --quiet.
+
+    Parameters
+    ----------
+    console : rich.console.Console, optional
+        The console the bar would use (default: one on stderr).
+
+    Returns
+    -------
+    bool
+    """
     c = console or _console()
     return c.is_terminal and not is_quiet()
 
 
 @contextmanager
 def progress(description: str, total: int | None = None):
-    """Yield ``advance(n=1)``; a bar (or a spinner when ``total`` is None) while the block runs."""
+    """A bar (or a spinner when ``total`` is None) on stderr while the block runs.
+
+    Parameters
+    ----------
+    description : str
+        Shown beside the bar.
+    total : int, optional
+        Steps of the work.
+
+    Yields
+    ------
+    callable
+        ``advance(n=1)``: the work moved on by ``n`` steps (does nothing when no bar is drawn).
+    """
     c = _console()
     if not progress_enabled(c):
         yield lambda n=1: None
@@ -65,7 +88,22 @@ def _stdout_is_terminal() -> bool:
 
 
 def track(iterable, description: str, total: int | None = None):
-    """Iterate with a progress bar (see :func:`progress`)."""
+    """Iterate with a progress bar (see :func:`progress`).
+
+    Parameters
+    ----------
+    iterable : iterable
+        The items.
+    description : str
+        Shown beside the bar.
+    total : int, optional
+        Number of items (default: ``len(iterable)`` when it has one).
+
+    Yields
+    ------
+    object
+        The items of ``iterable``.
+    """
     if total is None and hasattr(iterable, "__len__"):
         total = len(iterable)
     with progress(description, total) as advance:

@@ -178,9 +178,28 @@ def _command(cfg, seeds, quantise, no_pitfall) -> str:
 
 
 def _print(study, d):
+    """The human output of ``umbmark reproduce``: Table I, the distribution, the second passes, the pitfall."""
+    c = console()
+    _print_table_i(c, d)
+    _print_distribution(c, d)
+    _print_second_passes(c, d)
+    _print_pitfall(c, d)
+    cfg = d["config"]
+    tm = d["tape_model"]
+    c.print(
+        f"noise: {cfg['noise']['name']}, sampling {cfg['sample_period_ms']:g} ms; tape loop "
+        f"{tm['layer_thickness_mm']:g} mm on {tm['wheel_diameter_mm']:g} mm wheels (exp 7 E_d "
+        f"{tm['exp7']['Ed']:.5f}, exp 8 E_d {tm['exp8']['Ed']:.5f})"
+    )
+    c.print(f"re-run: {d['command']}")
+    if "report" in d:
+        c.print(f"report: {d['report']}")
+
+
+def _print_table_i(c, d):
+    """Table I of the first seed, the paper's numbers in brackets."""
     from umbmark.studies import reproduce as rep
 
-    c = console()
     cfg = d["config"]
     rows = []
     for e, p in zip(d["experiments"], rep.PAPER_TABLE_I):
@@ -217,6 +236,12 @@ def _print(study, d):
             rows,
         )
     )
+
+
+def _print_distribution(c, d):
+    """Medians and percentiles over all seeds, the second-pass share and the spread."""
+    from umbmark.studies import reproduce as rep
+
     dd = d["distribution"]
     drows = [
         ["E_max,syst before [mm]", dd["emax_before_median_mm"], dd["emax_before_p10_mm"], dd["emax_before_p90_mm"]],
@@ -242,6 +267,10 @@ def _print(study, d):
         f">= 10-fold: {dd['fraction_improvement_at_least_10'] * 100:.1f}%; median radial std after calibration "
         f"{dd['std_after_median_mm']:.1f} mm (paper: about {rep.PAPER_SIGMA_MM:g} mm)"
     )
+
+
+def _print_second_passes(c, d):
+    """The first experiments where the 3 x SEM rule called for a second pass."""
     ex = d["second_pass_examples"]
     if ex:
         c.print(
@@ -270,6 +299,10 @@ def _print(study, d):
                 ],
             )
         )
+
+
+def _print_pitfall(c, d):
+    """The uni-directional pitfall, when the study has it."""
     if "pitfall" in d:
         p = d["pitfall"]
         c.print(
@@ -288,12 +321,3 @@ def _print(study, d):
                 ],
             )
         )
-    tm = d["tape_model"]
-    c.print(
-        f"noise: {cfg['noise']['name']}, sampling {cfg['sample_period_ms']:g} ms; tape loop "
-        f"{tm['layer_thickness_mm']:g} mm on {tm['wheel_diameter_mm']:g} mm wheels (exp 7 E_d "
-        f"{tm['exp7']['Ed']:.5f}, exp 8 E_d {tm['exp8']['Ed']:.5f})"
-    )
-    c.print(f"re-run: {d['command']}")
-    if "report" in d:
-        c.print(f"report: {d['report']}")

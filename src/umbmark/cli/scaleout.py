@@ -11,7 +11,18 @@ __all__ = ["scale_options"]
 
 
 def scale_options(f):
-    """``--workers N`` and ``--dask ADDRESS`` on a command (see the module docstring)."""
+    """Add ``--workers N`` and ``--dask ADDRESS`` to a command (see the module docstring).
+
+    Parameters
+    ----------
+    f : callable
+        The command function (it receives ``workers`` and ``dask``).
+
+    Returns
+    -------
+    callable
+        ``f`` with the two options.
+    """
     f = click.option(
         "--dask",
         "dask",

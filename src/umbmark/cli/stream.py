@@ -10,8 +10,23 @@ __all__ = ["run_stream"]
 def run_stream(paths, kw: dict, decimate, poses_out, as_json) -> None:
     """Replay ``paths`` as one streamed log (:func:`umbmark.realrobot.replay.stream_log`) and print it.
 
-    ``kw``: the replay command's reader options; ``decimate``: keep every N-th pose;
-    ``poses_out``: CSV file for the kept poses; ``as_json``: print one JSON object instead.
+    Parameters
+    ----------
+    paths : sequence of str
+        The log files or folders.
+    kw : dict
+        The replay command's reader options (``log_format`` and the geometry).
+    decimate : int or None
+        Keep the pose after every N-th sample.
+    poses_out : str or None
+        CSV file for the kept poses (needs ``decimate``).
+    as_json : bool
+        Print one JSON object instead of the table.
+
+    Raises
+    ------
+    InputError
+        If ``poses_out`` is given without ``decimate``.
     """
     from umbmark.realrobot.replay import stream_log
 

@@ -77,7 +77,25 @@ __all__ = [
 def open_history(db=None, create: bool = True):
     """Open the history: :class:`History` (SQLite file, standard library) or, for a database URL,
     :class:`umbmark.history.sqlalchemy_backend.SQLAlchemyHistory` (needs the ``db`` or ``postgres``
-    extra). Both have the same methods."""
+    extra). Both have the same methods.
+
+    Parameters
+    ----------
+    db : str or Path, optional
+        A database file or URL (default: ``$UMBMARK_DB``, else :func:`default_db_path`).
+    create : bool
+        Create the database if it does not exist (else raise).
+
+    Returns
+    -------
+    History or SQLAlchemyHistory
+        An open history; use it as a context manager, or call its ``close``.
+
+    Raises
+    ------
+    HistoryError
+        If the database cannot be opened or used (see the backends).
+    """
     r = resolve_db(db)
     if isinstance(r, str):
         from umbmark.history.sqlalchemy_backend import SQLAlchemyHistory
@@ -104,11 +122,46 @@ def record_result(
     """Open the history database (``db``, ``$UMBMARK_DB`` or the default), store one
     calibration in one transaction, close it; returns the record id.
 
-    ``results``: the command's result dict (``emax_syst_mm`` is picked up for the plots);
-    ``parameters``: the recommended odometry parameters, keys ``c_left``, ``c_right``,
-    ``wheelbase_mm`` (or ``wheelbase_m``), ``Ed``, ``Eb``; ``parameters_in_use``: the ones the
-    robot ran with; ``inputs``: the runs (or anything JSON) and/or ``input_sha256`` plus ``source``
-    (the file or folder the input came from: see :func:`file_sha256`)."""
+    Parameters
+    ----------
+    robot : str
+        The robot's name.
+    kind : str
+        One of :data:`KINDS` (the command that made the result).
+    method : str
+        The correction method.
+    results : dict
+        The command's result (``emax_syst_mm`` is picked up for the plots).
+    parameters : dict
+        The recommended odometry parameters: ``c_left``, ``c_right``, ``wheelbase_mm`` (or
+        ``wheelbase_m``), ``Ed``, ``Eb``.
+    db : str or Path, optional
+        The database (see :func:`open_history`).
+    inputs : dict, optional
+        The runs (or anything JSON).
+    input_sha256 : str, optional
+        Content hash of the input (see :func:`file_sha256`).
+    source : str or Path, optional
+        The file or folder the input came from.
+    parameters_in_use : dict, optional
+        The parameters the robot ran with.
+    note : str, optional
+        A free note.
+    when : str or datetime, optional
+        The record's time (default: now; an ISO 8601 string or a datetime, UTC if naive).
+
+    Returns
+    -------
+    int
+        The record's id.
+
+    Raises
+    ------
+    InputError
+        For a missing robot name, an unknown kind or a bad time.
+    HistoryError
+        If the database cannot be used.
+    """
     with open_history(db) as h:
         return h.add(
             robot,
@@ -137,9 +190,35 @@ def record_analysis(
     when=None,
     extra_inputs: dict | None = None,
 ) -> int:
-    """Record a :class:`umbmark.correct.analysis.Analysis` (the runs are stored in the record; the
-    source file, if given and readable, is hashed). ``prior``: the
-    :class:`umbmark.model.geometry.Calibration` the robot ran with, or None."""
+    """Record an analysis: its figures, the recommended parameters, the runs themselves, and the
+    hash of the source file if given and readable.
+
+    Parameters
+    ----------
+    robot : str
+        The robot's name.
+    analysis : umbmark.correct.analysis.Analysis
+        The analysis.
+    kind : str
+        One of :data:`KINDS`.
+    source : str or Path, optional
+        The runs file (hashed, and stored as an absolute path).
+    db : str or Path, optional
+        The database (see :func:`open_history`).
+    prior : Calibration, optional
+        The calibration the robot ran with (default: uncalibrated).
+    note : str, optional
+        A free note.
+    when : str or datetime, optional
+        The record's time (default: now).
+    extra_inputs : dict, optional
+        Further entries of the stored inputs.
+
+    Returns
+    -------
+    int
+        The record's id.
+    """
     recommended, in_use = parameters_from_analysis(analysis)
     if prior is not None:
         in_use.update({"c_left": prior.c_left, "c_right": prior.c_right})

@@ -20,6 +20,28 @@ from umbmark._version import __version__
 from umbmark.errors import InputError, UmbmarkError
 from umbmark.jsonutil import dumps, jsonable
 
+__all__ = [
+    "ENV_VAR",
+    "KINDS",
+    "MIGRATIONS",
+    "SCHEMA_VERSION",
+    "HistoryError",
+    "Record",
+    "default_db_path",
+    "display_db",
+    "export_parameters",
+    "file_sha256",
+    "format_export",
+    "is_url",
+    "make_row",
+    "parameters_from_analysis",
+    "resolve_db",
+    "resolve_db_path",
+    "retry_while_locked",
+    "runs_from_rows",
+    "runs_to_rows",
+]
+
 ENV_VAR = "UMBMARK_DB"
 KINDS = ("analyze", "replay", "calibrate", "measure", "other")
 
@@ -62,7 +84,15 @@ class HistoryError(UmbmarkError):
 
 
 def default_db_path() -> Path:
-    """The per-user default location (without looking at ``UMBMARK_DB``)."""
+    """The per-user default location (without looking at ``UMBMARK_DB``).
+
+    Returns
+    -------
+    Path
+        ``$XDG_DATA_HOME/umbmark/history.sqlite`` (``~/.local/share`` by default),
+        ``%LOCALAPPDATA%\\umbmark\\history.sqlite`` on Windows,
+        ``~/Library/Application Support/umbmark/history.sqlite`` on macOS.
+    """
     if sys.platform == "win32":
         base = Path(os.environ.get("LOCALAPPDATA") or Path.home() / "AppData" / "Local")
     elif sys.platform == "darwin":
@@ -74,13 +104,33 @@ def default_db_path() -> Path:
 
 
 def is_url(db) -> bool:
-    """True for an SQLAlchemy database URL (``postgresql+psycopg://...``, ``sqlite:///...``)."""
+    """True for an SQLAlchemy database URL (``postgresql+psycopg://...``, ``sqlite:///...``).
+
+    Parameters
+    ----------
+    db : object
+        A database file, URL or anything else.
+
+    Returns
+    -------
+    bool
+    """
     return isinstance(db, str) and "://" in db
 
 
 def resolve_db(db=None):
-    """``db`` if given, else ``$UMBMARK_DB``, else :func:`default_db_path`; a URL stays a string,
-    a file becomes a :class:`Path`."""
+    """Where the history is: ``db`` if given, else ``$UMBMARK_DB``, else :func:`default_db_path`.
+
+    Parameters
+    ----------
+    db : str or Path, optional
+        A database file or URL.
+
+    Returns
+    -------
+    str or Path
+        A URL stays a string; a file becomes a :class:`Path` (``~`` expanded).
+    """
     db = db or os.environ.get(ENV_VAR) or None
     if db is None:
         return default_db_path()
@@ -90,14 +140,39 @@ def resolve_db(db=None):
 
 
 def display_db(db) -> str:
-    """A database file or URL for messages, with any password in a URL masked."""
+    """A database file or URL for messages, with any password in a URL masked.
+
+    Parameters
+    ----------
+    db : str or Path
+        The database.
+
+    Returns
+    -------
+    str
+    """
     import re
 
     return re.sub(r"(://[^:/@]*:)[^@]*@", r"\1***@", str(db))
 
 
 def resolve_db_path(db=None) -> Path:
-    """Like :func:`resolve_db`, for a database file (not a URL)."""
+    """Like :func:`resolve_db`, for a database file (not a URL).
+
+    Parameters
+    ----------
+    db : str or Path, optional
+        A database file.
+
+    Returns
+    -------
+    Path
+
+    Raises
+    ------
+    InputError
+        If the database is a URL.
+    """
     r = resolve_db(db)
     if isinstance(r, str):
         raise InputError(f"{r!r} is a database URL, not a file")
@@ -134,7 +209,18 @@ def _num(v):
 
 
 def file_sha256(path) -> str:
-    """SHA-256 of a file's bytes, or of a folder's files (sorted relative paths and contents)."""
+    """SHA-256 of a file's bytes, or of a folder's files (sorted relative paths and contents).
+
+    Parameters
+    ----------
+    path : str or Path
+        A file or a folder.
+
+    Returns
+    -------
+    str
+        The hexadecimal digest.
+    """
     p = Path(path)
     h = hashlib.sha256()
     if p.is_dir():
@@ -175,9 +261,21 @@ class Record:
 
     @property
     def time(self) -> datetime:
+        """The record's time as an aware datetime (UTC)."""
         return datetime.fromisoformat(self.created_utc.replace("Z", "+00:00"))
 
     def to_dict(self, full: bool = True) -> dict:
+        """The record as JSON-able values.
+
+        Parameters
+        ----------
+        full : bool
+            Also include the stored ``inputs`` and ``results``.
+
+        Returns
+        -------
+        dict
+        """
         d = {
             "id": self.id,
             "robot": self.robot,
@@ -235,7 +333,22 @@ def retry_while_locked(fn, timeout_s: float, errors):
     """Call ``fn`` until it does not raise a "database is locked" error (one of ``errors``) or
     ``timeout_s`` has passed. SQLite answers "locked" at once, without waiting for its busy
     timeout, in a few cases: two processes switching a new file to WAL at the same moment, or a
-    read transaction that must become a write transaction."""
+    read transaction that must become a write transaction.
+
+    Parameters
+    ----------
+    fn : callable
+        Called without arguments.
+    timeout_s : float
+        How long to keep retrying.
+    errors : exception class or tuple
+        The errors that may say "locked".
+
+    Returns
+    -------
+    object
+        What ``fn`` returns.
+    """
     deadline = time.monotonic() + timeout_s
     delay = 0.01
     while True:
@@ -275,7 +388,25 @@ class _Backend:
         when=None,
         software_version: str | None = None,
     ) -> int:
-        """Store one calibration in one transaction; returns its id."""
+        """Store one calibration in one transaction.
+
+        Parameters
+        ----------
+        robot, kind, method, results, parameters, inputs, input_sha256, source, parameters_in_use, note, when
+            As for :func:`umbmark.history.record_result`.
+        software_version : str, optional
+            The umbmark version that made the result (default: this one).
+
+        Returns
+        -------
+        int
+            The record's id.
+
+        Raises
+        ------
+        InputError
+            For a missing robot name, an unknown kind or a bad time.
+        """
         row = self._row(
             robot,
             kind,
@@ -298,6 +429,22 @@ class _Backend:
         return make_row(*args)
 
     def latest(self, robot: str) -> Record:
+        """The robot's newest record.
+
+        Parameters
+        ----------
+        robot : str
+            The robot's name.
+
+        Returns
+        -------
+        Record
+
+        Raises
+        ------
+        InputError
+            If the robot has no records (the message lists the robots there are).
+        """
         recs = self.records(robot, limit=1)
         if not recs:
             raise InputError(
@@ -306,7 +453,14 @@ class _Backend:
         return recs[0]
 
     def robots(self) -> list[dict]:
-        """One summary per robot: name, number of records, first and last time, latest values."""
+        """One summary per robot, by name.
+
+        Returns
+        -------
+        list of dict
+            ``robot``, ``records``, ``first_utc``, ``last_utc`` and, when it has records, the
+            latest record's ``latest_id``, ``emax_syst_mm``, ``Ed``, ``Eb``, ``wheelbase_mm``.
+        """
         out = []
         for name, n, first, last in self._robot_counts():
             d = {"robot": name, "records": n, "first_utc": first, "last_utc": last}
@@ -343,7 +497,25 @@ def make_row(
     when,
     software_version,
 ) -> dict:
-    """The column values of one ``calibrations`` row (plus ``robot``), for any backend."""
+    """The column values of one ``calibrations`` row (plus ``robot``), for any backend.
+
+    Parameters
+    ----------
+    robot, kind, method, results, parameters, inputs, input_sha256, source, parameters_in_use, note, when
+        As for :func:`umbmark.history.record_result`.
+    software_version : str or None
+        The umbmark version that made the result (default: this one).
+
+    Returns
+    -------
+    dict
+        Column name -> value (JSON columns as text; the host is this one's name).
+
+    Raises
+    ------
+    InputError
+        For a missing or unprintable robot name, an unknown kind or a bad time.
+    """
     robot = _check_robot(robot)
     if kind not in KINDS:
         raise InputError(f"unknown record kind {kind!r} (one of {', '.join(KINDS)})")
@@ -383,7 +555,20 @@ def _check_robot(robot) -> str:
 
 
 def parameters_from_analysis(analysis) -> tuple[dict, dict]:
-    """``(recommended, in_use)`` parameter dicts of a :class:`umbmark.correct.analysis.Analysis`."""
+    """The parameters an analysis recommends, and those the robot ran with.
+
+    Parameters
+    ----------
+    analysis : umbmark.correct.analysis.Analysis
+        The analysis.
+
+    Returns
+    -------
+    recommended : dict
+        ``c_left``, ``c_right``, ``wheelbase_mm``, ``Ed``, ``Eb``.
+    in_use : dict
+        ``wheelbase_mm`` the odometry used.
+    """
     corr = analysis.correction
     cal = corr.calibration
     recommended = {
@@ -398,7 +583,19 @@ def parameters_from_analysis(analysis) -> tuple[dict, dict]:
 
 
 def runs_to_rows(runs) -> list[dict]:
-    """A runs table as JSON-able rows in millimetres and degrees."""
+    """A runs table as JSON-able rows in millimetres and degrees.
+
+    Parameters
+    ----------
+    runs : RunsTable
+        The runs.
+
+    Returns
+    -------
+    list of dict
+        One dict per run: ``run``, ``direction``, ``x_abs``, ``y_abs``, ``x_odo``, ``y_odo`` and
+        the headings when the table has them.
+    """
     rows = []
     for i in range(len(runs)):
         r = {
@@ -418,7 +615,17 @@ def runs_to_rows(runs) -> list[dict]:
 
 
 def runs_from_rows(rows: list[dict]):
-    """Inverse of :func:`runs_to_rows` (for reports of recorded analyses)."""
+    """Inverse of :func:`runs_to_rows` (for reports of recorded analyses).
+
+    Parameters
+    ----------
+    rows : list of dict
+        Rows as :func:`runs_to_rows` writes them.
+
+    Returns
+    -------
+    RunsTable
+    """
     import numpy as np
 
     from umbmark.model.runs import RunsTable
@@ -438,7 +645,20 @@ def runs_from_rows(rows: list[dict]):
 
 
 def export_parameters(record: Record) -> dict:
-    """The parameters to load into the robot's odometry, from one record (JSON-able)."""
+    """The parameters to load into the robot's odometry, from one record.
+
+    Parameters
+    ----------
+    record : Record
+        The record.
+
+    Returns
+    -------
+    dict
+        JSON-able: the record's robot, id, time, kind and method, ``c_left``, ``c_right``, the
+        wheelbase in metres and millimetres, ``Ed``, ``Eb``, the measured E_max,syst and the
+        version that made it.
+    """
     p = record.parameters
     wb_mm = _num(p.get("wheelbase_mm"))
     if wb_mm is None and _num(p.get("wheelbase_m")) is not None:
@@ -461,7 +681,24 @@ def export_parameters(record: Record) -> dict:
 
 
 def format_export(record: Record, fmt: str = "json") -> str:
-    """:func:`export_parameters` as JSON or YAML text."""
+    """:func:`export_parameters` as JSON or YAML text.
+
+    Parameters
+    ----------
+    record : Record
+        The record.
+    fmt : str
+        ``"json"`` or ``"yaml"``.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    InputError
+        For another format.
+    """
     d = jsonable(export_parameters(record))
     if fmt == "json":
         return json.dumps(d, indent=2, allow_nan=False) + "\n"

@@ -88,7 +88,25 @@ def _tables(sa):
 
 
 class SQLAlchemyHistory(_Backend):
-    """Same interface as :class:`umbmark.history.sqlite_backend.History`, on an SQLAlchemy engine."""
+    """Same interface as :class:`umbmark.history.sqlite_backend.History`, on an SQLAlchemy engine.
+
+    Parameters
+    ----------
+    url : str
+        The database URL, e.g. ``postgresql+psycopg://user:pw@host/umbmark``.
+    timeout_s : float
+        How long to retry while the database is locked (SQLite: also its busy timeout).
+    create : bool
+        Create the tables if the database has none; else that is an error.
+
+    Raises
+    ------
+    InputError
+        If ``url`` is not a database URL.
+    HistoryError
+        If SQLAlchemy or the driver is missing, the database cannot be reached, holds other
+        tables of the same names, or has a newer schema.
+    """
 
     def __init__(self, url: str, timeout_s: float = 60.0, create: bool = True):
         sa = self._sa = _import()
@@ -130,7 +148,8 @@ class SQLAlchemyHistory(_Backend):
                 f"cannot use the history database {self._shown}: {e.__class__.__name__}: {str(e).splitlines()[0]}"
             ) from None
 
-    def close(self):
+    def close(self) -> None:
+        """Release the engine's connections."""
         self._engine.dispose()
 
     @contextmanager
@@ -190,10 +209,18 @@ class SQLAlchemyHistory(_Backend):
 
     @property
     def schema_version(self) -> int:
+        """The schema version in ``umbmark_schema`` (0 when there is none)."""
         with self._engine.connect() as conn:
             return self._version(conn) or 0
 
     def integrity_check(self) -> str:
+        """SQLite's integrity check (on SQLite) and a check for records without a robot.
+
+        Returns
+        -------
+        str
+            ``"ok"`` when the database is sound, else what is wrong.
+        """
         sa = self._sa
         with self._engine.connect() as conn:
             if self._engine.dialect.name == "sqlite":
@@ -229,6 +256,19 @@ class SQLAlchemyHistory(_Backend):
         return sa.select(*cols).select_from(self._cal.join(self._robots))
 
     def records(self, robot: str | None = None, limit: int | None = None) -> list[Record]:
+        """Records, oldest first.
+
+        Parameters
+        ----------
+        robot : str, optional
+            Only this robot's (default: all).
+        limit : int, optional
+            Only the newest ``limit`` records.
+
+        Returns
+        -------
+        list of Record
+        """
         q = self._select()
         if robot is not None:
             q = q.where(self._robots.c.name == robot)
@@ -240,6 +280,22 @@ class SQLAlchemyHistory(_Backend):
         return [_record(tuple(x)) for x in reversed(rows)]
 
     def get(self, record_id: int) -> Record:
+        """One record by its id.
+
+        Parameters
+        ----------
+        record_id : int
+            The id.
+
+        Returns
+        -------
+        Record
+
+        Raises
+        ------
+        InputError
+            If there is no such record.
+        """
         with self._engine.connect() as conn:
             row = conn.execute(self._select().where(self._cal.c.id == int(record_id))).first()
         if row is None:
@@ -259,6 +315,7 @@ class SQLAlchemyHistory(_Backend):
             return conn.execute(q).all()
 
     def count(self) -> int:
+        """Number of records of all robots."""
         sa = self._sa
         with self._engine.connect() as conn:
             return conn.execute(sa.select(sa.func.count()).select_from(self._cal)).scalar()

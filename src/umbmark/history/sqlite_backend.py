@@ -20,9 +20,27 @@ from umbmark.history.base import (
     retry_while_locked,
 )
 
+__all__ = ["History"]
+
 
 class History(_Backend):
-    """An open history database. Use as a context manager, or call :meth:`close`."""
+    """An open history database in an SQLite file. Use as a context manager, or call :meth:`close`.
+
+    Parameters
+    ----------
+    path : str or Path, optional
+        The file (default: ``$UMBMARK_DB``, else :func:`umbmark.history.base.default_db_path`).
+    timeout_s : float
+        How long a write waits for another writer (SQLite's busy timeout).
+    create : bool
+        Create the file (and its folder) if missing; else a missing file is an error.
+
+    Raises
+    ------
+    HistoryError
+        If the file is missing (``create=False``), a folder, not an umbmark history, of a newer
+        schema, or cannot be opened.
+    """
 
     def __init__(self, path=None, timeout_s: float = 60.0, create: bool = True):
         self.path = resolve_db_path(path)
@@ -60,7 +78,8 @@ class History(_Backend):
             raise
 
     # -- housekeeping --------------------------------------------------------------------------
-    def close(self):
+    def close(self) -> None:
+        """Close the connection."""
         self._conn.close()
 
     @contextmanager
@@ -81,6 +100,7 @@ class History(_Backend):
 
     @property
     def schema_version(self) -> int:
+        """The schema version of the file (SQLite's ``user_version``)."""
         return self._conn.execute("PRAGMA user_version").fetchone()[0]
 
     def _migrate(self):
@@ -103,7 +123,13 @@ class History(_Backend):
                 c.execute(f"PRAGMA user_version = {target}")
 
     def integrity_check(self) -> str:
-        """SQLite's ``PRAGMA integrity_check`` ('ok' when the file is sound) plus a foreign-key check."""
+        """SQLite's ``PRAGMA integrity_check`` plus a foreign-key check.
+
+        Returns
+        -------
+        str
+            ``"ok"`` when the file is sound, else what is wrong.
+        """
         res = self._conn.execute("PRAGMA integrity_check").fetchall()
         fk = self._conn.execute("PRAGMA foreign_key_check").fetchall()
         text = "; ".join(r[0] for r in res)
@@ -123,7 +149,19 @@ class History(_Backend):
 
     # -- reading -------------------------------------------------------------------------------
     def records(self, robot: str | None = None, limit: int | None = None) -> list[Record]:
-        """Records, oldest first (of one robot, or of all); ``limit``: only the newest ``limit``."""
+        """Records, oldest first.
+
+        Parameters
+        ----------
+        robot : str, optional
+            Only this robot's (default: all).
+        limit : int, optional
+            Only the newest ``limit`` records.
+
+        Returns
+        -------
+        list of Record
+        """
         q = _SELECT
         args: list = []
         if robot is not None:
@@ -137,6 +175,22 @@ class History(_Backend):
         return [_record(r) for r in reversed(rows)]
 
     def get(self, record_id: int) -> Record:
+        """One record by its id.
+
+        Parameters
+        ----------
+        record_id : int
+            The id.
+
+        Returns
+        -------
+        Record
+
+        Raises
+        ------
+        InputError
+            If there is no such record.
+        """
         row = self._conn.execute(_SELECT + " WHERE c.id = ?", (int(record_id),)).fetchone()
         if row is None:
             raise InputError(f"no record #{record_id} in the history database {self.path}")
@@ -150,4 +204,5 @@ class History(_Backend):
         ).fetchall()
 
     def count(self) -> int:
+        """Number of records of all robots."""
         return self._conn.execute("SELECT count(*) FROM calibrations").fetchone()[0]

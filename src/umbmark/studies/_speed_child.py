@@ -10,5 +10,7 @@ import sys
 
 from umbmark.studies.speed import run_case_here
 
+__all__: list[str] = []  # a program, not an importable interface
+
 if __name__ == "__main__":  # pragma: no cover - exercised through subprocesses
     sys.stdout.write(json.dumps(run_case_here(json.loads(sys.argv[1]))) + "\n")

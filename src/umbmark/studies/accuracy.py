@@ -72,6 +72,34 @@ FITTED = ("bf1", "bf2", "exact", "exact2")
 
 @dataclass(frozen=True)
 class AccuracyConfig:
+    """The grid, the robots and the simulation of the accuracy benchmark.
+
+    Attributes
+    ----------
+    ed_departures : tuple of float
+        ``|E_d - 1|`` of the grid; each is used with both signs.
+    eb_values : tuple of float
+        ``E_b`` of the grid.
+    noises : tuple of str
+        Noise presets; ``"none"`` runs one robot per cell (it is deterministic).
+    robots : int
+        Seeded robots per cell with noise.
+    runs_per_direction : int
+        Runs per direction of each test.
+    side_m : float
+        Side of the square.
+    true_wheelbase_m : float
+        The wheelbase held fixed (see ``fixed_wheelbase``).
+    sample_period_s : float
+        Sampling period of the noisy simulations.
+    seed : int
+        Seed of the benchmark (robot ``i`` uses ``[seed, i]`` in every cell).
+    workers : int or None
+        Local processes for the sweep over cells; ``None``: all cores.
+    fixed_wheelbase : str
+        ``"true"`` or ``"nominal"``: which wheelbase ``true_wheelbase_m`` is (see below).
+    """
+
     ed_departures: tuple = (0.0005, 0.005, 0.02, 0.05)  # |E_d - 1|, both signs
     eb_values: tuple = (0.5, 0.95, 0.9995, 1.0005, 1.05, 1.5, 2.5)
     noises: tuple = ("none", "paper")
@@ -88,11 +116,19 @@ class AccuracyConfig:
     # heading noise then shrinks as E_b grows)
     fixed_wheelbase: str = "true"
 
-    def cells(self):
+    def cells(self) -> list[tuple[float, float]]:
+        """The grid's ``(E_d, E_b)`` cells, E_d ascending, then E_b in the order given."""
         eds = sorted({1.0 - d for d in self.ed_departures} | {1.0 + d for d in self.ed_departures})
         return [(ed, eb) for ed in eds for eb in self.eb_values]
 
-    def validate(self):
+    def validate(self) -> None:
+        """Check the settings.
+
+        Raises
+        ------
+        InputError
+            If a setting is out of its range (robots, runs, workers, the grid, ``fixed_wheelbase``).
+        """
         if self.robots < 1 or self.runs_per_direction < 2:
             raise InputError("the accuracy benchmark needs >= 1 robot per cell and >= 2 runs per direction")
         if self.workers is not None and (not isinstance(self.workers, int) or self.workers < 1):
@@ -137,8 +173,26 @@ def information_bound(cfg: AccuracyConfig, ed: float, eb: float, noise: str, run
     The noise of one run's return error (x, y, heading) is measured per direction from
     ``runs_for_covariance`` simulated runs per direction (own seeds); the model's Jacobian is
     the exact closed-loop model's at the true parameters. Fisher information
-    ``I = sum_d n J_d^T S_d^-1 J_d``; returns ``(I^-1, {"ed_sd", "eb_sd"})`` (``None`` without
-    noise)."""
+    ``I = sum_d n J_d^T S_d^-1 J_d``.
+
+    Parameters
+    ----------
+    cfg : AccuracyConfig
+        The benchmark's settings.
+    ed, eb : float
+        The cell's true errors.
+    noise : str
+        The noise preset.
+    runs_for_covariance : int
+        Runs per direction simulated to measure the noise.
+
+    Returns
+    -------
+    cov : numpy.ndarray or None
+        ``I^-1`` (2 x 2, for E_d and E_b); ``None`` without noise.
+    sds : dict
+        ``{"ed_sd", "eb_sd"}``: the bound's standard deviations (0 without noise).
+    """
     if noise == "none":
         return None, {"ed_sd": 0.0, "eb_sd": 0.0}
     geom = _geometry(cfg, eb)
@@ -166,8 +220,29 @@ def information_bound(cfg: AccuracyConfig, ed: float, eb: float, noise: str, run
 
 
 def robot_trial(cfg: AccuracyConfig, ed: float, eb: float, noise: str, robot: int, bound_cov=None) -> dict:
-    """One seeded robot of one cell: before, bf1, bf2, exact, perfect, and (``bound_cov``: the
-    cell's :func:`information_bound`) the robot corrected with errors drawn from the bound."""
+    """One seeded robot of one cell: before, bf1, bf2, exact, exact2, perfect and bound.
+
+    Parameters
+    ----------
+    cfg : AccuracyConfig
+        The benchmark's settings.
+    ed, eb : float
+        The cell's true errors.
+    noise : str
+        The noise preset.
+    robot : int
+        The robot's index (its seeds are ``[cfg.seed, robot]``).
+    bound_cov : numpy.ndarray, optional
+        The cell's :func:`information_bound` covariance: the robot is also corrected with
+        parameter errors drawn from it.
+
+    Returns
+    -------
+    dict
+        E_max,syst after each correction (``emax_<method>_mm``), the parameter errors
+        (``ed_err_<m>``, ``eb_err_<m>``), failures (``fail_<m>``), interval coverage of
+        ``exact`` (``ed_covered``, ``eb_covered``, ``None`` without noise) and its prediction.
+    """
     geom = _geometry(cfg, eb)
     errors = ErrorParams(ed, eb)
     motion = Motion(sample_period_s=None if noise == "none" else cfg.sample_period_s)
@@ -253,14 +328,81 @@ def _summarise(trials: list[dict]) -> dict:
     return row
 
 
+def _noise_summary_stats(cells: list[dict], trials: list[dict]) -> dict:
+    """The summary of one noise level: cells within 1.15 x the floors and the bound, the worst
+    cells, the largest parameter errors, interval coverage and failures."""
+    cov = [t for t in trials if t["ed_covered"] is not None]
+    worst = max(cells, key=lambda r: r["exact_over_estimation_floor"] or 0.0)
+    return {
+        "cells": len(cells),
+        "robots": len(trials),
+        "exact_worst_over_estimation_floor": worst["exact_over_estimation_floor"],
+        "exact_worst_cell": [worst["Ed"], worst["Eb"]],
+        "exact_cells_within_1.15_estimation_floor": sum(
+            1
+            for r in cells
+            if r["exact_over_estimation_floor"] is not None and r["exact_over_estimation_floor"] <= 1.15
+        ),
+        "bf1_cells_within_1.15_estimation_floor": sum(
+            1 for r in cells if r["bf1_over_estimation_floor"] is not None and r["bf1_over_estimation_floor"] <= 1.15
+        ),
+        "exact_max_ed_abs_err": max((r["ed_abs_err_exact"] or 0.0) for r in cells),
+        "exact_max_eb_abs_err": max((r["eb_abs_err_exact"] or 0.0) for r in cells),
+        "exact_ci_robots": len(cov),
+        "exact_ed_coverage": float(np.mean([t["ed_covered"] for t in cov])) if cov else None,
+        "exact_eb_coverage": float(np.mean([t["eb_covered"] for t in cov])) if cov else None,
+        "exact2_cells_within_1.15_estimation_floor": sum(
+            1
+            for r in cells
+            if r["exact2_over_estimation_floor"] is not None and r["exact2_over_estimation_floor"] <= 1.15
+        ),
+        "exact_cells_over_1.15": [
+            [r["Ed"], r["Eb"], r["exact_over_estimation_floor"]]
+            for r in cells
+            if (r["exact_over_estimation_floor"] or 0.0) > 1.15
+        ],
+        "failures": {m: sum(r[f"failures_{m}"] for r in cells) for m in FITTED},
+        # cells where even an efficient one-pass estimator cannot reach 1.15 x the floor
+        "bound_cells_over_1.15": [
+            [r["Ed"], r["Eb"], r["bound_over_estimation_floor"]]
+            for r in cells
+            if (r["bound_over_estimation_floor"] or 0.0) > 1.15
+        ],
+        "exact_worst_over_bound": max((r["exact_over_bound"] or 0.0) for r in cells) or None,
+        "bound_worst_over_estimation_floor": max((r["bound_over_estimation_floor"] or 0.0) for r in cells),
+        "exact_cells_within_1.15_bound": sum(
+            1 for r in cells if r["exact_over_bound"] is not None and r["exact_over_bound"] <= 1.15
+        ),
+    }
+
+
 def run_accuracy(cfg: AccuracyConfig = AccuracyConfig(), progress=None, dask=None) -> dict:
-    """Run the benchmark; returns ``{"config", "cells": [row...], "floors", "summary"}``.
+    """Run the benchmark over every cell and noise level.
 
     The cells (one noise level, ``E_d``, ``E_b`` each) are the items of a sweep
-    (:func:`umbmark.studies.sweep.map`): ``cfg.workers`` local processes (``None``: all cores) or a Dask
-    cluster (``dask``: an address, ``"local"`` or a ``distributed.Client``). Robot ``i`` of a
-    cell carries its own seed, so every backend gives the same numbers. ``progress(done,
-    total)`` is called as cells finish."""
+    (:func:`umbmark.studies.sweep.map`). Robot ``i`` of a cell carries its own seed, so every
+    backend gives the same numbers.
+
+    Parameters
+    ----------
+    cfg : AccuracyConfig
+        The settings; ``cfg.workers`` local processes (``None``: all cores) run the cells.
+    progress : callable, optional
+        ``progress(done, total)``, called as cells finish.
+    dask : str or distributed.Client, optional
+        Run the cells on a Dask cluster instead: an address, ``"local"`` or a client.
+
+    Returns
+    -------
+    dict
+        ``config`` (the settings), ``cells`` (one row of medians per cell), ``floors`` and
+        ``summary`` (per noise level), ``backend`` and ``elapsed_s``.
+
+    Raises
+    ------
+    InputError
+        If the settings are out of range (:meth:`AccuracyConfig.validate`).
+    """
     from umbmark.studies import sweep
 
     cfg.validate()
@@ -290,51 +432,7 @@ def run_accuracy(cfg: AccuracyConfig = AccuracyConfig(), progress=None, dask=Non
             b = r["emax_bound_mm"]
             # without noise both are round-off (the bound is the perfect robot): no ratio
             r["exact_over_bound"] = r["emax_exact_mm"] / b if noise != "none" and b > 0 and math.isfinite(b) else None
-        cov = [t for t in trials if t["ed_covered"] is not None]
-        worst = max(cells, key=lambda r: r["exact_over_estimation_floor"] or 0.0)
-        summary[noise] = {
-            "cells": len(cells),
-            "robots": len(trials),
-            "exact_worst_over_estimation_floor": worst["exact_over_estimation_floor"],
-            "exact_worst_cell": [worst["Ed"], worst["Eb"]],
-            "exact_cells_within_1.15_estimation_floor": sum(
-                1
-                for r in cells
-                if r["exact_over_estimation_floor"] is not None and r["exact_over_estimation_floor"] <= 1.15
-            ),
-            "bf1_cells_within_1.15_estimation_floor": sum(
-                1
-                for r in cells
-                if r["bf1_over_estimation_floor"] is not None and r["bf1_over_estimation_floor"] <= 1.15
-            ),
-            "exact_max_ed_abs_err": max((r["ed_abs_err_exact"] or 0.0) for r in cells),
-            "exact_max_eb_abs_err": max((r["eb_abs_err_exact"] or 0.0) for r in cells),
-            "exact_ci_robots": len(cov),
-            "exact_ed_coverage": float(np.mean([t["ed_covered"] for t in cov])) if cov else None,
-            "exact_eb_coverage": float(np.mean([t["eb_covered"] for t in cov])) if cov else None,
-            "exact2_cells_within_1.15_estimation_floor": sum(
-                1
-                for r in cells
-                if r["exact2_over_estimation_floor"] is not None and r["exact2_over_estimation_floor"] <= 1.15
-            ),
-            "exact_cells_over_1.15": [
-                [r["Ed"], r["Eb"], r["exact_over_estimation_floor"]]
-                for r in cells
-                if (r["exact_over_estimation_floor"] or 0.0) > 1.15
-            ],
-            "failures": {m: sum(r[f"failures_{m}"] for r in cells) for m in FITTED},
-            # cells where even an efficient one-pass estimator cannot reach 1.15 x the floor
-            "bound_cells_over_1.15": [
-                [r["Ed"], r["Eb"], r["bound_over_estimation_floor"]]
-                for r in cells
-                if (r["bound_over_estimation_floor"] or 0.0) > 1.15
-            ],
-            "exact_worst_over_bound": max((r["exact_over_bound"] or 0.0) for r in cells) or None,
-            "bound_worst_over_estimation_floor": max((r["bound_over_estimation_floor"] or 0.0) for r in cells),
-            "exact_cells_within_1.15_bound": sum(
-                1 for r in cells if r["exact_over_bound"] is not None and r["exact_over_bound"] <= 1.15
-            ),
-        }
+        summary[noise] = _noise_summary_stats(cells, trials)
     cfg_d = asdict(cfg)
     return {
         "config": cfg_d,
@@ -356,8 +454,34 @@ def coverage_trial(
     side_m: float = 4.0,
     runs_per_direction: int = 5,
 ) -> dict:
-    """Coverage of ``exact``'s 95 % intervals over seeded robots with random true errors
-    (E_d uniform in 1 +- ed_max_departure, E_b log-uniform in eb_range, nominal LabMate)."""
+    """Coverage of ``exact``'s 95 % intervals over seeded robots with random true errors.
+
+    Parameters
+    ----------
+    robots : int
+        Number of robots (robot ``i`` is seeded ``[seed, i]``).
+    seed : int
+        Seed of the errors and the runs.
+    sample_period_s : float
+        Sampling period of the simulation.
+    noise : str
+        The noise preset.
+    ed_max_departure : float
+        E_d is uniform in ``1 +- ed_max_departure``.
+    eb_range : tuple of float
+        E_b is log-uniform in this range.
+    side_m : float
+        Side of the square.
+    runs_per_direction : int
+        Runs per direction.
+
+    Returns
+    -------
+    dict
+        ``robots`` (those with intervals), ``ed_coverage``, ``eb_coverage`` and the mean and
+        standard deviation of the standardised errors ``z_mean``, ``z_std`` (``None`` when no
+        robot had intervals).
+    """
     rng = np.random.default_rng(seed)
     hit_d = hit_b = n = 0
     z = []
@@ -588,6 +712,17 @@ CSV_COLUMNS = (
 
 
 def format_csv(res: dict) -> str:
+    """The cells as CSV, one row per cell, the columns of :data:`CSV_COLUMNS` (floats as ``repr``).
+
+    Parameters
+    ----------
+    res : dict
+        The output of :func:`run_accuracy`.
+
+    Returns
+    -------
+    str
+    """
     out = [",".join(CSV_COLUMNS)]
     for r in res["cells"]:
         out.append(
@@ -599,7 +734,17 @@ def format_csv(res: dict) -> str:
 
 
 def figure(res: dict):
-    """Median E_max,syst after correction per cell (noise 'paper' if present), log scale."""
+    """Median E_max,syst after correction per cell (noise 'paper' if present), log scale.
+
+    Parameters
+    ----------
+    res : dict
+        The output of :func:`run_accuracy`.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     from umbmark.viz.plots import new_figure
 
     noise = "paper" if "paper" in res["floors"] else next(iter(res["floors"]))
@@ -632,7 +777,27 @@ def figure(res: dict):
 
 
 def write_results(res: dict, out_dir, stem: str = "accuracy") -> dict:
-    """Write ``<stem>.json``, ``.csv``, ``.md`` and ``.png`` into ``out_dir`` (created)."""
+    """Write ``<stem>.json``, ``.csv``, ``.md`` and ``.png`` into a folder.
+
+    Parameters
+    ----------
+    res : dict
+        The output of :func:`run_accuracy`.
+    out_dir : str or Path
+        The folder (created if missing).
+    stem : str
+        The files' name without suffix.
+
+    Returns
+    -------
+    dict
+        ``{"json", "csv", "md", "png"}`` -> the path written, as a string.
+
+    Raises
+    ------
+    InputError
+        If ``out_dir`` exists and is a file.
+    """
     from pathlib import Path
 
     from umbmark.io.atomic import atomic_path, atomic_write

@@ -162,8 +162,29 @@ _TRAJ_KEY = 3
 def tape_errors(
     base: ErrorParams, geometry: Geometry, right_layers: int = 0, left_layers: int = 0, layer_m: float = TAPE_LAYER_M
 ) -> ErrorParams:
-    """The errors of a robot whose wheels got ``right_layers``/``left_layers`` loops of tape:
-    each loop adds ``2 * layer_m`` to that wheel's diameter (E_d and E_s change, E_b does not)."""
+    """The errors of a robot whose wheels got loops of tape: each loop adds ``2 * layer_m`` to
+    that wheel's diameter (E_d and E_s change, E_b does not).
+
+    Parameters
+    ----------
+    base : ErrorParams
+        The robot's errors without tape.
+    geometry : Geometry
+        Its nominal geometry.
+    right_layers, left_layers : int
+        Loops of tape on the right and on the left wheel.
+    layer_m : float
+        Effective thickness of one loop.
+
+    Returns
+    -------
+    ErrorParams
+
+    Raises
+    ------
+    InputError
+        If a number of loops is negative or the thickness is negative or not finite.
+    """
     if right_layers < 0 or left_layers < 0:
         raise InputError("the number of tape loops must be >= 0")
     if not (math.isfinite(layer_m) and layer_m >= 0):
@@ -176,7 +197,36 @@ def tape_errors(
 
 @dataclass(frozen=True)
 class StudyConfig:
-    """Everything that defines the study; the same config gives the same numbers."""
+    """Everything that defines the study; the same config gives the same numbers.
+
+    Attributes
+    ----------
+    seed : int
+        The first study seed (its Table I is the one shown).
+    seeds : int
+        Number of study seeds (``seed``, ``seed + 1``, ...).
+    n_runs : int
+        Runs per direction in every test.
+    side_m : float
+        Side of the square.
+    geometry : Geometry
+        The robot's nominal geometry.
+    noise : NoiseModel
+        Non-systematic errors (default :data:`STUDY_NOISE`).
+    sample_period_s : float
+        Controller sampling period of the simulation.
+    tape_layer_m : float
+        Effective thickness of one loop of tape (experiments 7 and 8).
+    variation : float
+        Relative day-to-day variation of the robot's errors (experiments 2-6).
+    chunk_runs : int
+        About this many runs are simulated in one batch.
+
+    Raises
+    ------
+    InputError
+        On construction, if a setting is out of its range.
+    """
 
     seed: int = 1
     seeds: int = 100
@@ -209,13 +259,16 @@ class StudyConfig:
 
     @property
     def motion(self) -> Motion:
+        """The motion of every run: default speed, this sampling period."""
         return Motion(sample_period_s=self.sample_period_s)
 
     @property
     def seed_list(self) -> list[int]:
+        """The study seeds, ``seed`` to ``seed + seeds - 1``."""
         return list(range(int(self.seed), int(self.seed) + int(self.seeds)))
 
     def to_dict(self) -> dict:
+        """The settings as JSON-able values, in millimetres (the ``config`` of the study's JSON)."""
         n = self.noise
         return {
             "seed": int(self.seed),
@@ -241,7 +294,20 @@ class StudyConfig:
 
 
 def experiment_robots(seed: int, cfg: StudyConfig | None = None) -> list[ErrorParams]:
-    """The true errors of the eight experiments for one study seed (3, 4, 5 are one robot)."""
+    """The true errors of the eight experiments for one study seed (3, 4, 5 are one robot).
+
+    Parameters
+    ----------
+    seed : int
+        The study seed.
+    cfg : StudyConfig, optional
+        The study (its geometry, variation and tape thickness).
+
+    Returns
+    -------
+    list of ErrorParams
+        Eight entries, experiment 1 first.
+    """
     cfg = cfg or StudyConfig()
     rng = np.random.default_rng(np.random.SeedSequence(int(seed), spawn_key=(_ROBOT_KEY,)))
     z = rng.standard_normal((3, 2))
@@ -259,7 +325,21 @@ def experiment_robots(seed: int, cfg: StudyConfig | None = None) -> list[ErrorPa
 
 
 def test_seed(study_seed: int, exp_id: int, pass_no: int) -> np.random.SeedSequence:
-    """The seed of one simulated test (a fresh SeedSequence each call)."""
+    """The seed of one simulated test (a fresh SeedSequence each call).
+
+    Parameters
+    ----------
+    study_seed : int
+        The study seed.
+    exp_id : int
+        The experiment (1-8).
+    pass_no : int
+        The test: before calibration, after the first or after the second pass.
+
+    Returns
+    -------
+    numpy.random.SeedSequence
+    """
     return np.random.SeedSequence(int(study_seed), spawn_key=(_TEST_KEY, int(exp_id), int(pass_no)))
 
 
@@ -284,7 +364,20 @@ def simulate_tests(tests: list[TestSpec], cfg: StudyConfig) -> list[RunsTable]:
     """Simulate many bi-directional tests in numpy batches (one batch per direction and chunk).
 
     Test i gives exactly the runs ``simulate_umbmark(t.errors, cfg.geometry, cfg.side_m,
-    cfg.n_runs, t.calibration, cfg.noise, cfg.motion, seed=t.seed)`` would give."""
+    cfg.n_runs, t.calibration, cfg.noise, cfg.motion, seed=t.seed)`` would give.
+
+    Parameters
+    ----------
+    tests : list of TestSpec
+        The tests.
+    cfg : StudyConfig
+        The study (geometry, side, runs, noise, motion, batch size).
+
+    Returns
+    -------
+    list of RunsTable
+        One per test, in order.
+    """
     if not tests:
         return []
     n = cfg.n_runs
@@ -365,25 +458,31 @@ class Experiment:
 
     @property
     def emax_before(self) -> float:
+        """E_max,syst of the uncalibrated robot (metres)."""
         return self.before.emax_syst
 
     @property
     def emax_after(self) -> float:
+        """E_max,syst after the first pass (metres)."""
         return self.first.result.emax_syst
 
     @property
     def emax_final(self) -> float:
+        """E_max,syst after the last pass made (metres)."""
         return (self.second or self.first).result.emax_syst
 
     @property
     def improvement(self) -> float:
+        """E_max,syst before / after the first pass."""
         return self.emax_before / self.emax_after if self.emax_after > 0 else math.inf
 
     @property
     def improvement_final(self) -> float:
+        """E_max,syst before / after the last pass."""
         return self.emax_before / self.emax_final if self.emax_final > 0 else math.inf
 
     def to_dict(self) -> dict:
+        """The experiment as JSON-able values in millimetres (one entry of the study's ``experiments``)."""
         r1 = self.first.result
         rule = r1.sem_rule
         d = {
@@ -434,7 +533,20 @@ _GROUP_OF = {1: 1, 2: 2, 3: 3, 4: 3, 5: 3, 6: 6, 7: 7, 8: 8}
 
 
 def run_seed_experiments(seeds: list[int], cfg: StudyConfig) -> dict[int, list[Experiment]]:
-    """The eight experiments for each study seed, simulated in batches across seeds."""
+    """The eight experiments for each study seed, simulated in batches across seeds.
+
+    Parameters
+    ----------
+    seeds : list of int
+        Study seeds.
+    cfg : StudyConfig
+        The study.
+
+    Returns
+    -------
+    dict
+        Seed -> its eight :class:`Experiment` objects, experiment 1 first.
+    """
     geo = cfg.geometry
     b_nom = geo.wheelbase_m
     robots = {s: experiment_robots(s, cfg) for s in seeds}
@@ -488,13 +600,16 @@ class Distribution:
 
     @property
     def improvement_final(self) -> np.ndarray:
+        """E_max,syst before / final, (seeds, 8)."""
         return self.emax_before / self.emax_final
 
     @property
     def improvement_first(self) -> np.ndarray:
+        """E_max,syst before / after the first pass, (seeds, 8)."""
         return self.emax_before / self.emax_after
 
     def to_dict(self) -> dict:
+        """Medians and 10th / 90th percentiles over all experiments, and per experiment (mm)."""
         imp = self.improvement_final.ravel()
         imp1 = self.improvement_first.ravel()
         pct = lambda a, q: float(np.percentile(a, q))  # noqa: E731
@@ -544,6 +659,24 @@ class Distribution:
 
 @dataclass
 class Study:
+    """The whole study: Table I of the first seed, the distribution over all seeds, the pitfall.
+
+    Attributes
+    ----------
+    config : StudyConfig
+        The settings.
+    experiments : list of Experiment
+        The eight experiments of the first seed.
+    distribution : Distribution
+        The study over all seeds.
+    pitfall : Pitfall or None
+        The uni-directional pitfall, if it was run.
+    second_pass_examples : list of Experiment
+        The first experiments (in seed order) where the 3 x SEM rule called for a second pass.
+    extra : dict
+        Further entries of :meth:`to_dict`.
+    """
+
     config: StudyConfig
     experiments: list[Experiment]  # the default seed's (the first seed)
     distribution: Distribution
@@ -552,6 +685,7 @@ class Study:
     extra: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
+        """The study as JSON-able values, floats rounded to 12 significant digits (stable bytes)."""
         d = {
             "study": "Borenstein & Feng section 5 (Table I) in simulation",
             "config": self.config.to_dict(),
@@ -583,7 +717,19 @@ def _rounded(o):
 
 
 def tape_model(cfg: StudyConfig) -> dict:
-    """The tape experiments' robots and their noise-free E_max,syst before calibration."""
+    """The tape experiments' robots and their noise-free E_max,syst before calibration.
+
+    Parameters
+    ----------
+    cfg : StudyConfig
+        The study (tape thickness, geometry, side).
+
+    Returns
+    -------
+    dict
+        ``layer_thickness_mm``, ``wheel_diameter_mm``, ``fig11_noise_free_emax_before_mm`` and
+        ``exp7``, ``exp8`` (loops, E_d, E_s, noise-free E_max,syst before).
+    """
     out = {"layer_thickness_mm": cfg.tape_layer_m * 1e3, "wheel_diameter_mm": cfg.geometry.wheel_diameter_m * 1e3}
     base_free = _noise_free_emax(FIG11_ERRORS, cfg)
     out["fig11_noise_free_emax_before_mm"] = base_free * 1e3
@@ -608,7 +754,18 @@ def _noise_free_emax(errors: ErrorParams, cfg: StudyConfig, calibration: Calibra
 
 def seed_groups(cfg: StudyConfig) -> list[list[int]]:
     """The study seeds cut into the groups simulated as one batch each (bounded batch size:
-    about ``cfg.chunk_runs`` runs); each group is one task of the sweep in :func:`run_study`."""
+    about ``cfg.chunk_runs`` runs); each group is one task of the sweep in :func:`run_study`.
+
+    Parameters
+    ----------
+    cfg : StudyConfig
+        The study.
+
+    Returns
+    -------
+    list of list of int
+        The groups, in seed order.
+    """
     seeds = cfg.seed_list
     per_group = max(1, cfg.chunk_runs // (cfg.n_runs * 8))
     return [seeds[i : i + per_group] for i in range(0, len(seeds), per_group)]
@@ -630,8 +787,25 @@ def run_study(
     ``workers`` local processes (``None``: all cores; ``1``: in this process) or a Dask
     cluster (``dask``: an address, ``"local"`` or a ``distributed.Client``). Every test carries
     its own seed and the groups are the same whatever the backend, so the study is identical
-    (to the bit) on every backend. ``on_progress(seeds_done, seeds_total)`` is called as groups
-    finish."""
+    (to the bit) on every backend.
+
+    Parameters
+    ----------
+    cfg : StudyConfig, optional
+        The study (default: :class:`StudyConfig` ``()``).
+    pitfall : bool
+        Also run the uni-directional pitfall.
+    workers : int, optional
+        Local processes.
+    dask : str or distributed.Client, optional
+        A Dask cluster instead of local processes.
+    on_progress : callable, optional
+        ``on_progress(seeds_done, seeds_total)``, called as groups finish.
+
+    Returns
+    -------
+    Study
+    """
     from umbmark.studies import sweep
 
     cfg = cfg or StudyConfig()
@@ -691,6 +865,7 @@ class Pitfall:
     wheelbase_nominal_m: float = LABMATE.wheelbase_m
 
     def to_dict(self) -> dict:
+        """The pitfall as JSON-able values in millimetres (the ``pitfall`` of the study's JSON)."""
         i = int(np.argmin(self.cw_r_cg))
         return {
             "robot_Ed": self.errors.ed,
@@ -721,7 +896,21 @@ def uni_directional_pitfall(
     For each wheelbase on the grid the experimenter runs ``n_runs`` cw squares and keeps the
     wheelbase whose cw centre of gravity is closest to the origin (the same run seeds for
     every trial, so the comparison between trials is not blurred by the noise). Then the
-    robot with that wheelbase runs the bi-directional test."""
+    robot with that wheelbase runs the bi-directional test.
+
+    Parameters
+    ----------
+    cfg : StudyConfig, optional
+        The study (seed, runs, side, noise).
+    errors : ErrorParams
+        The robot's true errors (default: the Fig. 11 robot).
+    grid_mm : tuple of float
+        ``(first, last, step)`` of the wheelbases tried, in millimetres.
+
+    Returns
+    -------
+    Pitfall
+    """
     cfg = cfg or StudyConfig()
     lo, hi, step = grid_mm
     grid = np.arange(round((hi - lo) / step) + 1) * step * 1e-3 + lo * 1e-3
@@ -788,7 +977,25 @@ def uni_directional_pitfall(
 def run_trajectories(
     errors: ErrorParams, calibration: Calibration | None, cfg: StudyConfig | None = None, seed: int | None = None
 ) -> list[dict]:
-    """One cw and one ccw run with their true and odometry trajectories (metres), for figures."""
+    """One cw and one ccw run with their true and odometry trajectories, for figures.
+
+    Parameters
+    ----------
+    errors : ErrorParams
+        The robot's true errors.
+    calibration : Calibration or None
+        The calibration its odometry runs with.
+    cfg : StudyConfig, optional
+        The study (geometry, side, noise, motion).
+    seed : int, optional
+        Seed of the runs (default: ``cfg.seed``).
+
+    Returns
+    -------
+    list of dict
+        Two dicts (cw, ccw) with ``true_x``, ``true_y``, ``odo_x``, ``odo_y`` (metres, from the
+        start) and ``label``: the input of :func:`umbmark.viz.plots.exaggerated_trajectory_figure`.
+    """
     cfg = cfg or StudyConfig()
     seed = int(cfg.seed if seed is None else seed)
     tp = errors.true_params(cfg.geometry)

@@ -21,7 +21,15 @@ from umbmark.studies.reproduce import FIG11_ERRORS, PAPER_SEM_MM, PAPER_SIGMA_MM
 from umbmark.viz.plots import distribution_figure, exaggerated_trajectory_figure, pitfall_figure, scatter_figure
 from umbmark.viz.text import fmt
 
-__all__ = ["FIGURES", "study_figures", "save_study_figures", "write_report", "table_rows"]
+__all__ = [
+    "FIGURES",
+    "study_figures",
+    "save_study_figures",
+    "save_figure_keep_open",
+    "write_report",
+    "render_html",
+    "table_rows",
+]
 
 # name -> (title, explanation)
 FIGURES = {
@@ -63,7 +71,25 @@ def _paper_final(p):
 
 
 def study_figures(study: Study, exaggerate: float = 1.0) -> dict:
-    """The study's figures (matplotlib Figure objects), keyed as :data:`FIGURES`."""
+    """The study's figures, keyed as :data:`FIGURES` (``pitfall`` only when the study has it).
+
+    Parameters
+    ----------
+    study : Study
+        The study.
+    exaggerate : float
+        Magnification of the deviation of the true paths in the trajectory figure.
+
+    Returns
+    -------
+    dict
+        Name -> :class:`matplotlib.figure.Figure`.
+
+    Raises
+    ------
+    InputError
+        If ``exaggerate`` is not a positive finite number.
+    """
     if not (isinstance(exaggerate, (int, float)) and math.isfinite(exaggerate) and exaggerate > 0):
         raise InputError(f"exaggeration must be a positive number, got {exaggerate!r}")
     cfg = study.config
@@ -96,8 +122,22 @@ def study_figures(study: Study, exaggerate: float = 1.0) -> dict:
 
 
 def save_study_figures(figs: dict, out_dir, formats=("png", "svg")) -> dict:
-    """Save each figure as ``<name>.<fmt>`` in ``out_dir``; returns {name: {fmt: path}} and
-    the PNG bytes under ``"_png"`` (for embedding). Closes the figures."""
+    """Save each figure as ``<name>.<format>`` in a folder, and release the figures.
+
+    Parameters
+    ----------
+    figs : dict
+        Name -> figure (:func:`study_figures`).
+    out_dir : str or Path
+        An existing folder.
+    formats : tuple of str
+        The formats to write (PNG at 110 dpi; SVG with stable bytes).
+
+    Returns
+    -------
+    dict
+        Name -> ``{format: path}``, plus the PNG bytes under ``"_png"`` (for embedding).
+    """
     out_dir = Path(out_dir)
     paths = {}
     for name, fig in figs.items():
@@ -117,7 +157,23 @@ def save_study_figures(figs: dict, out_dir, formats=("png", "svg")) -> dict:
     return paths
 
 
-def save_figure_keep_open(fig, path):
+def save_figure_keep_open(fig, path) -> Path:
+    """Write a figure atomically in the format its suffix names (110 dpi), leaving it open.
+
+    An SVG has no date and fixed element ids: the same figure gives the same bytes.
+
+    Parameters
+    ----------
+    fig : matplotlib.figure.Figure
+        The figure.
+    path : str or Path
+        The file.
+
+    Returns
+    -------
+    Path
+        ``path``.
+    """
     import matplotlib
 
     buf = io.BytesIO()
@@ -136,7 +192,19 @@ def _close(fig):
 
 
 def table_rows(study: Study) -> list[dict]:
-    """Table I side by side with the paper: one dict of display strings per experiment."""
+    """Table I side by side with the paper: one dict of display strings per experiment.
+
+    Parameters
+    ----------
+    study : Study
+        The study.
+
+    Returns
+    -------
+    list of dict
+        One dict per experiment, keyed as the columns of the page's Table I (``id``, ``ed``,
+        ``b``, ``before``, ``paper_before``, ..., ``comment``).
+    """
     rows = []
     for e, p in zip(study.experiments, PAPER_TABLE_I):
         d = e.to_dict()
@@ -207,9 +275,9 @@ def _html_table(headers, rows, left=()):
     return "\n".join(out)
 
 
-def render_html(study: Study, pngs: dict, command: str) -> str:
+def _page_head(study: Study, command: str) -> list[str]:
+    """The page's head, its title and the study's settings, and the heading of Table I."""
     cfg = study.config
-    dd = study.distribution.to_dict()
     e = html.escape
     parts = [
         "<!DOCTYPE html>",
@@ -235,6 +303,12 @@ def render_html(study: Study, pngs: dict, command: str) -> str:
         "it (SEM = radial standard deviation / &radic;n). Experiments 3-5 share their uncalibrated runs and "
         "their correction factors, as in the paper.</p>",
     ]
+    return parts
+
+
+def _table_i(study: Study, dd: dict) -> list[str]:
+    """Table I of the first seed beside the paper's, and the paper's spread."""
+    parts = []
     rows = table_rows(study)
     parts.append(
         _html_table(
@@ -253,6 +327,12 @@ def render_html(study: Study, pngs: dict, command: str) -> str:
         f"<p class=small>Paper: per-run spread &sigma; &asymp; {PAPER_SIGMA_MM:g} mm, SEM {PAPER_SEM_MM:g} mm. "
         f"Simulated: median radial standard deviation after calibration {dd['std_after_median_mm']:.1f} mm.</p>"
     )
+    return parts
+
+
+def _distribution(dd: dict) -> list[str]:
+    """The distribution over all seeds: medians and percentiles, the second-pass share."""
+    parts = []
     parts.append(f"<h2>Distribution over {dd['seeds']} seeds ({dd['seed_first']}..{dd['seed_last']})</h2>")
     dist_rows = [
         ("E_max,syst before [mm]", dd["emax_before_median_mm"], dd["emax_before_p10_mm"], dd["emax_before_p90_mm"]),
@@ -283,6 +363,12 @@ def render_html(study: Study, pngs: dict, command: str) -> str:
         f"final improvement at least 10-fold in {dd['fraction_improvement_at_least_10'] * 100:.1f}%. "
         "Paper: 10- to 22-fold, 12-35 mm after calibration.</p>"
     )
+    return parts
+
+
+def _second_passes(study: Study) -> list[str]:
+    """The first experiments where the 3 x SEM rule called for a second pass."""
+    parts = []
     ex = study.second_pass_examples
     if ex:
         parts.append("<h2>Second compensation passes</h2>")
@@ -316,6 +402,13 @@ def render_html(study: Study, pngs: dict, command: str) -> str:
                 ],
             )
         )
+    return parts
+
+
+def _figures(study: Study, pngs: dict) -> list[str]:
+    """The figures, embedded as base64 PNG, with their titles and captions."""
+    e = html.escape
+    parts = []
     order = ["distribution", "scatter", "trajectories", "pitfall"]
     for name in order:
         if name not in pngs:
@@ -337,6 +430,13 @@ def render_html(study: Study, pngs: dict, command: str) -> str:
             f'<figure><img src="data:image/png;base64,{b64}" alt="{e(title)}">'
             f"<figcaption>{e(text)} Files: {name}.png, {name}.svg.</figcaption></figure>"
         )
+    return parts
+
+
+def _models(study: Study) -> list[str]:
+    """The models and assumptions of the simulation, and the end of the page."""
+    cfg = study.config
+    parts = []
     tm = study.to_dict()["tape_model"]
     parts += [
         "<h2>Models and assumptions</h2>",
@@ -360,12 +460,56 @@ def render_html(study: Study, pngs: dict, command: str) -> str:
         "</ul>",
         "</body></html>",
     ]
+    return parts
+
+
+def render_html(study: Study, pngs: dict, command: str) -> str:
+    """The report's page: the settings, Table I, the distribution, the second passes, the figures, the models.
+
+    Parameters
+    ----------
+    study : Study
+        The study.
+    pngs : dict
+        Figure name (see :data:`FIGURES`) -> its PNG bytes, embedded in the page.
+    command : str
+        The command that re-runs the study, shown on the page.
+
+    Returns
+    -------
+    str
+        One HTML document, ending with a newline.
+    """
+    dd = study.distribution.to_dict()
+    parts = _page_head(study, command) + _table_i(study, dd) + _distribution(dd) + _second_passes(study)
+    parts += _figures(study, pngs) + _models(study)
     return "\n".join(parts) + "\n"
 
 
 def write_report(study: Study, out_dir, command: str = "umbmark reproduce", exaggerate: float = 1.0) -> Path:
-    """Write the figures (PNG, SVG) and ``index.html`` into ``out_dir`` (created if needed).
-    Returns the path of the page."""
+    """Write the figures (PNG, SVG) and ``index.html`` into a folder, readable by all.
+
+    Parameters
+    ----------
+    study : Study
+        The study.
+    out_dir : str or Path
+        The folder (created if needed).
+    command : str
+        The command that re-runs the study, shown on the page.
+    exaggerate : float
+        Magnification of the deviation of the true paths in the trajectory figure.
+
+    Returns
+    -------
+    Path
+        The page, ``out_dir / "index.html"``.
+
+    Raises
+    ------
+    InputError
+        If ``out_dir`` exists and is not a folder, or ``exaggerate`` is not positive.
+    """
     out_dir = Path(out_dir)
     if out_dir.exists() and not out_dir.is_dir():
         raise InputError(f"cannot write the report: {out_dir} exists and is not a folder")

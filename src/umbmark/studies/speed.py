@@ -72,6 +72,14 @@ M_PER_PULSE = math.pi * 0.150 / (20 * 500)  # LabMate geometry of umbmark.model.
 
 
 def machine_info() -> dict:
+    """The machine the benchmark runs on.
+
+    Returns
+    -------
+    dict
+        ``nproc``, ``cores_available``, ``cpu_model``, ``python``, ``numpy``, ``platform``,
+        ``numba`` (``None`` when not installed) and ``load_average`` where the system has one.
+    """
     cpu = platform.processor() or ""
     try:
         with open("/proc/cpuinfo", encoding="utf-8") as f:
@@ -104,9 +112,25 @@ def machine_info() -> dict:
 
 # ---------------------------------------------------------------- synthetic data
 def log_chunk(seed: int, i: int, n: int):
-    """Chunk ``i`` (``n`` samples) of the synthetic 1 kHz encoder log: integer increments of
-    each wheel, about 4 pulses per ms (0.2 m/s) with wheel speeds varying slowly over 20 s and
-    +-1 pulse of jitter."""
+    """One chunk of the synthetic 1 kHz encoder log.
+
+    Integer increments of each wheel, about 4 pulses per ms (0.2 m/s), with wheel speeds varying
+    slowly over 20 s and +-1 pulse of jitter.
+
+    Parameters
+    ----------
+    seed : int
+        Seed of the log.
+    i : int
+        Index of the chunk (chunks are :data:`CHUNK` samples long).
+    n : int
+        Samples in this chunk.
+
+    Returns
+    -------
+    nl, nr : numpy.ndarray
+        The left and right increments (int64).
+    """
     rng = np.random.default_rng([seed, i])
     t = (i * CHUNK + np.arange(n)) * 1e-3
     base = 4.25 + 1.5 * np.sin(2 * np.pi * t / 20.0)
@@ -302,7 +326,23 @@ def _sweep_case(c):
 
 
 def run_case_here(c: dict) -> dict:
-    """Run one case in this process; adds the peak RSS."""
+    """Run one case of the plan in this process.
+
+    Parameters
+    ----------
+    c : dict
+        The case: ``kind`` (``replay``, ``sim``, ``sweep``), ``impl``, ``n`` and its options.
+
+    Returns
+    -------
+    dict
+        The timings of the case, its ``kind``, ``impl``, ``n`` and the peak RSS ``rss_peak_mib``.
+
+    Raises
+    ------
+    InputError
+        If the implementation is unknown.
+    """
     kind = c["kind"]
     out = {"replay": _replay_case, "sim": _sim_case, "sweep": _sweep_case}[kind](c)
     out["rss_peak_mib"] = _rss_mib()
@@ -355,8 +395,36 @@ def run_benchmark(
     timeout: float = 3600.0,
     **overrides,
 ) -> dict:
-    """Run the benchmark; returns a JSON-able dict (machine, cases, summary). ``overrides``
-    replace entries of :data:`FULL` / :data:`QUICK`. ``progress``: called with each finished case."""
+    """Run the benchmark: every case of the plan, each in a fresh process unless ``isolate`` is off.
+
+    Parameters
+    ----------
+    quick : bool
+        Start from :data:`QUICK` instead of :data:`FULL`.
+    isolate : bool
+        Run every case in its own subprocess (its own peak RSS).
+    progress : callable, optional
+        Called with each finished case (a dict).
+    dask : str, optional
+        Also time the sweep on a Dask cluster (an address or ``"local"``).
+    workers : int, optional
+        Local processes of the pool sweep and threads of ``numba-threads`` (default: all cores).
+    timeout : float
+        Seconds an isolated case may take.
+    **overrides
+        Replace entries of :data:`FULL` / :data:`QUICK` (``None`` keeps the entry).
+
+    Returns
+    -------
+    dict
+        JSON-able: ``machine``, ``quick``, ``config``, ``cases`` (one dict per case, with its
+        rates) and ``summary``.
+
+    Raises
+    ------
+    InputError
+        If an override names no setting.
+    """
     cfg = dict(QUICK if quick else FULL)
     for k, v in overrides.items():
         if k not in cfg:
@@ -456,7 +524,17 @@ def _summary(results):
 
 
 def markdown(res: dict) -> str:
-    """The results as Markdown tables (written beside the JSON)."""
+    """The results as Markdown tables (written beside the JSON).
+
+    Parameters
+    ----------
+    res : dict
+        The output of :func:`run_benchmark`.
+
+    Returns
+    -------
+    str
+    """
     m = res["machine"]
     lines = [
         f"# Speed benchmark{' (quick)' if res['quick'] else ''}",

@@ -27,7 +27,12 @@ __all__ = ["map", "local_cores", "split", "describe_backend"]
 
 
 def local_cores() -> int:
-    """Cores this process may run on."""
+    """Cores this process may run on.
+
+    Returns
+    -------
+    int
+    """
     try:
         return len(os.sched_getaffinity(0))
     except AttributeError:  # pragma: no cover - not Linux
@@ -36,7 +41,25 @@ def local_cores() -> int:
 
 def split(items: Sequence, parts: int) -> list[list]:
     """``items`` cut into at most ``parts`` contiguous, nearly equal, non-empty pieces (to batch
-    many small items into few tasks; concatenating the pieces gives ``items`` back)."""
+    many small items into few tasks; concatenating the pieces gives ``items`` back).
+
+    Parameters
+    ----------
+    items : sequence
+        The items.
+    parts : int
+        The largest number of pieces.
+
+    Returns
+    -------
+    list of list
+        The pieces, in order (none for no items).
+
+    Raises
+    ------
+    InputError
+        If ``parts`` is below 1.
+    """
     items = list(items)
     if parts < 1:
         raise InputError(f"parts must be >= 1, got {parts}")
@@ -51,7 +74,20 @@ def split(items: Sequence, parts: int) -> list[list]:
 
 
 def describe_backend(workers: int | None = None, dask=None) -> str:
-    """A one-line description of where :func:`map` would run."""
+    """A one-line description of where :func:`map` would run.
+
+    Parameters
+    ----------
+    workers : int, optional
+        As for :func:`map`.
+    dask : str or distributed.Client, optional
+        As for :func:`map`.
+
+    Returns
+    -------
+    str
+        ``"this process"``, ``"process pool, N workers"``, ``"dask ADDRESS"`` or ``"dask client"``.
+    """
     if dask is not None:
         return f"dask {dask}" if isinstance(dask, str) else "dask client"
     n = local_cores() if workers is None else workers
@@ -77,12 +113,34 @@ def map(
 ) -> list:
     """``[fn(item) for item in items]``, in parallel.
 
-    ``workers``: local processes (``None``: all local cores; ``1``: no pool, in this
-    process). ``dask``: ``None`` (local pool), a scheduler address such as
-    ``"tcp://host:8786"``, ``"local"`` (start a Dask cluster on the local machine with ``workers``
-    processes) or a ``distributed.Client``. ``chunksize``: items sent to a pool worker at a
-    time. An exception raised by ``fn`` is raised here. ``on_progress(done, total)``: called
-    in this process each time an item has finished (``done`` items of ``total``; for a bar).
+    Parameters
+    ----------
+    fn : callable
+        Called once per item; picklable (a module-level function) for a pool or Dask.
+    items : iterable
+        The items.
+    workers : int, optional
+        Local processes (``None``: all local cores; ``1``: no pool, in this process).
+    dask : str or distributed.Client, optional
+        ``None`` (local pool), a scheduler address such as ``"tcp://host:8786"``, ``"local"``
+        (start a Dask cluster on the local machine with ``workers`` processes) or a client.
+    chunksize : int
+        Items sent to a pool worker at a time.
+    mp_context : multiprocessing context, optional
+        The start method of the pool's processes.
+    on_progress : callable, optional
+        ``on_progress(done, total)``, called in this process each time an item has finished.
+
+    Returns
+    -------
+    list
+        ``fn(item)`` of every item, in input order.
+
+    Raises
+    ------
+    InputError
+        For bad ``workers``, ``chunksize`` or ``dask``, a missing Dask or an unreachable scheduler.
+        An exception raised by ``fn`` is raised here.
     """
     items = list(items)
     if chunksize < 1:

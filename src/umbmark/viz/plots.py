@@ -80,7 +80,21 @@ def _draw_runs(ax, runs: RunsTable, label: str, filled: bool):
 
 def scatter_figure(before: RunsTable, after: RunsTable | None = None, title: str | None = None):
     """Return-position errors (Eq. 3.1) of the cw and ccw runs with their centres of gravity,
-    before (open markers) and after calibration (filled), like the paper's Figs. 6 and 11."""
+    before (open markers) and after calibration (filled), like the paper's Figs. 6 and 11.
+
+    Parameters
+    ----------
+    before : RunsTable
+        The runs before calibration.
+    after : RunsTable, optional
+        The runs after calibration.
+    title : str, optional
+        The axes' title (default: "UMBmark return position errors").
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     fig = new_figure((8, 9))
     ax = fig.subplots()
     r0 = _draw_runs(ax, before, "before", filled=False)
@@ -104,8 +118,20 @@ def scatter_figure(before: RunsTable, after: RunsTable | None = None, title: str
 
 
 def trajectory_figure(trajectories: list[dict], title: str | None = None):
-    """True (solid) and odometry (dashed) paths; each item: dict with ``true_x``, ``true_y``,
-    ``odo_x``, ``odo_y`` (metres, 1-D) and optional ``label``."""
+    """True (solid) and odometry (dashed) paths of runs, with the start marked.
+
+    Parameters
+    ----------
+    trajectories : list of dict
+        One dict per run: ``true_x``, ``true_y``, ``odo_x``, ``odo_y`` (metres, 1-D) and an
+        optional ``label``.
+    title : str, optional
+        The axes' title (default: "Trajectories").
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     fig = new_figure((7.5, 7.5))
     ax = fig.subplots()
     for i, t in enumerate(trajectories):
@@ -196,9 +222,28 @@ def exaggerated_trajectory_figure(
 ):
     """True (solid) and odometry (dashed) paths of runs, like the paper's Figs. 3-5.
 
-    ``exaggerate`` > 1 draws the true path as ``odometry + exaggerate * (true - odometry)``: the
-    deviation (the curvature of the legs, the turn errors) is magnified, the odometry path is
-    drawn as it is. ``side_m``: also draw the nominal square (cw and ccw)."""
+    Parameters
+    ----------
+    trajectories : list of dict
+        As for :func:`trajectory_figure`.
+    exaggerate : float
+        Above 1, the true path is drawn as ``odometry + exaggerate * (true - odometry)``: the
+        deviation (the curvature of the legs, the turn errors) is magnified; the odometry path
+        is drawn as it is.
+    side_m : float, optional
+        Also draw the nominal square (cw and ccw) of this side.
+    title : str, optional
+        The axes' title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+
+    Raises
+    ------
+    ValueError
+        If ``exaggerate`` is not a positive finite number.
+    """
     if not (np.isfinite(exaggerate) and exaggerate > 0):
         raise ValueError(f"exaggeration must be positive, got {exaggerate!r}")
     fig = new_figure((7.5, 8.5))
@@ -229,9 +274,23 @@ def exaggerated_trajectory_figure(
 
 
 def pitfall_figure(pitfall, title: str | None = None):
-    """The uni-directional pitfall (paper section 3.1): (a) what the experimenter saw while
-    tuning the wheelbase on cw runs only, and what the ccw runs would have shown; (b) the
-    bi-directional test of the tuned robot against the paper's bi-directional correction."""
+    """The uni-directional pitfall (paper section 3.1) in two panels.
+
+    (a) What the experimenter saw while tuning the wheelbase on cw runs only, and what the ccw
+    runs would have shown; (b) the bi-directional test of the tuned robot against the paper's
+    bi-directional correction.
+
+    Parameters
+    ----------
+    pitfall : umbmark.studies.reproduce.Pitfall
+        The study of :func:`umbmark.studies.reproduce.uni_directional_pitfall`.
+    title : str, optional
+        The figure's title.
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     fig = new_figure((13, 6.2))
     a, b = fig.subplots(1, 2, gridspec_kw=dict(width_ratios=[1.1, 1]))
     g = pitfall.grid_m * 1e3
@@ -301,7 +360,23 @@ def distribution_figure(
     title: str | None = None,
 ):
     """Histograms of the study over many seeds: E_max,syst after calibration (first pass and
-    final) and the final improvement factor, with the paper's values marked."""
+    final) and the final improvement factor, with the paper's values marked.
+
+    Parameters
+    ----------
+    emax_before_mm, emax_after_mm, emax_final_mm : array_like
+        E_max,syst of every experiment before calibration, after the first pass and final (mm).
+    improvement_final : array_like
+        Final improvement factor of every experiment (non-finite values are left out).
+    paper_after_mm, paper_improvement : sequence of float
+        The paper's values, drawn as dashed lines.
+    title : str, optional
+        The figure's title (default: the number of experiments and the median before).
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
     fig = new_figure((12, 4.6))
     a, b = fig.subplots(1, 2)
     after = np.asarray(emax_after_mm, dtype=float).ravel()

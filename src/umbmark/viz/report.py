@@ -97,7 +97,21 @@ def _page(title: str, body: str) -> str:
 
 
 def cg_intervals(runs, level: float = 0.95) -> dict:
-    """Student-t intervals of the centres of gravity, millimetres: ``{dir: {"x": (lo, hi), "y": ...}}``."""
+    """Student-t intervals of the centres of gravity of the return errors, per direction and axis.
+
+    Parameters
+    ----------
+    runs : RunsTable
+        The runs.
+    level : float
+        Confidence level.
+
+    Returns
+    -------
+    dict
+        ``{"cw": {"x": (lo, hi), "y": (lo, hi)}, "ccw": {...}}`` in millimetres; ``(None, None)``
+        for a direction with fewer than 2 runs.
+    """
     from scipy import stats
 
     out = {}
@@ -128,8 +142,35 @@ def bootstrap_intervals(
 ) -> dict:
     """Percentile bootstrap intervals of Ed, Eb, wheelbase_mm, c_left, c_right.
 
-    Returns ``{"n_boot": B, "failed": k, "Ed": (lo, hi), ...}``; ``failed`` counts resamples
-    where the correction is undefined (they are left out). ``advance``: called once per resample."""
+    The runs are resampled with replacement within each direction and the correction is
+    recomputed with the same method on each resample.
+
+    Parameters
+    ----------
+    runs : RunsTable
+        The runs.
+    side_m, wheelbase_m : float
+        Side of the square and the wheelbase the odometry used.
+    method : str
+        The correction method.
+    prior : Calibration, optional
+        The calibration the robot ran with.
+    n_boot : int
+        Number of resamples.
+    seed : int
+        Seed of the resampling.
+    level : float
+        Confidence level.
+    advance : callable, optional
+        Called once per resample (for a progress bar).
+
+    Returns
+    -------
+    dict
+        ``{"n_boot", "failed", "seed", "level", "Ed": (lo, hi), "Eb", "wheelbase_mm", "c_left",
+        "c_right"}``; ``failed`` counts resamples where the correction is undefined (they are
+        left out); an interval is ``(None, None)`` with fewer than 10 defined resamples.
+    """
     from umbmark.correct import correct_runs
 
     rng = np.random.default_rng(seed)
@@ -159,7 +200,18 @@ def bootstrap_intervals(
 
 
 def _analysis_sections(analysis, boot: dict | None, prior=None) -> str:
+    """The return errors, the correction and the recommended parameters of one analysis, as HTML."""
     d = analysis.to_dict()
+    parts = (
+        _errors_section(analysis, d) + _correction_section(analysis, d) + _parameters_section(analysis, d, boot, prior)
+    )
+    for w in d.get("warnings", []):
+        parts.append(f'<p class="warn">Warning: {_e(w)}</p>')
+    return "\n".join(parts)
+
+
+def _errors_section(analysis, d: dict) -> list[str]:
+    """The return errors per direction with Student-t intervals, E_max,syst and the 3 x SEM rule."""
     res = analysis.result
     runs = analysis.runs
     ci = cg_intervals(runs)
@@ -192,9 +244,13 @@ def _analysis_sections(analysis, boot: dict | None, prior=None) -> str:
         f"{'recommended' if d['second_pass_recommended'] else 'not expected to help'} "
         f"(E<sub>max,syst</sub> {'&ge;' if d['second_pass_recommended'] else '&lt;'} 3 SEM).</p>"
     )
+    return parts
+
+
+def _correction_section(analysis, d: dict) -> list[str]:
+    """The method, and for a linear correction its angles and factors from x, from y and used."""
     corr = analysis.correction
-    cal = corr.calibration
-    parts.append(f"<h2>Correction (method {_e(corr.method)})</h2>")
+    parts = [f"<h2>Correction (method {_e(corr.method)})</h2>"]
     if corr.alpha is not None:
         crow = [
             ["alpha [deg]", fmt(d.get("alpha_x_deg"), 4), fmt(d.get("alpha_y_deg"), 4), fmt(d.get("alpha_deg"), 4)],
@@ -203,6 +259,14 @@ def _analysis_sections(analysis, boot: dict | None, prior=None) -> str:
             ["E_b", fmt(d.get("Eb_x"), 6), fmt(d.get("Eb_y"), 6), fmt(d.get("Eb"), 6)],
         ]
         parts.append(_table(["", "from x", "from y", "used"], crow))
+    return parts
+
+
+def _parameters_section(analysis, d: dict, boot: dict | None, prior) -> list[str]:
+    """The parameters to load into the odometry, with the bootstrap's and the method's intervals."""
+    corr = analysis.correction
+    cal = corr.calibration
+    parts = []
     b = boot or {}
     prow = [
         ["E_d = D_R / D_L", fmt(corr.ed, 6), _ci(b.get("Ed"), 6)],
@@ -234,9 +298,7 @@ def _analysis_sections(analysis, boot: dict | None, prior=None) -> str:
             f"(seed {b['seed']}); {b['failed']} resamples had no defined correction. With few runs per "
             "direction the bootstrap intervals are rough.</p>"
         )
-    for w in d.get("warnings", []):
-        parts.append(f'<p class="warn">Warning: {_e(w)}</p>')
-    return "\n".join(parts)
+    return parts
 
 
 def analysis_report(
@@ -253,11 +315,39 @@ def analysis_report(
     robot: str | None = None,
     when: str | None = None,
 ) -> str:
-    """HTML page of one analysis (a :class:`umbmark.correct.analysis.Analysis`).
+    """HTML page of one analysis: the UMBmark figures, the correction, the recommended
+    parameters with intervals, the scatter plot and the definitions.
 
-    ``after_runs``: runs after calibration (drawn filled in the scatter); ``trajectories``: see
-    :func:`umbmark.viz.plots.trajectory_figure`; ``exported``: file name -> text of exported
-    parameter files (shown verbatim); ``boot``: :func:`bootstrap_intervals` output."""
+    Parameters
+    ----------
+    analysis : umbmark.correct.analysis.Analysis
+        The analysis.
+    title : str, optional
+        The page's title (default: "UMBmark report").
+    source : str, optional
+        The input's name, and ``source_sha256`` its content hash, shown in the header.
+    source_sha256 : str, optional
+        See ``source``.
+    prior : Calibration, optional
+        The calibration the robot ran with.
+    after_runs : RunsTable, optional
+        Runs after calibration (drawn filled in the scatter).
+    trajectories : list of dict, optional
+        Paths to draw (see :func:`umbmark.viz.plots.trajectory_figure`).
+    exported : dict, optional
+        File name -> text of exported parameter files (shown verbatim).
+    boot : dict, optional
+        :func:`bootstrap_intervals` of the analysis.
+    robot : str, optional
+        The robot's name, shown in the header.
+    when : str, optional
+        When the page was made (default: now, UTC).
+
+    Returns
+    -------
+    str
+        The page: one self-contained HTML document.
+    """
     from umbmark.metrics import umbmark
     from umbmark.viz.plots import scatter_figure, trajectory_figure
 
@@ -305,21 +395,8 @@ def _definitions() -> str:
     )
 
 
-def history_report(records, *, title: str | None = None, db_path: str | None = None) -> str:
-    """HTML page of one robot's calibration history (records oldest first)."""
-    from umbmark.history import export_parameters, runs_from_rows
-    from umbmark.viz.history_plot import history_figure
-    from umbmark.viz.plots import scatter_figure
-
-    if not records:
-        raise ValueError("no records")
-    robot = records[0].robot
-    title = title or f"Calibration history of {robot}"
-    when = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    meta = [f"{len(records)} records", f"generated {when} by umbmark {__version__}"]
-    if db_path:
-        meta.append(f"database {db_path}")
-    body = [f"<h1>{_e(title)}</h1>", f'<p class="meta">{" &middot; ".join(_e(m) for m in meta)}</p>']
+def _records_table(records) -> str:
+    """One row per record: id, time, kind, method, the figures and the parameters, its input."""
     rows = []
     for r in records:
         p = r.parameters
@@ -340,26 +417,63 @@ def history_report(records, *, title: str | None = None, db_path: str | None = N
                 src,
             ]
         )
-    body.append("<h2>Records</h2>")
-    body.append(
-        _table(
-            [
-                "id",
-                "time (UTC)",
-                "kind",
-                "method",
-                "E_max,syst [mm]",
-                "E_d",
-                "E_b",
-                "wheelbase [mm]",
-                "c_left",
-                "c_right",
-                "umbmark",
-                "input",
-            ],
-            rows,
-        )
+    return _table(
+        [
+            "id",
+            "time (UTC)",
+            "kind",
+            "method",
+            "E_max,syst [mm]",
+            "E_d",
+            "E_b",
+            "wheelbase [mm]",
+            "c_left",
+            "c_right",
+            "umbmark",
+            "input",
+        ],
+        rows,
     )
+
+
+def history_report(records, *, title: str | None = None, db_path: str | None = None) -> str:
+    """HTML page of one robot's calibration history: the records, the history figure, the
+    latest recommended parameters and the latest runs.
+
+    Parameters
+    ----------
+    records : list of Record
+        One robot's records, oldest first.
+    title : str, optional
+        The page's title (default: "Calibration history of ROBOT").
+    db_path : str, optional
+        The database, shown in the header.
+
+    Returns
+    -------
+    str
+        The page: one self-contained HTML document.
+
+    Raises
+    ------
+    ValueError
+        If there are no records.
+    """
+    from umbmark.history import export_parameters, runs_from_rows
+    from umbmark.viz.history_plot import history_figure
+    from umbmark.viz.plots import scatter_figure
+
+    if not records:
+        raise ValueError("no records")
+    robot = records[0].robot
+    title = title or f"Calibration history of {robot}"
+    when = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    meta = [f"{len(records)} records", f"generated {when} by umbmark {__version__}"]
+    if db_path:
+        meta.append(f"database {db_path}")
+    body = [f"<h1>{_e(title)}</h1>", f'<p class="meta">{" &middot; ".join(_e(m) for m in meta)}</p>']
+    body.append("<h2>Records</h2>")
+    body.append(_records_table(records))
     body.append("<h2>Over time</h2>")
     body.append(_img(figure_data_uri(history_figure(records)), "history plot"))
     latest = records[-1]
