@@ -13,12 +13,12 @@ from hypothesis import strategies as st
 from umbmark.cli import main
 from umbmark.cli.app import app
 from umbmark.errors import InputError
+from umbmark.io.distances_csv import MeasuredRun, format_distances_csv, parse_distances_csv
 from umbmark.io.runs_csv import read_runs_csv
 from umbmark.model.geometry import FIG11_ERRORS, ErrorParams
 from umbmark.model.simulate import simulate_umbmark
 from umbmark.realrobot.guide import guide_text
 from umbmark.realrobot.measure import (
-    MeasuredRun,
     RobotMarks,
     WallPose,
     distances_for_runs,
@@ -27,7 +27,6 @@ from umbmark.realrobot.measure import (
     marks_for_direction,
     measure,
     measure_runs,
-    parse_distances_csv,
     pose_from_distances,
     relative_pose,
 )
@@ -352,3 +351,16 @@ def test_cli_measure_interactive_without_theta_and_with_reused_start(tmp_path):
     assert runs.theta_odo is None and len(runs) == 4
     np.testing.assert_allclose(runs.x_abs, truth.x_abs, atol=2e-6)
     np.testing.assert_allclose(runs.theta_abs, truth.theta_abs, atol=1e-6)
+
+
+def test_distances_file_reads_back():
+    rows = parse_distances_csv(
+        "direction,start_front,start_rear,start_back,end_front,end_rear,end_back,x_odo,y_odo,theta_odo\n"
+        "cw,409,411,350,294,278,471,45.7,44.9,-1.3\n"
+        "cw,,,,290,280,470.5,40,41,-1\n"
+    )
+    assert rows[1].distances_mm[:3] == rows[0].distances_mm[:3]  # the start reused
+    back = parse_distances_csv(format_distances_csv(rows))
+    assert [(r.run, r.direction, r.distances_mm, r.x_odo_mm, r.theta_odo_deg) for r in back] == [
+        (r.run, r.direction, r.distances_mm, r.x_odo_mm, r.theta_odo_deg) for r in rows
+    ]

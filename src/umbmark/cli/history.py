@@ -560,7 +560,8 @@ def measure_cmd(distances_file, front, rear, back, side_wall, resolution_mm, out
       umbmark measure distances.csv --front 150,-120 --rear -150,-120 --back -200,0 --out runs.csv
       umbmark measure --interactive --front 150,-120 --rear -150,-120 --back -200,0 --out runs.csv
     """
-    from umbmark.realrobot.measure import RobotMarks, measure_runs, read_distances_csv
+    from umbmark.io.distances_csv import read_distances_csv
+    from umbmark.realrobot.measure import RobotMarks, measure_runs
 
     if resolution_mm is None or not (math.isfinite(resolution_mm) and 0 <= resolution_mm <= 1000):
         raise InputError(
@@ -612,7 +613,8 @@ def _interactive(marks, side_wall, resolution_m, out_path, n_runs):
     """Prompt for every run; after each run, save the distances (``<out>.distances.csv``) and the
     runs file so far."""
     from umbmark.io.atomic import atomic_write
-    from umbmark.realrobot.measure import DIST_COLUMNS, MeasuredRun, format_distances_csv, measure_runs
+    from umbmark.io.distances_csv import DIST_COLUMNS, MeasuredRun, format_distances_csv
+    from umbmark.realrobot.measure import measure_runs
 
     raw_path = str(Path(out_path).with_suffix("")) + ".distances.csv"
     rows: list[MeasuredRun] = []

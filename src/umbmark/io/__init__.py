@@ -1,4 +1,56 @@
-"""Readers and writers: runs files, encoder logs (optiodom folders, the generic CSV, ROS bags),
-poses files, parameter exports, atomic file writes."""
+"""Readers and writers: runs files, distances files, encoder logs (optiodom folders, the generic
+CSV, ROS bags), poses files, parameter exports, atomic file writes.
 
-__all__: list[str] = []
+Nothing here computes: the readers return the data structures of :mod:`umbmark.model` (SI
+units), the writers take them. Reading a bag needs the optional ``rosbags`` package, writing a
+ROS parameter file ``PyYAML``; both are imported when used.
+"""
+
+from umbmark.io.atomic import atomic_path, atomic_write, write_json
+from umbmark.io.distances_csv import MeasuredRun, format_distances_csv, parse_distances_csv, read_distances_csv
+from umbmark.io.export import (
+    FORMATS,
+    ExportCalibration,
+    calibration_from_json,
+    format_export,
+    ros_multipliers,
+    write_export,
+)
+from umbmark.io.generic_csv import CsvChunk, format_generic_csv, iter_generic_csv, read_generic_csv
+from umbmark.io.load import LOG_FORMATS, detect_format, load_logs, nominal_geometry
+from umbmark.io.optiodom import read_optiodom
+from umbmark.io.poses_csv import write_poses_csv
+from umbmark.io.rosbag import bag_info, read_bag
+from umbmark.io.runs_csv import format_runs_csv, parse_runs_csv, read_runs_csv, write_runs_csv
+
+__all__ = [
+    "atomic_path",
+    "atomic_write",
+    "write_json",
+    "MeasuredRun",
+    "read_distances_csv",
+    "parse_distances_csv",
+    "format_distances_csv",
+    "FORMATS",
+    "ExportCalibration",
+    "calibration_from_json",
+    "format_export",
+    "ros_multipliers",
+    "write_export",
+    "CsvChunk",
+    "read_generic_csv",
+    "iter_generic_csv",
+    "format_generic_csv",
+    "LOG_FORMATS",
+    "detect_format",
+    "load_logs",
+    "nominal_geometry",
+    "read_optiodom",
+    "write_poses_csv",
+    "read_bag",
+    "bag_info",
+    "read_runs_csv",
+    "write_runs_csv",
+    "parse_runs_csv",
+    "format_runs_csv",
+]

@@ -1,6 +1,72 @@
-"""The real-robot path: replay logged runs with any geometry, calibrate, evaluate, hold out
-(:mod:`~umbmark.realrobot.replay`, results in :mod:`~umbmark.realrobot.results`); measure the
-return pose with a tape (:mod:`~umbmark.realrobot.measure`); the field procedure
-(:mod:`~umbmark.realrobot.guide`)."""
+"""Real robots: replay logged runs with any geometry, calibrate, evaluate in sample and held
+out, stream long logs (:mod:`~umbmark.realrobot.replay`, its results in
+:mod:`~umbmark.realrobot.results`); the return pose from a tape measure
+(:mod:`~umbmark.realrobot.measure`); the field procedure (:mod:`~umbmark.realrobot.guide`).
+"""
 
-__all__: list[str] = []
+from umbmark.realrobot.guide import STEP_TITLES, guide_text
+from umbmark.realrobot.measure import (
+    MeasuredRuns,
+    Measurement,
+    RobotMarks,
+    WallPose,
+    distances_for_runs,
+    format_measured_csv,
+    measure,
+    measure_runs,
+)
+from umbmark.realrobot.replay import (
+    calibrate,
+    detect_directions,
+    evaluate,
+    history_fields,
+    method_names,
+    pooled_report,
+    prepare,
+    replay,
+    replay_report,
+    square_runs,
+    stream_log,
+    stream_replay,
+)
+from umbmark.realrobot.results import (
+    Calibrated,
+    Evaluation,
+    HeldOut,
+    MultiReplayReport,
+    PooledReport,
+    ReplayReport,
+    StreamReport,
+)
+
+__all__ = [
+    "guide_text",
+    "STEP_TITLES",
+    "RobotMarks",
+    "WallPose",
+    "Measurement",
+    "MeasuredRuns",
+    "measure",
+    "measure_runs",
+    "distances_for_runs",
+    "format_measured_csv",
+    "method_names",
+    "replay",
+    "detect_directions",
+    "square_runs",
+    "prepare",
+    "calibrate",
+    "evaluate",
+    "replay_report",
+    "pooled_report",
+    "stream_replay",
+    "stream_log",
+    "history_fields",
+    "Calibrated",
+    "Evaluation",
+    "HeldOut",
+    "ReplayReport",
+    "MultiReplayReport",
+    "PooledReport",
+    "StreamReport",
+]

@@ -28,6 +28,9 @@ is taken as uniform in +-resolution/2 (standard deviation ``resolution / sqrt(12
 independent between readings. It is propagated to x, y, theta linearly (the Jacobian of the
 whole computation, by central differences): ``*_sd`` is the resulting standard deviation and
 ``*_bound`` the worst case ``sum |J_i| * resolution / 2``.
+
+The distances file (the readings as typed, millimetres) is read by
+:mod:`umbmark.io.distances_csv`.
 """
 
 from __future__ import annotations
@@ -36,12 +39,11 @@ import csv
 import io
 import math
 from dataclasses import dataclass, replace
-from pathlib import Path
 
 import numpy as np
 
 from umbmark.errors import InputError
-from umbmark.io._text import csv_rows, header_columns
+from umbmark.io.distances_csv import MeasuredRun
 from umbmark.model.geometry import wrap_angle
 from umbmark.model.runs import DIRECTIONS, RunsTable
 
@@ -49,7 +51,6 @@ __all__ = [
     "RobotMarks",
     "WallPose",
     "Measurement",
-    "MeasuredRun",
     "MeasuredRuns",
     "pose_from_distances",
     "distances_from_pose",
@@ -59,18 +60,8 @@ __all__ = [
     "measure",
     "measure_run",
     "measure_runs",
-    "read_distances_csv",
-    "parse_distances_csv",
     "format_measured_csv",
-    "format_distances_csv",
-    "DIST_COLUMNS",
-    "START_COLUMNS",
-    "END_COLUMNS",
 ]
-
-START_COLUMNS = ("start_front", "start_rear", "start_back")
-END_COLUMNS = ("end_front", "end_rear", "end_back")
-DIST_COLUMNS = START_COLUMNS + END_COLUMNS
 
 
 @dataclass(frozen=True)
@@ -232,7 +223,7 @@ def distances_for_runs(marks: RobotMarks, runs: RunsTable, start: WallPose, side
     Returns
     -------
     numpy.ndarray
-        (n, 6) distances [m] in the order of :data:`DIST_COLUMNS`.
+        (n, 6) distances [m] in the order of :data:`~umbmark.io.distances_csv.DIST_COLUMNS`.
 
     Raises
     ------
@@ -377,7 +368,7 @@ def measure(marks: RobotMarks, distances, resolution_m: float = 1e-3, source=Non
     marks : RobotMarks
         The reference points.
     distances : array_like
-        (..., 6) distances [m] in the order of :data:`DIST_COLUMNS`.
+        (..., 6) distances [m] in the order of :data:`~umbmark.io.distances_csv.DIST_COLUMNS`.
     resolution_m : float
         The tape's resolution.
     source : str, optional
@@ -430,35 +421,6 @@ def measure(marks: RobotMarks, distances, resolution_m: float = 1e-3, source=Non
         bound[..., 2],
         cov,
     )
-
-
-@dataclass(frozen=True)
-class MeasuredRun:
-    """One row of a distances file (millimetres and degrees, as typed).
-
-    Attributes
-    ----------
-    run : str
-        The run's label.
-    direction : str
-        ``cw`` or ``ccw``.
-    distances_mm : tuple of float
-        The six distances in the order of :data:`DIST_COLUMNS`.
-    x_odo_mm, y_odo_mm : float
-        The odometry's end position.
-    theta_odo_deg : float or None
-        The odometry's end heading (None: not read).
-    line : int or None
-        The row's line in the file.
-    """
-
-    run: str
-    direction: str
-    distances_mm: tuple[float, ...]  # DIST_COLUMNS order
-    x_odo_mm: float
-    y_odo_mm: float
-    theta_odo_deg: float | None = None
-    line: int | None = None
 
 
 def measure_run(marks: RobotMarks, row: MeasuredRun, resolution_m: float = 1e-3, source=None) -> Measurement:
@@ -616,145 +578,6 @@ def measure_runs(
     return MeasuredRuns(runs, m, resolution_m, side_wall)
 
 
-def _num(cell: str, col: str, source, line) -> float:
-    try:
-        v = float(cell)
-    except ValueError:
-        raise InputError(
-            f"column {col}: {cell.strip()!r} is not a number" if cell.strip() else f"column {col} is empty",
-            source,
-            line,
-        ) from None
-    if not math.isfinite(v):
-        raise InputError(f"column {col}: {cell.strip()!r} is not a finite number", source, line)
-    return v
-
-
-def read_distances_csv(path) -> list[MeasuredRun]:
-    """Read a distances file (see :func:`parse_distances_csv`).
-
-    Parameters
-    ----------
-    path : str or Path
-        The file.
-
-    Returns
-    -------
-    list of MeasuredRun
-
-    Raises
-    ------
-    InputError
-        A missing or unreadable file, or bad content (file and line named).
-    """
-    p = Path(path)
-    if not p.exists():
-        raise InputError("file not found", source=str(path))
-    if p.is_dir():
-        raise InputError("is a folder, not a distances file", source=str(path))
-    try:
-        text = p.read_text(encoding="utf-8-sig")
-    except UnicodeDecodeError:
-        raise InputError("not a text (UTF-8) file", source=str(path)) from None
-    return parse_distances_csv(text, source=str(path))
-
-
-def parse_distances_csv(text: str, source: str = "<distances>") -> list[MeasuredRun]:
-    """Parse a distances file (mm, deg).
-
-    Columns: ``direction, start_front, start_rear, start_back, end_front, end_rear, end_back,
-    x_odo, y_odo``; optional ``run``, ``theta_odo``. The three start cells of a row may be left
-    empty together: the start of the previous row of the same direction is reused (the robot was
-    put back on the same marked start; cw and ccw runs start at different corners). Blank lines
-    and lines starting with ``#`` are skipped.
-
-    Parameters
-    ----------
-    text : str
-        The file's content.
-    source : str
-        Its name, for error messages.
-
-    Returns
-    -------
-    list of MeasuredRun
-
-    Raises
-    ------
-    InputError
-        A missing column, a bad cell, a start to reuse that is not there (file and line named).
-    """
-    required = ("direction",) + DIST_COLUMNS + ("x_odo", "y_odo")
-    header = None
-    out: list[MeasuredRun] = []
-    prev_start: dict[str, tuple] = {}
-    for line, row in csv_rows(text, source):
-        if header is None:
-            header = header_columns(row)
-            missing = [c for c in required if c not in header]
-            if missing:
-                raise InputError(
-                    "no header with the distances-file columns: missing "
-                    + ", ".join(missing)
-                    + " (expected direction,"
-                    + ",".join(DIST_COLUMNS)
-                    + ",x_odo,y_odo[,run,theta_odo])",
-                    source,
-                    line,
-                )
-            continue
-        col = {c: header.index(c) for c in required + ("run", "theta_odo") if c in header}
-
-        def cell(c, row=row, col=col):
-            return row[col[c]].strip() if col[c] < len(row) else ""
-
-        if len(row) < max(col[c] for c in required) + 1:
-            raise InputError(f"has {len(row)} fields, the header has {len(header)}", source, line)
-        d = cell("direction").lower()
-        if d not in DIRECTIONS:
-            raise InputError(f"unknown direction {cell('direction')!r} (expected cw or ccw)", source, line)
-        starts = [cell(c) for c in START_COLUMNS]
-        if all(not s for s in starts):
-            if d not in prev_start:
-                raise InputError(
-                    f"the start distances are empty and there is no previous {d} row to reuse", source, line
-                )
-            start = prev_start[d]
-        else:
-            start = tuple(_num(cell(c), c, source, line) for c in START_COLUMNS)
-        end = tuple(_num(cell(c), c, source, line) for c in END_COLUMNS)
-        for c, v in zip(DIST_COLUMNS, start + end):
-            if v < 0:
-                raise InputError(f"column {c}: a distance cannot be negative ({v:g})", source, line)
-        prev_start[d] = start
-        theta = None
-        if "theta_odo" in col and cell("theta_odo"):
-            theta = _num(cell("theta_odo"), "theta_odo", source, line)
-        run = cell("run") if "run" in col and cell("run") else str(sum(1 for r in out if r.direction == d) + 1)
-        out.append(
-            MeasuredRun(
-                run,
-                d,
-                start + end,
-                _num(cell("x_odo"), "x_odo", source, line),
-                _num(cell("y_odo"), "y_odo", source, line),
-                theta,
-                line,
-            )
-        )
-    if header is None:
-        raise InputError("empty file: no header and no runs", source)
-    if not out:
-        raise InputError("no runs after the header", source)
-    with_theta = [r.theta_odo_deg is not None for r in out]
-    if any(with_theta) and not all(with_theta):
-        r = out[with_theta.index(False)]
-        raise InputError(
-            "column theta_odo is empty here but filled on other rows (fill it on every row or none)", source, r.line
-        )
-    return out
-
-
 def format_measured_csv(runs: RunsTable, m: Measurement) -> str:
     """The runs file (mm, deg) of measured runs, with the propagated standard deviations as
     extra columns ``x_abs_sd, y_abs_sd`` (mm) and ``theta_abs_sd`` (deg), which the runs-file
@@ -796,34 +619,3 @@ def format_measured_csv(runs: RunsTable, m: Measurement) -> str:
         row += [f(m.x_sd[i] * 1e3), f(m.y_sd[i] * 1e3), f(math.degrees(m.theta_sd[i]), 4)]
         w.writerow(row)
     return out.getvalue()
-
-
-def format_distances_csv(rows: list[MeasuredRun]) -> str:
-    """A distances file (mm, deg) of the rows, as :func:`parse_distances_csv` reads it.
-
-    Parameters
-    ----------
-    rows : list of MeasuredRun
-        The rows.
-
-    Returns
-    -------
-    str
-        The header ``run, direction, start_front, ..., end_back, x_odo, y_odo, theta_odo`` and
-        one line per row (an empty ``theta_odo`` when the heading was not read).
-    """
-    buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
-    w.writerow(["run", "direction", *DIST_COLUMNS, "x_odo", "y_odo", "theta_odo"])
-    for r in rows:
-        w.writerow(
-            [
-                r.run,
-                r.direction,
-                *[f"{v:g}" for v in r.distances_mm],
-                f"{r.x_odo_mm:g}",
-                f"{r.y_odo_mm:g}",
-                "" if r.theta_odo_deg is None else f"{r.theta_odo_deg:g}",
-            ]
-        )
-    return buf.getvalue()
