@@ -1,4 +1,4 @@
-"""umbmark.model.odometry: fast replay against the plain numpy integrator and the per-sample loop."""
+"""umbmark.model.odometry: the "fast" kernels against the "trig" kernel and the per-sample loop."""
 
 import numpy as np
 import pytest
@@ -7,12 +7,20 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from umbmark.errors import InputError
-from umbmark.model import geometry as kinematics
 from umbmark.model import odometry
 from umbmark.model.geometry import OdometryParams
 from umbmark.studies import reference
 
 PARAMS = OdometryParams(4.7e-5, 4.72e-5, 0.34)
+
+
+def trig(dl, dr, b, pose0=(0.0, 0.0, 0.0), method="exact"):
+    """The "trig" kernel: one numpy cos and sin per sample, the vectorised reference of the fast kernels."""
+    return odometry.integrate(dl, dr, b, pose0, method, kernel="trig")
+
+
+def trig_pulses(nl, nr, params, pose0=(0.0, 0.0, 0.0), method="exact"):
+    return odometry.integrate_pulses(nl, nr, params, pose0, method, kernel="trig")
 
 
 def _close(a, b, tol):
@@ -27,7 +35,7 @@ def test_matches_numpy_integrator_with_large_turns(method):
     dr = rng.normal(0.0, 0.05, (3, 3000))
     b = np.array([0.3, 0.4, 0.5])
     pose0 = (np.array([1.0, 2.0, 3.0]), 0.5, np.array([0.1, -2.0, 7.0]))
-    want = kinematics.integrate(dl, dr, b, pose0, method)
+    want = trig(dl, dr, b, pose0, method)
     _close(odometry.integrate(dl, dr, b, pose0, method, chunk=700), want, 1e-12)
     _close(odometry.integrate_end(dl, dr, b, pose0, method), [w[:, -1] for w in want], 1e-12)
 
@@ -44,7 +52,7 @@ def test_matches_numpy_integrator_with_large_turns(method):
 )
 def test_property_same_poses_as_numpy(dl, dr_scale, dr_off, b, th0, method, chunk):
     dr = dl * dr_scale + dr_off
-    want = kinematics.integrate(dl, dr, b, (0.3, -0.2, th0), method)
+    want = trig(dl, dr, b, (0.3, -0.2, th0), method)
     got = odometry.integrate(dl, dr, b, (0.3, -0.2, th0), method, chunk=chunk)
     _close(got, want, 1e-11)
     end = odometry.integrate_end(dl, dr, b, (0.3, -0.2, th0), method, chunk=chunk)
@@ -56,7 +64,7 @@ def test_pulses_table_kernel(method):
     rng = np.random.default_rng(1)
     nl = rng.integers(-3, 12, 200_000)
     nr = rng.integers(0, 12, 200_000)
-    want = kinematics.odometry_from_pulses(nl, nr, PARAMS, (0.1, 0.2, 0.3), method)
+    want = trig_pulses(nl, nr, PARAMS, (0.1, 0.2, 0.3), method)
     got = odometry.integrate_pulses(nl, nr, PARAMS, (0.1, 0.2, 0.3), method)
     _close(got, want, 1e-10)  # the numpy cumsum of headings drifts by ~1e-11 here
     end = odometry.integrate_pulses_end(nl, nr, PARAMS, (0.1, 0.2, 0.3), method)
@@ -67,19 +75,17 @@ def test_pulses_many_distinct_increments_fall_back_to_float_kernel():
     rng = np.random.default_rng(2)
     nl = rng.integers(-5000, 5000, 5000)  # too many distinct pairs for a table
     nr = rng.integers(-5000, 5000, 5000)
-    want = kinematics.odometry_from_pulses(nl, nr, PARAMS)
+    want = trig_pulses(nl, nr, PARAMS)
     _close(odometry.integrate_pulses(nl, nr, PARAMS), want, 1e-11)
     # float (non-integer) increments too
-    _close(
-        odometry.integrate_pulses(nl + 0.25, nr, PARAMS), kinematics.odometry_from_pulses(nl + 0.25, nr, PARAMS), 1e-11
-    )
+    _close(odometry.integrate_pulses(nl + 0.25, nr, PARAMS), trig_pulses(nl + 0.25, nr, PARAMS), 1e-11)
 
 
 def test_runs_axis_with_pulses():
     rng = np.random.default_rng(3)
     nl = rng.integers(0, 8, (2, 3, 1000))
     nr = rng.integers(0, 8, (2, 3, 1000))
-    want = kinematics.odometry_from_pulses(nl, nr, PARAMS)
+    want = trig_pulses(nl, nr, PARAMS)
     got = odometry.integrate_pulses(nl, nr, PARAMS)
     assert got[0].shape == (2, 3, 1000)
     _close(got, want, 1e-11)
@@ -186,7 +192,39 @@ def test_bad_input():
 )
 def test_property_pulses_same_poses_as_numpy(nl, shift, th0, method, chunk):
     nr = np.roll(nl, 1) + shift
-    want = kinematics.odometry_from_pulses(nl, nr, PARAMS, (0.3, -0.2, th0), method)
+    want = trig_pulses(nl, nr, PARAMS, (0.3, -0.2, th0), method)
     _close(odometry.integrate_pulses(nl, nr, PARAMS, (0.3, -0.2, th0), method, chunk=chunk), want, 1e-12)
     end = odometry.integrate_pulses_end(nl, nr, PARAMS, (0.3, -0.2, th0), method, chunk=chunk)
     _close(end, [w[-1] for w in want], 1e-12)
+
+
+@pytest.mark.parametrize("method", odometry.METHODS)
+def test_trig_kernel_matches_per_sample_loop(method):
+    rng = np.random.default_rng(7)
+    nl = rng.integers(-2, 9, 5000)
+    nr = rng.integers(-2, 9, 5000)
+    want = reference.integrate_pulses(nl, nr, PARAMS, (0.1, 0.2, 0.3), method)
+    _close(trig_pulses(nl, nr, PARAMS, (0.1, 0.2, 0.3), method), want, 1e-11)
+    end = odometry.integrate_pulses_end(nl, nr, PARAMS, (0.1, 0.2, 0.3), method, kernel="trig")
+    _close(end, [w[-1] for w in want], 1e-11)
+
+
+def test_end_pose_types_agree_between_kernels():
+    """One log: numpy floats from every end-pose function and kernel; runs: arrays of the leading shape."""
+    for kernel in odometry.KERNELS:
+        for end in (
+            odometry.integrate_end([0.1, 0.2], [0.1, 0.3], 0.3, kernel=kernel),
+            odometry.integrate_pulses_end([1, 2], [1, 3], PARAMS, kernel=kernel),
+        ):
+            assert all(isinstance(v, np.float64) for v in end)
+        x, y, th = odometry.integrate_end(np.ones((2, 4)), np.ones((2, 4)), 0.3, kernel=kernel)
+        assert x.shape == y.shape == th.shape == (2,)
+
+
+def test_bad_kernel_and_shapes_with_the_trig_kernel():
+    with pytest.raises(InputError, match="unknown odometry kernel"):
+        odometry.integrate_pulses([1], [1], PARAMS, kernel="numpy")
+    with pytest.raises(InputError, match="one shape"):
+        odometry.integrate([0.1, 0.2], [0.1], 0.3, kernel="trig")
+    with pytest.raises(InputError, match="K >= 1"):
+        odometry.integrate_pulses_end([], [], PARAMS, kernel="trig")

@@ -37,7 +37,7 @@ _LAZY = {
     "OdometryParams": "umbmark.model.geometry",
     "LABMATE": "umbmark.model.geometry",
     "RunsTable": "umbmark.model.runs",
-    "WheelGeometry": "umbmark.model.dataset",
+    "WheelGeometry": "umbmark.model.geometry",
     "Dataset": "umbmark.model.dataset",
     "Run": "umbmark.model.dataset",
     "integrate": "umbmark.model.odometry",

@@ -13,19 +13,24 @@ Every reader in :mod:`umbmark.io` (optiodom folders, the generic CSV, ROS bags) 
   first leg), y to the left, theta counter-clockwise and unwrapped. NaN rows: no ground truth
   at that sample. A run may instead carry only a measured end pose (``gt_end``, e.g. taped).
 
-SI units (metres, radians, seconds).
+SI units (metres, radians, seconds). Pure numpy: this module imports only numpy and the lower
+modules of :mod:`umbmark.model`. :class:`~umbmark.model.geometry.WheelGeometry` is defined in
+:mod:`umbmark.model.geometry` and importable from here too.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from umbmark.errors import InputError
-from umbmark.model import odometry as _fast
-from umbmark.model.geometry import Calibration, OdometryParams, integrate, integrate_end
+from umbmark.model import odometry
+from umbmark.model.geometry import OdometryParams, WheelGeometry
 
 __all__ = [
     "WheelGeometry",
@@ -38,80 +43,38 @@ __all__ = [
     "FAST_MIN_SAMPLES",
 ]
 
-# Below this many samples (runs x samples) the plain numpy replay of
-# :func:`umbmark.model.geometry.integrate` is as fast as the chunked kernels of
-# :mod:`umbmark.model.odometry` (their set-up costs more than they save); above it the fast kernels
-# win (integer increments: the table kernel, 2-4x; end pose only: more) and keep the working
-# memory bounded. Measured on this machine: see the README, real robots section.
+# Below this many samples (runs x samples) the "trig" kernel of :mod:`umbmark.model.odometry` is
+# as fast as its chunked "fast" kernels (their set-up costs more than they save); above it the
+# fast kernels win (integer increments: the table kernel, 2-4x; end pose only: more) and keep the
+# working memory bounded. The measurements are in the README, real robots section.
 FAST_MIN_SAMPLES = 1 << 17
 
 
 @dataclass(frozen=True)
-class WheelGeometry:
-    """Absolute geometry of a differential-drive robot: wheel diameters and wheelbase [m]."""
-
-    diameter_left_m: float
-    diameter_right_m: float
-    wheelbase_m: float
-
-    def __post_init__(self):
-        for name in ("diameter_left_m", "diameter_right_m", "wheelbase_m"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float, np.floating)) and math.isfinite(v) and v > 0):
-                raise InputError(f"{name} must be a positive number, got {v!r}")
-
-    @property
-    def ed(self) -> float:
-        """E_d = D_R / D_L."""
-        return self.diameter_right_m / self.diameter_left_m
-
-    @property
-    def diameter_avg_m(self) -> float:
-        return 0.5 * (self.diameter_left_m + self.diameter_right_m)
-
-    def params(self, units_per_rev: float) -> OdometryParams:
-        """Metres of wheel travel per log unit of each wheel, and the wheelbase."""
-        k = math.pi / units_per_rev
-        return OdometryParams(k * self.diameter_left_m, k * self.diameter_right_m, self.wheelbase_m)
-
-    def relative_to(self, nominal: WheelGeometry) -> dict:
-        """This (corrected) geometry against ``nominal``: the ratios and absolute sizes every
-        calibration report gives (``Ed``, ``Eb``, ``Es``, ``c_left``, ``c_right``, mm values)."""
-        return {
-            "Ed": self.ed,
-            "Eb": self.wheelbase_m / nominal.wheelbase_m,
-            "Es": self.diameter_avg_m / nominal.diameter_avg_m,
-            "c_left": self.diameter_left_m / nominal.diameter_left_m,
-            "c_right": self.diameter_right_m / nominal.diameter_right_m,
-            "wheelbase_corrected_mm": self.wheelbase_m * 1e3,
-            "diameter_left_mm": self.diameter_left_m * 1e3,
-            "diameter_right_mm": self.diameter_right_m * 1e3,
-        }
-
-    def calibrated(self, cal: Calibration) -> WheelGeometry:
-        """This (nominal) geometry with correction factors applied (Eq. 4.33)."""
-        b = self.wheelbase_m if cal.wheelbase_m is None else cal.wheelbase_m
-        return WheelGeometry(cal.c_left * self.diameter_left_m, cal.c_right * self.diameter_right_m, b)
-
-    def calibration_from(self, nominal: WheelGeometry) -> Calibration:
-        """The correction factors that turn ``nominal`` into this geometry."""
-        return Calibration(
-            self.diameter_left_m / nominal.diameter_left_m,
-            self.diameter_right_m / nominal.diameter_right_m,
-            self.wheelbase_m,
-        )
-
-    def to_dict(self) -> dict:
-        return {
-            "diameter_left_mm": self.diameter_left_m * 1e3,
-            "diameter_right_mm": self.diameter_right_m * 1e3,
-            "wheelbase_mm": self.wheelbase_m * 1e3,
-        }
-
-
-@dataclass(frozen=True)
 class Run:
-    """One logged run (see the module docstring)."""
+    """One logged run (see the module docstring).
+
+    Parameters
+    ----------
+    name : str
+        Name of the run (a file name, a bag range).
+    t : numpy.ndarray
+        Sample times [s], shape (K,), K >= 2.
+    d_left, d_right : numpy.ndarray
+        Wheel increments per sample in log units, shape (K,).
+    gt : numpy.ndarray, optional
+        Ground truth ``(x, y, theta)`` per sample in the start frame, shape (K, 3); NaN rows:
+        none at that sample.
+    gt_end : numpy.ndarray, optional
+        A measured end pose ``(x, y, theta)`` instead of a trajectory.
+    source : str, optional
+        Where the run was read from (for messages).
+
+    Raises
+    ------
+    InputError
+        On fewer than two samples, arrays of different lengths or non-finite increments.
+    """
 
     name: str
     t: np.ndarray
@@ -121,7 +84,7 @@ class Run:
     gt_end: np.ndarray | None = None
     source: str | None = None
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         k = len(self.t)
         where = self.source or self.name
         if k < 2:
@@ -152,8 +115,22 @@ class Run:
         return None
 
     def slice(self, start: int, stop: int, name: str | None = None) -> Run:
-        """Samples ``start..stop-1`` as a run of its own (its ground truth re-expressed in the
-        new start frame; the first increment dropped: it happened before the new start)."""
+        """Samples ``start..stop-1`` as a run of its own.
+
+        Its ground truth is re-expressed in the new start frame; the first increment is
+        dropped (it happened before the new start).
+
+        Parameters
+        ----------
+        start, stop : int
+            The sample range.
+        name : str, optional
+            Name of the new run (default: ``name[start:stop]``).
+
+        Returns
+        -------
+        Run
+        """
         sl = slice(start, stop)
         d_l = self.d_left[sl].copy()
         d_r = self.d_right[sl].copy()
@@ -169,10 +146,30 @@ class Run:
 class Dataset:
     """Runs of one robot logged with one nominal geometry.
 
-    ``units_per_rev``: log units per wheel revolution (pulses, or 2 pi for radians).
-    ``side_m``: side of the square for UMBmark square runs (None: a general path).
-    ``directions``: the direction each run is declared to have (optional, e.g. from a file
-    layout), checked against the detected one.
+    Parameters
+    ----------
+    name : str
+        Name of the dataset.
+    nominal : WheelGeometry
+        The nominal geometry the runs are replayed with.
+    units_per_rev : float
+        Log units per wheel revolution (pulses, or 2 pi for radians).
+    runs : tuple of Run
+        The runs (at least one).
+    side_m : float, optional
+        Side of the square for UMBmark square runs (None: a general path).
+    source : str, optional
+        Where the dataset was read from.
+    directions : tuple of str, optional
+        The direction each run is declared to have (e.g. from a file layout), checked
+        against the detected one.
+    meta : dict
+        Anything else the reader found.
+
+    Raises
+    ------
+    InputError
+        Without runs, or on a non-positive ``units_per_rev``.
     """
 
     name: str
@@ -184,7 +181,7 @@ class Dataset:
     directions: tuple | None = None
     meta: dict = field(default_factory=dict)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if not self.runs:
             raise InputError("no runs", source=self.source or self.name)
         if not (math.isfinite(self.units_per_rev) and self.units_per_rev > 0):
@@ -194,19 +191,28 @@ class Dataset:
 
     @property
     def is_square(self) -> bool:
+        """True for UMBmark square runs (a side length is known)."""
         return self.side_m is not None
 
-    def subset(self, idx) -> Dataset:
+    def subset(self, idx: Iterable[int]) -> Dataset:
+        """The dataset with only the runs at ``idx`` (their declared directions kept)."""
         idx = list(idx)
         dirs = None if self.directions is None else tuple(self.directions[i] for i in idx)
         return replace(self, runs=tuple(self.runs[i] for i in idx), directions=dirs)
 
-    def with_runs(self, runs) -> Dataset:
+    def with_runs(self, runs: Iterable[Run]) -> Dataset:
+        """The dataset with other runs (and no declared directions)."""
         return replace(self, runs=tuple(runs), directions=None)
 
-    def padded(self):
-        """Wheel increments of all runs, zero-padded to a common length: (R, K) arrays and
-        the length of each run. Zero increments leave the pose unchanged."""
+    def padded(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Wheel increments of all runs, zero-padded to a common length.
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            ``(d_left, d_right, n)``: (R, K) arrays (zero increments leave the pose unchanged)
+            and the length of each run.
+        """
         n = np.array([len(r) for r in self.runs])
         k = int(n.max())
         dl = np.zeros((len(self.runs), k))
@@ -217,8 +223,19 @@ class Dataset:
         return dl, dr, n
 
 
-def to_start_frame(x, y, theta):
-    """Express poses in the frame of the first one: (0, 0, 0) at sample 0; theta unwrapped."""
+def to_start_frame(x: ArrayLike, y: ArrayLike, theta: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Express poses in the frame of the first one.
+
+    Parameters
+    ----------
+    x, y, theta : array_like
+        Poses, shape (K,).
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(x, y, theta)`` with (0, 0, 0) at sample 0; theta unwrapped.
+    """
     x = np.asarray(x, dtype=float)
     y = np.asarray(y, dtype=float)
     th = np.unwrap(np.asarray(theta, dtype=float))
@@ -228,12 +245,26 @@ def to_start_frame(x, y, theta):
     return c * dx + s * dy, -s * dx + c * dy, th - t0
 
 
-def wheel_travel_from_poses(x, y, theta, wheelbase_m):
-    """Per-sample wheel travel (left, right) [m] that an odometry with this wheelbase turned
-    into these poses (exact-arc model: the inverse of :func:`umbmark.model.geometry.integrate`).
+def wheel_travel_from_poses(
+    x: ArrayLike, y: ArrayLike, theta: ArrayLike, wheelbase_m: ArrayLike
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per-sample wheel travel that an odometry with this wheelbase turned into these poses.
 
-    Useful for logs that hold only the robot's own odometry poses (e.g. ``nav_msgs/Odometry``)
-    and for producing wheel logs from simulated trajectories. Sample 0 gets zero travel.
+    The exact-arc model: the inverse of :func:`umbmark.model.odometry.integrate`. Useful for
+    logs that hold only the robot's own odometry poses (e.g. ``nav_msgs/Odometry``) and for
+    producing wheel logs from simulated trajectories.
+
+    Parameters
+    ----------
+    x, y, theta : array_like
+        Poses, arrays (..., K).
+    wheelbase_m : float or array_like
+        The odometry's wheelbase [m].
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(d_left, d_right)`` [m], arrays (..., K); sample 0 gets zero travel.
     """
     x, y, th = (np.asarray(a, dtype=float) for a in (x, y, theta))
     dth = np.diff(th, prepend=th[..., :1], axis=-1)
@@ -249,12 +280,27 @@ def wheel_travel_from_poses(x, y, theta, wheelbase_m):
 
 def split_at_stops(
     run: Run, units_per_rev: float, stop_s: float = 1.0, min_samples: int = 5, still_units: float = 0.0
-) -> list:
+) -> list[Run]:
     """Split a run where both wheels stand still for at least ``stop_s`` seconds.
 
-    A sample is still when neither wheel turned more than ``still_units`` log units. The
-    pieces are the moving stretches (each with the still samples just before it, so it starts
-    at rest); pieces with fewer than ``min_samples`` samples are dropped.
+    Parameters
+    ----------
+    run : Run
+        The run to split.
+    units_per_rev : float
+        Log units per wheel revolution.
+    stop_s : float
+        The stillness [s] that ends a piece.
+    min_samples : int
+        Pieces with fewer samples are dropped.
+    still_units : float
+        A sample is still when neither wheel turned more than this many log units.
+
+    Returns
+    -------
+    list of Run
+        The moving stretches, each with the still samples just before it (so it starts at
+        rest), named ``name#1``, ``name#2``, ...
     """
     moving = (np.abs(run.d_left) > still_units) | (np.abs(run.d_right) > still_units)
     t = run.t
@@ -279,33 +325,59 @@ def split_at_stops(
     return out
 
 
-def replay_increments(
-    d_left, d_right, params: OdometryParams, method: str = "exact", end: bool = False, integral: bool | None = None
-):
-    """Odometry from logged wheel increments (arrays (..., K), log units) with ``params``
-    (metres per unit of each wheel, wheelbase): the poses after each sample ``(x, y, theta)``,
-    or with ``end=True`` only the end pose (arrays of the leading shape).
+def _whole_numbers(d_left: np.ndarray, d_right: np.ndarray) -> bool:
+    return bool(
+        np.all(d_left == np.round(d_left))
+        and np.all(d_right == np.round(d_right))
+        and np.abs(d_left).max(initial=0) < 2**52
+        and np.abs(d_right).max(initial=0) < 2**52
+    )
 
-    Small logs (fewer than :data:`FAST_MIN_SAMPLES` samples in all) are replayed with
-    :func:`umbmark.model.geometry.integrate`; larger ones with the chunked kernels of
-    :mod:`umbmark.model.odometry` (same poses to rounding, ~1e-11 m): the table kernel when every
-    increment is a whole number (``integral``: known already, or None to check), else the
-    float kernel.
+
+def replay_increments(
+    d_left: ArrayLike,
+    d_right: ArrayLike,
+    params: OdometryParams,
+    method: str = "exact",
+    end: bool = False,
+    integral: bool | None = None,
+) -> tuple[Any, Any, Any]:
+    """Odometry from logged wheel increments, with the kernel that suits the log's size.
+
+    Small logs (fewer than :data:`FAST_MIN_SAMPLES` samples in all) are replayed with the
+    ``"trig"`` kernel of :mod:`umbmark.model.odometry`; larger ones with its chunked ``"fast"``
+    kernels (same poses to rounding, about 1e-11 m): the table kernel when every increment is
+    a whole number, else the float kernel.
+
+    Parameters
+    ----------
+    d_left, d_right : array_like
+        Wheel increments in log units, arrays (..., K).
+    params : OdometryParams
+        Metres per log unit of each wheel, and the wheelbase.
+    method : str
+        ``"exact"``, ``"midpoint"`` or ``"euler"``.
+    end : bool
+        Return only the end pose.
+    integral : bool, optional
+        Whether every increment is a whole number, if known (None: checked).
+
+    Returns
+    -------
+    tuple
+        ``(x, y, theta)``: the poses after each sample, arrays (..., K), or with ``end`` the
+        end pose (arrays of the leading shape).
     """
     d_left = np.asarray(d_left, dtype=float)
     d_right = np.asarray(d_right, dtype=float)
-    if d_left.size >= FAST_MIN_SAMPLES:
-        if integral is None:
-            integral = bool(
-                np.all(d_left == np.round(d_left))
-                and np.all(d_right == np.round(d_right))
-                and np.abs(d_left).max(initial=0) < 2**52
-                and np.abs(d_right).max(initial=0) < 2**52
-            )
-        if integral:
-            f = _fast.integrate_pulses_end if end else _fast.integrate_pulses
-            return f(d_left.astype(np.int64), d_right.astype(np.int64), params, method=method)
-        f = _fast.integrate_end if end else _fast.integrate
-    else:
-        f = integrate_end if end else integrate
-    return f(d_left * params.left_m_per_pulse, d_right * params.right_m_per_pulse, params.wheelbase_m, method=method)
+    kernel = "fast" if d_left.size >= FAST_MIN_SAMPLES else "trig"
+    if kernel == "fast" and (_whole_numbers(d_left, d_right) if integral is None else integral):
+        n_left, n_right = d_left.astype(np.int64), d_right.astype(np.int64)
+        if end:
+            return odometry.integrate_pulses_end(n_left, n_right, params, method=method)
+        return odometry.integrate_pulses(n_left, n_right, params, method=method)
+    d_left = d_left * params.left_m_per_pulse
+    d_right = d_right * params.right_m_per_pulse
+    if end:
+        return odometry.integrate_end(d_left, d_right, params.wheelbase_m, method=method, kernel=kernel)
+    return odometry.integrate(d_left, d_right, params.wheelbase_m, method=method, kernel=kernel)

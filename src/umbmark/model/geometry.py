@@ -1,7 +1,21 @@
-"""Robot geometry, calibration factors and odometry integration (pure numpy).
+"""The robot types every layer shares: geometry, systematic errors, calibration, odometry numbers.
 
-Conventions (see the README, "Conventions"): SI units inside the library (metres, radians),
-start frame with x along the first leg, y to the left, angles counter-clockwise positive.
+Pure numpy: this module imports only numpy and :mod:`umbmark.errors`. Conventions (see the
+README, "Conventions"): SI units (metres, radians), start frame with x along the first leg,
+y to the left, angles counter-clockwise positive.
+
+Five types, one role each; every conversion between them is a method of one of them:
+
+* :class:`Geometry`: the nominal design of a robot with encoders (one nominal wheel diameter,
+  the wheelbase and the encoder chain). What the simulator and the paper's test assume.
+* :class:`WheelGeometry`: the size of each wheel and the wheelbase, without encoders. The
+  geometry of logged runs, nominal or corrected, and what a path fit estimates.
+* :class:`ErrorParams`: the systematic errors E_d, E_b, E_s of a physical robot relative to
+  its :class:`Geometry`.
+* :class:`Calibration`: the correction factors loaded into an odometry (c_L, c_R and the
+  effective wheelbase).
+* :class:`OdometryParams`: the three numbers an odometry computes with (metres per encoder
+  unit of each wheel, wheelbase).
 
 Equations are the paper's (Borenstein & Feng):
 
@@ -9,12 +23,15 @@ Equations are the paper's (Borenstein & Feng):
 * Eq. 2.2  ``dU_L = c_L * c_m * N_L``, ``dU_R = c_R * c_m * N_R``.
 * Eq. 2.3  ``dU = (dU_R + dU_L) / 2``, ``dtheta = (dU_R - dU_L) / b``.
 * Eq. 4.33 the odometry with correction factors ``c_L``, ``c_R`` and an effective wheelbase.
+
+Headings are wrapped with :func:`wrap_angle` only, into (-pi, pi].
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 
@@ -23,32 +40,68 @@ from umbmark.errors import InputError
 __all__ = [
     "FIG11_ERRORS",
     "Geometry",
+    "WheelGeometry",
     "Calibration",
     "OdometryParams",
     "ErrorParams",
     "LABMATE",
-    "integrate",
-    "integrate_end",
-    "odometry_from_pulses",
     "wrap_angle",
 ]
 
 
-def wrap_angle(a):
-    """Wrap angles (radians) into (-pi, pi]."""
-    a = np.asarray(a, dtype=float)
-    w = np.mod(a + np.pi, 2.0 * np.pi) - np.pi
-    # mod maps +pi to -pi; (-pi, pi] wants +pi
-    return np.where(w == -np.pi, np.pi, w)
+def wrap_angle(a: Any) -> Any:
+    """Wrap angles into (-pi, pi], the one convention of the package.
+
+    Parameters
+    ----------
+    a : float or array_like
+        Angles [rad].
+
+    Returns
+    -------
+    numpy.float64 or numpy.ndarray
+        ``a`` plus the multiple of 2 pi that brings it into (-pi, pi]: a scalar for a scalar
+        input, else an array of the same shape. An angle of exactly -pi (or any odd multiple
+        of pi) maps to +pi.
+    """
+    w = np.mod(np.asarray(a, dtype=float) + np.pi, 2.0 * np.pi) - np.pi
+    # the modulo maps +pi to -pi; the half-open interval (-pi, pi] keeps +pi
+    if w.ndim:
+        w[w == -np.pi] = np.pi
+        return w
+    return np.float64(np.pi) if w == -np.pi else w
+
+
+def _check_positive(obj: object, names: tuple[str, ...]) -> None:
+    for name in names:
+        v = getattr(obj, name)
+        if not (isinstance(v, (int, float, np.integer, np.floating)) and math.isfinite(v) and v > 0):
+            raise InputError(f"{name} must be a positive number, got {v!r}")
 
 
 @dataclass(frozen=True)
 class Geometry:
-    """Nominal geometry of a differential-drive robot.
+    """Nominal design of a differential-drive robot with wheel encoders.
 
-    ``wheel_diameter_m`` is the nominal diameter D_n, ``pulses_per_rev`` the encoder
-    resolution C_e (pulses per motor revolution) and ``gear_ratio`` n the reduction between
-    motor and wheel.
+    Both wheels have the nominal diameter; the encoders count ``gear_ratio * pulses_per_rev``
+    pulses per wheel revolution. A robot's actual wheels differ from this by its
+    :class:`ErrorParams`.
+
+    Parameters
+    ----------
+    wheel_diameter_m : float
+        Nominal wheel diameter D_n [m].
+    wheelbase_m : float
+        Nominal wheelbase b [m].
+    pulses_per_rev : float
+        Encoder resolution C_e, pulses per motor revolution.
+    gear_ratio : float
+        Reduction n between motor and wheel.
+
+    Raises
+    ------
+    InputError
+        If a field is not a positive finite number.
     """
 
     wheel_diameter_m: float
@@ -56,19 +109,41 @@ class Geometry:
     pulses_per_rev: float = 1000.0
     gear_ratio: float = 1.0
 
-    def __post_init__(self):
-        for name in ("wheel_diameter_m", "wheelbase_m", "pulses_per_rev", "gear_ratio"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise InputError(f"{name} must be a positive number, got {v!r}")
+    def __post_init__(self) -> None:
+        _check_positive(self, ("wheel_diameter_m", "wheelbase_m", "pulses_per_rev", "gear_ratio"))
 
     @property
     def m_per_pulse(self) -> float:
         """Eq. 2.1: c_m, metres of wheel travel per encoder pulse."""
         return math.pi * self.wheel_diameter_m / (self.gear_ratio * self.pulses_per_rev)
 
+    @property
+    def pulses_per_wheel_rev(self) -> float:
+        """Encoder pulses per wheel revolution, ``gear_ratio * pulses_per_rev``."""
+        return self.gear_ratio * self.pulses_per_rev
+
     def with_wheelbase(self, wheelbase_m: float) -> Geometry:
+        """This geometry with another nominal wheelbase.
+
+        Parameters
+        ----------
+        wheelbase_m : float
+            The new nominal wheelbase [m].
+
+        Returns
+        -------
+        Geometry
+        """
         return replace(self, wheelbase_m=wheelbase_m)
+
+    def wheels(self) -> WheelGeometry:
+        """The nominal wheels: both of diameter D_n, the nominal wheelbase.
+
+        Returns
+        -------
+        WheelGeometry
+        """
+        return WheelGeometry(self.wheel_diameter_m, self.wheel_diameter_m, self.wheelbase_m)
 
 
 # The paper's LabMate: 340 mm nominal wheelbase (section 5). The paper does not give the wheel
@@ -79,11 +154,55 @@ LABMATE = Geometry(wheel_diameter_m=0.150, wheelbase_m=0.340, pulses_per_rev=500
 
 
 @dataclass(frozen=True)
+class OdometryParams:
+    """The three numbers an odometry computes with (Eqs. 2.2, 2.3).
+
+    Parameters
+    ----------
+    left_m_per_pulse, right_m_per_pulse : float
+        Metres of wheel travel per encoder unit of each wheel (a pulse, or a radian for logs
+        of wheel angles), correction factors included.
+    wheelbase_m : float
+        The wheelbase the odometry divides by [m].
+    """
+
+    left_m_per_pulse: float
+    right_m_per_pulse: float
+    wheelbase_m: float
+
+    @classmethod
+    def from_geometry(cls, geometry: Geometry, calibration: Calibration | None = None) -> OdometryParams:
+        """The odometry of a robot of nominal ``geometry`` running ``calibration`` (Eq. 4.33).
+
+        Parameters
+        ----------
+        geometry : Geometry
+            The nominal geometry.
+        calibration : Calibration, optional
+            Correction factors and effective wheelbase; ``None``: the nominal odometry.
+
+        Returns
+        -------
+        OdometryParams
+            ``c_L * c_m``, ``c_R * c_m`` and the calibration's wheelbase (the nominal one when
+            it has none).
+        """
+        cal = calibration or Calibration()
+        cm = geometry.m_per_pulse
+        b = geometry.wheelbase_m if cal.wheelbase_m is None else cal.wheelbase_m
+        return cls(cal.c_left * cm, cal.c_right * cm, b)
+
+
+@dataclass(frozen=True)
 class Calibration:
     """Correction factors loaded into the odometry (Eq. 4.33).
 
-    ``c_left``/``c_right`` multiply the nominal metres-per-pulse of each wheel;
-    ``wheelbase_m`` is the effective wheelbase the odometry uses (``None``: nominal).
+    Parameters
+    ----------
+    c_left, c_right : float
+        Factors on the nominal metres per pulse of each wheel.
+    wheelbase_m : float or None
+        The effective wheelbase the odometry uses [m]; ``None``: the nominal one.
     """
 
     c_left: float = 1.0
@@ -92,114 +211,226 @@ class Calibration:
 
     @property
     def ed(self) -> float:
-        """The diameter ratio D_R / D_L this calibration assumes."""
+        """The diameter ratio D_R / D_L this calibration assumes, ``c_right / c_left``."""
         return self.c_right / self.c_left
 
 
 @dataclass(frozen=True)
-class OdometryParams:
-    """The numbers an odometry computes with: metres per pulse of each wheel and a wheelbase."""
+class WheelGeometry:
+    """The size of each wheel and the wheelbase of a differential-drive robot, in metres.
 
-    left_m_per_pulse: float
-    right_m_per_pulse: float
+    Unlike :class:`Geometry` it has no encoder: the encoder units belong to the log
+    (``units_per_rev`` of a dataset) and are given to :meth:`params`. It describes a nominal
+    robot (from a dataset's metadata) as well as a corrected one (a calibration applied, or
+    a path fit's estimate).
+
+    Parameters
+    ----------
+    diameter_left_m, diameter_right_m : float
+        Wheel diameters [m].
+    wheelbase_m : float
+        Wheelbase [m].
+
+    Raises
+    ------
+    InputError
+        If a field is not a positive finite number.
+    """
+
+    diameter_left_m: float
+    diameter_right_m: float
     wheelbase_m: float
 
-    @classmethod
-    def from_geometry(cls, geometry: Geometry, calibration: Calibration | None = None) -> OdometryParams:
-        cal = calibration or Calibration()
-        cm = geometry.m_per_pulse
-        b = geometry.wheelbase_m if cal.wheelbase_m is None else cal.wheelbase_m
-        return cls(cal.c_left * cm, cal.c_right * cm, b)
+    def __post_init__(self) -> None:
+        _check_positive(self, ("diameter_left_m", "diameter_right_m", "wheelbase_m"))
+
+    @property
+    def ed(self) -> float:
+        """E_d = D_R / D_L."""
+        return self.diameter_right_m / self.diameter_left_m
+
+    @property
+    def diameter_avg_m(self) -> float:
+        """The mean wheel diameter (D_R + D_L) / 2 [m]."""
+        return 0.5 * (self.diameter_left_m + self.diameter_right_m)
+
+    def params(self, units_per_rev: float) -> OdometryParams:
+        """The odometry of these wheels for a log counting ``units_per_rev`` per wheel revolution.
+
+        Parameters
+        ----------
+        units_per_rev : float
+            Log units (encoder pulses, or 2 pi for radians) per wheel revolution.
+
+        Returns
+        -------
+        OdometryParams
+            Metres of wheel travel per log unit of each wheel, and the wheelbase.
+        """
+        k = math.pi / units_per_rev
+        return OdometryParams(k * self.diameter_left_m, k * self.diameter_right_m, self.wheelbase_m)
+
+    def relative_to(self, nominal: WheelGeometry) -> dict:
+        """This (corrected) geometry against ``nominal``, as every calibration report gives it.
+
+        Parameters
+        ----------
+        nominal : WheelGeometry
+            The nominal geometry.
+
+        Returns
+        -------
+        dict
+            ``Ed``, ``Eb``, ``Es``, ``c_left``, ``c_right`` (ratios) and
+            ``wheelbase_corrected_mm``, ``diameter_left_mm``, ``diameter_right_mm``.
+        """
+        return {
+            "Ed": self.ed,
+            "Eb": self.wheelbase_m / nominal.wheelbase_m,
+            "Es": self.diameter_avg_m / nominal.diameter_avg_m,
+            "c_left": self.diameter_left_m / nominal.diameter_left_m,
+            "c_right": self.diameter_right_m / nominal.diameter_right_m,
+            "wheelbase_corrected_mm": self.wheelbase_m * 1e3,
+            "diameter_left_mm": self.diameter_left_m * 1e3,
+            "diameter_right_mm": self.diameter_right_m * 1e3,
+        }
+
+    def calibrated(self, cal: Calibration) -> WheelGeometry:
+        """This (nominal) geometry with correction factors applied (Eq. 4.33).
+
+        Parameters
+        ----------
+        cal : Calibration
+            The factors (and effective wheelbase, if any) to apply.
+
+        Returns
+        -------
+        WheelGeometry
+        """
+        b = self.wheelbase_m if cal.wheelbase_m is None else cal.wheelbase_m
+        return WheelGeometry(cal.c_left * self.diameter_left_m, cal.c_right * self.diameter_right_m, b)
+
+    def calibration_from(self, nominal: WheelGeometry) -> Calibration:
+        """The correction factors that turn ``nominal`` into this geometry.
+
+        Parameters
+        ----------
+        nominal : WheelGeometry
+            The nominal geometry.
+
+        Returns
+        -------
+        Calibration
+        """
+        return Calibration(
+            self.diameter_left_m / nominal.diameter_left_m,
+            self.diameter_right_m / nominal.diameter_right_m,
+            self.wheelbase_m,
+        )
+
+    def to_dict(self) -> dict:
+        """The geometry in millimetres: ``diameter_left_mm``, ``diameter_right_mm``, ``wheelbase_mm``."""
+        return {
+            "diameter_left_mm": self.diameter_left_m * 1e3,
+            "diameter_right_mm": self.diameter_right_m * 1e3,
+            "wheelbase_mm": self.wheelbase_m * 1e3,
+        }
 
 
 @dataclass(frozen=True)
 class ErrorParams:
-    """Systematic errors of a physical robot relative to its nominal geometry (Eqs. 2.3, 2.4).
+    """Systematic errors of a physical robot relative to its nominal :class:`Geometry` (Eqs. 2.3, 2.4).
 
-    ``ed = D_R / D_L`` (actual diameters), ``eb = b_actual / b_nominal`` and
-    ``es = D_avg / D_n`` with ``D_avg = (D_R + D_L) / 2``.
+    Parameters
+    ----------
+    ed : float
+        ``E_d = D_R / D_L`` (actual diameters).
+    eb : float
+        ``E_b = b_actual / b_nominal``.
+    es : float
+        ``E_s = D_avg / D_n`` with ``D_avg = (D_R + D_L) / 2``.
+
+    Raises
+    ------
+    InputError
+        If a ratio is not a positive finite number.
     """
 
     ed: float = 1.0
     eb: float = 1.0
     es: float = 1.0
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         for name in ("ed", "eb", "es"):
             v = getattr(self, name)
             if not (math.isfinite(v) and v > 0):
                 raise InputError(f"{name} must be a positive number, got {v!r}")
 
     def diameters_m(self, geometry: Geometry) -> tuple[float, float]:
-        """True (left, right) wheel diameters."""
+        """The true wheel diameters.
+
+        Parameters
+        ----------
+        geometry : Geometry
+            The nominal geometry.
+
+        Returns
+        -------
+        tuple of float
+            ``(D_L, D_R)`` [m].
+        """
         d_avg = self.es * geometry.wheel_diameter_m
         d_left = 2.0 * d_avg / (1.0 + self.ed)
         return d_left, d_left * self.ed
 
-    def true_params(self, geometry: Geometry) -> OdometryParams:
-        """Metres of ground travel per encoder pulse of each wheel, and the true wheelbase."""
+    def wheels(self, geometry: Geometry) -> WheelGeometry:
+        """The true wheels and wheelbase of the robot.
+
+        Parameters
+        ----------
+        geometry : Geometry
+            The nominal geometry.
+
+        Returns
+        -------
+        WheelGeometry
+            :meth:`diameters_m` and ``E_b * b``.
+        """
         d_left, d_right = self.diameters_m(geometry)
-        k = math.pi / (geometry.gear_ratio * geometry.pulses_per_rev)
-        return OdometryParams(k * d_left, k * d_right, self.eb * geometry.wheelbase_m)
+        return WheelGeometry(d_left, d_right, self.eb * geometry.wheelbase_m)
+
+    def true_params(self, geometry: Geometry) -> OdometryParams:
+        """Metres of ground travel per encoder pulse of each wheel, and the true wheelbase.
+
+        Parameters
+        ----------
+        geometry : Geometry
+            The nominal geometry (its encoder chain counts the pulses).
+
+        Returns
+        -------
+        OdometryParams
+            The odometry that would be exact for this robot.
+        """
+        return self.wheels(geometry).params(geometry.pulses_per_wheel_rev)
 
     def ideal_calibration(self, geometry: Geometry) -> Calibration:
-        """The calibration that makes the odometry exact (keeping D_avg at nominal: E_s is
-        left alone, as the paper assumes it is corrected separately)."""
+        """The calibration that makes the odometry exact, keeping D_avg at nominal.
+
+        E_s is left alone, as the paper assumes it is corrected separately.
+
+        Parameters
+        ----------
+        geometry : Geometry
+            The nominal geometry.
+
+        Returns
+        -------
+        Calibration
+            ``c_L = 2 / (E_d + 1)``, ``c_R = E_d c_L`` and the true wheelbase.
+        """
         c_left = 2.0 / (self.ed + 1.0)
         return Calibration(c_left, c_left * self.ed, self.eb * geometry.wheelbase_m)
-
-
-def _increments(d_left, d_right, wheelbase_m, theta0, method):
-    """Per-sample displacement (dx, dy) in the start frame and the heading after each sample."""
-    d_left = np.asarray(d_left, dtype=float)
-    d_right = np.asarray(d_right, dtype=float)
-    du = 0.5 * (d_right + d_left)
-    dth = (d_right - d_left) / np.asarray(wheelbase_m, dtype=float)[..., None]
-    theta = np.asarray(theta0, dtype=float)[..., None] + np.cumsum(dth, axis=-1)
-    if method == "euler":
-        th_ref, chord = theta - dth, du
-    elif method == "midpoint":
-        th_ref, chord = theta - 0.5 * dth, du
-    elif method == "exact":
-        # chord of an arc of length du turning dth: du * sin(dth/2) / (dth/2)
-        th_ref, chord = theta - 0.5 * dth, du * np.sinc(dth / (2.0 * np.pi))
-    else:
-        raise InputError(f"unknown integration method {method!r} (use 'exact', 'midpoint' or 'euler')")
-    return chord * np.cos(th_ref), chord * np.sin(th_ref), theta
-
-
-def integrate(d_left, d_right, wheelbase_m, pose0=(0.0, 0.0, 0.0), method: str = "exact"):
-    """Integrate per-sample wheel travel into poses.
-
-    ``d_left``/``d_right``: arrays (..., K) of wheel travel per sample [m]; leading axes are
-    independent runs. ``wheelbase_m``: scalar or array broadcastable to the leading axes.
-    ``method``: ``"exact"`` (constant wheel speeds within a sample: exact circular arcs),
-    ``"midpoint"`` (heading at mid-sample) or ``"euler"`` (heading at sample start).
-
-    Returns ``(x, y, theta)``, each of shape (..., K): the pose after each sample. ``theta``
-    is not wrapped.
-    """
-    x0, y0, th0 = (np.asarray(p, dtype=float) for p in pose0)
-    dx, dy, theta = _increments(d_left, d_right, wheelbase_m, th0, method)
-    return x0[..., None] + np.cumsum(dx, axis=-1), y0[..., None] + np.cumsum(dy, axis=-1), theta
-
-
-def integrate_end(d_left, d_right, wheelbase_m, pose0=(0.0, 0.0, 0.0), method: str = "exact"):
-    """End pose only of :func:`integrate`: arrays of the leading shape (K must be >= 1)."""
-    x0, y0, th0 = (np.asarray(p, dtype=float) for p in pose0)
-    dx, dy, theta = _increments(d_left, d_right, wheelbase_m, th0, method)
-    return x0 + dx.sum(axis=-1), y0 + dy.sum(axis=-1), theta[..., -1]
-
-
-def odometry_from_pulses(n_left, n_right, params: OdometryParams, pose0=(0.0, 0.0, 0.0), method="exact"):
-    """Poses from per-sample encoder pulse increments (Eqs. 2.2, 2.3)."""
-    return integrate(
-        np.asarray(n_left, dtype=float) * params.left_m_per_pulse,
-        np.asarray(n_right, dtype=float) * params.right_m_per_pulse,
-        params.wheelbase_m,
-        pose0,
-        method,
-    )
 
 
 # The paper's Fig. 11 robot: after calibration b = 336.17 mm, D_R/D_L = 1.00084.

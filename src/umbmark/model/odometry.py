@@ -1,56 +1,65 @@
-"""Fast odometry replay: vectorised over samples and runs, chunked so memory stays bounded.
+"""Odometry: wheel travel or encoder increments to poses, the package's one integrator.
 
-This module computes the same poses as :func:`umbmark.model.geometry.integrate` /
-:func:`~umbmark.model.geometry.integrate_end` (same arguments, same results to rounding), only
-faster, and in chunks of bounded size so that logs of any length can be replayed.
+Pure numpy: this module imports only numpy and the lower :mod:`umbmark.model.geometry`.
+Vectorised over samples and runs, chunked so memory stays bounded for logs of any length.
 
-Two kernels, chosen automatically:
+Public functions: :func:`integrate` / :func:`integrate_end` (wheel travel [m] per sample),
+:func:`integrate_pulses` / :func:`integrate_pulses_end` (encoder increments and
+:class:`~umbmark.model.geometry.OdometryParams`, Eqs. 2.2 and 2.3), the streaming
+:class:`Odometer` and :func:`replay_stream`.
 
-* **float kernel** (any wheel travel): the heading is a cumulative sum; the cosine and sine of
-  the heading are computed with one trig call per *block* of ``BLOCK`` samples (at the block
-  start) and, within the block, with a short Taylor polynomial of the (small) heading change
-  since the block start, combined by the angle-addition formula. Blocks whose heading changes
-  by more than ``BLOCK_MAX_RAD`` fall back to ``numpy.cos`` / ``numpy.sin`` (exact either
-  way: the truncation error of the polynomials is below 1e-16 in that range).
-* **table kernel** (integer encoder increments, see :func:`integrate_pulses`): encoder
-  increments are small integers, so the per-sample displacement in the robot frame takes only
-  a few distinct values (one per pair of increments): it is looked up in a table. The heading
-  is an integer combination of the cumulative pulse counts, ``theta = theta0 + a_R * S_R -
-  a_L * S_L``, so ``exp(i theta)`` is a product of looked-up complex exponentials (the counts
-  split into high and low bits): no trig call per sample at all.
+Methods: ``"exact"`` (constant wheel speeds within a sample: exact circular arcs),
+``"midpoint"`` (straight chord along the mid-sample heading, chord length = travelled
+distance) and ``"euler"`` (heading at the sample start).
 
-Methods (as in :func:`umbmark.model.geometry.integrate`): ``"exact"`` (constant wheel speeds within
-a sample: exact circular arcs), ``"midpoint"`` (straight chord along the mid-sample heading,
-chord length = travelled distance) and ``"euler"`` (heading at the sample start).
+Kernels (``kernel=``):
+
+* ``"fast"`` (default), chosen by the input:
+
+  * **float kernel** (any wheel travel): the heading is a cumulative sum; the cosine and sine
+    of the heading are computed with one trig call per *block* of ``BLOCK`` samples (at the
+    block start) and, within the block, with a short Taylor polynomial of the (small) heading
+    change since the block start, combined by the angle-addition formula. Blocks whose
+    heading changes by more than ``BLOCK_MAX_RAD`` fall back to ``numpy.cos`` / ``numpy.sin``
+    (exact either way: the truncation error of the polynomials is below 1e-16 in that range).
+  * **table kernel** (integer encoder increments, see :func:`integrate_pulses`): encoder
+    increments are small integers, so the per-sample displacement in the robot frame takes
+    only a few distinct values (one per pair of increments): it is looked up in a table. The
+    heading is an integer combination of the cumulative pulse counts, ``theta = theta0 + a_R
+    * S_R - a_L * S_L``, so ``exp(i theta)`` is a product of looked-up complex exponentials
+    (the counts split into high and low bits): no trig call per sample at all.
+
+* ``"trig"``: one ``numpy.cos`` and ``numpy.sin`` per sample on the whole arrays at once (not
+  chunked). Cheaper to set up, so faster on short logs; the simulator and the replay of short
+  logs use it. Same poses as ``"fast"`` to rounding (about 1e-11 m over 10^6 samples).
 
 Streaming: :class:`Odometer` keeps the pose between calls; feed it a log chunk by chunk. The
 chunk boundaries do not change the poses beyond rounding (tested to 1e-9 m over 10^6 samples):
 each chunk starts from the pose the previous one ended on. :func:`replay_stream` replays an
 iterable of chunks and keeps only what is asked (end pose, or every ``decimate``-th pose).
-
-Mapping to :mod:`umbmark.model.geometry`::
-
-    kinematics.integrate(dl, dr, b, pose0, method)      == odometry.integrate(dl, dr, b, pose0, method)
-    kinematics.integrate_end(dl, dr, b, pose0, method)  == odometry.integrate_end(dl, dr, b, pose0, method)
-    kinematics.odometry_from_pulses(nl, nr, params, pose0, method)
-                                                        == odometry.integrate_pulses(nl, nr, params, pose0, method)
+The per-sample loops of :mod:`umbmark.studies.reference` are the test oracle of both kernels.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from umbmark.errors import InputError
 from umbmark.model.geometry import OdometryParams
 
 __all__ = [
     "METHODS",
+    "KERNELS",
     "BLOCK",
     "BLOCK_MAX_RAD",
     "DEFAULT_CHUNK",
+    "Poses",
     "integrate",
     "integrate_end",
     "integrate_pulses",
@@ -61,10 +70,11 @@ __all__ = [
 ]
 
 METHODS = ("exact", "midpoint", "euler")
+KERNELS = ("fast", "trig")
 BLOCK = 32  # samples per block sharing one trig call (float kernel)
 BLOCK_MAX_RAD = 0.3  # largest heading change within a block handled by the polynomials
-DEFAULT_CHUNK = 1 << 14  # samples per chunk (per run): bounds the working memory; small temporaries
-# are recycled by the allocator (larger chunks were slower: fresh pages for every temporary)
+DEFAULT_CHUNK = 1 << 14  # samples per chunk (per run): bounds the working memory; temporaries this
+# small are recycled by the allocator (larger chunks are slower: every temporary needs fresh pages)
 _SHIFT = 10  # low bits of the cumulative pulse counts looked up directly (table kernel)
 _MAX_PAIRS = 4096  # largest table of distinct increment pairs (else: float kernel)
 
@@ -93,7 +103,7 @@ def _horner(d2, divs, out):
 
 class _Work(dict):
     """Reusable scratch arrays, one per name: a chunk reuses the memory of the previous one
-    (fresh temporaries every chunk cost page faults that dominated the run time)."""
+    (fresh temporaries for every chunk cost page faults that dominate the run time)."""
 
     def arr(self, name, shape, dtype=float):
         n = int(np.prod(shape))
@@ -268,25 +278,46 @@ def _as_state(v, R):
     return np.array(np.broadcast_to(a.reshape(-1) if a.size == R else a, (R,)), dtype=float)
 
 
+Poses = tuple[np.ndarray, np.ndarray, np.ndarray]
+"""``(x, y, theta)``: the poses after each sample, or one end pose."""
+
+
 class Odometer:
     """Streaming odometry: keeps the pose of ``shape`` independent runs between chunks.
 
-    ``wheelbase_m`` (scalar or per run) and, for :meth:`update_pulses`, ``params`` (metres per
-    pulse of each wheel; its wheelbase is used when ``wheelbase_m`` is None). ``shape``: the
-    leading shape of the runs (``()`` for one log). Each ``update`` consumes chunks of shape
-    ``shape + (C,)`` and returns the poses after each sample (or only the end pose with
-    ``poses=False``); :attr:`pose` is the current pose.
+    Each ``update`` consumes chunks of shape ``shape + (C,)`` and returns the poses after each
+    sample (or only the end pose with ``poses=False``); :attr:`pose` is the current pose.
+
+    Parameters
+    ----------
+    wheelbase_m : float or array_like, optional
+        Wheelbase [m], scalar or one per run; ``None``: the wheelbase of ``params``.
+    pose0 : tuple of float or array_like
+        Start pose ``(x, y, theta)``, scalars or one per run.
+    method : str
+        ``"exact"``, ``"midpoint"`` or ``"euler"``.
+    shape : tuple of int
+        The leading shape of the runs (``()`` for one log).
+    params : OdometryParams, optional
+        Metres per pulse of each wheel, for :meth:`update_pulses`.
+    chunk : int
+        Samples per run integrated at once (bounds the working memory).
+
+    Raises
+    ------
+    InputError
+        On an unknown method, a missing or non-positive wheelbase, or ``chunk < 1``.
     """
 
     def __init__(
         self,
-        wheelbase_m=None,
-        pose0=(0.0, 0.0, 0.0),
+        wheelbase_m: ArrayLike | None = None,
+        pose0: Iterable[ArrayLike] = (0.0, 0.0, 0.0),
         method: str = "exact",
         shape: tuple = (),
         params: OdometryParams | None = None,
         chunk: int = DEFAULT_CHUNK,
-    ):
+    ) -> None:
         _check_method(method)
         if wheelbase_m is None:
             if params is None:
@@ -306,13 +337,17 @@ class Odometer:
             raise InputError(f"chunk must be >= 1, got {chunk}")
         self.chunk = int(chunk)
         self.samples = 0
-        self._cache = {}
+        self._cache: dict = {}
         self._work = _Work()
 
     @property
-    def pose(self):
-        """Current (x, y, theta) (theta not wrapped), each of the leading shape."""
-        return tuple(a.reshape(self.shape) if self.shape else float(a[0]) for a in (self._x, self._y, self._th))
+    def pose(self) -> tuple[Any, Any, Any]:
+        """Current ``(x, y, theta)`` (theta not wrapped): floats for one log, else arrays of the leading shape."""
+
+        def one(a):
+            return a.reshape(self.shape) if self.shape else float(a[0])
+
+        return one(self._x), one(self._y), one(self._th)
 
     def _rows(self, a, name):
         a = np.asarray(a)
@@ -320,47 +355,84 @@ class Odometer:
             raise InputError(f"{name} must have shape {self.shape + ('K',)}, got {a.shape}")
         return a.reshape(self._R, a.shape[-1])
 
-    def update(self, d_left, d_right, poses: bool = True):
-        """Consume wheel travel [m] per sample (float kernel)."""
+    def update(self, d_left: ArrayLike, d_right: ArrayLike, poses: bool = True) -> tuple[Any, Any, Any]:
+        """Consume wheel travel per sample (float kernel).
+
+        Parameters
+        ----------
+        d_left, d_right : array_like
+            Wheel travel [m] per sample, shape ``shape + (C,)``.
+        poses : bool
+            Return every pose (else only the end pose).
+
+        Returns
+        -------
+        tuple
+            ``(x, y, theta)``: arrays ``shape + (C,)``, or the end pose as :attr:`pose`.
+
+        Raises
+        ------
+        InputError
+            If the shapes do not match.
+        """
         dl = self._rows(np.asarray(d_left, dtype=float), "d_left")
         dr = self._rows(np.asarray(d_right, dtype=float), "d_right")
         if dl.shape != dr.shape:
             raise InputError(f"d_left and d_right differ in shape: {dl.shape} vs {dr.shape}")
         return self._run(dl, dr, None, poses)
 
-    def update_pulses(self, n_left, n_right, poses: bool = True):
-        """Consume encoder pulse increments per sample (needs ``params``). Integer increments
-        use the table kernel; anything else the float kernel."""
-        if self.params is None:
-            raise InputError("update_pulses needs odometry parameters (params=...)")
+    def update_pulses(self, n_left: ArrayLike, n_right: ArrayLike, poses: bool = True) -> tuple[Any, Any, Any]:
+        """Consume encoder pulse increments per sample.
+
+        Integer increments use the table kernel; anything else the float kernel.
+
+        Parameters
+        ----------
+        n_left, n_right : array_like
+            Pulse increments per sample, shape ``shape + (C,)``.
+        poses : bool
+            Return every pose (else only the end pose).
+
+        Returns
+        -------
+        tuple
+            ``(x, y, theta)``: arrays ``shape + (C,)``, or the end pose as :attr:`pose`.
+
+        Raises
+        ------
+        InputError
+            Without ``params``, or if the shapes do not match.
+        """
+        p = self.params
+        if p is None:
+            raise InputError("update_pulses needs odometry parameters (give `params`)")
         nl = self._rows(np.asarray(n_left), "n_left")
         nr = self._rows(np.asarray(n_right), "n_right")
         if nl.shape != nr.shape:
             raise InputError(f"n_left and n_right differ in shape: {nl.shape} vs {nr.shape}")
         if nl.dtype.kind in "iub" and nr.dtype.kind in "iub":
-            return self._run(nl.astype(np.int64, copy=False), nr.astype(np.int64, copy=False), "pulses", poses)
-        p = self.params
+            return self._run(nl.astype(np.int64, copy=False), nr.astype(np.int64, copy=False), p, poses)
         return self._run(nl * p.left_m_per_pulse, nr * p.right_m_per_pulse, None, poses)
 
-    def _run(self, a, b_, kind, poses):
+    def _run(self, a, b_, pulses: OdometryParams | None, poses):
+        """Integrate (R, K) wheel travel, or integer pulse increments when ``pulses`` gives their metres."""
         R, K = a.shape
-        if poses:
-            out = [np.empty((R, K)) for _ in range(3)]
+        out = [np.empty((R, K)) for _ in range(3)] if poses else []
         C = self.chunk
         for s in range(0, K, C):
             e = min(K, s + C)
             res = None
             dest = tuple(o[:, s:e] for o in out) if poses else None
-            if kind == "pulses":
-                res = self._table(a[:, s:e], b_[:, s:e], poses, dest)
+            if pulses is not None:
+                res = self._table(pulses, a[:, s:e], b_[:, s:e], poses, dest)
             if res is None:
-                if kind == "pulses":
-                    dl = a[:, s:e] * self.params.left_m_per_pulse
-                    dr = b_[:, s:e] * self.params.right_m_per_pulse
+                if pulses is not None:
+                    dl = a[:, s:e] * pulses.left_m_per_pulse
+                    dr = b_[:, s:e] * pulses.right_m_per_pulse
                 else:
                     dl, dr = a[:, s:e], b_[:, s:e]
                 res = _float_chunk(dl, dr, self._b, self._x, self._y, self._th, self.method, poses, dest, self._work)
-            if poses:
+            if dest is not None:
                 for o, r in zip(dest, res):
                     if r is not o:
                         o[...] = r
@@ -374,8 +446,7 @@ class Odometer:
             out = [np.empty((R, 0)) for _ in range(3)]
         return tuple(o.reshape(self.shape + (K,)) for o in out)
 
-    def _table(self, nl, nr, poses, dest=None):
-        p = self.params
+    def _table(self, p: OdometryParams, nl, nr, poses, dest=None):
         rows = []
         for i in range(nl.shape[0]):
             r = _table_row(
@@ -401,93 +472,252 @@ class Odometer:
         return tuple(np.array([r[j] for r in rows]) for j in range(3))
 
 
-def _leading(d):
-    return np.shape(d)[:-1]
+def _trig_poses(d_left, d_right, wheelbase_m, pose0, method, end):
+    """The ``"trig"`` kernel: one cos and sin per sample, whole arrays (..., K) at once.
+
+    ``wheelbase_m`` broadcasts to the leading shape. Returns the poses after each sample
+    (arrays (..., K)), or with ``end`` the end pose (arrays of the leading shape).
+    """
+    x0, y0, th0 = (np.asarray(p, dtype=float) for p in pose0)
+    du = 0.5 * (d_right + d_left)
+    dth = (d_right - d_left) / np.asarray(wheelbase_m, dtype=float)[..., None]
+    theta = th0[..., None] + np.cumsum(dth, axis=-1)
+    if method == "euler":
+        th_ref, chord = theta - dth, du
+    elif method == "midpoint":
+        th_ref, chord = theta - 0.5 * dth, du
+    else:
+        # chord of an arc of length du turning dth: du * sin(dth/2) / (dth/2)
+        th_ref, chord = theta - 0.5 * dth, du * np.sinc(dth / (2.0 * np.pi))
+    dx = chord * np.cos(th_ref)
+    dy = chord * np.sin(th_ref)
+    if end:
+        return x0 + dx.sum(axis=-1), y0 + dy.sum(axis=-1), theta[..., -1]
+    return x0[..., None] + np.cumsum(dx, axis=-1), y0[..., None] + np.cumsum(dy, axis=-1), theta
 
 
-def integrate(d_left, d_right, wheelbase_m, pose0=(0.0, 0.0, 0.0), method: str = "exact", chunk: int = DEFAULT_CHUNK):
-    """Fast :func:`umbmark.model.geometry.integrate`: poses (x, y, theta) after each sample,
-    arrays (..., K); leading axes are independent runs."""
-    d_left = np.asarray(d_left, dtype=float)
-    d_right = np.asarray(d_right, dtype=float)
-    if d_left.ndim == 0 or d_left.shape != d_right.shape:
-        raise InputError(
-            f"d_left and d_right must be arrays of one shape (..., K), got {d_left.shape} and {d_right.shape}"
-        )
-    shape = _leading(d_left)
-    odo = Odometer(
-        np.broadcast_to(np.asarray(wheelbase_m, dtype=float), shape),
-        pose0=_pose_for(pose0, shape),
-        method=method,
-        shape=shape,
-        chunk=chunk,
-    )
-    return odo.update(d_left, d_right, poses=True)
+def _check_kernel(kernel: str, method: str) -> None:
+    if kernel not in KERNELS:
+        raise InputError(f"unknown odometry kernel {kernel!r} (use 'fast' or 'trig')")
+    _check_method(method)
 
 
-def integrate_end(
-    d_left, d_right, wheelbase_m, pose0=(0.0, 0.0, 0.0), method: str = "exact", chunk: int = DEFAULT_CHUNK
-):
-    """Fast :func:`umbmark.model.geometry.integrate_end`: the end pose, arrays of the leading shape."""
-    d_left = np.asarray(d_left, dtype=float)
-    d_right = np.asarray(d_right, dtype=float)
-    if d_left.ndim == 0 or d_left.shape != d_right.shape or d_left.shape[-1] < 1:
-        raise InputError(
-            "d_left and d_right must be arrays of one shape (..., K) with K >= 1, "
-            f"got {d_left.shape} and {d_right.shape}"
-        )
-    shape = _leading(d_left)
-    odo = Odometer(
-        np.broadcast_to(np.asarray(wheelbase_m, dtype=float), shape),
-        pose0=_pose_for(pose0, shape),
-        method=method,
-        shape=shape,
-        chunk=chunk,
-    )
-    x, y, th = odo.update(d_left, d_right, poses=False)
-    return (np.asarray(x), np.asarray(y), np.asarray(th)) if shape else (np.float64(x), np.float64(y), np.float64(th))
+def _pair(left, right, names: str, end: bool, dtype=None):
+    """The two per-sample arrays of one shape (..., K) (K >= 1 for an end pose), and the leading shape."""
+    left = np.asarray(left, dtype=dtype)
+    right = np.asarray(right, dtype=dtype)
+    if left.ndim == 0 or left.shape != right.shape or (end and left.shape[-1] < 1):
+        need = " with K >= 1" if end else ""
+        raise InputError(f"{names} must be arrays of one shape (..., K){need}, got {left.shape} and {right.shape}")
+    return left, right, left.shape[:-1]
 
 
 def _pose_for(pose0, shape):
     return tuple(np.broadcast_to(np.asarray(p, dtype=float), shape) for p in pose0)
 
 
+def _end_of(pose, shape):
+    x, y, th = pose
+    return (np.asarray(x), np.asarray(y), np.asarray(th)) if shape else (np.float64(x), np.float64(y), np.float64(th))
+
+
+def integrate(
+    d_left: ArrayLike,
+    d_right: ArrayLike,
+    wheelbase_m: ArrayLike,
+    pose0: Iterable[ArrayLike] = (0.0, 0.0, 0.0),
+    method: str = "exact",
+    chunk: int = DEFAULT_CHUNK,
+    kernel: str = "fast",
+) -> Poses:
+    """Integrate per-sample wheel travel into poses.
+
+    Parameters
+    ----------
+    d_left, d_right : array_like
+        Wheel travel [m] per sample, arrays of one shape (..., K); leading axes are
+        independent runs.
+    wheelbase_m : float or array_like
+        Wheelbase [m], a scalar or an array of the leading shape.
+    pose0 : tuple
+        Start pose ``(x, y, theta)``, each a scalar or an array of the leading shape.
+    method : str
+        ``"exact"``, ``"midpoint"`` or ``"euler"`` (see the module docstring).
+    chunk : int
+        Samples per run integrated at once by the ``"fast"`` kernel (bounds the memory).
+    kernel : str
+        ``"fast"`` or ``"trig"`` (see the module docstring).
+
+    Returns
+    -------
+    Poses
+        ``(x, y, theta)``, each of shape (..., K): the pose after each sample (theta not wrapped).
+
+    Raises
+    ------
+    InputError
+        On arrays of different shapes, an unknown method or kernel, or a non-positive wheelbase.
+    """
+    d_left, d_right, shape = _pair(d_left, d_right, "d_left and d_right", False, float)
+    _check_kernel(kernel, method)
+    if kernel == "trig":
+        return _trig_poses(d_left, d_right, wheelbase_m, pose0, method, end=False)
+    odo = Odometer(
+        np.broadcast_to(np.asarray(wheelbase_m, dtype=float), shape),
+        _pose_for(pose0, shape),
+        method,
+        shape,
+        chunk=chunk,
+    )
+    return odo.update(d_left, d_right, poses=True)
+
+
+def integrate_end(
+    d_left: ArrayLike,
+    d_right: ArrayLike,
+    wheelbase_m: ArrayLike,
+    pose0: Iterable[ArrayLike] = (0.0, 0.0, 0.0),
+    method: str = "exact",
+    chunk: int = DEFAULT_CHUNK,
+    kernel: str = "fast",
+) -> tuple[Any, Any, Any]:
+    """The end pose of :func:`integrate` (same parameters; K must be >= 1).
+
+    Returns
+    -------
+    tuple
+        ``(x, y, theta)`` after the last sample: arrays of the leading shape (numpy floats for
+        1-D input).
+
+    Raises
+    ------
+    InputError
+        On arrays of different shapes or without samples, an unknown method or kernel, or a
+        non-positive wheelbase.
+    """
+    d_left, d_right, shape = _pair(d_left, d_right, "d_left and d_right", True, float)
+    _check_kernel(kernel, method)
+    if kernel == "trig":
+        return _end_of(_trig_poses(d_left, d_right, wheelbase_m, pose0, method, end=True), shape)
+    odo = Odometer(
+        np.broadcast_to(np.asarray(wheelbase_m, dtype=float), shape),
+        _pose_for(pose0, shape),
+        method,
+        shape,
+        chunk=chunk,
+    )
+    return _end_of(odo.update(d_left, d_right, poses=False), shape)
+
+
 def integrate_pulses(
-    n_left, n_right, params: OdometryParams, pose0=(0.0, 0.0, 0.0), method: str = "exact", chunk: int = DEFAULT_CHUNK
-):
-    """Poses from encoder pulse increments (Eqs. 2.2, 2.3), like
-    :func:`umbmark.model.geometry.odometry_from_pulses`; integer increments use the table kernel."""
-    n_left = np.asarray(n_left)
-    n_right = np.asarray(n_right)
-    if n_left.ndim == 0 or n_left.shape != n_right.shape:
-        raise InputError(
-            f"n_left and n_right must be arrays of one shape (..., K), got {n_left.shape} and {n_right.shape}"
+    n_left: ArrayLike,
+    n_right: ArrayLike,
+    params: OdometryParams,
+    pose0: Iterable[ArrayLike] = (0.0, 0.0, 0.0),
+    method: str = "exact",
+    chunk: int = DEFAULT_CHUNK,
+    kernel: str = "fast",
+) -> Poses:
+    """Poses from encoder pulse increments (Eqs. 2.2, 2.3).
+
+    With the ``"fast"`` kernel, integer increments use the table kernel, others the float
+    kernel on ``n * m_per_pulse``.
+
+    Parameters
+    ----------
+    n_left, n_right : array_like
+        Pulse increments per sample, arrays of one shape (..., K); leading axes are
+        independent runs.
+    params : OdometryParams
+        Metres per pulse of each wheel and the wheelbase.
+    pose0 : tuple
+        Start pose ``(x, y, theta)``, each a scalar or an array of the leading shape.
+    method : str
+        ``"exact"``, ``"midpoint"`` or ``"euler"``.
+    chunk : int
+        Samples per run integrated at once by the ``"fast"`` kernel.
+    kernel : str
+        ``"fast"`` or ``"trig"``.
+
+    Returns
+    -------
+    Poses
+        ``(x, y, theta)``, each of shape (..., K).
+
+    Raises
+    ------
+    InputError
+        On arrays of different shapes, an unknown method or kernel.
+    """
+    n_left, n_right, shape = _pair(n_left, n_right, "n_left and n_right", False)
+    _check_kernel(kernel, method)
+    if kernel == "trig":
+        return _trig_poses(
+            np.asarray(n_left, dtype=float) * params.left_m_per_pulse,
+            np.asarray(n_right, dtype=float) * params.right_m_per_pulse,
+            params.wheelbase_m,
+            pose0,
+            method,
+            end=False,
         )
-    shape = _leading(n_left)
     odo = Odometer(None, _pose_for(pose0, shape), method, shape, params=params, chunk=chunk)
     return odo.update_pulses(n_left, n_right, poses=True)
 
 
 def integrate_pulses_end(
-    n_left, n_right, params: OdometryParams, pose0=(0.0, 0.0, 0.0), method: str = "exact", chunk: int = DEFAULT_CHUNK
-):
-    """End pose only of :func:`integrate_pulses`."""
-    n_left = np.asarray(n_left)
-    n_right = np.asarray(n_right)
-    if n_left.ndim == 0 or n_left.shape != n_right.shape or n_left.shape[-1] < 1:
-        raise InputError(
-            "n_left and n_right must be arrays of one shape (..., K) with K >= 1, "
-            f"got {n_left.shape} and {n_right.shape}"
+    n_left: ArrayLike,
+    n_right: ArrayLike,
+    params: OdometryParams,
+    pose0: Iterable[ArrayLike] = (0.0, 0.0, 0.0),
+    method: str = "exact",
+    chunk: int = DEFAULT_CHUNK,
+    kernel: str = "fast",
+) -> tuple[Any, Any, Any]:
+    """The end pose of :func:`integrate_pulses` (same parameters; K must be >= 1).
+
+    Returns
+    -------
+    tuple
+        ``(x, y, theta)`` after the last sample: arrays of the leading shape (numpy floats for
+        1-D input).
+
+    Raises
+    ------
+    InputError
+        On arrays of different shapes or without samples, an unknown method or kernel.
+    """
+    n_left, n_right, shape = _pair(n_left, n_right, "n_left and n_right", True)
+    _check_kernel(kernel, method)
+    if kernel == "trig":
+        return _end_of(
+            _trig_poses(
+                np.asarray(n_left, dtype=float) * params.left_m_per_pulse,
+                np.asarray(n_right, dtype=float) * params.right_m_per_pulse,
+                params.wheelbase_m,
+                pose0,
+                method,
+                end=True,
+            ),
+            shape,
         )
-    shape = _leading(n_left)
     odo = Odometer(None, _pose_for(pose0, shape), method, shape, params=params, chunk=chunk)
-    return odo.update_pulses(n_left, n_right, poses=False)
+    return _end_of(odo.update_pulses(n_left, n_right, poses=False), shape)
 
 
 @dataclass
 class StreamResult:
-    """Outcome of :func:`replay_stream`: end pose, sample count, and the kept poses
-    (every ``decimate``-th sample, arrays (M,), or None)."""
+    """Outcome of :func:`replay_stream`.
+
+    Parameters
+    ----------
+    x, y, theta : float
+        End pose (theta not wrapped).
+    samples : int
+        Samples replayed.
+    kept : dict or None
+        The kept poses: arrays (M,) ``sample`` (counted from 1), ``x``, ``y``, ``theta``; or
+        None when only the end pose was asked for.
+    """
 
     x: float
     y: float
@@ -497,31 +727,60 @@ class StreamResult:
 
 
 def replay_stream(
-    chunks,
+    chunks: Iterable[tuple[ArrayLike, ArrayLike]],
     params: OdometryParams | None = None,
     wheelbase_m: float | None = None,
-    pose0=(0.0, 0.0, 0.0),
+    pose0: Iterable[ArrayLike] = (0.0, 0.0, 0.0),
     method: str = "exact",
     pulses: bool = True,
     decimate: int | None = None,
     chunk: int = DEFAULT_CHUNK,
 ) -> StreamResult:
-    """Replay one log given as an iterable of ``(left, right)`` chunks (1-D arrays), in
-    bounded memory: only the current chunk and the kept poses are held.
+    """Replay one log given as an iterable of ``(left, right)`` chunks, in bounded memory.
 
-    ``pulses=True``: chunks are encoder increments (needs ``params``); else wheel travel [m].
-    ``decimate=n``: keep the pose after every n-th sample (samples n, 2n, ... counted from 1);
-    ``None``: keep only the end pose.
+    Only the current chunk and the kept poses are held.
+
+    Parameters
+    ----------
+    chunks : iterable of (array_like, array_like)
+        1-D chunks of the log, in order.
+    params : OdometryParams, optional
+        Metres per pulse of each wheel (needed with ``pulses``).
+    wheelbase_m : float, optional
+        Wheelbase [m]; ``None``: the wheelbase of ``params``.
+    pose0 : tuple of float
+        Start pose ``(x, y, theta)``.
+    method : str
+        ``"exact"``, ``"midpoint"`` or ``"euler"``.
+    pulses : bool
+        Chunks are encoder increments (else wheel travel [m]).
+    decimate : int, optional
+        Keep the pose after every n-th sample (samples n, 2n, ... counted from 1); ``None``:
+        keep only the end pose.
+    chunk : int
+        Samples integrated at once.
+
+    Returns
+    -------
+    StreamResult
+
+    Raises
+    ------
+    InputError
+        On ``decimate < 1`` or the errors of :class:`Odometer`.
     """
     if decimate is not None and decimate < 1:
         raise InputError(f"decimate must be >= 1, got {decimate}")
     odo = Odometer(wheelbase_m, pose0, method, (), params=params, chunk=chunk)
-    kept = {"sample": [], "x": [], "y": [], "theta": []} if decimate else None
+    kept: dict[str, list] = {"sample": [], "x": [], "y": [], "theta": []}
     for left, right in chunks:
         start = odo.samples
-        want = bool(decimate)
-        res = odo.update_pulses(left, right, poses=want) if pulses else odo.update(left, right, poses=want)
-        if want:
+        res = (
+            odo.update_pulses(left, right, poses=bool(decimate))
+            if pulses
+            else odo.update(left, right, poses=bool(decimate))
+        )
+        if decimate:
             k = np.asarray(left).shape[-1]
             first = (-(start + 1)) % decimate
             sel = np.arange(first, k, decimate)
@@ -529,6 +788,5 @@ def replay_stream(
             for name, arr in zip(("x", "y", "theta"), res):
                 kept[name].append(arr[sel])
     x, y, th = odo.pose
-    if kept is not None:
-        kept = {k: (np.concatenate(v) if v else np.empty(0)) for k, v in kept.items()}
-    return StreamResult(x, y, th, odo.samples, kept)
+    out = {k: (np.concatenate(v) if v else np.empty(0)) for k, v in kept.items()} if decimate else None
+    return StreamResult(x, y, th, odo.samples, out)

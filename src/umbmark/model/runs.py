@@ -1,7 +1,8 @@
 """The runs of a UMBmark experiment: where each run really ended and where its odometry said.
 
 In memory everything is SI (metres, radians) in the start frame; the runs *file* is in
-millimetres and degrees (see :mod:`umbmark.io.runs_csv`).
+millimetres and degrees (see :mod:`umbmark.io.runs_csv`). Pure numpy: this module imports only
+numpy and :mod:`umbmark.model.geometry`.
 """
 
 from __future__ import annotations
@@ -9,8 +10,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from umbmark.errors import InputError
+from umbmark.model.geometry import wrap_angle
 
 __all__ = ["RunsTable", "DIRECTIONS"]
 
@@ -19,7 +22,21 @@ DIRECTIONS = ("cw", "ccw")
 
 @dataclass(frozen=True)
 class RunsTable:
-    """One row per run. ``theta_abs`` / ``theta_odo`` may be ``None`` (not measured)."""
+    """The end poses of a bi-directional test, one row per run (SI units, start frame).
+
+    Parameters
+    ----------
+    direction : numpy.ndarray
+        ``"cw"`` or ``"ccw"`` per run.
+    x_abs, y_abs : numpy.ndarray
+        The absolute (measured) end position [m].
+    x_odo, y_odo : numpy.ndarray
+        The end position the odometry reported [m].
+    theta_abs, theta_odo : numpy.ndarray or None
+        The end headings [rad], or ``None`` (not measured).
+    run : numpy.ndarray or None
+        Run numbers or names.
+    """
 
     direction: np.ndarray  # str, 'cw' or 'ccw'
     x_abs: np.ndarray
@@ -31,7 +48,33 @@ class RunsTable:
     run: np.ndarray | None = None
 
     @classmethod
-    def from_columns(cls, direction, x_abs, y_abs, x_odo, y_odo, theta_abs=None, theta_odo=None, run=None):
+    def from_columns(
+        cls,
+        direction: ArrayLike,
+        x_abs: ArrayLike,
+        y_abs: ArrayLike,
+        x_odo: ArrayLike,
+        y_odo: ArrayLike,
+        theta_abs: ArrayLike | None = None,
+        theta_odo: ArrayLike | None = None,
+        run: ArrayLike | None = None,
+    ) -> RunsTable:
+        """A table from columns of any array-like type, checked.
+
+        Parameters
+        ----------
+        direction, x_abs, y_abs, x_odo, y_odo, theta_abs, theta_odo, run
+            As the fields; ``run`` defaults to 1, 2, ...
+
+        Returns
+        -------
+        RunsTable
+
+        Raises
+        ------
+        InputError
+            On an unknown direction, columns of different lengths or non-finite values.
+        """
         d = np.asarray(direction, dtype=str)
         bad = ~np.isin(d, DIRECTIONS)
         if bad.any():
@@ -45,15 +88,18 @@ class RunsTable:
             if not np.all(np.isfinite(c)):
                 raise InputError("runs table values must be finite numbers")
         r = np.arange(1, n + 1) if run is None else np.asarray(run)
-        return cls(d, *cols, *th, r)
+        return cls(d, cols[0], cols[1], cols[2], cols[3], th[0], th[1], r)
 
     def __len__(self) -> int:
         return len(self.direction)
 
-    def select(self, mask) -> RunsTable:
-        """The rows where ``mask`` is true."""
+    def select(self, mask: ArrayLike) -> RunsTable:
+        """The rows where ``mask`` is true (or at the indices in ``mask``)."""
         m = np.asarray(mask)
-        pick = lambda a: None if a is None else a[m]
+
+        def pick(a):
+            return None if a is None else a[m]
+
         return RunsTable(
             self.direction[m],
             self.x_abs[m],
@@ -66,15 +112,21 @@ class RunsTable:
         )
 
     def direction_rows(self, direction: str) -> RunsTable:
+        """The runs of one direction (``"cw"`` or ``"ccw"``)."""
         return self.select(self.direction == direction)
 
     def concat(self, other: RunsTable) -> RunsTable:
+        """This table's rows, then ``other``'s (a heading column survives only if both have it)."""
+
         def cat(a, b):
             return None if a is None or b is None else np.concatenate([a, b])
 
         return RunsTable(
             np.concatenate([self.direction, other.direction]),
-            *(np.concatenate([getattr(self, k), getattr(other, k)]) for k in ("x_abs", "y_abs", "x_odo", "y_odo")),
+            np.concatenate([self.x_abs, other.x_abs]),
+            np.concatenate([self.y_abs, other.y_abs]),
+            np.concatenate([self.x_odo, other.x_odo]),
+            np.concatenate([self.y_odo, other.y_odo]),
             cat(self.theta_abs, other.theta_abs),
             cat(self.theta_odo, other.theta_odo),
             cat(self.run, other.run),
@@ -87,11 +139,12 @@ class RunsTable:
 
     @property
     def eps_y(self) -> np.ndarray:
+        """Eq. 3.1: return position error, absolute minus calculated (y)."""
         return self.y_abs - self.y_odo
 
     @property
     def eps_theta(self) -> np.ndarray | None:
+        """Return heading error, absolute minus calculated, wrapped into (-pi, pi]; None if not measured."""
         if self.theta_abs is None or self.theta_odo is None:
             return None
-        d = self.theta_abs - self.theta_odo
-        return np.mod(d + np.pi, 2 * np.pi) - np.pi
+        return wrap_angle(self.theta_abs - self.theta_odo)

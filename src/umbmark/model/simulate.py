@@ -30,14 +30,13 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from umbmark.errors import InputError
+from umbmark.model import odometry
 from umbmark.model.geometry import (
     LABMATE,
     Calibration,
     ErrorParams,
     Geometry,
     OdometryParams,
-    integrate,
-    integrate_end,
     wrap_angle,
 )
 from umbmark.model.runs import RunsTable
@@ -423,15 +422,15 @@ def run_program(
             g += err
 
     if trajectory:
-        tx, ty, tth = integrate(g_l, g_r, t_b)
-        ox, oy, oth = integrate(odo_l, odo_r, m_b)
+        tx, ty, tth = odometry.integrate(g_l, g_r, t_b, kernel="trig")
+        ox, oy, oth = odometry.integrate(odo_l, odo_r, m_b, kernel="trig")
         traj = dict(true_x=tx, true_y=ty, true_theta=tth, odo_x=ox, odo_y=oy, odo_theta=oth)
         true_end = (tx[:, -1], ty[:, -1], tth[:, -1])
         odo_end = (ox[:, -1], oy[:, -1], oth[:, -1])
     else:
         traj = None
-        true_end = integrate_end(g_l, g_r, t_b)
-        odo_end = integrate_end(odo_l, odo_r, m_b)
+        true_end = odometry.integrate_end(g_l, g_r, t_b, kernel="trig")
+        odo_end = odometry.integrate_end(odo_l, odo_r, m_b, kernel="trig")
     ax = true_end[0] + noise.abs_xy_std_m * abs_noise[0]
     ay = true_end[1] + noise.abs_xy_std_m * abs_noise[1]
     ath = true_end[2] + noise.abs_theta_std_rad * abs_noise[2]

@@ -203,7 +203,7 @@ def _replay_case(c):
     elif impl == "numpy-trig":
 
         def fn(a, b):
-            return kinematics.odometry_from_pulses(a, b, params)
+            return odometry.integrate_pulses(a, b, params, kernel="trig")
     elif impl == "fast-float":
         nl = nl * params.left_m_per_pulse
         nr = nr * params.right_m_per_pulse
