@@ -50,7 +50,7 @@ import numpy.typing as npt
 from umbmark.correct.registry import register_path
 from umbmark.errors import InputError
 from umbmark.model.dataset import FAST_MIN_SAMPLES, Dataset, WheelGeometry, replay_increments
-from umbmark.model.geometry import OdometryParams
+from umbmark.model.geometry import OdometryParams, wrap_angle
 
 __all__ = ["LsqResult", "fit_lsq", "lsq_method", "LSQ_DEFAULTS"]
 
@@ -223,7 +223,7 @@ class _Problem:
             y = y + s * off[0] + (c - 1.0) * off[1]
         ex = x - self.gt[:, 0]
         ey = y - self.gt[:, 1]
-        eth = np.mod(th - self.gt[:, 2] + np.pi, 2 * np.pi) - np.pi
+        eth = wrap_angle(th - self.gt[:, 2])
         return ex, ey, eth
 
 

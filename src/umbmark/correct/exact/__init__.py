@@ -69,14 +69,14 @@ from typing import Any, Literal
 import numpy as np
 
 from umbmark.correct.bf import _check_geometry
-from umbmark.correct.exact.model import ExactFitError, FloatArray, _Problem, _wrap, odometry_turns, square_errors
+from umbmark.correct.exact.model import ExactFitError, FloatArray, _Problem, odometry_turns, square_errors
 from umbmark.correct.exact.search import _aliases, _bf_start, _explains, _fit, _grid_starts, _heading_starts, _Solution
 from umbmark.correct.exact.uncertainty import _loss_rho1, _reweigh_heading, interval_figures
 from umbmark.correct.registry import register
 from umbmark.correct.result import CorrectionResult, compose
 from umbmark.errors import InputError
 from umbmark.metrics import umbmark
-from umbmark.model.geometry import Calibration
+from umbmark.model.geometry import Calibration, wrap_angle
 from umbmark.model.runs import RunsTable
 
 __all__ = [
@@ -144,7 +144,7 @@ def _closure_warnings(runs: RunsTable, prob: _Problem, side_m: float) -> list[st
             f"run {runs.run[i] if runs.run is not None else i + 1} does not close: its odometry ends "
             f"{odo_off[i] * 1e3:.0f} mm from the start (side {side_m * 1e3:.0f} mm); is this a UMBmark square run?"
         )
-    if runs.theta_odo is not None and np.max(np.abs(_wrap(runs.theta_odo))) > math.radians(30):
+    if runs.theta_odo is not None and np.max(np.abs(wrap_angle(runs.theta_odo))) > math.radians(30):
         raise ExactFitError(
             "a run's odometry heading ends more than 30 deg from the start heading: the runs do not "
             "close (is this a UMBmark square run, and theta_odo in degrees?)"

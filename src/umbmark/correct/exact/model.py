@@ -18,6 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from umbmark.errors import CorrectionUndefined, InputError
+from umbmark.model.geometry import wrap_angle
 from umbmark.model.runs import RunsTable
 
 __all__ = ["ExactFitError", "square_errors", "odometry_turns"]
@@ -27,22 +28,6 @@ FloatArray = npt.NDArray[np.floating[Any]]
 
 class ExactFitError(CorrectionUndefined):
     """The exact fit has no trustworthy answer (degenerate runs, no convergence)."""
-
-
-def _wrap(a: npt.ArrayLike) -> FloatArray:
-    """Angles wrapped to [-pi, pi).
-
-    Parameters
-    ----------
-    a : array_like
-        Angles [rad].
-
-    Returns
-    -------
-    numpy.ndarray
-        The angles wrapped, as floats.
-    """
-    return np.mod(np.asarray(a, dtype=float) + np.pi, 2.0 * np.pi) - np.pi
 
 
 def square_errors(
@@ -159,7 +144,7 @@ def odometry_turns(
     n = x.size
     sgn = np.broadcast_to(np.asarray(sign, dtype=float), (n,))
     with_heading = theta_odo is not None
-    columns = [x / side_m, y / side_m] + ([_wrap(theta_odo)] if theta_odo is not None else [])
+    columns = [x / side_m, y / side_m] + ([wrap_angle(theta_odo)] if theta_odo is not None else [])
     target = np.stack(columns, axis=-1)  # (n, m)
     d = np.zeros((n, 4))
 
@@ -175,7 +160,7 @@ def odometry_turns(
         rows_f = [fx, fy]
         rows_j = [jx, jy]
         if with_heading:
-            rows_f.append(_wrap(np.sum(d, axis=1)))
+            rows_f.append(wrap_angle(np.sum(d, axis=1)))
             rows_j.append(np.ones((n, 4)))
         return np.stack(rows_f, axis=-1), np.stack(rows_j, axis=1)  # (n, m), (n, m, 4)
 
@@ -183,7 +168,7 @@ def odometry_turns(
         f, J = f_and_jac(d)
         res = target - f
         if with_heading:
-            res[:, 2] = _wrap(res[:, 2])
+            res[:, 2] = wrap_angle(res[:, 2])
         # minimum-norm Gauss-Newton step (damped): d += J^T (J J^T + mu I)^-1 res
         JJt = np.einsum("nak,nbk->nab", J, J) + 1e-10 * np.eye(J.shape[1])
         step = np.einsum("nak,na->nk", J, np.linalg.solve(JJt, res[..., None])[..., 0])
@@ -267,7 +252,7 @@ class _Problem:
         px, py, pth = square_errors(ed, eb, self.side_m, self.b, self.sign[None, :], self.es, self.adj)
         comps = [self.ex[None, :] - px, self.ey[None, :] - py]
         if self.heading and self.eth is not None:
-            comps.append(self.w * _wrap(self.eth[None, :] - pth))
+            comps.append(self.w * wrap_angle(self.eth[None, :] - pth))
         return np.stack(comps, axis=-1)
 
     def residuals(self, p: npt.ArrayLike) -> FloatArray:
