@@ -147,7 +147,7 @@ BAD = [
     ("num.csv", "direction,x_abs,y_abs,x_odo,y_odo\ncw,1,2,3,4\nccw,1,x,3,4\n", ":3: column y_abs"),
     ("nan.csv", "direction,x_abs,y_abs,x_odo,y_odo\ncw,NaN,2,3,4\nccw,1,2,3,4\n", ":2: column x_abs"),
     ("oneway.csv", "direction,x_abs,y_abs,x_odo,y_odo\ncw,1,2,3,4\ncw,1,2,3,4\n", "no ccw runs"),
-    # finite but absurd (found by fuzzing: 1e308 overflowed into a calibration of E_b 1e-303)
+    # finite but absurd: a position of 1e308 mm would overflow into a calibration of E_b 1e-303
     (
         "huge.csv",
         "direction,x_abs,y_abs,x_odo,y_odo\ncw,1e308,2,3,4\nccw,1,2,3,4\n",
@@ -203,8 +203,8 @@ def test_simulate_bad_values(tmp_path, capsys):
     ):
         code, _, err = run(capsys, "simulate", *flags, "--out", str(tmp_path / "x.csv"))
         assert code == 2 and err.count("\n") == 1 and match in err
-    # inputs that would need more samples than memory holds (found by fuzzing: MemoryError, or
-    # the process killed) are refused before anything is allocated
+    # inputs that would need more samples than memory holds (a MemoryError, or the process
+    # killed) are refused before anything is allocated
     for flags in (
         ["--side-mm", "1e12"],
         ["--speed", "1e-12"],

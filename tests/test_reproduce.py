@@ -1,4 +1,4 @@
-"""Tests of the paper reproduction (issue 6): the study, the pitfall, the tape model."""
+"""Tests of the paper reproduction: the study, the pitfall, the tape model."""
 
 from __future__ import annotations
 
@@ -173,7 +173,7 @@ def test_config_rejects_bad_values():
 
 @pytest.mark.slow
 def test_acceptance_distribution_over_100_seeds():
-    """The issue's acceptance targets, measured (not tuned) over 100 seeds."""
+    """The paper's figures as targets (10-fold or more, 12-35 mm after), measured (not tuned) over 100 seeds."""
     d = rep.run_study(rep.StudyConfig(seeds=100), pitfall=False).to_dict()["distribution"]
     assert d["improvement_median"] >= 10
     assert 12 <= d["emax_after_median_mm"] <= 35
