@@ -337,9 +337,42 @@ def test_analyze_text_explains_every_figure_at_80_columns(tmp_path, capsys, monk
             shown += [f"{d['emax_syst_after_pred_mm']:.1f} / {d['emax_syst_after_pred_measured_mm']:.1f}"]
         _check_newcomer_text(text, d, shown, paths=[tmp_path])
         # the commands of the next step: the second pass with the calibration loaded, and the export
+        assert d["second_pass_recommended"]
         assert f"--wheelbase-mm {d['wheelbase_corrected_mm']:.2f}" in text
         assert f"--c-left {d['c_left']:.6f} --c-right {d['c_right']:.6f}" in text
         assert f"umbmark analyze {f} --wheelbase-mm 340 --side-mm 4000" in text
+
+
+def test_analyze_says_when_a_further_pass_is_not_expected_to_help(tmp_path, capsys, monkeypatch):
+    """Runs of a calibrated robot (E_max,syst below 3 x SEM): no second-pass command; the factors
+    and the export command of the runs as they were made (with their calibration) are shown."""
+    f = tmp_path / "after.csv"
+    args = ["--c-left", "0.999032", "--c-right", "1.000968"]
+    code, _, err = run(
+        capsys,
+        "simulate",
+        "--ed",
+        "1.002",
+        "--eb",
+        "0.99",
+        "--seed",
+        "2",
+        "--noise",
+        "paper",
+        *args,
+        "--model-wheelbase-mm",
+        "336.69",
+        "--out",
+        str(f),
+    )
+    assert code == 0, err
+    text, d = _text_and_json(
+        capsys, monkeypatch, "analyze", str(f), "--wheelbase-mm", "336.69", "--side-mm", "4000", *args
+    )
+    assert not d["second_pass_recommended"]
+    assert "not expected to help" in text and "NEW.csv" not in text
+    assert f"c_left = {d['c_left']:.6f}, c_right = {d['c_right']:.6f}" in text
+    assert "--wheelbase-mm 336.69 --side-mm 4000 --c-left 0.999032 --c-right 1.000968 --json > cal.json" in text
 
 
 def test_demo_text_explains_every_figure_at_80_columns(tmp_path, capsys, monkeypatch):

@@ -238,17 +238,22 @@ def _print_analysis(a: Analysis, again: str, export: str) -> None:
         c.print(_legend(LEGEND_PREDICTED))
     for w in d.get("warnings", []):
         c.print(f"[yellow]warning:[/yellow] {escape(cli_message(w))}")
-    if d["second_pass_recommended"]:
-        why = "E_max,syst is at least 3 x SEM: this calibration should reduce it."
-    else:
-        why = "E_max,syst is below 3 x SEM: what is left is within the scatter of the runs; a calibration may not help."
-    c.print(f"[bold]Next[/bold]: {why}")
-    c.print(
-        f"Load c_left = {fmt(d['c_left'], 6)}, c_right = {fmt(d['c_right'], 6)} and the wheelbase "
-        f"{d['wheelbase_corrected_mm']:.2f} mm into the robot's odometry, drive the test again and "
-        "analyse the new runs with the calibration they ran with:"
+    load = (
+        f"c_left = {fmt(d['c_left'], 6)}, c_right = {fmt(d['c_right'], 6)} and the wheelbase "
+        f"{d['wheelbase_corrected_mm']:.2f} mm"
     )
-    c.print(f"  {escape(again)}", soft_wrap=True)
+    if d["second_pass_recommended"]:
+        c.print(
+            "[bold]Next[/bold]: E_max,syst is at least 3 x SEM, so this calibration should reduce it. "
+            f"Load {load} into the robot's odometry, drive the test again and analyse the new runs "
+            "with the calibration they ran with:"
+        )
+        c.print(f"  {escape(again)}", soft_wrap=True)
+    else:
+        c.print(
+            "[bold]Next[/bold]: E_max,syst is below 3 x SEM: what is left is within the scatter of the "
+            f"runs, and a further calibration is not expected to help. To load this one anyway: {load}."
+        )
     c.print("For a ROS 2 diff_drive_controller, save this analysis and export it:")
     c.print(f"  {escape(export)}", soft_wrap=True)
 
