@@ -216,25 +216,7 @@ def history_cmd(robot, db, plot_path, export_path, limit, show_id, as_json):
             if as_json:
                 emit_json({"db": str(h.path), "robots": robots})
             elif not is_quiet():
-                rows = [
-                    [
-                        r["robot"],
-                        r["records"],
-                        (r["last_utc"] or "-")[:16].replace("T", " "),
-                        fmt(r.get("emax_syst_mm")),
-                        fmt(r.get("Ed"), 6),
-                        fmt(r.get("Eb"), 6),
-                        fmt(r.get("wheelbase_mm"), 2),
-                    ]
-                    for r in robots
-                ]
-                console().print(
-                    table(
-                        f"Robots in {h.path}",
-                        ["robot", "records", "last (UTC)", "E_max,syst [mm]", "E_d", "E_b", "wheelbase [mm]"],
-                        rows,
-                    )
-                )
+                _print_robots(h.path, robots)
             return
         h.latest(robot)  # no records of this robot: an error naming the robots there are
         recs = h.records(robot, limit=limit)
@@ -267,36 +249,64 @@ def history_cmd(robot, db, plot_path, export_path, limit, show_id, as_json):
             return
         if is_quiet() or export_path == "-":
             return
-        from rich.markup import escape
-        from rich.table import Table
+        _print_records(robot, recs, plot_path, exported)
 
-        t = Table(
-            title=escape(f"Calibration history of {robot} ({len(recs)} records, oldest first)"),
-            title_justify="left",
-            header_style="bold",
+
+def _print_robots(db_path, robots: list[dict]) -> None:
+    """The robots of a history (:meth:`History.robots`) as a table."""
+    rows = [
+        [
+            r["robot"],
+            r["records"],
+            (r["last_utc"] or "-")[:16].replace("T", " "),
+            fmt(r.get("emax_syst_mm")),
+            fmt(r.get("Ed"), 6),
+            fmt(r.get("Eb"), 6),
+            fmt(r.get("wheelbase_mm"), 2),
+        ]
+        for r in robots
+    ]
+    console().print(
+        table(
+            f"Robots in {db_path}",
+            ["robot", "records", "last (UTC)", "E_max,syst [mm]", "E_d", "E_b", "wheelbase [mm]"],
+            rows,
         )
-        for i, col in enumerate(
-            ["id", "time (UTC)", "kind/method", "E_max,syst [mm]", "E_d", "E_b", "wheelbase [mm]", "c_left", "c_right"]
-        ):
-            t.add_column(escape(col), justify="left" if i < 3 else "right", no_wrap=i < 3)
-        for r in recs:
-            t.add_row(
-                f"#{r.id}",
-                r.created_utc[:16].replace("T", " "),
-                escape(f"{r.kind}/{r.method}"),
-                fmt(r.emax_syst_mm),
-                fmt(r.ed, 6),
-                fmt(r.eb, 6),
-                fmt(r.wheelbase_mm, 2),
-                fmt(r.parameters.get("c_left"), 6),
-                fmt(r.parameters.get("c_right"), 6),
-            )
-        c = console()
-        c.print(t)
-        if plot_path:
-            c.print(escape(f"plot: {plot_path}"))
-        if exported:
-            c.print(escape(f"latest parameters (record #{recs[-1].id}): {exported}"))
+    )
+
+
+def _print_records(robot: str, recs, plot_path, exported) -> None:
+    """One robot's records as a table, and the files written."""
+    from rich.markup import escape
+    from rich.table import Table
+
+    t = Table(
+        title=escape(f"Calibration history of {robot} ({len(recs)} records, oldest first)"),
+        title_justify="left",
+        header_style="bold",
+    )
+    for i, col in enumerate(
+        ["id", "time (UTC)", "kind/method", "E_max,syst [mm]", "E_d", "E_b", "wheelbase [mm]", "c_left", "c_right"]
+    ):
+        t.add_column(escape(col), justify="left" if i < 3 else "right", no_wrap=i < 3)
+    for r in recs:
+        t.add_row(
+            f"#{r.id}",
+            r.created_utc[:16].replace("T", " "),
+            escape(f"{r.kind}/{r.method}"),
+            fmt(r.emax_syst_mm),
+            fmt(r.ed, 6),
+            fmt(r.eb, 6),
+            fmt(r.wheelbase_mm, 2),
+            fmt(r.parameters.get("c_left"), 6),
+            fmt(r.parameters.get("c_right"), 6),
+        )
+    c = console()
+    c.print(t)
+    if plot_path:
+        c.print(escape(f"plot: {plot_path}"))
+    if exported:
+        c.print(escape(f"latest parameters (record #{recs[-1].id}): {exported}"))
 
 
 # -- umbmark report ------------------------------------------------------------------------------------
@@ -374,100 +384,136 @@ def report_cmd(
       umbmark report runs.csv --wheelbase-mm 340 --side-mm 4000 --out report.html
       umbmark report --robot r1 --out r1-history.html
     """
-    from umbmark.cli.progress import progress
-    from umbmark.io.atomic import atomic_write
-    from umbmark.viz.report import analysis_report, bootstrap_intervals, history_report
-
     if runs_file is None and record_id is None:
         if robot is None:
             raise click.UsageError("give a runs file FILE.csv, --robot NAME (history) or --id N (a record)")
-        from umbmark.history import open_history
-
-        with open_history(db, create=False) as h:
-            h.latest(robot)  # no records of this robot: an error naming the robots there are
-            recs = h.records(robot)
-            page = history_report(recs, db_path=str(h.path))
-        atomic_write(out_path, page)
-        summary = {"out": out_path, "robot": robot, "records": len(recs)}
+        summary = _history_page(robot, db, out_path)
     else:
-        from umbmark.correct.analysis import analyze
-        from umbmark.io.runs_csv import read_runs_csv
-        from umbmark.model.geometry import Calibration
-
-        source = sha = None
-        label = None
-        prior = None
         if record_id is not None:
             if runs_file is not None:
                 raise click.UsageError("give either FILE.csv or --id, not both")
-            from umbmark.history import open_history, runs_from_rows
-
-            with open_history(db, create=False) as h:
-                rec = h.get(record_id)
-            rows = rec.inputs.get("runs") if isinstance(rec.inputs, dict) else None
-            if not rows or "side_mm" not in rec.inputs:
-                raise InputError(f"record #{record_id} ({rec.kind}) does not hold runs to report")
-            runs = runs_from_rows(rows)
-            side_mm = rec.inputs["side_mm"]
-            wheelbase_mm = rec.inputs.get("wheelbase_mm")
-            method = rec.method
-            robot = rec.robot
-            source, sha = rec.source, rec.input_sha256
-            label = f"record #{rec.id} of {rec.created_utc[:16].replace('T', ' ')} UTC"
-            piu = rec.parameters_in_use or {}
-            if piu.get("c_left", 1.0) != 1.0 or piu.get("c_right", 1.0) != 1.0:
-                prior = Calibration(piu["c_left"], piu["c_right"], None)
+            a = _record_analysis(record_id, db)
         else:
             if wheelbase_mm is None or side_mm is None:
                 raise click.UsageError("with FILE.csv, --wheelbase-mm and --side-mm are required")
-            runs = read_runs_csv(runs_file)
-            from umbmark.history import file_sha256
-
-            source, sha = str(runs_file), file_sha256(runs_file)
-            for name, v in (("--c-left", c_left), ("--c-right", c_right)):
-                positive(name, v)
-            if c_left != 1.0 or c_right != 1.0:
-                prior = Calibration(c_left, c_right, None)
-        side_m = positive("--side-mm", side_mm) * 1e-3
-        wheelbase_m = positive("--wheelbase-mm", wheelbase_mm) * 1e-3
-        a = analyze(runs, side_m, wheelbase_m, method, prior)
-        after = read_runs_csv(after_file) if after_file else None
-        exported = {}
-        for f in attach:
-            p = Path(f)
-            if not p.is_file():
-                raise InputError("file not found", source=f)
-            try:
-                exported[p.name] = p.read_text(encoding="utf-8")
-            except UnicodeDecodeError:
-                raise InputError("not a text file (only text exports can be shown)", source=f) from None
-        boot = None
-        if n_boot is None:
-            n_boot = 1000 if method == "bf" else 0
-        if n_boot:
-            with progress("bootstrap", total=n_boot) as advance:
-                boot = bootstrap_intervals(runs, side_m, wheelbase_m, method, prior, n_boot, seed, advance=advance)
-        what = label or (Path(source).name if source else "runs")
-        title = f"UMBmark report: {robot + ', ' if robot else ''}{what}"
-        page = analysis_report(
-            a,
-            title=title,
-            source=source,
-            source_sha256=sha,
-            prior=prior,
-            after_runs=after,
-            exported=exported or None,
-            boot=boot,
-            robot=robot,
-        )
-        atomic_write(out_path, page)
-        summary = {"out": out_path, "emax_syst_mm": a.result.emax_syst * 1e3, "bootstrap": boot}
+            a = _file_analysis(runs_file, wheelbase_mm, side_mm, method, c_left, c_right, robot)
+        summary = _analysis_page(a, out_path, after_file, attach, n_boot, seed)
     if as_json:
         emit_json(summary)
     elif not is_quiet():
         from rich.markup import escape
 
         console().print(escape(f"report: {out_path}"))
+
+
+def _history_page(robot: str, db, out_path) -> dict:
+    """Write the HTML page of one robot's history; the JSON summary."""
+    from umbmark.history import open_history
+    from umbmark.io.atomic import atomic_write
+    from umbmark.viz.report import history_report
+
+    with open_history(db, create=False) as h:
+        h.latest(robot)  # no records of this robot: an error naming the robots there are
+        recs = h.records(robot)
+        page = history_report(recs, db_path=str(h.path))
+    atomic_write(out_path, page)
+    return {"out": out_path, "robot": robot, "records": len(recs)}
+
+
+def _record_analysis(record_id: int, db) -> dict:
+    """What a report of a recorded analysis needs: its runs and inputs, the prior it ran with."""
+    from umbmark.history import open_history, runs_from_rows
+    from umbmark.model.geometry import Calibration
+
+    with open_history(db, create=False) as h:
+        rec = h.get(record_id)
+    rows = rec.inputs.get("runs") if isinstance(rec.inputs, dict) else None
+    if not rows or "side_mm" not in rec.inputs:
+        raise InputError(f"record #{record_id} ({rec.kind}) does not hold runs to report")
+    runs = runs_from_rows(rows)
+    piu = rec.parameters_in_use or {}
+    prior = None
+    if piu.get("c_left", 1.0) != 1.0 or piu.get("c_right", 1.0) != 1.0:
+        prior = Calibration(piu["c_left"], piu["c_right"], None)
+    return {
+        "runs": runs,
+        "side_mm": rec.inputs["side_mm"],
+        "wheelbase_mm": rec.inputs.get("wheelbase_mm"),
+        "method": rec.method,
+        "robot": rec.robot,
+        "source": rec.source,
+        "sha": rec.input_sha256,
+        "label": f"record #{rec.id} of {rec.created_utc[:16].replace('T', ' ')} UTC",
+        "prior": prior,
+    }
+
+
+def _file_analysis(runs_file, wheelbase_mm, side_mm, method, c_left, c_right, robot) -> dict:
+    """What a report of a runs file needs (as :func:`_record_analysis`)."""
+    from umbmark.history import file_sha256
+    from umbmark.io.runs_csv import read_runs_csv
+    from umbmark.model.geometry import Calibration
+
+    runs = read_runs_csv(runs_file)
+    sha = file_sha256(runs_file)
+    for name, v in (("--c-left", c_left), ("--c-right", c_right)):
+        positive(name, v)
+    prior = Calibration(c_left, c_right, None) if c_left != 1.0 or c_right != 1.0 else None
+    return {
+        "runs": runs,
+        "side_mm": side_mm,
+        "wheelbase_mm": wheelbase_mm,
+        "method": method,
+        "robot": robot,
+        "source": str(runs_file),
+        "sha": sha,
+        "label": None,
+        "prior": prior,
+    }
+
+
+def _analysis_page(a: dict, out_path, after_file, attach, n_boot, seed) -> dict:
+    """Analyse the runs of ``a``, write the HTML page; the JSON summary."""
+    from umbmark.cli.progress import progress
+    from umbmark.correct.analysis import analyze
+    from umbmark.io.atomic import atomic_write
+    from umbmark.io.runs_csv import read_runs_csv
+    from umbmark.viz.report import analysis_report, bootstrap_intervals
+
+    runs, method, prior, robot, source = a["runs"], a["method"], a["prior"], a["robot"], a["source"]
+    side_m = positive("--side-mm", a["side_mm"]) * 1e-3
+    wheelbase_m = positive("--wheelbase-mm", a["wheelbase_mm"]) * 1e-3
+    analysis = analyze(runs, side_m, wheelbase_m, method, prior)
+    after = read_runs_csv(after_file) if after_file else None
+    exported = {}
+    for f in attach:
+        p = Path(f)
+        if not p.is_file():
+            raise InputError("file not found", source=f)
+        try:
+            exported[p.name] = p.read_text(encoding="utf-8")
+        except UnicodeDecodeError:
+            raise InputError("not a text file (only text exports can be shown)", source=f) from None
+    boot = None
+    if n_boot is None:
+        n_boot = 1000 if method == "bf" else 0
+    if n_boot:
+        with progress("bootstrap", total=n_boot) as advance:
+            boot = bootstrap_intervals(runs, side_m, wheelbase_m, method, prior, n_boot, seed, advance=advance)
+    what = a["label"] or (Path(source).name if source else "runs")
+    page = analysis_report(
+        analysis,
+        title=f"UMBmark report: {robot + ', ' if robot else ''}{what}",
+        source=source,
+        source_sha256=a["sha"],
+        prior=prior,
+        after_runs=after,
+        exported=exported or None,
+        boot=boot,
+        robot=robot,
+    )
+    atomic_write(out_path, page)
+    return {"out": out_path, "emax_syst_mm": analysis.result.emax_syst * 1e3, "bootstrap": boot}
 
 
 # -- umbmark guide -------------------------------------------------------------------------------------
