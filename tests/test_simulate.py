@@ -7,9 +7,13 @@ from umbmark.errors import InputError
 from umbmark.metrics import umbmark
 from umbmark.model.geometry import LABMATE, Calibration, ErrorParams, OdometryParams
 from umbmark.model.simulate import (
+    MAX_SAMPLES_PER_RUN,
     NOISE_PRESETS,
     Motion,
     NoiseModel,
+    Segment,
+    per_run_params,
+    plan_program,
     run_program,
     run_seeds,
     simulate_runs,
@@ -168,3 +172,70 @@ def test_calibration_is_loaded_into_the_controller():
     model = OdometryParams.from_geometry(LABMATE, Calibration(cal.c_left, cal.c_right, LABMATE.wheelbase_m))
     r = drive(straight_program(4.0), e, model=model)
     assert abs(r.true_y[0]) < 1e-12 and r.true_x[0] == pytest.approx(4.0, abs=1e-12)
+
+
+def test_plan_of_a_sampled_program():
+    """0.3 m at 0.2 m/s and 7 ms: 214 full samples and a last one of 2/7 step; a quarter turn on a
+    0.34 m wheelbase needs pi/2 * 0.17 m of opposite travel per wheel."""
+    prog = (Segment("straight", 0.3), Segment("turn", -math.pi / 2))
+    m = np.full(2, NOMINAL.left_m_per_pulse)
+    b = np.array([0.34, 0.30])
+    plan = plan_program(prog, Motion(sample_period_s=0.007), NOISE_PRESETS["none"], m, m, b)
+    np.testing.assert_array_equal(plan.kind, [0, 1])
+    np.testing.assert_array_equal(plan.sign_left, [1.0, 1.0])
+    np.testing.assert_array_equal(plan.sign_right, [1.0, -1.0])
+    np.testing.assert_array_equal(plan.target, [0.3, math.pi / 2])
+    step = 0.2 * 0.007
+    assert plan.step.shape == (2, 2) and np.all(plan.step == step)
+    np.testing.assert_array_equal(plan.n_full[:, 0], [214, 214])
+    assert plan.frac[0, 0] == pytest.approx(0.3 / step - 214)
+    need = math.pi / 2 * b / 2
+    np.testing.assert_array_equal(plan.n_full[:, 1], np.floor(need / step))
+    np.testing.assert_allclose(plan.frac[:, 1], need / step - np.floor(need / step))
+    np.testing.assert_array_equal(plan.samples, plan.n_full + (plan.frac > 0))
+
+
+def test_plan_without_sampling_is_one_step_per_segment():
+    m = np.array([NOMINAL.left_m_per_pulse])
+    plan = plan_program(square_program("ccw", 2.0), EXACT, NOISE_PRESETS["none"], m, m, np.array([0.34]))
+    np.testing.assert_array_equal(plan.samples, np.ones((1, 8)))
+    np.testing.assert_array_equal(plan.frac, np.ones((1, 8)))
+    np.testing.assert_allclose(plan.step[0], [2.0, math.pi / 2 * 0.17] * 4)
+
+
+def test_plan_whole_and_nearly_whole_step_counts():
+    """A ratio within 1e-12 below a whole number counts as whole; a leftover below 1e-9 step is dropped."""
+    m = np.array([1e-4])
+    motion = Motion(speed_m_s=0.1, sample_period_s=0.01)
+    step = 0.1 * 0.01
+    for length in (500 * step, (500 - 5e-13) * step, (500 + 5e-10) * step):
+        plan = plan_program((Segment("straight", length),), motion, NOISE_PRESETS["none"], m, m, np.array([0.3]))
+        assert plan.n_full[0, 0] == 500 and plan.frac[0, 0] == 0.0 and plan.samples[0, 0] == 500
+    plan = plan_program((Segment("straight", 500.5 * step),), motion, NOISE_PRESETS["none"], m, m, np.array([0.3]))
+    assert plan.n_full[0, 0] == 500 and plan.frac[0, 0] == pytest.approx(0.5) and plan.samples[0, 0] == 501
+
+
+def test_plan_reserves_a_margin_for_quantised_encoders():
+    m = np.array([4.7e-5])
+    motion = Motion(sample_period_s=0.01)
+    plain = plan_program(straight_program(1.0), motion, NOISE_PRESETS["none"], m, m, np.array([0.34]))
+    quant = plan_program(straight_program(1.0), motion, NoiseModel(quantise=True), m, m, np.array([0.34]))
+    # one pulse of lag per wheel is under one sample (4.7e-5 m of the 2e-3 m step): 1 + 2 spare samples
+    np.testing.assert_array_equal(quant.samples - plain.samples, [[3]])
+
+
+def test_plan_refuses_absurd_sample_counts():
+    m = np.array([4.7e-5])
+    long = straight_program(MAX_SAMPLES_PER_RUN * 0.2 * 0.01 * 1.01)
+    with pytest.raises(InputError, match="samples"):
+        plan_program(long, Motion(), NOISE_PRESETS["none"], m, m, np.array([0.34]))
+
+
+def test_per_run_params_broadcast_and_check():
+    t_l, t_r, t_b = per_run_params({"wheelbase_m": [0.3, 0.4]}, NOMINAL, 2, "true")
+    np.testing.assert_array_equal(t_b, [0.3, 0.4])
+    np.testing.assert_array_equal(t_l, [NOMINAL.left_m_per_pulse] * 2)
+    with pytest.raises(InputError, match="model robot parameter left_m_per_pulse is missing"):
+        per_run_params({"wheelbase_m": 0.3}, None, 2, "model")
+    with pytest.raises(InputError, match="true robot parameters must be positive"):
+        per_run_params({"wheelbase_m": [0.3, -0.4]}, NOMINAL, 2, "true")

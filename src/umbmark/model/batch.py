@@ -13,17 +13,20 @@ Engines:
   the per-sample heading change by a short Taylor series: no trig call per sample) and
   re-synchronises it with the accumulated angle at every segment end.
 * ``"numpy"``: :func:`umbmark.model.simulate.run_program` on chunks of runs (the vectorised numpy
-  simulator, unchanged).
+  simulator).
 
-Both run in bounded memory: runs are processed ``chunk_runs`` at a time.
+Both plan the program with :func:`umbmark.model.simulate.plan_program` and run in bounded
+memory: runs are processed ``chunk_runs`` at a time. Pure numpy (and numba, when installed):
+this module imports only the lower modules of :mod:`umbmark.model`.
 """
 
 from __future__ import annotations
 
 import math
 import threading
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from concurrent.futures import ThreadPoolExecutor
+from types import ModuleType
 
 import numpy as np
 
@@ -31,12 +34,16 @@ from umbmark.errors import InputError
 from umbmark.model.geometry import LABMATE, Calibration, ErrorParams, Geometry, OdometryParams, wrap_angle
 from umbmark.model.runs import RunsTable
 from umbmark.model.simulate import (
+    PARAM_KEYS,
     Motion,
     NoiseModel,
+    Segment,
     SimResult,
-    check_sample_count,
+    check_noise_inputs,
     child_seeds,
     noise_preset,
+    per_run_params,
+    plan_program,
     program_inputs,
     run_program,
     run_seeds,
@@ -47,81 +54,26 @@ __all__ = ["ENGINES", "have_numba", "default_engine", "run_batch", "simulate_bat
 
 ENGINES = ("auto", "numba", "numpy")
 
-try:  # optional dependency
-    import numba as _numba
-except ImportError:  # pragma: no cover - depends on the environment
-    _numba = None
+
+def _import_numba() -> ModuleType | None:
+    try:  # optional dependency
+        import numba
+    except ImportError:  # pragma: no cover - depends on the environment
+        return None
+    return numba
+
+
+_numba = _import_numba()
 
 
 def have_numba() -> bool:
+    """True when numba is installed (the ``"numba"`` engine is available)."""
     return _numba is not None
 
 
 def default_engine() -> str:
+    """The engine ``"auto"`` stands for: ``"numba"`` when installed, else ``"numpy"``."""
     return "numba" if _numba is not None else "numpy"
-
-
-_PARAM_KEYS = ("left_m_per_pulse", "right_m_per_pulse", "wheelbase_m")
-
-
-def _params(per_run: dict | None, base: OdometryParams | None, R: int, name: str):
-    per_run = per_run or {}
-    out = []
-    for k in _PARAM_KEYS:
-        v = per_run.get(k, getattr(base, k) if base is not None else None)
-        if v is None:
-            raise InputError(f"{name} robot parameter {k} is missing")
-        a = np.array(np.broadcast_to(np.asarray(v, dtype=float), (R,)))
-        out.append(a)
-    if not np.all(np.isfinite(np.concatenate(out)) & (np.concatenate(out) > 0)):
-        raise InputError(f"{name} robot parameters must be positive and finite")
-    return out
-
-
-def _plan(program, motion: Motion, noise: NoiseModel, m_l, m_r, m_b):
-    """Per segment and run, as run_program plans it: arrays (R, S) of step [m of model wheel
-    travel per sample], full steps, fractional last step, samples reserved; and per segment
-    kind (0 straight, 1 turn), wheel signs and targets."""
-    R, S = m_l.size, len(program)
-    dt = motion.sample_period_s
-    kind = np.zeros(S, dtype=np.int64)
-    s_l = np.zeros(S)
-    s_r = np.zeros(S)
-    target = np.zeros(S)
-    step = np.zeros((R, S))
-    n_full = np.zeros((R, S), dtype=np.int64)
-    frac = np.zeros((R, S))
-    kmax = np.zeros((R, S), dtype=np.int64)
-    for j, seg in enumerate(program):
-        if seg.kind == "straight":
-            st = motion.speed_m_s * dt if dt is not None else None
-            s_l[j] = s_r[j] = 1.0
-            target[j] = seg.amount
-            need = np.full(R, seg.amount)
-        else:
-            kind[j] = 1
-            st = motion.turn_wheel_speed_m_s * dt if dt is not None else None
-            s = 1.0 if seg.amount > 0 else -1.0
-            s_l[j], s_r[j] = -s, s
-            target[j] = abs(seg.amount)
-            need = target[j] / (2.0 / m_b)
-        if st is None:
-            step[:, j] = need
-            n_full[:, j] = 0
-            frac[:, j] = 1.0
-            kmax[:, j] = 1
-            continue
-        step[:, j] = st
-        ratio = need / st
-        nf = np.floor(ratio + 1e-12).astype(np.int64)
-        fr = np.clip(ratio - nf, 0.0, None)
-        fr[fr < 1e-9] = 0.0
-        margin = (np.ceil(np.maximum(m_l, m_r) / st).astype(np.int64) + 2) if noise.quantise else 0
-        n_full[:, j] = nf
-        frac[:, j] = fr
-        kmax[:, j] = nf + (fr > 0) + margin
-    check_sample_count(kmax.sum(axis=1), motion)
-    return kind, s_l, s_r, target, step, n_full, frac, kmax
 
 
 def _buffer(work, name, n):
@@ -144,8 +96,7 @@ def _draws(noise: NoiseModel, rngs, tot, work=None):
     if R > 1:
         offs[1:] = np.cumsum(tot)[:-1]
     n = 2 * int(tot.sum())
-    has_slip = noise.slip_m_per_sqrt_m > 0
-    has_bump = noise.bump_rate_per_m > 0 and noise.bump_loss_m > 0
+    has_slip, has_bump = noise.has_slip, noise.has_bumps
     slip = _buffer(work, "slip", n) if has_slip else np.zeros(1)
     bu = _buffer(work, "bu", n) if has_bump else np.zeros(1)
     bl = _buffer(work, "bl", n) if has_bump else np.zeros(1)
@@ -366,26 +317,8 @@ def _check_engine(engine: str) -> str:
     return default_engine() if engine == "auto" else engine
 
 
-def run_batch(
-    program,
-    true_per_run: dict,
-    model_per_run: dict,
-    noise: NoiseModel | None = None,
-    motion: Motion | None = None,
-    rngs=None,
-    n_runs: int | None = None,
-    engine: str = "auto",
-    chunk_runs: int | None = None,
-    threads: int | None = 1,
-) -> SimResult:
-    """:func:`umbmark.model.simulate.run_program` for a batch of runs with per-run parameters
-    (``true_per_run`` / ``model_per_run``: dicts of ``left_m_per_pulse``, ``right_m_per_pulse``,
-    ``wheelbase_m``, scalars or arrays (R,); or :class:`OdometryParams`), without trajectories.
-    ``rngs``: one generator per run (needed with noise). ``threads``: run chunks of runs on
-    this many threads (the numba engine and the noise draws release the GIL; results do not
-    depend on it; ``None``: 1)."""
-    engine = _check_engine(engine)
-    program, noise, motion = program_inputs(program, noise, motion)
+def _batch_size(true_per_run, model_per_run, rngs, n_runs) -> int:
+    """R: ``n_runs``, else one run per generator, else the longest per-run array (at least 1)."""
     if n_runs is None:
         if rngs is not None:
             n_runs = len(rngs)
@@ -395,100 +328,164 @@ def run_batch(
     R = int(n_runs)
     if R < 1:
         raise InputError(f"number of runs must be >= 1, got {R}")
-    tp = true_per_run if isinstance(true_per_run, dict) else None
-    mp = model_per_run if isinstance(model_per_run, dict) else None
-    tb = true_per_run if isinstance(true_per_run, OdometryParams) else None
-    mb = model_per_run if isinstance(model_per_run, OdometryParams) else None
-    T = _params(tp, tb, R, "true")
-    M = _params(mp, mb, R, "model")
-    dt = motion.sample_period_s
-    if dt is None and noise.moves_robot:
-        raise InputError("a sampling period is needed when noise moves the robot (slip, bumps, quantisation)")
-    needs_rng = noise.moves_robot or noise.abs_xy_std_m > 0 or noise.abs_theta_std_rad > 0
-    if needs_rng and (rngs is None or len(rngs) != R):
-        raise InputError("one random generator per run is needed when there is noise")
+    return R
+
+
+def _robot(per_run: dict | OdometryParams | None, R: int, name: str):
+    if isinstance(per_run, OdometryParams):
+        return per_run_params(None, per_run, R, name)
+    return per_run_params(per_run if isinstance(per_run, dict) else None, None, R, name)
+
+
+def _numpy_chunk(program, noise, motion, rngs, T, M) -> np.ndarray:
+    """One chunk of runs with :func:`umbmark.model.simulate.run_program`: the (9, R) result rows."""
+    keys = dict(zip(PARAM_KEYS, T)), dict(zip(PARAM_KEYS, M))
+    res = run_program(
+        program, None, None, T[0].size, noise, motion, rngs=rngs, true_per_run=keys[0], model_per_run=keys[1]
+    )
+    return np.array(
+        [
+            res.true_x,
+            res.true_y,
+            res.true_theta,
+            res.odo_x,
+            res.odo_y,
+            res.odo_theta,
+            res.abs_x,
+            res.abs_y,
+            res.abs_theta,
+        ]
+    )
+
+
+def _numba_chunk(kernel, program, noise: NoiseModel, motion, rngs, T, M, work) -> np.ndarray:
+    """One chunk of runs with the compiled kernel: the (9, R) result rows."""
+    t_l, t_r, t_b = T
+    m_l, m_r, m_b = M
+    R = t_l.size
+    plan = plan_program(program, motion, noise, m_l, m_r, m_b)
+    if noise.needs_rng:
+        doff, slip, bu, bl, phase, absn = _draws(noise, rngs, plan.samples.sum(axis=1), work)
+    else:
+        doff = np.zeros(R, dtype=np.int64)
+        slip = bu = bl = np.zeros(1)
+        phase = np.zeros((2, R))
+        absn = np.zeros((3, R))
+    part = np.zeros((6, R))
+    kernel(
+        plan.kind,
+        plan.sign_left,
+        plan.sign_right,
+        plan.target,
+        plan.step,
+        plan.n_full,
+        plan.frac,
+        plan.samples,
+        t_l,
+        t_r,
+        t_b,
+        m_l,
+        m_r,
+        m_b,
+        bool(noise.quantise),
+        float(noise.slip_m_per_sqrt_m),
+        noise.has_slip,
+        float(noise.bump_rate_per_m),
+        float(noise.bump_loss_m),
+        noise.has_bumps,
+        slip,
+        bu,
+        bl,
+        doff,
+        phase,
+        part,
+    )
+    out = np.zeros((9, R))
+    out[:6] = part
+    out[6] = part[0] + noise.abs_xy_std_m * absn[0]
+    out[7] = part[1] + noise.abs_xy_std_m * absn[1]
+    out[8] = part[2] + noise.abs_theta_std_rad * absn[2]
+    return out
+
+
+def run_batch(
+    program: Iterable[Segment],
+    true_per_run: dict | OdometryParams,
+    model_per_run: dict | OdometryParams,
+    noise: NoiseModel | None = None,
+    motion: Motion | None = None,
+    rngs: Sequence[np.random.Generator] | None = None,
+    n_runs: int | None = None,
+    engine: str = "auto",
+    chunk_runs: int | None = None,
+    threads: int | None = 1,
+) -> SimResult:
+    """:func:`umbmark.model.simulate.run_program` for a batch of runs, without trajectories.
+
+    Parameters
+    ----------
+    program : iterable of Segment
+        The path program.
+    true_per_run, model_per_run : dict or OdometryParams
+        The physical robots and their odometry: dicts of :data:`~umbmark.model.simulate.PARAM_KEYS`
+        (scalars or arrays (R,)), or one :class:`OdometryParams` for all runs.
+    noise : NoiseModel, optional
+        Default: none.
+    motion : Motion, optional
+        Default: the paper's.
+    rngs : sequence of numpy.random.Generator, optional
+        One generator per run (needed with noise).
+    n_runs : int, optional
+        R (default: one per generator, else the longest per-run array).
+    engine : str
+        ``"auto"``, ``"numba"`` or ``"numpy"`` (see the module docstring).
+    chunk_runs : int, optional
+        Runs simulated at once (default: 64 with numba, 32 with numpy).
+    threads : int, optional
+        Run chunks of runs on this many threads (the numba engine and the noise draws release
+        the GIL; results do not depend on it; ``None``: 1).
+
+    Returns
+    -------
+    SimResult
+
+    Raises
+    ------
+    InputError
+        On an unknown engine, bad parameters (as :func:`~umbmark.model.simulate.run_program`),
+        ``chunk_runs < 1`` or ``threads < 1``.
+    """
+    engine = _check_engine(engine)
+    program, noise, motion = program_inputs(program, noise, motion)
+    R = _batch_size(true_per_run, model_per_run, rngs, n_runs)
+    T = _robot(true_per_run, R, "true")
+    M = _robot(model_per_run, R, "model")
+    check_noise_inputs(noise, motion, rngs, R)
     if chunk_runs is None:
         chunk_runs = 64 if engine == "numba" else 32
     if chunk_runs < 1:
         raise InputError(f"chunk_runs must be >= 1, got {chunk_runs}")
+    if threads is None:
+        threads = 1
+    if threads < 1:
+        raise InputError(f"threads must be >= 1, got {threads}")
     out = np.zeros((9, R))
     kernel = _get_kernel() if engine == "numba" else None
     local = threading.local()  # per-thread reusable buffers for the noise draws
 
     def chunk(a):
-        e = min(R, a + chunk_runs)
-        sl = slice(a, e)
-        g = rngs[a:e] if rngs is not None else None
-        if engine == "numpy":
-            keys = dict(zip(_PARAM_KEYS, (v[sl] for v in T))), dict(zip(_PARAM_KEYS, (v[sl] for v in M)))
-            res = run_program(
-                program, None, None, e - a, noise, motion, rngs=g, true_per_run=keys[0], model_per_run=keys[1]
-            )
-            out[:, sl] = [
-                res.true_x,
-                res.true_y,
-                res.true_theta,
-                res.odo_x,
-                res.odo_y,
-                res.odo_theta,
-                res.abs_x,
-                res.abs_y,
-                res.abs_theta,
-            ]
+        sl = slice(a, min(R, a + chunk_runs))
+        g = rngs[sl] if rngs is not None else None
+        Tc, Mc = tuple(v[sl] for v in T), tuple(v[sl] for v in M)
+        if kernel is None:
+            out[:, sl] = _numpy_chunk(program, noise, motion, g, Tc, Mc)
             return
-        t_l, t_r, t_b = (v[sl] for v in T)
-        m_l, m_r, m_b = (v[sl] for v in M)
-        kind, s_l, s_r, target, step, n_full, frac, kmax = _plan(program, motion, noise, m_l, m_r, m_b)
-        tot = kmax.sum(axis=1)
-        if needs_rng:
-            work = getattr(local, "work", None)
-            if work is None:
-                work = local.work = {}
-            doff, slip, bu, bl, phase, absn = _draws(noise, g, tot, work)
-        else:
-            doff = np.zeros(e - a, dtype=np.int64)
-            slip = bu = bl = np.zeros(1)
-            phase = np.zeros((2, e - a))
-            absn = np.zeros((3, e - a))
-        part = np.zeros((6, e - a))
-        kernel(
-            kind,
-            s_l,
-            s_r,
-            target,
-            step,
-            n_full,
-            frac,
-            kmax,
-            t_l,
-            t_r,
-            t_b,
-            m_l,
-            m_r,
-            m_b,
-            bool(noise.quantise),
-            float(noise.slip_m_per_sqrt_m),
-            bool(noise.slip_m_per_sqrt_m > 0),
-            float(noise.bump_rate_per_m),
-            float(noise.bump_loss_m),
-            bool(noise.bump_rate_per_m > 0 and noise.bump_loss_m > 0),
-            slip,
-            bu,
-            bl,
-            doff,
-            phase,
-            part,
-        )
-        out[:6, sl] = part
-        out[6, sl] = part[0] + noise.abs_xy_std_m * absn[0]
-        out[7, sl] = part[1] + noise.abs_xy_std_m * absn[1]
-        out[8, sl] = part[2] + noise.abs_theta_std_rad * absn[2]
+        work = getattr(local, "work", None)
+        if work is None:
+            work = local.work = {}
+        out[:, sl] = _numba_chunk(kernel, program, noise, motion, g, Tc, Mc, work)
 
     starts = range(0, R, chunk_runs)
-    if threads is None:
-        threads = 1
-    if threads < 1:
-        raise InputError(f"threads must be >= 1, got {threads}")
     if threads == 1 or len(starts) == 1:
         for a in starts:
             chunk(a)
@@ -508,58 +505,19 @@ def _robot_list(v, n, name):
     return list(v)
 
 
-def simulate_batch(
-    errors: Sequence[ErrorParams],
-    geometry: Geometry = LABMATE,
-    side_m: float = 4.0,
-    n_runs: int = 5,
-    calibrations: Calibration | Sequence[Calibration | None] | None = None,
-    noise: NoiseModel | str = "none",
-    motion: Motion | None = None,
-    seeds=0,
-    engine: str = "auto",
-    chunk_runs: int | None = None,
-    threads: int | None = 1,
-) -> list[RunsTable]:
-    """UMBmark (``n_runs`` cw + ``n_runs`` ccw runs) for a batch of robots, one
-    :class:`RunsTable` per robot, equal (to rounding) to
-    ``[simulate_umbmark(e, geometry, side_m, n_runs, cal, noise, motion, seed=s) ...]``.
-
-    ``errors``: one :class:`ErrorParams` per robot. ``calibrations``: one for all robots, or one
-    per robot (None: nominal). ``seeds``: one seed (int or SeedSequence) per robot, or a single
-    int/SeedSequence whose children (``spawn``) seed the robots in order. ``engine``,
-    ``chunk_runs``, ``threads``: see :func:`run_batch`.
-    """
-    errors = list(errors)
-    n = len(errors)
-    if n == 0:
-        raise InputError("simulate_batch needs at least one robot")
-    if n_runs < 1:
-        raise InputError(f"number of runs must be >= 1, got {n_runs}")
-    if isinstance(noise, str):
-        noise = noise_preset(noise)
-    cals = _robot_list(calibrations, n, "calibrations")
+def _robot_seeds(seeds, n: int) -> list:
+    """One seed per robot: the list given, or the first ``n`` children of one seed."""
     if isinstance(seeds, (int, np.integer, np.random.SeedSequence)):
         root = seeds if isinstance(seeds, np.random.SeedSequence) else np.random.SeedSequence(int(seeds))
         seeds = child_seeds(root, n)
     seeds = list(seeds)
     if len(seeds) != n:
         raise InputError(f"seeds: expected {n} entries (one per robot), got {len(seeds)}")
-    true = [e.true_params(geometry) for e in errors]
-    model = [OdometryParams.from_geometry(geometry, c) for c in cals]
-    T = {k: np.repeat([getattr(p, k) for p in true], n_runs) for k in _PARAM_KEYS}
-    M = {k: np.repeat([getattr(p, k) for p in model], n_runs) for k in _PARAM_KEYS}
-    per_dir = {"cw": [], "ccw": []}
-    for s in seeds:
-        cw_ss, ccw_ss = child_seeds(s, 2)
-        per_dir["cw"].extend(run_seeds(cw_ss, n_runs))
-        per_dir["ccw"].extend(run_seeds(ccw_ss, n_runs))
-    res = {
-        d: run_batch(
-            square_program(d, side_m), T, M, noise, motion, per_dir[d], n * n_runs, engine, chunk_runs, threads
-        )
-        for d in ("cw", "ccw")
-    }
+    return seeds
+
+
+def _tables(res: dict[str, SimResult], n: int, n_runs: int) -> list[RunsTable]:
+    """Robot i's runs: rows i * n_runs .. (i + 1) * n_runs of the cw and the ccw batch."""
     direction = np.array(["cw"] * n_runs + ["ccw"] * n_runs)
     run = np.concatenate([np.arange(1, n_runs + 1)] * 2)
     tables = []
@@ -582,3 +540,80 @@ def simulate_batch(
             )
         )
     return tables
+
+
+def simulate_batch(
+    errors: Sequence[ErrorParams],
+    geometry: Geometry = LABMATE,
+    side_m: float = 4.0,
+    n_runs: int = 5,
+    calibrations: Calibration | Sequence[Calibration | None] | None = None,
+    noise: NoiseModel | str = "none",
+    motion: Motion | None = None,
+    seeds: int | np.random.SeedSequence | Sequence[int | np.random.SeedSequence] = 0,
+    engine: str = "auto",
+    chunk_runs: int | None = None,
+    threads: int | None = 1,
+) -> list[RunsTable]:
+    """UMBmark (``n_runs`` cw + ``n_runs`` ccw runs) for a batch of robots.
+
+    Equal (to rounding) to ``[simulate_umbmark(e, geometry, side_m, n_runs, cal, noise, motion,
+    seed=s) ...]``.
+
+    Parameters
+    ----------
+    errors : sequence of ErrorParams
+        One per robot.
+    geometry : Geometry
+        The nominal geometry of all robots.
+    side_m : float
+        Side of the square [m].
+    n_runs : int
+        Runs per direction.
+    calibrations : Calibration or sequence of Calibration or None
+        One for all robots, or one per robot (None: nominal).
+    noise : NoiseModel or str
+        A noise model or the name of a preset.
+    motion : Motion, optional
+        Default: the paper's.
+    seeds : int, SeedSequence or sequence of them
+        One seed per robot, or a single seed whose children seed the robots in order.
+    engine, chunk_runs, threads
+        See :func:`run_batch`.
+
+    Returns
+    -------
+    list of RunsTable
+        One per robot, SI units.
+
+    Raises
+    ------
+    InputError
+        Without robots, on ``n_runs < 1`` or lists of the wrong length.
+    """
+    errors = list(errors)
+    n = len(errors)
+    if n == 0:
+        raise InputError("simulate_batch needs at least one robot")
+    if n_runs < 1:
+        raise InputError(f"number of runs must be >= 1, got {n_runs}")
+    if isinstance(noise, str):
+        noise = noise_preset(noise)
+    cals = _robot_list(calibrations, n, "calibrations")
+    robot_seeds = _robot_seeds(seeds, n)
+    true = [e.true_params(geometry) for e in errors]
+    model = [OdometryParams.from_geometry(geometry, c) for c in cals]
+    T = {k: np.repeat([getattr(p, k) for p in true], n_runs) for k in PARAM_KEYS}
+    M = {k: np.repeat([getattr(p, k) for p in model], n_runs) for k in PARAM_KEYS}
+    per_dir: dict[str, list[np.random.Generator]] = {"cw": [], "ccw": []}
+    for s in robot_seeds:
+        cw_ss, ccw_ss = child_seeds(s, 2)
+        per_dir["cw"].extend(run_seeds(cw_ss, n_runs))
+        per_dir["ccw"].extend(run_seeds(ccw_ss, n_runs))
+    res = {
+        d: run_batch(
+            square_program(d, side_m), T, M, noise, motion, per_dir[d], n * n_runs, engine, chunk_runs, threads
+        )
+        for d in ("cw", "ccw")
+    }
+    return _tables(res, n, n_runs)

@@ -1,15 +1,20 @@
 """Plain per-sample Python loops: the test oracle and the baseline of the speed benchmark.
 
 Nothing here is vectorised on purpose. :func:`integrate` / :func:`integrate_pulses` replay
-odometry one sample at a time with ``math.cos`` / ``math.sin``; :func:`run_program` drives the
-closed-loop simulation of :func:`umbmark.model.simulate.run_program` one run and one sample at a
-time, drawing the same random numbers from the same per-run generators (the draw layout is
-part of the simulator's definition), so that both give the same results to rounding.
+odometry one sample at a time with ``math.cos`` / ``math.sin`` (the oracle of
+:mod:`umbmark.model.odometry`); :func:`run_program` drives the closed-loop simulation of
+:func:`umbmark.model.simulate.run_program` one run and one sample at a time. It plans the
+program with the simulators' own :func:`~umbmark.model.simulate.plan_program` and draws the
+same random numbers from the same per-run generators (the draw layout is part of the
+simulator's definition), so that both give the same results to rounding.
+
+Imports only numpy and :mod:`umbmark.model`.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
 
 import numpy as np
 
@@ -19,9 +24,14 @@ from umbmark.model.runs import RunsTable
 from umbmark.model.simulate import (
     Motion,
     NoiseModel,
+    Segment,
+    SegmentPlan,
     SimResult,
+    check_noise_inputs,
     child_seeds,
     noise_preset,
+    per_run_params,
+    plan_program,
     program_inputs,
     run_seeds,
     runs_table,
@@ -31,7 +41,8 @@ from umbmark.model.simulate import (
 __all__ = ["integrate", "integrate_pulses", "run_program", "simulate_umbmark"]
 
 
-def _step(x, y, th, dl, dr, b, method):
+def _step(x: float, y: float, th: float, dl: float, dr: float, b: float, method: str) -> tuple[float, float, float]:
+    """One sample of odometry: the pose after wheel travel ``dl``, ``dr``."""
     du = 0.5 * (dl + dr)
     dth = (dr - dl) / b
     if method == "euler":
@@ -46,8 +57,36 @@ def _step(x, y, th, dl, dr, b, method):
     return x + chord * math.cos(ref), y + chord * math.sin(ref), th + dth
 
 
-def integrate(d_left, d_right, wheelbase_m: float, pose0=(0.0, 0.0, 0.0), method: str = "exact"):
-    """One log (1-D sequences of wheel travel [m]): poses after each sample, one at a time."""
+def integrate(
+    d_left: Sequence[float] | np.ndarray,
+    d_right: Sequence[float] | np.ndarray,
+    wheelbase_m: float,
+    pose0: Iterable[float] = (0.0, 0.0, 0.0),
+    method: str = "exact",
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The poses of one log, one sample at a time: the oracle of :func:`umbmark.model.odometry.integrate`.
+
+    Parameters
+    ----------
+    d_left, d_right : sequence of float
+        Wheel travel [m] per sample (one log).
+    wheelbase_m : float
+        Wheelbase [m].
+    pose0 : tuple of float
+        Start pose ``(x, y, theta)``.
+    method : str
+        ``"exact"``, ``"midpoint"`` or ``"euler"``.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(x, y, theta)`` after each sample.
+
+    Raises
+    ------
+    InputError
+        On sequences of different lengths or an unknown method.
+    """
     x, y, th = (float(v) for v in pose0)
     b = float(wheelbase_m)
     n = len(d_left)
@@ -64,140 +103,163 @@ def integrate(d_left, d_right, wheelbase_m: float, pose0=(0.0, 0.0, 0.0), method
     return xs, ys, ts
 
 
-def integrate_pulses(n_left, n_right, params: OdometryParams, pose0=(0.0, 0.0, 0.0), method: str = "exact"):
-    """One log of encoder increments: poses after each sample, one at a time (Eqs. 2.2, 2.3)."""
+def integrate_pulses(
+    n_left: Sequence[float] | np.ndarray,
+    n_right: Sequence[float] | np.ndarray,
+    params: OdometryParams,
+    pose0: Iterable[float] = (0.0, 0.0, 0.0),
+    method: str = "exact",
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The poses of one log of encoder increments, one sample at a time (Eqs. 2.2, 2.3).
+
+    The oracle of :func:`umbmark.model.odometry.integrate_pulses`; parameters as there, for
+    1-D sequences.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(x, y, theta)`` after each sample.
+    """
     ml, mr = params.left_m_per_pulse, params.right_m_per_pulse
     return integrate(
         [ml * float(v) for v in n_left], [mr * float(v) for v in n_right], params.wheelbase_m, pose0, method
     )
 
 
-def _plan(program, motion, noise, m_l, m_r, m_b):
-    """Per segment: (kind, sign_l, sign_r, target, step, n_full, frac, kmax) for one run, as
-    :func:`umbmark.model.simulate.run_program` plans it."""
-    dt = motion.sample_period_s
-    out = []
-    for seg in program:
-        if seg.kind == "straight":
-            step = motion.speed_m_s * dt if dt is not None else None
-            s_l, s_r, target, gain = 1.0, 1.0, seg.amount, 1.0
+def _segments(plan: SegmentPlan, r: int) -> list[tuple]:
+    """Run r's plan as Python numbers, one tuple per segment:
+    ``(kind, sign_l, sign_r, target, step, n_full, frac, samples)``."""
+    return [
+        (
+            "straight" if plan.kind[j] == 0 else "turn",
+            float(plan.sign_left[j]),
+            float(plan.sign_right[j]),
+            float(plan.target[j]),
+            float(plan.step[r, j]),
+            int(plan.n_full[r, j]),
+            float(plan.frac[r, j]),
+            int(plan.samples[r, j]),
+        )
+        for j in range(len(plan.kind))
+    ]
+
+
+def _run_draws(noise: NoiseModel, g, tot: int):
+    """One run's random numbers, drawn in the simulator's order: slip, bump uniforms, bump
+    losses (each (2, tot) lists), encoder phase, measurement noise."""
+    slip = g.standard_normal((2, tot)).tolist() if noise.has_slip else None
+    bu = g.random((2, tot)).tolist() if noise.has_bumps else None
+    bl = g.random((2, tot)).tolist() if noise.has_bumps else None
+    phase = tuple(g.random(2).tolist()) if noise.quantise else (0.0, 0.0)
+    absn = tuple(g.standard_normal(3).tolist())
+    return slip, bu, bl, phase, absn
+
+
+_NO_DRAWS: tuple = (None, None, None, (0.0, 0.0), (0.0, 0.0, 0.0))
+
+
+def _one_run(segments, noise: NoiseModel, true: tuple, model: tuple, draws) -> tuple:
+    """Drive one run sample by sample: ``(true_x, true_y, true_theta, odo_x, odo_y, odo_theta)``."""
+    t_l, t_r, t_b = true
+    m_l, m_r, m_b = model
+    slip, bu, bl, phase, _ = draws
+    tx = ty = tth = ox = oy = oth = 0.0
+    cont_l, cont_r = phase
+    pos = 0
+    for kind, s_l, s_r, target, step, n_full, frac, kmax in segments:
+        p_l = s_l * step / m_l  # commanded pulses per sample
+        p_r = s_r * step / m_r
+        q_prev_l = q_prev_r = 0.0
+        base_l, base_r = math.floor(cont_l), math.floor(cont_r)
+        for i in range(kmax):
+            if not noise.quantise:
+                mult = 1.0 if i < n_full else (frac if i == n_full else 0.0)
+                if mult == 0.0:
+                    break
+                rot_l, rot_r = p_l * mult, p_r * mult
+                o_l, o_r = rot_l * m_l, rot_r * m_r
+                done = False
+            else:
+                q_l = math.floor(cont_l + p_l * (i + 1)) - base_l
+                q_r = math.floor(cont_r + p_r * (i + 1)) - base_r
+                if kind == "straight":
+                    prog = 0.5 * (q_l * m_l + q_r * m_r)
+                else:
+                    prog = abs(q_r * m_r - q_l * m_l) / m_b
+                rot_l, rot_r = p_l, p_r
+                o_l, o_r = (q_l - q_prev_l) * m_l, (q_r - q_prev_r) * m_r
+                q_prev_l, q_prev_r = q_l, q_r
+                done = prog >= target - 1e-12
+            # true ground travel: commanded rotation times true metres per pulse, plus slip and bumps
+            gw = [rot_l * t_l, rot_r * t_r]
+            for w in (0, 1):
+                gv = gw[w]
+                travel = abs(gv)
+                err = 0.0
+                if slip is not None:
+                    err += noise.slip_m_per_sqrt_m * math.sqrt(travel) * slip[w][pos + i]
+                if bu is not None:
+                    hit = bu[w][pos + i] < noise.bump_rate_per_m * travel
+                    sign = (gv > 0) - (gv < 0)
+                    err -= sign * min(hit * noise.bump_loss_m * bl[w][pos + i], travel)
+                gw[w] = gv + err
+            tx, ty, tth = _step(tx, ty, tth, gw[0], gw[1], t_b, "exact")
+            ox, oy, oth = _step(ox, oy, oth, o_l, o_r, m_b, "exact")
+            if done:
+                cont_l += p_l * (i + 1)
+                cont_r += p_r * (i + 1)
+                break
         else:
-            step = motion.turn_wheel_speed_m_s * dt if dt is not None else None
-            s = 1.0 if seg.amount > 0 else -1.0
-            s_l, s_r, target, gain = -s, s, abs(seg.amount), 2.0 / m_b
-        need = target / gain
-        if step is None:
-            out.append((seg.kind, s_l, s_r, target, need, 0, 1.0, 1))
-            continue
-        ratio = need / step
-        n_full = int(math.floor(ratio + 1e-12))
-        frac = max(ratio - n_full, 0.0)
-        if frac < 1e-9:
-            frac = 0.0
-        margin = int(math.ceil(max(m_l, m_r) / step)) + 2 if noise.quantise else 0
-        out.append((seg.kind, s_l, s_r, target, step, n_full, frac, n_full + (frac > 0) + margin))
-    return out
+            if noise.quantise:  # pragma: no cover - the margin makes this unreachable
+                raise RuntimeError("internal: quantised segment did not reach its target")
+        pos += kmax
+    return tx, ty, tth, ox, oy, oth
 
 
 def run_program(
-    program,
-    true: OdometryParams,
-    model: OdometryParams,
+    program: Iterable[Segment],
+    true: OdometryParams | None,
+    model: OdometryParams | None,
     n_runs: int | None = None,
     noise: NoiseModel | None = None,
     motion: Motion | None = None,
-    rngs=None,
+    rngs: Sequence[np.random.Generator] | None = None,
     true_per_run: dict | None = None,
     model_per_run: dict | None = None,
 ) -> SimResult:
-    """The closed-loop simulation of :func:`umbmark.model.simulate.run_program`, one run and one
-    sample at a time (same arguments, same random draws, same results to rounding)."""
+    """The closed-loop simulation of :func:`umbmark.model.simulate.run_program`, one run and one sample at a time.
+
+    Same arguments (without ``trajectory``), same plan (:func:`~umbmark.model.simulate.plan_program`),
+    same random draws, same results to rounding.
+
+    Returns
+    -------
+    SimResult
+
+    Raises
+    ------
+    InputError
+        As :func:`umbmark.model.simulate.run_program`.
+    """
     program, noise, motion = program_inputs(program, noise, motion)
     if n_runs is None:
         n_runs = len(rngs) if rngs is not None else 1
     R = n_runs
-    tp, mp = true_per_run or {}, model_per_run or {}
-
-    def col(d, key, base):
-        return np.broadcast_to(np.asarray(d.get(key, getattr(base, key) if base else None), dtype=float), (R,))
-
-    T = [col(tp, k, true) for k in ("left_m_per_pulse", "right_m_per_pulse", "wheelbase_m")]
-    M = [col(mp, k, model) for k in ("left_m_per_pulse", "right_m_per_pulse", "wheelbase_m")]
-    if motion.sample_period_s is None and noise.moves_robot:
-        raise InputError("a sampling period is needed when noise moves the robot (slip, bumps, quantisation)")
-    needs_rng = noise.moves_robot or noise.abs_xy_std_m > 0 or noise.abs_theta_std_rad > 0
-    if needs_rng and (rngs is None or len(rngs) != R):
-        raise InputError("one random generator per run is needed when there is noise")
-    has_slip = noise.slip_m_per_sqrt_m > 0
-    has_bump = noise.bump_rate_per_m > 0 and noise.bump_loss_m > 0
+    T = per_run_params(true_per_run, true, R, "true")
+    M = per_run_params(model_per_run, model, R, "model")
+    check_noise_inputs(noise, motion, rngs, R)
+    plan = plan_program(program, motion, noise, *M)
     out = np.zeros((9, R))
     for r in range(R):
-        t_l, t_r, t_b = (float(a[r]) for a in T)
-        m_l, m_r, m_b = (float(a[r]) for a in M)
-        plan = _plan(program, motion, noise, m_l, m_r, m_b)
-        tot = sum(p[-1] for p in plan)
-        slip = bu = bl = None
-        phase = (0.0, 0.0)
-        absn = (0.0, 0.0, 0.0)
-        if needs_rng:
-            g = rngs[r]
-            if has_slip:
-                slip = g.standard_normal((2, tot)).tolist()
-            if has_bump:
-                bu = g.random((2, tot)).tolist()
-                bl = g.random((2, tot)).tolist()
-            if noise.quantise:
-                phase = tuple(g.random(2).tolist())
-            absn = tuple(g.standard_normal(3).tolist())
-        tx = ty = tth = ox = oy = oth = 0.0
-        cont_l, cont_r = phase
-        pos = 0
-        for kind, s_l, s_r, target, step, n_full, frac, kmax in plan:
-            p_l = s_l * step / m_l  # commanded pulses per sample
-            p_r = s_r * step / m_r
-            q_prev_l = q_prev_r = 0.0
-            base_l, base_r = math.floor(cont_l), math.floor(cont_r)
-            for i in range(kmax):
-                if not noise.quantise:
-                    mult = 1.0 if i < n_full else (frac if i == n_full else 0.0)
-                    if mult == 0.0:
-                        break
-                    rot_l, rot_r = p_l * mult, p_r * mult
-                    o_l, o_r = rot_l * m_l, rot_r * m_r
-                    done = False
-                else:
-                    q_l = math.floor(cont_l + p_l * (i + 1)) - base_l
-                    q_r = math.floor(cont_r + p_r * (i + 1)) - base_r
-                    if kind == "straight":
-                        prog = 0.5 * (q_l * m_l + q_r * m_r)
-                    else:
-                        prog = abs(q_r * m_r - q_l * m_l) / m_b
-                    rot_l, rot_r = p_l, p_r
-                    o_l, o_r = (q_l - q_prev_l) * m_l, (q_r - q_prev_r) * m_r
-                    q_prev_l, q_prev_r = q_l, q_r
-                    done = prog >= target - 1e-12
-                gw = [rot_l * t_l, rot_r * t_r]
-                for w in (0, 1):
-                    gv = gw[w]
-                    travel = abs(gv)
-                    err = 0.0
-                    if has_slip:
-                        err += noise.slip_m_per_sqrt_m * math.sqrt(travel) * slip[w][pos + i]
-                    if has_bump:
-                        hit = bu[w][pos + i] < noise.bump_rate_per_m * travel
-                        sign = (gv > 0) - (gv < 0)
-                        err -= sign * min(hit * noise.bump_loss_m * bl[w][pos + i], travel)
-                    gw[w] = gv + err
-                tx, ty, tth = _step(tx, ty, tth, gw[0], gw[1], t_b, "exact")
-                ox, oy, oth = _step(ox, oy, oth, o_l, o_r, m_b, "exact")
-                if done:
-                    cont_l += p_l * (i + 1)
-                    cont_r += p_r * (i + 1)
-                    break
-            else:
-                if noise.quantise:  # pragma: no cover - the margin makes this unreachable
-                    raise RuntimeError("internal: quantised segment did not reach its target")
-            pos += kmax
+        segments = _segments(plan, r)
+        tot = sum(s[-1] for s in segments)
+        draws = _NO_DRAWS
+        if noise.needs_rng and rngs is not None:
+            draws = _run_draws(noise, rngs[r], tot)
+        true_r = tuple(float(a[r]) for a in T)
+        model_r = tuple(float(a[r]) for a in M)
+        tx, ty, tth, ox, oy, oth = _one_run(segments, noise, true_r, model_r, draws)
+        absn = draws[4]
         out[:, r] = (
             tx,
             ty,
@@ -220,9 +282,16 @@ def simulate_umbmark(
     calibration: Calibration | None = None,
     noise: NoiseModel | str = "none",
     motion: Motion | None = None,
-    seed=0,
+    seed: int | np.random.SeedSequence = 0,
 ) -> RunsTable:
-    """:func:`umbmark.model.simulate.simulate_umbmark` with the per-sample reference loop (same seeds)."""
+    """:func:`umbmark.model.simulate.simulate_umbmark` with the per-sample reference loop.
+
+    Same parameters, same seeds, same runs to rounding.
+
+    Returns
+    -------
+    RunsTable
+    """
     if isinstance(noise, str):
         noise = noise_preset(noise)
     ss = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
