@@ -13,6 +13,8 @@ Definitions used throughout (the paper leaves sigma open):
 * 3 x SEM rule: a second compensation pass is recommended when
   ``E_max,syst >= 3 * SEM`` of the direction that sets E_max,syst; below that the remaining
   centre of gravity cannot be told apart from the non-systematic spread.
+
+Pure numpy: this module imports only numpy and :mod:`umbmark.model`.
 """
 
 from __future__ import annotations
@@ -21,6 +23,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from umbmark.errors import InputError
 from umbmark.model.runs import DIRECTIONS, RunsTable
@@ -30,7 +33,25 @@ __all__ = ["DirectionStats", "UMBmarkResult", "direction_stats", "umbmark"]
 
 @dataclass(frozen=True)
 class DirectionStats:
-    """Statistics of the runs of one direction (metres)."""
+    """Statistics of the return errors of the runs of one direction (metres).
+
+    Parameters
+    ----------
+    direction : str
+        ``"cw"`` or ``"ccw"``.
+    n : int
+        Number of runs.
+    x_cg, y_cg : float
+        Centre of gravity (Eq. 3.2).
+    r_cg : float
+        Its distance from the origin (Eq. 3.3).
+    std : float or None
+        Radial sample standard deviation about the centre of gravity (None when n < 2).
+    std_x, std_y : float or None
+        Sample standard deviations of x and y (None when n < 2).
+    sem : float or None
+        ``std / sqrt(n)`` (None when n < 2).
+    """
 
     direction: str
     n: int
@@ -43,6 +64,8 @@ class DirectionStats:
     sem: float | None
 
     def to_dict(self) -> dict:
+        """The statistics in millimetres: ``n``, ``x_cg_mm``, ``y_cg_mm``, ``r_cg_mm``,
+        ``std_mm``, ``sem_mm``, ``std_x_mm``, ``std_y_mm``."""
         mm = lambda v: None if v is None else v * 1e3  # noqa: E731
         return {
             "n": self.n,
@@ -56,25 +79,51 @@ class DirectionStats:
         }
 
 
-def direction_stats(direction: str, eps_x, eps_y) -> DirectionStats:
+def direction_stats(direction: str, eps_x: ArrayLike, eps_y: ArrayLike) -> DirectionStats:
+    """The statistics of one direction's return errors.
+
+    Parameters
+    ----------
+    direction : str
+        ``"cw"`` or ``"ccw"``.
+    eps_x, eps_y : array_like
+        Return position errors of the runs (Eq. 3.1) [m].
+
+    Returns
+    -------
+    DirectionStats
+
+    Raises
+    ------
+    InputError
+        Without runs.
+    """
     ex = np.asarray(eps_x, dtype=float)
     ey = np.asarray(eps_y, dtype=float)
     n = ex.size
     if n == 0:
         raise InputError(f"no {direction} runs: the bi-directional test needs runs in both directions")
     x_cg, y_cg = float(ex.mean()), float(ey.mean())
-    if n >= 2:
-        sx = float(np.std(ex, ddof=1))
-        sy = float(np.std(ey, ddof=1))
-        s = math.hypot(sx, sy)
-        sem = s / math.sqrt(n)
-    else:
-        sx = sy = s = sem = None
-    return DirectionStats(direction, n, x_cg, y_cg, math.hypot(x_cg, y_cg), s, sx, sy, sem)
+    if n < 2:
+        return DirectionStats(direction, n, x_cg, y_cg, math.hypot(x_cg, y_cg), None, None, None, None)
+    sx = float(np.std(ex, ddof=1))
+    sy = float(np.std(ey, ddof=1))
+    s = math.hypot(sx, sy)
+    return DirectionStats(direction, n, x_cg, y_cg, math.hypot(x_cg, y_cg), s, sx, sy, s / math.sqrt(n))
 
 
 @dataclass(frozen=True)
 class UMBmarkResult:
+    """The UMBmark figures of a bi-directional test.
+
+    Parameters
+    ----------
+    cw, ccw : DirectionStats
+        The statistics of each direction.
+    warnings : tuple of str
+        What limits the figures (e.g. a single run in a direction).
+    """
+
     cw: DirectionStats
     ccw: DirectionStats
     warnings: tuple[str, ...] = field(default=())
@@ -86,6 +135,7 @@ class UMBmarkResult:
 
     @property
     def worst(self) -> DirectionStats:
+        """The direction that sets E_max,syst (cw on a tie)."""
         return self.cw if self.cw.r_cg >= self.ccw.r_cg else self.ccw
 
     @property
@@ -101,6 +151,8 @@ class UMBmarkResult:
         return True if rule is None else self.emax_syst >= rule
 
     def to_dict(self) -> dict:
+        """The figures in millimetres: ``emax_syst_mm``, ``cw``, ``ccw``, ``three_sem_mm``,
+        ``second_pass_recommended``."""
         rule = self.sem_rule
         return {
             "emax_syst_mm": self.emax_syst * 1e3,
@@ -112,7 +164,22 @@ class UMBmarkResult:
 
 
 def umbmark(runs: RunsTable) -> UMBmarkResult:
-    """UMBmark metrics of a bi-directional square test."""
+    """UMBmark metrics of a bi-directional square test.
+
+    Parameters
+    ----------
+    runs : RunsTable
+        The runs, both directions.
+
+    Returns
+    -------
+    UMBmarkResult
+
+    Raises
+    ------
+    InputError
+        Without runs in a direction.
+    """
     stats = {}
     for d in DIRECTIONS:
         rows = runs.direction_rows(d)
