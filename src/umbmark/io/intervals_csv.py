@@ -1,0 +1,209 @@
+"""The intervals file of a lidar self-calibration: CSV with a header, SI units.
+
+Columns, in any order: ``dt_s`` (duration of the interval [s]), ``left_rad``, ``right_rad``
+(rotation of each wheel over the interval [rad], positive rolling forward), ``sensor_dx_m``,
+``sensor_dy_m``, ``sensor_dyaw_rad`` (the sensor's displacement over the interval in its own
+frame at the start of it, e.g. from matching consecutive scans). One row per interval; extra
+columns are ignored; blank lines and lines starting with ``#`` are skipped; a UTF-8 byte-order
+mark is dropped. See :mod:`umbmark.model.intervals` for the meaning.
+
+Errors name the file and line (``file:line: problem``). Values that parse but look wrong
+(zero durations, more than half a turn of the sensor in one interval, wheel rotations or
+displacements that suggest other units) do not stop the reading: they come back in
+:attr:`~umbmark.model.intervals.Intervals.warnings`.
+
+Imports :mod:`umbmark.model.intervals`, :mod:`umbmark.errors` and the helpers of
+:mod:`umbmark.io`.
+"""
+
+from __future__ import annotations
+
+import csv
+import io
+import math
+
+import numpy as np
+
+from umbmark.errors import InputError
+from umbmark.io._text import csv_rows, header_columns, read_text
+from umbmark.io.atomic import atomic_write
+from umbmark.model.intervals import Intervals
+
+__all__ = ["COLUMNS", "read_intervals_csv", "parse_intervals_csv", "format_intervals_csv", "write_intervals_csv"]
+
+COLUMNS = ("dt_s", "left_rad", "right_rad", "sensor_dx_m", "sensor_dy_m", "sensor_dyaw_rad")
+
+# beyond these a value is read but looks like other units (warned about, not refused)
+_WHEEL_RAD_PER_INTERVAL = 100.0  # 16 wheel turns between two scans: encoder ticks?
+_SENSOR_M_PER_INTERVAL = 5.0  # 5 m between two scans: millimetres?
+
+
+def read_intervals_csv(path) -> Intervals:
+    """Read an intervals file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+
+    Returns
+    -------
+    Intervals
+        With ``source`` the file name and the reader's ``warnings``.
+
+    Raises
+    ------
+    InputError
+        A missing or unreadable file, or bad content (file and line named).
+    """
+    return parse_intervals_csv(read_text(path), source=str(path))
+
+
+def _number(cell: str, col: str, source: str, line: int) -> float:
+    s = cell.strip()
+    try:
+        v = float(s)
+    except ValueError:
+        raise InputError(
+            f"column {col}: {s!r} is not a number" if s else f"column {col} is empty", source, line
+        ) from None
+    if not math.isfinite(v):
+        raise InputError(f"column {col}: {s!r} is not a finite number", source, line)
+    return v
+
+
+def parse_intervals_csv(text: str, source: str = "<intervals>") -> Intervals:
+    """Parse the text of an intervals file (see the module docstring).
+
+    Parameters
+    ----------
+    text : str
+        The file's content.
+    source : str
+        Its name, for error messages.
+
+    Returns
+    -------
+    Intervals
+        The intervals, ``source`` and the warnings about suspicious values.
+
+    Raises
+    ------
+    InputError
+        No header with the six columns, a column twice, a row with too few fields, a cell that
+        is not a finite number, a negative duration, no rows (file and line named).
+    """
+    header: list[str] | None = None
+    header_line = 0
+    col: dict[str, int] = {}
+    values: list[list[float]] = []
+    lines: list[int] = []
+    for line, row in csv_rows(text, source):
+        if header is None:
+            header = header_columns(row)
+            header_line = line
+            missing = [c for c in COLUMNS if c not in header]
+            if missing:
+                raise InputError(
+                    "no header with the intervals-file columns: missing "
+                    + ", ".join(missing)
+                    + " (expected "
+                    + ",".join(COLUMNS)
+                    + ")",
+                    source,
+                    line,
+                )
+            dup = [c for c in COLUMNS if header.count(c) > 1]
+            if dup:
+                raise InputError(f"column {dup[0]} appears twice in the header", source, line)
+            col = {c: header.index(c) for c in COLUMNS}
+            continue
+        need = max(col.values()) + 1
+        if len(row) < need:
+            raise InputError(f"has {len(row)} fields, the header has {len(header)}", source, line)
+        vals = [_number(row[col[c]], c, source, line) for c in COLUMNS]
+        if vals[0] < 0:
+            raise InputError(f"column dt_s: {row[col['dt_s']].strip()} s is negative", source, line)
+        values.append(vals)
+        lines.append(line)
+    if header is None:
+        raise InputError("empty file: no header and no intervals", source)
+    if not values:
+        raise InputError("no intervals after the header", source, header_line)
+    a = np.asarray(values, dtype=float)
+    warnings = _warnings(a, np.asarray(lines), source)
+    return Intervals(a[:, 0], a[:, 1], a[:, 2], a[:, 3:6], source, tuple(warnings))
+
+
+def _where(mask: np.ndarray, lines: np.ndarray, source: str) -> str:
+    idx = np.flatnonzero(mask)
+    first = ", ".join(str(int(n)) for n in lines[idx[:3]])
+    more = f" and {idx.size - 3} more" if idx.size > 3 else ""
+    return f"{source}: {idx.size} interval{'s' if idx.size != 1 else ''} (line {first}{more})"
+
+
+def _warnings(a: np.ndarray, lines: np.ndarray, source: str) -> list[str]:
+    out = []
+    zero = a[:, 0] == 0
+    if zero.any():
+        out.append(_where(zero, lines, source) + " of zero duration (`dt_s` = 0)")
+    half = np.abs(a[:, 5]) > math.pi
+    if half.any():
+        out.append(
+            _where(half, lines, source) + " where the sensor turns more than half a turn "
+            "(|sensor_dyaw_rad| > pi): degrees instead of radians, or intervals too long for scan matching"
+        )
+    wheel = np.maximum(np.abs(a[:, 1]), np.abs(a[:, 2])) > _WHEEL_RAD_PER_INTERVAL
+    if wheel.any():
+        out.append(
+            _where(wheel, lines, source) + f" where a wheel turns more than {_WHEEL_RAD_PER_INTERVAL:g} rad: "
+            "encoder ticks or degrees instead of radians?"
+        )
+    far = np.hypot(a[:, 3], a[:, 4]) > _SENSOR_M_PER_INTERVAL
+    if far.any():
+        out.append(
+            _where(far, lines, source) + f" where the sensor moves more than {_SENSOR_M_PER_INTERVAL:g} m: "
+            "millimetres instead of metres?"
+        )
+    return out
+
+
+def format_intervals_csv(iv: Intervals) -> str:
+    """The text of an intervals file (full double precision: it reads back exactly).
+
+    Parameters
+    ----------
+    iv : Intervals
+        The intervals.
+
+    Returns
+    -------
+    str
+        The header ``dt_s,left_rad,right_rad,sensor_dx_m,sensor_dy_m,sensor_dyaw_rad`` and
+        one line per interval.
+    """
+    out = io.StringIO()
+    w = csv.writer(out, lineterminator="\n")
+    w.writerow(COLUMNS)
+    cols = np.column_stack([iv.dt_s, iv.left_rad, iv.right_rad, iv.sensor])
+    for row in cols:
+        w.writerow([repr(float(v)) for v in row])
+    return out.getvalue()
+
+
+def write_intervals_csv(iv: Intervals, path) -> None:
+    """Write an intervals file, atomically (whole or not at all).
+
+    Parameters
+    ----------
+    iv : Intervals
+        The intervals.
+    path : str or Path
+        The file.
+
+    Raises
+    ------
+    InputError
+        A path that cannot be written (no such folder, a folder).
+    """
+    atomic_write(path, format_intervals_csv(iv))
