@@ -228,7 +228,9 @@ def test_bag_errors(tmp_path, sim):
 def test_cli_bag_info_and_replay(tmp_path, sim, capsys):
     bag = write_ros2(tmp_path / "b", "mcap", *sim, "pose")
     info = bag_info(bag)
-    assert {t["topic"] for t in info["topics"]} == {"/joint_states", "/mocap/pose"}
+    assert {t.topic for t in info.topics} == {"/joint_states", "/mocap/pose"}
+    joints = {"topic": "/joint_states", "type": "sensor_msgs/msg/JointState", "messages": len(sim[0])}
+    assert info.to_dict()["topics"][0] == joints
     assert main(["bag-info", str(bag)]) == 0
     assert "/mocap/pose" in capsys.readouterr().out
     args = [

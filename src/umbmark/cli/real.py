@@ -464,13 +464,13 @@ def bag_info_cmd(bag, as_json):
 
     info = bag_info(bag)
     if as_json:
-        emit_json(info)
+        emit_json(info.to_dict())
     elif not is_quiet():
         console().print(
             table(
-                f"{bag}: {info['messages']} messages, {info['duration_s']:.1f} s",
+                f"{bag}: {info.messages} messages, {info.duration_s:.1f} s",
                 ["topic", "type", "messages"],
-                [[t["topic"], t["type"], t["messages"]] for t in info["topics"]],
+                [[t.topic, t.type, t.messages] for t in info.topics],
             )
         )
 

@@ -20,7 +20,7 @@ from umbmark.io.generic_csv import CsvChunk, format_generic_csv, iter_generic_cs
 from umbmark.io.load import LOG_FORMATS, detect_format, load_logs, nominal_geometry
 from umbmark.io.optiodom import read_optiodom
 from umbmark.io.poses_csv import write_poses_csv
-from umbmark.io.rosbag import bag_info, read_bag
+from umbmark.io.rosbag import BagInfo, bag_info, read_bag
 from umbmark.io.runs_csv import format_runs_csv, parse_runs_csv, read_runs_csv, write_runs_csv
 
 __all__ = [
@@ -49,6 +49,7 @@ __all__ = [
     "write_poses_csv",
     "read_bag",
     "bag_info",
+    "BagInfo",
     "read_runs_csv",
     "write_runs_csv",
     "parse_runs_csv",

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 import re
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -33,7 +34,7 @@ import numpy as np
 from umbmark.errors import InputError
 from umbmark.model.dataset import Dataset, Run, WheelGeometry, split_at_stops
 
-__all__ = ["read_bag", "bag_info", "is_bag"]
+__all__ = ["read_bag", "bag_info", "BagInfo", "TopicInfo", "is_bag"]
 
 _GT_TYPES = ("PoseStamped", "Odometry", "TFMessage", "PoseWithCovarianceStamped")
 
@@ -78,7 +79,61 @@ def _open(path):
     return reader
 
 
-def bag_info(path) -> dict:
+@dataclass(frozen=True)
+class TopicInfo:
+    """One topic of a bag.
+
+    Attributes
+    ----------
+    topic : str
+        Its name.
+    type : str
+        The message type (e.g. ``sensor_msgs/msg/JointState``).
+    messages : int
+        How many messages it holds.
+    """
+
+    topic: str
+    type: str
+    messages: int
+
+    def to_dict(self) -> dict:
+        """``topic``, ``type``, ``messages``."""
+        return {"topic": self.topic, "type": self.type, "messages": self.messages}
+
+
+@dataclass(frozen=True)
+class BagInfo:
+    """What a bag holds.
+
+    Attributes
+    ----------
+    bag : str
+        Its path.
+    duration_s : float
+        From its first to its last message (0 when it is empty).
+    messages : int
+        Messages in all.
+    topics : tuple of TopicInfo
+        Its topics, by name.
+    """
+
+    bag: str
+    duration_s: float
+    messages: int
+    topics: tuple[TopicInfo, ...]
+
+    def to_dict(self) -> dict:
+        """The JSON of ``umbmark bag-info --json``."""
+        return {
+            "bag": self.bag,
+            "duration_s": self.duration_s,
+            "messages": self.messages,
+            "topics": [t.to_dict() for t in self.topics],
+        }
+
+
+def bag_info(path) -> BagInfo:
     """The topics, types, message counts and duration of a bag.
 
     Parameters
@@ -88,9 +143,7 @@ def bag_info(path) -> dict:
 
     Returns
     -------
-    dict
-        ``bag``, ``duration_s``, ``messages`` and ``topics`` (each ``topic``, ``type``,
-        ``messages``), as ``umbmark bag-info --json`` prints it.
+    BagInfo
 
     Raises
     ------
@@ -99,16 +152,15 @@ def bag_info(path) -> dict:
     """
     reader = _open(path)
     try:
-        topics = {}
+        counts: dict[str, list] = {}
         for c in reader.connections:
-            t = topics.setdefault(c.topic, {"topic": c.topic, "type": c.msgtype, "messages": 0})
-            t["messages"] += c.msgcount
-        return {
-            "bag": str(path),
-            "duration_s": reader.duration * 1e-9 if reader.message_count else 0.0,
-            "messages": reader.message_count,
-            "topics": sorted(topics.values(), key=lambda x: x["topic"]),
-        }
+            counts.setdefault(c.topic, [c.msgtype, 0])[1] += c.msgcount
+        return BagInfo(
+            bag=str(path),
+            duration_s=reader.duration * 1e-9 if reader.message_count else 0.0,
+            messages=reader.message_count,
+            topics=tuple(TopicInfo(name, kind, n) for name, (kind, n) in sorted(counts.items())),
+        )
     finally:
         reader.close()
 

@@ -126,7 +126,7 @@ def parse_runs_csv(text: str, source: str = "<runs>") -> RunsTable:
         cells = [r[col[c]].strip() if col[c] < len(r) else "" for _, r in rows]
         if all(not x for x in cells):
             present_opt.remove(c)
-    data = {c: [] for c in REQUIRED + tuple(present_opt)}
+    data: dict[str, list] = {c: [] for c in REQUIRED + tuple(present_opt)}
     for line, r in rows:
         need = max(col[c] for c in data) + 1
         if len(r) < need:
@@ -176,9 +176,10 @@ def format_runs_csv(runs: RunsTable) -> str:
     """
     out = io.StringIO()
     w = csv.writer(out, lineterminator="\n")
-    has_theta = runs.theta_abs is not None and runs.theta_odo is not None
+    theta_abs, theta_odo = runs.theta_abs, runs.theta_odo
+    headings = (theta_abs, theta_odo) if theta_abs is not None and theta_odo is not None else None
     header = ["run", "direction", "x_abs", "y_abs", "x_odo", "y_odo"]
-    if has_theta:
+    if headings is not None:
         header += ["theta_abs", "theta_odo"]
     w.writerow(header)
     f = lambda v: repr(round(float(v), 6))  # noqa: E731  (micrometre / micro-degree resolution)
@@ -191,8 +192,8 @@ def format_runs_csv(runs: RunsTable) -> str:
             f(runs.x_odo[i] * 1e3),
             f(runs.y_odo[i] * 1e3),
         ]
-        if has_theta:
-            row += [f(math.degrees(runs.theta_abs[i])), f(math.degrees(runs.theta_odo[i]))]
+        if headings is not None:
+            row += [f(math.degrees(headings[0][i])), f(math.degrees(headings[1][i]))]
         w.writerow(row)
     return out.getvalue()
 
