@@ -202,3 +202,16 @@ def test_wrap_angle_keeps_the_kind_of_its_input():
 def test_runs_heading_error_uses_the_same_convention():
     t = RunsTable.from_columns(["cw", "ccw"], [0, 0], [0, 0], [0, 0], [0, 0], [np.pi, 0.25], [0.0, -0.25])
     np.testing.assert_array_equal(t.eps_theta, [np.pi, 0.5])
+
+
+def test_the_model_package_exports_its_public_names():
+    import importlib
+
+    import umbmark.model as model
+
+    for name in model.__all__:
+        module = importlib.import_module(model._LAZY[name])
+        assert name in module.__all__, f"{name} is not public in {module.__name__}"
+        assert getattr(model, name) is getattr(module, name)
+    with pytest.raises(AttributeError):
+        model.no_such_name  # noqa: B018

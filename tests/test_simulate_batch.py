@@ -1,6 +1,9 @@
 """umbmark.model.batch: a batch gives the results of the same robots one by one, and of the
 per-sample reference loop."""
 
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 
@@ -118,3 +121,10 @@ def test_errors():
             {"left_m_per_pulse": -1.0, "right_m_per_pulse": 1e-4, "wheelbase_m": 0.3},
             OdometryParams(1e-4, 1e-4, 0.3),
         )
+
+
+def test_importing_the_batch_module_does_not_import_numba():
+    """numba is imported when a batch first needs it (an engine is chosen), not at import."""
+    code = "import sys\nimport umbmark.model.batch\nprint('numba' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
+    assert out == "False"

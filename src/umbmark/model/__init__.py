@@ -1,1 +1,105 @@
-"""model"""
+"""The model layer: robots, runs, logs, odometry and the simulator, in SI units, without I/O.
+
+Pure numpy (numba, when installed, for the batched simulator's kernel): the lowest layer, it
+imports no other layer of umbmark.
+
+* :mod:`~umbmark.model.geometry`: the robot types (:class:`Geometry`, :class:`WheelGeometry`,
+  :class:`ErrorParams`, :class:`Calibration`, :class:`OdometryParams`) and :func:`wrap_angle`;
+* :mod:`~umbmark.model.runs`: :class:`RunsTable`, the end poses of a bi-directional test;
+* :mod:`~umbmark.model.dataset`: logged runs (:class:`Run`, :class:`Dataset`);
+* :mod:`~umbmark.model.odometry`: the integrators (:func:`integrate`, :func:`integrate_pulses`,
+  streaming :class:`Odometer`);
+* :mod:`~umbmark.model.simulate`: the closed-loop simulator and its planner;
+* :mod:`~umbmark.model.batch`: the same simulation for many robots at once.
+
+The names below are importable from here (``from umbmark.model import simulate_batch``); each
+module is imported when one of its names is first used, so importing a submodule costs only
+that submodule.
+"""
+
+from __future__ import annotations
+
+from importlib import import_module
+from typing import Any
+
+# public name -> module that defines it
+_LAZY = {
+    **dict.fromkeys(
+        (
+            "Geometry",
+            "WheelGeometry",
+            "ErrorParams",
+            "Calibration",
+            "OdometryParams",
+            "LABMATE",
+            "FIG11_ERRORS",
+            "wrap_angle",
+        ),
+        "umbmark.model.geometry",
+    ),
+    **dict.fromkeys(("RunsTable", "DIRECTIONS"), "umbmark.model.runs"),
+    **dict.fromkeys(
+        (
+            "Run",
+            "Dataset",
+            "to_start_frame",
+            "wheel_travel_from_poses",
+            "split_at_stops",
+            "replay_increments",
+            "FAST_MIN_SAMPLES",
+        ),
+        "umbmark.model.dataset",
+    ),
+    **dict.fromkeys(
+        (
+            "METHODS",
+            "KERNELS",
+            "integrate",
+            "integrate_end",
+            "integrate_pulses",
+            "integrate_pulses_end",
+            "Odometer",
+            "replay_stream",
+            "StreamResult",
+        ),
+        "umbmark.model.odometry",
+    ),
+    **dict.fromkeys(
+        (
+            "NoiseModel",
+            "NOISE_PRESETS",
+            "noise_preset",
+            "Motion",
+            "Segment",
+            "square_program",
+            "straight_program",
+            "spin_program",
+            "SegmentPlan",
+            "plan_program",
+            "run_program",
+            "SimResult",
+            "simulate_runs",
+            "simulate_umbmark",
+            "run_seeds",
+            "child_seeds",
+            "runs_table",
+        ),
+        "umbmark.model.simulate",
+    ),
+    **dict.fromkeys(("ENGINES", "run_batch", "simulate_batch"), "umbmark.model.batch"),
+}
+
+__all__ = list(_LAZY)
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'umbmark.model' has no attribute {name!r}")
+    value = getattr(import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

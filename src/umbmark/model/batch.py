@@ -63,17 +63,23 @@ def _import_numba() -> ModuleType | None:
     return numba
 
 
-_numba = _import_numba()
+_NUMBA: list[ModuleType | None] = []  # imported on first use: importing this module stays light
+
+
+def _numba() -> ModuleType | None:
+    if not _NUMBA:
+        _NUMBA.append(_import_numba())
+    return _NUMBA[0]
 
 
 def have_numba() -> bool:
-    """True when numba is installed (the ``"numba"`` engine is available)."""
-    return _numba is not None
+    """True when numba is installed (the ``"numba"`` engine is available); imports it."""
+    return _numba() is not None
 
 
 def default_engine() -> str:
     """The engine ``"auto"`` stands for: ``"numba"`` when installed, else ``"numpy"``."""
-    return "numba" if _numba is not None else "numpy"
+    return "numba" if have_numba() else "numpy"
 
 
 def _buffer(work, name, n):
@@ -301,13 +307,14 @@ _kernel = None
 def _get_kernel():
     global _kernel
     if _kernel is None:
-        if _numba is None:
+        numba = _numba()
+        if numba is None:
             raise InputError('engine "numba" needs numba: pip install -e ".[fast]"')
         global _arc
         # fastmath only here: the arc accumulates the pose (no stopping decision depends on
         # its rounding); it lets the compiler fuse multiply-adds
-        _arc = _numba.njit(cache=True, fastmath=True)(_arc_py)
-        _kernel = _numba.njit(cache=True, nogil=True)(_kernel_py)
+        _arc = numba.njit(cache=True, fastmath=True)(_arc_py)
+        _kernel = numba.njit(cache=True, nogil=True)(_kernel_py)
     return _kernel
 
 
