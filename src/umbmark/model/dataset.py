@@ -195,13 +195,35 @@ class Dataset:
         return self.side_m is not None
 
     def subset(self, idx: Iterable[int]) -> Dataset:
-        """The dataset with only the runs at ``idx`` (their declared directions kept)."""
+        """The dataset with only some of its runs.
+
+        Parameters
+        ----------
+        idx : iterable of int
+            Indices of the runs to keep, in the order wanted.
+
+        Returns
+        -------
+        Dataset
+            The same dataset with those runs (and their declared directions).
+        """
         idx = list(idx)
         dirs = None if self.directions is None else tuple(self.directions[i] for i in idx)
         return replace(self, runs=tuple(self.runs[i] for i in idx), directions=dirs)
 
     def with_runs(self, runs: Iterable[Run]) -> Dataset:
-        """The dataset with other runs (and no declared directions)."""
+        """The dataset with other runs.
+
+        Parameters
+        ----------
+        runs : iterable of Run
+            The new runs.
+
+        Returns
+        -------
+        Dataset
+            The same dataset with these runs and no declared directions.
+        """
         return replace(self, runs=tuple(runs), directions=None)
 
     def padded(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -94,7 +94,18 @@ class RunsTable:
         return len(self.direction)
 
     def select(self, mask: ArrayLike) -> RunsTable:
-        """The rows where ``mask`` is true (or at the indices in ``mask``)."""
+        """Some of the rows.
+
+        Parameters
+        ----------
+        mask : array_like
+            Booleans, one per row, or row indices.
+
+        Returns
+        -------
+        RunsTable
+            The rows where ``mask`` is true (or at its indices).
+        """
         m = np.asarray(mask)
 
         def pick(a):
@@ -112,11 +123,32 @@ class RunsTable:
         )
 
     def direction_rows(self, direction: str) -> RunsTable:
-        """The runs of one direction (``"cw"`` or ``"ccw"``)."""
+        """The runs of one direction.
+
+        Parameters
+        ----------
+        direction : str
+            ``"cw"`` or ``"ccw"``.
+
+        Returns
+        -------
+        RunsTable
+        """
         return self.select(self.direction == direction)
 
     def concat(self, other: RunsTable) -> RunsTable:
-        """This table's rows, then ``other``'s (a heading column survives only if both have it)."""
+        """This table's rows, then ``other``'s.
+
+        Parameters
+        ----------
+        other : RunsTable
+            The rows to append.
+
+        Returns
+        -------
+        RunsTable
+            Both tables' rows; a heading or run column only if both tables have it.
+        """
 
         def cat(a, b):
             return None if a is None or b is None else np.concatenate([a, b])
