@@ -539,9 +539,12 @@ def guide_cmd(side_mm, runs):
 
 # -- umbmark measure -----------------------------------------------------------------------------------
 class PointType(click.ParamType):
+    """A point ``X,Y`` in millimetres (``;`` also separates), as a tuple of two finite floats."""
+
     name = "X,Y"
 
     def convert(self, value, param, ctx):
+        """Parse ``value`` (a tuple is kept as it is); a bad value is a usage error."""
         if isinstance(value, tuple):
             return value
         parts = str(value).replace(";", ",").split(",")

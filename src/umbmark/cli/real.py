@@ -30,8 +30,19 @@ def _mm(v: float | None) -> float | None:
 
 def log_options(f):
     """Add the options that describe how to read a log (geometry for formats that lack it, bag
-    topics) to a click command; they arrive as the keyword arguments of
-    :func:`umbmark.io.load.load_logs` (and ``log_format``)."""
+    topics) to a click command.
+
+    Parameters
+    ----------
+    f : callable
+        The command function; it receives ``log_format`` and the keyword arguments of
+        :func:`umbmark.io.load.load_logs`.
+
+    Returns
+    -------
+    callable
+        The decorated command.
+    """
     opts = [
         click.option(
             "--format",
@@ -394,7 +405,8 @@ def replay(
             raise InputError("--decimate and --poses-out work with --stream")
         if poses_out and not decimate:
             raise InputError("--poses-out needs --decimate N (keep the pose after every N-th sample)")
-        return _stream(paths, log_format, decimate, poses_out, as_json, kw)
+        _stream(paths, log_format, decimate, poses_out, as_json, kw)
+        return
     from umbmark.realrobot.replay import pooled_report, replay_report
 
     sets = _datasets(paths, log_format, kw)
