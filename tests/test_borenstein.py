@@ -122,8 +122,9 @@ def test_compose_keeps_mean_factor_and_multiplies_ratios(ed0, ed1, scale):
 
 
 def test_warns_far_beyond_small_angles():
-    """One run 1 km off (found by fuzzing) gave alpha = -598 deg, E_b 0.13 and no word of
-    doubt; now a warning says the paper's formulas do not apply. Ordinary runs: no warning."""
+    """One run 1 km off gives alpha = -895 deg: a warning says the paper's formulas do not
+    apply and names the other method by its parameter (the CLI shows its flag). Ordinary runs:
+    no warning."""
     from umbmark.io.runs_csv import parse_runs_csv
 
     head = "direction,x_abs,y_abs,x_odo,y_odo\n"
@@ -132,4 +133,7 @@ def test_warns_far_beyond_small_angles():
     bad = parse_runs_csv(head + "cw,-60,-60,0,0\ncw,1000000,-70,0,0\nccw,60,-60,0,0\nccw,70,-50,0,0\n")
     c = bf_correction(umbmark(bad), 4.0, 0.34)
     assert math.degrees(c.alpha) < -90
-    assert len(c.extra["warnings"]) == 1 and "try --method exact" in c.extra["warnings"][0]
+    assert len(c.extra["warnings"]) == 1 and 'try `method="exact"`' in c.extra["warnings"][0]
+    from umbmark.cli.app import cli_message
+
+    assert "try --method exact)" in cli_message(c.extra["warnings"][0])

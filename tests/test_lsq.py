@@ -133,8 +133,8 @@ def test_pooled_circular_and_free_held_out_by_data_set():
 
 @pytest.mark.parametrize("far_m", [1e3, 1e6, -1e6])
 def test_diverging_fit_is_a_clear_error_not_a_silly_geometry(far_m):
-    """An end pose the wheels cannot explain used to return diameters of 1e-11 m or 1e107 m
-    (or overflow); now it is a clear InputError."""
+    """An end pose the wheels cannot explain: a clear InputError, not diameters of 1e-11 m or
+    1e107 m (nor an overflow)."""
     from dataclasses import replace
 
     ds = simlogs.dataset([simlogs.general_program()])

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 from umbmark.correct.registry import correct_runs
 from umbmark.correct.result import CorrectionResult
@@ -15,7 +16,7 @@ from umbmark.model.runs import RunsTable
 __all__ = ["Analysis", "analyze"]
 
 
-def _positive(name: str, value: float) -> float:
+def _positive(name: str, value: float | None) -> float:
     if value is None or not (math.isfinite(value) and value > 0):
         raise InputError(f"{name} must be a positive number, got {value!r}")
     return float(value)
@@ -23,13 +24,37 @@ def _positive(name: str, value: float) -> float:
 
 @dataclass(frozen=True)
 class Analysis:
+    """The UMBmark figures of a runs table and a calibration from it.
+
+    Parameters
+    ----------
+    runs : RunsTable
+        The runs analysed.
+    result : UMBmarkResult
+        Their UMBmark figures (centres of gravity, E_max,syst).
+    correction : CorrectionResult
+        The calibration the method estimated.
+    side_m : float
+        Side of the square [m].
+    wheelbase_m : float
+        The wheelbase the odometry used during the runs [m].
+    """
+
     runs: RunsTable
     result: UMBmarkResult
     correction: CorrectionResult
     side_m: float
     wheelbase_m: float
 
-    def to_dict(self) -> dict:
+    def to_dict(self) -> dict[str, Any]:
+        """The figures and the correction as one JSON-ready dict.
+
+        Returns
+        -------
+        dict
+            The UMBmark figures, the correction's keys, ``side_mm``, ``wheelbase_mm`` and
+            ``warnings`` (the figures' and the correction's).
+        """
         d = self.result.to_dict()
         d.update(self.correction.to_dict())
         d["side_mm"] = self.side_m * 1e3
@@ -39,9 +64,40 @@ class Analysis:
 
 
 def analyze(
-    runs: RunsTable, side_m: float, wheelbase_m: float, method: str = "bf", prior: Calibration | None = None, **options
+    runs: RunsTable,
+    side_m: float,
+    wheelbase_m: float,
+    method: str = "bf",
+    prior: Calibration | None = None,
+    **options: Any,
 ) -> Analysis:
-    """UMBmark metrics and a calibration from square runs."""
+    """UMBmark metrics and a calibration from square runs.
+
+    Parameters
+    ----------
+    runs : RunsTable
+        Square runs in both directions (SI units).
+    side_m : float
+        Side of the square [m].
+    wheelbase_m : float
+        The wheelbase the odometry used during the runs [m].
+    method : str
+        A registered square method (:data:`umbmark.correct.registry.METHODS`).
+    prior : Calibration or None
+        The correction factors the robot ran with (``None``: none).
+    **options
+        The method's keyword options.
+
+    Returns
+    -------
+    Analysis
+        The figures and the calibration.
+
+    Raises
+    ------
+    InputError
+        ``side_m`` or ``wheelbase_m`` is not a positive number, or the method refuses its input.
+    """
     _positive("side_m", side_m)
     _positive("wheelbase_m", wheelbase_m)
     result = umbmark(runs)
