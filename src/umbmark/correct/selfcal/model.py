@@ -1,0 +1,223 @@
+"""The measurement model of the self-calibration, its Jacobian and its Fisher information.
+
+The six parameters, in this order everywhere (:data:`PARAMETERS`), SI units::
+
+    p = (r_L [m], r_R [m], b [m], l_x [m], l_y [m], l_yaw [rad])
+
+For interval k with wheel rotations ``phi_L``, ``phi_R`` the robot moves along the arc with
+``d = (r_L phi_L + r_R phi_R) / 2`` and ``theta = (r_R phi_R - r_L phi_L) / b``; the sensor
+sees ``h_k(p) = l^-1 (+) arc (+) l`` (:func:`umbmark.model.intervals.sensor_motion`), i.e.
+
+    h_yaw = theta,    h_xy = R(-l_yaw) (q_xy + (R(theta) - I) l_xy)
+
+with ``q_xy = d sinc(theta/2) (cos(theta/2), sin(theta/2))``. :func:`jacobian` is the exact
+derivative of ``h`` (stable as ``theta -> 0``); :func:`fisher_information` the information
+``sum_k J_k^T Sigma_k^-1 J_k`` of the intervals about ``p`` for Gaussian noise of covariance
+``Sigma_k`` on ``s_k``: its inverse is the Cramer-Rao bound.
+
+Pure numpy: imports numpy and :mod:`umbmark.model`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from umbmark.model import se2
+from umbmark.model.geometry import wrap_angle
+from umbmark.model.intervals import sensor_motion
+
+__all__ = ["PARAMETERS", "predict", "residuals", "jacobian", "whitener", "whiten", "fisher_information"]
+
+PARAMETERS = ("r_left_m", "r_right_m", "wheelbase_m", "sensor_x_m", "sensor_y_m", "sensor_yaw_rad")
+
+FloatArray = NDArray[np.float64]
+
+
+def predict(p: ArrayLike, left_rad: ArrayLike, right_rad: ArrayLike) -> FloatArray:
+    """The sensor displacements the parameters predict.
+
+    Parameters
+    ----------
+    p : array_like
+        The six parameters (:data:`PARAMETERS`).
+    left_rad, right_rad : array_like
+        Wheel rotations per interval [rad], shape (K,).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (K, 3): ``(dx_m, dy_m, dyaw_rad)``.
+    """
+    q = np.asarray(p, dtype=float)
+    return sensor_motion(left_rad, right_rad, q[0], q[1], q[2], q[3:6])
+
+
+def residuals(p: ArrayLike, left_rad: ArrayLike, right_rad: ArrayLike, sensor: ArrayLike) -> FloatArray:
+    """Measured minus predicted sensor displacements, the yaw difference wrapped.
+
+    Parameters
+    ----------
+    p : array_like
+        The six parameters.
+    left_rad, right_rad : array_like
+        Wheel rotations per interval [rad], shape (K,).
+    sensor : array_like
+        Measured displacements, shape (K, 3).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (K, 3).
+    """
+    r = np.asarray(sensor, dtype=float) - predict(p, left_rad, right_rad)
+    r[:, 2] = wrap_angle(r[:, 2])
+    return r
+
+
+def _dsinc(u: FloatArray) -> FloatArray:
+    """d/du (sin u / u), by its series below |u| = 0.1 (no cancellation)."""
+    small = np.abs(u) < 0.1
+    us = np.where(small, u, 0.0)
+    u2 = us * us
+    series = us * (-1.0 / 3.0 + u2 * (1.0 / 30.0 + u2 * (-1.0 / 840.0 + u2 / 45360.0)))
+    ub = np.where(small, 1.0, u)
+    direct = (np.cos(ub) - np.sin(ub) / ub) / ub
+    return np.where(small, series, direct)
+
+
+def jacobian(p: ArrayLike, left_rad: ArrayLike, right_rad: ArrayLike) -> FloatArray:
+    """The derivative of the predicted displacements with respect to the parameters.
+
+    Parameters
+    ----------
+    p : array_like
+        The six parameters.
+    left_rad, right_rad : array_like
+        Wheel rotations per interval [rad], shape (K,).
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (K, 3, 6): ``d h_k[i] / d p[j]`` (the residuals' Jacobian is its negative).
+    """
+    rl, rr, b, lx, ly, lyaw = (float(v) for v in np.asarray(p, dtype=float))
+    fl = np.asarray(left_rad, dtype=float)
+    fr = np.asarray(right_rad, dtype=float)
+    d = 0.5 * (rl * fl + rr * fr)
+    th = (rr * fr - rl * fl) / b
+    u = 0.5 * th
+    cu, su = np.cos(u), np.sin(u)
+    k = se2.sinc(u)
+    dk = _dsinc(u)
+    # q_xy = d k (cos u, sin u); derivatives by d and by theta
+    dq_dd = np.stack([k * cu, k * su], axis=-1)
+    dq_dth = 0.5 * d[:, None] * np.stack([dk * cu - k * su, dk * su + k * cu], axis=-1)
+    ct, st = np.cos(th), np.sin(th)
+    # J R(theta) l  (J = rotation by +90 deg)
+    jrl = np.stack([-(st * lx + ct * ly), ct * lx - st * ly], axis=-1)
+    cl, sl = np.cos(lyaw), np.sin(lyaw)
+    rot = np.array([[cl, sl], [-sl, cl]])  # R(-l_yaw)
+    dh_dd = dq_dd @ rot.T
+    dh_dth = (dq_dth + jrl) @ rot.T
+    # h_xy itself, for the derivative by l_yaw (d/dl_yaw R(-l_yaw) v = -J R(-l_yaw) v)
+    q_xy = d[:, None] * dq_dd
+    rml = np.stack([ct * lx - st * ly - lx, st * lx + ct * ly - ly], axis=-1)
+    h_xy = (q_xy + rml) @ rot.T
+    out = np.zeros(fl.shape + (3, 6))
+    # chain rule through d and theta
+    dd = (0.5 * fl, 0.5 * fr, np.zeros_like(fl))
+    dth = (-fl / b, fr / b, -th / b)
+    for j in range(3):
+        out[:, :2, j] = dh_dd * dd[j][:, None] + dh_dth * dth[j][:, None]
+        out[:, 2, j] = dth[j]
+    # sensor position: R(-l_yaw) (R(theta) - I)
+    a11, a12, a21, a22 = ct - 1.0, -st, st, ct - 1.0
+    out[:, 0, 3] = cl * a11 + sl * a21
+    out[:, 0, 4] = cl * a12 + sl * a22
+    out[:, 1, 3] = -sl * a11 + cl * a21
+    out[:, 1, 4] = -sl * a12 + cl * a22
+    # sensor yaw: -J h_xy = (h_y, -h_x)
+    out[:, 0, 5] = h_xy[:, 1]
+    out[:, 1, 5] = -h_xy[:, 0]
+    return out
+
+
+def whitener(noise: ArrayLike, k: int) -> FloatArray:
+    """The matrices that turn residuals into unit-variance ones: ``W_k`` with ``W_k^T W_k = Sigma_k^-1``.
+
+    Parameters
+    ----------
+    noise : array_like
+        Standard deviations of ``(dx, dy, dyaw)`` common to all intervals, shape (3,); or a
+        covariance, shape (3, 3) for all or (K, 3, 3) per interval.
+    k : int
+        The number of intervals.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (K, 3, 3): ``W_k = L_k^-1`` for ``Sigma_k = L_k L_k^T`` (diagonal for standard
+        deviations).
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        If a covariance is not positive definite.
+    ValueError
+        If ``noise`` has another shape.
+    """
+    a = np.asarray(noise, dtype=float)
+    if a.shape == (3,):
+        return np.broadcast_to(np.diag(1.0 / a), (k, 3, 3)).copy()
+    if a.shape == (3, 3):
+        a = np.broadcast_to(a, (k, 3, 3))
+    if a.shape != (k, 3, 3):
+        raise ValueError(f"noise of shape {a.shape}: expected (3,), (3, 3) or ({k}, 3, 3)")
+    chol = np.linalg.cholesky(a)
+    return np.asarray(np.linalg.inv(chol), dtype=float)
+
+
+def whiten(w: FloatArray, r: FloatArray) -> FloatArray:
+    """Apply whitening matrices to residuals or to a Jacobian.
+
+    Parameters
+    ----------
+    w : numpy.ndarray
+        Shape (K, 3, 3), from :func:`whitener`.
+    r : numpy.ndarray
+        Shape (K, 3) (residuals) or (K, 3, n) (a Jacobian).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``W_k r_k`` for each k, the shape of ``r``.
+    """
+    if r.ndim == 2:
+        return np.einsum("kij,kj->ki", w, r)
+    return np.einsum("kij,kjn->kin", w, r)
+
+
+def fisher_information(p: ArrayLike, left_rad: ArrayLike, right_rad: ArrayLike, noise: ArrayLike) -> FloatArray:
+    """The Fisher information of the intervals about the parameters.
+
+    Parameters
+    ----------
+    p : array_like
+        The six parameters where the information is evaluated (the truth, for the
+        Cramer-Rao bound).
+    left_rad, right_rad : array_like
+        Wheel rotations per interval [rad], shape (K,).
+    noise : array_like
+        The noise on the sensor displacements: standard deviations (3,) or covariances
+        (3, 3) / (K, 3, 3), as :func:`whitener` takes.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (6, 6), ``sum_k J_k^T Sigma_k^-1 J_k``.
+    """
+    fl = np.asarray(left_rad, dtype=float)
+    jw = whiten(whitener(noise, len(fl)), jacobian(p, fl, right_rad))
+    flat = jw.reshape(-1, 6)
+    return np.asarray(flat.T @ flat, dtype=float)
