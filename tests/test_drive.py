@@ -23,6 +23,7 @@ from umbmark.model.drive import (
     straight_only,
 )
 from umbmark.model.geometry import LABMATE, ErrorParams, wrap_angle
+from umbmark.model.intervals import sensor_motion
 from umbmark.model.se2 import arc, between, compose, inverse
 from umbmark.model.sensors import Lidar, Room, SensorPose, cast_rays
 
@@ -136,6 +137,34 @@ def test_scan_intervals_follow_the_calibration_model(mixed):
     np.testing.assert_allclose(sensor[:, :2], want[:, :2], atol=1e-9)
     np.testing.assert_allclose(wrap_angle(sensor[:, 2] - want[:, 2]), 0.0, atol=1e-12)
     assert len(sensor) == 1200
+
+
+def test_the_intervals_are_the_estimators_model(mixed):
+    """The drive's true sensor motion against umbmark.model.intervals.sensor_motion, written independently."""
+    iv = mixed.intervals()
+    true = mixed.true_geometry
+    model = sensor_motion(
+        iv.left_rad,
+        iv.right_rad,
+        0.5 * true.diameter_left_m,
+        0.5 * true.diameter_right_m,
+        true.wheelbase_m,
+        mixed.sensor_pose.as_array(),
+    )
+    assert len(iv) == 1200 and iv.source == "simulated drive"
+    np.testing.assert_allclose(iv.sensor[:, :2], model[:, :2], atol=1e-9)
+    np.testing.assert_allclose(wrap_angle(iv.sensor[:, 2] - model[:, 2]), 0.0, atol=1e-12)
+    # with slip the model no longer holds exactly, by about the slip
+    noisy = simulate_drive(mixed_program(30.0, seed=7, robot=QUIET), QUIET, noise=REALISTIC, seed=1).intervals()
+    gap = noisy.sensor - sensor_motion(
+        noisy.left_rad,
+        noisy.right_rad,
+        0.5 * true.diameter_left_m,
+        0.5 * true.diameter_right_m,
+        true.wheelbase_m,
+        mixed.sensor_pose.as_array(),
+    )
+    assert 1e-6 < np.abs(gap[:, :2]).max() < 5e-3
 
 
 def test_poses_between_samples_are_exact():

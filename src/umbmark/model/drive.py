@@ -1,8 +1,8 @@
 """A simulated differential-drive robot with a lidar, driving a program of commands in a room.
 
 Pure numpy: this module imports only numpy and the lower modules of :mod:`umbmark.model`
-(:mod:`~umbmark.model.geometry`, :mod:`~umbmark.model.se2`, :mod:`~umbmark.model.sensors`,
-:mod:`~umbmark.model.simulate` for its seeding). SI units, world frame of the room.
+(:mod:`~umbmark.model.geometry`, :mod:`~umbmark.model.intervals`, :mod:`~umbmark.model.se2`,
+:mod:`~umbmark.model.sensors`, :mod:`~umbmark.model.simulate` for its seeding). SI units, world frame of the room.
 
 The robot (:class:`SimRobot`) has a nominal :class:`~umbmark.model.geometry.Geometry` and
 systematic errors :class:`~umbmark.model.geometry.ErrorParams` (E_d, E_b, E_s, as in the square
@@ -36,6 +36,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from umbmark.errors import InputError
 from umbmark.model.geometry import LABMATE, ErrorParams, Geometry, WheelGeometry
+from umbmark.model.intervals import Intervals
 from umbmark.model.se2 import arc, between, compose
 from umbmark.model.sensors import Lidar, Room, SensorPose
 from umbmark.model.simulate import child_seeds
@@ -454,6 +455,18 @@ class DriveLog:
         """
         left, right = self.wheel_angles_at(self.scan_t_s)
         return np.diff(self.scan_t_s), np.diff(left), np.diff(right), self.sensor_motion()
+
+    def intervals(self) -> Intervals:
+        """The scan intervals with the TRUE sensor motion: what a perfect scan matcher gives a self-calibration.
+
+        Returns
+        -------
+        Intervals
+            :meth:`scan_intervals` as :class:`umbmark.model.intervals.Intervals` (source
+            ``"simulated drive"``).
+        """
+        dt, left, right, sensor = self.scan_intervals()
+        return Intervals(dt, left, right, sensor, source="simulated drive")
 
     def odometry(self, wheels: WheelGeometry | None = None) -> NDArray[np.float64]:
         """The odometry of the reported wheel angles (exact arcs), from ``(0, 0, 0)`` at the start.
