@@ -683,7 +683,7 @@ def _steps(duration_s: float, step_s: float) -> float:
 def _draw(kind: str, rng: np.random.Generator, step_s: float) -> Command:
     """A random command of one kind (durations in whole ``step_s``)."""
     if kind == "straight":
-        if rng.random() < 0.2:  # now and then backwards, and shorter
+        if rng.random() < 0.2:  # one in five backwards, and shorter
             v = -rng.uniform(0.1, 0.25)
             length = rng.uniform(0.3, 1.0)
         else:
