@@ -2,9 +2,10 @@
 
 :func:`selfcal` runs the steps in order:
 
-1. Start: the paper's closed form (:mod:`umbmark.correct.selfcal.closed_form`), and the
-   sensor pose fitted with the nominal odometry; each start is refined and the one whose
-   residuals are smallest (per component, robustly) is kept.
+1. Start: the paper's closed form (:mod:`umbmark.correct.selfcal.closed_form`), or the
+   sensor pose fitted with the nominal odometry, whichever leaves the smaller residuals (per
+   component, robustly); with outlier rejection it is refined first with a robust (Cauchy)
+   loss, so that failed scan matches do not pull it.
 2. Maximum likelihood: non-linear least squares (``scipy.optimize.least_squares``) of all six
    parameters on the whitened residuals ``s_k - l^-1 (+) arc_k (+) l``. Without given
    covariances the noise of each component (dx, dy, dyaw) is estimated from the residuals
@@ -230,7 +231,7 @@ def selfcal(
     prob = _Problem(intervals, given_w)
     idx = np.arange(k)
 
-    # 1. starts, each refined (robustly when outliers are rejected), the best kept
+    # 1. the better start, refined robustly when outliers are rejected
     starts = []
     for make in (
         lambda: closed_form(fl, fr, s),
@@ -242,19 +243,14 @@ def selfcal(
             pass
     if not starts:
         starts.append(np.array([r_nom, r_nom, b_nom, 0.0, 0.0, 0.0]))
-    best, best_score = None, math.inf
-    for p0 in starts:
-        if reject_outliers:
-            sd0 = _robust_sd(prob.res(p0, idx)) if given_w is None else None
-            p = prob.fit(p0, idx, sd0, loss="cauchy")
-        else:
-            p, _ = _ml_fit(prob, p0, idx)
-        score = _score(prob, p, idx)
-        if np.all(np.isfinite(p)) and score < best_score:
-            best, best_score = p, score
-    if best is None:
+    p0 = min(starts, key=lambda q: _score(prob, q, idx))
+    if reject_outliers:
+        sd0 = _robust_sd(prob.res(p0, idx)) if given_w is None else None
+        p = prob.fit(p0, idx, sd0, loss="cauchy")
+    else:
+        p = p0
+    if not np.all(np.isfinite(p)):
         raise InputError("the fit did not converge to finite values: check the units and the wheel order", src)
-    p = best
 
     # 2-3. maximum likelihood and outliers, until the inliers settle
     inl = np.ones(k, dtype=bool)
@@ -263,9 +259,11 @@ def selfcal(
         from scipy.stats import chi2
 
         thr = float(chi2.isf(outlier_tail, 3))
+    fitted = None
     for rnd in range(max_rounds):
         idx = np.flatnonzero(inl)
         p, sd = _ml_fit(prob, p, idx)
+        fitted = inl
         if not reject_outliers:
             break
         e = prob.res(p, np.arange(k))
@@ -279,6 +277,8 @@ def selfcal(
             break
         inl = new
     idx = np.flatnonzero(inl)
+    if fitted is not inl:  # the rounds ran out just after the inliers changed
+        p, sd = _ml_fit(prob, p, idx)
 
     # 4. the physical one of the mirror pair
     p = _physical(p)
@@ -293,7 +293,8 @@ def selfcal(
     else:
         info = prob.information(p, idx, np.ones(3))
         cov_in = np.linalg.inv(np.einsum("kji,kjl->kil", given_w[idx], given_w[idx]))
-        noise_sd = tuple(float(v) for v in np.sqrt(np.mean(np.diagonal(cov_in, axis1=1, axis2=2), axis=0)))  # type: ignore[assignment]
+        rms = np.sqrt(np.mean(np.diagonal(cov_in, axis1=1, axis2=2), axis=0))
+        noise_sd = (float(rms[0]), float(rms[1]), float(rms[2]))
         tq = 1.959963984540054
     drv = identify.driving_summary(fl[idx], fr[idx], r_nom, b_nom)
     cov, id_warnings, singular = identify.identifiability(p, info, drv, r_nom, b_nom, lim)
