@@ -43,7 +43,7 @@ without visible ends does not); otherwise ``reason`` says why. Bad numbers never
 compiled code: too few valid points is a result, not an exception.
 
 The kernels are compiled with numba when it is installed (once per machine: numba's cache); without
-numba the same code runs interpreted (correct, but about a thousand times slower). Imports numpy and
+numba the same code runs interpreted (the same results, about a hundred times slower). Imports numpy and
 :mod:`umbmark.errors`; numba lazily, on the first match.
 
 The pose convention: the result is the current scan's frame expressed in the reference scan's
