@@ -45,9 +45,11 @@ explains the runs: candidates from the mean measured headings (``eps_theta = 4 b
 (E_s / E_b - 1)``, all 2 pi ambiguities), then the best local minima of a grid over
 the heading gained per leg (step pi/105, at least +-270 deg and as wide as E_d,pass in [0.85, 1.15]
 needs at E_b,pass 0.3: several turns per leg for a long side on a narrow robot) x ``E_b,pass`` in
-[0.3, 4] (401 points), only where E_d,pass is in [0.85, 1.15], ranked by the cost one
-Gauss-Newton step from each predicts (a narrow true basin sampled off its centre must not lose
-to broad shallow ones). The lowest final cost wins. ``global_search=True`` always searches, ``False`` never.
+[0.3, 4] (401 points), only where E_d,pass is in [0.85, 1.15], ranked by the lowest cost one
+Gauss-Newton step predicts from each minimum or one of its eight grid neighbours (a narrow true
+basin sampled off its centre must not lose to broad shallow ones, even where its lowest sample
+sits where the linearisation sees no descent). The lowest final cost wins.
+``global_search=True`` always searches, ``False`` never.
 
 Uncertainty (delta method with per-direction scatter, documented in the README): the
 least-squares estimate depends on the runs only through each direction's mean residual, so

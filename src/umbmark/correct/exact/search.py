@@ -133,19 +133,19 @@ def _heading_starts(prob: _Problem) -> list[FloatArray]:
 
 
 def _grid_starts(prob: _Problem, k: int | None = None) -> list[FloatArray]:
-    """The best local minima of the cost on a global grid, best first.
+    """Starts in the best basins of the cost on a global grid, best first.
 
     The grid spans ``E_b,pass`` in [0.3, 4] (401 points, log-spaced) and the heading gained
     per leg ``beta'`` (:func:`_grid_beta`; the cost varies with E_d on the scale of
     ``b / L``, so E_d is gridded through ``beta'``), limited to ``E_d,pass`` in [0.85, 1.15].
+    Each local minimum of the grid stands for a basin (:func:`_basin_starts`).
 
     Parameters
     ----------
     prob : _Problem
         The runs.
     k : int or None
-        How many minima to keep (:func:`_ranked`); default: 8 per 315 grid values of
-        ``beta'``, at most 128.
+        How many basins to keep; default: 8 per 315 grid values of ``beta'``, at most 128.
 
     Returns
     -------
@@ -177,8 +177,59 @@ def _grid_starts(prob: _Problem, k: int | None = None) -> list[FloatArray]:
         for dj in (-1, 0, 1):
             if di or dj:
                 is_min &= grid <= pad[1 + di : 1 + di + n_beta, 1 + dj : 1 + dj + n_eb]
-    idx = np.flatnonzero(is_min.ravel())
-    return _ranked(prob, [np.array([flat_ed[i], flat_eb[i]]) for i in idx], k)
+    return _basin_starts(prob, ED, EB, grid, is_min, k)
+
+
+def _basin_starts(
+    prob: _Problem,
+    ED: FloatArray,
+    EB: FloatArray,
+    grid: FloatArray,
+    is_min: npt.NDArray[np.bool_],
+    k: int | None,
+) -> list[FloatArray]:
+    """One start per local minimum of the grid, the ``k`` most promising first.
+
+    A minimum stands for its basin together with its eight grid neighbours: the basin is
+    ranked by the lowest cost one Gauss-Newton step predicts from any of these nine points
+    (see :func:`_ranked`), and fitted from the minimum, its lowest sample. The prediction from
+    the minimum alone is not enough: where the grid is coarse for the basin (a narrow robot on
+    a long side: the legs curve by whole turns, and near E_b 0.5 each turn is most sensitive to
+    E_b), its lowest sample can sit where the model's linearisation sees almost no descent (a
+    Jacobian more than ten times smaller than a grid step away), so one step from it predicts
+    no gain while one step from a neighbour predicts the basin's floor.
+
+    Parameters
+    ----------
+    prob : _Problem
+        The runs.
+    ED, EB : numpy.ndarray
+        Shape (n_beta, n_eb): the grid's ``E_d,pass`` and ``E_b,pass``.
+    grid : numpy.ndarray
+        The cost on the grid (``inf`` outside the searched range).
+    is_min : numpy.ndarray of bool
+        The grid's local minima.
+    k : int or None
+        Keep the ``k`` best; ``None``: all.
+
+    Returns
+    -------
+    list of numpy.ndarray
+        The starts ``(E_d,pass, E_b,pass)``, best first.
+    """
+    mi, mj = np.nonzero(is_min)
+    if mi.size == 0:
+        return []
+    di, dj = (a.ravel() for a in np.meshgrid((-1, 0, 1), (-1, 0, 1), indexing="ij"))
+    ni, nj = mi[:, None] + di[None, :], mj[:, None] + dj[None, :]  # (M, 9)
+    inside = (ni >= 0) & (ni < grid.shape[0]) & (nj >= 0) & (nj < grid.shape[1])
+    ni, nj = np.where(inside, ni, mi[:, None]), np.where(inside, nj, mj[:, None])
+    use = inside & np.isfinite(grid[ni, nj])
+    pred = np.full(ni.shape, np.inf)
+    pred[use] = _gauss_newton_cost(prob, ED[ni[use], nj[use]], EB[ni[use], nj[use]])
+    pred[np.isnan(pred)] = np.inf
+    order = np.argsort(pred.min(axis=1))[:k]
+    return [np.array([ED[mi[m], mj[m]], EB[mi[m], mj[m]]]) for m in order]
 
 
 def _ranked(prob: _Problem, starts: Sequence[FloatArray], k: int | None = None) -> list[FloatArray]:
