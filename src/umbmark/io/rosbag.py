@@ -20,12 +20,20 @@ messages without a header).
 Runs: the whole bag is one run, or it is cut by ``ranges`` (seconds from the first wheel
 sample) or at ``stops`` (both wheels still for ``stop_s`` seconds). Each run is brought into
 its start frame.
+
+Lidar self-calibration (:func:`read_selfcal_bag`): the ``sensor_msgs/LaserScan`` messages of
+``scan_topic`` (ranges outside ``[range_min, range_max]`` or not finite become ``inf``), the
+wheels from JointState or encoder counts as above, or ``nav_msgs/Odometry`` poses on
+``odom_topic`` (turned into wheel travel by the self-calibration with the nominal geometry),
+and the transforms of ``/tf_static`` (for the lidar's nominal mounting pose). Nothing is
+computed here: :class:`SelfcalBag` holds the streams as recorded, in time order.
 """
 
 from __future__ import annotations
 
 import math
 import re
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -34,7 +42,16 @@ import numpy as np
 from umbmark.errors import InputError
 from umbmark.model.dataset import Dataset, Run, WheelGeometry, split_at_stops
 
-__all__ = ["read_bag", "bag_info", "BagInfo", "TopicInfo", "is_bag"]
+__all__ = [
+    "read_bag",
+    "bag_info",
+    "BagInfo",
+    "TopicInfo",
+    "is_bag",
+    "read_selfcal_bag",
+    "SelfcalBag",
+    "StaticTransform",
+]
 
 _GT_TYPES = ("PoseStamped", "Odometry", "TFMessage", "PoseWithCovarianceStamped")
 
@@ -411,3 +428,398 @@ def read_bag(
     whole = _whole_run(t, pl, pr, cumulative, gt, src)
     runs = _cut_runs(whole, ranges, stops, stop_s, upr, src)
     return Dataset(name or Path(path).stem, nominal, upr, tuple(runs), side_m, src, meta={"format": "bag"})
+
+
+# -- lidar self-calibration ------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class StaticTransform:
+    """One transform of ``/tf_static``: the pose of ``child`` in ``parent``.
+
+    Attributes
+    ----------
+    parent, child : str
+        The frames (leading ``/`` removed).
+    translation : tuple of float
+        ``(x, y, z)`` [m].
+    rotation : tuple of float
+        The quaternion ``(x, y, z, w)``.
+    """
+
+    parent: str
+    child: str
+    translation: tuple[float, float, float]
+    rotation: tuple[float, float, float, float]
+
+
+@dataclass(frozen=True, eq=False)
+class SelfcalBag:
+    """The streams of one bag a lidar self-calibration uses, in time order.
+
+    Attributes
+    ----------
+    source : str
+        The bag.
+    scan_topic : str
+        The LaserScan topic.
+    scan_frame : str
+        The scans' ``header.frame_id``.
+    scan_t_s : numpy.ndarray
+        ``(M,)`` header stamps of the scans [s since 1970, or the bag's clock].
+    ranges_m : numpy.ndarray
+        ``(M, n_beams)`` float32 ranges [m]; ``inf`` where a beam has no valid return.
+    angles_rad : numpy.ndarray
+        ``(n_beams,)`` beam angles in the scan frame.
+    wheel_kind : str
+        ``"joints"``, ``"ticks"`` or ``"odom"``.
+    wheel_topic : str
+        The topic of the wheel data.
+    wheel_description : str
+        Where the wheel data come from, in words (for reports).
+    wheel_t_s : numpy.ndarray
+        ``(K,)`` stamps of the wheel data [s].
+    left_rad, right_rad : numpy.ndarray or None
+        ``(K,)`` cumulative wheel angles [rad] (JointState, encoder counts); None for odometry.
+    odom_pose : numpy.ndarray or None
+        ``(K, 3)`` odometry poses ``(x_m, y_m, yaw_rad)`` (yaw as recorded, in (-pi, pi]);
+        None for wheel angles.
+    odom_child_frame : str or None
+        The odometry's ``child_frame_id`` (the robot's base frame).
+    static_transforms : tuple of StaticTransform
+        Every transform on ``/tf_static`` (empty when the bag has none).
+    topics : tuple of str
+        The bag's topics, for messages.
+    warnings : tuple of str
+        What the reader dropped or noticed (scans of another beam layout, repeated stamps).
+    """
+
+    source: str
+    scan_topic: str
+    scan_frame: str
+    scan_t_s: np.ndarray
+    ranges_m: np.ndarray
+    angles_rad: np.ndarray
+    wheel_kind: str
+    wheel_topic: str
+    wheel_description: str
+    wheel_t_s: np.ndarray
+    left_rad: np.ndarray | None
+    right_rad: np.ndarray | None
+    odom_pose: np.ndarray | None
+    odom_child_frame: str | None
+    static_transforms: tuple[StaticTransform, ...]
+    topics: tuple[str, ...]
+    warnings: tuple[str, ...] = ()
+
+    @property
+    def n_scans(self) -> int:
+        """The number of scans read."""
+        return len(self.scan_t_s)
+
+
+def _topics_hint(reader) -> str:
+    have = ", ".join(f"{t} ({k.split('/')[-1]})" for t, k in sorted({(c.topic, c.msgtype) for c in reader.connections}))
+    return have or "none"
+
+
+def _typed_conns(reader, topic: str, types: tuple[str, ...], source: str, what: str):
+    """The connections of ``topic``; an error listing the bag's topics when it is missing or of another type."""
+    conns = [c for c in reader.connections if c.topic == topic]
+    if not conns:
+        raise InputError(f"no topic {topic!r} for the {what} (topics: {_topics_hint(reader)})", source)
+    kinds = {c.msgtype.split("/")[-1] for c in conns}
+    if not kinds <= set(types):
+        raise InputError(
+            f"topic {topic} has type {conns[0].msgtype}, not {' or '.join(types)} for the {what} "
+            f"(topics: {_topics_hint(reader)})",
+            source,
+        )
+    if not sum(c.msgcount for c in conns):
+        raise InputError(f"topic {topic} holds no messages for the {what} (topics: {_topics_hint(reader)})", source)
+    return conns
+
+
+def _same_layout(a: tuple[int, float, float], b: tuple[int, float, float]) -> bool:
+    return a[0] == b[0] and abs(a[1] - b[1]) <= 1e-6 and abs(a[2] - b[2]) <= 1e-9
+
+
+class _Scans:
+    """Collects LaserScan messages: one beam layout (the first scan's), ranges made ``inf`` where invalid."""
+
+    def __init__(self, topic: str, scan_frame: str | None, source: str):
+        self.topic, self.expected, self.src = topic, scan_frame, source
+        self.t: list[float] = []
+        self.ranges: list[np.ndarray] = []
+        self.layout: tuple[int, float, float] | None = None
+        self.frame: str | None = None
+        self.other_layout = 0
+
+    def add(self, msg, ns: int) -> None:
+        frame = msg.header.frame_id.lstrip("/")
+        if self.expected is not None and frame != self.expected.lstrip("/"):
+            raise InputError(
+                f"the scans on {self.topic} are in frame {frame!r}, not `scan_frame` {self.expected!r}", self.src
+            )
+        if self.frame is None:
+            self.frame = frame
+        elif frame != self.frame:
+            raise InputError(
+                f"the scans on {self.topic} change frame, from {self.frame!r} to {frame!r} at scan "
+                f"{len(self.t) + 1}: one lidar per topic",
+                self.src,
+            )
+        r = np.asarray(msg.ranges, dtype=np.float32)
+        layout = (r.size, float(msg.angle_min), float(msg.angle_increment))
+        if self.layout is None:
+            if r.size < 3 or not (math.isfinite(layout[2]) and layout[2] != 0):
+                raise InputError(
+                    f"the first scan on {self.topic} has {r.size} beams and angle_increment {layout[2]!r}: "
+                    "not a usable LaserScan",
+                    self.src,
+                )
+            self.layout = layout
+        elif not _same_layout(layout, self.layout):
+            self.other_layout += 1
+            return
+        lo, hi = float(msg.range_min), float(msg.range_max)
+        with np.errstate(invalid="ignore"):
+            bad = ~np.isfinite(r) | (r < lo) | (r > hi)
+        if bad.any():
+            r = r.copy()
+            r[bad] = np.inf
+        self.t.append(_stamp(msg, ns))
+        self.ranges.append(r)
+
+
+def _ordered(t: np.ndarray, what: str, topic: str, source: str) -> tuple[np.ndarray, int]:
+    """Refuse stamps that go backwards; the indices of the samples kept (repeated stamps dropped)."""
+    d = np.diff(t)
+    back = np.flatnonzero(d < 0)
+    if back.size:
+        i = int(back[0])
+        raise InputError(
+            f"the stamps of the {what} on {topic} go backwards at message {i + 2}: {t[i + 1]:.6f} s after "
+            f"{t[i]:.6f} s ({back.size} times in all): record with one clock, or cut the bag there",
+            source,
+        )
+    keep = np.concatenate([[True], d > 0])
+    return np.flatnonzero(keep), int((~keep).sum())
+
+
+def read_selfcal_bag(
+    path,
+    *,
+    scan_topic: str = "/scan",
+    joints=None,
+    joint_topic: str = "/joint_states",
+    ticks_topic: str | None = None,
+    left_field: str | None = None,
+    right_field: str | None = None,
+    ticks: str = "cumulative",
+    units_per_rev: float | None = None,
+    odom_topic: str | None = None,
+    scan_frame: str | None = None,
+    tf_topic: str = "/tf_static",
+    progress: Callable[[int, int], None] | None = None,
+) -> SelfcalBag:
+    """Read the scans, the wheel data and the static transforms of a bag for a lidar self-calibration.
+
+    Parameters
+    ----------
+    path : str or Path
+        A ROS 1 ``.bag``, a ROS 2 bag folder, or its ``.db3`` / ``.mcap`` file.
+    scan_topic : str
+        The ``sensor_msgs/LaserScan`` topic.
+    joints : (str, str), optional
+        The left and right wheel joints of ``sensor_msgs/JointState`` messages on
+        ``joint_topic``; or:
+    ticks_topic, left_field, right_field : str, optional
+        A topic of encoder counts and the fields of the left and right count (with
+        ``ticks`` and ``units_per_rev``, as :func:`read_bag`); or:
+    odom_topic : str, optional
+        A ``nav_msgs/Odometry`` topic (the wheel odometry the robot computed).
+    joint_topic : str
+        The JointState topic.
+    ticks : str
+        ``cumulative`` or ``incremental`` counts.
+    units_per_rev : float, optional
+        Encoder pulses per wheel revolution (needed with ``ticks_topic``).
+    scan_frame : str, optional
+        The frame the scans must be in (default: whatever the first scan says).
+    tf_topic : str
+        The topic of the static transforms (read when the bag has it).
+    progress : callable, optional
+        Called as ``progress(messages_read, messages_total)`` while reading.
+
+    Returns
+    -------
+    SelfcalBag
+
+    Raises
+    ------
+    InputError
+        An unreadable bag; a missing topic, one of another type or without messages (the
+        message lists the bag's topics); not exactly one source of wheel data; missing joints
+        or fields; scans in another frame than ``scan_frame`` or changing frame; stamps that go
+        backwards; fewer than two scans or wheel samples; no scan with a valid range;
+        non-finite wheel data.
+    """
+    src = str(path)
+    sources = [s for s in (joints is not None, ticks_topic is not None, odom_topic is not None) if s]
+    if len(sources) > 1:
+        raise InputError(
+            "give one source of wheel data, not several: the wheel joints (`joints`), a ticks topic "
+            "(`ticks_topic`) or an odometry topic (`odom_topic`)",
+            src,
+        )
+    if ticks not in ("cumulative", "incremental"):
+        raise InputError(f"ticks must be 'cumulative' or 'incremental', got {ticks!r}", src)
+    if ticks_topic is not None:
+        if not left_field or not right_field:
+            raise InputError("a ticks topic needs `left_field` and `right_field`", src)
+        if units_per_rev is None or not (math.isfinite(units_per_rev) and units_per_rev > 0):
+            raise InputError("encoder ticks need the pulses per wheel revolution (`pulses_per_wheel_rev`)", src)
+    reader = _open(path)
+    try:
+        topics = tuple(sorted({c.topic for c in reader.connections}))
+        if not sources:
+            raise InputError(
+                "give the wheel data: the wheel joints (`joints`) of a JointState topic, a ticks topic "
+                f"(`ticks_topic`) or an odometry topic (`odom_topic`) (topics: {_topics_hint(reader)})",
+                src,
+            )
+        scan_conns = _typed_conns(reader, scan_topic, ("LaserScan",), src, "laser scans")
+        if joints is not None:
+            kind, wtopic = "joints", joint_topic
+            wconns = _typed_conns(reader, joint_topic, ("JointState",), src, "wheel joints")
+        elif ticks_topic is not None:
+            kind, wtopic = "ticks", ticks_topic
+            wconns = _topic_conns(reader, ticks_topic, src, "encoder ticks")
+        else:
+            kind, wtopic = "odom", str(odom_topic)
+            wconns = _typed_conns(reader, wtopic, ("Odometry",), src, "wheel odometry")
+        tf_conns = [c for c in reader.connections if c.topic == tf_topic and c.msgtype.endswith("TFMessage")]
+        conns = scan_conns + wconns + tf_conns
+        total = sum(c.msgcount for c in conns)
+        scans = _Scans(scan_topic, scan_frame, src)
+        wt: list[float] = []
+        w1: list[float] = []
+        w2: list[float] = []
+        w3: list[float] = []
+        names_seen: set[str] = set()
+        child_frames: set[str] = set()
+        tfs: dict[tuple[str, str], StaticTransform] = {}
+        scan_ids = {id(c) for c in scan_conns}
+        w_ids = {id(c) for c in wconns}
+        done = 0
+        for c, ns, raw in reader.messages(connections=conns):
+            msg = reader.deserialize(raw, c.msgtype)
+            if id(c) in scan_ids:
+                scans.add(msg, ns)
+            elif id(c) in w_ids:
+                if kind == "joints":
+                    names = list(getattr(msg, "name", []))
+                    if joints[0] in names and joints[1] in names:
+                        pos = msg.position
+                        wt.append(_stamp(msg, ns))
+                        w1.append(float(pos[names.index(joints[0])]))
+                        w2.append(float(pos[names.index(joints[1])]))
+                    elif len(names_seen) < 50:
+                        names_seen.update(names)
+                elif kind == "ticks":
+                    wt.append(_stamp(msg, ns))
+                    w1.append(_field(msg, str(left_field), src))
+                    w2.append(_field(msg, str(right_field), src))
+                else:
+                    p = msg.pose.pose
+                    wt.append(_stamp(msg, ns))
+                    w1.append(p.position.x)
+                    w2.append(p.position.y)
+                    w3.append(_yaw(p.orientation))
+                    child_frames.add(msg.child_frame_id.lstrip("/"))
+            else:
+                for tr in msg.transforms:
+                    t, q = tr.transform.translation, tr.transform.rotation
+                    parent, child = tr.header.frame_id.lstrip("/"), tr.child_frame_id.lstrip("/")
+                    tfs[(parent, child)] = StaticTransform(parent, child, (t.x, t.y, t.z), (q.x, q.y, q.z, q.w))
+            done += 1
+            if progress is not None and (done % 2000 == 0 or done == total):
+                progress(done, total)
+    finally:
+        reader.close()
+    warnings: list[str] = []
+    if scans.other_layout:
+        warnings.append(
+            f"{scans.other_layout} scans on {scan_topic} with another beam layout than the first were dropped"
+        )
+    if len(scans.t) < 2:
+        raise InputError(f"fewer than two usable scans on {scan_topic} (topics: {', '.join(topics)})", src)
+    st = np.asarray(scans.t, dtype=float)
+    keep, repeated = _ordered(st, "scans", scan_topic, src)
+    if repeated:
+        warnings.append(f"{repeated} scans on {scan_topic} repeat the stamp of the scan before: dropped")
+    ranges = np.stack(scans.ranges)[keep]
+    if not np.isfinite(ranges).any():
+        raise InputError(
+            f"every range of the {len(keep)} scans on {scan_topic} is infinite, NaN or outside "
+            "[range_min, range_max]: the lidar saw nothing",
+            src,
+        )
+    if not wt:
+        if kind == "joints":
+            seen = ", ".join(sorted(names_seen)) or "none"
+            raise InputError(
+                f"no JointState message on {joint_topic} names both joints {joints[0]!r} and {joints[1]!r} "
+                f"(joints there: {seen})",
+                src,
+            )
+        raise InputError(f"no messages on {wtopic} for the wheel data (topics: {', '.join(topics)})", src)
+    what = {"joints": "joint states", "ticks": "encoder counts", "odom": "odometry poses"}[kind]
+    t = np.asarray(wt, dtype=float)
+    wkeep, wrep = _ordered(t, what, wtopic, src)
+    if wrep:
+        warnings.append(f"{wrep} {what} on {wtopic} repeat the stamp of the one before: dropped")
+    a1 = np.asarray(w1, dtype=float)[wkeep]
+    a2 = np.asarray(w2, dtype=float)[wkeep]
+    t = t[wkeep]
+    if len(t) < 2:
+        raise InputError(f"fewer than two {what} on {wtopic}", src)
+    left = right = pose = None
+    if kind == "odom":
+        pose = np.column_stack([a1, a2, np.asarray(w3, dtype=float)[wkeep]])
+        if not np.all(np.isfinite(pose)):
+            raise InputError(f"the odometry poses on {wtopic} contain NaN or infinite values", src)
+        desc = f"nav_msgs/Odometry on {wtopic}"
+    else:
+        if not (np.all(np.isfinite(a1)) and np.all(np.isfinite(a2))):
+            raise InputError(f"the {what} on {wtopic} contain NaN or infinite values", src)
+        if kind == "joints":
+            left, right = a1, a2
+            desc = f"JointState {joints[0]}, {joints[1]} on {wtopic}"
+        else:
+            scale = 2.0 * math.pi / float(units_per_rev)  # type: ignore[arg-type]
+            if ticks == "incremental":
+                a1, a2 = np.cumsum(a1), np.cumsum(a2)
+            left, right = a1 * scale, a2 * scale
+            desc = f"encoder counts {left_field}, {right_field} on {wtopic} ({ticks}, {float(units_per_rev):g} per rev)"  # type: ignore[arg-type]
+    first, inc = scans.layout[1], scans.layout[2]  # type: ignore[index]
+    return SelfcalBag(
+        source=src,
+        scan_topic=scan_topic,
+        scan_frame=str(scans.frame),
+        scan_t_s=st[keep],
+        ranges_m=ranges,
+        angles_rad=first + inc * np.arange(ranges.shape[1]),
+        wheel_kind=kind,
+        wheel_topic=wtopic,
+        wheel_description=desc,
+        wheel_t_s=t,
+        left_rad=left,
+        right_rad=right,
+        odom_pose=pose,
+        odom_child_frame=(sorted(child_frames)[0] if len(child_frames) == 1 else None) if kind == "odom" else None,
+        static_transforms=tuple(tfs.values()),
+        topics=topics,
+        warnings=tuple(warnings),
+    )
