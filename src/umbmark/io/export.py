@@ -8,7 +8,18 @@ Formats:
 * ``ros1``: the ROS 1 ``diff_drive_controller`` equivalent (``<controller>: {...}``);
 * ``json``: wheel diameters, wheelbase, c_L, c_R, E_d, E_b (and mm per pulse when known);
 * ``firmware``: a C header with the corrected millimetres per encoder pulse of each wheel
-  and the corrected wheelbase.
+  and the corrected wheelbase;
+* ``urdf``: the lidar's mounting pose as the ``<origin xyz="..." rpy="..."/>`` of its URDF
+  joint (a lidar self-calibration only);
+* ``tf``: the same pose as a ``static_transform_publisher`` command line (ROS 2 syntax; the
+  ROS 1 one as a comment).
+
+A lidar self-calibration (the JSON of ``umbmark selfcal``) also carries the sensor pose: the
+``ros2`` and ``ros1`` exports then end with the URDF origin and the ``static_transform_publisher``
+command as comments, ``json`` with the pose. Its wheel factors are the estimated diameters over
+the nominal one (``c_L = D_L / D_n``, ``c_R = D_R / D_n``) and ``E_b``. The pose's height, roll
+and pitch are not seen by a planar calibration: they are kept from the nominal mounting pose
+(``/tf_static``), zero without it.
 
 Mapping (derivation in the README, "real robots"). diff_drive_controller computes the
 travel of a wheel as ``wheel angle x wheel_radius x <side>_wheel_radius_multiplier`` and uses
@@ -25,15 +36,37 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
 from umbmark.errors import InputError
 from umbmark.io.atomic import atomic_write
 
-__all__ = ["ExportCalibration", "ros_multipliers", "format_export", "write_export", "FORMATS", "calibration_from_json"]
+__all__ = [
+    "ExportCalibration",
+    "ros_multipliers",
+    "format_export",
+    "write_export",
+    "FORMATS",
+    "calibration_from_json",
+    "urdf_origin",
+    "static_transform_command",
+]
 
-FORMATS = ("ros2", "ros1", "json", "firmware")
+FORMATS = ("ros2", "ros1", "json", "firmware", "urdf", "tf")
+_SENSOR_FORMATS = ("urdf", "tf")
+# the arguments of ROS 2's tf2_ros static_transform_publisher, in its order
+_TF2_ARGS = ("x", "y", "z", "roll", "pitch", "yaw", "frame-id", "child-frame-id")
+
+
+_FRAME = re.compile(r"[A-Za-z0-9_./][A-Za-z0-9_./-]*")
+
+
+def _finite(name, v, source=None) -> float:
+    if not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)):
+        raise InputError(f"{name} must be a finite number, got {v!r}", source=source)
+    return float(v)
 
 
 def _pos(name, v, source=None):
@@ -60,11 +93,18 @@ class ExportCalibration:
         Where the calibration came from.
     method : str or None
         The method that computed it.
+    sensor_pose : tuple of float or None
+        The lidar's pose on the robot ``(x_m, y_m, yaw_rad)`` (a self-calibration).
+    sensor_z_m, sensor_roll_rad, sensor_pitch_rad : float
+        The rest of its mounting pose (not calibrated: the nominal one).
+    base_frame, sensor_frame : str
+        The frames of the transform (``base_link`` -> ``laser``).
 
     Raises
     ------
     InputError
-        A factor or size that is not a positive number.
+        A factor or size that is not a positive number, a sensor pose that is not finite, a
+        frame name with spaces, quotes or markup characters.
     """
 
     c_left: float
@@ -76,6 +116,12 @@ class ExportCalibration:
     pulses_per_wheel_rev: float | None = None
     source: str | None = None
     method: str | None = None
+    sensor_pose: tuple[float, float, float] | None = None
+    sensor_z_m: float = 0.0
+    sensor_roll_rad: float = 0.0
+    sensor_pitch_rad: float = 0.0
+    base_frame: str = "base_link"
+    sensor_frame: str = "laser"
 
     def __post_init__(self):
         for k in ("c_left", "c_right", "eb"):
@@ -83,6 +129,17 @@ class ExportCalibration:
         for k in ("nominal_diameter_left_m", "nominal_diameter_right_m", "nominal_wheelbase_m", "pulses_per_wheel_rev"):
             if getattr(self, k) is not None:
                 _pos(k, getattr(self, k), self.source)
+        if self.sensor_pose is not None:
+            pose = tuple(_finite("sensor_pose", v, self.source) for v in self.sensor_pose)
+            if len(pose) != 3:
+                raise InputError(f"sensor_pose must be (x_m, y_m, yaw_rad), got {self.sensor_pose!r}", self.source)
+            object.__setattr__(self, "sensor_pose", pose)
+        for k in ("sensor_z_m", "sensor_roll_rad", "sensor_pitch_rad"):
+            object.__setattr__(self, k, _finite(k, getattr(self, k), self.source))
+        for k in ("base_frame", "sensor_frame"):
+            v = getattr(self, k)
+            if not isinstance(v, str) or not _FRAME.fullmatch(v):
+                raise InputError(f"{k} must be a frame name (letters, digits, _ / . -), got {v!r}", self.source)
 
     @property
     def ed(self) -> float:
@@ -90,8 +147,52 @@ class ExportCalibration:
         return self.c_right / self.c_left
 
 
+def _selfcal_calibration(d: dict, src: str) -> ExportCalibration:
+    """The calibration in the JSON of ``umbmark selfcal``."""
+    for k in ("wheel_diameter_left_mm", "wheel_diameter_right_mm", "nominal_wheel_diameter_mm", "sensor_pose"):
+        if d.get(k) is None:
+            raise InputError(f"no {k!r}: not the JSON of umbmark selfcal", source=src)
+    dn = _pos("nominal_wheel_diameter_mm", d["nominal_wheel_diameter_mm"], src)
+    dl = _pos("wheel_diameter_left_mm", d["wheel_diameter_left_mm"], src)
+    dr = _pos("wheel_diameter_right_mm", d["wheel_diameter_right_mm"], src)
+    bn = d.get("nominal_wheelbase_mm")
+    if d.get("Eb") is not None:
+        eb = d["Eb"]
+    elif d.get("wheelbase_mm") is not None and bn is not None:
+        eb = _pos("wheelbase_mm", d["wheelbase_mm"], src) / _pos("nominal_wheelbase_mm", bn, src)
+    else:
+        raise InputError("no 'Eb' or wheelbase figures", source=src)
+    sp = d["sensor_pose"]
+    if not isinstance(sp, dict):
+        raise InputError(f"'sensor_pose' must be an object (x_mm, y_mm, yaw_deg), got {sp!r}", source=src)
+    for k in ("x_mm", "y_mm", "yaw_deg"):
+        _finite(f"sensor_pose {k}", sp.get(k), src)
+    nom = d.get("nominal_sensor_pose") or {}
+    if not isinstance(nom, dict):
+        raise InputError(f"'nominal_sensor_pose' must be an object, got {nom!r}", source=src)
+    rest = {k: _finite(f"nominal_sensor_pose {k}", nom.get(k, 0.0), src) for k in ("z_mm", "roll_deg", "pitch_deg")}
+    return ExportCalibration(
+        dl / dn,
+        dr / dn,
+        eb,
+        dn * 1e-3,
+        dn * 1e-3,
+        None if bn is None else _pos("nominal_wheelbase_mm", bn, src) * 1e-3,
+        None,
+        src,
+        "selfcal",
+        (sp["x_mm"] * 1e-3, sp["y_mm"] * 1e-3, math.radians(sp["yaw_deg"])),
+        rest["z_mm"] * 1e-3,
+        math.radians(rest["roll_deg"]),
+        math.radians(rest["pitch_deg"]),
+        str(d.get("base_frame") or "base_link"),
+        str(d.get("sensor_frame") or "laser"),
+    )
+
+
 def calibration_from_json(path, dataset: str | None = None) -> ExportCalibration:
-    """Read a calibration from the JSON of ``umbmark replay --json`` or ``umbmark analyze --json``.
+    """Read a calibration from the JSON of ``umbmark replay --json``, ``umbmark analyze --json``
+    or ``umbmark selfcal --json``.
 
     Parameters
     ----------
@@ -103,7 +204,8 @@ def calibration_from_json(path, dataset: str | None = None) -> ExportCalibration
     Returns
     -------
     ExportCalibration
-        With the nominal geometry when the JSON has it.
+        With the nominal geometry when the JSON has it, and the sensor pose of a
+        self-calibration.
 
     Raises
     ------
@@ -133,6 +235,8 @@ def calibration_from_json(path, dataset: str | None = None) -> ExportCalibration
         if dataset not in names:
             raise InputError(f"no data set {dataset!r} (have {', '.join(map(str, names))})", source=src)
         d = d["datasets"][names.index(dataset)]
+    if d.get("method") == "selfcal" or ("sensor_pose" in d and "nominal_wheel_diameter_mm" in d):
+        return _selfcal_calibration(d, src)
     for k in ("c_left", "c_right"):
         if k not in d:
             raise InputError(f"no {k!r}: not the JSON of umbmark replay or analyze", source=src)
@@ -236,10 +340,24 @@ def format_export(
     ------
     InputError
         An unknown format, a bad controller name, a firmware export without the nominal
-        diameters and pulses per revolution.
+        diameters and pulses per revolution, a ``urdf`` or ``tf`` export without a sensor pose.
     """
     if fmt not in FORMATS:
         raise InputError(f"unknown export format {fmt!r} (choose from {', '.join(FORMATS)})")
+    if fmt in _SENSOR_FORMATS:
+        if cal.sensor_pose is None:
+            raise InputError(
+                f"the {fmt} export is the lidar's mounting pose: it needs the JSON of a self-calibration "
+                "(umbmark selfcal)"
+            )
+        if fmt == "urdf":
+            return f"<!-- {_header(cal, '').strip().replace('--', '- -')} -->\n{urdf_origin(cal)}\n"
+        return (
+            _header(cal, "#")
+            + f"# the pose of {cal.sensor_frame} in {cal.base_frame}; ROS 1: {static_transform_command(cal, ros=1)}\n"
+            + static_transform_command(cal)
+            + "\n"
+        )
     if fmt in ("ros2", "ros1"):
         if not controller or any(c in controller for c in ":{}[]#, \t\n"):
             raise InputError(f"bad controller name {controller!r}")
@@ -255,7 +373,8 @@ def format_export(
         )
         import yaml
 
-        return _header(cal, "#") + note + yaml.safe_dump(body, sort_keys=False, default_flow_style=False)
+        text = _header(cal, "#") + note + yaml.safe_dump(body, sort_keys=False, default_flow_style=False)
+        return text + _sensor_comment(cal, 2 if fmt == "ros2" else 1)
     out = {"Ed": cal.ed, "Eb": cal.eb, "c_left": cal.c_left, "c_right": cal.c_right}
     if cal.nominal_diameter_left_m and cal.nominal_diameter_right_m:
         out["diameter_left_mm"] = cal.c_left * cal.nominal_diameter_left_m * 1e3
@@ -267,6 +386,17 @@ def format_export(
         k = math.pi / cal.pulses_per_wheel_rev * 1e3
         mmpp = (cal.c_left * cal.nominal_diameter_left_m * k, cal.c_right * cal.nominal_diameter_right_m * k)
         out["left_mm_per_pulse"], out["right_mm_per_pulse"] = mmpp
+    if cal.sensor_pose is not None:
+        x, y, yaw = cal.sensor_pose
+        out["sensor_pose"] = {
+            "x_mm": x * 1e3,
+            "y_mm": y * 1e3,
+            "z_mm": cal.sensor_z_m * 1e3,
+            "roll_deg": math.degrees(cal.sensor_roll_rad),
+            "pitch_deg": math.degrees(cal.sensor_pitch_rad),
+            "yaw_deg": math.degrees(yaw),
+        }
+        out["base_frame"], out["sensor_frame"] = cal.base_frame, cal.sensor_frame
     if fmt == "json":
         return json.dumps(out, indent=2) + "\n"
     # firmware
@@ -286,6 +416,87 @@ def format_export(
         lines.append(f"#define UMBMARK_WHEELBASE_MM       {out['wheelbase_mm']:.6f}")
     lines.append("#endif")
     return "\n".join(lines) + "\n"
+
+
+def _n(v: float) -> str:
+    """A number for URDF and command lines: 6 decimals, trailing zeros dropped, no ``-0``."""
+    s = f"{v:.6f}".rstrip("0").rstrip(".")
+    return "0" if s in ("-0", "") else s
+
+
+def _sensor_values(cal: ExportCalibration) -> tuple[float, float, float, float, float, float]:
+    if cal.sensor_pose is None:
+        raise InputError(
+            "no sensor pose in this calibration: it needs the JSON of a self-calibration (umbmark selfcal)"
+        )
+    x, y, yaw = cal.sensor_pose
+    return x, y, cal.sensor_z_m, cal.sensor_roll_rad, cal.sensor_pitch_rad, yaw
+
+
+def urdf_origin(cal: ExportCalibration) -> str:
+    """The sensor's mounting pose as the ``<origin/>`` element of its URDF joint.
+
+    Parameters
+    ----------
+    cal : ExportCalibration
+        A calibration with a sensor pose.
+
+    Returns
+    -------
+    str
+        ``<origin xyz="x y z" rpy="roll pitch yaw"/>`` (metres, radians).
+
+    Raises
+    ------
+    InputError
+        If the calibration has no sensor pose.
+    """
+    x, y, z, roll, pitch, yaw = _sensor_values(cal)
+    return f'<origin xyz="{_n(x)} {_n(y)} {_n(z)}" rpy="{_n(roll)} {_n(pitch)} {_n(yaw)}"/>'
+
+
+def static_transform_command(cal: ExportCalibration, ros: int = 2) -> str:
+    """The ``tf2_ros static_transform_publisher`` command that publishes the sensor's pose.
+
+    Parameters
+    ----------
+    cal : ExportCalibration
+        A calibration with a sensor pose.
+    ros : int
+        2: ``ros2 run`` with named arguments; 1: ``rosrun`` with the positional ones
+        (x y z yaw pitch roll parent child).
+
+    Returns
+    -------
+    str
+        The command line.
+
+    Raises
+    ------
+    InputError
+        If the calibration has no sensor pose, or ``ros`` is not 1 or 2.
+    """
+    x, y, z, roll, pitch, yaw = _sensor_values(cal)
+    if ros == 1:
+        values = " ".join(_n(v) for v in (x, y, z, yaw, pitch, roll))
+        return f"rosrun tf2_ros static_transform_publisher {values} {cal.base_frame} {cal.sensor_frame}"
+    if ros != 2:
+        raise InputError(f"ros must be 1 or 2, got {ros!r}")
+    values = [_n(v) for v in (x, y, z, roll, pitch, yaw)] + [cal.base_frame, cal.sensor_frame]
+    args = " ".join(f"--{name} {v}" for name, v in zip(_TF2_ARGS, values))
+    return f"ros2 run tf2_ros static_transform_publisher {args}"
+
+
+def _sensor_comment(cal: ExportCalibration, ros: int) -> str:
+    """The sensor pose as comment lines of a parameter file (nothing without a sensor pose)."""
+    if cal.sensor_pose is None:
+        return ""
+    return (
+        f"# the lidar's mounting pose ({cal.base_frame} -> {cal.sensor_frame}), for its URDF joint:\n"
+        f"#   {urdf_origin(cal)}\n"
+        "# or published without the URDF:\n"
+        f"#   {static_transform_command(cal, ros)}\n"
+    )
 
 
 def write_export(text: str, path) -> None:
