@@ -17,6 +17,7 @@ from umbmark.cli import (
     history,  # noqa: F401,E402  history, report, guide, measure
     real,  # noqa: F401,E402  replay, export
     reproduce,  # noqa: F401,E402  reproduce
+    selfcal,  # noqa: F401,E402  selfcal
 )
 from umbmark.cli.app import app, cli_message
 from umbmark.errors import UmbmarkError

@@ -108,6 +108,7 @@ def is_quiet() -> bool:
 
 # library parameters (named in messages as `name` or `name=value`) -> the flags that set them
 PARAM_FLAGS = {
+    "base_frame": "--base-frame",
     "dask": "--dask",
     "dataset": "--dataset",
     "fmt": "--format",
@@ -115,15 +116,20 @@ PARAM_FLAGS = {
     "joints": "--joints",
     "left_diameter_mm": "--left-diameter-mm",
     "left_field": "--left-field",
+    "max_wheel_gap_s": "--max-wheel-gap-s",
     "method": "--method",
+    "odom_topic": "--odom-topic",
     "pulses_per_wheel_rev": "--pulses-per-wheel-rev",
     "record": "--record",
     "right_diameter_mm": "--right-diameter-mm",
     "right_field": "--right-field",
     "robot": "--robot NAME",
     "scale": "--scale",
+    "scan_frame": "--scan-frame",
+    "sensor_pose": "--sensor-pose",
     "side_mm": "--side-mm",
     "stream": "--stream",
+    "ticks_topic": "--ticks-topic",
     "wheel_diameter_mm": "--wheel-diameter-mm",
     "wheelbase_mm": "--wheelbase-mm",
 }

@@ -537,9 +537,10 @@ def convert(paths, log_format, target, out, **kw):
 @click.option(
     "--format",
     "out_format",
-    type=click.Choice(["ros2", "ros1", "json", "firmware"]),
+    type=click.Choice(["ros2", "ros1", "json", "firmware", "urdf", "tf"]),
     required=True,
-    help="ros2/ros1: diff_drive_controller parameters; json; firmware: C header (mm per pulse).",
+    help="ros2/ros1: diff_drive_controller parameters; json; firmware: C header (mm per pulse); "
+    "urdf, tf: the lidar pose of a self-calibration (URDF origin, static_transform_publisher).",
 )
 @click.option("--dataset", default=None, help="Data set to take from a replay JSON of several.")
 @click.option("--c-left", type=float, default=None, help="Left wheel-travel factor (instead of CAL.json).")
@@ -592,16 +593,19 @@ def export(
     out,
 ):
     """Write a calibration as ROS 2 / ROS 1 diff_drive_controller parameters, JSON or a
-    firmware header.
+    firmware header; a lidar self-calibration also as the lidar's URDF origin or a
+    static_transform_publisher command.
 
-    The calibration comes from CAL.json (the output of `umbmark replay --json` or
-    `umbmark analyze --json`) or from --c-left/--c-right/--eb. ROS multipliers are composed
-    with those in use when the logs were recorded: new = old x factor.
+    The calibration comes from CAL.json (the output of `umbmark replay --json`,
+    `umbmark analyze --json` or `umbmark selfcal --json`) or from --c-left/--c-right/--eb. ROS
+    multipliers are composed with those in use when the logs were recorded: new = old x
+    factor. The ros2/ros1 files of a self-calibration end with the lidar pose as comments.
 
     \b
     Example:
       umbmark replay data/optiodom/square/230620202144 --save cal.json
       umbmark export cal.json --format ros2 --out params.yaml
+      umbmark export selfcal.json --format urdf
     """
     from dataclasses import replace
 

@@ -1,0 +1,454 @@
+"""``umbmark selfcal``: the lidar self-calibration of the wheels, the wheelbase and the lidar's
+mounting pose, from ROS bags (LaserScan and wheel data) or intervals files.
+
+The library does the work (:mod:`umbmark.realrobot.selfcal`, :mod:`umbmark.io.rosbag`,
+:mod:`umbmark.correct.selfcal`); this module parses the options, shows progress bars on long
+bags, and prints the report's ``to_dict()`` or a table made from it. No numerical module is
+imported before the command runs.
+"""
+
+from __future__ import annotations
+
+import math
+import shlex
+from contextlib import ExitStack
+from pathlib import Path
+
+import click
+
+from umbmark.cli.app import app, cli_message, console, emit_json, fmt, is_quiet, table
+from umbmark.cli.history import history_options, print_recorded, record_if_requested
+from umbmark.cli.progress import progress
+from umbmark.errors import InputError
+
+__all__ = ["selfcal_cmd", "LEGEND"]
+
+LEGEND = (
+    "D_L, D_R: the wheel diameters, and wheelbase: the effective distance between the wheels, that make the "
+    "wheel odometry move as the lidar saw the robot move.",
+    "E_d = D_R / D_L and E_b = wheelbase / nominal wheelbase: the two systematic errors of UMBmark.",
+    "lidar x, y, yaw: where the lidar sits on the robot (x forward, y left of the midpoint between the "
+    "wheels; yaw counter-clockwise from the robot's heading); nominal: the pose the scan matching started from.",
+    "95 % interval: from the scatter of the intervals about the fit; it does not cover errors shared by all "
+    "intervals (a bias of the scan matching, wheels slipping the same way on one floor).",
+)
+
+
+def _float_list(text: str, n: int, flag: str, meta: str) -> list[float]:
+    parts = [p.strip() for p in text.split(",")]
+    try:
+        vals = [float(p) for p in parts]
+    except ValueError:
+        vals = []
+    if len(vals) != n or not all(math.isfinite(v) for v in vals):
+        raise InputError(f"{flag} needs {n} numbers {meta}, got {text!r}")
+    return vals
+
+
+def _geometry(wheel_diameter_mm, wheelbase_mm, wheel_radius_m, wheel_separation_m) -> tuple[float, float]:
+    """The nominal wheel diameter and wheelbase [m] from either pair of flags."""
+    if (wheel_diameter_mm is None) == (wheel_radius_m is None):
+        raise InputError("give the nominal wheel size: --wheel-diameter-mm D or --wheel-radius-m R (one of them)")
+    if (wheelbase_mm is None) == (wheel_separation_m is None):
+        raise InputError("give the nominal wheelbase: --wheelbase-mm B or --wheel-separation-m S (one of them)")
+    for flag, v in (
+        ("--wheel-diameter-mm", wheel_diameter_mm),
+        ("--wheel-radius-m", wheel_radius_m),
+        ("--wheelbase-mm", wheelbase_mm),
+        ("--wheel-separation-m", wheel_separation_m),
+    ):
+        if v is not None and not (math.isfinite(v) and v > 0):
+            raise InputError(f"{flag} must be a positive number, got {v!r}")
+    d = wheel_diameter_mm * 1e-3 if wheel_diameter_mm is not None else 2.0 * wheel_radius_m
+    b = wheelbase_mm * 1e-3 if wheelbase_mm is not None else wheel_separation_m
+    return d, b
+
+
+def _kind_of(paths) -> str:
+    """``bags`` or ``intervals`` (CSV files): all inputs must be of one kind."""
+    from umbmark.io.rosbag import is_bag
+
+    kinds = set()
+    for p in paths:
+        q = Path(p)
+        if not q.exists():
+            raise InputError("not found", source=str(p))
+        if q.is_file() and q.suffix.lower() == ".csv":
+            kinds.add("intervals")
+        elif is_bag(q):
+            kinds.add("bags")
+        else:
+            raise InputError(
+                "not a ROS bag (.bag, .mcap, .db3, or a folder with metadata.yaml) nor an intervals file (.csv)",
+                source=str(p),
+            )
+    if len(kinds) > 1:
+        raise InputError("give bags or intervals files, not both")
+    return kinds.pop()
+
+
+class _Bars:
+    """Progress bars opened when the library first reports a total (none with --json or --quiet)."""
+
+    def __init__(self, enabled: bool):
+        self.enabled = enabled
+        self.stack = ExitStack()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.stack.close()
+
+    def bar(self, description: str):
+        if not self.enabled:
+            return None
+        state: dict = {}
+
+        def report(done: int, total: int) -> None:
+            if "advance" not in state:
+                state["advance"] = self.stack.enter_context(progress(description, total=total))
+                state["done"] = 0
+            state["advance"](done - state["done"])
+            state["done"] = done
+
+        return report
+
+
+def _next_command(paths, save, d_m, b_m, flags: list[str]) -> tuple[str, str]:
+    """The command that saves this result (when it was not saved), and the export command."""
+    q = shlex.quote
+    cal = save or "selfcal.json"
+    again = ""
+    if not save:
+        again = (
+            f"umbmark selfcal {' '.join(q(str(p)) for p in paths)} {' '.join(flags)} "
+            f"--wheel-diameter-mm {d_m * 1e3:.10g} --wheelbase-mm {b_m * 1e3:.10g} --save {q(cal)}"
+        ).replace("  ", " ")
+    return again, f"umbmark export {q(cal)} --format ros2 --out params.yaml"
+
+
+def _ci(lo_hi, digits: int) -> str:
+    return f"{lo_hi[0]:.{digits}f} to {lo_hi[1]:.{digits}f}"
+
+
+def _print_report(d: dict, again: str, export: str) -> None:
+    """The human output: what was read, the figures with their intervals and meaning, what next."""
+    from rich.markup import escape
+
+    c = console()
+    bags = [i for i in d["inputs"] if i["kind"] == "bag"]
+    if bags:
+        for b in bags:
+            c.print(
+                escape(
+                    f"{b['path']}: {b['scans_read']} scans on {b['scan_topic']} (frame {b['scan_frame']}) over "
+                    f"{b['time_span_s']:.1f} s, wheels from {b['wheel_data']}; keyframes "
+                    f"{d['keyframe_rule']['description']}: "
+                    f"{b['pairs_matched']} scan pairs matched, {b['pairs_failed']} failed, "
+                    f"{b['intervals_still']} without wheel motion set aside"
+                )
+            )
+            if b["failure_reasons"]:
+                why = "; ".join(f"{n} {r}" for r, n in b["failure_reasons"].items())
+                c.print(escape(f"  failed matches: {why}"))
+            n = b["nominal_sensor_pose"]
+            src = "none (zero)" if n["source"] == "none" else n["source"]
+            c.print(
+                escape(
+                    f"  matching started from the sensor pose x {n['x_mm']:.1f} mm, y {n['y_mm']:.1f} mm, "
+                    f"yaw {n['yaw_deg']:.2f} deg ({src})"
+                )
+            )
+    else:
+        c.print(escape(f"intervals from {', '.join(i['path'] for i in d['inputs'])}"))
+    sp = d["sensor_pose"]
+    nd, nb = d["nominal_wheel_diameter_mm"], d["nominal_wheelbase_mm"]
+    nsp = d.get("nominal_sensor_pose") or {}
+    nom = lambda k, digits: fmt(nsp.get(k), digits) if nsp else ""  # noqa: E731
+    rows = [
+        ["D_L [mm]", fmt(d["wheel_diameter_left_mm"], 3), _ci(d["wheel_diameter_left_mm_ci95"], 3), f"{nd:g}"],
+        ["D_R [mm]", fmt(d["wheel_diameter_right_mm"], 3), _ci(d["wheel_diameter_right_mm_ci95"], 3), f"{nd:g}"],
+        ["wheelbase [mm]", fmt(d["wheelbase_mm"], 3), _ci(d["wheelbase_mm_ci95"], 3), f"{nb:g}"],
+        ["E_d = D_R/D_L", fmt(d["Ed"], 6), _ci(d["Ed_ci95"], 6), "1"],
+        ["E_b", fmt(d["Eb"], 6), _ci(d["Eb_ci95"], 6), "1"],
+        ["lidar x [mm]", fmt(sp["x_mm"], 2), _ci(sp["x_mm_ci95"], 2), nom("x_mm", 2)],
+        ["lidar y [mm]", fmt(sp["y_mm"], 2), _ci(sp["y_mm_ci95"], 2), nom("y_mm", 2)],
+        ["lidar yaw [deg]", fmt(sp["yaw_deg"], 3), _ci(sp["yaw_deg_ci95"], 3), nom("yaw_deg", 3)],
+    ]
+    c.print(
+        table(
+            f"Self-calibration from {d['intervals_used']} intervals "
+            f"({len(d['intervals_rejected'])} rejected as outliers)",
+            ["", "estimate", "95 % interval", "nominal"],
+            rows,
+        )
+    )
+    for line in LEGEND:
+        c.print(f"[dim]{escape(line)}[/dim]")
+    for w in d["warnings"]:
+        c.print(f"[yellow]warning:[/yellow] {escape(cli_message(w))}")
+    c.print(
+        f"[bold]Next[/bold]: load the wheel factors c_left = {fmt(d['c_left'], 6)}, c_right = "
+        f"{fmt(d['c_right'], 6)} and E_b = {fmt(d['Eb'], 6)} into the odometry, and the lidar pose into the URDF:"
+    )
+    if again:
+        c.print(f"  {escape(again)}", soft_wrap=True)
+    c.print(f"  {escape(export)}", soft_wrap=True)
+    c.print(f"  {escape(export.replace('--format ros2 --out params.yaml', '--format urdf'))}", soft_wrap=True)
+
+
+@app.command("selfcal")
+@click.argument("paths", nargs=-1, required=True, metavar="INPUT...")
+@click.option("--scan-topic", default="/scan", show_default=True, help="Bag: the sensor_msgs/LaserScan topic.")
+@click.option("--joints", default=None, metavar="LEFT,RIGHT", help="Bag: JointState names of the wheels.")
+@click.option("--joint-topic", default="/joint_states", show_default=True, help="Bag: JointState topic.")
+@click.option("--ticks-topic", default=None, help="Bag: topic with encoder counts (instead of --joints).")
+@click.option("--left-field", default=None, help="Bag: field of the left count, e.g. data[0].")
+@click.option("--right-field", default=None, help="Bag: field of the right count, e.g. data[1].")
+@click.option("--pulses-per-wheel-rev", type=float, default=None, help="Bag: encoder pulses per wheel revolution.")
+@click.option(
+    "--ticks",
+    type=click.Choice(["cumulative", "incremental"]),
+    default="cumulative",
+    show_default=True,
+    help="Bag: encoder counts are a running counter or per-message counts.",
+)
+@click.option(
+    "--odom-topic",
+    default=None,
+    help="Bag: nav_msgs/Odometry of the wheels (instead of --joints), turned into wheel travel "
+    "with the nominal geometry.",
+)
+@click.option("--wheel-diameter-mm", type=float, default=None, help="Nominal wheel diameter.")
+@click.option("--wheelbase-mm", type=float, default=None, help="Nominal wheelbase.")
+@click.option(
+    "--wheel-radius-m", type=float, default=None, help="Nominal wheel radius (instead of --wheel-diameter-mm)."
+)
+@click.option(
+    "--wheel-separation-m", type=float, default=None, help="Nominal wheel separation (instead of --wheelbase-mm)."
+)
+@click.option(
+    "--sensor-pose",
+    default=None,
+    metavar="X_MM,Y_MM,YAW_DEG",
+    help="Bag: the lidar pose the scan matching starts from (default: /tf_static, else zero).",
+)
+@click.option(
+    "--base-frame", default=None, help="Bag: the robot frame in /tf_static (default base_link, base_footprint)."
+)
+@click.option("--scan-frame", default=None, help="Bag: refuse scans in another frame than this.")
+@click.option(
+    "--keyframe-mm",
+    type=float,
+    default=0.0,
+    show_default=True,
+    help="Bag: next keyframe after this much travel (0: every scan, unless another keyframe option is set).",
+)
+@click.option("--keyframe-deg", type=float, default=0.0, show_default=True, help="Bag: ... or this much turn.")
+@click.option("--keyframe-s", type=float, default=None, help="Bag: ... or this much time.")
+@click.option("--keyframe-min-s", type=float, default=0.0, show_default=True, help="Bag: least time between keyframes.")
+@click.option(
+    "--max-wheel-gap-s",
+    type=float,
+    default=0.5,
+    show_default=True,
+    help="Bag: scans in longer gaps of the wheel data are not used.",
+)
+@click.option(
+    "--coarse",
+    is_flag=True,
+    help="Bag: search widely before each scan match (odometry far off, or keyframes far apart).",
+)
+@click.option(
+    "--min-intervals", type=click.IntRange(min=3), default=10, show_default=True, help="Fewest matched intervals."
+)
+@click.option("--keep-outliers", is_flag=True, help="Fit every interval (no outlier rejection).")
+@click.option(
+    "--save",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Also write the JSON result to this file (input of `umbmark export`).",
+)
+@click.option(
+    "--intervals-out",
+    type=click.Path(dir_okay=False),
+    default=None,
+    help="Bag: write the matched intervals as an intervals file (CSV).",
+)
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+@history_options
+def selfcal_cmd(
+    paths,
+    wheel_diameter_mm,
+    wheelbase_mm,
+    wheel_radius_m,
+    wheel_separation_m,
+    min_intervals,
+    keep_outliers,
+    save,
+    as_json,
+    robot=None,
+    record=False,
+    db=None,
+    **kw,
+):
+    """Self-calibrate the wheel diameters, the wheelbase and the lidar's mounting pose from the
+    lidar's own motion (Censi et al., IEEE T-RO 2013).
+
+    INPUT is a ROS 1 or ROS 2 bag with laser scans and wheel data (several bags are pooled), or
+    intervals files (CSV: dt_s, left_rad, right_rad, sensor_dx_m, sensor_dy_m,
+    sensor_dyaw_rad). Drive straights, arcs and spins both ways near walls for a few minutes.
+    The wheel data: --joints (JointState), --ticks-topic (encoder counts) or --odom-topic
+    (nav_msgs/Odometry). The result exports with `umbmark export` (diff_drive_controller
+    parameters, the URDF origin of the lidar, a static_transform_publisher line).
+
+    \b
+    Example:
+      umbmark selfcal drive_bag --joints left_wheel_joint,right_wheel_joint --wheel-diameter-mm 150 --wheelbase-mm 340
+      umbmark selfcal drive_bag --odom-topic /odom --wheel-radius-m 0.075 --wheel-separation-m 0.34 --save cal.json
+      umbmark export cal.json --format urdf
+    """
+    d_m, b_m = _geometry(wheel_diameter_mm, wheelbase_mm, wheel_radius_m, wheel_separation_m)
+    kind = _kind_of(paths)
+    opts = {"reject_outliers": not keep_outliers}
+    if kind == "intervals":
+        from umbmark.realrobot.selfcal import selfcal_from_intervals
+
+        given = _bag_flags(kw)
+        if given:
+            raise InputError(f"{given[0].split()[0]} reads bags; the inputs are intervals files")
+        with ExitStack() as stack:
+            if not as_json:
+                stack.enter_context(progress("self-calibrating"))
+            rep = selfcal_from_intervals(list(paths), d_m, b_m, **opts)
+        flags: list[str] = []
+    else:
+        rep = _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json)
+        flags = _bag_flags(kw)
+    if keep_outliers:
+        flags.append("--keep-outliers")
+    if min_intervals != 10:
+        flags.append(f"--min-intervals {min_intervals}")
+    d = rep.to_dict()
+    if save:
+        from umbmark.io.atomic import write_json
+
+        write_json(save, d)
+    rec = None
+    if record:
+        from umbmark.history import KINDS, file_sha256
+
+        fields = rep.history_fields(
+            kind="selfcal" if "selfcal" in KINDS else "other", file_hash=file_sha256 if len(paths) == 1 else None
+        )
+        rec = record_if_requested(robot, record, db, **fields)
+    if as_json:
+        emit_json(d if rec is None else {**d, "history": rec})
+        return
+    if is_quiet():
+        return
+    _print_report(d, *_next_command(paths, save, d_m, b_m, flags))
+    print_recorded(rec)
+
+
+def _bag_flags(kw) -> list[str]:
+    """The options that read the bags, for the command shown as the next step."""
+    q = shlex.quote
+    out = []
+    for name in ("scan_topic", "joints", "joint_topic", "ticks_topic", "left_field", "right_field", "odom_topic"):
+        v = kw[name]
+        default = {"scan_topic": "/scan", "joint_topic": "/joint_states"}.get(name)
+        if v is not None and v != default:
+            out.append(f"--{name.replace('_', '-')} {q(str(v))}")
+    for name in ("pulses_per_wheel_rev", "sensor_pose", "base_frame", "scan_frame", "keyframe_s", "intervals_out"):
+        if kw[name] is not None:
+            out.append(f"--{name.replace('_', '-')} {q(str(kw[name]))}")
+    if kw["ticks"] != "cumulative":
+        out.append(f"--ticks {kw['ticks']}")
+    for name, default in (
+        ("keyframe_mm", 0.0),
+        ("keyframe_deg", 0.0),
+        ("keyframe_min_s", 0.0),
+        ("max_wheel_gap_s", 0.5),
+    ):
+        if kw[name] != default:
+            out.append(f"--{name.replace('_', '-')} {kw[name]:g}")
+    if kw["coarse"]:
+        out.append("--coarse")
+    return out
+
+
+def _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json):
+    """Read, plan and match every bag (with progress bars), then self-calibrate the pooled intervals."""
+    from umbmark.io.load import parse_joints
+    from umbmark.io.rosbag import read_selfcal_bag
+    from umbmark.realrobot.scanmatch import ICPConfig
+    from umbmark.realrobot.selfcal import KeyframeRule, match_intervals, plan_intervals, selfcal_report
+
+    for flag in ("keyframe_mm", "keyframe_deg", "keyframe_min_s"):
+        v = kw[flag]
+        if not (math.isfinite(v) and v >= 0):
+            raise InputError(f"--{flag.replace('_', '-')} must be a number >= 0, got {v!r}")
+    for flag in ("keyframe_s", "max_wheel_gap_s"):
+        v = kw[flag]
+        if v is not None and not (math.isfinite(v) and v > 0):
+            raise InputError(f"--{flag.replace('_', '-')} must be a positive number, got {v!r}")
+    if kw["keyframe_s"] is not None and kw["keyframe_s"] < kw["keyframe_min_s"]:
+        raise InputError(f"--keyframe-s {kw['keyframe_s']:g} is below --keyframe-min-s {kw['keyframe_min_s']:g}")
+    if kw["pulses_per_wheel_rev"] is not None and not (
+        math.isfinite(kw["pulses_per_wheel_rev"]) and kw["pulses_per_wheel_rev"] > 0
+    ):
+        raise InputError(f"--pulses-per-wheel-rev must be a positive number, got {kw['pulses_per_wheel_rev']!r}")
+    rule = KeyframeRule(
+        min_distance_m=kw["keyframe_mm"] * 1e-3,
+        min_rotation_rad=math.radians(kw["keyframe_deg"]),
+        min_interval_s=kw["keyframe_min_s"],
+        max_interval_s=math.inf if kw["keyframe_s"] is None else kw["keyframe_s"],
+    )
+    pose = None
+    if kw["sensor_pose"] is not None:
+        x, y, yaw = _float_list(kw["sensor_pose"], 3, "--sensor-pose", "X_MM,Y_MM,YAW_DEG")
+        pose = (x * 1e-3, y * 1e-3, math.radians(yaw))
+    read = {
+        "scan_topic": kw["scan_topic"],
+        "joints": None if kw["joints"] is None else parse_joints(kw["joints"]),
+        "joint_topic": kw["joint_topic"],
+        "ticks_topic": kw["ticks_topic"],
+        "left_field": kw["left_field"],
+        "right_field": kw["right_field"],
+        "ticks": kw["ticks"],
+        "units_per_rev": kw["pulses_per_wheel_rev"],
+        "odom_topic": kw["odom_topic"],
+        "scan_frame": kw["scan_frame"],
+    }
+    icp = ICPConfig(coarse=True) if kw["coarse"] else None
+    parts = []
+    with _Bars(enabled=not as_json) as bars:
+        for p in paths:
+            name = Path(p).name
+            bag = read_selfcal_bag(p, progress=bars.bar(f"reading {name}"), **read)
+            plan = plan_intervals(
+                bag,
+                d_m,
+                b_m,
+                keyframes=rule,
+                sensor_pose=pose,
+                base_frame=kw["base_frame"],
+                max_wheel_gap_s=kw["max_wheel_gap_s"],
+            )
+            parts.append(
+                match_intervals(
+                    plan, icp=icp, min_intervals=min_intervals, progress=bars.bar(f"matching scans of {name}")
+                )
+            )
+        if not as_json:
+            with progress("self-calibrating"):
+                rep = selfcal_report(parts, d_m, b_m, **opts)
+        else:
+            rep = selfcal_report(parts, d_m, b_m, **opts)
+    if kw["intervals_out"]:
+        from umbmark.io.intervals_csv import write_intervals_csv
+
+        write_intervals_csv(rep.intervals, kw["intervals_out"])
+    return rep
