@@ -58,6 +58,11 @@ _LAZY = {
     "load_logs": "umbmark.io.load",
     "replay_report": "umbmark.realrobot.replay",
     "open_history": "umbmark.history",
+    "Intervals": "umbmark.model.intervals",
+    "intervals_from_motion": "umbmark.model.intervals",
+    "read_intervals_csv": "umbmark.io.intervals_csv",
+    "selfcal": "umbmark.correct.selfcal",
+    "SelfcalResult": "umbmark.correct.selfcal",
 }
 
 __all__ = ["__version__", "UmbmarkError", "InputError", "CorrectionUndefined", *_LAZY]

@@ -1,5 +1,6 @@
 """Readers and writers: runs files, distances files, encoder logs (optiodom folders, the generic
-CSV, ROS bags), poses files, parameter exports, atomic file writes.
+CSV, ROS bags), the intervals file of a lidar self-calibration, poses files, parameter exports,
+simulated drives written as ROS bags, atomic file writes.
 
 Nothing here computes: the readers return the data structures of :mod:`umbmark.model` (SI
 units), the writers take them. Reading a bag needs the optional ``rosbags`` package, writing a
@@ -17,10 +18,12 @@ from umbmark.io.export import (
     write_export,
 )
 from umbmark.io.generic_csv import CsvChunk, format_generic_csv, iter_generic_csv, read_generic_csv
+from umbmark.io.intervals_csv import format_intervals_csv, parse_intervals_csv, read_intervals_csv, write_intervals_csv
 from umbmark.io.load import LOG_FORMATS, detect_format, load_logs, nominal_geometry
 from umbmark.io.optiodom import read_optiodom
 from umbmark.io.poses_csv import write_poses_csv
 from umbmark.io.rosbag import BagInfo, bag_info, read_bag
+from umbmark.io.rosbag_write import write_drive_bag
 from umbmark.io.runs_csv import format_runs_csv, parse_runs_csv, read_runs_csv, write_runs_csv
 
 __all__ = [
@@ -41,6 +44,11 @@ __all__ = [
     "read_generic_csv",
     "iter_generic_csv",
     "format_generic_csv",
+    "read_intervals_csv",
+    "parse_intervals_csv",
+    "format_intervals_csv",
+    "write_intervals_csv",
+    "write_drive_bag",
     "LOG_FORMATS",
     "detect_format",
     "load_logs",
