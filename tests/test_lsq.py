@@ -102,7 +102,7 @@ def _square_bf_ratio():
     vals = []
     for d in glob.glob(str(DATA / "square/*")):
         ds = read_optiodom(d)
-        vals.append(replay_report(ds, "bf", heldout=False)["wheelbase_per_mean_diameter"])
+        vals.append(replay_report(ds, "bf", heldout=False).calibration.wheelbase_per_mean_diameter)
     return float(np.mean(vals))
 
 
@@ -110,7 +110,7 @@ def test_lsq_on_circular_and_free_is_consistent_with_squares_and_helps_held_out(
     ref = _square_bf_ratio()
     for d in sorted(glob.glob(str(DATA / "circular/*"))) + sorted(glob.glob(str(DATA / "free/*"))):
         ds = read_optiodom(d)
-        rep = replay_report(ds, "lsq")
+        rep = replay_report(ds, "lsq").to_dict()  # the JSON of umbmark replay --method lsq
         assert rep["scale_fitted"]
         assert abs(rep["wheelbase_per_mean_diameter"] / ref - 1) < 0.02, ds.name
         assert abs(math.log(rep["Ed"])) < 2e-3, ds.name
@@ -123,7 +123,7 @@ def test_lsq_on_circular_and_free_is_consistent_with_squares_and_helps_held_out(
 def test_pooled_circular_and_free_held_out_by_data_set():
     dirs = sorted(glob.glob(str(DATA / "circular/*"))) + sorted(glob.glob(str(DATA / "free/*")))
     sets = [read_optiodom(d) for d in dirs]
-    rep = pooled_report(sets, {"points_per_run": 50})
+    rep = pooled_report(sets, {"points_per_run": 50}).to_dict()  # the JSON of umbmark replay --pool
     ref = _square_bf_ratio()
     assert abs(rep["wheelbase_per_mean_diameter"] / ref - 1) < 0.01
     assert rep["heldout"]["end_position_rms_mm"] < rep["before"]["end_position_rms_mm"] / 3
