@@ -135,7 +135,7 @@ def test_covariance_matches_the_errors():
 
 
 def test_dropouts_and_nan():
-    """Beams without a return (inf, or nan as some drivers write) are skipped alike."""
+    """Beams without a return (inf, or nan or 0 as some drivers write) are skipped alike."""
     lidar = Lidar(range_noise_m=0.005, dropout_prob=0.2)
     ref, cur, truth = draw_pairs(lidar, 100, seed=8)
     m = match_scan_pairs(ref, cur, lidar.angles_rad, odometry_guess(truth, 9))
@@ -147,6 +147,9 @@ def test_dropouts_and_nan():
     nan_cur[~np.isfinite(cur)] = np.nan
     m2 = match_scan_pairs(nan_ref, nan_cur, lidar.angles_rad, odometry_guess(truth, 9))
     assert np.array_equal(m2.poses, m.poses)
+    nan_cur[np.isnan(nan_cur)] = 0.0  # what some drivers write instead
+    m3 = match_scan_pairs(nan_ref, nan_cur, lidar.angles_rad, odometry_guess(truth, 9))
+    assert np.array_equal(m3.poses, m.poses)
 
 
 def test_clutter_only_in_one_scan():
@@ -377,3 +380,19 @@ def test_interpreted_kernels_give_the_compiled_answers():
     pose, iterations, converged = json.loads(out.stdout)
     assert converged and m.converged and iterations == m.iterations
     assert np.allclose(pose, m.pose, rtol=0, atol=1e-12)
+
+
+def test_benchmark_script_runs(tmp_path):
+    """benchmarks/scan_registration.py on a few pairs into a temporary folder (no timing is asserted)."""
+    from conftest import REPO
+
+    out = tmp_path / "bench"
+    cmd = [sys.executable, str(REPO / "benchmarks" / "scan_registration.py"), "--duration", "3", "--large", "3"]
+    subprocess.run(cmd + ["--numba-cache", "--out", str(out)], capture_output=True, text=True, check=True, timeout=300)
+    res = json.loads((out / "scan_registration.json").read_text())
+    assert (out / "scan_registration.md").read_text().startswith("# 2D scan registration")
+    assert set(res["sets"]) == {"drive, nominal odometry", "drive, 2 % / 2 deg", "large, zero guess"}
+    ours = res["sets"]["drive, nominal odometry"]["results"]["umbmark match_consecutive"]
+    assert ours["pairs"] == 30 and ours["converged"] == 1.0 and ours["position_mm"]["median"] < 1.0
+    assert res["sets"]["large, zero guess"]["results"]["umbmark match_scan_pairs, coarse stage"]["failures"] == 0.0
+    assert res["machine"]["cpu_model"] and res["command"].startswith("python ")

@@ -1,7 +1,7 @@
 """2D scan registration: the pose of one lidar scan's frame in another's (point-to-line ICP).
 
 The matcher is a point-to-line ICP in the manner of Censi's PLICP, built on the ordered structure of
-a scan (beams at uniformly spaced angles, ``inf`` or ``nan`` where a beam has no return):
+a scan (beams at uniformly spaced angles; ``inf``, ``nan`` or ``0`` where a beam has no return):
 
 * **Reference lines.** Every reference point gets the line fitted (total least squares) to
   :attr:`ICPConfig.line_points` consecutive valid points around it (beams without a return
@@ -123,7 +123,8 @@ class ICPConfig:
         independent. The default is the ratio of the actual to the predicted error variance on
         simulated scans (1.3 to 1.5 for 2 to 10 mm of range noise, 180 to 720 beams, dropouts).
     range_min_m, range_max_m : float
-        Ranges outside ``[range_min_m, range_max_m]`` are dropped (as are inf and nan).
+        Ranges outside ``[range_min_m, range_max_m]`` are dropped (as are inf, nan and ranges
+        of zero or less: no return).
     coarse : bool
         Run the correlative grid search before ICP (large or unknown displacements).
     coarse_range_m, coarse_range_rad : float
@@ -539,7 +540,7 @@ def _prepare_scan(r, cosa, sina, wrap, ip, fp, pts, flags, work, order):
     nvalid = 0
     for i in range(n):
         ri = r[i]
-        ok = math.isfinite(ri) and ri >= rmin and ri <= rmax
+        ok = math.isfinite(ri) and ri > 0.0 and ri >= rmin and ri <= rmax
         flags[_B_VALID, i] = ok
         pts[_P_X, i] = ri * cosa[i] if ok else 0.0
         pts[_P_Y, i] = ri * sina[i] if ok else 0.0
