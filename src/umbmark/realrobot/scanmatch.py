@@ -803,8 +803,8 @@ def _icp(rpts, rflags, cpts, cflags, ncur, beams, sin2, pose0, ip, fp, wf, wn, w
                 status = _OK
                 break
             # second stage, from this close pose on: a threshold relative to the median residual
-            # is safe only now (from far off, the residuals of one well-seen wall could shut out
-            # the walls that fix the other directions)
+            # is safe only near the solution (from far off, the residuals of one well-seen wall
+            # could shut out the walls that fix the other directions)
             robust = True
             frozen = False
             px1 = py1 = pt1 = px2 = py2 = pt2 = math.inf
