@@ -1,7 +1,8 @@
 """Real robots: replay logged runs with any geometry, calibrate, evaluate in sample and held
 out, stream long logs (:mod:`~umbmark.realrobot.replay`, its results in
 :mod:`~umbmark.realrobot.results`); the return pose from a tape measure
-(:mod:`~umbmark.realrobot.measure`); the field procedure (:mod:`~umbmark.realrobot.guide`).
+(:mod:`~umbmark.realrobot.measure`); the field procedure (:mod:`~umbmark.realrobot.guide`); 2D scan
+registration (:mod:`~umbmark.realrobot.scanmatch`).
 """
 
 from umbmark.realrobot.guide import STEP_TITLES, guide_text
@@ -38,8 +39,22 @@ from umbmark.realrobot.results import (
     ReplayReport,
     StreamReport,
 )
+from umbmark.realrobot.scanmatch import (
+    ICPConfig,
+    ScanMatch,
+    ScanMatches,
+    match_consecutive,
+    match_scan_pairs,
+    match_scans,
+)
 
 __all__ = [
+    "ICPConfig",
+    "ScanMatch",
+    "ScanMatches",
+    "match_consecutive",
+    "match_scan_pairs",
+    "match_scans",
     "guide_text",
     "STEP_TITLES",
     "RobotMarks",
