@@ -5,7 +5,8 @@ Each file runs in its own temporary folder, its commands in order, with `data` p
 repository's data folder and a history database of its own. The files run concurrently (one
 worker per core). Blocks whose info string is ``console`` are not run: they hold commands that
 take minutes, or that need a robot or a ROS installation. Pages that use the example ROS bags
-(`calibration_bag`, `check_bag`) get simulated bags of that name in their folder first.
+(`calibration_bag`, `check_bag`, the lidar drive `selfcal_bag`) get simulated bags of that name in
+their folder first.
 """
 
 import math
@@ -196,11 +197,33 @@ def _write_ros2_bag(path, phi_l, phi_r, pose, t0=1_760_000_000.0):
             w.write(cg, ns, ts.serialize_cdr(ps, "geometry_msgs/msg/PoseStamped"))
 
 
+# The lidar robot of docs/selfcal.md: umbmark.model.drive.EXAMPLE_ROBOT (a LabMate, wheels 150 mm and
+# wheelbase 340 mm nominal, with E_d 1.006, E_b 1.025, E_s 0.99; a 360-beam lidar with 5 mm noise at
+# 10 Hz, 120 mm ahead, 40 mm right, turned 3 deg) driving straights, arcs and spins for 3 minutes; a
+# ROS 2 mcap bag with /joint_states, /scan, /odom and a /tf_static whose lidar pose is the robot's
+# drawing (100 mm ahead, centred, straight), not where the lidar is.
+LIDAR_BAGS = {"selfcal_bag": dict(duration_s=180.0, seed=1, urdf_pose=(0.10, 0.0, 0.0))}
+
+
+def _write_lidar_bag(path, duration_s, seed, urdf_pose):
+    import dataclasses
+
+    from umbmark.io.rosbag_write import write_drive_bag
+    from umbmark.model.drive import EXAMPLE_ROBOT, mixed_program, simulate_drive
+    from umbmark.model.sensors import SensorPose
+
+    log = simulate_drive(mixed_program(duration_s, seed=seed), EXAMPLE_ROBOT, seed=seed)
+    write_drive_bag(dataclasses.replace(log, sensor_pose=SensorPose(*urdf_pose)), path, storage="mcap", odom=True)
+
+
 def write_example_bags(folder, text):
     """The example bags a page mentions, simulated into ``folder``."""
     for name, spec in BAG_ROBOTS.items():
         if name in text:
             _write_ros2_bag(folder / name, *_square_session(BAG_TRUE, spec["model"], seed=spec["seed"]))
+    for name, spec in LIDAR_BAGS.items():
+        if name in text:
+            _write_lidar_bag(folder / name, **spec)
 
 
 # --- running the pages -------------------------------------------------------------------------------

@@ -68,6 +68,8 @@ __all__ = [
     "BASE_FRAMES",
     "STILL_M",
     "MAX_TILT_RAD",
+    "POSE_WARN_M",
+    "POSE_WARN_RAD",
 ]
 
 BASE_FRAMES = ("base_link", "base_footprint")
@@ -78,6 +80,9 @@ STILL_M = 1e-4
 
 MAX_TILT_RAD = math.radians(10.0)
 """The largest roll or pitch of the lidar in ``/tf_static`` the planar model accepts."""
+
+POSE_WARN_M, POSE_WARN_RAD = 0.01, math.radians(1.0)
+"""An estimated sensor pose further than these from the ``/tf_static`` one is reported."""
 
 _CHUNK = 500  # scan pairs per call of the matcher (the progress steps)
 
@@ -874,7 +879,8 @@ class SelfcalReport:
 
 
 def _pose_warnings(parts: Sequence[ScanIntervals | str], result: SelfcalResult) -> list[str]:
-    """A warning when the estimated sensor pose is far from the one of /tf_static."""
+    """A warning when the estimated sensor pose is further from the one of /tf_static than
+    :data:`POSE_WARN_M` or :data:`POSE_WARN_RAD`."""
     out = []
     for p in parts:
         if not isinstance(p, ScanIntervals) or not p.plan.sensor_pose_source.startswith("/tf_static"):
@@ -883,7 +889,7 @@ def _pose_warnings(parts: Sequence[ScanIntervals | str], result: SelfcalResult) 
         ex, ey, eyaw = result.sensor_pose
         dpos = math.hypot(ex - x, ey - y)
         dyaw = abs(math.remainder(eyaw - yaw, 2 * math.pi))
-        if dpos > 0.05 or dyaw > math.radians(5.0):
+        if dpos > POSE_WARN_M or dyaw > POSE_WARN_RAD:
             out.append(
                 f"the estimated sensor pose differs from {p.plan.sensor_pose_source} of {Path(p.plan.bag.source).name} "
                 f"by {dpos * 1e3:.0f} mm and {math.degrees(dyaw):.1f} deg: check the URDF, or the wheel data"
