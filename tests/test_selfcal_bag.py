@@ -335,3 +335,84 @@ def test_tilted_lidar_is_refused(exact, tmp_path):
         plan_intervals(flipped, D_NOM, B_NOM)
     # a given pose replaces /tf_static
     assert plan_intervals(flipped, D_NOM, B_NOM, sensor_pose=(0.1, 0.0, 0.0)).sensor_pose_source == "given"
+
+
+def _write_ticks_bag(path, log, pulses_per_rev, incremental=False):
+    """The drive as a ROS 2 bag with /scan and encoder counts in a geometry_msgs/Vector3Stamped
+    (x left, y right), no /tf_static."""
+    from rosbags.rosbag2 import Writer
+    from rosbags.typesys import Stores, get_typestore
+
+    from umbmark.io.rosbag_write import EPOCH_S
+
+    ts = get_typestore(Stores.ROS2_HUMBLE)
+    T = ts.types
+
+    def header(t, frame):
+        ns = int(round((EPOCH_S + t) * 1e9))
+        return ns, T["std_msgs/msg/Header"](
+            stamp=T["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9), frame_id=frame
+        )
+
+    step = 2 * math.pi / pulses_per_rev
+    counts = np.floor(np.column_stack([log.left_rad, log.right_rad]) / step + 1e-9)
+    if incremental:
+        counts = np.diff(counts, axis=0, prepend=counts[:1])
+    lidar = log.lidar
+    with Writer(path, version=9) as w:
+        cs = w.add_connection("/scan", "sensor_msgs/msg/LaserScan", typestore=ts)
+        ct = w.add_connection("/wheel_ticks", "geometry_msgs/msg/Vector3Stamped", typestore=ts)
+        msgs = []
+        for k, t in enumerate(log.t_s):
+            ns, h = header(t, "")
+            v = T["geometry_msgs/msg/Vector3"](x=float(counts[k, 0]), y=float(counts[k, 1]), z=0.0)
+            msgs.append(
+                (
+                    ns,
+                    0,
+                    ct,
+                    ts.serialize_cdr(
+                        T["geometry_msgs/msg/Vector3Stamped"](header=h, vector=v), "geometry_msgs/msg/Vector3Stamped"
+                    ),
+                )
+            )
+        for m, t in enumerate(log.scan_t_s):
+            ns, h = header(t, "laser")
+            scan = T["sensor_msgs/msg/LaserScan"](
+                header=h,
+                angle_min=float(lidar.first_angle_rad),
+                angle_max=float(lidar.last_angle_rad),
+                angle_increment=float(lidar.angle_increment_rad),
+                time_increment=0.0,
+                scan_time=0.1,
+                range_min=float(lidar.min_range_m),
+                range_max=float(lidar.max_range_m),
+                ranges=log.ranges_m[m].astype(np.float32),
+                intensities=np.array([], dtype=np.float32),
+            )
+            msgs.append((ns, 1, cs, ts.serialize_cdr(scan, "sensor_msgs/msg/LaserScan")))
+        for ns, _, c, raw in sorted(msgs, key=lambda x: x[:2]):
+            w.write(c, ns, raw)
+    return path
+
+
+@pytest.mark.parametrize("kind", ["cumulative", "incremental"])
+def test_encoder_counts_without_tf_static(log, tmp_path, kind):
+    """4096 pulses per wheel revolution, as a running counter or per-message counts; no /tf_static,
+    so the matching starts from a lidar at the robot's centre and finds it 120 mm ahead."""
+    path = _write_ticks_bag(tmp_path / "ticks", log, 4096, incremental=kind == "incremental")
+    rep = selfcal_from_bags(
+        path,
+        D_NOM,
+        B_NOM,
+        ticks_topic="/wheel_ticks",
+        left_field="vector.x",
+        right_field="vector.y",
+        ticks=kind,
+        units_per_rev=4096,
+    )
+    d = rep.to_dict()
+    check_truth(d, log)
+    assert d["nominal_sensor_pose"]["source"] == "none"
+    assert d["nominal_sensor_pose"]["x_mm"] == 0.0
+    assert d["inputs"][0]["wheel_data"] == f"encoder counts vector.x, vector.y on /wheel_ticks ({kind}, 4096 per rev)"

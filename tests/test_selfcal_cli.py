@@ -359,3 +359,25 @@ def test_a_wrong_urdf_pose_is_pointed_out(log, tmp_path):
     (w,) = [w for w in d["warnings"] if "differs from" in w]
     assert w.startswith("the estimated sensor pose differs from /tf_static base_link -> laser of wrong_tf by 10")
     assert "check the URDF" in w
+
+
+def test_progress_bars_on_a_terminal_only(bag, monkeypatch, capsys):
+    """On a terminal the reading and the matching draw bars on stderr; --json and --quiet draw none."""
+    import io
+
+    from rich.console import Console
+
+    from umbmark.cli import progress as prog
+
+    buf = io.StringIO()
+    monkeypatch.setattr(prog, "_console", lambda: Console(file=buf, force_terminal=True, width=100))
+    assert main(["selfcal", str(bag), *JOINTS, *GEO]) == 0
+    assert "reading drive" in buf.getvalue() and "matching scans of drive" in buf.getvalue()
+    for extra in (["--json"], []):
+        buf.seek(0)
+        buf.truncate()
+        args = ["selfcal", str(bag), *JOINTS, *GEO, *extra]
+        assert main(args if extra else ["--quiet", *args]) == 0
+        assert buf.getvalue() == ""
+    out = capsys.readouterr()
+    assert out.err == ""
