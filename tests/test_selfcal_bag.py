@@ -416,3 +416,16 @@ def test_encoder_counts_without_tf_static(log, tmp_path, kind):
     assert d["nominal_sensor_pose"]["source"] == "none"
     assert d["nominal_sensor_pose"]["x_mm"] == 0.0
     assert d["inputs"][0]["wheel_data"] == f"encoder counts vector.x, vector.y on /wheel_ticks ({kind}, 4096 per rev)"
+
+
+def test_wrapped_joint_positions_are_unwrapped(bags, log, tmp_path):
+    """Joint positions published wrapped to (-pi, pi]: unwrapped, said in a warning, same estimate."""
+    wrap = lambda a: np.angle(np.exp(1j * a))  # noqa: E731
+    wrapped = dataclasses.replace(log, left_rad=wrap(log.left_rad), right_rad=wrap(log.right_rad))
+    path = write_drive_bag(wrapped, tmp_path / "wrapped", storage="sqlite3", odom=False)
+    d = selfcal_from_bags(path, D_NOM, B_NOM, **JOINTS).to_dict()
+    ref = selfcal_from_bags(bags["sqlite3"], D_NOM, B_NOM, **JOINTS).to_dict()
+    for key in ("wheel_diameter_left_mm", "wheel_diameter_right_mm", "wheelbase_mm"):
+        assert d[key] == pytest.approx(ref[key], rel=1e-9)
+    (w,) = d["warnings"]
+    assert w.startswith("the wheel positions jump by more than half a turn") and w.endswith("unwrapped")

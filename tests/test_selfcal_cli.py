@@ -230,8 +230,9 @@ def test_too_few_intervals(tmp_path):
     assert "usable intervals (fewer than 10)" in line and "drive longer" in line
 
 
-def _write_ros2(path, scans, joints):
-    """A ROS 2 bag with LaserScan messages ``(header_s, bag_s)`` and JointState ``(t_s, left, right)``."""
+def _write_ros2(path, scans, joints, positions=True):
+    """A ROS 2 bag with LaserScan messages ``(header_s, bag_s)`` and JointState ``(t_s, left, right)``
+    (without positions, only velocities, when not ``positions``)."""
     from rosbags.rosbag2 import Writer
     from rosbags.typesys import Stores, get_typestore
 
@@ -251,8 +252,8 @@ def _write_ros2(path, scans, joints):
             js = T["sensor_msgs/msg/JointState"](
                 header=header(t, ""),
                 name=["left_wheel_joint", "right_wheel_joint"],
-                position=np.array([left, right]),
-                velocity=np.array([], float),
+                position=np.array([left, right] if positions else [], float),
+                velocity=np.array([] if positions else [0.1, 0.1], float),
                 effort=np.array([], float),
             )
             w.write(cj, int(t * 1e9), ts.serialize_cdr(js, "sensor_msgs/msg/JointState"))
@@ -381,3 +382,17 @@ def test_progress_bars_on_a_terminal_only(bag, monkeypatch, capsys):
         assert buf.getvalue() == ""
     out = capsys.readouterr()
     assert out.err == ""
+
+
+def test_joint_states_without_positions(tmp_path):
+    t0 = 1_700_000_000.0
+    path = tmp_path / "velocities"
+    _write_ros2(
+        path,
+        [(t0 + 0.1 * k, t0 + 0.1 * k) for k in range(20)],
+        [(t0 + 0.01 * k, 0.0, 0.0) for k in range(200)],
+        positions=False,
+    )
+    line = run(["selfcal", str(path), *JOINTS, *GEO], code=2)
+    assert "name the joints 'left_wheel_joint' and 'right_wheel_joint' but carry no positions" in line
+    assert "--odom-topic" in line

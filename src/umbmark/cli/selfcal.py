@@ -366,13 +366,13 @@ def _bag_flags(kw) -> list[str]:
             out.append(f"--{name.replace('_', '-')} {q(str(kw[name]))}")
     if kw["ticks"] != "cumulative":
         out.append(f"--ticks {kw['ticks']}")
-    for name, default in (
+    for name, usual in (
         ("keyframe_mm", 0.0),
         ("keyframe_deg", 0.0),
         ("keyframe_min_s", 0.0),
         ("max_wheel_gap_s", 0.5),
     ):
-        if kw[name] != default:
+        if kw[name] != usual:
             out.append(f"--{name.replace('_', '-')} {kw[name]:g}")
     if kw["coarse"]:
         out.append("--coarse")

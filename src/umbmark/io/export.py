@@ -375,7 +375,7 @@ def format_export(
 
         text = _header(cal, "#") + note + yaml.safe_dump(body, sort_keys=False, default_flow_style=False)
         return text + _sensor_comment(cal, 2 if fmt == "ros2" else 1)
-    out = {"Ed": cal.ed, "Eb": cal.eb, "c_left": cal.c_left, "c_right": cal.c_right}
+    out: dict = {"Ed": cal.ed, "Eb": cal.eb, "c_left": cal.c_left, "c_right": cal.c_right}
     if cal.nominal_diameter_left_m and cal.nominal_diameter_right_m:
         out["diameter_left_mm"] = cal.c_left * cal.nominal_diameter_left_m * 1e3
         out["diameter_right_mm"] = cal.c_right * cal.nominal_diameter_right_m * 1e3
@@ -482,8 +482,8 @@ def static_transform_command(cal: ExportCalibration, ros: int = 2) -> str:
         return f"rosrun tf2_ros static_transform_publisher {values} {cal.base_frame} {cal.sensor_frame}"
     if ros != 2:
         raise InputError(f"ros must be 1 or 2, got {ros!r}")
-    values = [_n(v) for v in (x, y, z, roll, pitch, yaw)] + [cal.base_frame, cal.sensor_frame]
-    args = " ".join(f"--{name} {v}" for name, v in zip(_TF2_ARGS, values))
+    named = [_n(v) for v in (x, y, z, roll, pitch, yaw)] + [cal.base_frame, cal.sensor_frame]
+    args = " ".join(f"--{name} {v}" for name, v in zip(_TF2_ARGS, named))
     return f"ros2 run tf2_ros static_transform_publisher {args}"
 
 

@@ -708,6 +708,7 @@ def read_selfcal_bag(
         w2: list[float] = []
         w3: list[float] = []
         names_seen: set[str] = set()
+        no_position = 0
         child_frames: set[str] = set()
         tfs: dict[tuple[str, str], StaticTransform] = {}
         scan_ids = {id(c) for c in scan_conns}
@@ -722,9 +723,13 @@ def read_selfcal_bag(
                     names = list(getattr(msg, "name", []))
                     if joints[0] in names and joints[1] in names:
                         pos = msg.position
+                        i, j = names.index(joints[0]), names.index(joints[1])
+                        if len(pos) <= max(i, j):
+                            no_position += 1
+                            continue
                         wt.append(_stamp(msg, ns))
-                        w1.append(float(pos[names.index(joints[0])]))
-                        w2.append(float(pos[names.index(joints[1])]))
+                        w1.append(float(pos[i]))
+                        w2.append(float(pos[j]))
                     elif len(names_seen) < 50:
                         names_seen.update(names)
                 elif kind == "ticks":
@@ -767,6 +772,12 @@ def read_selfcal_bag(
             src,
         )
     if not wt:
+        if kind == "joints" and no_position:
+            raise InputError(
+                f"the JointState messages on {joint_topic} name the joints {joints[0]!r} and {joints[1]!r} but "
+                "carry no positions: record the wheel positions, or use the odometry (`odom_topic`)",
+                src,
+            )
         if kind == "joints":
             seen = ", ".join(sorted(names_seen)) or "none"
             raise InputError(
@@ -780,6 +791,8 @@ def read_selfcal_bag(
     wkeep, wrep = _ordered(t, what, wtopic, src)
     if wrep:
         warnings.append(f"{wrep} {what} on {wtopic} repeat the stamp of the one before: dropped")
+    if no_position:
+        warnings.append(f"{no_position} JointState messages on {wtopic} without positions: dropped")
     a1 = np.asarray(w1, dtype=float)[wkeep]
     a2 = np.asarray(w2, dtype=float)[wkeep]
     t = t[wkeep]

@@ -10,8 +10,9 @@ and sensor parameters for mobile robots" (IEEE T-RO 29(2), 2013), estimated by
    they are made first: per increment of the odometry, the pose change gives the arc length
    ``ds`` and the heading change ``dth`` of the exact arc, the wheels rolled
    ``ds -/+ b dth / 2`` (``b`` the NOMINAL wheelbase) and turned that travel over the NOMINAL
-   radius (:func:`wheel_angles_from_odometry`). Scans outside the wheel data, or inside a gap
-   of it longer than ``max_wheel_gap_s``, are not used.
+   radius (:func:`wheel_angles_from_odometry`). Joint positions that jump by more than half a
+   turn between samples (wrapped to one turn) are unwrapped, with a warning. Scans outside the
+   wheel data, or inside a gap of it longer than ``max_wheel_gap_s``, are not used.
 2. **Keyframes** (:class:`KeyframeRule`): by default every scan; or the next keyframe once the
    nominal odometry has moved a distance or turned an angle, or a time has passed. An
    interval joins two consecutive keyframes; those in which neither wheel moved are set aside
@@ -321,7 +322,7 @@ def sensor_pose_from_tf(
     for tr in transforms:
         m = _matrix(tr)
         edges.setdefault(tr.parent, []).append((tr.child, m))
-        edges.setdefault(tr.child, []).append((tr.parent, np.linalg.inv(m)))
+        edges.setdefault(tr.child, []).append((tr.parent, np.asarray(np.linalg.inv(m), dtype=float)))
     base, target = base_frame.lstrip("/"), sensor_frame.lstrip("/")
     seen = {base: np.eye(4)}
     queue = [base]
@@ -396,12 +397,24 @@ class IntervalPlan:
         return len(self.dt_s)
 
 
-def _wheel_angles(bag: SelfcalBag, r_nom: float, b_nom: float) -> tuple[FloatArray, FloatArray]:
+def _wheel_angles(bag: SelfcalBag, r_nom: float, b_nom: float) -> tuple[FloatArray, FloatArray, list[str]]:
+    """Cumulative wheel angles at the wheel stamps; joint positions wrapped to a turn are unwrapped."""
     if bag.wheel_kind == "odom":
         assert bag.odom_pose is not None
-        return wheel_angles_from_odometry(bag.odom_pose, r_nom, b_nom)
+        left, right = wheel_angles_from_odometry(bag.odom_pose, r_nom, b_nom)
+        return left, right, []
     assert bag.left_rad is not None and bag.right_rad is not None
-    return np.asarray(bag.left_rad, dtype=float), np.asarray(bag.right_rad, dtype=float)
+    left, right = np.asarray(bag.left_rad, dtype=float), np.asarray(bag.right_rad, dtype=float)
+    if bag.wheel_kind != "joints":
+        return left, right, []
+    jumps = int((np.abs(np.diff(left)) > math.pi).sum() + (np.abs(np.diff(right)) > math.pi).sum())
+    if not jumps:
+        return left, right, []
+    warning = (
+        f"the wheel positions jump by more than half a turn {jumps} times between joint states (wrapped to one "
+        "turn?): unwrapped"
+    )
+    return np.unwrap(left), np.unwrap(right), [warning]
 
 
 def _span(t: FloatArray) -> str:
@@ -494,10 +507,10 @@ def plan_intervals(
         raise InputError(f"`keyframes` must be a KeyframeRule, got {type(rule).__name__}")
     src = bag.source
     r_nom = 0.5 * d_nom
-    left, right = _wheel_angles(bag, r_nom, b_nom)
+    left, right, unwrapped = _wheel_angles(bag, r_nom, b_nom)
     wt = np.asarray(bag.wheel_t_s, dtype=float)
     st = np.asarray(bag.scan_t_s, dtype=float)
-    warnings: list[str] = list(bag.warnings)
+    warnings: list[str] = list(bag.warnings) + unwrapped
     inside = (st >= wt[0]) & (st <= wt[-1])
     if inside.sum() < 2:
         raise InputError(
