@@ -61,6 +61,9 @@ def test_model_matches_simulator(ed, eb, side, b, ccw):
 # a 4 m square on a 50 mm wheelbase: each leg curves by -361 deg and each turn is 180 deg; the true
 # basin's lowest grid sample sits where one Gauss-Newton step predicts no gain (its neighbours rank it)
 @example(ed=0.9613740168729288, eb=0.5, side=4.0, u=0.0, n=1, heading=False, sampled=False)
+# a 9.3 m square on a 154 mm wheelbase, E_b 0.501: E_d 0.98705 (about 1 / E_d) explains the runs
+# to 0.3 micrometres per metre of side, and is fitted first
+@example(ed=1.013143610613229, eb=0.501, side=9.27492755519848, u=0.0980123322711671, n=2, heading=False, sampled=False)
 def test_noise_free_recovery(ed, eb, side, u, n, heading, sampled):
     """Acceptance: E_d within 1e-5 and E_b within 1e-4, on runs files (mm, deg, CSV round trip)
     of any wheelbase, side and run count, with or without headings, exact-arc or sampled.
@@ -96,6 +99,26 @@ def test_recovery_with_legs_that_curve_a_full_turn():
     assert c.ed == pytest.approx(ed, abs=1e-7)
     assert c.eb == pytest.approx(eb, abs=1e-6)
     assert c.extra["global_search"] is True
+
+
+def test_recovery_next_to_a_near_twin():
+    """Turns of about 180 deg (E_b 0.501) on a 9.3 m square, 154 mm wheelbase: E_d 1.0131 and
+    its near twin 0.98705 (about 1 / E_d) both explain noise-free runs to well under a
+    micrometre per metre of side. The search must not stop at the twin it fits first."""
+    from umbmark.correct.exact import _Problem
+    from umbmark.correct.exact.search import _fit
+
+    ed, eb, side, b = 1.013143610613229, 0.501, 9.27492755519848, 0.15378480076361617
+    runs = _no_heading(simulate_umbmark(ErrorParams(ed, eb), Geometry(0.1, b), side, n_runs=2, motion=EXACT_ARC))
+    c = correct_runs("exact", runs, side, b)
+    assert c.ed == pytest.approx(ed, abs=1e-9)
+    assert c.eb == pytest.approx(eb, abs=1e-9)
+    prob = _Problem(runs, side, b, 1.0, False, None)
+    twin = _fit(prob, [np.array([0.98717464, 0.50037621])], "linear", 1.0)  # a start of the grid
+    assert twin is not None and twin.x[0] == pytest.approx(0.98705, abs=1e-4)
+    r = prob.residuals_matrix([twin.x[0]], [twin.x[1]])[0]
+    miss = max(float(np.hypot(*r[m].mean(axis=0))) for m in (prob.is_cw, ~prob.is_cw))
+    assert 1e-8 * side < miss < 1e-6 * side
 
 
 def test_recovery_where_the_lowest_grid_sample_of_the_true_basin_predicts_no_gain():
