@@ -396,3 +396,12 @@ def test_joint_states_without_positions(tmp_path):
     line = run(["selfcal", str(path), *JOINTS, *GEO], code=2)
     assert "name the joints 'left_wheel_joint' and 'right_wheel_joint' but carry no positions" in line
     assert "--odom-topic" in line
+
+
+def test_a_scan_topic_without_messages(tmp_path):
+    t0 = 1_700_000_000.0
+    path = tmp_path / "no_scans"
+    _write_ros2(path, [], [(t0 + 0.01 * k, 0.01 * k, 0.02 * k) for k in range(200)])
+    line = run(["selfcal", str(path), *JOINTS, *GEO], code=2)
+    assert "topic /scan holds no messages for the laser scans" in line
+    assert "(topics: /joint_states (JointState), /scan (LaserScan))" in line
