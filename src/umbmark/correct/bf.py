@@ -23,19 +23,35 @@ from umbmark.correct.result import CorrectionResult, compose
 from umbmark.errors import CorrectionUndefined, InputError
 from umbmark.metrics import UMBmarkResult, umbmark
 from umbmark.model.geometry import Calibration
+from umbmark.model.runs import RunsTable
 
 __all__ = ["bf_correction", "alpha_beta", "ed_from_beta", "eb_from_alpha"]
 
 
-def _check_geometry(side_m: float, wheelbase_m: float):
+def _check_geometry(side_m: float, wheelbase_m: float) -> None:
+    """Refuse a side or wheelbase that is not a positive finite length."""
     if not (isinstance(side_m, (int, float)) and math.isfinite(side_m) and side_m > 0):
         raise InputError(f"side must be a positive length, got {side_m!r}")
     if not (isinstance(wheelbase_m, (int, float)) and math.isfinite(wheelbase_m) and wheelbase_m > 0):
         raise InputError(f"wheelbase must be a positive length, got {wheelbase_m!r}")
 
 
-def alpha_beta(result: UMBmarkResult, side_m: float) -> dict:
-    """alpha and beta (radians) from x, from y, and their averages (Eqs. 4.20, 4.24)."""
+def alpha_beta(result: UMBmarkResult, side_m: float) -> dict[str, float]:
+    """alpha and beta from the centres of gravity (Eqs. 4.20, 4.24).
+
+    Parameters
+    ----------
+    result : UMBmarkResult
+        The UMBmark figures of the runs (centres of gravity in metres).
+    side_m : float
+        Side of the square [m].
+
+    Returns
+    -------
+    dict
+        ``alpha_x``, ``alpha_y``, ``beta_x``, ``beta_y`` (from x and from y) and their averages
+        ``alpha``, ``beta`` [rad].
+    """
     cw, ccw = result.cw, result.ccw
     k = -4.0 * side_m
     beta_x = (cw.x_cg - ccw.x_cg) / k
@@ -53,7 +69,27 @@ def alpha_beta(result: UMBmarkResult, side_m: float) -> dict:
 
 
 def ed_from_beta(beta: float, side_m: float, wheelbase_m: float) -> tuple[float, float]:
-    """Eqs. 4.21, 4.22: ``(E_d, R)``; R is infinite for beta = 0."""
+    """The diameter ratio and the legs' radius from beta (Eqs. 4.21, 4.22).
+
+    Parameters
+    ----------
+    beta : float
+        Heading gained per leg [rad].
+    side_m : float
+        Side of the square [m].
+    wheelbase_m : float
+        The wheelbase the odometry used [m].
+
+    Returns
+    -------
+    tuple of float
+        ``(E_d, R)``; R [m] is infinite for beta = 0.
+
+    Raises
+    ------
+    CorrectionUndefined
+        The radius is not larger than half the wheelbase.
+    """
     s = math.sin(beta / 2.0)
     k = wheelbase_m * s / side_m
     if not abs(k) < 1.0:
@@ -66,7 +102,23 @@ def ed_from_beta(beta: float, side_m: float, wheelbase_m: float) -> tuple[float,
 
 
 def eb_from_alpha(alpha: float) -> float:
-    """Eq. 4.26: ``E_b = 90 / (90 - alpha)`` (alpha in degrees)."""
+    """The wheelbase ratio from alpha, Eq. 4.26: ``E_b = 90 / (90 - alpha)`` (alpha in degrees).
+
+    Parameters
+    ----------
+    alpha : float
+        The turn shortfall per 90 deg turn [rad].
+
+    Returns
+    -------
+    float
+        E_b.
+
+    Raises
+    ------
+    CorrectionUndefined
+        alpha is not below 90 deg.
+    """
     a = math.degrees(alpha)
     if not a < 90.0:
         raise CorrectionUndefined(f"correction undefined: alpha = {a:.2f} deg is not below 90 deg")
@@ -78,9 +130,29 @@ def bf_correction(
 ) -> CorrectionResult:
     """The paper's correction from a UMBmark result.
 
-    ``wheelbase_m``: the wheelbase the odometry used during the runs (the nominal one for an
-    uncalibrated robot, the corrected one for a second pass). ``prior``: the correction factors
-    the robot ran with (``None``: none).
+    Parameters
+    ----------
+    result : UMBmarkResult
+        The UMBmark figures of the runs.
+    side_m : float
+        Side of the square [m].
+    wheelbase_m : float
+        The wheelbase the odometry used during the runs (the nominal one for an uncalibrated
+        robot, the corrected one for a second pass) [m].
+    prior : Calibration or None
+        The correction factors the robot ran with (``None``: none).
+
+    Returns
+    -------
+    CorrectionResult
+        Method ``bf``; ``extra`` holds the x- and y-based estimates and warnings.
+
+    Raises
+    ------
+    InputError
+        The side or wheelbase is not a positive length.
+    CorrectionUndefined
+        The formulas have no answer (radius within half the wheelbase, alpha of 90 deg or more).
     """
     _check_geometry(side_m, wheelbase_m)
     ab = alpha_beta(result, side_m)
@@ -117,6 +189,25 @@ def bf_correction(
 
 
 @register("bf")
-def bf_method(runs, side_m, wheelbase_m, prior=None, **_):
-    """Registry entry: the paper's correction from the runs' centres of gravity."""
+def bf_method(
+    runs: RunsTable, side_m: float, wheelbase_m: float, prior: Calibration | None = None, **_: Any
+) -> CorrectionResult:
+    """Registry entry: the paper's correction from the runs' centres of gravity.
+
+    Parameters
+    ----------
+    runs : RunsTable
+        Square runs in both directions.
+    side_m, wheelbase_m : float
+        Side of the square and the wheelbase the odometry used [m].
+    prior : Calibration or None
+        The correction factors the robot ran with.
+    **_
+        Ignored (the method has no options).
+
+    Returns
+    -------
+    CorrectionResult
+        As :func:`bf_correction`.
+    """
     return bf_correction(umbmark(runs), side_m, wheelbase_m, prior)
