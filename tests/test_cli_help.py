@@ -156,7 +156,7 @@ def test_benchmarks_write_into_a_new_folder_here_by_default(tmp_path, monkeypatc
         cmd = app.commands["bench"].commands[name]
         (param,) = [p for p in cmd.params if p.name == "out_dir"]
         defaults[f"bench {name}"] = Path(param.default)
-    for name in ("accuracy", "startup", "noise_preset", "reproduce_sampling", "scan_registration"):
+    for name in ("accuracy", "startup", "noise_preset", "reproduce_sampling", "scan_registration", "selfcal_bag"):
         defaults[name] = Path(_script(name).parser().parse_args([]).out)
     for what, default in defaults.items():
         where = default.resolve()

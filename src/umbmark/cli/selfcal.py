@@ -337,11 +337,9 @@ def selfcal_cmd(
         write_json(save, d)
     rec = None
     if record:
-        from umbmark.history import KINDS, file_sha256
+        from umbmark.history import file_sha256
 
-        fields = rep.history_fields(
-            kind="selfcal" if "selfcal" in KINDS else "other", file_hash=file_sha256 if len(paths) == 1 else None
-        )
+        fields = rep.history_fields(kind="selfcal", file_hash=file_sha256 if len(paths) == 1 else None)
         rec = record_if_requested(robot, record, db, **fields)
     if as_json:
         emit_json(d if rec is None else {**d, "history": rec})

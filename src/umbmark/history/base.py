@@ -43,7 +43,7 @@ __all__ = [
 ]
 
 ENV_VAR = "UMBMARK_DB"
-KINDS = ("analyze", "replay", "calibrate", "measure", "other")
+KINDS = ("analyze", "replay", "calibrate", "measure", "selfcal", "other")
 
 # Schema migrations: MIGRATIONS[v] upgrades a database at version v - 1 to version v.
 MIGRATIONS: dict[int, list[str]] = {

@@ -15,6 +15,8 @@ from umbmark.io.export import (
     calibration_from_json,
     format_export,
     ros_multipliers,
+    static_transform_command,
+    urdf_origin,
     write_export,
 )
 from umbmark.io.generic_csv import CsvChunk, format_generic_csv, iter_generic_csv, read_generic_csv
@@ -22,7 +24,7 @@ from umbmark.io.intervals_csv import format_intervals_csv, parse_intervals_csv, 
 from umbmark.io.load import LOG_FORMATS, detect_format, load_logs, nominal_geometry
 from umbmark.io.optiodom import read_optiodom
 from umbmark.io.poses_csv import write_poses_csv
-from umbmark.io.rosbag import BagInfo, bag_info, read_bag
+from umbmark.io.rosbag import BagInfo, SelfcalBag, StaticTransform, bag_info, read_bag, read_selfcal_bag
 from umbmark.io.rosbag_write import write_drive_bag
 from umbmark.io.runs_csv import format_runs_csv, parse_runs_csv, read_runs_csv, write_runs_csv
 
@@ -58,6 +60,11 @@ __all__ = [
     "read_bag",
     "bag_info",
     "BagInfo",
+    "read_selfcal_bag",
+    "SelfcalBag",
+    "StaticTransform",
+    "urdf_origin",
+    "static_transform_command",
     "read_runs_csv",
     "write_runs_csv",
     "parse_runs_csv",

@@ -2,7 +2,8 @@
 out, stream long logs (:mod:`~umbmark.realrobot.replay`, its results in
 :mod:`~umbmark.realrobot.results`); the return pose from a tape measure
 (:mod:`~umbmark.realrobot.measure`); the field procedure (:mod:`~umbmark.realrobot.guide`); 2D scan
-registration (:mod:`~umbmark.realrobot.scanmatch`).
+registration (:mod:`~umbmark.realrobot.scanmatch`); the lidar self-calibration from a bag
+(:mod:`~umbmark.realrobot.selfcal`).
 """
 
 from umbmark.realrobot.guide import STEP_TITLES, guide_text
@@ -47,8 +48,28 @@ from umbmark.realrobot.scanmatch import (
     match_scan_pairs,
     match_scans,
 )
+from umbmark.realrobot.selfcal import (
+    KeyframeRule,
+    ScanIntervals,
+    SelfcalReport,
+    bag_intervals,
+    match_intervals,
+    plan_intervals,
+    selfcal_from_bags,
+    selfcal_from_intervals,
+    selfcal_report,
+)
 
 __all__ = [
+    "KeyframeRule",
+    "ScanIntervals",
+    "SelfcalReport",
+    "bag_intervals",
+    "match_intervals",
+    "plan_intervals",
+    "selfcal_from_bags",
+    "selfcal_from_intervals",
+    "selfcal_report",
     "ICPConfig",
     "ScanMatch",
     "ScanMatches",

@@ -845,7 +845,7 @@ class SelfcalReport:
         )
         return out
 
-    def history_fields(self, kind: str = "other", file_hash: Callable[[str], str] | None = None) -> dict[str, Any]:
+    def history_fields(self, kind: str = "selfcal", file_hash: Callable[[str], str] | None = None) -> dict[str, Any]:
         """The keyword arguments of :func:`umbmark.history.record_result` for this result.
 
         Parameters
