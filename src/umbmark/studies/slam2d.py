@@ -1,0 +1,1286 @@
+"""The lidar self-calibration on real logs, checked against the SLAM benchmark's ground truth.
+
+A log (a ROS bag with laser scans and the robot's ``nav_msgs/Odometry``) and its relations file
+(:mod:`umbmark.io.relations`: ground-truth relative poses of the laser between pairs of scans,
+Kümmerle et al., "On measuring the accuracy of SLAM algorithms", Autonomous Robots 27(4), 2009)
+are split in two halves by time. The self-calibration (:mod:`umbmark.realrobot.selfcal`) runs on
+each half and on the whole log; the odometry is then compared with the relations that lie inside
+the **other** half:
+
+* ``recorded``: the robot's own odometry as recorded (poses interpolated to the scan stamps);
+* ``nominal``: the odometry recomputed from the wheel travel with the nominal geometry. The wheel
+  travel comes from the odometry's increments through the nominal geometry
+  (:func:`umbmark.realrobot.selfcal.wheel_angles_from_odometry`, interpolated to the scans as
+  the pipeline does), so this reproduces the recorded odometry wherever its increments are
+  arcs; it is the "before" of the comparison;
+* ``calibrated``: the odometry recomputed from the same wheel travel with the estimated wheel
+  radii and wheelbase (the "after").
+
+A relation compares **laser** poses, so an odometry's relative pose ``q`` (robot frame) is seen
+from the laser at a mounting pose ``l``: ``l^-1 (+) q (+) l``. Each odometry is evaluated with
+``l`` from ``/tf_static`` and with the estimated ``l`` of the calibration (the calibrated
+geometry goes with the estimated ``l``: they were estimated together).
+
+The odometry is read at the scans' stamps, as recorded; or, when the scans are stamped late
+against the odometry's clock (a laser scan is stamped when it arrives, after the sweep and the
+transfer), at ``stamp - scan_delay_s``: given, or estimated on each calibration part from the
+correlation of the scan-matched turns with the odometry's (:func:`estimate_scan_delay`).
+
+The error of one relation is ``e = r^-1 (+) p`` (``r`` the relation, ``p`` the prediction);
+the metric (Kümmerle et al.) is the mean of ``|e_xy|^2`` and of ``e_yaw^2`` (translation and
+rotation apart), with the mean absolute errors, over all relations and split by the time a
+relation spans: **short** ones (a few scans apart) measure the odometry's error over a short
+drive, where a systematic error shows as a distance, turn or drift bias; **long** ones (spanning
+loops) are dominated by the integration of every error over minutes. The short relations also
+give the odometry's systematic errors directly (:class:`SystematicErrors`: distance scale, turn
+scale, heading drift per metre, fitted against the relations).
+
+:func:`study_log` runs it; :class:`Slam2dStudy` is its result (SI inside; ``to_dict()`` in mm,
+deg). :func:`relation_errors` is the metric. :class:`ScanMatchCheck` measures the scan matcher
+itself against the short relations.
+
+Imports numpy, :mod:`umbmark.model`, :mod:`umbmark.io` (the bag and relations readers) and
+:mod:`umbmark.realrobot.selfcal`.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from umbmark.errors import InputError
+from umbmark.io.relations import read_relations
+from umbmark.io.rosbag import SelfcalBag, read_selfcal_bag
+from umbmark.model import se2
+from umbmark.model.drive import integrate_wheels
+from umbmark.realrobot.scanmatch import ICPConfig, match_scan_pairs
+from umbmark.realrobot.selfcal import (
+    KeyframeRule,
+    SelfcalReport,
+    bag_intervals,
+    plan_intervals,
+    selfcal_report,
+    sensor_pose_from_tf,
+    wheel_angles_from_odometry,
+)
+
+__all__ = [
+    "SHORT_MAX_S",
+    "relation_errors",
+    "wheel_angles_at_scans",
+    "odometry_from_wheels",
+    "recorded_odometry_at_scans",
+    "in_sensor_frame",
+    "ErrorStats",
+    "SystematicErrors",
+    "ScanMatchCheck",
+    "ScanDelay",
+    "estimate_scan_delay",
+    "Calibration",
+    "Evaluation",
+    "HalfTest",
+    "Slam2dStudy",
+    "study_log",
+]
+
+SHORT_MAX_S = 10.0
+"""A relation spanning less than this is short [s] (the benchmark's are 0.1 to 10 s, or loops)."""
+
+FloatArray = NDArray[np.float64]
+Pose = tuple[float, float, float]
+Progress = Callable[[str], None]
+
+
+def _wrap(a: ArrayLike) -> FloatArray:
+    return np.remainder(np.asarray(a, dtype=float) + math.pi, 2 * math.pi) - math.pi
+
+
+def relation_errors(predicted: ArrayLike, reference: ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """The benchmark's error of each relation: ``e = reference^-1 (+) predicted``.
+
+    Parameters
+    ----------
+    predicted, reference : array_like
+        ``(K, 3)`` relative poses ``(x_m, y_m, yaw_rad)``.
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(translation_m, rotation_rad)``, each ``(K,)``: ``|e_xy|`` and ``|e_yaw|`` (wrapped to
+        at most pi).
+
+    Raises
+    ------
+    InputError
+        If the shapes are not ``(K, 3)`` alike.
+    """
+    p = np.asarray(predicted, dtype=float)
+    r = np.asarray(reference, dtype=float)
+    if p.ndim != 2 or p.shape[1] != 3 or p.shape != r.shape:
+        raise InputError(f"`predicted` and `reference` must both be (K, 3), got {p.shape} and {r.shape}")
+    e = se2.between(r, p)
+    return np.hypot(e[:, 0], e[:, 1]), np.abs(_wrap(e[:, 2]))
+
+
+def wheel_angles_at_scans(
+    bag: SelfcalBag, wheel_diameter_m: float, wheelbase_m: float
+) -> tuple[FloatArray, FloatArray]:
+    """Cumulative wheel angles at the scan stamps, as the self-calibration pipeline makes them.
+
+    From ``nav_msgs/Odometry``: :func:`umbmark.realrobot.selfcal.wheel_angles_from_odometry`
+    through the nominal geometry; from joints or encoders: the recorded angles. Then linear
+    interpolation to the scans' stamps.
+
+    Parameters
+    ----------
+    bag : SelfcalBag
+        The recording.
+    wheel_diameter_m, wheelbase_m : float
+        The nominal geometry [m].
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(left_rad, right_rad)``, each ``(M,)`` for the ``M`` scans.
+    """
+    if bag.wheel_kind == "odom":
+        assert bag.odom_pose is not None
+        left, right = wheel_angles_from_odometry(bag.odom_pose, 0.5 * wheel_diameter_m, wheelbase_m)
+    else:
+        assert bag.left_rad is not None and bag.right_rad is not None
+        left, right = np.asarray(bag.left_rad, dtype=float), np.asarray(bag.right_rad, dtype=float)
+    wt = np.asarray(bag.wheel_t_s, dtype=float)
+    st = np.asarray(bag.scan_t_s, dtype=float)
+    return np.interp(st, wt, left), np.interp(st, wt, right)
+
+
+def odometry_from_wheels(
+    left_rad: ArrayLike, right_rad: ArrayLike, r_left_m: float, r_right_m: float, wheelbase_m: float
+) -> FloatArray:
+    """Odometry poses from cumulative wheel angles: exact arcs between samples.
+
+    Parameters
+    ----------
+    left_rad, right_rad : array_like
+        ``(M,)`` cumulative wheel angles [rad].
+    r_left_m, r_right_m, wheelbase_m : float
+        The geometry [m].
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(M, 3)`` poses from ``(0, 0, 0)`` at the first sample (heading accumulated).
+    """
+    left = np.asarray(left_rad, dtype=float)
+    right = np.asarray(right_rad, dtype=float)
+    return integrate_wheels(r_left_m * np.diff(left), r_right_m * np.diff(right), wheelbase_m)
+
+
+def recorded_odometry_at_scans(bag: SelfcalBag) -> FloatArray:
+    """The recorded odometry poses interpolated linearly to the scan stamps (heading unwrapped).
+
+    Parameters
+    ----------
+    bag : SelfcalBag
+        A recording with ``nav_msgs/Odometry`` wheel data.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(M, 3)`` poses at the scans.
+
+    Raises
+    ------
+    InputError
+        If the bag's wheel data are not odometry.
+    """
+    if bag.odom_pose is None:
+        raise InputError("the bag's wheel data are not an odometry: no recorded odometry to compare", bag.source)
+    p = np.asarray(bag.odom_pose, dtype=float)
+    wt = np.asarray(bag.wheel_t_s, dtype=float)
+    st = np.asarray(bag.scan_t_s, dtype=float)
+    yaw = np.unwrap(p[:, 2])
+    return np.column_stack([np.interp(st, wt, p[:, 0]), np.interp(st, wt, p[:, 1]), np.interp(st, wt, yaw)])
+
+
+def in_sensor_frame(q: ArrayLike, sensor_pose: ArrayLike) -> FloatArray:
+    """Robot-frame relative poses seen from a sensor mounted at ``sensor_pose``: ``l^-1 (+) q (+) l``.
+
+    Parameters
+    ----------
+    q : array_like
+        ``(K, 3)`` relative poses of the robot.
+    sensor_pose : array_like
+        ``(x_m, y_m, yaw_rad)`` of the sensor in the robot frame.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(K, 3)``.
+    """
+    lp = np.asarray(sensor_pose, dtype=float).reshape(3)
+    return se2.compose(se2.inverse(lp), se2.compose(np.asarray(q, dtype=float), lp))
+
+
+@dataclass(frozen=True)
+class ErrorStats:
+    """The benchmark's error statistics over a set of relations.
+
+    Parameters
+    ----------
+    count : int
+        Relations.
+    mae_translation_m, sd_translation_m : float
+        Mean and standard deviation of ``|e_xy|`` [m].
+    mse_translation_m2, sd_sq_translation_m2 : float
+        Mean and standard deviation of ``|e_xy|^2`` [m^2].
+    mae_rotation_rad, sd_rotation_rad : float
+        Mean and standard deviation of ``|e_yaw|`` [rad].
+    mse_rotation_rad2, sd_sq_rotation_rad2 : float
+        Mean and standard deviation of ``e_yaw^2`` [rad^2].
+    """
+
+    count: int
+    mae_translation_m: float
+    sd_translation_m: float
+    mse_translation_m2: float
+    sd_sq_translation_m2: float
+    mae_rotation_rad: float
+    sd_rotation_rad: float
+    mse_rotation_rad2: float
+    sd_sq_rotation_rad2: float
+
+    @classmethod
+    def from_errors(cls, translation_m: ArrayLike, rotation_rad: ArrayLike) -> ErrorStats:
+        """The statistics of per-relation errors (NaN for an empty set).
+
+        Parameters
+        ----------
+        translation_m, rotation_rad : array_like
+            ``(K,)`` ``|e_xy|`` and ``|e_yaw|`` of :func:`relation_errors`.
+
+        Returns
+        -------
+        ErrorStats
+        """
+        t = np.abs(np.asarray(translation_m, dtype=float).reshape(-1))
+        r = np.abs(np.asarray(rotation_rad, dtype=float).reshape(-1))
+        if t.size == 0:
+            return cls(0, *([math.nan] * 8))
+        sd = lambda v: float(np.std(v, ddof=1)) if v.size > 1 else math.nan  # noqa: E731
+        return cls(
+            int(t.size),
+            float(t.mean()),
+            sd(t),
+            float((t * t).mean()),
+            sd(t * t),
+            float(r.mean()),
+            sd(r),
+            float((r * r).mean()),
+            sd(r * r),
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """As JSON, in the benchmark's units (m, m^2, deg, deg^2).
+
+        Returns
+        -------
+        dict
+            ``count``, ``translation`` {``mae_m``, ``mae_sd_m``, ``mse_m2``, ``mse_sd_m2``},
+            ``rotation`` {``mae_deg``, ``mae_sd_deg``, ``mse_deg2``, ``mse_sd_deg2``}.
+        """
+        d = math.degrees(1.0)
+        return {
+            "count": self.count,
+            "translation": {
+                "mae_m": self.mae_translation_m,
+                "mae_sd_m": self.sd_translation_m,
+                "mse_m2": self.mse_translation_m2,
+                "mse_sd_m2": self.sd_sq_translation_m2,
+            },
+            "rotation": {
+                "mae_deg": self.mae_rotation_rad * d,
+                "mae_sd_deg": self.sd_rotation_rad * d,
+                "mse_deg2": self.mse_rotation_rad2 * d * d,
+                "mse_sd_deg2": self.sd_sq_rotation_rad2 * d * d,
+            },
+        }
+
+
+@dataclass(frozen=True)
+class SystematicErrors:
+    """An odometry's systematic errors over short relations, fitted against the ground truth.
+
+    ``distance_scale``: least squares of the predicted translations on the relations'
+    (``sum p_xy . r_xy / sum |r_xy|^2``). ``turn_scale`` and ``drift_rad_per_m``: least squares
+    of the heading error on the relation's turn and forward travel,
+    ``p_yaw - r_yaw = (turn_scale - 1) r_yaw + drift r_x`` (a drift is a heading error that
+    grows with the distance driven: unequal wheels). A perfectly calibrated odometry has 1, 1
+    and 0. The intervals assume independent relations.
+
+    Parameters
+    ----------
+    count : int
+        Relations fitted.
+    distance_scale, turn_scale, drift_rad_per_m : float
+        The estimates.
+    distance_scale_ci95, turn_scale_ci95, drift_rad_per_m_ci95 : tuple of float
+        Their 95 % intervals.
+    """
+
+    count: int
+    distance_scale: float
+    distance_scale_ci95: tuple[float, float]
+    turn_scale: float
+    turn_scale_ci95: tuple[float, float]
+    drift_rad_per_m: float
+    drift_rad_per_m_ci95: tuple[float, float]
+
+    @classmethod
+    def fit(cls, predicted: ArrayLike, reference: ArrayLike) -> SystematicErrors:
+        """Fit the three systematic errors (NaN with fewer than three relations).
+
+        Parameters
+        ----------
+        predicted, reference : array_like
+            ``(K, 3)`` relative poses.
+
+        Returns
+        -------
+        SystematicErrors
+        """
+        p = np.asarray(predicted, dtype=float).reshape(-1, 3)
+        r = np.asarray(reference, dtype=float).reshape(-1, 3)
+        k = len(r)
+        nan2 = (math.nan, math.nan)
+        if k < 3 or not np.any(r[:, :2]) or not np.any(r[:, 2]):
+            return cls(k, math.nan, nan2, math.nan, nan2, math.nan, nan2)
+        z = 1.959963984540054
+        # distance: p_xy ~ s r_xy (both components, one scale)
+        rr = r[:, :2].reshape(-1)
+        pp = p[:, :2].reshape(-1)
+        s = float(rr @ pp / (rr @ rr))
+        res = pp - s * rr
+        se_s = math.sqrt(float(res @ res) / max(len(rr) - 1, 1) / float(rr @ rr))
+        # heading: e_yaw ~ a r_yaw + c r_x
+        ey = _wrap(p[:, 2] - r[:, 2])
+        a_mat = np.column_stack([r[:, 2], r[:, 0]])
+        coef, *_ = np.linalg.lstsq(a_mat, ey, rcond=None)
+        res2 = ey - a_mat @ coef
+        cov = np.linalg.pinv(a_mat.T @ a_mat) * float(res2 @ res2) / max(k - 2, 1)
+        se = np.sqrt(np.diag(cov))
+        turn, drift = 1.0 + float(coef[0]), float(coef[1])
+        return cls(
+            k,
+            s,
+            (s - z * se_s, s + z * se_s),
+            turn,
+            (turn - z * float(se[0]), turn + z * float(se[0])),
+            drift,
+            (drift - z * float(se[1]), drift + z * float(se[1])),
+        )
+
+    def to_dict(self) -> dict[str, Any]:
+        """As JSON.
+
+        Returns
+        -------
+        dict
+            ``count``, ``distance_scale``, ``turn_scale``, ``drift_deg_per_m`` and their
+            ``_ci95``.
+        """
+        d = math.degrees(1.0)
+        return {
+            "count": self.count,
+            "distance_scale": self.distance_scale,
+            "distance_scale_ci95": list(self.distance_scale_ci95),
+            "turn_scale": self.turn_scale,
+            "turn_scale_ci95": list(self.turn_scale_ci95),
+            "drift_deg_per_m": self.drift_rad_per_m * d,
+            "drift_deg_per_m_ci95": [self.drift_rad_per_m_ci95[0] * d, self.drift_rad_per_m_ci95[1] * d],
+        }
+
+
+@dataclass(frozen=True)
+class ScanMatchCheck:
+    """The scan matcher measured against the short relations: the matches are what the calibration fits.
+
+    The two scans of each short relation are matched (:func:`umbmark.realrobot.scanmatch.match_scan_pairs`,
+    starting from the nominal odometry seen from the ``/tf_static`` laser pose, as the pipeline
+    starts) and the converged matches compared with the relations, next to the nominal odometry
+    on the same relations.
+
+    Parameters
+    ----------
+    relations : int
+        Short relations tried.
+    converged : int
+        Matches that converged.
+    matcher, odometry : ErrorStats
+        Errors of the converged matches and of the nominal odometry on the same relations.
+    matcher_systematic, odometry_systematic : SystematicErrors
+        Their systematic errors on those relations.
+    """
+
+    relations: int
+    converged: int
+    matcher: ErrorStats
+    odometry: ErrorStats
+    matcher_systematic: SystematicErrors
+    odometry_systematic: SystematicErrors
+
+    def to_dict(self) -> dict[str, Any]:
+        """As JSON.
+
+        Returns
+        -------
+        dict
+            ``relations``, ``converged``, ``matcher``, ``odometry`` (:meth:`ErrorStats.to_dict`),
+            ``matcher_systematic``, ``odometry_systematic``.
+        """
+        return {
+            "relations": self.relations,
+            "converged": self.converged,
+            "matcher": self.matcher.to_dict(),
+            "odometry": self.odometry.to_dict(),
+            "matcher_systematic": self.matcher_systematic.to_dict(),
+            "odometry_systematic": self.odometry_systematic.to_dict(),
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class Calibration:
+    """One self-calibration of the study: on a half of the log, or on all of it.
+
+    Parameters
+    ----------
+    label : str
+        ``first half``, ``second half`` or ``full log``.
+    t_start_s, t_end_s : float
+        The first and last scan used, from the log's first scan [s].
+    scans : int
+        Scans in that span.
+    report : SelfcalReport
+        The pipeline's result.
+    elapsed_s : float
+        Wall time of the pipeline (intervals, scan matching, estimate) [s].
+    scan_delay : ScanDelay or None
+        The scans' delay estimated on this part (:func:`estimate_scan_delay`), or None.
+    scan_delay_s : float
+        The delay applied to this part's odometry before calibrating [s].
+    """
+
+    label: str
+    t_start_s: float
+    t_end_s: float
+    scans: int
+    report: SelfcalReport
+    elapsed_s: float
+    scan_delay: ScanDelay | None = None
+    scan_delay_s: float = 0.0
+
+    @property
+    def geometry(self) -> tuple[float, float, float]:
+        """``(r_left_m, r_right_m, wheelbase_m)`` estimated."""
+        r = self.report.result
+        return (r.r_left_m, r.r_right_m, r.wheelbase_m)
+
+    @property
+    def sensor_pose(self) -> Pose:
+        """``(x_m, y_m, yaw_rad)`` estimated."""
+        x, y, yaw = self.report.result.sensor_pose
+        return (float(x), float(y), float(yaw))
+
+    def turn_regression(self) -> tuple[float, float, float]:
+        """How the sensor's turn follows the wheels' turn over the intervals the estimate used.
+
+        With the nominal geometry, each interval's wheel rotations turn the robot by
+        ``o = r_nom (phi_R - phi_L) / b_nom``; the scan matching measured the sensor's turn
+        ``s``. If the wheel data were exact and all the noise in ``s`` (the estimator's
+        model), the least-squares slope ``sum s o / sum o^2`` would be the true turn per
+        nominal turn; if instead ``s`` were exact and the wheel data noisy, the inverse of the
+        other regression, ``sum s^2 / sum s o``, would be. Far apart, they say the wheel data
+        carry noise comparable to the turns of one interval, and the estimated ``E_b`` is biased
+        upwards by that regression dilution.
+
+        Returns
+        -------
+        tuple of float
+            ``(sensor_on_wheels, inverse_wheels_on_sensor, correlation)``.
+        """
+        iv = self.report.intervals
+        keep = np.ones(len(iv), dtype=bool)
+        keep[list(self.report.result.intervals_rejected)] = False
+        res = self.report.result
+        o = 0.5 * res.nominal_wheel_diameter_m * (iv.right_rad - iv.left_rad)[keep] / res.nominal_wheelbase_m
+        s = np.asarray(iv.sensor, dtype=float)[keep, 2]
+        so, oo, ss = float(s @ o), float(o @ o), float(s @ s)
+        if not (oo > 0 and ss > 0 and so != 0):
+            return (math.nan, math.nan, math.nan)
+        return (so / oo, ss / so, so / math.sqrt(oo * ss))
+
+    def to_dict(self) -> dict[str, Any]:
+        """As JSON.
+
+        Returns
+        -------
+        dict
+            ``label``, ``t_start_s``, ``t_end_s``, ``scans``, ``elapsed_s``,
+            ``scan_delay_s``, ``scan_delay`` (:meth:`ScanDelay.to_dict` or null),
+            ``turn_regression`` {``sensor_on_wheels``, ``inverse_wheels_on_sensor``,
+            ``correlation``} (:meth:`turn_regression`) and the report's JSON
+            (:meth:`SelfcalReport.to_dict`) without ``covariance`` and ``inputs``, with
+            ``intervals_rejected`` as a count.
+        """
+        k1, k2, rho = self.turn_regression()
+        d = self.report.to_dict()
+        d.pop("covariance", None)
+        d.pop("inputs", None)
+        d["intervals_rejected"] = len(d.get("intervals_rejected", []))
+        return {
+            "label": self.label,
+            "t_start_s": self.t_start_s,
+            "t_end_s": self.t_end_s,
+            "scans": self.scans,
+            "elapsed_s": self.elapsed_s,
+            "scan_delay_s": self.scan_delay_s,
+            "scan_delay": None if self.scan_delay is None else self.scan_delay.to_dict(),
+            "turn_regression": {"sensor_on_wheels": k1, "inverse_wheels_on_sensor": k2, "correlation": rho},
+            **d,
+        }
+
+
+@dataclass(frozen=True)
+class Evaluation:
+    """One odometry compared with a set of relations.
+
+    Parameters
+    ----------
+    odometry : str
+        ``recorded``, ``nominal`` or ``calibrated``.
+    calibration : str or None
+        The label of the :class:`Calibration` whose geometry (``calibrated``) or sensor pose
+        was used.
+    sensor_pose : tuple of float
+        ``(x_m, y_m, yaw_rad)``: the laser pose the relative poses were seen from.
+    sensor_pose_source : str
+        ``/tf_static`` or ``estimated``.
+    all, short, long : ErrorStats
+        The metric over all relations, the short ones and the long ones.
+    systematic : SystematicErrors
+        Fitted on the short relations.
+    """
+
+    odometry: str
+    calibration: str | None
+    sensor_pose: Pose
+    sensor_pose_source: str
+    all: ErrorStats
+    short: ErrorStats
+    long: ErrorStats
+    systematic: SystematicErrors
+
+    @property
+    def key(self) -> str:
+        """A short name: e.g. ``calibrated(first half)@estimated``."""
+        cal = f"({self.calibration})" if self.odometry == "calibrated" else ""
+        return f"{self.odometry}{cal}@{self.sensor_pose_source}"
+
+    def to_dict(self) -> dict[str, Any]:
+        """As JSON.
+
+        Returns
+        -------
+        dict
+            ``key``, ``odometry``, ``calibration``, ``sensor_pose`` {``x_mm``, ``y_mm``,
+            ``yaw_deg``, ``source``}, ``all``, ``short``, ``long`` (:meth:`ErrorStats.to_dict`)
+            and ``systematic``.
+        """
+        x, y, yaw = self.sensor_pose
+        return {
+            "key": self.key,
+            "odometry": self.odometry,
+            "calibration": self.calibration,
+            "sensor_pose": {
+                "x_mm": x * 1e3,
+                "y_mm": y * 1e3,
+                "yaw_deg": math.degrees(yaw),
+                "source": self.sensor_pose_source,
+            },
+            "all": self.all.to_dict(),
+            "short": self.short.to_dict(),
+            "long": self.long.to_dict(),
+            "systematic": self.systematic.to_dict(),
+        }
+
+
+@dataclass(frozen=True)
+class HalfTest:
+    """The odometries compared with the relations inside one part of the log.
+
+    Parameters
+    ----------
+    label : str
+        The part tested (``first half``, ``second half``, ``full log``).
+    calibrated_on : str or None
+        The calibration tested out of sample on it (the other half), None for the full log.
+    t_start_s, t_end_s : float
+        The part's span, from the log's first scan [s].
+    relations_short, relations_long : int
+        Relations with both stamps inside it.
+    evaluations : tuple of Evaluation
+        The odometries compared.
+    scan_delay_s : float
+        The scans' delay applied to every odometry of the test (that of the calibration tested
+        out of sample) [s].
+    """
+
+    label: str
+    calibrated_on: str | None
+    t_start_s: float
+    t_end_s: float
+    relations_short: int
+    relations_long: int
+    evaluations: tuple[Evaluation, ...]
+    scan_delay_s: float = 0.0
+
+    def get(self, key: str) -> Evaluation:
+        """The evaluation of a :attr:`Evaluation.key`.
+
+        Parameters
+        ----------
+        key : str
+            E.g. ``nominal@/tf_static``.
+
+        Returns
+        -------
+        Evaluation
+
+        Raises
+        ------
+        KeyError
+            No such evaluation.
+        """
+        for e in self.evaluations:
+            if e.key == key:
+                return e
+        raise KeyError(f"{key!r}: not among {[e.key for e in self.evaluations]}")
+
+    @property
+    def before(self) -> Evaluation:
+        """The nominal odometry seen from the ``/tf_static`` laser pose."""
+        return self.get("nominal@/tf_static")
+
+    @property
+    def after(self) -> Evaluation:
+        """The odometry calibrated on :attr:`calibrated_on` (the full log when None), seen from the estimated pose."""
+        return self.get(f"calibrated({self.calibrated_on or 'full log'})@estimated")
+
+    def to_dict(self) -> dict[str, Any]:
+        """As JSON.
+
+        Returns
+        -------
+        dict
+            The fields, ``before`` and ``after`` (keys of evaluations) and ``evaluations``.
+        """
+        return {
+            "label": self.label,
+            "calibrated_on": self.calibrated_on,
+            "t_start_s": self.t_start_s,
+            "t_end_s": self.t_end_s,
+            "relations_short": self.relations_short,
+            "relations_long": self.relations_long,
+            "scan_delay_s": self.scan_delay_s,
+            "before": self.before.key,
+            "after": self.after.key,
+            "evaluations": [e.to_dict() for e in self.evaluations],
+        }
+
+
+@dataclass(frozen=True, eq=False)
+class Slam2dStudy:
+    """The study of one log (:func:`study_log`).
+
+    Parameters
+    ----------
+    name : str
+        The log's name (the bag's stem).
+    bag, relations : str
+        The files.
+    nominal_wheel_diameter_m, nominal_wheelbase_m : float
+        The nominal geometry assumed [m].
+    scans : int
+        Scans in the window studied.
+    t_start_s, t_end_s, split_s : float
+        The window and the split between the halves, from the log's first scan [s].
+    short_max_s : float
+        Relations spanning less than this are short [s].
+    scan_delay_mode : str
+        ``recorded`` (the stamps as recorded), ``given`` or ``estimated`` (per calibration part,
+        :func:`estimate_scan_delay`).
+    tf_sensor_pose : tuple of float
+        The laser pose of ``/tf_static`` ``(x_m, y_m, yaw_rad)``.
+    calibrations : tuple of Calibration
+        ``first half``, ``second half``, ``full log``.
+    tests : tuple of HalfTest
+        ``second half`` (calibrated on the first), ``first half`` (calibrated on the second),
+        ``full log`` (calibrated on itself).
+    relations_crossing : int
+        Relations of the window with one stamp in each half (in neither half's test).
+    scan_matching : ScanMatchCheck
+        The scan matcher against the short relations of the window.
+    timings_s : dict
+        Wall times [s]: ``read_bag``, ``read_relations``, ``calibrate_<label>`` for each
+        calibration, ``evaluate``, ``scan_matching_check``, ``total``.
+    warnings : list of str
+        What the study noticed.
+    """
+
+    name: str
+    bag: str
+    relations: str
+    nominal_wheel_diameter_m: float
+    nominal_wheelbase_m: float
+    scans: int
+    t_start_s: float
+    t_end_s: float
+    split_s: float
+    short_max_s: float
+    scan_delay_mode: str
+    tf_sensor_pose: Pose
+    calibrations: tuple[Calibration, ...]
+    tests: tuple[HalfTest, ...]
+    relations_crossing: int
+    scan_matching: ScanMatchCheck
+    timings_s: dict[str, float] = field(default_factory=dict)
+    warnings: list[str] = field(default_factory=list)
+
+    def calibration(self, label: str) -> Calibration:
+        """The calibration of a label (``first half``, ``second half``, ``full log``).
+
+        Parameters
+        ----------
+        label : str
+
+        Returns
+        -------
+        Calibration
+
+        Raises
+        ------
+        KeyError
+            No such calibration.
+        """
+        for c in self.calibrations:
+            if c.label == label:
+                return c
+        raise KeyError(label)
+
+    def test(self, label: str) -> HalfTest:
+        """The test of a part (``first half``, ``second half``, ``full log``).
+
+        Parameters
+        ----------
+        label : str
+
+        Returns
+        -------
+        HalfTest
+
+        Raises
+        ------
+        KeyError
+            No such test.
+        """
+        for t in self.tests:
+            if t.label == label:
+                return t
+        raise KeyError(label)
+
+    def to_dict(self) -> dict[str, Any]:
+        """As JSON (mm, deg, and the benchmark's m, m^2, deg, deg^2).
+
+        Returns
+        -------
+        dict
+            ``name``, ``bag``, ``relations``, ``nominal`` {``wheel_diameter_mm``,
+            ``wheelbase_mm``}, ``scans``, ``t_start_s``, ``t_end_s``, ``split_s``,
+            ``short_max_s``, ``scan_delay_mode``, ``tf_sensor_pose``, ``calibrations``, ``tests``,
+            ``relations_crossing``, ``scan_matching``, ``timings_s``, ``warnings``.
+        """
+        x, y, yaw = self.tf_sensor_pose
+        return {
+            "name": self.name,
+            "bag": self.bag,
+            "relations": self.relations,
+            "nominal": {
+                "wheel_diameter_mm": self.nominal_wheel_diameter_m * 1e3,
+                "wheelbase_mm": self.nominal_wheelbase_m * 1e3,
+            },
+            "scans": self.scans,
+            "t_start_s": self.t_start_s,
+            "t_end_s": self.t_end_s,
+            "split_s": self.split_s,
+            "short_max_s": self.short_max_s,
+            "scan_delay_mode": self.scan_delay_mode,
+            "tf_sensor_pose": {"x_mm": x * 1e3, "y_mm": y * 1e3, "yaw_deg": math.degrees(yaw)},
+            "calibrations": [c.to_dict() for c in self.calibrations],
+            "tests": [t.to_dict() for t in self.tests],
+            "relations_crossing": self.relations_crossing,
+            "scan_matching": self.scan_matching.to_dict(),
+            "timings_s": dict(self.timings_s),
+            "warnings": list(self.warnings),
+        }
+
+
+def _slice_bag(bag: SelfcalBag, scans: NDArray[np.bool_]) -> SelfcalBag:
+    """The bag with only the selected scans, and the wheel samples that enclose them."""
+    st = bag.scan_t_s[scans]
+    wt = np.asarray(bag.wheel_t_s, dtype=float)
+    k0 = max(int(np.searchsorted(wt, st[0], side="right")) - 1, 0)
+    k1 = min(int(np.searchsorted(wt, st[-1], side="left")) + 1, len(wt))
+    w = slice(k0, k1)
+    pick = lambda a: None if a is None else a[w]  # noqa: E731
+    return replace(
+        bag,
+        scan_t_s=st,
+        ranges_m=bag.ranges_m[scans],
+        wheel_t_s=wt[w],
+        left_rad=pick(bag.left_rad),
+        right_rad=pick(bag.right_rad),
+        odom_pose=pick(bag.odom_pose),
+    )
+
+
+def _delayed(bag: SelfcalBag, scan_delay_s: float) -> SelfcalBag:
+    """The bag with its wheel data re-stamped so that a scan stamped ``t`` sees them at ``t - scan_delay_s``."""
+    if scan_delay_s == 0:
+        return bag
+    return replace(bag, wheel_t_s=np.asarray(bag.wheel_t_s, dtype=float) + scan_delay_s)
+
+
+def _tf_pose(bag: SelfcalBag, base_frame: str | None) -> Pose:
+    frames = [base_frame] if base_frame else [f for f in (bag.odom_child_frame, "base_link", "base_footprint") if f]
+    for f in frames:
+        tf = sensor_pose_from_tf(bag.static_transforms, f, bag.scan_frame)
+        if tf is not None:
+            return (tf[0], tf[1], tf[5])
+    return (0.0, 0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class ScanDelay:
+    """The delay of the scans' stamps behind the wheel data's clock (:func:`estimate_scan_delay`).
+
+    Parameters
+    ----------
+    delay_s : float
+        The estimate [s]: a scan stamped ``t`` was taken when the wheel data say ``t - delay_s``.
+    correlation : float
+        Correlation of the scan-matched turns with the wheels' turns at that delay.
+    correlation_at_zero : float
+        The same with the stamps as recorded.
+    pairs : int
+        Matched scan pairs it was estimated from.
+    search_s : float
+        The delays searched: ``-search_s`` to ``search_s`` [s].
+    """
+
+    delay_s: float
+    correlation: float
+    correlation_at_zero: float
+    pairs: int
+    search_s: float
+
+    def to_dict(self) -> dict[str, Any]:
+        """As JSON.
+
+        Returns
+        -------
+        dict
+            ``delay_s``, ``correlation``, ``correlation_at_zero``, ``pairs``, ``search_s``.
+        """
+        return {
+            "delay_s": self.delay_s,
+            "correlation": self.correlation,
+            "correlation_at_zero": self.correlation_at_zero,
+            "pairs": self.pairs,
+            "search_s": self.search_s,
+        }
+
+
+def estimate_scan_delay(
+    bag: SelfcalBag,
+    wheel_diameter_m: float,
+    wheelbase_m: float,
+    *,
+    search_s: float = 0.3,
+    step_s: float = 0.005,
+    icp: ICPConfig | None = None,
+) -> ScanDelay:
+    """Estimate how late the scans are stamped against the wheel data, from the turns.
+
+    Consecutive scans are matched (as :func:`umbmark.realrobot.selfcal.plan_intervals` plans
+    them); for each trial delay ``d`` on a grid, the wheels' turn between ``t_a - d`` and
+    ``t_b - d`` (nominal geometry, wheel angles interpolated linearly) is correlated with the
+    matched turn between the scans stamped ``t_a``, ``t_b``. The delay of the highest
+    correlation, refined by a parabola through its neighbours, is the estimate. A turn's scale
+    error does not move it (a correlation ignores scale); a delay shows because the wheels'
+    turn of an interval is then partly that of its neighbours.
+
+    Parameters
+    ----------
+    bag : SelfcalBag
+        The recording.
+    wheel_diameter_m, wheelbase_m : float
+        The nominal geometry [m].
+    search_s : float
+        The largest delay searched, either way [s].
+    step_s : float
+        The grid step [s].
+    icp : ICPConfig, optional
+        Scan-matcher settings.
+
+    Returns
+    -------
+    ScanDelay
+
+    Raises
+    ------
+    InputError
+        A search range or step that is not positive, or fewer than 10 matched pairs that turn.
+    """
+    if not (isinstance(search_s, (int, float)) and search_s > 0 and isinstance(step_s, (int, float)) and step_s > 0):
+        raise InputError(f"`search_s` and `step_s` must be positive, got {search_s!r} and {step_s!r}")
+    plan = plan_intervals(bag, wheel_diameter_m, wheelbase_m)
+    a, b = plan.pairs[:, 0], plan.pairs[:, 1]
+    m = match_scan_pairs(bag.ranges_m[a], bag.ranges_m[b], bag.angles_rad, plan.initial, icp)
+    ok = np.asarray(m.converged, dtype=bool)
+    turn = np.asarray(m.poses, dtype=float)[ok, 2]
+    if ok.sum() < 10 or not np.any(turn):
+        raise InputError(f"only {int(ok.sum())} matched scan pairs that turn: too few to estimate a delay", bag.source)
+    if bag.wheel_kind == "odom":
+        assert bag.odom_pose is not None
+        heading = np.unwrap(np.asarray(bag.odom_pose, dtype=float)[:, 2])
+    else:
+        assert bag.left_rad is not None and bag.right_rad is not None
+        heading = 0.5 * wheel_diameter_m * (np.asarray(bag.right_rad) - np.asarray(bag.left_rad)) / wheelbase_m
+    wt = np.asarray(bag.wheel_t_s, dtype=float)
+    ta, tb = bag.scan_t_s[a[ok]], bag.scan_t_s[b[ok]]
+    n = int(math.floor(search_s / step_s + 1e-9))
+    grid = np.arange(-n, n + 1) * step_s
+
+    def corr(d: float) -> float:
+        o = np.interp(tb - d, wt, heading) - np.interp(ta - d, wt, heading)
+        if not np.any(o):
+            return math.nan
+        return float(np.corrcoef(o, turn)[0, 1])
+
+    c = np.array([corr(float(d)) for d in grid])
+    if not np.any(np.isfinite(c)):
+        raise InputError("the wheels do not turn between the matched scans: no delay to estimate", bag.source)
+    k = int(np.nanargmax(c))
+    best = float(grid[k])
+    if 0 < k < len(grid) - 1 and np.all(np.isfinite(c[k - 1 : k + 2])):
+        den = c[k - 1] - 2 * c[k] + c[k + 1]
+        if den < 0:
+            best += float(0.5 * (c[k - 1] - c[k + 1]) / den * step_s)
+    return ScanDelay(best + 0.0, corr(best), corr(0.0), int(ok.sum()), float(search_s))
+
+
+def study_log(
+    bag_path: str | Path,
+    relations_path: str | Path,
+    wheel_diameter_m: float,
+    wheelbase_m: float,
+    *,
+    scan_topic: str = "/scan",
+    odom_topic: str = "/odom",
+    window_s: tuple[float, float] | None = None,
+    short_max_s: float = SHORT_MAX_S,
+    scan_delay_s: float | str | None = None,
+    keyframes: KeyframeRule | None = None,
+    icp: ICPConfig | None = None,
+    selfcal_options: dict[str, Any] | None = None,
+    base_frame: str | None = None,
+    tolerance_s: float = 1e-3,
+    progress: Progress | None = None,
+) -> Slam2dStudy:
+    """Calibrate on each half of a log and on all of it; compare the odometries with the relations.
+
+    Parameters
+    ----------
+    bag_path : str or Path
+        The log: a bag with laser scans and ``nav_msgs/Odometry``.
+    relations_path : str or Path
+        Its relations file (:mod:`umbmark.io.relations`), stamped with the scans' stamps.
+    wheel_diameter_m, wheelbase_m : float
+        The nominal geometry assumed [m] (the odometry's increments become wheel travel
+        through it).
+    scan_topic, odom_topic : str
+        The topics.
+    window_s : (float, float), optional
+        Study only the scans from ``window_s[0]`` to ``window_s[1]`` seconds after the log's
+        first scan (and the relations inside); default the whole log.
+    short_max_s : float
+        Relations spanning less than this are short [s].
+    scan_delay_s : float or str, optional
+        How late the scans are stamped behind the odometry's clock [s]: the odometry is read at
+        ``stamp - scan_delay_s``. None: the stamps as recorded; a number: that delay
+        everywhere; ``"estimate"``: estimated on each calibration part
+        (:func:`estimate_scan_delay`), and each half's test uses the delay estimated on the
+        other half (the full log's test, the full log's).
+    keyframes, icp
+        As :func:`umbmark.realrobot.selfcal.bag_intervals` (default: every scan, the matcher's
+        defaults).
+    selfcal_options : dict, optional
+        Keyword arguments of :func:`umbmark.correct.selfcal.selfcal`.
+    base_frame : str, optional
+        The robot frame of ``/tf_static`` (default the odometry's child frame, then
+        ``base_link``, ``base_footprint``).
+    tolerance_s : float
+        How far a relation's time stamp may be from its scan's [s].
+    progress : callable, optional
+        Called with the name of each stage as it starts.
+
+    Returns
+    -------
+    Slam2dStudy
+
+    Raises
+    ------
+    InputError
+        Unreadable files; no relations within the scans, or relations without scans at their
+        stamps; a window with too few scans; a bad ``scan_delay_s``; what the self-calibration
+        refuses (e.g. too few matched intervals in a half).
+    """
+    t_total = time.perf_counter()
+    say = progress or (lambda stage: None)
+    if not (isinstance(short_max_s, (int, float)) and short_max_s > 0):
+        raise InputError(f"`short_max_s` must be a positive number of seconds, got {short_max_s!r}")
+    if scan_delay_s is None:
+        mode = "recorded"
+    elif isinstance(scan_delay_s, str):
+        if scan_delay_s != "estimate":
+            raise InputError(f"`scan_delay_s` must be None, a number of seconds or 'estimate', got {scan_delay_s!r}")
+        mode = "estimated"
+    elif isinstance(scan_delay_s, (int, float)) and math.isfinite(scan_delay_s):
+        mode = "given"
+    else:
+        raise InputError(f"`scan_delay_s` must be None, a number of seconds or 'estimate', got {scan_delay_s!r}")
+    timings: dict[str, float] = {}
+    say("read bag")
+    t0 = time.perf_counter()
+    full_bag = read_selfcal_bag(bag_path, scan_topic=scan_topic, odom_topic=odom_topic)
+    timings["read_bag"] = time.perf_counter() - t0
+    say("read relations")
+    t0 = time.perf_counter()
+    rel_all = read_relations(relations_path)
+    timings["read_relations"] = time.perf_counter() - t0
+    st_all = np.asarray(full_bag.scan_t_s, dtype=float)
+    origin = float(st_all[0])
+    if window_s is None:
+        in_win = np.ones(len(st_all), dtype=bool)
+    else:
+        lo, hi = (float(v) for v in window_s)
+        if not hi > lo:
+            raise InputError(f"`window_s` must be (start, end) with end after start, got {window_s!r}")
+        in_win = (st_all >= origin + lo) & (st_all <= origin + hi)
+    if in_win.sum() < 20:
+        raise InputError(f"the window {window_s!r} holds {int(in_win.sum())} scans: too few to study", str(bag_path))
+    bag = _slice_bag(full_bag, in_win) if window_s is not None else full_bag
+    st = np.asarray(bag.scan_t_s, dtype=float)
+    # relations inside the window, and the scans they join
+    keep = (np.minimum(rel_all.t1_s, rel_all.t2_s) >= st[0] - tolerance_s) & (
+        np.maximum(rel_all.t1_s, rel_all.t2_s) <= st[-1] + tolerance_s
+    )
+    if not keep.any():
+        raise InputError(
+            f"none of the {len(rel_all)} relations lies within the scans studied ({st[0]:.3f} to {st[-1]:.3f} s): "
+            "are these the relations of this log?",
+            str(relations_path),
+        )
+    rel = rel_all.subset(keep)
+    i1, i2 = rel.indices(st, tolerance_s)
+    short = rel.span_s < short_max_s
+    split = st[0] + 0.5 * (st[-1] - st[0])
+    first = st < split
+    parts = {"first half": first, "second half": ~first, "full log": np.ones(len(st), dtype=bool)}
+
+    calibrations: dict[str, Calibration] = {}
+    for label, mask in parts.items():
+        t0 = time.perf_counter()
+        part = _slice_bag(bag, mask) if not mask.all() else bag
+        delay: ScanDelay | None = None
+        if mode == "estimated":
+            say(f"scan delay: {label}")
+            delay = estimate_scan_delay(part, wheel_diameter_m, wheelbase_m, icp=icp)
+            d_s = delay.delay_s
+        else:
+            d_s = float(scan_delay_s) if isinstance(scan_delay_s, (int, float)) else 0.0
+        say(f"calibrate: {label}")
+        si = bag_intervals(
+            _delayed(part, d_s),
+            wheel_diameter_m,
+            wheelbase_m,
+            keyframes=keyframes,
+            base_frame=base_frame,
+            icp=icp,
+        )
+        report = selfcal_report([si], wheel_diameter_m, wheelbase_m, **(selfcal_options or {}))
+        elapsed = time.perf_counter() - t0
+        timings[f"calibrate_{label.replace(' ', '_')}"] = elapsed
+        ts = part.scan_t_s
+        span = (float(ts[0] - origin), float(ts[-1] - origin))
+        calibrations[label] = Calibration(label, *span, len(ts), report, elapsed, delay, d_s)
+
+    say("evaluate")
+    t0 = time.perf_counter()
+    r_nom = 0.5 * wheel_diameter_m
+    tf_pose = _tf_pose(bag, base_frame)
+    ref = rel.pose
+    cache: dict[float, dict[str, FloatArray]] = {}
+
+    def odometries(d_s: float) -> dict[str, FloatArray]:
+        if d_s not in cache:
+            b = _delayed(bag, d_s)
+            left, right = wheel_angles_at_scans(b, wheel_diameter_m, wheelbase_m)
+            odo = {
+                "recorded": recorded_odometry_at_scans(b),
+                "nominal": odometry_from_wheels(left, right, r_nom, r_nom, wheelbase_m),
+            }
+            for lab, cal in calibrations.items():
+                odo[f"calibrated({lab})"] = odometry_from_wheels(left, right, *cal.geometry)
+            cache[d_s] = odo
+        return cache[d_s]
+
+    def evaluate(
+        sel: NDArray[np.bool_], d_s: float, odometry: str, cal: Calibration | None, pose_src: str
+    ) -> Evaluation:
+        name = f"calibrated({cal.label})" if odometry == "calibrated" and cal is not None else odometry
+        lp = tf_pose if pose_src == "/tf_static" or cal is None else cal.sensor_pose
+        p = odometries(d_s)[name]
+        q = in_sensor_frame(se2.between(p[i1[sel]], p[i2[sel]]), lp)
+        et, er = relation_errors(q, ref[sel])
+        s = short[sel]
+        return Evaluation(
+            odometry,
+            cal.label if cal is not None else None,
+            lp,
+            pose_src,
+            ErrorStats.from_errors(et, er),
+            ErrorStats.from_errors(et[s], er[s]),
+            ErrorStats.from_errors(et[~s], er[~s]),
+            SystematicErrors.fit(q[s], ref[sel][s]),
+        )
+
+    lo_t, hi_t = np.minimum(rel.t1_s, rel.t2_s), np.maximum(rel.t1_s, rel.t2_s)
+    inside = {"first half": hi_t < split, "second half": lo_t >= split}
+    crossing = int((~inside["first half"] & ~inside["second half"]).sum())
+    tests = []
+    cal_f = calibrations["full log"]
+    for label, other in (("second half", "first half"), ("first half", "second half")):
+        sel = inside[label]
+        cal_o, cal_h = calibrations[other], calibrations[label]
+        d_s = cal_o.scan_delay_s
+        evals = (
+            evaluate(sel, d_s, "recorded", None, "/tf_static"),
+            evaluate(sel, d_s, "nominal", None, "/tf_static"),
+            evaluate(sel, d_s, "nominal", cal_o, "estimated"),
+            evaluate(sel, d_s, "calibrated", cal_o, "estimated"),
+            evaluate(sel, d_s, "calibrated", cal_o, "/tf_static"),
+            evaluate(sel, d_s, "calibrated", cal_h, "estimated"),
+            evaluate(sel, d_s, "calibrated", cal_f, "estimated"),
+        )
+        ts = st[parts[label]]
+        tests.append(
+            HalfTest(
+                label,
+                other,
+                float(ts[0] - origin),
+                float(ts[-1] - origin),
+                int((sel & short).sum()),
+                int((sel & ~short).sum()),
+                evals,
+                d_s,
+            )
+        )
+    every = np.ones(len(rel), dtype=bool)
+    d_f = cal_f.scan_delay_s
+    tests.append(
+        HalfTest(
+            "full log",
+            None,
+            float(st[0] - origin),
+            float(st[-1] - origin),
+            int(short.sum()),
+            int((~short).sum()),
+            (
+                evaluate(every, d_f, "recorded", None, "/tf_static"),
+                evaluate(every, d_f, "nominal", None, "/tf_static"),
+                evaluate(every, d_f, "nominal", cal_f, "estimated"),
+                evaluate(every, d_f, "calibrated", cal_f, "estimated"),
+                evaluate(every, d_f, "calibrated", cal_f, "/tf_static"),
+            ),
+            d_f,
+        )
+    )
+    timings["evaluate"] = time.perf_counter() - t0
+
+    say("scan matching against the relations")
+    t0 = time.perf_counter()
+    js = np.flatnonzero(short)
+    nominal = odometries(d_f)["nominal"]
+    q0 = in_sensor_frame(se2.between(nominal[i1[js]], nominal[i2[js]]), tf_pose)
+    m = match_scan_pairs(bag.ranges_m[i1[js]], bag.ranges_m[i2[js]], bag.angles_rad, q0, icp)
+    ok = np.asarray(m.converged, dtype=bool)
+    poses = np.asarray(m.poses, dtype=float)[ok]
+    et_m, er_m = relation_errors(poses, ref[js[ok]])
+    et_o, er_o = relation_errors(q0[ok], ref[js[ok]])
+    check = ScanMatchCheck(
+        int(js.size),
+        int(ok.sum()),
+        ErrorStats.from_errors(et_m, er_m),
+        ErrorStats.from_errors(et_o, er_o),
+        SystematicErrors.fit(poses, ref[js[ok]]),
+        SystematicErrors.fit(q0[ok], ref[js[ok]]),
+    )
+    timings["scan_matching_check"] = time.perf_counter() - t0
+    timings["total"] = time.perf_counter() - t_total
+    warnings = []
+    if crossing:
+        warnings.append(
+            f"{crossing} of {len(rel)} relations have one stamp in each half: in neither half's test "
+            "(they are in the full log's)"
+        )
+    for label in ("first half", "second half"):
+        if not (inside[label] & short).any():
+            warnings.append(f"no short relations inside the {label}: its test has no short-relation figures")
+    return Slam2dStudy(
+        name=Path(bag_path).stem,
+        bag=str(bag_path),
+        relations=str(relations_path),
+        nominal_wheel_diameter_m=float(wheel_diameter_m),
+        nominal_wheelbase_m=float(wheelbase_m),
+        scans=len(st),
+        t_start_s=float(st[0] - origin),
+        t_end_s=float(st[-1] - origin),
+        split_s=float(split - origin),
+        short_max_s=float(short_max_s),
+        scan_delay_mode=mode,
+        tf_sensor_pose=tf_pose,
+        calibrations=tuple(calibrations.values()),
+        tests=tuple(tests),
+        relations_crossing=crossing,
+        scan_matching=check,
+        timings_s=timings,
+        warnings=warnings,
+    )
