@@ -39,8 +39,8 @@ scale, heading drift per metre, fitted against the relations).
 deg). :func:`relation_errors` is the metric. :class:`ScanMatchCheck` measures the scan matcher
 itself against the short relations.
 
-Imports numpy, :mod:`umbmark.model`, :mod:`umbmark.io` (the bag and relations readers) and
-:mod:`umbmark.realrobot.selfcal`.
+Imports numpy, :mod:`umbmark.model`, :mod:`umbmark.io` (the bag and relations readers),
+:mod:`umbmark.realrobot.selfcal` (the pipeline) and :mod:`umbmark.realrobot.scanmatch`.
 """
 
 from __future__ import annotations
@@ -929,9 +929,10 @@ def estimate_scan_delay(
     """Estimate how late the scans are stamped against the wheel data, from the turns.
 
     Consecutive scans are matched (as :func:`umbmark.realrobot.selfcal.plan_intervals` plans
-    them); for each trial delay ``d`` on a grid, the wheels' turn between ``t_a - d`` and
-    ``t_b - d`` (nominal geometry, wheel angles interpolated linearly) is correlated with the
-    matched turn between the scans stamped ``t_a``, ``t_b``. The delay of the highest
+    them); for each trial delay ``d`` on a grid, the robot's turn between ``t_a - d`` and
+    ``t_b - d`` by the wheel data (the odometry's heading, or the wheel angles through the
+    nominal geometry; interpolated linearly) is correlated with the matched turn between the
+    scans stamped ``t_a``, ``t_b``. The delay of the highest
     correlation, refined by a parabola through its neighbours, is the estimate. A turn's scale
     error does not move it (a correlation ignores scale); a delay shows because the wheels'
     turn of an interval is then partly that of its neighbours.
