@@ -7,6 +7,9 @@
   (:func:`correct_runs`).
 * Path methods: ``lsq`` (:mod:`umbmark.correct.lsq`, least squares on logs of any path with
   ground truth), returning the fitted wheel geometry (:func:`correct_paths`).
+* Self-calibration: :func:`selfcal` (:mod:`umbmark.correct.selfcal`, Censi et al. 2013): wheel
+  radii, wheelbase and the lidar's mounting pose from the wheel rotations and the sensor's own
+  displacements between scans, with no ground truth.
 
 Importing this package registers them all; it imports no scipy (the fits import it when they
 run).
@@ -16,6 +19,7 @@ from __future__ import annotations
 
 from umbmark.correct import bf, exact, lsq  # noqa: F401  (register their methods)
 from umbmark.correct.bf import bf_correction
+from umbmark.correct.exact import exact_correction
 from umbmark.correct.registry import (
     METHODS,
     PATH_METHODS,
@@ -28,9 +32,13 @@ from umbmark.correct.registry import (
     register_path,
 )
 from umbmark.correct.result import CorrectionResult, compose
+from umbmark.correct.selfcal import SelfcalResult, selfcal
 
 __all__ = [
     "bf_correction",
+    "exact_correction",
+    "selfcal",
+    "SelfcalResult",
     "CorrectionResult",
     "compose",
     "METHODS",

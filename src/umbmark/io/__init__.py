@@ -1,5 +1,6 @@
 """Readers and writers: runs files, distances files, encoder logs (optiodom folders, the generic
-CSV, ROS bags), the intervals file of a lidar self-calibration, poses files, parameter exports,
+CSV, ROS bags), the intervals file of a lidar self-calibration, the relations files of the SLAM
+benchmark (ground-truth relative poses), poses files, parameter exports,
 simulated drives written as ROS bags, atomic file writes.
 
 Nothing here computes: the readers return the data structures of :mod:`umbmark.model` (SI
@@ -24,6 +25,7 @@ from umbmark.io.intervals_csv import format_intervals_csv, parse_intervals_csv, 
 from umbmark.io.load import LOG_FORMATS, detect_format, load_logs, nominal_geometry
 from umbmark.io.optiodom import read_optiodom
 from umbmark.io.poses_csv import write_poses_csv
+from umbmark.io.relations import Relations, format_relations, parse_relations, read_relations, write_relations
 from umbmark.io.rosbag import BagInfo, SelfcalBag, StaticTransform, bag_info, read_bag, read_selfcal_bag
 from umbmark.io.rosbag_write import write_drive_bag
 from umbmark.io.runs_csv import format_runs_csv, parse_runs_csv, read_runs_csv, write_runs_csv
@@ -60,6 +62,11 @@ __all__ = [
     "read_bag",
     "bag_info",
     "BagInfo",
+    "Relations",
+    "read_relations",
+    "parse_relations",
+    "format_relations",
+    "write_relations",
     "read_selfcal_bag",
     "SelfcalBag",
     "StaticTransform",

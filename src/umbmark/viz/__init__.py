@@ -1,5 +1,42 @@
 """Figures, reports and text: :mod:`~umbmark.viz.plots` (matplotlib figures made without pyplot),
 :mod:`~umbmark.viz.history_plot`, :mod:`~umbmark.viz.report` (self-contained HTML pages) and
-:mod:`~umbmark.viz.text` (the number formatter). Importing this package imports none of them."""
+:mod:`~umbmark.viz.text` (the number formatter).
 
-__all__: list[str] = []
+The names below are loaded when first used: importing this package imports no matplotlib.
+"""
+
+from __future__ import annotations
+
+from importlib import import_module
+from typing import Any
+
+_LAZY = {
+    "scatter_figure": "umbmark.viz.plots",
+    "trajectory_figure": "umbmark.viz.plots",
+    "exaggerated_trajectory_figure": "umbmark.viz.plots",
+    "pitfall_figure": "umbmark.viz.plots",
+    "distribution_figure": "umbmark.viz.plots",
+    "save_figure": "umbmark.viz.plots",
+    "history_figure": "umbmark.viz.history_plot",
+    "analysis_report": "umbmark.viz.report",
+    "history_report": "umbmark.viz.report",
+    "figure_data_uri": "umbmark.viz.report",
+    "bootstrap_intervals": "umbmark.viz.report",
+    "cg_intervals": "umbmark.viz.report",
+    "fmt": "umbmark.viz.text",
+}
+
+__all__ = list(_LAZY)
+
+
+def __getattr__(name: str) -> Any:
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'umbmark.viz' has no attribute {name!r}")
+    value = getattr(import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))
