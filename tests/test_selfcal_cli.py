@@ -172,6 +172,23 @@ def test_record_in_the_history(bag, tmp_path):
     assert rec["input_sha256"]
 
 
+def test_export_records_a_selfcal_result(result, tmp_path):
+    d, save = result
+    db = tmp_path / "h.sqlite"
+    out = tmp_path / "lidar.urdf"
+    run(["export", str(save), "--format", "urdf", "--out", str(out), "--robot", "r2", "--record", "--db", str(db)])
+    assert "<origin" in out.read_text()
+    (rec,) = json.loads(run(["history", "r2", "--db", str(db), "--json"]))["records"]
+    assert rec["kind"] == "selfcal" and rec["Eb"] == pytest.approx(d["Eb"])
+    assert rec["parameters"]["sensor_pose"]["yaw_deg"] == pytest.approx(d["sensor_pose"]["yaw_deg"])
+    # a calibration that is not a self-calibration is recorded by the command that made it
+    other = tmp_path / "replay.json"
+    other.write_text(json.dumps({"method": "bf", "Ed": 1.0, "Eb": 1.0, "c_left": 1.0, "c_right": 1.0}))
+    err = run(["export", str(other), "--format", "ros2", "--robot", "r2", "--record", "--db", str(db)], code=2)
+    assert "replay, analyze or calibrate" in err
+    assert len(json.loads(run(["history", "r2", "--db", str(db), "--json"]))["records"]) == 1
+
+
 # -- bad input ---------------------------------------------------------------------------------------------
 
 

@@ -13,7 +13,7 @@ from pathlib import Path
 import click
 
 from umbmark.cli.app import LOG_FORMAT_CHOICES, app, cli_message, console, emit_json, fmt, is_quiet, table
-from umbmark.cli.history import history_options, print_recorded, record_report_if_requested
+from umbmark.cli.history import history_options, print_recorded, record_if_requested, record_report_if_requested
 from umbmark.cli.progress import progress, track
 from umbmark.errors import InputError
 
@@ -574,6 +574,7 @@ def convert(paths, log_format, target, out, **kw):
 @click.option("--wheelbase-mm", type=float, default=None, help="Nominal wheelbase (json, firmware).")
 @click.option("--pulses-per-wheel-rev", type=float, default=None, help="Encoder pulses per wheel rev (firmware).")
 @click.option("--out", type=click.Path(dir_okay=False), default=None, help="File to write (default: print).")
+@history_options
 def export(
     calibration,
     out_format,
@@ -591,6 +592,9 @@ def export(
     wheelbase_mm,
     pulses_per_wheel_rev,
     out,
+    robot,
+    record,
+    db,
 ):
     """Write a calibration as ROS 2 / ROS 1 diff_drive_controller parameters, JSON or a
     firmware header; a lidar self-calibration also as the lidar's URDF origin or a
@@ -600,6 +604,8 @@ def export(
     `umbmark analyze --json` or `umbmark selfcal --json`) or from --c-left/--c-right/--eb. ROS
     multipliers are composed with those in use when the logs were recorded: new = old x
     factor. The ros2/ros1 files of a self-calibration end with the lidar pose as comments.
+    --robot NAME --record stores a self-calibration in the robot's history (the other
+    calibrations are recorded by the command that made them: replay, analyze, calibrate).
 
     \b
     Example:
@@ -638,9 +644,36 @@ def export(
         wheel_radius_m,
         wheel_separation_m,
     )
+    rec = _record_selfcal(calibration, robot, record, db) if record else None
     if out:
         write_export(text, out)
         if not is_quiet():
             console().print(f"wrote {out}")
     else:
         click.echo(text, nl=False)
+    if rec is not None and out:
+        print_recorded(rec)
+    elif rec is not None and not is_quiet():  # the export went to stdout: the note to stderr
+        click.echo(f"recorded as #{rec['record_id']} in the history of {rec['robot']} ({rec['db']})", err=True)
+
+
+def _record_selfcal(calibration, robot, record, db):
+    """Record the self-calibration in CAL.json in the robot's history (``export --record``)."""
+    import json
+
+    from umbmark.history import file_sha256
+    from umbmark.io._text import read_text
+    from umbmark.realrobot.selfcal import selfcal_history_fields
+
+    if calibration is None:
+        raise InputError("--record stores the self-calibration of a CAL.json (from `umbmark selfcal --json`)")
+    try:
+        d = json.loads(read_text(calibration))
+    except ValueError as e:
+        raise InputError(f"{calibration}: not JSON ({e})") from None
+    if not isinstance(d, dict) or d.get("method", "selfcal") != "selfcal" or "sensor_pose" not in d:
+        raise InputError(
+            f"{calibration}: --record stores self-calibrations; record this calibration with the command "
+            "that made it (replay, analyze or calibrate with --robot NAME --record)"
+        )
+    return record_if_requested(robot, record, db, **selfcal_history_fields(d, file_hash=file_sha256))

@@ -54,6 +54,7 @@ from umbmark.model.intervals import Intervals
 from umbmark.realrobot.scanmatch import ICPConfig, match_scan_pairs
 
 __all__ = [
+    "selfcal_history_fields",
     "KeyframeRule",
     "IntervalPlan",
     "ScanIntervals",
@@ -864,31 +865,61 @@ class SelfcalReport:
             ``parameters_in_use`` (the nominal geometry and sensor pose), ``source``,
             ``input_sha256`` and ``inputs`` (the paths).
         """
-        d = self.to_dict()
-        paths = [i["path"] for i in d["inputs"]]
-        sp = d["sensor_pose"]
-        first = Path(paths[0]) if paths else None
-        return {
-            "kind": kind,
-            "method": "selfcal",
-            "results": d,
-            "parameters": {
-                "c_left": d["c_left"],
-                "c_right": d["c_right"],
-                "wheelbase_mm": d["wheelbase_mm"],
-                "Ed": d["Ed"],
-                "Eb": d["Eb"],
-                "sensor_pose": {k: sp[k] for k in ("x_mm", "y_mm", "yaw_deg")},
-            },
-            "parameters_in_use": {
-                "wheel_diameter_mm": d["nominal_wheel_diameter_mm"],
-                "wheelbase_mm": d["nominal_wheelbase_mm"],
-                "sensor_pose": d["nominal_sensor_pose"],
-            },
-            "source": None if first is None else str(first.resolve() if first.exists() else first),
-            "input_sha256": file_hash(str(first)) if first is not None and first.exists() and file_hash else None,
-            "inputs": {"paths": paths},
-        }
+        return selfcal_history_fields(self.to_dict(), kind, file_hash)
+
+
+def selfcal_history_fields(
+    d: dict[str, Any], kind: str = "selfcal", file_hash: Callable[[str], str] | None = None
+) -> dict[str, Any]:
+    """The keyword arguments of :func:`umbmark.history.record_result` for a self-calibration
+    given as its JSON (:meth:`SelfcalReport.to_dict`, the output of ``umbmark selfcal --json``).
+
+    Parameters
+    ----------
+    d : dict
+        The self-calibration's JSON.
+    kind : str
+        The record's kind.
+    file_hash : callable, optional
+        The content hash of an input file or folder, applied to the first input; None: no hash.
+
+    Returns
+    -------
+    dict
+        As :meth:`SelfcalReport.history_fields`.
+
+    Raises
+    ------
+    InputError
+        If ``d`` is not a self-calibration's JSON.
+    """
+    missing = [k for k in ("c_left", "c_right", "wheelbase_mm", "Ed", "Eb", "sensor_pose") if k not in d]
+    if missing or not isinstance(d.get("sensor_pose"), dict):
+        raise InputError("not the JSON of a self-calibration (missing " + ", ".join(missing or ["sensor_pose"]) + ")")
+    paths = [i["path"] for i in d.get("inputs", []) if isinstance(i, dict) and "path" in i]
+    sp = d["sensor_pose"]
+    first = Path(paths[0]) if paths else None
+    return {
+        "kind": kind,
+        "method": "selfcal",
+        "results": d,
+        "parameters": {
+            "c_left": d["c_left"],
+            "c_right": d["c_right"],
+            "wheelbase_mm": d["wheelbase_mm"],
+            "Ed": d["Ed"],
+            "Eb": d["Eb"],
+            "sensor_pose": {k: sp.get(k) for k in ("x_mm", "y_mm", "yaw_deg")},
+        },
+        "parameters_in_use": {
+            "wheel_diameter_mm": d.get("nominal_wheel_diameter_mm"),
+            "wheelbase_mm": d.get("nominal_wheelbase_mm"),
+            "sensor_pose": d.get("nominal_sensor_pose"),
+        },
+        "source": None if first is None else str(first.resolve() if first.exists() else first),
+        "input_sha256": file_hash(str(first)) if first is not None and first.exists() and file_hash else None,
+        "inputs": {"paths": paths},
+    }
 
 
 def _pose_warnings(parts: Sequence[ScanIntervals | str], result: SelfcalResult) -> list[str]:
