@@ -153,7 +153,7 @@ def cli_message(text: str) -> str:
     def flag(m: re.Match) -> str:
         name, value = m.group(1), m.group(2)
         if name not in PARAM_FLAGS:
-            return m.group(0)
+            return m.group(0)[1:-1]  # a library name without a flag: plain text
         f = PARAM_FLAGS[name]
         if value is None or value == "True":
             return f
