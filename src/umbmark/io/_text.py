@@ -11,7 +11,7 @@ import numpy as np
 
 from umbmark.errors import InputError
 
-__all__ = ["read_text", "csv_rows", "header_columns", "numeric_rows", "check_increasing_time"]
+__all__ = ["read_text", "csv_rows", "header_columns", "parse_number", "numeric_rows", "check_increasing_time"]
 
 
 def read_text(path) -> str:
@@ -96,6 +96,47 @@ def header_columns(row) -> list[str]:
     return [c.strip().lower() for c in row]
 
 
+def parse_number(cell: str, col: str, source: str, line: int, allow_empty: bool = False) -> float:
+    """The number in one cell of a text file.
+
+    Parameters
+    ----------
+    cell : str
+        The cell's text (surrounding white space ignored).
+    col : str
+        The cell's column, for error messages.
+    source : str
+        The file's name, for error messages.
+    line : int
+        The cell's line, for error messages.
+    allow_empty : bool
+        Whether an empty cell is allowed (read as NaN).
+
+    Returns
+    -------
+    float
+        A finite number, or NaN for an allowed empty cell.
+
+    Raises
+    ------
+    InputError
+        A cell that is empty (unless allowed), not a number or not a finite number (file and
+        line named).
+    """
+    s = cell.strip()
+    if not s:
+        if allow_empty:
+            return math.nan
+        raise InputError(f"column {col} is empty", source, line)
+    try:
+        v = float(s)
+    except ValueError:
+        raise InputError(f"column {col}: {s!r} is not a number", source, line) from None
+    if not math.isfinite(v):
+        raise InputError(f"column {col}: {s!r} is not a finite number", source, line)
+    return v
+
+
 def numeric_rows(text: str, source: str, ncols: int | None = None, names=None, skip=(), delimiter=","):
     """Parse lines of numbers into an array.
 
@@ -146,15 +187,7 @@ def numeric_rows(text: str, source: str, ncols: int | None = None, names=None, s
         vals = []
         for j, c in enumerate(cells):
             col = names[j] if names is not None and j < len(names) else f"{j + 1}"
-            try:
-                v = float(c)
-            except ValueError:
-                raise InputError(
-                    f"column {col}: {c!r} is not a number" if c else f"column {col} is empty", source, i
-                ) from None
-            if not math.isfinite(v):
-                raise InputError(f"column {col}: {c!r} is not a finite number", source, i)
-            vals.append(v)
+            vals.append(parse_number(c, col, source, i))
         rows.append(vals)
         lines.append(i)
     if not rows:

@@ -13,12 +13,11 @@ from __future__ import annotations
 
 import csv
 import io
-import math
 from dataclasses import dataclass
 from pathlib import Path
 
 from umbmark.errors import InputError
-from umbmark.io._text import csv_rows, header_columns
+from umbmark.io._text import csv_rows, header_columns, parse_number
 from umbmark.model.runs import DIRECTIONS
 
 __all__ = [
@@ -63,20 +62,6 @@ class MeasuredRun:
     y_odo_mm: float
     theta_odo_deg: float | None = None
     line: int | None = None
-
-
-def _num(cell: str, col: str, source, line) -> float:
-    try:
-        v = float(cell)
-    except ValueError:
-        raise InputError(
-            f"column {col}: {cell.strip()!r} is not a number" if cell.strip() else f"column {col} is empty",
-            source,
-            line,
-        ) from None
-    if not math.isfinite(v):
-        raise InputError(f"column {col}: {cell.strip()!r} is not a finite number", source, line)
-    return v
 
 
 def read_distances_csv(path) -> list[MeasuredRun]:
@@ -170,23 +155,23 @@ def parse_distances_csv(text: str, source: str = "<distances>") -> list[Measured
                 )
             start = prev_start[d]
         else:
-            start = tuple(_num(cell(c), c, source, line) for c in START_COLUMNS)
-        end = tuple(_num(cell(c), c, source, line) for c in END_COLUMNS)
+            start = tuple(parse_number(cell(c), c, source, line) for c in START_COLUMNS)
+        end = tuple(parse_number(cell(c), c, source, line) for c in END_COLUMNS)
         for c, v in zip(DIST_COLUMNS, start + end):
             if v < 0:
                 raise InputError(f"column {c}: a distance cannot be negative ({v:g})", source, line)
         prev_start[d] = start
         theta = None
         if "theta_odo" in col and cell("theta_odo"):
-            theta = _num(cell("theta_odo"), "theta_odo", source, line)
+            theta = parse_number(cell("theta_odo"), "theta_odo", source, line)
         run = cell("run") if "run" in col and cell("run") else str(sum(1 for r in out if r.direction == d) + 1)
         out.append(
             MeasuredRun(
                 run,
                 d,
                 start + end,
-                _num(cell("x_odo"), "x_odo", source, line),
-                _num(cell("y_odo"), "y_odo", source, line),
+                parse_number(cell("x_odo"), "x_odo", source, line),
+                parse_number(cell("y_odo"), "y_odo", source, line),
                 theta,
                 line,
             )

@@ -29,28 +29,13 @@ from pathlib import Path
 import numpy as np
 
 from umbmark.errors import InputError
-from umbmark.io._text import csv_rows, header_columns, read_text
+from umbmark.io._text import csv_rows, header_columns, parse_number, read_text
 from umbmark.model.dataset import Dataset, Run, WheelGeometry, to_start_frame
 
 __all__ = ["read_generic_csv", "format_generic_csv", "iter_generic_csv", "CsvChunk", "REQUIRED", "OPTIONAL"]
 
 REQUIRED = ("time_s", "left_ticks", "right_ticks")
 OPTIONAL = ("x_m", "y_m", "theta_rad", "theta_deg", "run")
-
-
-def _cell(v: str, col: str, src: str, line: int, allow_empty: bool) -> float:
-    s = v.strip()
-    if not s:
-        if allow_empty:
-            return math.nan
-        raise InputError(f"column {col} is empty", src, line)
-    try:
-        x = float(s)
-    except ValueError:
-        raise InputError(f"column {col}: {s!r} is not a number", src, line) from None
-    if not math.isfinite(x):
-        raise InputError(f"column {col}: {s!r} is not a finite number", src, line)
-    return x
 
 
 def _check_ticks(ticks: str) -> None:
@@ -114,9 +99,9 @@ def _group_runs(path, header: list[str], rows, src: str) -> list[tuple[str, list
             order.append(label)
         elif order[-1] != label:
             raise InputError(f"rows of run {label!r} are not consecutive", src, line)
-        vals = [_cell(r[col[c]], c, src, line, False) for c in REQUIRED]
+        vals = [parse_number(r[col[c]], c, src, line) for c in REQUIRED]
         if "x_m" in col:
-            vals += [_cell(r[col[c]], c, src, line, True) for c in ("x_m", "y_m", theta_col)]
+            vals += [parse_number(r[col[c]], c, src, line, allow_empty=True) for c in ("x_m", "y_m", theta_col)]
         groups[label].append((line, vals))
     return [(label, groups[label]) for label in order]
 
@@ -363,7 +348,7 @@ class _StreamedRun:
             if self.run_col is not None:
                 self._check_label(r[self.run_col].strip(), ln)
             for c, (name, k) in enumerate(zip(self.use, self.idx)):
-                vals[j, c] = _cell(r[k], name, src, ln, c >= 3)
+                vals[j, c] = parse_number(r[k], name, src, ln, allow_empty=c >= 3)
         return vals
 
     def _check_label(self, label: str, ln: int) -> None:

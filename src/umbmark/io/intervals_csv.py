@@ -25,7 +25,7 @@ import math
 import numpy as np
 
 from umbmark.errors import InputError
-from umbmark.io._text import csv_rows, header_columns, read_text
+from umbmark.io._text import csv_rows, header_columns, parse_number, read_text
 from umbmark.io.atomic import atomic_write
 from umbmark.model.intervals import Intervals
 
@@ -57,19 +57,6 @@ def read_intervals_csv(path) -> Intervals:
         A missing or unreadable file, or bad content (file and line named).
     """
     return parse_intervals_csv(read_text(path), source=str(path))
-
-
-def _number(cell: str, col: str, source: str, line: int) -> float:
-    s = cell.strip()
-    try:
-        v = float(s)
-    except ValueError:
-        raise InputError(
-            f"column {col}: {s!r} is not a number" if s else f"column {col} is empty", source, line
-        ) from None
-    if not math.isfinite(v):
-        raise InputError(f"column {col}: {s!r} is not a finite number", source, line)
-    return v
 
 
 def parse_intervals_csv(text: str, source: str = "<intervals>") -> Intervals:
@@ -121,7 +108,7 @@ def parse_intervals_csv(text: str, source: str = "<intervals>") -> Intervals:
         need = max(col.values()) + 1
         if len(row) < need:
             raise InputError(f"has {len(row)} fields, the header has {len(header)}", source, line)
-        vals = [_number(row[col[c]], c, source, line) for c in COLUMNS]
+        vals = [parse_number(row[col[c]], c, source, line) for c in COLUMNS]
         if vals[0] < 0:
             raise InputError(f"column dt_s: {row[col['dt_s']].strip()} s is negative", source, line)
         values.append(vals)

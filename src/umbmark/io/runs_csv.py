@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 from umbmark.errors import InputError
-from umbmark.io._text import csv_rows, header_columns, read_text
+from umbmark.io._text import csv_rows, header_columns, parse_number, read_text
 from umbmark.io.atomic import atomic_write
 from umbmark.model.runs import DIRECTIONS, RunsTable
 
@@ -50,16 +50,7 @@ def read_runs_csv(path) -> RunsTable:
 
 
 def _number(cell: str, col: str, source: str, line: int) -> float:
-    try:
-        v = float(cell)
-    except ValueError:
-        raise InputError(
-            f"column {col}: {cell.strip()!r} is not a number" if cell.strip() else f"column {col} is empty",
-            source,
-            line,
-        ) from None
-    if not math.isfinite(v):
-        raise InputError(f"column {col}: {cell.strip()!r} is not a finite number", source, line)
+    v = parse_number(cell, col, source, line)
     if col.startswith("theta"):
         if abs(v) > 360.0:
             raise InputError(f"column {col}: {cell.strip()} is not a heading in degrees (-180 to 180)", source, line)
