@@ -14,8 +14,10 @@ from __future__ import annotations
 import argparse
 import sys
 from dataclasses import replace
+from pathlib import Path
 
-DEFAULT_OUT = "umbmark-bench-accuracy"
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # _common.py, also when this file is loaded by path
+from _common import add_out  # noqa: E402
 
 
 def parser() -> argparse.ArgumentParser:
@@ -43,7 +45,7 @@ def parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--eb", type=float, nargs="+", default=None, help="E_b values of the grid (default: all)")
     p.add_argument("--stem", default="accuracy", help="file name stem of the results")
-    p.add_argument("--out", default=DEFAULT_OUT, help=f"results folder (default ./{DEFAULT_OUT})")
+    add_out(p, "accuracy", type=str)
     return p
 
 

@@ -13,7 +13,7 @@ benchmarks/results/noise_preset.json) and prints it.
 from __future__ import annotations
 
 import argparse
-import json
+import sys
 import time
 from dataclasses import asdict
 from pathlib import Path
@@ -22,7 +22,8 @@ from umbmark.metrics import umbmark
 from umbmark.model.geometry import FIG11_ERRORS
 from umbmark.model.simulate import NOISE_PRESETS, Motion, simulate_umbmark
 
-DEFAULT_OUT = Path("umbmark-bench-noise-preset") / "noise_preset.json"
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # _common.py, also when this file is loaded by path
+from _common import add_out, write_json  # noqa: E402
 
 
 def parser() -> argparse.ArgumentParser:
@@ -30,7 +31,7 @@ def parser() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--runs", type=int, default=1000, help="runs per direction")
     ap.add_argument("--seed", type=int, default=11)
-    ap.add_argument("--out", type=Path, default=DEFAULT_OUT, help=f"JSON file to write (default ./{DEFAULT_OUT})")
+    add_out(ap, "noise-preset", file="noise_preset.json", what="JSON file to write")
     return ap
 
 
@@ -51,9 +52,7 @@ def main(argv=None):
             "sem5_ccw_mm": res.ccw.std * 1e3 / 5**0.5,
             "seconds": time.perf_counter() - t,
         }
-    a.out.parent.mkdir(parents=True, exist_ok=True)
-    a.out.write_text(json.dumps(out, indent=2) + "\n")
-    print(json.dumps(out, indent=2))
+    print(write_json(a.out, out))
 
 
 if __name__ == "__main__":

@@ -20,9 +20,6 @@ reported. Writes raycast.json and raycast.md into --out (created if missing).
 from __future__ import annotations
 
 import argparse
-import json
-import os
-import platform
 import statistics
 import sys
 import tempfile
@@ -35,35 +32,10 @@ from umbmark.io.rosbag_write import write_drive_bag
 from umbmark.model.drive import EXAMPLE_ROBOT, WheelNoise, mixed_program, simulate_drive
 from umbmark.model.sensors import Lidar, Room, cast_rays, have_numba
 
-DEFAULT_OUT = "umbmark-bench-raycast"
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # _common.py, also when this file is loaded by path
+from _common import add_out, command, machine, machine_text, write_results  # noqa: E402
+
 NOISE = WheelNoise(speed_rel_sd=0.02, slip_m_per_sqrt_m=3.35e-4)
-
-
-def machine() -> dict:
-    """CPU model, cores, Python, numpy and numba versions and platform of the machine the benchmark runs on."""
-    cpu = platform.processor() or ""
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as f:
-            cpu = next((line.split(":", 1)[1].strip() for line in f if line.startswith("model name")), cpu)
-    except OSError:  # not Linux
-        pass
-    info = {
-        "cpu_model": cpu,
-        "nproc": os.cpu_count(),
-        "cores_available": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count(),
-        "python": platform.python_version(),
-        "numpy": np.__version__,
-        "platform": platform.platform(),
-    }
-    try:
-        import numba
-
-        info["numba"] = numba.__version__
-    except ImportError:
-        info["numba"] = None
-    if hasattr(os, "getloadavg"):
-        info["load_average"] = [round(x, 2) for x in os.getloadavg()]
-    return info
 
 
 def timed(fn, repeat: int) -> dict:
@@ -137,9 +109,7 @@ def markdown(res: dict) -> str:
     lines = [
         "# Simulated lidar robot: speed",
         "",
-        f"Machine: {m['cpu_model']}, {m['cores_available']} cores available (nproc {m['nproc']}), "
-        f"Python {m['python']}, numpy {m['numpy']}, numba {m['numba']}, {m['platform']}, "
-        f"load average at start {m.get('load_average')}.",
+        machine_text(m),
         "",
         f"Command: `{res['command']}`. Median and fastest of {res['repeat']} runs after one warm-up run.",
         "",
@@ -185,7 +155,7 @@ def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--repeat", type=int, default=3, help="timed runs of each case (default 3)")
     p.add_argument("--quick", action="store_true", help="skip the 20-minute drive")
-    p.add_argument("--out", type=Path, default=Path(DEFAULT_OUT), help=f"results folder (default ./{DEFAULT_OUT})")
+    add_out(p, "raycast")
     return p
 
 
@@ -195,21 +165,10 @@ def main(argv=None) -> int:
     if a.repeat < 1:
         print("error: --repeat must be at least 1", file=sys.stderr)
         return 2
-    shown_args = sys.argv[1:] if argv is None else list(argv)
-    info = machine()
+    info = machine("numba")
     results = measure(a.repeat, a.quick)
-    res = {
-        "machine": info,
-        "command": " ".join(["python benchmarks/raycast.py", *shown_args]),
-        "repeat": a.repeat,
-        "results": results,
-    }
-    a.out.mkdir(parents=True, exist_ok=True)
-    (a.out / "raycast.json").write_text(json.dumps(res, indent=2) + "\n")
-    page = markdown(res)
-    (a.out / "raycast.md").write_text(page)
-    print(page)
-    print(f"written: {a.out / 'raycast.json'}, {a.out / 'raycast.md'}")
+    res = {"machine": info, "command": command("raycast", argv), "repeat": a.repeat, "results": results}
+    write_results(a.out, "raycast", res, markdown(res), show=True)
     return 0
 
 

@@ -20,12 +20,15 @@ Writes reproduce_sampling.json into a new folder ./umbmark-bench-reproduce-sampl
 from __future__ import annotations
 
 import argparse
-import json
+import sys
 import time
 from pathlib import Path
 
 from umbmark.model.simulate import NOISE_PRESETS
 from umbmark.studies import reproduce as rep
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # _common.py, also when this file is loaded by path
+from _common import add_out, write_json  # noqa: E402
 
 KEYS = (
     "improvement_median",
@@ -39,14 +42,11 @@ KEYS = (
 )
 
 
-DEFAULT_OUT = Path("umbmark-bench-reproduce-sampling") / "reproduce_sampling.json"
-
-
 def parser() -> argparse.ArgumentParser:
     """The command-line options of this script."""
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seeds", type=int, default=40)
-    ap.add_argument("--out", type=Path, default=DEFAULT_OUT, help=f"JSON file to write (default ./{DEFAULT_OUT})")
+    add_out(ap, "reproduce-sampling", file="reproduce_sampling.json", what="JSON file to write")
     return ap
 
 
@@ -65,9 +65,7 @@ def main(argv=None):
     t = time.perf_counter()
     rep.run_study(rep.StudyConfig(seeds=200))
     out["default_study_seconds"] = time.perf_counter() - t
-    a.out.parent.mkdir(parents=True, exist_ok=True)
-    a.out.write_text(json.dumps(out, indent=2) + "\n")
-    print(json.dumps(out, indent=2))
+    print(write_json(a.out, out))
 
 
 if __name__ == "__main__":

@@ -38,8 +38,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
-import platform
 import shlex
 import sys
 import time
@@ -53,7 +51,9 @@ from umbmark.model.drive import Command, Program, one_way_turns, spins_only, str
 from umbmark.model.geometry import Geometry
 from umbmark.model.intervals import Intervals, intervals_from_motion
 
-DEFAULT_OUT = "umbmark-bench-selfcal"
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # _common.py, also when this file is loaded by path
+from _common import add_out, machine, machine_text, write_results  # noqa: E402
+
 NOMINAL = Geometry(wheel_diameter_m=0.150, wheelbase_m=0.340)
 STEP_S = 0.1
 KINDS = ("mixed", "mixed+outliers", "straights+spins", "one-way", "circles", "straights", "spins")
@@ -67,30 +67,6 @@ UNITS = {
     "sensor_y_m": ("mm", 1e3),
     "sensor_yaw_rad": ("deg", 180 / math.pi),
 }
-
-
-def machine() -> dict:
-    """CPU model, cores, Python, numpy, scipy versions and platform of the machine the benchmark runs on."""
-    import scipy
-
-    cpu = platform.processor() or ""
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as f:
-            cpu = next((line.split(":", 1)[1].strip() for line in f if line.startswith("model name")), cpu)
-    except OSError:  # not Linux
-        pass
-    info = {
-        "cpu_model": cpu,
-        "nproc": os.cpu_count(),
-        "cores_available": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count(),
-        "python": platform.python_version(),
-        "numpy": np.__version__,
-        "scipy": scipy.__version__,
-        "platform": platform.platform(),
-    }
-    if hasattr(os, "getloadavg"):
-        info["load_average"] = [round(x, 2) for x in os.getloadavg()]
-    return info
 
 
 def robot(rng: np.random.Generator) -> np.ndarray:
@@ -273,8 +249,7 @@ def markdown(res: dict) -> str:
     lines = [
         "# Lidar self-calibration: accuracy against the Cramer-Rao bound",
         "",
-        f"Machine: {m['cpu_model']}, {m['cores_available']} cores available (nproc {m['nproc']}), "
-        f"Python {m['python']}, numpy {m['numpy']}, scipy {m['scipy']}, {m['platform']}.",
+        machine_text(m, load=False),
         "",
         f"Command: `{res['command']}`.",
         "",
@@ -334,9 +309,7 @@ def parser() -> argparse.ArgumentParser:
     ap.add_argument("--jitter", type=float, default=0.02, help="relative wheel-speed jitter per interval (0.02)")
     ap.add_argument("--kinds", default=",".join(KINDS), help="comma-separated kinds of driving")
     ap.add_argument("--quick", action="store_true", help="40 robots per kind")
-    ap.add_argument(
-        "--out", type=Path, default=Path(DEFAULT_OUT), help=f"folder to write into (default ./{DEFAULT_OUT})"
-    )
+    add_out(ap, "selfcal", what="folder to write into")
     return ap
 
 
@@ -347,9 +320,10 @@ def main(argv: list[str] | None = None) -> int:
         a.robots = min(a.robots, 40)
     sigma = np.array([a.noise_mm * 1e-3, a.noise_mm * 1e-3, math.radians(a.noise_deg)])
     kinds = [k.strip() for k in a.kinds.split(",") if k.strip()]
+    info = machine("scipy")
     t0 = time.perf_counter()
     res = {
-        "machine": machine(),
+        "machine": info,
         "command": "python benchmarks/selfcal_accuracy.py " + " ".join(shlex.quote(x) for x in (argv or sys.argv[1:])),
         "settings": {
             "robots": a.robots,
@@ -365,12 +339,8 @@ def main(argv: list[str] | None = None) -> int:
         rows = [one_robot(kind, seed, a, sigma) for seed in range(a.robots)]
         res["kinds"].append(summarise(kind, rows))
     res["seconds"] = time.perf_counter() - t0
-    a.out.mkdir(parents=True, exist_ok=True)
-    from umbmark.jsonutil import dumps
-
-    (a.out / "selfcal_accuracy.json").write_text(dumps(res, indent=2) + "\n")
     md = markdown(res)
-    (a.out / "selfcal_accuracy.md").write_text(md)
+    write_results(a.out, "selfcal_accuracy", res, md)
     print(md)
     return 0
 

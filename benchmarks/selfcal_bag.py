@@ -29,9 +29,7 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMB
     os.environ.setdefault(_var, "1")
 
 import argparse  # noqa: E402
-import json  # noqa: E402
 import math  # noqa: E402
-import platform  # noqa: E402
 import statistics  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
@@ -41,7 +39,8 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-DEFAULT_OUT = "umbmark-bench-selfcal-bag"
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # _common.py, also when this file is loaded by path
+from _common import add_out, command, machine, machine_text, write_results  # noqa: E402
 
 
 def pin_one_core() -> int | None:
@@ -51,34 +50,6 @@ def pin_one_core() -> int | None:
     cpu = min(os.sched_getaffinity(0))
     os.sched_setaffinity(0, {cpu})
     return cpu
-
-
-def machine() -> dict:
-    """CPU model, cores, Python, numpy, numba, scipy and rosbags versions, platform, load."""
-    cpu = platform.processor() or ""
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as f:
-            cpu = next((line.split(":", 1)[1].strip() for line in f if line.startswith("model name")), cpu)
-    except OSError:  # not Linux
-        pass
-    info = {
-        "cpu_model": cpu,
-        "nproc": os.cpu_count(),
-        "cores_available": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count(),
-        "python": platform.python_version(),
-        "numpy": np.__version__,
-        "platform": platform.platform(),
-    }
-    for name in ("numba", "scipy", "rosbags"):
-        try:
-            from importlib.metadata import version
-
-            info[name] = version(name)
-        except Exception:  # not installed
-            info[name] = None
-    if hasattr(os, "getloadavg"):
-        info["load_average"] = [round(x, 2) for x in os.getloadavg()]
-    return info
 
 
 def robot():
@@ -214,10 +185,7 @@ def markdown(res: dict) -> str:
     lines = [
         "# Lidar self-calibration from a ROS bag: speed",
         "",
-        f"Machine: {m['cpu_model']}, {m['cores_available']} cores available (nproc {m['nproc']}), pinned to "
-        f"one core (CPU {res['pinned_cpu']}); Python {m['python']}, numpy {m['numpy']}, numba {m['numba']}, "
-        f"scipy {m['scipy']}, rosbags {m['rosbags']}, {m['platform']}, load average at start "
-        f"{m.get('load_average')}.",
+        machine_text(m, f"pinned to one core (CPU {res['pinned_cpu']})"),
         "",
         f"Command: `{res['command']}`. Median of {res['repeat']} run(s).",
         "",
@@ -254,7 +222,7 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument("--storage", choices=("mcap", "sqlite3", "ros1"), default="mcap", help="bag storage (default mcap)")
     p.add_argument("--repeat", type=int, default=1, help="timed calibrations of the bag (default 1)")
     p.add_argument("--seed", type=int, default=7, help="seed of the drive (default 7)")
-    p.add_argument("--out", type=Path, default=Path(DEFAULT_OUT), help=f"results folder (default ./{DEFAULT_OUT})")
+    add_out(p, "selfcal-bag")
     return p
 
 
@@ -264,23 +232,17 @@ def main(argv=None) -> int:
     if a.repeat < 1 or not (a.minutes > 0):
         print("error: --repeat must be at least 1 and --minutes positive", file=sys.stderr)
         return 2
-    shown_args = sys.argv[1:] if argv is None else list(argv)
-    info = machine()
+    info = machine("numba", "scipy", "rosbags")
     cpu = pin_one_core()
     results = measure(a.minutes, a.storage, a.repeat, a.seed)
     res = {
         "machine": info,
         "pinned_cpu": cpu,
-        "command": " ".join(["python benchmarks/selfcal_bag.py", *shown_args]),
+        "command": command("selfcal_bag", argv),
         "repeat": a.repeat,
         "results": results,
     }
-    a.out.mkdir(parents=True, exist_ok=True)
-    (a.out / "selfcal_bag.json").write_text(json.dumps(res, indent=2) + "\n")
-    page = markdown(res)
-    (a.out / "selfcal_bag.md").write_text(page)
-    print(page)
-    print(f"written: {a.out / 'selfcal_bag.json'}, {a.out / 'selfcal_bag.md'}")
+    write_results(a.out, "selfcal_bag", res, markdown(res), show=True)
     return 0
 
 

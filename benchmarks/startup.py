@@ -14,9 +14,7 @@ status 1 when ``umbmark --help`` takes more than --limit times numpy's import (d
 from __future__ import annotations
 
 import argparse
-import json
 import os
-import platform
 import shlex
 import shutil
 import statistics
@@ -25,7 +23,9 @@ import sys
 import time
 from pathlib import Path
 
-DEFAULT_OUT = "umbmark-bench-startup"
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # _common.py, also when this file is loaded by path
+from _common import add_out, command, machine, machine_text, write_results  # noqa: E402
+
 LIMIT = 2.5
 
 
@@ -53,27 +53,6 @@ def time_once(argv: list[str]) -> float:
     return time.perf_counter() - t0
 
 
-def machine() -> dict:
-    """CPU model, cores, Python version and platform of the machine the benchmark runs on."""
-    cpu = platform.processor() or ""
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as f:
-            cpu = next((line.split(":", 1)[1].strip() for line in f if line.startswith("model name")), cpu)
-    except OSError:  # not Linux
-        pass
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    info = {
-        "cpu_model": cpu,
-        "nproc": os.cpu_count(),
-        "cores_available": cores,
-        "python": platform.python_version(),
-        "platform": platform.platform(),
-    }
-    if hasattr(os, "getloadavg"):
-        info["load_average"] = [round(x, 2) for x in os.getloadavg()]
-    return info
-
-
 def measure(repeat: int) -> dict:
     """Time every command ``repeat`` times (taking turns, after one warm-up run each)."""
     cmds = commands()
@@ -96,8 +75,7 @@ def markdown(res: dict) -> str:
     lines = [
         "# Start-up time of the command line",
         "",
-        f"Machine: {m['cpu_model']}, {m['cores_available']} cores available (nproc {m['nproc']}), "
-        f"Python {m['python']}, {m['platform']}, load average at start {m.get('load_average')}.",
+        machine_text(m),
         "",
         f"Command: `{res['command']}`. Each command in a fresh process, {res['repeat']} runs each taking "
         "turns after one warm-up run; median and fastest wall-clock time.",
@@ -124,7 +102,7 @@ def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--repeat", type=int, default=15, help="timed runs of each command (default 15)")
     p.add_argument("--limit", type=float, default=LIMIT, help="largest --help / numpy ratio that passes")
-    p.add_argument("--out", type=Path, default=Path(DEFAULT_OUT), help=f"results folder (default ./{DEFAULT_OUT})")
+    add_out(p, "startup")
     return p
 
 
@@ -137,22 +115,19 @@ def main(argv=None) -> int:
     cmds = measure(a.repeat)
     numpy_s = cmds["numpy"]["median_s"]
     ratios = {f"{k}_over_numpy": cmds[k]["median_s"] / numpy_s for k in ("help", "version")}
-    shown_args = sys.argv[1:] if argv is None else list(argv)
     res = {
-        "machine": machine(),
-        "command": " ".join(["python benchmarks/startup.py", *shown_args]),
+        "machine": machine(numpy=False),
+        "command": command("startup", argv),
         "repeat": a.repeat,
         "commands": cmds,
         "ratios": ratios,
         "limit": a.limit,
         "ok": ratios["help_over_numpy"] <= a.limit,
     }
-    a.out.mkdir(parents=True, exist_ok=True)
-    (a.out / "startup.json").write_text(json.dumps(res, indent=2) + "\n")
-    (a.out / "startup.md").write_text(markdown(res))
+    paths = write_results(a.out, "startup", res, markdown(res))
     for k, v in ratios.items():
         print(f"{k}: {v:.2f} (limit {a.limit:g} for help)")
-    print(f"written: {a.out / 'startup.json'}, {a.out / 'startup.md'}")
+    print("written:", ", ".join(map(str, paths)))
     return 0 if res["ok"] else 1
 
 
