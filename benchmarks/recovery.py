@@ -5,6 +5,7 @@ in tests/test_exact.py checks on 60 examples, here on as many as you like).
     python benchmarks/recovery.py --cases 700 --seed 12            # the test's whole domain
     python benchmarks/recovery.py --cases 700 --seed 11 --blind    # next to the blind spot
     python benchmarks/recovery.py --cases 300 --seed 5 --edge      # E_b at 0.5, any E_d
+    python benchmarks/recovery.py --cases 200 --seed 3 --narrow    # side / wheelbase 100 to 150
 
 Each case: simulated exact-arc (or 10 ms sampled) runs of a random robot written as a runs
 file and read back (mm, deg), with or without headings; the exact fit must give E_d within
@@ -12,7 +13,9 @@ file and read back (mm, deg), with or without headings; the exact fit must give 
 ``--blind``: E_b 0.5 (+ 0, +-1e-6, 1e-3 or 1e-2) and |E_d - 1| log-uniform in 1e-6 to 1e-2,
 exact-arc or sampled. ``--edge``: the same E_b, E_d anywhere in the domain (0.95 to 1.05) and the
 wheelbase log-uniform from the smallest the domain allows to 1 m: each turn about 180 deg, legs
-that curve by up to several turns on narrow robots. Prints every miss and a one-line summary; exit
+that curve by up to several turns on narrow robots. ``--narrow``: the whole domain of E_d and E_b
+on the high side / wheelbase end (100 to 150, sides 7.5 to 10 m: legs that curve by whole turns).
+Prints every miss and a one-line summary; exit
 status 1 if any case missed.
 ``--answers FILE``: also write every case and its answers, one JSON object a line (to compare
 two versions of the fit case by case).
@@ -27,7 +30,7 @@ import sys
 import time
 
 
-def draw_case(rng, blind: bool, edge: bool = False) -> dict:
+def draw_case(rng, blind: bool, edge: bool = False, narrow: bool = False) -> dict:
     """One random robot and test: the domain of the hypothesis test (side / wheelbase <= 150)."""
     if blind:
         ed = 1.0 + float(rng.choice([-1.0, 1.0])) * 10.0 ** rng.uniform(-6.0, -2.0)
@@ -37,9 +40,12 @@ def draw_case(rng, blind: bool, edge: bool = False) -> dict:
         eb = 0.5 + float(rng.choice([0.0, 1e-6, 1e-3, 1e-2]))
     else:
         ed, eb = rng.uniform(0.95, 1.05), rng.uniform(0.5, 2.5)
-    side = rng.uniform(0.5, 10.0)
+    side = rng.uniform(7.5, 10.0) if narrow else rng.uniform(0.5, 10.0)
     lo = max(0.05, side / 150.0)
-    b = lo * (1.0 / lo) ** rng.uniform() if edge else lo + rng.uniform() * (1.0 - lo)
+    if narrow:
+        b = side / rng.uniform(100.0, 150.0)
+    else:
+        b = lo * (1.0 / lo) ** rng.uniform() if edge else lo + rng.uniform() * (1.0 - lo)
     return {
         "ed": float(ed),
         "eb": float(eb),
@@ -85,6 +91,7 @@ def main(argv=None) -> int:
     g = p.add_mutually_exclusive_group()
     g.add_argument("--blind", action="store_true", help="robots next to the blind spot E_d = 1, E_b = 0.5")
     g.add_argument("--edge", action="store_true", help="robots with E_b at 0.5 and any E_d")
+    g.add_argument("--narrow", action="store_true", help="side / wheelbase 100 to 150 (sides 7.5 to 10 m)")
     p.add_argument("--answers", metavar="FILE", help="write every case and its answers here (JSON lines)")
     a = p.parse_args(argv)
     rng = np.random.default_rng(a.seed)
@@ -92,7 +99,7 @@ def main(argv=None) -> int:
     misses = 0
     out = open(a.answers, "w") if a.answers else None
     for _ in range(a.cases):
-        case = draw_case(rng, a.blind, a.edge)
+        case = draw_case(rng, a.blind, a.edge, a.narrow)
         ok, answers = recovered(case)
         if out is not None:
             out.write(json.dumps({"case": case, "ok": ok, "answers": answers}) + "\n")
@@ -101,7 +108,15 @@ def main(argv=None) -> int:
             print(f"miss: {case} -> {answers}")
     if out is not None:
         out.close()
-    kind = "next to the blind spot" if a.blind else "E_b at 0.5" if a.edge else "whole domain"
+    kind = (
+        "next to the blind spot"
+        if a.blind
+        else "E_b at 0.5"
+        if a.edge
+        else "side / wheelbase 100 to 150"
+        if a.narrow
+        else "whole domain"
+    )
     print(f"{kind}, seed {a.seed}: {misses} of {a.cases} missed ({time.perf_counter() - t0:.0f} s)")
     return 1 if misses else 0
 

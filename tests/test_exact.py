@@ -64,6 +64,9 @@ def test_model_matches_simulator(ed, eb, side, b, ccw):
 # a 9.3 m square on a 154 mm wheelbase, E_b 0.501: E_d 0.98705 (about 1 / E_d) explains the runs
 # to 0.3 micrometres per metre of side, and is fitted first
 @example(ed=1.013143610613229, eb=0.501, side=9.27492755519848, u=0.0980123322711671, n=2, heading=False, sampled=False)
+# an 8 m square on a 53 mm wheelbase, E_b 1: each leg curves by 359.4 deg; the true basin holds no
+# local minimum of the grid (the whole-turn valley's lowest sample lies at E_b 0.95)
+@example(ed=1.0427109422099345, eb=1.0, side=8.0, u=0.0, n=1, heading=False, sampled=False)
 def test_noise_free_recovery(ed, eb, side, u, n, heading, sampled):
     """Acceptance: E_d within 1e-5 and E_b within 1e-4, on runs files (mm, deg, CSV round trip)
     of any wheelbase, side and run count, with or without headings, exact-arc or sampled.
@@ -144,6 +147,34 @@ def test_recovery_where_the_lowest_grid_sample_of_the_true_basin_predicts_no_gai
     assert c.ed == pytest.approx(ed, abs=1e-7)
     assert c.eb == pytest.approx(eb, abs=1e-7)
     assert c.extra["alternatives"] == [] and c.extra["fit_cost"] < 1e-15
+
+
+def test_valley_starts_reach_a_basin_the_grid_holds_no_minimum_of():
+    """An 8 m square on a 53 mm wheelbase, E_b 1, E_d 1.0427: each leg curves by 359.4 deg, next
+    to the whole turn where the cost hardly depends on E_b. The grid's minimum in that valley
+    lies at E_b 0.95 and its fit ends at E_d 1.0406, E_b 0.949; the true basin, narrower than the
+    grid step, holds samples that are minima along beta' only. One of the first starts beside
+    them reaches the truth."""
+    from umbmark.correct.exact import _Problem
+    from umbmark.correct.exact.search import _fit, _grid_starts, _valley_starts
+
+    ed, eb, side = 1.0427109422099345, 1.0, 8.0
+    b = side / 150.0
+    runs = _no_heading(
+        parse_runs_csv(
+            format_runs_csv(simulate_umbmark(ErrorParams(ed, eb), Geometry(0.1, b), side, n_runs=1, motion=EXACT_ARC))
+        )
+    )
+    prob = _Problem(runs, side, b, 1.0, False, None)
+    assert not any(abs(s[0] - ed) < 2e-3 and abs(s[1] - eb) < 1e-2 for s in _grid_starts(prob))
+    starts = _valley_starts(prob)
+    assert any(abs(s[0] - ed) < 2e-3 and abs(s[1] - eb) < 1e-2 for s in starts[:16])
+    for s in starts[:16]:
+        sol = _fit(prob, [s], "linear", 1.0)
+        if sol is not None and abs(sol.x[0] - ed) < 1e-7 and abs(sol.x[1] - eb) < 1e-6:
+            break
+    else:
+        raise AssertionError("no start of the first 16 reaches the truth")
 
 
 @pytest.mark.parametrize("ed,eb", [(1.02, 0.95), (1.05, 0.5), (0.95, 2.5), (1.0005, 0.9995), (0.95, 0.5)])

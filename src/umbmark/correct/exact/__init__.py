@@ -48,7 +48,11 @@ needs at E_b,pass 0.3: several turns per leg for a long side on a narrow robot) 
 [0.3, 4] (401 points), only where E_d,pass is in [0.85, 1.15], ranked by the lowest cost one
 Gauss-Newton step predicts from each minimum or one of its eight grid neighbours (a narrow true
 basin sampled off its centre must not lose to broad shallow ones, even where its lowest sample
-sits where the linearisation sees no descent). The lowest final cost wins.
+sits where the linearisation sees no descent). Last, where none of these explains the runs, the
+minima along the heading per leg alone beside them (a leg curving by whole turns: the cost hardly
+depends on E_b there, and a basin narrower than the grid step holds no minimum of the grid),
+ranked the same way and fitted from their neighbours on either side of the whole turn. The
+lowest final cost wins.
 ``global_search=True`` always searches, ``False`` never.
 
 Uncertainty (delta method with per-direction scatter, documented in the README): the
@@ -72,7 +76,16 @@ import numpy as np
 
 from umbmark.correct.bf import _check_geometry
 from umbmark.correct.exact.model import ExactFitError, FloatArray, _Problem, odometry_turns, square_errors
-from umbmark.correct.exact.search import _aliases, _bf_start, _explains, _fit, _grid_starts, _heading_starts, _Solution
+from umbmark.correct.exact.search import (
+    _aliases,
+    _bf_start,
+    _explains,
+    _fit,
+    _grid_starts,
+    _heading_starts,
+    _Solution,
+    _valley_starts,
+)
 from umbmark.correct.exact.uncertainty import _loss_rho1, _reweigh_heading, interval_figures
 from umbmark.correct.registry import register
 from umbmark.correct.result import CorrectionResult, compose
@@ -223,11 +236,16 @@ def _global_search(
     sems: Sequence[float | None],
     global_search: GlobalSearch,
 ) -> tuple[_Solution | None, bool]:
-    """The global search in two stages until a fit explains the runs: candidates from the
-    headings (cheap), then the grid. Returns the best solution and whether it searched."""
+    """The global search in stages until a fit explains the runs: candidates from the
+    headings (cheap), the grid's basins, then the basins the grid holds no minimum of (that
+    stage takes a missing SEM, one run per direction, as zero). Returns the best solution and
+    whether it searched."""
     searched = False
-    for stage in (_heading_starts, _grid_starts):
-        if global_search is False or (global_search == "auto" and _explains(prob, sol, sems)):
+    for stage in (_heading_starts, _grid_starts, _valley_starts):
+        # the last stage is for basins the grid missed: where one run per direction leaves no
+        # SEM, a fit within the noise-free allowance already explains the runs
+        need = sems if stage is not _valley_starts else [0.0 if s is None else s for s in sems]
+        if global_search is False or (global_search == "auto" and _explains(prob, sol, need)):
             break
         searched = True
         sol2 = _fit(
@@ -235,7 +253,7 @@ def _global_search(
             stage(prob),
             loss,
             f_scale,
-            good=(lambda q: _explains(prob, q, sems)) if global_search == "auto" else None,
+            good=(lambda q, need=need: _explains(prob, q, need)) if global_search == "auto" else None,
         )
         if sol is None or (sol2 is not None and sol2.cost < sol.cost):
             sol = sol2

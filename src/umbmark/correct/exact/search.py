@@ -5,6 +5,8 @@
   ambiguities).
 * :func:`_grid_starts`: the best local minima of the cost on a global grid over the heading
   gained per leg and ``E_b,pass``.
+* :func:`_valley_starts`: starts beside the grid's minima along the heading gained per leg
+  alone (basins too narrow for the grid, in valleys along ``E_b,pass``).
 * :func:`_ranked`: starts in the order of the cost one Gauss-Newton step from each predicts.
 * :func:`_fit`: bounded local least-squares fits from the starts, in that order.
 * :func:`_explains`: whether a fit explains both centres of gravity (the search stops there).
@@ -132,29 +134,27 @@ def _heading_starts(prob: _Problem) -> list[FloatArray]:
     return _ranked(prob, out)
 
 
-def _grid_starts(prob: _Problem, k: int | None = None) -> list[FloatArray]:
-    """Starts in the best basins of the cost on a global grid, best first.
+def _grid(prob: _Problem) -> tuple[FloatArray, FloatArray, FloatArray]:
+    """The cost on the global grid.
 
     The grid spans ``E_b,pass`` in [0.3, 4] (401 points, log-spaced) and the heading gained
     per leg ``beta'`` (:func:`_grid_beta`; the cost varies with E_d on the scale of
     ``b / L``, so E_d is gridded through ``beta'``), limited to ``E_d,pass`` in [0.85, 1.15].
-    Each local minimum of the grid stands for a basin (:func:`_basin_starts`).
 
     Parameters
     ----------
     prob : _Problem
         The runs.
-    k : int or None
-        How many basins to keep; default: 8 per 315 grid values of ``beta'``, at most 128.
 
     Returns
     -------
-    list of numpy.ndarray
-        The starts ``(E_d,pass, E_b,pass)``.
+    ED, EB : numpy.ndarray
+        Shape (n_beta, n_eb): the grid's ``E_d,pass`` and ``E_b,pass``.
+    grid : numpy.ndarray
+        Shape (n_beta, n_eb): the sums of squared residuals (``inf`` outside the searched
+        range).
     """
     beta = _grid_beta(prob)
-    if k is None:  # wider grids (curlier legs) have more local minima: keep more of them
-        k = int(min(128, max(8, math.ceil(8 * beta.size / 315))))
     BETA, EB = np.meshgrid(beta, _GRID_EB, indexing="ij")
     q = BETA * EB * prob.b / (2.0 * prob.es * prob.side_m)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -169,15 +169,165 @@ def _grid_starts(prob: _Problem, k: int | None = None) -> list[FloatArray]:
         r = prob.residuals_matrix(flat_ed[sel], flat_eb[sel])
         cost[sel] = np.sum(r * r, axis=(1, 2))
     grid: FloatArray = cost.reshape(ED.shape)
-    # local minima on the grid (8-neighbourhood, edges padded with +inf)
-    n_beta, n_eb = grid.shape
-    pad = np.pad(grid, 1, constant_values=np.inf)
-    is_min = np.isfinite(grid)
+    return ED, EB, grid
+
+
+def _local_minima(values: FloatArray, beta_only: bool = False) -> npt.NDArray[np.bool_]:
+    """The finite local minima of a grid (edges padded with ``+inf``).
+
+    Parameters
+    ----------
+    values : numpy.ndarray
+        Shape (n_beta, n_eb).
+    beta_only : bool
+        Minima along ``beta'`` alone (the two neighbours along the first axis); default: in
+        the 8-neighbourhood.
+
+    Returns
+    -------
+    numpy.ndarray of bool
+        Shape (n_beta, n_eb).
+    """
+    n_beta, n_eb = values.shape
+    pad = np.pad(values, 1, constant_values=np.inf)
+    is_min = np.isfinite(values)
     for di in (-1, 0, 1):
-        for dj in (-1, 0, 1):
+        for dj in (0,) if beta_only else (-1, 0, 1):
             if di or dj:
-                is_min &= grid <= pad[1 + di : 1 + di + n_beta, 1 + dj : 1 + dj + n_eb]
-    return _basin_starts(prob, ED, EB, grid, is_min, k)
+                is_min &= values <= pad[1 + di : 1 + di + n_beta, 1 + dj : 1 + dj + n_eb]
+    return is_min
+
+
+def _default_k(n_beta: int) -> int:
+    """How many basins to keep: 8 per 315 grid values of ``beta'``, at most 128.
+
+    Parameters
+    ----------
+    n_beta : int
+        The number of grid values of ``beta'`` (wider grids, curlier legs, have more local
+        minima).
+
+    Returns
+    -------
+    int
+        The number of basins.
+    """
+    return int(min(128, max(8, math.ceil(8 * n_beta / 315))))
+
+
+def _grid_starts(prob: _Problem, k: int | None = None) -> list[FloatArray]:
+    """Starts in the best basins of the cost on a global grid, best first.
+
+    The grid: :func:`_grid`. Each local minimum of the grid stands for a basin
+    (:func:`_basin_starts`).
+
+    Parameters
+    ----------
+    prob : _Problem
+        The runs.
+    k : int or None
+        How many basins to keep; default: 8 per 315 grid values of ``beta'``, at most 128.
+
+    Returns
+    -------
+    list of numpy.ndarray
+        The starts ``(E_d,pass, E_b,pass)``.
+    """
+    ED, EB, grid = _grid(prob)
+    return _basin_starts(prob, ED, EB, grid, _local_minima(grid), _default_k(ED.shape[0]) if k is None else k)
+
+
+def _valley_starts(prob: _Problem, k: int | None = None) -> list[FloatArray]:
+    """Starts in basins that hold no local minimum of the grid, best first.
+
+    Where a leg curves by a whole number of turns its chord vanishes and the square shrinks to
+    a point whatever the turns: along such a ``beta'`` the cost hardly depends on
+    ``E_b,pass``, a valley whose lowest grid sample can lie far (in E_b) from a true basin
+    narrower than the grid step in ``beta'`` (legs curving by 359.4 deg at E_b 1: an 8 m square
+    on a 53 mm wheelbase). The basin's samples are then minima along ``beta'`` only. These
+    (the minima along ``beta'`` that are not minima of the grid) are scored like the grid's
+    basins, by the lowest cost one Gauss-Newton step predicts from each or one of its eight
+    neighbours (:func:`_neighbour_predictions`); of neighbouring candidates only the local
+    minima of the scores count, and of those one per neighbour that gives the score. Each is
+    fitted from its two neighbours along ``beta'``, the more promising first: the whole turn
+    is a singular line of the model and the true basin lies on one side of it (from the
+    sample on the line itself the fit slides along the valley).
+
+    Parameters
+    ----------
+    prob : _Problem
+        The runs.
+    k : int or None
+        How many starts to keep; default: as many as :func:`_grid_starts` keeps.
+
+    Returns
+    -------
+    list of numpy.ndarray
+        The starts ``(E_d,pass, E_b,pass)``.
+    """
+    ED, EB, grid = _grid(prob)
+    k = _default_k(ED.shape[0]) if k is None else k
+    mi, mj = np.nonzero(_local_minima(grid, beta_only=True) & ~_local_minima(grid))
+    if mi.size == 0:
+        return []
+    pred, ni, nj = _neighbour_predictions(prob, ED, EB, grid, mi, mj)
+    best = np.argmin(pred, axis=1)
+    rows = np.arange(mi.size)
+    score = np.full(grid.shape, np.inf)
+    score[mi, mj] = pred[rows, best]
+    keep = _local_minima(score)[mi, mj]
+    source = (ni * grid.shape[1] + nj)[rows, best]  # the neighbour giving the score
+    out: list[FloatArray] = []
+    seen: set[int] = set()
+    for m in np.argsort(np.where(keep, score[mi, mj], np.inf), kind="stable"):
+        if len(out) >= k or not keep[m]:
+            break
+        if int(source[m]) in seen:
+            continue
+        seen.add(int(source[m]))
+        # the neighbours along beta', on either side of the whole turn, the more promising first
+        sides = [c for c in (1, 7) if np.isfinite(pred[m, c])]
+        for c in sorted(sides, key=lambda c: pred[m, c]):
+            out.append(np.array([ED[ni[m, c], nj[m, c]], EB[ni[m, c], nj[m, c]]]))
+    return out
+
+
+def _neighbour_predictions(
+    prob: _Problem,
+    ED: FloatArray,
+    EB: FloatArray,
+    grid: FloatArray,
+    mi: npt.NDArray[np.intp],
+    mj: npt.NDArray[np.intp],
+) -> tuple[FloatArray, npt.NDArray[np.intp], npt.NDArray[np.intp]]:
+    """The cost one Gauss-Newton step predicts from each grid point and its eight neighbours.
+
+    Parameters
+    ----------
+    prob : _Problem
+        The runs.
+    ED, EB, grid : numpy.ndarray
+        Shape (n_beta, n_eb): the grid (:func:`_grid`).
+    mi, mj : numpy.ndarray of int
+        Shape (M,): the grid points.
+
+    Returns
+    -------
+    pred : numpy.ndarray
+        Shape (M, 9): the predicted sums of squared residuals (``inf`` off the grid or
+        outside its searched range).
+    ni, nj : numpy.ndarray of int
+        Shape (M, 9): the grid indices of the nine points.
+    """
+    di, dj = (a.ravel() for a in np.meshgrid((-1, 0, 1), (-1, 0, 1), indexing="ij"))
+    ni, nj = mi[:, None] + di[None, :], mj[:, None] + dj[None, :]  # (M, 9)
+    inside = (ni >= 0) & (ni < grid.shape[0]) & (nj >= 0) & (nj < grid.shape[1])
+    ni, nj = np.where(inside, ni, mi[:, None]), np.where(inside, nj, mj[:, None])
+    use = inside & np.isfinite(grid[ni, nj])
+    pred = np.full(ni.shape, np.inf)
+    pred[use] = _gauss_newton_cost(prob, ED[ni[use], nj[use]], EB[ni[use], nj[use]])
+    pred[np.isnan(pred)] = np.inf
+    return pred, ni, nj
 
 
 def _basin_starts(
@@ -220,14 +370,7 @@ def _basin_starts(
     mi, mj = np.nonzero(is_min)
     if mi.size == 0:
         return []
-    di, dj = (a.ravel() for a in np.meshgrid((-1, 0, 1), (-1, 0, 1), indexing="ij"))
-    ni, nj = mi[:, None] + di[None, :], mj[:, None] + dj[None, :]  # (M, 9)
-    inside = (ni >= 0) & (ni < grid.shape[0]) & (nj >= 0) & (nj < grid.shape[1])
-    ni, nj = np.where(inside, ni, mi[:, None]), np.where(inside, nj, mj[:, None])
-    use = inside & np.isfinite(grid[ni, nj])
-    pred = np.full(ni.shape, np.inf)
-    pred[use] = _gauss_newton_cost(prob, ED[ni[use], nj[use]], EB[ni[use], nj[use]])
-    pred[np.isnan(pred)] = np.inf
+    pred, _, _ = _neighbour_predictions(prob, ED, EB, grid, mi, mj)
     order = np.argsort(pred.min(axis=1))[:k]
     return [np.array([ED[mi[m], mj[m]], EB[mi[m], mj[m]]]) for m in order]
 
