@@ -248,13 +248,11 @@ def _global_search(
         if global_search is False or (global_search == "auto" and _explains(prob, sol, need)):
             break
         searched = True
-        sol2 = _fit(
-            prob,
-            stage(prob),
-            loss,
-            f_scale,
-            good=(lambda q, need=need: _explains(prob, q, need)) if global_search == "auto" else None,
-        )
+
+        def explains(q, need=need):
+            return _explains(prob, q, need)
+
+        sol2 = _fit(prob, stage(prob), loss, f_scale, good=explains if global_search == "auto" else None)
         if sol is None or (sol2 is not None and sol2.cost < sol.cost):
             sol = sol2
     return sol, searched
