@@ -26,10 +26,10 @@ import math
 import threading
 from collections.abc import Iterable, Sequence
 from concurrent.futures import ThreadPoolExecutor
-from types import ModuleType
 
 import numpy as np
 
+from umbmark._numba import numba_module
 from umbmark.errors import InputError
 from umbmark.model.geometry import LABMATE, Calibration, ErrorParams, Geometry, OdometryParams, wrap_angle
 from umbmark.model.runs import RunsTable
@@ -55,26 +55,9 @@ __all__ = ["ENGINES", "have_numba", "default_engine", "run_batch", "simulate_bat
 ENGINES = ("auto", "numba", "numpy")
 
 
-def _import_numba() -> ModuleType | None:
-    try:  # optional dependency
-        import numba
-    except ImportError:  # pragma: no cover - depends on the environment
-        return None
-    return numba
-
-
-_NUMBA: list[ModuleType | None] = []  # imported on first use: importing this module stays light
-
-
-def _numba() -> ModuleType | None:
-    if not _NUMBA:
-        _NUMBA.append(_import_numba())
-    return _NUMBA[0]
-
-
 def have_numba() -> bool:
     """True when numba is installed (the ``"numba"`` engine is available); imports it."""
-    return _numba() is not None
+    return numba_module() is not None
 
 
 def default_engine() -> str:
@@ -307,7 +290,7 @@ _kernel = None
 def _get_kernel():
     global _kernel
     if _kernel is None:
-        numba = _numba()
+        numba = numba_module()
         if numba is None:
             raise InputError('engine "numba" needs numba: pip install -e ".[fast]"')
         global _arc

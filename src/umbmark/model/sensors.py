@@ -20,12 +20,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from types import ModuleType
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
 
+from umbmark._numba import numba_module
 from umbmark.errors import InputError
 
 __all__ = [
@@ -43,16 +43,6 @@ _U_TOL = 1e-12  # a ray meeting a segment this close (in segment lengths) beyond
 _T_MIN = 1e-12  # hits closer than this [m] are the ray's own origin, not a return
 
 
-def _import_numba() -> ModuleType | None:
-    try:  # optional dependency
-        import numba
-    except ImportError:  # pragma: no cover - depends on the environment
-        return None
-    return numba
-
-
-_numba: ModuleType | None = None
-_numba_checked = False
 _kernel: Any = None
 
 
@@ -63,10 +53,7 @@ def have_numba() -> bool:
     -------
     bool
     """
-    global _numba, _numba_checked
-    if not _numba_checked:
-        _numba, _numba_checked = _import_numba(), True
-    return _numba is not None
+    return numba_module() is not None
 
 
 # ---------------------------------------------------------------- geometry of the room
@@ -526,8 +513,9 @@ def _get_kernel() -> Any:
     if _kernel is None:
         if not have_numba():
             raise InputError('engine "numba" needs numba: pip install -e ".[fast]"')
-        assert _numba is not None
-        _kernel = _numba.njit(cache=True, nogil=True)(_cast_kernel_py)
+        numba = numba_module()
+        assert numba is not None
+        _kernel = numba.njit(cache=True, nogil=True)(_cast_kernel_py)
     return _kernel
 
 

@@ -61,6 +61,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from umbmark._numba import numba_module
 from umbmark.errors import InputError
 
 __all__ = [
@@ -1040,7 +1041,6 @@ _KERNELS = (
 )
 _compiled = False
 _lock = threading.Lock()
-_numba_module: Any = None
 
 
 def have_numba() -> bool:
@@ -1050,15 +1050,7 @@ def have_numba() -> bool:
     -------
     bool
     """
-    global _numba_module
-    if _numba_module is None:
-        try:
-            import numba
-        except ImportError:  # pragma: no cover - depends on the environment
-            _numba_module = False
-        else:
-            _numba_module = numba
-    return _numba_module is not False
+    return numba_module() is not None
 
 
 def _kernel() -> Any:
@@ -1066,10 +1058,11 @@ def _kernel() -> Any:
     global _compiled
     with _lock:
         if not _compiled:
-            if have_numba():
+            numba = numba_module()
+            if numba is not None:
                 g = globals()
                 for name in _KERNELS:
-                    g[name] = _numba_module.njit(cache=True, nogil=True)(g[name])
+                    g[name] = numba.njit(cache=True, nogil=True)(g[name])
             _compiled = True
     return _match_batch
 
