@@ -5,7 +5,8 @@ Measures, side by side with the obvious alternatives and in the same run:
 * **replay** of a synthetic encoder log (1 kHz, integer increments of a robot driving at
   about 0.2 m/s with slowly varying wheel speeds) for 10^5 .. 10^8 samples: samples per second
   and peak RSS of the per-sample Python loop (``reference``), the plain numpy vectorisation
-  with one cos and sin per sample (``numpy-trig``: :func:`umbmark.model.geometry.odometry_from_pulses`),
+  with one cos and sin per sample (``numpy-trig``: :func:`umbmark.model.odometry.integrate_pulses`
+  with ``kernel="trig"``),
   the fast float kernel (``fast-float``: :func:`umbmark.model.odometry.integrate`), the integer
   table kernel with every pose kept (``fast-pulses``: :func:`umbmark.model.odometry.integrate_pulses`)
   and the streaming replay in chunks with only the end pose kept (``stream``:
