@@ -16,7 +16,16 @@ from pathlib import Path
 
 from umbmark.jsonutil import dumps
 
-__all__ = ["default_out", "add_out", "machine", "machine_text", "command", "write_json", "write_results"]
+__all__ = [
+    "default_out",
+    "add_out",
+    "machine",
+    "machine_text",
+    "command",
+    "write_json",
+    "write_results",
+    "pin_one_core",
+]
 
 
 def default_out(name: str) -> str:
@@ -105,6 +114,21 @@ def machine(*packages: str, numpy: bool = True) -> dict:
     if hasattr(os, "getloadavg"):
         info["load_average"] = [round(x, 2) for x in os.getloadavg()]
     return info
+
+
+def pin_one_core() -> int | None:
+    """Run this process (and its children) on one CPU, for per-core figures.
+
+    Returns
+    -------
+    int or None
+        The CPU, or None where the system cannot pin a process.
+    """
+    if not hasattr(os, "sched_setaffinity"):
+        return None
+    cpu = min(os.sched_getaffinity(0))
+    os.sched_setaffinity(0, {cpu})
+    return cpu
 
 
 def machine_text(m: dict, note: str | None = None, *, load: bool = True) -> str:

@@ -40,16 +40,7 @@ from pathlib import Path  # noqa: E402
 import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # _common.py, also when this file is loaded by path
-from _common import add_out, command, machine, machine_text, write_results  # noqa: E402
-
-
-def pin_one_core() -> int | None:
-    """Run this process (and its children) on one CPU; the CPU, or None where it cannot be set."""
-    if not hasattr(os, "sched_setaffinity"):
-        return None
-    cpu = min(os.sched_getaffinity(0))
-    os.sched_setaffinity(0, {cpu})
-    return cpu
+from _common import add_out, command, machine, machine_text, pin_one_core, write_results  # noqa: E402
 
 
 def robot():

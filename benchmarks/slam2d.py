@@ -40,7 +40,6 @@ for _var in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS", "NUMB
 import argparse  # noqa: E402
 import json  # noqa: E402
 import math  # noqa: E402
-import platform  # noqa: E402
 import shlex  # noqa: E402
 import statistics  # noqa: E402
 import subprocess  # noqa: E402
@@ -50,46 +49,13 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # _common.py, also when this file is loaded by path
+from _common import machine as _machine  # noqa: E402
+from _common import pin_one_core  # noqa: E402
+
 DEFAULT_OUT = "umbmark-bench-slam2d"
 REPO = Path(__file__).resolve().parent.parent
 LOGS = ("aces", "mit-csail")
-
-
-def pin_one_core() -> int | None:
-    """Run this process (and its children) on one CPU; the CPU, or None where it cannot be set."""
-    if not hasattr(os, "sched_setaffinity"):
-        return None
-    cpu = min(os.sched_getaffinity(0))
-    os.sched_setaffinity(0, {cpu})
-    return cpu
-
-
-def machine() -> dict:
-    """CPU model, cores, Python, numpy, numba, scipy and rosbags versions, platform, load."""
-    cpu = platform.processor() or ""
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as f:
-            cpu = next((line.split(":", 1)[1].strip() for line in f if line.startswith("model name")), cpu)
-    except OSError:  # not Linux
-        pass
-    info = {
-        "cpu_model": cpu,
-        "nproc": os.cpu_count(),
-        "cores_available": len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count(),
-        "python": platform.python_version(),
-        "numpy": np.__version__,
-        "platform": platform.platform(),
-    }
-    from importlib.metadata import PackageNotFoundError, version
-
-    for name in ("numba", "scipy", "rosbags"):
-        try:
-            info[name] = version(name)
-        except PackageNotFoundError:
-            info[name] = None
-    if hasattr(os, "getloadavg"):
-        info["load_average"] = [round(x, 2) for x in os.getloadavg()]
-    return info
 
 
 def run_stages(bag_path: Path, d_m: float, b_m: float) -> dict:
@@ -634,7 +600,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--repeat", type=int, default=3, help="timed runs per log")
     args = p.parse_args(argv)
     t0 = time.perf_counter()
-    info = machine()
+    info = _machine("numba", "scipy", "rosbags")
     info["pinned_cpu"] = pin_one_core()
     data = Path(args.data)
     nominal, other = parse_mm(args.nominal_mm), parse_mm(args.other_nominal_mm)
