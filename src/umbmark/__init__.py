@@ -23,9 +23,7 @@ Layers, lowest first (each imports only lower ones):
 
 from __future__ import annotations
 
-from importlib import import_module
-from typing import Any
-
+from umbmark._lazy import lazy_names
 from umbmark._version import __version__
 from umbmark.errors import CorrectionUndefined, InputError, UmbmarkError
 
@@ -67,15 +65,4 @@ _LAZY = {
 
 __all__ = ["__version__", "UmbmarkError", "InputError", "CorrectionUndefined", *_LAZY]
 
-
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'umbmark' has no attribute {name!r}")
-    value = getattr(import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_names("umbmark", _LAZY, globals())

@@ -19,8 +19,7 @@ that submodule.
 
 from __future__ import annotations
 
-from importlib import import_module
-from typing import Any
+from umbmark._lazy import lazy_names
 
 # public name -> module that defines it
 _LAZY = {
@@ -91,15 +90,4 @@ _LAZY = {
 
 __all__ = list(_LAZY)
 
-
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'umbmark.model' has no attribute {name!r}")
-    value = getattr(import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_names("umbmark.model", _LAZY, globals())

@@ -12,8 +12,7 @@ The names below and the submodules are loaded when first used.
 
 from __future__ import annotations
 
-from importlib import import_module
-from typing import Any
+from umbmark._lazy import lazy_names
 
 _LAZY = {
     "StudyConfig": "umbmark.studies.reproduce",
@@ -33,17 +32,4 @@ _SUBMODULES = ("accuracy", "demo", "iterate", "reference", "reproduce", "reprodu
 
 __all__ = [*_LAZY, *_SUBMODULES]
 
-
-def __getattr__(name: str) -> Any:
-    if name in _SUBMODULES:
-        return import_module(f"umbmark.studies.{name}")
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'umbmark.studies' has no attribute {name!r}")
-    value = getattr(import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_names("umbmark.studies", _LAZY, globals(), _SUBMODULES)

@@ -7,8 +7,7 @@ The names below are loaded when first used: importing this package imports no ma
 
 from __future__ import annotations
 
-from importlib import import_module
-from typing import Any
+from umbmark._lazy import lazy_names
 
 _LAZY = {
     "scatter_figure": "umbmark.viz.plots",
@@ -28,15 +27,4 @@ _LAZY = {
 
 __all__ = list(_LAZY)
 
-
-def __getattr__(name: str) -> Any:
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module 'umbmark.viz' has no attribute {name!r}")
-    value = getattr(import_module(module), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(__all__))
+__getattr__, __dir__ = lazy_names("umbmark.viz", _LAZY, globals())
