@@ -87,6 +87,9 @@ def _tables(sa):
     return md, schema, robots, cal
 
 
+_SCHEMA_LOCK = 0x756D626D  # the advisory lock that serialises schema creation on PostgreSQL ("umbm")
+
+
 class SQLAlchemyHistory(_Backend):
     """Same interface as :class:`umbmark.history.sqlite_backend.History`, on an SQLAlchemy engine.
 
@@ -177,6 +180,10 @@ class SQLAlchemyHistory(_Backend):
         for attempt in range(2):
             try:
                 with self.transaction() as conn:
+                    if self._engine.dialect.name == "postgresql":
+                        # one creator at a time: the tables of a schema another process is still
+                        # creating must not look like a foreign database
+                        conn.exec_driver_sql(f"SELECT pg_advisory_xact_lock({_SCHEMA_LOCK})")
                     v = self._version(conn)
                     if v is None:
                         names = set(sa.inspect(conn).get_table_names())
