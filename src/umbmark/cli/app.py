@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 import click
 
 from umbmark._version import __version__
+from umbmark.cli.guard import GuardedGroup
 from umbmark.errors import InputError
 from umbmark.jsonutil import dumps
 from umbmark.viz.text import fmt
@@ -55,7 +56,7 @@ REPRODUCE_VARIATION = 0.15  # umbmark.studies.reproduce.ROBOT_VARIATION
 CONTEXT = dict(help_option_names=["-h", "--help"], max_content_width=100)
 
 
-@click.group(context_settings=CONTEXT)
+@click.group(context_settings=CONTEXT, cls=GuardedGroup)
 @click.version_option(__version__, prog_name="umbmark")
 @click.option("-q", "--quiet", is_flag=True, help="Print only errors (and --json output).")
 @click.pass_context
@@ -120,6 +121,7 @@ PARAM_FLAGS = {
     "method": "--method",
     "odom_topic": "--odom-topic",
     "pulses_per_wheel_rev": "--pulses-per-wheel-rev",
+    "ranges": "--ranges",
     "record": "--record",
     "right_diameter_mm": "--right-diameter-mm",
     "right_field": "--right-field",
@@ -128,9 +130,13 @@ PARAM_FLAGS = {
     "scan_frame": "--scan-frame",
     "sensor_pose": "--sensor-pose",
     "side_mm": "--side-mm",
+    "split_stops": "--split-stops",
+    "stop_s": "--stop-s",
     "stream": "--stream",
     "ticks_topic": "--ticks-topic",
     "wheel_diameter_mm": "--wheel-diameter-mm",
+    "wheel_radius_m": "--wheel-radius-m",
+    "wheel_separation_m": "--wheel-separation-m",
     "wheelbase_mm": "--wheelbase-mm",
 }
 _PARAM = re.compile(r"`(\w+)(?:=([^`]*))?`")

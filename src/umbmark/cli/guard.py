@@ -1,0 +1,258 @@
+"""The checks every command runs on its parsed options before it reads or writes anything.
+
+* **Outputs never replace inputs.** :data:`PATH_ROLES` classifies every path-like parameter of
+  every command: an ``input`` (a file or folder the command reads), an ``output`` file, an
+  ``output_dir`` (a folder the command writes into), the history ``db`` (read and written), or
+  ``name`` (not a path). Before the command runs, each output is compared with every input,
+  every other output and the history database (:func:`os.path.samefile` where both exist, else
+  the resolved paths); an output inside an input folder is refused too. tests/test_outputs_guard.py
+  enumerates the commands and fails on a path parameter missing from the registry.
+* **Sizes are sizes.** A float option in millimetres or metres (``--*-mm``, ``--*-m``) must be
+  finite and below :data:`MAX_SIZE_M` (a thousand kilometres): an overflow such as
+  ``--wheel-diameter-mm 1e308`` is one line, not a traceback.
+* **A file whose name starts with a dash** (``-x.csv``) is read by click as options: the
+  error says to write ``./-x.csv`` or to put ``--`` before it.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import click
+
+__all__ = ["MAX_SIZE_M", "PATH_ROLES", "ROLES", "GuardedCommand", "GuardedGroup", "check_paths", "path_roles"]
+
+ROLES = ("input", "output", "output_dir", "db", "name")
+
+# command path -> parameter name -> role (see the module docstring)
+PATH_ROLES: dict[str, dict[str, str]] = {
+    "analyze": {"runs_file": "input", "plot_path": "output", "db": "db"},
+    "bag-info": {"bag": "input"},
+    "bench accuracy": {"out_dir": "output_dir"},
+    "bench speed": {"out_dir": "output_dir"},
+    "calibrate": {"runs_files": "input", "save_runs": "output_dir", "db": "db"},
+    "convert": {"paths": "input", "out": "output"},
+    "demo": {"out_dir": "output_dir"},
+    "export": {"calibration": "input", "dataset": "name", "out": "output", "db": "db"},
+    "history": {"robot": "name", "db": "db", "plot_path": "output", "export_path": "output"},
+    "measure": {"distances_file": "input", "out_path": "output"},
+    "replay": {"paths": "input", "save": "output", "poses_out": "output", "db": "db"},
+    "report": {
+        "runs_file": "input",
+        "after_file": "input",
+        "attach": "input",
+        "out_path": "output",
+        "db": "db",
+        "method": "name",
+        "robot": "name",
+    },
+    "reproduce": {"report_dir": "output_dir"},
+    "simulate": {"out": "output"},
+    "selfcal": {"paths": "input", "save": "output", "intervals_out": "output", "db": "db"},
+}
+
+# a size option beyond this is not the size of a robot, a wheel or a test track
+MAX_SIZE_M = 1e6
+
+
+def path_roles(command_path: str) -> dict[str, str]:
+    """The roles of a command's path parameters (see :data:`PATH_ROLES`).
+
+    Parameters
+    ----------
+    command_path : str
+        The command's name after ``umbmark`` (``"replay"``, ``"bench speed"``).
+
+    Returns
+    -------
+    dict
+        Parameter name -> role; empty for a command without path parameters.
+    """
+    return PATH_ROLES.get(command_path, {})
+
+
+def _values(v) -> list[str]:
+    if v is None:
+        return []
+    if isinstance(v, (list, tuple)):
+        return [str(x) for x in v if x is not None and str(x) not in ("", "-")]
+    s = str(v)
+    return [] if s in ("", "-") else [s]
+
+
+def _same(a: str, b: str) -> bool:
+    """True when the paths name one file (hard and symbolic links included)."""
+    try:
+        return os.path.samefile(a, b)
+    except OSError:
+        pass
+    try:
+        return Path(a).resolve() == Path(b).resolve()
+    except (OSError, RuntimeError):
+        return os.path.abspath(a) == os.path.abspath(b)
+
+
+def _inside(path: str, folder: str) -> bool:
+    try:
+        p, f = Path(path).resolve(), Path(folder).resolve()
+    except (OSError, RuntimeError):
+        return False
+    return f in p.parents
+
+
+def _special(path: str) -> bool:
+    """A device or pipe (``/dev/stdout``): written into, never replaced."""
+    try:
+        return os.path.exists(path) and not os.path.isfile(path) and not os.path.isdir(path)
+    except OSError:
+        return False
+
+
+def _db_file(value) -> str | None:
+    """The history database file a command uses (None for a database URL)."""
+    from umbmark.history.base import is_url, resolve_db
+
+    if isinstance(value, str) and value.startswith("sqlite:///"):
+        return value[len("sqlite:///") :] or None
+    if isinstance(value, str) and value.startswith("sqlite://"):
+        return None  # in memory
+    db = resolve_db(value)
+    if is_url(str(db)):
+        return None
+    return str(db)
+
+
+def check_paths(command_path: str, params: dict, flags: dict[str, str] | None = None) -> None:
+    """Refuse a command line whose outputs would replace an input, the history or each other.
+
+    Parameters
+    ----------
+    command_path : str
+        The command's name after ``umbmark``.
+    params : dict
+        Its parsed parameters (click's ``ctx.params``).
+    flags : dict, optional
+        Parameter name -> how to name it in the message (``--out``); default: the name.
+
+    Raises
+    ------
+    click.UsageError
+        An output that is an input, the history database, another output, or inside an input
+        folder.
+    """
+    roles = path_roles(command_path)
+    flags = flags or {}
+
+    def name(k: str) -> str:
+        return flags.get(k, k)
+
+    inputs = [(k, v) for k, r in roles.items() if r == "input" for v in _values(params.get(k))]
+    outputs = [(k, v) for k, r in roles.items() if r == "output" for v in _values(params.get(k))]
+    outputs = [(k, v) for k, v in outputs if not _special(v)]
+    out_dirs = [(k, v) for k, r in roles.items() if r == "output_dir" for v in _values(params.get(k))]
+    if not outputs and not out_dirs:
+        return
+    for k, out in outputs:
+        for ki, inp in inputs:
+            if _same(out, inp):
+                raise click.UsageError(
+                    f"{name(k)} {out} is the input {inp} ({name(ki)}): writing it would replace the input; "
+                    "choose another file"
+                )
+            if os.path.isdir(inp) and _inside(out, inp):
+                raise click.UsageError(
+                    f"{name(k)} {out} is inside the input folder {inp} ({name(ki)}): write it outside the folder"
+                )
+    for i, (k, out) in enumerate(outputs):
+        for k2, out2 in outputs[i + 1 :]:
+            if _same(out, out2):
+                raise click.UsageError(f"{name(k)} and {name(k2)} are the same file {out}: give each its own file")
+    for k, d in out_dirs:
+        for ki, inp in inputs:
+            if _same(d, inp):
+                raise click.UsageError(f"{name(k)} {d} is the input {inp} ({name(ki)}): choose another folder")
+    dbs = [k for k, r in roles.items() if r == "db"]
+    if dbs and outputs:
+        db = _db_file(params.get(dbs[0]))
+        if db is not None:
+            for k, out in outputs:
+                if _same(out, db):
+                    raise click.UsageError(
+                        f"{name(k)} {out} is the history database ({name(dbs[0])}): writing it would replace "
+                        "every record; choose another file"
+                    )
+
+
+def _check_sizes(command: click.Command, params: dict) -> None:
+    for p in command.params:
+        if not isinstance(p, click.Option) or not isinstance(p.type, click.types.FloatParamType):
+            continue
+        scale = 1e-3 if p.name.endswith("_mm") else 1.0 if p.name.endswith("_m") else None
+        if scale is None:
+            continue
+        for v in _values_num(params.get(p.name)):
+            if not math.isfinite(v) or abs(v) * scale > MAX_SIZE_M:
+                raise click.BadParameter(
+                    f"must be a finite size below {MAX_SIZE_M / scale:g} {'mm' if scale != 1 else 'm'}, got {v!r}",
+                    param=p,
+                )
+
+
+def _values_num(v) -> list[float]:
+    if v is None:
+        return []
+    if isinstance(v, (list, tuple)):
+        return [float(x) for x in v if x is not None]
+    return [float(v)]
+
+
+def _flag_names(command: click.Command) -> dict[str, str]:
+    out = {}
+    for p in command.params:
+        if isinstance(p, click.Option):
+            out[p.name or ""] = max(p.opts, key=len)
+        else:
+            out[p.name or ""] = p.human_readable_name
+    return out
+
+
+class GuardedCommand(click.Command):
+    """A command that runs :func:`check_paths` and the size checks before its callback, and names
+    the ``./`` and ``--`` ways of giving a file whose name starts with a dash."""
+
+    def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
+        given = list(args)  # the parser consumes ``args``
+        try:
+            return super().parse_args(ctx, args)
+        except click.NoSuchOption as e:
+            known = {o for p in self.params for o in getattr(p, "opts", []) + getattr(p, "secondary_opts", [])}
+            for a in given:
+                if a == "--":
+                    break
+                if a.startswith("-") and a != "-" and a.split("=")[0] not in known and a.startswith(e.option_name):
+                    if "." in a or "/" in a or os.path.exists(a):
+                        raise click.UsageError(
+                            f"no such option {a}: to give a file whose name starts with '-', "
+                            f"write ./{a} (or put -- before the file names)",
+                            ctx=ctx,
+                        ) from None
+            raise
+
+    def invoke(self, ctx: click.Context):
+        path = ctx.command_path.split(" ", 1)[1] if " " in ctx.command_path else ctx.command_path
+        try:
+            _check_sizes(self, ctx.params)
+            check_paths(path, ctx.params, _flag_names(self))
+        except click.UsageError as e:
+            e.ctx = ctx
+            raise
+        return super().invoke(ctx)
+
+
+class GuardedGroup(click.Group):
+    """A group whose commands (and subgroups) are :class:`GuardedCommand` s."""
+
+    command_class = GuardedCommand
+    group_class = type  # subgroups are GuardedGroups too

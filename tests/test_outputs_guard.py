@@ -1,0 +1,358 @@
+"""No command can write over one of its inputs or its history database (umbmark.cli.guard).
+
+The commands and their parameters are read from the click application itself: a path
+parameter missing from the guard's registry fails here, and every output option of every
+command is run with its path equal to each input and to the history database.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+from pathlib import Path
+
+import click
+import pytest
+from conftest import REPO
+
+from umbmark.cli import app, main
+from umbmark.cli.guard import PATH_ROLES, ROLES
+
+EXAMPLES = REPO / "data" / "examples"
+OPTIODOM = REPO / "data" / "optiodom" / "square" / "230620202144"
+
+
+def commands(group: click.Group = app, prefix: str = ""):
+    """(command path, command) for every command of the application."""
+    for name, cmd in sorted(group.commands.items()):
+        path = f"{prefix}{name}"
+        if isinstance(cmd, click.Group):
+            yield from commands(cmd, path + " ")
+        else:
+            yield path, cmd
+
+
+def looks_like_path(p: click.Parameter) -> bool:
+    """Parameters that may name a file: click paths, arguments, options whose help speaks of files."""
+    if isinstance(p.type, click.Path) or isinstance(p, click.Argument):
+        return True
+    help_ = (getattr(p, "help", None) or "").lower()
+    return any(w in help_ for w in ("file", "folder", "json", "directory"))
+
+
+def flag(cmd: click.Command, name: str) -> str:
+    (p,) = [p for p in cmd.params if p.name == name]
+    return max(p.opts, key=len)
+
+
+def test_every_path_parameter_is_classified():
+    missing, stale = [], []
+    for path, cmd in commands():
+        roles = PATH_ROLES.get(path, {})
+        names = {p.name for p in cmd.params}
+        for p in cmd.params:
+            if p.type is click.BOOL or getattr(p, "is_flag", False):
+                continue
+            if isinstance(p.type, (click.Choice, click.types.IntParamType, click.types.FloatParamType)):
+                continue
+            if looks_like_path(p) and p.name not in roles:
+                missing.append(f"{path} {p.name}")
+        stale += [f"{path} {k}" for k in roles if k not in names]
+        assert set(roles.values()) <= set(ROLES), path
+    assert not missing, "path parameters without a role in umbmark.cli.guard.PATH_ROLES: " + ", ".join(missing)
+    assert not stale, "PATH_ROLES names parameters that do not exist: " + ", ".join(stale)
+    assert set(PATH_ROLES) <= {p for p, _ in commands()}
+
+
+def test_the_classification_reads_output_options_as_outputs():
+    """Every option called like an output (--out, --save, --plot, --export, ...-out) is one."""
+    for path, cmd in commands():
+        for p in cmd.params:
+            if isinstance(p, click.Option) and isinstance(p.type, click.Path):
+                opt = max(p.opts, key=len)
+                if opt in ("--out", "--save", "--plot", "--export", "--save-runs", "--report") or opt.endswith("-out"):
+                    assert PATH_ROLES[path][p.name] in ("output", "output_dir"), f"{path} {opt}"
+
+
+def digest(p: Path) -> str:
+    return hashlib.sha256(p.read_bytes()).hexdigest()
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    """Real inputs of every kind: a runs file, a distances file, a CSV log, an optiodom folder,
+    a calibration JSON, a bag, and a history database with a record."""
+    d = tmp_path_factory.mktemp("guard")
+    cwd = os.getcwd()
+    os.chdir(d)
+    try:
+        assert main(["-q", "simulate", "--seed", "3", "--out", "runs.csv"]) == 0
+        shutil.copy(EXAMPLES / "distances.csv", "distances.csv")
+        shutil.copytree(OPTIODOM, "optiodom")
+        assert main(["-q", "convert", "optiodom", "--out", "log.csv"]) == 0
+        assert main(["-q", "replay", "optiodom", "--save", "cal.json", "--no-heldout"]) == 0
+        assert main(["-q", "analyze", "runs.csv", "--wheelbase-mm", "340", "--side-mm", "4000"]) == 0
+        assert (
+            main(
+                ["-q", "analyze", "runs.csv", "--wheelbase-mm", "340", "--side-mm", "4000"]
+                + ["--robot", "r1", "--record", "--db", "h.sqlite"]
+            )
+            == 0
+        )
+        shutil.copy(REPO / "data" / "slam2d" / "mit-csail.bag", "robot.bag")
+    finally:
+        os.chdir(cwd)
+    return d
+
+
+# each command's command line with its inputs; {x} is the input (or database) the outputs are aimed at
+BASE = {
+    "analyze": ["analyze", "{runs_file}", "--wheelbase-mm", "340", "--side-mm", "4000", "--db", "{db}"],
+    "bag-info": ["bag-info", "{bag}"],
+    "calibrate": ["calibrate", "{runs_files}", "--wheelbase-mm", "340", "--side-mm", "4000", "--db", "{db}"],
+    "convert": ["convert", "{paths}"],
+    "export": ["export", "{calibration}", "--format", "json", "--db", "{db}"],
+    "history": ["history", "r1", "--db", "{db}"],
+    "measure": [
+        "measure",
+        "{distances_file}",
+        "--front",
+        "150,-120",
+        "--rear",
+        "-150,-120",
+        "--back",
+        "-200,0",
+    ],
+    "replay": ["replay", "{paths}", "--db", "{db}"],
+    "report": ["report", "{runs_file}", "--after", "{after_file}", "--attach", "{attach}", "--db", "{db}"],
+    "selfcal": [
+        "selfcal",
+        "{paths}",
+        "--odom-topic",
+        "/odom",
+        "--wheel-diameter-mm",
+        "200",
+        "--wheelbase-mm",
+        "400",
+        "--db",
+        "{db}",
+    ],
+}
+# the input file of each input parameter
+INPUT_FILE = {
+    ("analyze", "runs_file"): "runs.csv",
+    ("bag-info", "bag"): "robot.bag",
+    ("calibrate", "runs_files"): "runs.csv",
+    ("convert", "paths"): "log.csv",
+    ("export", "calibration"): "cal.json",
+    ("measure", "distances_file"): "distances.csv",
+    ("replay", "paths"): "log.csv",
+    ("report", "runs_file"): "runs.csv",
+    ("report", "after_file"): "after.csv",
+    ("report", "attach"): "cal.json",
+    ("selfcal", "paths"): "robot.bag",
+}
+# options an output needs besides the base command line
+NEEDS = {("replay", "poses_out"): ["--stream", "--decimate", "10"]}
+
+
+def cases():
+    out = []
+    for path, _ in commands():
+        roles = PATH_ROLES.get(path, {})
+        for o, r in roles.items():
+            if r != "output":
+                continue
+            targets = [k for k, rr in roles.items() if rr in ("input", "db")]
+            for t in targets:
+                out.append(pytest.param(path, o, t, id=f"{path}-{o}={t}"))
+    return out
+
+
+def test_every_output_is_covered_by_a_case():
+    covered = {(c.values[0], c.values[1]) for c in cases()}
+    outputs = {
+        (p, o)
+        for p, roles in PATH_ROLES.items()
+        for o, r in roles.items()
+        if r == "output" and {"input", "db"} & set(roles.values())
+    }
+    assert outputs == covered
+    for p, _ in outputs:
+        roles = PATH_ROLES[p]
+        if True:
+            assert p in BASE, f"no command line for {p}"
+            for k, r in roles.items():
+                if r == "input":
+                    assert (p, k) in INPUT_FILE, (p, k)
+
+
+@pytest.mark.parametrize("command, output, target", cases())
+def test_an_output_equal_to_an_input_is_refused(files, tmp_path, capsys, command, output, target):
+    work = tmp_path / "w"
+    shutil.copytree(files, work)
+    shutil.copy(work / "runs.csv", work / "after.csv")
+    roles = PATH_ROLES[command]
+    (cmd,) = [c for p, c in commands() if p == command]
+    paths = {k: INPUT_FILE[(command, k)] for k, r in roles.items() if r == "input"}
+    paths.update({k: "h.sqlite" for k, r in roles.items() if r == "db"})
+    victim = work / paths[target]
+    before = {p.name: digest(p) for p in work.iterdir() if p.is_file()}
+    args = [a.format(**paths) for a in BASE[command]]
+    args += NEEDS.get((command, output), [])
+    # the same file as the target, spelled differently: ./name
+    args += [flag(cmd, output), "./" + paths[target]]
+    cwd = os.getcwd()
+    os.chdir(work)
+    try:
+        capsys.readouterr()
+        code = main(args)
+    finally:
+        os.chdir(cwd)
+    err = capsys.readouterr().err
+    assert code == 2, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert flag(cmd, output) in lines[0] and "replace" in lines[0]
+    after = {p.name: digest(p) for p in work.iterdir() if p.is_file()}
+    assert after == before, "a file was written or changed"
+    assert victim.exists()
+
+
+def test_a_symbolic_link_or_hard_link_to_the_input_is_the_input(files, tmp_path, capsys):
+    shutil.copy(files / "runs.csv", tmp_path / "runs.csv")
+    os.symlink(tmp_path / "runs.csv", tmp_path / "soft.png")
+    os.link(tmp_path / "runs.csv", tmp_path / "hard.png")
+    before = digest(tmp_path / "runs.csv")
+    for link in ("soft.png", "hard.png"):
+        code = main(
+            ["analyze", str(tmp_path / "runs.csv"), "--wheelbase-mm", "340", "--side-mm", "4000"]
+            + ["--plot", str(tmp_path / link)]
+        )
+        assert code == 2
+        assert "replace the input" in capsys.readouterr().err
+    assert digest(tmp_path / "runs.csv") == before
+
+
+def test_an_output_inside_an_input_folder_is_refused(files, tmp_path, capsys):
+    shutil.copytree(files / "optiodom", tmp_path / "ds")
+    before = sorted(p.name for p in (tmp_path / "ds").iterdir())
+    first = sorted((tmp_path / "ds").iterdir())[0]
+    for target in (first, tmp_path / "ds" / "cal.json"):
+        code = main(["replay", str(tmp_path / "ds"), "--save", str(target)])
+        assert code == 2
+        assert "inside the input folder" in capsys.readouterr().err
+    assert sorted(p.name for p in (tmp_path / "ds").iterdir()) == before
+
+
+def test_two_outputs_on_one_file_are_refused(files, tmp_path, capsys):
+    code = main(
+        ["selfcal", str(files / "robot.bag"), "--odom-topic", "/odom", "--wheel-diameter-mm", "200"]
+        + ["--wheelbase-mm", "400", "--save", str(tmp_path / "x.json"), "--intervals-out", str(tmp_path / "x.json")]
+    )
+    assert code == 2
+    assert "same file" in capsys.readouterr().err
+    assert not (tmp_path / "x.json").exists()
+
+
+def test_the_default_history_database_is_guarded_too(files, tmp_path, capsys, monkeypatch):
+    db = tmp_path / "default.sqlite"
+    shutil.copy(files / "h.sqlite", db)
+    monkeypatch.setenv("UMBMARK_DB", str(db))
+    before = digest(db)
+    assert main(["history", "r1", "--export", str(db)]) == 2
+    assert "history database" in capsys.readouterr().err
+    assert digest(db) == before
+
+
+def test_distinct_outputs_are_written(files, tmp_path):
+    """The guard refuses only what would replace an input: a different file is written."""
+    out = tmp_path / "cal-copy.json"
+    assert main(["-q", "export", str(files / "cal.json"), "--format", "json", "--out", str(out)]) == 0
+    assert out.read_text().startswith("{")
+    png = tmp_path / "scatter.png"
+    args = ["-q", "analyze", str(files / "runs.csv"), "--wheelbase-mm", "340", "--side-mm", "4000", "--plot", str(png)]
+    assert main(args) == 0
+    assert png.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_stdout_as_output_is_not_an_input(files, capsys):
+    """``-`` (stdout) and devices are written into, never compared as files."""
+    assert main(["history", "r1", "--db", str(files / "h.sqlite"), "--export", "-"]) == 0
+    assert json.loads(capsys.readouterr().out)
+
+
+# -- sizes and file names ------------------------------------------------------------------------
+
+
+# a command line of each command with --wheel-diameter-mm that would run (files from the fixture)
+SIZE_ARGS = {
+    "calibrate": ["calibrate", "--seed", "1"],
+    "convert": ["convert", "log.csv", "--out", "new.csv"],
+    "export": ["export", "--c-left", "1", "--c-right", "1", "--eb", "1", "--format", "firmware"]
+    + ["--pulses-per-wheel-rev", "100", "--out", "new.h"],
+    "replay": ["replay", "log.csv", "--save", "new.json"],
+    "selfcal": ["selfcal", "robot.bag", "--odom-topic", "/odom", "--wheelbase-mm", "400", "--save", "new.json"],
+    "simulate": ["simulate", "--out", "new.csv"],
+}
+
+
+def size_options():
+    for path, cmd in commands():
+        for p in cmd.params:
+            if isinstance(p, click.Option) and p.name == "wheel_diameter_mm":
+                yield path
+
+
+def test_every_command_with_a_wheel_diameter_has_a_size_case():
+    assert set(size_options()) == set(SIZE_ARGS)
+
+
+@pytest.mark.parametrize("command", sorted(SIZE_ARGS))
+@pytest.mark.parametrize("value", ["1e308", "-1e308", "nan", "inf", "2e9"])
+def test_an_absurd_size_is_one_line(files, command, value, capsys, monkeypatch):
+    monkeypatch.chdir(files)
+    code = main([*SIZE_ARGS[command], "--wheel-diameter-mm", value])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert len(err.strip().splitlines()) == 1, err
+    assert "--wheel-diameter-mm" in err and "Traceback" not in err
+    assert not list(files.glob("new.*"))
+
+
+def test_a_file_name_starting_with_a_dash(files, tmp_path, capsys, monkeypatch):
+    shutil.copy(files / "runs.csv", tmp_path / "-x.csv")
+    monkeypatch.chdir(tmp_path)
+    code = main(["analyze", "-x.csv", "--wheelbase-mm", "340", "--side-mm", "4000"])
+    err = capsys.readouterr().err
+    assert code == 2 and len(err.strip().splitlines()) == 1
+    assert "./-x.csv" in err and "--" in err
+    for args in (["./-x.csv"], ["--wheelbase-mm", "340", "--side-mm", "4000", "--", "-x.csv"]):
+        full = args if "--" in args else [*args, "--wheelbase-mm", "340", "--side-mm", "4000"]
+        assert main(["-q", "analyze", *full]) == 0, capsys.readouterr().err
+    # an option that does not exist is still named as such
+    assert main(["analyze", "runs.csv", "--no-such-flag"]) == 2
+    assert "No such option" in capsys.readouterr().err
+
+
+def test_a_file_that_cannot_be_read_is_one_line(files, tmp_path, capsys):
+    """An unreadable file (permissions, or a folder where a file is expected): one line, exit 2."""
+    f = tmp_path / "locked.csv"
+    shutil.copy(files / "runs.csv", f)
+    f.chmod(0)
+    cases = [["analyze", str(tmp_path), "--wheelbase-mm", "340", "--side-mm", "4000"]]
+    cases.append(["export", str(tmp_path), "--format", "json"])
+    cases.append(["measure", str(tmp_path), "--front", "150,-120", "--rear", "-150,-120", "--back", "-200,0"])
+    if not os.access(f, os.R_OK):  # not root
+        cases.append(["analyze", str(f), "--wheelbase-mm", "340", "--side-mm", "4000"])
+        cases.append(["export", str(f), "--format", "json"])
+    try:
+        for args in cases:
+            code = main(args)
+            err = capsys.readouterr().err
+            assert code == 2, (args, err)
+            assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, (args, err)
+    finally:
+        f.chmod(0o644)
