@@ -9,8 +9,13 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import os
 import shutil
+import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import click
@@ -356,3 +361,69 @@ def test_a_file_that_cannot_be_read_is_one_line(files, tmp_path, capsys):
             assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, (args, err)
     finally:
         f.chmod(0o644)
+
+
+# -- temporary files of killed writers -----------------------------------------------------------
+
+
+def _long_log(path: Path, rows: int) -> None:
+    """A generic CSV log of one slow arc: ``rows`` samples."""
+    import numpy as np
+
+    t = np.arange(rows) * 0.01
+    left, right = t * 100.0, t * 101.0  # pulses
+    d = (left + right) / 2 * (math.pi * 0.1 / 1000)
+    th = (right - left) * (math.pi * 0.1 / 1000) / 0.3
+    body = np.column_stack([t, left, right, d * np.cos(th), d * np.sin(th), th])
+    with open(path, "w") as f:
+        f.write("time_s,left_ticks,right_ticks,x_m,y_m,theta_rad\n")
+        np.savetxt(f, body, delimiter=",", fmt="%.9g")
+
+
+def test_killed_stream_writers_leave_no_temporary_files_behind(tmp_path):
+    """SIGKILL while ``replay --stream --poses-out`` writes: the next write removes what the
+    killed ones left (recognisable names beside the output), and the output is whole."""
+    log, out = tmp_path / "long.csv", tmp_path / "poses.csv"
+    _long_log(log, 300_000)
+    cmd = [sys.executable, "-m", "umbmark", "replay", str(log), "--stream", "--decimate", "1"]
+    cmd += ["--wheel-diameter-mm", "100", "--wheelbase-mm", "300", "--pulses-per-wheel-rev", "1000"]
+    cmd += ["--poses-out", str(out)]
+    pattern = ".poses.csv.umbmark-tmp.*"
+    killed = 0
+    for _ in range(3):
+        p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+        deadline = time.monotonic() + 120
+        while time.monotonic() < deadline and p.poll() is None and not list(tmp_path.glob(pattern)):
+            time.sleep(0.002)
+        if p.poll() is None:
+            p.send_signal(signal.SIGKILL)
+            killed += 1
+        p.wait()
+    left = list(tmp_path.glob(pattern))
+    # each write removed the file the one killed before it left: only the last one's is there
+    assert killed == 3 and len(left) == 1, "the writes were not caught in the act"
+    assert not out.exists()
+    r = subprocess.run(cmd, capture_output=True, text=True)
+    assert r.returncode == 0, r.stderr
+    assert not list(tmp_path.glob(pattern))
+    assert sum(1 for _ in open(out)) == 300_000 + 1
+
+
+def test_only_temporaries_of_dead_writers_are_removed(tmp_path):
+    from umbmark.io.atomic import atomic_write, remove_stale_temporaries
+
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True)
+    dead_pid = int(dead.stdout)
+    target = tmp_path / "out.json"
+    stale = tmp_path / f".out.json.umbmark-tmp.{dead_pid}.abc.json"
+    live = tmp_path / f".out.json.umbmark-tmp.{os.getpid()}.def.json"
+    other = tmp_path / f".other.json.umbmark-tmp.{dead_pid}.ghi.json"
+    unrelated = tmp_path / ".out.json.mine"
+    for f in (stale, live, other, unrelated):
+        f.write_text("x")
+    assert remove_stale_temporaries(target) == [stale]
+    assert live.exists() and other.exists() and unrelated.exists()
+    stale.write_text("x")
+    atomic_write(target, "{}\n")  # a write cleans up too
+    assert not stale.exists() and target.read_text() == "{}\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["out.json", live.name, other.name, unrelated.name])

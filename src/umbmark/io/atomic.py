@@ -10,7 +10,7 @@ from pathlib import Path
 from umbmark.errors import InputError
 from umbmark.jsonutil import dumps
 
-__all__ = ["atomic_write", "atomic_path", "write_json"]
+__all__ = ["atomic_write", "atomic_path", "remove_stale_temporaries", "write_json"]
 
 
 def _umask() -> int:
@@ -19,12 +19,75 @@ def _umask() -> int:
     return mask
 
 
+# the temporary file of a write to NAME is .NAME.umbmark-tmp.PID.RANDOM.SUFFIX beside it
+_TEMP_TAG = ".umbmark-tmp."
+
+
+def _temp_prefix(path: Path) -> str:
+    return f".{path.name}{_TEMP_TAG}"
+
+
+def _alive(pid: int) -> bool:
+    if pid == os.getpid():
+        return True
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OSError):
+        return True  # another user's process, or no way to tell: keep its file
+    return True
+
+
+def remove_stale_temporaries(path) -> list[Path]:
+    """Remove the temporary files that writers of ``path`` killed on this machine left beside it.
+
+    A write makes ``.NAME.umbmark-tmp.PID.RANDOM.SUFFIX`` beside ``NAME`` and renames it over
+    ``NAME`` when done; a writer killed before (SIGKILL, power loss) leaves it. Those of a
+    process that no longer runs are removed; those of a running process (another write of the
+    same file at the same moment) are kept.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file written.
+
+    Returns
+    -------
+    list of Path
+        The files removed.
+    """
+    path = Path(path)
+    parent = path.parent if str(path.parent) else Path(".")
+    prefix = _temp_prefix(path)
+    removed = []
+    try:
+        entries = list(os.scandir(parent))
+    except OSError:
+        return removed
+    for e in entries:
+        if not e.name.startswith(prefix):
+            continue
+        pid_text = e.name[len(prefix) :].split(".", 1)[0]
+        if not pid_text.isdigit() or _alive(int(pid_text)):
+            continue
+        try:
+            if e.is_file(follow_symlinks=False):
+                os.unlink(e.path)
+                removed.append(Path(e.path))
+        except OSError:
+            pass
+    return removed
+
+
 @contextmanager
 def atomic_path(path):
     """A temporary path beside ``path`` that replaces ``path`` only if the block succeeds.
 
     A symbolic link is written through (its target is replaced, the link stays); a special
     file that exists (``/dev/stdout``, a named pipe) gets the finished content written into it.
+    The temporary files killed writers of ``path`` left are removed first (see
+    :func:`remove_stale_temporaries`).
 
     Parameters
     ----------
@@ -55,7 +118,8 @@ def atomic_path(path):
     parent = path.parent if str(path.parent) else Path(".")
     if not parent.is_dir():
         raise InputError(f"cannot write {path}: folder {parent} does not exist")
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix or ".tmp", dir=parent)
+    remove_stale_temporaries(path)
+    fd, tmp = tempfile.mkstemp(prefix=_temp_prefix(path) + f"{os.getpid()}.", suffix=path.suffix or ".tmp", dir=parent)
     os.close(fd)
     os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the file ordinary permissions
     try:
