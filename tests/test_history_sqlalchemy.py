@@ -105,6 +105,7 @@ def test_refusals(tmp_path):
         open_history(foreign)
     with pytest.raises(HistoryError, match="no umbmark history"):
         open_history(f"sqlite:///{tmp_path / 'none.sqlite'}", create=False)
+    assert not (tmp_path / "none.sqlite").exists()  # reading creates nothing
 
 
 def test_bad_urls_and_missing_driver_are_one_line_errors(tmp_path, capsys, monkeypatch):

@@ -9,6 +9,7 @@ import hashlib
 import json
 import math
 import os
+import re
 import socket
 import sys
 import time
@@ -25,6 +26,7 @@ __all__ = [
     "KINDS",
     "MIGRATIONS",
     "SCHEMA_VERSION",
+    "DamagedRecord",
     "HistoryError",
     "Record",
     "default_db_path",
@@ -34,6 +36,7 @@ __all__ = [
     "format_export",
     "is_url",
     "make_row",
+    "mask_secrets",
     "parameters_from_analysis",
     "resolve_db",
     "resolve_db_path",
@@ -139,8 +142,51 @@ def resolve_db(db=None):
     return Path(db).expanduser()
 
 
+# query parameters of a database URL whose values are masked in messages and records
+_SECRET_KEY = re.compile(r"pass|pwd|secret|token|key|auth|cred|sig", re.IGNORECASE)
+_URL_IN_TEXT = re.compile(r"[A-Za-z][A-Za-z0-9+.-]*://[^\s'\"<>]+")
+
+
+def _split_userinfo(rest: str) -> tuple[str | None, str | None, str]:
+    """``user``, ``password`` and the remainder (host, path, query) of a URL after ``://``.
+
+    The credentials end at the last ``@`` before the query (so ``user:p@ss@host`` has the
+    password ``p@ss``); an ``@`` in a path without a ``:`` before it is not a credential."""
+    q = rest.find("?")
+    end = len(rest) if q < 0 else q
+    at = rest.rfind("@", 0, end)
+    if at < 0 and q >= 0:
+        # a password holding "?": the "@" is after it, and no "=" of a query comes before it
+        at2 = rest.rfind("@")
+        if at2 > q and "=" not in rest[:at2] and ":" in rest[:q]:
+            at = at2
+    if at < 0:
+        return None, None, rest
+    info = rest[:at]
+    if ":" in info:
+        user, pw = info.split(":", 1)
+        return user, pw, rest[at + 1 :]
+    if "/" in info:
+        return None, None, rest  # a path with an "@" in it, not a user name
+    return info, None, rest[at + 1 :]
+
+
+def _mask_query(query: str) -> str:
+    parts = []
+    for item in query.split("&"):
+        k, eq, v = item.partition("=")
+        parts.append(f"{k}=***" if eq and _SECRET_KEY.search(k) else item)
+    return "&".join(parts)
+
+
 def display_db(db) -> str:
-    """A database file or URL for messages, with any password in a URL masked.
+    """A database file or URL for messages and records: a URL's password and any query
+    parameter named like one (``password``, ``passwd``, ``pwd``, ``secret``, ``token``, ...)
+    are masked as ``***``.
+
+    The URL is read with SQLAlchemy's parser (``make_url(...).render_as_string(hide_password=True)``)
+    when SQLAlchemy is installed; the credentials are split off first at the last ``@`` before
+    the host, so a password holding ``@`` (``user:p@ss@host``) is masked whole.
 
     Parameters
     ----------
@@ -151,9 +197,63 @@ def display_db(db) -> str:
     -------
     str
     """
-    import re
+    s = str(db)
+    if "://" not in s:
+        return s
+    scheme, rest = s.split("://", 1)
+    user, pw, tail = _split_userinfo(rest)
+    where, qm, query = tail.partition("?")
+    masked_query = _mask_query(query) if qm else ""
+    info = "" if user is None else (user + (":***" if pw is not None else "") + "@")
+    fallback = f"{scheme}://{info}{where}{qm}{masked_query}"
+    if pw is None:
+        return fallback  # nothing to mask but the query: the URL as it was written
+    try:
+        from sqlalchemy.engine import make_url
+    except ImportError:
+        return fallback
+    try:
+        u = make_url(f"{scheme}://{'' if user is None else user + (':x' if pw is not None else '') + '@'}{where}")
+        text = u.render_as_string(hide_password=True)
+    except Exception:  # noqa: BLE001  not a URL SQLAlchemy reads: the masked text as it is
+        return fallback
+    return text + (qm + masked_query if qm else "")
 
-    return re.sub(r"(://[^:/@]*:)[^@]*@", r"\1***@", str(db))
+
+def mask_secrets(text: str) -> str:
+    """Every URL in a text as :func:`display_db` shows it (passwords and secret query values
+    masked).
+
+    Parameters
+    ----------
+    text : str
+        Any message.
+
+    Returns
+    -------
+    str
+    """
+    s = str(text)
+    if "://" not in s:
+        return s
+
+    def one(m: re.Match) -> str:
+        url = m.group(0)
+        core = url.rstrip(".,:;)]}")
+        return display_db(core) + url[len(core) :]
+
+    return _URL_IN_TEXT.sub(one, s)
+
+
+def _mask_obj(o):
+    """``o`` with :func:`mask_secrets` applied to every string in it (dicts, lists)."""
+    if isinstance(o, str):
+        return mask_secrets(o) if "://" in o else o
+    if isinstance(o, dict):
+        return {k: _mask_obj(v) for k, v in o.items()}
+    if isinstance(o, (list, tuple)):
+        return [_mask_obj(v) for v in o]
+    return o
 
 
 def resolve_db_path(db=None) -> Path:
@@ -175,7 +275,7 @@ def resolve_db_path(db=None) -> Path:
     """
     r = resolve_db(db)
     if isinstance(r, str):
-        raise InputError(f"{r!r} is a database URL, not a file")
+        raise InputError(f"{display_db(r)!r} is a database URL, not a file")
     return r
 
 
@@ -306,27 +406,137 @@ _SELECT = """SELECT c.id, r.name, c.created_utc, c.kind, c.method, c.software_ve
              FROM calibrations c JOIN robots r ON r.id = c.robot_id"""
 
 
-def _record(row) -> Record:
-    return Record(
-        row[0],
-        row[1],
-        row[2],
-        row[3],
-        row[4],
-        row[5],
-        json.loads(row[6]),
-        row[7],
-        row[8],
-        json.loads(row[9]),
-        json.loads(row[10]),
-        json.loads(row[11]),
-        row[12],
-        row[13],
-        row[14],
-        row[15],
-        row[16],
-        row[17],
+# the columns each table must have (the schema of :data:`MIGRATIONS`)
+TABLE_COLUMNS = {
+    "robots": ("id", "name", "created_utc"),
+    "calibrations": (
+        "id",
+        "robot_id",
+        "created_utc",
+        "kind",
+        "method",
+        "software_version",
+        "inputs_json",
+        "input_sha256",
+        "source",
+        "results_json",
+        "parameters_json",
+        "parameters_in_use_json",
+        "emax_syst_mm",
+        "ed",
+        "eb",
+        "wheelbase_mm",
+        "note",
+        "host",
+    ),
+}
+
+# the largest id or limit a database integer holds (SQLite and PostgreSQL: 64 bits)
+MAX_INT = 2**63 - 1
+
+
+class DamagedRecord(HistoryError):
+    """One record of the history cannot be read (corrupt JSON, a value of the wrong type).
+
+    Attributes
+    ----------
+    record_id : int
+        The record.
+    problem : str
+        What is wrong with it.
+    """
+
+    def __init__(self, record_id, problem: str, db) -> None:
+        self.record_id = record_id
+        self.problem = problem
+        super().__init__(f"record #{record_id} in the history database {db} is damaged: {problem}")
+
+
+def _short(v) -> str:
+    r = repr(v)
+    return r if len(r) <= 40 else r[:37] + "..."
+
+
+def _record(row, db="the history") -> tuple[Record, list[str]]:
+    """A record from the columns of :data:`_SELECT`, and what was odd in it (values that are not
+    numbers in the number columns, shown as missing).
+
+    Raises
+    ------
+    DamagedRecord
+        For a value that makes the record unreadable: corrupt JSON, a time that is not ISO 8601,
+        text columns holding other types.
+    """
+    rid = row[0]
+
+    def bad(problem: str):
+        raise DamagedRecord(rid, problem, db)
+
+    def text(i: int, col: str, optional: bool = False):
+        v = row[i]
+        if v is None and optional:
+            return None
+        if isinstance(v, (int, float)) and not isinstance(v, bool):
+            return str(v)
+        if not isinstance(v, str):
+            bad(f"column {col} holds {_short(v)}, not text")
+        return v
+
+    def obj(i: int, col: str) -> dict:
+        v = row[i]
+        if isinstance(v, (bytes, bytearray, memoryview)):
+            try:
+                v = bytes(v).decode("utf-8")
+            except UnicodeDecodeError:
+                bad(f"column {col} holds bytes that are not UTF-8 text")
+        if not isinstance(v, str):
+            bad(f"column {col} holds {_short(v)}, not JSON text")
+        try:
+            d = json.loads(v)
+        except (ValueError, RecursionError):
+            bad(f"column {col} is not valid JSON ({_short(v)})")
+        if not isinstance(d, dict):
+            bad(f"column {col} holds {_short(d)}, not a JSON object")
+        return d
+
+    notes: list[str] = []
+
+    def number(i: int, col: str):
+        v = row[i]
+        if v is None:
+            return None
+        if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v):
+            return float(v)
+        notes.append(f"record #{rid} in the history database {db}: column {col} holds {_short(v)}, not a number")
+        return None
+
+    name = text(1, "robot name")
+    when = text(2, "created_utc")
+    try:
+        datetime.fromisoformat(when.replace("Z", "+00:00"))
+    except ValueError:
+        bad(f"its time {_short(when)} is not an ISO 8601 time")
+    rec = Record(
+        rid,
+        name,
+        when,
+        text(3, "kind"),
+        text(4, "method"),
+        text(5, "software_version"),
+        obj(6, "inputs_json"),
+        text(7, "input_sha256", True),
+        text(8, "source", True),
+        obj(9, "results_json"),
+        obj(10, "parameters_json"),
+        obj(11, "parameters_in_use_json"),
+        number(12, "emax_syst_mm"),
+        number(13, "ed"),
+        number(14, "eb"),
+        number(15, "wheelbase_mm"),
+        text(16, "note", True),
+        text(17, "host", True),
     )
+    return rec, notes
 
 
 def retry_while_locked(fn, timeout_s: float, errors):
@@ -363,14 +573,43 @@ def retry_while_locked(fn, timeout_s: float, errors):
 
 class _Backend:
     """What every history backend shares. A backend provides ``path`` (for messages),
-    :meth:`close`, :meth:`transaction`, ``_insert(conn, row)``, :meth:`records` and
-    ``_robot_counts()`` (name, number of records, first and last time per robot)."""
+    :meth:`close`, :meth:`transaction`, ``_insert(conn, row)``, ``_fetch(robot, limit,
+    record_id)`` (the rows of :data:`_SELECT`, newest first) and ``_robot_counts()`` (name,
+    number of records, first and last time per robot).
+
+    Reading skips a damaged record (corrupt JSON, a time that is not a time) and says so in
+    :attr:`warnings`; :meth:`get` of a damaged record raises :class:`DamagedRecord`."""
+
+    path: object
 
     def __enter__(self):
         return self
 
     def __exit__(self, *exc):
         self.close()
+
+    @property
+    def warnings(self) -> list[str]:
+        """What reading found damaged or odd (one message per record and problem)."""
+        return list(self.__dict__.setdefault("_warnings", []))
+
+    def _warn(self, msg: str) -> None:
+        w = self.__dict__.setdefault("_warnings", [])
+        if msg not in w:
+            w.append(msg)
+
+    def _decode(self, row, strict: bool = False) -> Record | None:
+        """The record of one row; a damaged one is a warning and None (``strict``: raised)."""
+        try:
+            rec, notes = _record(row, self.path)
+        except DamagedRecord as e:
+            if strict:
+                raise
+            self._warn(f"{e}: skipped")
+            return None
+        for n in notes:
+            self._warn(f"{n}: shown as missing")
+        return rec
 
     def add(
         self,
@@ -406,6 +645,8 @@ class _Backend:
         ------
         InputError
             For a missing robot name, an unknown kind or a bad time.
+        HistoryError
+            If the database cannot be written (read-only, damaged).
         """
         row = self._row(
             robot,
@@ -428,13 +669,67 @@ class _Backend:
     def _row(*args) -> dict:
         return make_row(*args)
 
-    def latest(self, robot: str) -> Record:
-        """The robot's newest record.
+    def records(self, robot: str | None = None, limit: int | None = None) -> list[Record]:
+        """Records, oldest first; a damaged record is skipped (see :attr:`warnings`).
+
+        Parameters
+        ----------
+        robot : str, optional
+            Only this robot's (default: all). The name is matched literally.
+        limit : int, optional
+            Only the newest ``limit`` records.
+
+        Returns
+        -------
+        list of Record
+
+        Raises
+        ------
+        HistoryError
+            If the database cannot be read.
+        """
+        if limit is not None:
+            limit = max(0, min(int(limit), MAX_INT))
+        recs = [self._decode(r) for r in self._fetch(robot=robot, limit=limit)]
+        return [r for r in reversed(recs) if r is not None]
+
+    def get(self, record_id: int) -> Record:
+        """One record by its id.
+
+        Parameters
+        ----------
+        record_id : int
+            The id.
+
+        Returns
+        -------
+        Record
+
+        Raises
+        ------
+        InputError
+            If there is no such record.
+        DamagedRecord
+            If the record is damaged.
+        """
+        rid = int(record_id)
+        rows = self._fetch(record_id=rid) if 1 <= rid <= MAX_INT else []
+        if not rows:
+            raise InputError(f"no record #{record_id} in the history database {self.path}")
+        rec = self._decode(rows[0], strict=True)
+        assert rec is not None
+        return rec
+
+    def latest(self, robot: str, strict: bool = False) -> Record:
+        """The robot's newest readable record.
 
         Parameters
         ----------
         robot : str
             The robot's name.
+        strict : bool
+            Raise when the newest record is damaged (else: the newest readable one, and a
+            warning).
 
         Returns
         -------
@@ -444,13 +739,24 @@ class _Backend:
         ------
         InputError
             If the robot has no records (the message lists the robots there are).
+        DamagedRecord
+            ``strict`` and the newest record is damaged; or every record of the robot is.
         """
-        recs = self.records(robot, limit=1)
-        if not recs:
+        rows = self._fetch(robot=robot, limit=1)
+        if not rows:
             raise InputError(
                 f"no calibrations of robot {robot!r} in the history database {self.path}" + self._known_hint()
             )
-        return recs[0]
+        rec = self._decode(rows[0], strict=strict)
+        if rec is None:
+            for row in self._fetch(robot=robot)[1:]:
+                rec = self._decode(row)
+                if rec is not None:
+                    break
+        if rec is None:
+            _record(rows[0], self.path)  # raises: every record of the robot is damaged
+            raise AssertionError  # pragma: no cover
+        return rec
 
     def robots(self) -> list[dict]:
         """One summary per robot, by name.
@@ -458,28 +764,35 @@ class _Backend:
         Returns
         -------
         list of dict
-            ``robot``, ``records``, ``first_utc``, ``last_utc`` and, when it has records, the
-            latest record's ``latest_id``, ``emax_syst_mm``, ``Ed``, ``Eb``, ``wheelbase_mm``.
+            ``robot``, ``records``, ``first_utc``, ``last_utc`` and, when it has a readable
+            record, the latest one's ``latest_id``, ``emax_syst_mm``, ``Ed``, ``Eb``,
+            ``wheelbase_mm``.
         """
         out = []
         for name, n, first, last in self._robot_counts():
+            name = str(name)
+            first, last = (t if t is None or isinstance(t, str) else _short(t) for t in (first, last))
             d = {"robot": name, "records": n, "first_utc": first, "last_utc": last}
             if n:
-                rec = self.latest(name)
-                d.update(
-                    {
-                        "latest_id": rec.id,
-                        "emax_syst_mm": rec.emax_syst_mm,
-                        "Ed": rec.ed,
-                        "Eb": rec.eb,
-                        "wheelbase_mm": rec.wheelbase_mm,
-                    }
-                )
+                try:
+                    rec = self.latest(name)
+                except DamagedRecord as e:
+                    self._warn(f"{e}: skipped")
+                else:
+                    d.update(
+                        {
+                            "latest_id": rec.id,
+                            "emax_syst_mm": rec.emax_syst_mm,
+                            "Ed": rec.ed,
+                            "Eb": rec.eb,
+                            "wheelbase_mm": rec.wheelbase_mm,
+                        }
+                    )
             out.append(d)
         return out
 
     def _known_hint(self) -> str:
-        names = [r["robot"] for r in self.robots()]
+        names = [str(r[0]) for r in self._robot_counts()]
         return f" (robots: {', '.join(names)})" if names else " (it holds no robots yet)"
 
 
@@ -519,8 +832,13 @@ def make_row(
     robot = _check_robot(robot)
     if kind not in KINDS:
         raise InputError(f"unknown record kind {kind!r} (one of {', '.join(KINDS)})")
-    parameters = dict(parameters or {})
-    results = dict(results or {})
+    # a database URL anywhere in a record is stored with its password masked
+    parameters = _mask_obj(dict(parameters or {}))
+    results = _mask_obj(dict(results or {}))
+    inputs = _mask_obj(inputs or {})
+    parameters_in_use = _mask_obj(parameters_in_use or {})
+    source = None if source is None else mask_secrets(str(source))
+    note = None if note is None else mask_secrets(str(note))
     wb = _num(parameters.get("wheelbase_mm"))
     if wb is None and _num(parameters.get("wheelbase_m")) is not None:
         wb = _num(parameters.get("wheelbase_m")) * 1e3
@@ -528,14 +846,14 @@ def make_row(
         "robot": robot,
         "created_utc": _utc_string(when),
         "kind": kind,
-        "method": str(method),
+        "method": mask_secrets(str(method)),
         "software_version": software_version or __version__,
-        "inputs_json": _dumps(inputs or {}),
+        "inputs_json": _dumps(inputs),
         "input_sha256": input_sha256,
-        "source": None if source is None else str(source),
+        "source": source,
         "results_json": _dumps(results),
         "parameters_json": _dumps(parameters),
-        "parameters_in_use_json": _dumps(parameters_in_use or {}),
+        "parameters_in_use_json": _dumps(parameters_in_use),
         "emax_syst_mm": _num(results.get("emax_syst_mm")),
         "ed": _num(parameters.get("Ed", results.get("Ed"))),
         "eb": _num(parameters.get("Eb", results.get("Eb"))),

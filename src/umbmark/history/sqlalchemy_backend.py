@@ -12,10 +12,11 @@ winner's row).
 from __future__ import annotations
 
 from contextlib import contextmanager
+from pathlib import Path
 
 from umbmark._version import __version__
 from umbmark.errors import InputError
-from umbmark.history.base import SCHEMA_VERSION, HistoryError, Record, _Backend, _record, display_db, retry_while_locked
+from umbmark.history.base import SCHEMA_VERSION, HistoryError, _Backend, display_db, mask_secrets, retry_while_locked
 
 __all__ = ["SQLAlchemyHistory"]
 
@@ -115,16 +116,23 @@ class SQLAlchemyHistory(_Backend):
         sa = self._sa = _import()
         try:
             u = sa.engine.make_url(url)
-        except Exception as e:  # noqa: BLE001  sqlalchemy.exc.ArgumentError
-            raise InputError(f"not a database URL: {display_db(url)!r} ({e})") from None
+        except Exception:  # noqa: BLE001  sqlalchemy.exc.ArgumentError (its message holds the URL)
+            raise InputError(f"not a database URL: {display_db(url)!r}") from None
         self._shown = self.path = display_db(url)
         kwargs = {}
         if u.get_backend_name() == "sqlite":
             kwargs["connect_args"] = {"timeout": timeout_s}
+            f = u.database
+            if not create and f and f != ":memory:" and not f.startswith("file:") and not Path(f).is_file():
+                # reading must not create the file (SQLite would, on connecting)
+                raise HistoryError(
+                    f"no umbmark history in {self._shown}: no such file "
+                    "(record a calibration with `robot` and `record=True`)"
+                )
         try:
             self._engine = sa.create_engine(u, **kwargs)
         except Exception as e:  # noqa: BLE001  missing driver etc.
-            raise HistoryError(f"cannot use the history database {self._shown}: {e}") from None
+            raise HistoryError(f"cannot use the history database {self._shown}: {self._message(e)}") from None
         if u.get_backend_name() == "sqlite":
             # pysqlite's implicit transactions start too late for concurrent writers: take the
             # write lock at BEGIN, as the standard-library backend does
@@ -141,15 +149,35 @@ class SQLAlchemyHistory(_Backend):
         self._md, self._schema, self._robots, self._cal = _tables(sa)
         self.journal_mode = None
         try:
+            self._migrating = True
             retry_while_locked(lambda: self._migrate(create), timeout_s, self._sa.exc.OperationalError)
+            self._migrating = False
         except HistoryError:
             self._engine.dispose()
             raise
         except sa.exc.SQLAlchemyError as e:
             self._engine.dispose()
-            raise HistoryError(
-                f"cannot use the history database {self._shown}: {e.__class__.__name__}: {str(e).splitlines()[0]}"
-            ) from None
+            raise self._error(e) from None
+
+    @staticmethod
+    def _message(e) -> str:
+        """The first line of an error, any URL in it masked."""
+        lines = str(e).strip().splitlines()
+        return mask_secrets(lines[0] if lines else e.__class__.__name__)
+
+    def _error(self, e) -> HistoryError:
+        """The :class:`HistoryError` for a database error ``e``."""
+        return HistoryError(
+            f"cannot use the history database {self._shown}: {e.__class__.__name__}: {self._message(e)}"
+        )
+
+    def _run(self, fn):
+        """``fn(conn)`` on a connection; a database error becomes a :class:`HistoryError`."""
+        try:
+            with self._engine.connect() as conn:
+                return fn(conn)
+        except self._sa.exc.SQLAlchemyError as e:
+            raise self._error(e) from None
 
     def close(self) -> None:
         """Release the engine's connections."""
@@ -158,13 +186,18 @@ class SQLAlchemyHistory(_Backend):
     @contextmanager
     def transaction(self):
         """One write transaction (on SQLite: ``BEGIN IMMEDIATE``); rolled back on any exception."""
-        with self._engine.connect() as conn:
-            conn.info["umbmark_write"] = True
-            try:
-                with conn.begin():
-                    yield conn
-            finally:
-                conn.info.pop("umbmark_write", None)
+        try:
+            with self._engine.connect() as conn:
+                conn.info["umbmark_write"] = True
+                try:
+                    with conn.begin():
+                        yield conn
+                finally:
+                    conn.info.pop("umbmark_write", None)
+        except self._sa.exc.SQLAlchemyError as e:
+            if self.__dict__.get("_migrating"):
+                raise  # the schema creation retries these (locked; two creators at once)
+            raise self._error(e) from None
 
     def _version(self, conn):
         sa = self._sa
@@ -262,52 +295,17 @@ class SQLAlchemyHistory(_Backend):
         cols = [c.id, r.name] + [getattr(c, k) for k in _COLS[2:]]
         return sa.select(*cols).select_from(self._cal.join(self._robots))
 
-    def records(self, robot: str | None = None, limit: int | None = None) -> list[Record]:
-        """Records, oldest first.
-
-        Parameters
-        ----------
-        robot : str, optional
-            Only this robot's (default: all).
-        limit : int, optional
-            Only the newest ``limit`` records.
-
-        Returns
-        -------
-        list of Record
-        """
+    def _fetch(self, robot: str | None = None, limit: int | None = None, record_id: int | None = None) -> list:
+        """The rows of the record query, newest first (the robot's name and the id matched exactly)."""
         q = self._select()
-        if robot is not None:
-            q = q.where(self._robots.c.name == robot)
+        if record_id is not None:
+            q = q.where(self._cal.c.id == int(record_id))
+        elif robot is not None:
+            q = q.where(self._robots.c.name == str(robot))
         q = q.order_by(self._cal.c.created_utc.desc(), self._cal.c.id.desc())
         if limit is not None:
             q = q.limit(int(limit))
-        with self._engine.connect() as conn:
-            rows = conn.execute(q).all()
-        return [_record(tuple(x)) for x in reversed(rows)]
-
-    def get(self, record_id: int) -> Record:
-        """One record by its id.
-
-        Parameters
-        ----------
-        record_id : int
-            The id.
-
-        Returns
-        -------
-        Record
-
-        Raises
-        ------
-        InputError
-            If there is no such record.
-        """
-        with self._engine.connect() as conn:
-            row = conn.execute(self._select().where(self._cal.c.id == int(record_id))).first()
-        if row is None:
-            raise InputError(f"no record #{record_id} in the history database {self._shown}")
-        return _record(tuple(row))
+        return self._run(lambda conn: [tuple(x) for x in conn.execute(q).all()])
 
     def _robot_counts(self):
         sa = self._sa
@@ -318,11 +316,9 @@ class SQLAlchemyHistory(_Backend):
             .group_by(r.id, r.name)
             .order_by(r.name)
         )
-        with self._engine.connect() as conn:
-            return conn.execute(q).all()
+        return self._run(lambda conn: conn.execute(q).all())
 
     def count(self) -> int:
         """Number of records of all robots."""
         sa = self._sa
-        with self._engine.connect() as conn:
-            return conn.execute(sa.select(sa.func.count()).select_from(self._cal)).scalar()
+        return self._run(lambda conn: conn.execute(sa.select(sa.func.count()).select_from(self._cal)).scalar())

@@ -5,17 +5,16 @@ from __future__ import annotations
 
 import sqlite3
 from contextlib import contextmanager
+from urllib.parse import quote
 
 from umbmark._version import __version__
-from umbmark.errors import InputError
 from umbmark.history.base import (
     _SELECT,
     MIGRATIONS,
     SCHEMA_VERSION,
+    TABLE_COLUMNS,
     HistoryError,
-    Record,
     _Backend,
-    _record,
     resolve_db_path,
     retry_while_locked,
 )
@@ -44,18 +43,20 @@ class History(_Backend):
 
     def __init__(self, path=None, timeout_s: float = 60.0, create: bool = True):
         self.path = resolve_db_path(path)
+        self.read_only = False
         if not create and not self.path.exists():
             raise HistoryError(
                 f"no history database at {self.path} (record a calibration with `robot` and `record=True`)"
             )
         if self.path.is_dir():
             raise HistoryError(f"{self.path} is a folder, not a history database")
-        try:
-            self.path.parent.mkdir(parents=True, exist_ok=True)
-        except OSError as e:
-            raise HistoryError(
-                f"cannot create the folder for the history database {self.path}: {e.strerror or e}"
-            ) from None
+        if create:
+            try:
+                self.path.parent.mkdir(parents=True, exist_ok=True)
+            except OSError as e:
+                raise HistoryError(
+                    f"cannot create the folder for the history database {self.path}: {e.strerror or e}"
+                ) from None
         try:
             self._conn = sqlite3.connect(str(self.path), timeout=timeout_s, isolation_level=None)
         except sqlite3.Error as e:
@@ -72,10 +73,71 @@ class History(_Backend):
             retry_while_locked(setup, timeout_s, sqlite3.OperationalError)
         except sqlite3.DatabaseError as e:
             self._conn.close()
-            raise HistoryError(f"{self.path} is not a usable umbmark history database: {e}") from None
+            if not create and _unwritable(e):
+                self._open_read_only(timeout_s)  # a read-only file or folder: reading still works
+                return
+            raise self._damaged(e) from None
         except BaseException:
             self._conn.close()
             raise
+
+    def _open_read_only(self, timeout_s: float) -> None:
+        """Open the file for reading only: ``mode=ro``, or ``immutable=1`` when SQLite cannot
+        even create the shared-memory file of a WAL database beside it (a read-only folder)."""
+        uri = "file:" + quote(str(self.path.resolve()))
+        last: sqlite3.Error | None = None
+        for query in ("?mode=ro", "?mode=ro&immutable=1"):
+            try:
+                conn = sqlite3.connect(uri + query, uri=True, timeout=timeout_s, isolation_level=None)
+            except sqlite3.Error as e:
+                last = e
+                continue
+            try:
+                self.journal_mode = conn.execute("PRAGMA journal_mode").fetchone()[0]
+                self._conn = conn
+                v = self.schema_version
+                if v > SCHEMA_VERSION:
+                    raise HistoryError(self._newer(v))
+                if v < SCHEMA_VERSION:
+                    raise HistoryError(
+                        f"the history database {self.path} has schema version {v} and is read-only: "
+                        "umbmark cannot upgrade it to read it (make it writable once)"
+                    )
+                self._check_schema(conn, v)
+            except sqlite3.DatabaseError as e:
+                conn.close()
+                last = e
+                continue
+            except BaseException:
+                conn.close()
+                raise
+            self.read_only = True
+            return
+        raise self._damaged(last) from None
+
+    def _damaged(self, e) -> HistoryError:
+        """The error for an SQLite error ``e`` while reading or opening the file."""
+        msg = str(e)
+        if _unwritable(e):
+            return HistoryError(
+                f"cannot use the history database {self.path}: {msg} (the file or its folder is read-only)"
+            )
+        if "malformed" in msg or "corrupt" in msg:
+            return HistoryError(f"the history database {self.path} is damaged: {msg}")
+        return HistoryError(f"{self.path} is not a usable umbmark history database: {msg}")
+
+    def _newer(self, v: int) -> str:
+        return (
+            f"the history database {self.path} has schema version {v}, newer than this "
+            f"umbmark ({__version__}, schema {SCHEMA_VERSION}): upgrade umbmark"
+        )
+
+    def _query(self, sql: str, args=()) -> list:
+        """``sql`` and all its rows; an SQLite error becomes a :class:`HistoryError`."""
+        try:
+            return self._conn.execute(sql, args).fetchall()
+        except sqlite3.DatabaseError as e:
+            raise self._damaged(e) from None
 
     # -- housekeeping --------------------------------------------------------------------------
     def close(self) -> None:
@@ -85,18 +147,45 @@ class History(_Backend):
     @contextmanager
     def transaction(self):
         """``BEGIN IMMEDIATE`` (takes the write lock, waiting up to the busy timeout) ... ``COMMIT``;
-        ``ROLLBACK`` on any exception."""
+        ``ROLLBACK`` on any exception. An SQLite error in it becomes a :class:`HistoryError`."""
+        if self.read_only:
+            raise HistoryError(f"cannot write to the history database {self.path}: the file or its folder is read-only")
         try:
             self._conn.execute("BEGIN IMMEDIATE")
         except sqlite3.OperationalError as e:
+            if _unwritable(e):
+                raise self._write_error(e) from None
             raise HistoryError(f"history database {self.path} is busy: {e}") from None
+        except sqlite3.DatabaseError as e:
+            raise self._damaged(e) from None
         try:
             yield self._conn
-        except BaseException:
-            self._conn.execute("ROLLBACK")
+        except BaseException as e:
+            try:
+                self._conn.execute("ROLLBACK")
+            except sqlite3.Error:
+                pass  # the transaction is gone already (SQLite rolled it back)
+            if isinstance(e, sqlite3.DatabaseError):
+                raise self._write_error(e) from None
             raise
         else:
-            self._conn.execute("COMMIT")
+            try:
+                self._conn.execute("COMMIT")
+            except sqlite3.DatabaseError as e:
+                try:
+                    self._conn.execute("ROLLBACK")
+                except sqlite3.Error:
+                    pass
+                raise self._write_error(e) from None
+
+    def _write_error(self, e) -> HistoryError:
+        if _unwritable(e):
+            return HistoryError(
+                f"cannot write to the history database {self.path}: {e} (the file or its folder is read-only)"
+            )
+        if isinstance(e, sqlite3.OperationalError) and "locked" in str(e):
+            return HistoryError(f"history database {self.path} is busy: {e}")
+        return self._damaged(e)
 
     @property
     def schema_version(self) -> int:
@@ -104,23 +193,53 @@ class History(_Backend):
         return self._conn.execute("PRAGMA user_version").fetchone()[0]
 
     def _migrate(self):
-        if self.schema_version == SCHEMA_VERSION:
+        v = self.schema_version
+        if v == SCHEMA_VERSION:
+            self._check_schema(self._conn, v)
             return
         with self.transaction() as c:
             v = c.execute("PRAGMA user_version").fetchone()[0]
             if v > SCHEMA_VERSION:
-                raise HistoryError(
-                    f"the history database {self.path} has schema version {v}, newer than this "
-                    f"umbmark ({__version__}, schema {SCHEMA_VERSION}): upgrade umbmark"
-                )
+                raise HistoryError(self._newer(v))
             if v == 0:
                 tables = c.execute("SELECT count(*) FROM sqlite_master WHERE type = 'table'").fetchone()[0]
                 if tables:
                     raise HistoryError(f"{self.path} is an SQLite database but not an umbmark history")
+            else:
+                self._check_schema(c, v)
             for target in range(v + 1, SCHEMA_VERSION + 1):
                 for stmt in MIGRATIONS[target]:
                     c.execute(stmt)
                 c.execute(f"PRAGMA user_version = {target}")
+
+    def _check_schema(self, conn, version: int) -> None:
+        """The tables and columns of schema ``version`` are there (another application's
+        database may have the same ``user_version``; a table may have been dropped)."""
+        found = {
+            t: {r[1] for r in conn.execute(f"PRAGMA table_info({t})").fetchall()}  # noqa: S608  fixed names
+            for t in TABLE_COLUMNS
+        }
+        if not any(found.values()):
+            raise HistoryError(
+                f"{self.path} is an SQLite database but not an umbmark history "
+                f"(schema version {version}, no robots or calibrations table)"
+            )
+        for t, cols in TABLE_COLUMNS.items():
+            if not found[t]:
+                raise HistoryError(f"the history database {self.path} is damaged: its table {t!r} is missing")
+            # columns added by a later migration are not expected in an older schema
+            later = {
+                stmt.split("ADD COLUMN ")[1].split()[0]
+                for m in range(version + 1, SCHEMA_VERSION + 1)
+                for stmt in MIGRATIONS[m]
+                if f"ALTER TABLE {t} ADD COLUMN" in stmt
+            }
+            missing = [c for c in cols if c not in found[t] and c not in later]
+            if missing:
+                raise HistoryError(
+                    f"the history database {self.path} is damaged or not an umbmark history: "
+                    f"table {t!r} has no column {', '.join(missing)}"
+                )
 
     def integrity_check(self) -> str:
         """SQLite's ``PRAGMA integrity_check`` plus a foreign-key check.
@@ -148,61 +267,35 @@ class History(_Backend):
         return int(cur.lastrowid)
 
     # -- reading -------------------------------------------------------------------------------
-    def records(self, robot: str | None = None, limit: int | None = None) -> list[Record]:
-        """Records, oldest first.
-
-        Parameters
-        ----------
-        robot : str, optional
-            Only this robot's (default: all).
-        limit : int, optional
-            Only the newest ``limit`` records.
-
-        Returns
-        -------
-        list of Record
-        """
+    def _fetch(self, robot: str | None = None, limit: int | None = None, record_id: int | None = None) -> list:
+        """The rows of ``_SELECT``, newest first (the robot's name and the id matched exactly)."""
         q = _SELECT
         args: list = []
-        if robot is not None:
+        if record_id is not None:
+            q += " WHERE c.id = ?"
+            args.append(int(record_id))
+        elif robot is not None:
             q += " WHERE r.name = ?"
-            args.append(robot)
+            args.append(str(robot))
         q += " ORDER BY c.created_utc DESC, c.id DESC"
         if limit is not None:
             q += " LIMIT ?"
             args.append(int(limit))
-        rows = self._conn.execute(q, args).fetchall()
-        return [_record(r) for r in reversed(rows)]
-
-    def get(self, record_id: int) -> Record:
-        """One record by its id.
-
-        Parameters
-        ----------
-        record_id : int
-            The id.
-
-        Returns
-        -------
-        Record
-
-        Raises
-        ------
-        InputError
-            If there is no such record.
-        """
-        row = self._conn.execute(_SELECT + " WHERE c.id = ?", (int(record_id),)).fetchone()
-        if row is None:
-            raise InputError(f"no record #{record_id} in the history database {self.path}")
-        return _record(row)
+        return self._query(q, args)
 
     def _robot_counts(self):
-        return self._conn.execute(
+        return self._query(
             """SELECT r.name, count(c.id), min(c.created_utc), max(c.created_utc)
                FROM robots r LEFT JOIN calibrations c ON c.robot_id = r.id
                GROUP BY r.id ORDER BY r.name"""
-        ).fetchall()
+        )
 
     def count(self) -> int:
         """Number of records of all robots."""
-        return self._conn.execute("SELECT count(*) FROM calibrations").fetchone()[0]
+        return self._query("SELECT count(*) FROM calibrations")[0][0]
+
+
+def _unwritable(e) -> bool:
+    """An SQLite error that says the file or its folder cannot be written (or opened as such)."""
+    m = str(e)
+    return "readonly" in m or "read-only" in m or "unable to open database file" in m
