@@ -508,6 +508,10 @@ class ReplayReport:
         Doubts about the data (direction, total turn).
     heldout : HeldOut or None
         The held-out figures (None when not asked for).
+    time_offset : tuple of dict
+        Per bag with a ground truth: the time offset between its wheels and its ground truth,
+        estimated and applied (:meth:`umbmark.model.timing.TimeOffset.to_dict` and ``bag``);
+        the JSON key ``time_offset`` when not empty.
     """
 
     dataset: str
@@ -524,6 +528,7 @@ class ReplayReport:
     after: Evaluation
     warnings: tuple[str, ...] = ()
     heldout: HeldOut | None = None
+    time_offset: tuple[dict, ...] = ()
 
     @property
     def improvement(self) -> float | None:
@@ -555,6 +560,8 @@ class ReplayReport:
             "improvement": _improvement(before, after, self.kind == "square"),
             "warnings": list(self.warnings),
         }
+        if self.time_offset:
+            d["time_offset"] = [dict(o) for o in self.time_offset]
         if self.heldout is not None:
             d["heldout"] = self.heldout.to_dict()
             if self.calibration.lsq is not None and "jackknife_std" in d["heldout"]:

@@ -1,0 +1,586 @@
+"""Time stamps of logged streams: order, repeats, spikes, coverage, and the time offset between
+the wheel data and the ground truth.
+
+* :func:`ordered_stamps`: refuse stamps that go backwards (naming the message), and find the
+  messages that repeat the stamp of the one before.
+* :func:`wheel_spikes`: samples whose wheel positions jump by more than a wheel can turn
+  between two messages (a corrupt message), and whether each is an isolated spike (the next
+  sample comes back) or a jump that stays.
+* :func:`coverage`: the part of the wheel data's time span a ground truth covers, and its
+  longest gap.
+* :func:`estimate_time_offset`: how late the ground truth's stamps are against the wheels',
+  from the cross-correlation of the turn rates both give (refined between samples by
+  parabolic interpolation of the correlation's peak).
+* :func:`check_streams`: all of it for the wheel and ground-truth streams of one log, with the
+  offset applied when asked (``time_offset``: ``None``, ``"auto"`` or seconds).
+
+Sign of the offset: ``offset_s`` is the ground truth's stamp minus the wheels' stamp of the
+same instant; positive when the ground truth is late (a motion-capture or localisation stream
+delivered after the fact). Correcting it subtracts ``offset_s`` from the ground truth's stamps.
+
+Pure numpy: imports only numpy and :mod:`umbmark.errors`.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from umbmark.errors import InputError
+
+__all__ = [
+    "MAX_WHEEL_SPEED_MPS",
+    "MIN_COVERAGE",
+    "LARGE_OFFSET_S",
+    "MIN_CORRELATION",
+    "ordered_stamps",
+    "wheel_spikes",
+    "coverage",
+    "TimeOffset",
+    "estimate_time_offset",
+    "parse_time_offset",
+    "StreamCheck",
+    "check_streams",
+]
+
+MAX_WHEEL_SPEED_MPS = 30.0
+"""A wheel rim faster than this between two samples [m/s] is a corrupt message, not motion."""
+
+MIN_COVERAGE = 0.9
+"""A ground truth covering less of the wheel data's time span than this is warned about."""
+
+LARGE_OFFSET_S = 0.05
+"""A time offset larger than this (and than one ground-truth sample period) is warned about."""
+
+MIN_CORRELATION = 0.5
+"""Below this peak correlation of the turn rates the offset estimate is not trusted."""
+
+_MAX_GRID = 400_000  # samples of the common time grid of the cross-correlation
+
+
+def ordered_stamps(t: ArrayLike, what: str, topic: str, source: str | None = None) -> tuple[np.ndarray, int, int]:
+    """Check that a stream's stamps never go backwards; find the repeated ones.
+
+    Parameters
+    ----------
+    t : array_like
+        ``(N,)`` stamps [s] in the order the messages were recorded.
+    what : str
+        What the messages are (``joint states``, ``ground-truth poses``), for messages.
+    topic : str
+        Their topic, for messages.
+    source : str, optional
+        The log, for messages.
+
+    Returns
+    -------
+    keep : numpy.ndarray
+        Indices of the messages kept: the last of each run of equal stamps.
+    repeated : int
+        How many messages repeat the stamp of the one before (not kept).
+    first_repeat : int
+        The 1-based index of the first such message (0: none).
+
+    Raises
+    ------
+    InputError
+        A stamp earlier than the one before (the message, both stamps, how often and by how
+        much in all), or a stamp that is not finite.
+    """
+    t = np.asarray(t, dtype=float)
+    if not np.all(np.isfinite(t)):
+        k = int(np.flatnonzero(~np.isfinite(t))[0])
+        raise InputError(f"the {what} on {topic} have a stamp that is not a number at message {k + 1}", source)
+    d = np.diff(t)
+    back = np.flatnonzero(d < 0)
+    if back.size:
+        i = int(back[0])
+        raise InputError(
+            f"the stamps of the {what} on {topic} go backwards at message {i + 2} of {t.size}: "
+            f"{t[i + 1] - t[0]:.6f} s after {t[i] - t[0]:.6f} s (from the first stamp; "
+            f"{'once' if back.size == 1 else f'{back.size} times'} in all, by up to {-float(d.min()):.3f} s): "
+            "record with one clock, or cut the bag there",
+            source,
+        )
+    same = d == 0
+    keep = np.flatnonzero(np.concatenate([~same, [True]]))
+    first = int(np.flatnonzero(same)[0]) + 2 if same.any() else 0
+    return keep, int(same.sum()), first
+
+
+def wheel_spikes(t: ArrayLike, left: ArrayLike, right: ArrayLike, metres_per_unit: float) -> tuple[np.ndarray, bool]:
+    """Samples at which cumulative wheel positions jump faster than a wheel can turn.
+
+    Parameters
+    ----------
+    t : array_like
+        ``(N,)`` increasing stamps [s].
+    left, right : array_like
+        ``(N,)`` cumulative wheel positions in log units.
+    metres_per_unit : float
+        Rim travel per log unit [m] (the nominal wheel radius for radians).
+
+    Returns
+    -------
+    bad : numpy.ndarray
+        Indices of the implausible samples: for an isolated spike the sample itself; for a jump
+        that stays, the first sample after it.
+    isolated : bool
+        True when every one is an isolated spike (the samples before and after it agree, so
+        dropping it loses nothing).
+    """
+    t = np.asarray(t, dtype=float)
+    pos = np.column_stack([np.asarray(left, dtype=float), np.asarray(right, dtype=float)])
+    if len(t) < 2:
+        return np.array([], dtype=int), True
+    dt = np.diff(t)
+    with np.errstate(over="ignore", invalid="ignore"):
+        speed = np.abs(np.diff(pos, axis=0)).max(axis=1) * metres_per_unit / dt
+    fast = ~(speed <= MAX_WHEEL_SPEED_MPS)  # NaN and inf count as fast
+    if not fast.any():
+        return np.array([], dtype=int), True
+    bad: list[int] = []
+    isolated = True
+    n = len(dt)
+    i = 0
+    while i < n:
+        if not fast[i]:
+            i += 1
+            continue
+        k = i + 1  # the sample the fast step leads to
+        if k < n and fast[k]:
+            with np.errstate(over="ignore", invalid="ignore"):
+                across = np.abs(pos[k + 1] - pos[k - 1]).max() * metres_per_unit / (t[k + 1] - t[k - 1])
+            if across <= MAX_WHEEL_SPEED_MPS:
+                bad.append(k)
+                i += 2
+                continue
+        bad.append(k)
+        isolated = False
+        i += 1
+    return np.asarray(bad, dtype=int), isolated
+
+
+def coverage(t_wheels: ArrayLike, t_truth: ArrayLike) -> tuple[float, float, float]:
+    """How much of the wheel data's time span a ground truth covers.
+
+    Parameters
+    ----------
+    t_wheels, t_truth : array_like
+        Increasing stamps [s] of the wheel data and of the ground truth.
+
+    Returns
+    -------
+    fraction : float
+        The overlap of the two spans over the wheel span (1 for a single instant covered).
+    gap_s : float
+        The longest time without a ground-truth sample inside the overlap [s].
+    gap_at_s : float
+        Where that gap starts [s, on the wheels' clock].
+    """
+    tw = np.asarray(t_wheels, dtype=float)
+    tg = np.asarray(t_truth, dtype=float)
+    span = float(tw[-1] - tw[0])
+    lo, hi = max(tw[0], tg[0]), min(tw[-1], tg[-1])
+    frac = max(0.0, float(hi - lo)) / span if span > 0 else float(lo <= hi)
+    inside = tg[(tg >= lo) & (tg <= hi)]
+    if inside.size < 2:
+        return frac, 0.0, float(lo)
+    d = np.diff(inside)
+    j = int(np.argmax(d))
+    return frac, float(d[j]), float(inside[j])
+
+
+@dataclass(frozen=True)
+class TimeOffset:
+    """The time offset between the wheel data and the ground truth of one log.
+
+    Attributes
+    ----------
+    estimated_s : float or None
+        The ground truth's stamps minus the wheels' for the same instant (positive: the ground
+        truth is late); None when it cannot be estimated (see ``reason``).
+    correlation : float or None
+        The normalised cross-correlation of the two turn rates at that offset (1: identical
+        shapes).
+    applied_s : float
+        The offset subtracted from the ground truth's stamps (0: none).
+    requested : str or None
+        What was asked: ``"auto"``, the seconds given, or None (estimated and reported only).
+    truth_period_s, wheel_period_s : float
+        The median sample periods of the two streams [s].
+    max_lag_s : float
+        The largest offset searched [s].
+    reason : str or None
+        Why there is no estimate (e.g. the robot hardly turned).
+    """
+
+    estimated_s: float | None
+    correlation: float | None
+    applied_s: float
+    requested: str | None
+    truth_period_s: float
+    wheel_period_s: float
+    max_lag_s: float
+    reason: str | None = None
+
+    def to_dict(self) -> dict:
+        """The JSON block ``time_offset`` of ``umbmark replay --json``."""
+        return {
+            "estimated_s": self.estimated_s,
+            "applied_s": self.applied_s,
+            "requested": self.requested,
+            "correlation": self.correlation,
+            "truth_period_s": self.truth_period_s,
+            "wheel_period_s": self.wheel_period_s,
+            "max_lag_s": self.max_lag_s,
+            "method": "cross-correlation of the turn rates of the wheels and of the ground truth",
+            "reason": self.reason,
+        }
+
+
+def _median_period(t: np.ndarray) -> float:
+    d = np.diff(t)
+    d = d[d > 0]
+    return float(np.median(d)) if d.size else 0.0
+
+
+def estimate_time_offset(
+    t_wheels: ArrayLike,
+    heading_wheels: ArrayLike,
+    t_truth: ArrayLike,
+    heading_truth: ArrayLike,
+    max_lag_s: float | None = None,
+) -> tuple[float | None, float | None, float, str | None]:
+    """How late the ground truth is against the wheels, from the turn rates.
+
+    Both headings are resampled onto one time grid (the finer of the two sample periods),
+    differentiated into turn rates (zero outside each stream's span), and cross-correlated;
+    the peak within ``max_lag_s`` is refined between grid points by a parabola through it and
+    its two neighbours. A scale error of the wheel heading (a wrong wheelbase) does not move
+    the peak.
+
+    Parameters
+    ----------
+    t_wheels, heading_wheels : array_like
+        ``(N,)`` increasing stamps [s] and the heading [rad] the wheels give (any scale).
+    t_truth, heading_truth : array_like
+        ``(M,)`` increasing stamps [s] and the unwrapped ground-truth heading [rad].
+    max_lag_s : float, optional
+        The largest offset searched [s]; default a quarter of the wheel span, at most 10 s.
+
+    Returns
+    -------
+    offset_s : float or None
+        The ground truth's stamps minus the wheels' (positive: late); None without an estimate.
+    correlation : float or None
+        The normalised correlation at the peak.
+    max_lag_s : float
+        The largest offset searched.
+    reason : str or None
+        Why there is no estimate.
+    """
+    tw = np.asarray(t_wheels, dtype=float)
+    hw = np.asarray(heading_wheels, dtype=float)
+    tg = np.asarray(t_truth, dtype=float)
+    hg = np.asarray(heading_truth, dtype=float)
+    span_w = float(tw[-1] - tw[0]) if tw.size else 0.0
+    if max_lag_s is None:
+        max_lag_s = min(10.0, 0.25 * span_w)
+    max_lag_s = float(max_lag_s)
+    if tw.size < 3 or tg.size < 3:
+        return None, None, max_lag_s, "too few samples to correlate"
+    lo, hi = min(tw[0], tg[0]), max(tw[-1], tg[-1])
+    dt = min(p for p in (_median_period(tw), _median_period(tg)) if p > 0) if span_w > 0 else 0.0
+    if not dt > 0:
+        return None, None, max_lag_s, "the stamps do not advance"
+    dt = max(dt, (hi - lo) / _MAX_GRID)
+    grid = lo + dt * np.arange(int((hi - lo) / dt) + 2)
+
+    def rate(t: np.ndarray, h: np.ndarray) -> np.ndarray:
+        inside = (grid >= t[0]) & (grid <= t[-1])
+        r = np.zeros(grid.size)
+        hh = np.interp(grid[inside], t, h)
+        if hh.size >= 2:
+            r[inside] = np.gradient(hh, dt)
+        return r
+
+    rw, rg = rate(tw, hw), rate(tg, hg)
+    nw, ng = float(np.sqrt(np.sum(rw * rw))), float(np.sqrt(np.sum(rg * rg)))
+    peak_w, peak_g = float(np.max(np.abs(rw))), float(np.max(np.abs(rg)))
+    if not (peak_w > 0.05 and peak_g > 0.05):
+        return None, None, max_lag_s, "the robot hardly turns (turn rate below 0.05 rad/s): nothing to correlate"
+    n = grid.size
+    size = 1 << int(math.ceil(math.log2(2 * n)))
+    c = np.fft.irfft(np.conj(np.fft.rfft(rw, size)) * np.fft.rfft(rg, size), size) / (nw * ng)
+    m = max(1, min(int(max_lag_s / dt), n - 2))
+    lags = np.concatenate([np.arange(-m, 0), np.arange(0, m + 1)])
+    vals = c[lags % size]
+    j = int(np.argmax(vals))
+    best = float(vals[j])
+    shift = 0.0
+    if 0 < j < len(vals) - 1:
+        a, b, e = vals[j - 1], vals[j], vals[j + 1]
+        den = a - 2 * b + e
+        if den < 0:
+            shift = float(np.clip(0.5 * (a - e) / den, -0.5, 0.5))
+    offset = (lags[j] + shift) * dt
+    if best < MIN_CORRELATION:
+        return (
+            None,
+            best,
+            max_lag_s,
+            f"the turn rates of the wheels and of the ground truth hardly agree (correlation {best:.2f} at best "
+            f"within +-{max_lag_s:.3g} s)",
+        )
+    if abs(lags[j]) == m:
+        return None, best, max_lag_s, f"the best match is at the end of the search (+-{max_lag_s:.3g} s)"
+    return float(offset), best, max_lag_s, None
+
+
+def parse_time_offset(value) -> float | str | None:
+    """``None``, ``"auto"`` or a number of seconds, from a value or its text.
+
+    Parameters
+    ----------
+    value : None, str or float
+        ``None``/``""`` (estimate and report only), ``"auto"`` (estimate and correct), or the
+        seconds to correct (positive: the ground truth is late).
+
+    Returns
+    -------
+    None, ``"auto"`` or float
+
+    Raises
+    ------
+    InputError
+        Anything else, or a number that is not finite.
+    """
+    if value is None or (isinstance(value, str) and not value.strip()):
+        return None
+    if isinstance(value, str):
+        v = value.strip().lower()
+        if v == "auto":
+            return "auto"
+        try:
+            num = float(v.removesuffix("s"))
+        except ValueError:
+            raise InputError(
+                f"`time_offset` must be 'auto' or seconds (positive: the ground truth is late), got {value!r}"
+            ) from None
+    else:
+        num = float(value)
+    if not math.isfinite(num) or abs(num) > 3600:
+        raise InputError(f"`time_offset` must be 'auto' or a finite number of seconds (within an hour), got {value!r}")
+    return num
+
+
+@dataclass(frozen=True)
+class StreamCheck:
+    """The wheel and ground-truth streams of one log, checked (see :func:`check_streams`).
+
+    Attributes
+    ----------
+    t, left, right : numpy.ndarray
+        The wheel stamps and positions kept, in time order.
+    truth : numpy.ndarray or None
+        ``(M, 4)`` ground truth ``(t, x, y, heading)`` kept, its stamps corrected by the applied
+        offset.
+    warnings : tuple of str
+        What was found and done (repeated stamps dropped, spikes dropped, coverage, a large offset).
+    time_offset : TimeOffset or None
+        The offset estimated and applied (None without a ground truth).
+    """
+
+    t: np.ndarray
+    left: np.ndarray
+    right: np.ndarray
+    truth: np.ndarray | None
+    warnings: tuple[str, ...]
+    time_offset: TimeOffset | None
+
+
+def check_streams(
+    t,
+    left,
+    right,
+    truth=None,
+    *,
+    metres_per_unit_left: float,
+    metres_per_unit_right: float,
+    wheelbase_m: float,
+    cumulative: bool = True,
+    time_offset=None,
+    wheel_what: str = "wheel positions",
+    wheel_topic: str = "the wheel topic",
+    truth_topic: str = "the ground-truth topic",
+    source: str | None = None,
+) -> StreamCheck:
+    """Check the stamps and values of a log's wheel data and ground truth, and align them.
+
+    * Stamps that go backwards: an error naming the message (the log cannot be trusted to be
+      in order: a second clock, a bag of several recordings).
+    * Repeated stamps: the last message of each stamp is kept, with a warning (incremental
+      counts of the dropped messages are added to the kept one, so no travel is lost).
+    * Wheel positions that jump faster than any wheel turns (:data:`MAX_WHEEL_SPEED_MPS`): an
+      isolated spike is dropped with a warning naming its time; a jump that stays is an error.
+    * The time offset between the wheels and the ground truth (:func:`estimate_time_offset`):
+      estimated whenever there is a ground truth, applied when ``time_offset`` asks, warned
+      about when it is larger than :data:`LARGE_OFFSET_S` and one ground-truth sample period
+      and not corrected.
+    * The ground truth's coverage of the wheel data (after the offset): a warning below
+      :data:`MIN_COVERAGE` or with a gap longer than a second and 20 sample periods.
+
+    Parameters
+    ----------
+    t, left, right : array_like
+        Wheel stamps [s] as recorded and the positions (cumulative or incremental counts in log
+        units).
+    truth : array_like, optional
+        ``(M, 4)`` ground truth ``(t, x, y, heading)`` as recorded (heading in radians, wrapped
+        or not).
+    metres_per_unit_left, metres_per_unit_right : float
+        Rim travel per log unit of each wheel [m] (nominal geometry).
+    wheelbase_m : float
+        The nominal wheelbase (for the wheels' turn rate).
+    cumulative : bool
+        The positions are cumulative (else per-sample increments).
+    time_offset : None, "auto" or float
+        None: estimate and report; ``"auto"``: estimate and subtract it from the ground truth's
+        stamps; seconds: subtract these (see :func:`parse_time_offset`).
+    wheel_what, wheel_topic, truth_topic : str
+        Names for messages.
+    source : str, optional
+        The log, for messages.
+
+    Returns
+    -------
+    StreamCheck
+
+    Raises
+    ------
+    InputError
+        Stamps that go backwards, a jump that stays, non-finite values, ``time_offset`` auto
+        without an estimate, or a ground truth that does not overlap the wheels.
+    """
+    request = parse_time_offset(time_offset)
+    warnings: list[str] = []
+    t = np.asarray(t, dtype=float)
+    pl = np.asarray(left, dtype=float)
+    pr = np.asarray(right, dtype=float)
+    keep, rep, first = ordered_stamps(t, wheel_what, wheel_topic, source)
+    if rep:
+        if cumulative:
+            note = "the last of each stamp is kept"
+        else:
+            groups = np.concatenate([[0], keep[:-1] + 1])
+            pl, pr = np.add.reduceat(pl, groups), np.add.reduceat(pr, groups)
+            note = "their counts are added to the last of each stamp"
+        warnings.append(
+            f"{rep} of the {t.size} {wheel_what} on {wheel_topic} repeat the stamp of the message before "
+            f"(first at message {first}): {note}; check the publisher's stamps"
+        )
+        t = t[keep]
+        if cumulative:
+            pl, pr = pl[keep], pr[keep]
+    if not (np.all(np.isfinite(pl)) and np.all(np.isfinite(pr))):
+        k = int(np.flatnonzero(~(np.isfinite(pl) & np.isfinite(pr)))[0])
+        raise InputError(
+            f"the {wheel_what} on {wheel_topic} are not finite at t={t[k] - t[0]:.3f} s (message {k + 1} kept)",
+            source,
+        )
+    cl = pl if cumulative else np.cumsum(pl)
+    cr = pr if cumulative else np.cumsum(pr)
+    mpu = max(metres_per_unit_left, metres_per_unit_right)
+    bad, isolated = wheel_spikes(t, cl, cr, mpu)
+    if bad.size:
+        k = int(bad[0])
+        jump = max(abs(cl[k] - cl[k - 1]), abs(cr[k] - cr[k - 1]))
+        where = f"at t={t[k] - t[0]:.3f} s (sample {k + 1})"
+        if not (isolated and cumulative):
+            raise InputError(
+                f"the {wheel_what} on {wheel_topic} jump by {jump:.3g} {where}: faster than "
+                f"{MAX_WHEEL_SPEED_MPS:g} m/s at the wheel rim, and they do not come back: a counter reset or a "
+                "corrupt message; cut the log there",
+                source,
+            )
+        warnings.append(
+            f"{bad.size} spike(s) in the {wheel_what} on {wheel_topic}, the first {where} (a jump of {jump:.3g} "
+            "and back): dropped"
+        )
+        ok = np.ones(t.size, dtype=bool)
+        ok[bad] = False
+        t, pl, pr = t[ok], pl[ok], pr[ok]
+        cl, cr = cl[ok], cr[ok]
+    g = None
+    offset = None
+    if truth is not None:
+        g = np.asarray(truth, dtype=float).reshape(-1, 4)
+        gkeep, grep, gfirst = ordered_stamps(g[:, 0], "ground-truth poses", truth_topic, source)
+        if grep:
+            warnings.append(
+                f"{grep} of the {len(g)} ground-truth poses on {truth_topic} repeat the stamp of the pose before "
+                f"(first at message {gfirst}): the last of each stamp is kept; check the publisher's stamps"
+            )
+        g = g[gkeep]
+        if not np.all(np.isfinite(g)):
+            raise InputError(f"the ground-truth poses on {truth_topic} contain NaN or infinite values", source)
+        g[:, 3] = np.unwrap(g[:, 3])
+        heading_w = (cr * metres_per_unit_right - cl * metres_per_unit_left) / wheelbase_m
+        est, corr, max_lag, reason = estimate_time_offset(t, heading_w, g[:, 0], g[:, 3])
+        applied = 0.0
+        if request == "auto":
+            if est is None:
+                raise InputError(
+                    f"`time_offset` auto: cannot estimate the offset between {wheel_topic} and {truth_topic}: "
+                    f"{reason}; give it in seconds",
+                    source,
+                )
+            applied = est
+        elif request is not None:
+            applied = float(request)
+        gp, wp = _median_period(g[:, 0]), _median_period(t)
+        offset = TimeOffset(
+            None if est is None else round(est, 6) + 0.0,
+            None if corr is None else round(corr, 4),
+            applied,
+            None if request is None else (request if isinstance(request, str) else f"{request:g}"),
+            round(gp, 9),
+            round(wp, 9),
+            max_lag,
+            reason,
+        )
+        if est is not None and request is None and abs(est) > max(LARGE_OFFSET_S, gp):
+            late = "late" if est > 0 else "early"
+            warnings.append(
+                f"the ground truth on {truth_topic} is {abs(est):.3f} s {late} against the wheel data on "
+                f"{wheel_topic} (cross-correlation of the turn rates, correlation {corr:.2f}): the calibration "
+                "is biased by it; give `time_offset=auto` to correct it"
+            )
+        if applied:
+            g = g.copy()
+            g[:, 0] -= applied
+        frac, gap, gap_at = coverage(t, g[:, 0])
+        if frac <= 0:
+            raise InputError(
+                f"the ground truth on {truth_topic} does not overlap the wheel data on {wheel_topic} in time "
+                f"(wheels {t[0]:.3f}-{t[-1]:.3f} s, ground truth {g[0, 0]:.3f}-{g[-1, 0]:.3f} s)",
+                source,
+            )
+        span = float(t[-1] - t[0])
+        if frac < MIN_COVERAGE:
+            a, b = max(0.0, g[0, 0] - t[0]), min(span, g[-1, 0] - t[0])
+            warnings.append(
+                f"the ground truth on {truth_topic} covers only {100 * frac:.0f} % of the wheel data on {wheel_topic} "
+                f"({a:.1f}-{b:.1f} s of {span:.1f} s): the runs are cut to it; record the ground truth for the "
+                "whole drive"
+            )
+        if gap > max(1.0, 20 * gp):
+            warnings.append(
+                f"the ground truth on {truth_topic} has a gap of {gap:.2f} s at t={gap_at - t[0]:.2f} s: the poses "
+                "are interpolated across it"
+            )
+    return StreamCheck(t, pl, pr, g, tuple(warnings), offset)

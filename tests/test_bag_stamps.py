@@ -1,0 +1,277 @@
+"""Bag time stamps: stamps that go backwards, repeated stamps, a ground truth covering part of the
+log, spikes in the wheel positions, and a ground truth late against the wheels (estimated from
+the turn rates, corrected with ``time_offset`` / ``--time-offset``).
+
+The bags are a simulated UMBmark test (2 cw + 2 ccw 2 m squares, stops between them) written by
+:func:`umbmark.io.rosbag_write.write_drive_bag`, then edited message by message (restamped,
+duplicated, dropped, corrupted) into a second bag.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+
+import numpy as np
+import pytest
+
+pytest.importorskip("rosbags")
+from rosbags.rosbag2 import Reader, Writer  # noqa: E402
+from rosbags.typesys import Stores, get_typestore  # noqa: E402
+
+from umbmark.cli import main  # noqa: E402
+from umbmark.errors import InputError  # noqa: E402
+from umbmark.io.rosbag import read_bag  # noqa: E402
+from umbmark.io.rosbag_write import JOINT_NAMES, write_drive_bag  # noqa: E402
+from umbmark.model.drive import EXAMPLE_ROBOT, Command, simulate_drive  # noqa: E402
+from umbmark.model.geometry import ErrorParams  # noqa: E402
+from umbmark.model.sensors import Lidar  # noqa: E402
+from umbmark.realrobot.replay import replay_report  # noqa: E402
+
+SIDE_M = 2.0
+TS = get_typestore(Stores.ROS2_HUMBLE)
+ROBOT = dataclasses.replace(
+    EXAMPLE_ROBOT, errors=ErrorParams(ed=1.004, eb=1.02, es=0.99), lidar=Lidar(n_beams=4, range_noise_m=0.0)
+)
+NOMINAL = ROBOT.nominal_wheels
+READ = dict(nominal=NOMINAL, joints=JOINT_NAMES, gt_topic="/ground_truth", stops=True, side_m=SIDE_M)
+CLI = [
+    "--joints",
+    ",".join(JOINT_NAMES),
+    "--gt-topic",
+    "/ground_truth",
+    "--wheel-diameter-mm",
+    f"{NOMINAL.diameter_left_m * 1e3:g}",
+    "--wheelbase-mm",
+    f"{NOMINAL.wheelbase_m * 1e3:g}",
+    "--side-mm",
+    f"{SIDE_M * 1e3:g}",
+    "--split-stops",
+    "--method",
+    "exact",
+    "--no-heldout",
+    "--json",
+]
+
+
+def _square(sign: int, v: float = 0.4, w: float = 0.8) -> list[Command]:
+    legs = []
+    for _ in range(4):
+        legs += [Command(SIDE_M / v, v), Command(0.3), Command(math.pi / 2 / w, 0.0, sign * w), Command(0.3)]
+    return legs + [Command(2.5)]
+
+
+@pytest.fixture(scope="module")
+def clean(tmp_path_factory):
+    """A ROS 2 bag of 2 cw and 2 ccw squares (wheels and ground truth at 100 Hz)."""
+    program = [Command(2.5)] + _square(-1) + _square(1) + _square(-1) + _square(1)
+    log = simulate_drive(program, ROBOT, start_pose=(4.0, 4.0, 0.0), scan_rate_hz=1.0)
+    return write_drive_bag(log, tmp_path_factory.mktemp("bags") / "clean", truth=True, odom=False)
+
+
+def _stamp_ns(msg) -> int:
+    s = msg.header.stamp
+    return int(s.sec) * 10**9 + int(s.nanosec)
+
+
+def _restamp(msg, ns: int):
+    stamp = TS.types["builtin_interfaces/msg/Time"](sec=int(ns // 10**9), nanosec=int(ns % 10**9))
+    return dataclasses.replace(msg, header=dataclasses.replace(msg.header, stamp=stamp))
+
+
+def _later(msg, dt_s: float):
+    return _restamp(msg, _stamp_ns(msg) + int(round(dt_s * 1e9)))
+
+
+def edit_bag(src, dst, **edits):
+    """Copy the bag ``src`` to ``dst``; ``edits[key]`` (key: a topic without its slash) turns the
+    list of that topic's ``(bag_ns, message)`` into the list to write."""
+    with Reader(src) as r:
+        topics = {c.topic: c for c in r.connections}
+        streams: dict[str, list] = {t: [] for t in topics}
+        for c, ns, raw in r.messages():
+            streams[c.topic].append((ns, TS.deserialize_cdr(raw, c.msgtype)))
+    out = []
+    for topic, msgs in streams.items():
+        f = edits.get(topic.strip("/"))
+        for ns, msg in f(msgs) if f else msgs:
+            out.append((ns, topic, msg))
+    out.sort(key=lambda m: m[0])
+    with Writer(dst, version=9) as w:
+        conns = {t: w.add_connection(t, c.msgtype, typestore=TS) for t, c in topics.items()}
+        for ns, topic, msg in out:
+            w.write(conns[topic], ns, TS.serialize_cdr(msg, topics[topic].msgtype))
+    return dst
+
+
+def delayed(tau_s: float, every: int = 1):
+    """Ground-truth edit: every ``every``-th pose, stamped (and recorded) ``tau_s`` later."""
+
+    def f(msgs):
+        return [(ns + int(round(tau_s * 1e9)), _later(m, tau_s)) for ns, m in msgs[::every]]
+
+    return f
+
+
+def _cal(ds):
+    rep = replay_report(ds, "exact", heldout=False)
+    d = rep.to_dict()
+    return d["Ed"], d["Eb"], rep
+
+
+@pytest.fixture(scope="module")
+def clean_cal(clean):
+    ds = read_bag(clean, **READ)
+    return _cal(ds)
+
+
+def test_clean_bag_gives_no_warning_and_no_offset(clean, clean_cal):
+    ds = read_bag(clean, **READ)
+    assert ds.meta["warnings"] == ()
+    (off,) = ds.meta["time_offset"]
+    assert abs(off["estimated_s"]) < 1e-3
+    assert off["applied_s"] == 0.0 and off["correlation"] > 0.95
+    ed, eb, rep = clean_cal
+    assert len(ds.runs) == 4
+    assert ed == pytest.approx(1.004, abs=2e-4) and eb == pytest.approx(1.02 / 0.99, abs=2e-3)
+    assert rep.to_dict()["time_offset"][0]["estimated_s"] == off["estimated_s"]
+
+
+def test_stamps_jumping_back_are_an_error_naming_topic_and_message(clean, tmp_path, capsys):
+    def back(msgs):
+        half = len(msgs) // 2
+        return [(ns, _later(m, -5.0) if k >= half else m) for k, (ns, m) in enumerate(msgs)]
+
+    bag = edit_bag(clean, tmp_path / "back", joint_states=back, ground_truth=back)
+    with pytest.raises(InputError, match=r"joint states on /joint_states go backwards at message \d+") as e:
+        read_bag(bag, **READ)
+    assert e.value.source == str(bag) and "by up to 4.990 s" in str(e.value)
+    assert main(["replay", str(bag), *CLI]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "go backwards" in err and "/joint_states" in err
+
+
+@pytest.mark.parametrize("same_content", [True, False])
+def test_every_stamp_duplicated_is_warned_about(clean, clean_cal, tmp_path, same_content):
+    def dup(msgs):
+        if same_content:  # every message recorded twice
+            return [x for ns, m in msgs for x in ((ns, m), (ns + 1, m))]
+        # the stamp is updated every second message only
+        return [(ns, _restamp(m, _stamp_ns(msgs[k - k % 2][1]))) for k, (ns, m) in enumerate(msgs)]
+
+    bag = edit_bag(clean, tmp_path / "dup", joint_states=dup)
+    ds = read_bag(bag, **READ)
+    (w,) = [w for w in ds.meta["warnings"] if "repeat the stamp" in w]
+    assert "/joint_states" in w and "joint states" in w
+    ed, eb, _ = _cal(ds)
+    if same_content:  # nothing lost: the same calibration
+        assert ed == pytest.approx(clean_cal[0], abs=1e-9) and eb == pytest.approx(clean_cal[1], abs=1e-9)
+
+
+def test_ground_truth_covering_a_fifth_of_the_log_is_warned_about(clean, tmp_path):
+    def first_fifth(msgs):
+        return msgs[: len(msgs) // 5]
+
+    bag = edit_bag(clean, tmp_path / "short", ground_truth=first_fifth)
+    ds = read_bag(bag, nominal=NOMINAL, joints=JOINT_NAMES, gt_topic="/ground_truth")
+    (w,) = [w for w in ds.meta["warnings"] if "covers only" in w]
+    assert "/ground_truth" in w and "covers only 20 %" in w
+
+
+def test_ground_truth_gap_is_warned_about(clean, tmp_path):
+    def gap(msgs):
+        n = len(msgs)
+        return msgs[: n // 2] + msgs[n // 2 + 500 :]  # 5 s without poses
+
+    ds = read_bag(edit_bag(clean, tmp_path / "gap", ground_truth=gap), **READ)
+    (w,) = [w for w in ds.meta["warnings"] if "gap" in w]
+    assert "/ground_truth" in w and "5.0" in w
+
+
+def _with_position(msg, k_left: float):
+    return dataclasses.replace(msg, position=np.array([k_left, msg.position[1]]))
+
+
+def test_a_1e300_spike_in_a_joint_position_is_dropped_with_a_warning(clean, clean_cal, tmp_path):
+    def spike(msgs):
+        k = len(msgs) // 3
+        return [(ns, _with_position(m, 1e300) if i == k else m) for i, (ns, m) in enumerate(msgs)]
+
+    ds = read_bag(edit_bag(clean, tmp_path / "spike", joint_states=spike), **READ)
+    (w,) = [w for w in ds.meta["warnings"] if "spike" in w]
+    assert "/joint_states" in w and "at t=" in w and "1e+300" in w
+    ed, eb, _ = _cal(ds)
+    assert ed == pytest.approx(clean_cal[0], abs=1e-6) and eb == pytest.approx(clean_cal[1], abs=1e-5)
+
+
+def test_a_jump_that_stays_is_an_error(clean, tmp_path, capsys):
+    def jump(msgs):
+        k = len(msgs) // 3
+        return [(ns, _with_position(m, m.position[0] + 1e6) if i >= k else m) for i, (ns, m) in enumerate(msgs)]
+
+    bag = edit_bag(clean, tmp_path / "jump", joint_states=jump)
+    with pytest.raises(InputError, match=r"/joint_states jump by 1e\+06 at t=.*do not come back"):
+        read_bag(bag, **READ)
+    assert main(["replay", str(bag), *CLI]) == 2
+    assert len(capsys.readouterr().err.strip().splitlines()) == 1
+
+
+def test_ground_truth_2_s_late_is_warned_about(clean, clean_cal, tmp_path, capsys):
+    bag = edit_bag(clean, tmp_path / "late", ground_truth=delayed(2.0))
+    ds = read_bag(bag, **READ)
+    (w,) = [w for w in ds.meta["warnings"] if "late" in w]
+    assert "/ground_truth" in w and "2.000 s late" in w and "`time_offset=auto`" in w
+    assert ds.meta["time_offset"][0]["applied_s"] == 0.0
+    assert main(["replay", str(bag), *CLI]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert any("--time-offset auto" in x for x in d["warnings"])
+    assert d["time_offset"][0]["estimated_s"] == pytest.approx(2.0, abs=0.01)
+
+
+# the tolerance measured: E_d and E_b after --time-offset auto against the undelayed bag's
+ED_TOL, EB_TOL = 2e-5, 2e-4
+
+
+@pytest.mark.parametrize("tau_s", [0.1, 0.35, 1.0, 2.0])
+def test_late_ground_truth_is_detected_and_corrected(clean, clean_cal, tmp_path, tau_s):
+    """A 25 Hz ground truth delayed by 0.1-2 s: found to within one of its periods (40 ms), and
+    the calibration with ``time_offset="auto"`` matches the undelayed one."""
+    bag = edit_bag(clean, tmp_path / "late", ground_truth=delayed(tau_s, every=4))
+    ds = read_bag(bag, **READ)
+    assert any("s late" in w for w in ds.meta["warnings"])
+    fixed = read_bag(bag, **READ, time_offset="auto")
+    (off,) = fixed.meta["time_offset"]
+    assert off["truth_period_s"] == pytest.approx(0.04, abs=1e-6)
+    assert abs(off["applied_s"] - tau_s) < off["truth_period_s"]
+    assert not any("late" in w for w in fixed.meta["warnings"])
+    ed, eb, _ = _cal(fixed)
+    assert abs(ed - clean_cal[0]) < ED_TOL and abs(eb - clean_cal[1]) < EB_TOL
+    given = read_bag(bag, **READ, time_offset=tau_s)
+    assert given.meta["time_offset"][0]["applied_s"] == tau_s
+
+
+def test_cli_time_offset_auto_and_seconds(clean, clean_cal, tmp_path, capsys):
+    bag = edit_bag(clean, tmp_path / "late", ground_truth=delayed(0.5, every=2))
+    assert main(["replay", str(bag), *CLI, "--time-offset", "auto"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    (off,) = d["time_offset"]
+    assert off["requested"] == "auto" and abs(off["applied_s"] - 0.5) < 0.02 and off["bag"] == str(bag)
+    assert abs(d["Ed"] - clean_cal[0]) < ED_TOL
+    assert main(["replay", str(bag), *CLI, "--time-offset", "0.5"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert d["time_offset"][0]["applied_s"] == 0.5 and d["time_offset"][0]["requested"] == "0.5"
+    assert main(["replay", str(bag), *CLI, "--time-offset", "soon"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--time-offset" in err and "auto" in err
+
+
+def test_auto_without_turns_is_an_error(tmp_path):
+    log = simulate_drive([Command(1.0), Command(5.0, 0.3), Command(1.0)], ROBOT, start_pose=(3.0, 4.0, 0.0))
+    bag = write_drive_bag(log, tmp_path / "straight", truth=True, odom=False)
+    kw = dict(nominal=NOMINAL, joints=JOINT_NAMES, gt_topic="/ground_truth")
+    ds = read_bag(bag, **kw)
+    assert ds.meta["time_offset"][0]["estimated_s"] is None
+    assert "hardly turns" in ds.meta["time_offset"][0]["reason"]
+    with pytest.raises(InputError, match="`time_offset` auto: cannot estimate.*hardly turns.*give it in seconds"):
+        read_bag(bag, **kw, time_offset="auto")
