@@ -125,6 +125,13 @@ def test_cli_convert_optiodom_to_csv_and_replay_it(optiodom, tmp_path, capsys):
     for k in ("Ed", "Eb", "wheelbase_corrected_mm"):
         assert got[k] == pytest.approx(ref[k], rel=1e-9)
     assert got["before"]["emax_syst_mm"] == pytest.approx(ref["before"]["emax_syst_mm"], rel=1e-6)
+    # the geometry convert recorded in the header is used when none is given
+    assert main(["replay", str(out), "--side-mm", "750", *common]) == 0
+    rec = json.loads(capsys.readouterr().out)
+    for k in ("Ed", "Eb", "wheelbase_corrected_mm"):
+        assert rec[k] == pytest.approx(ref[k], rel=1e-9)
     # CSV without the geometry: one-line error, exit 2
-    assert main(["replay", str(out), "--method", "bf"]) == 2
+    bare = tmp_path / "bare.csv"
+    bare.write_text("".join(ln for ln in out.read_text().splitlines(True) if not ln.startswith("#")))
+    assert main(["replay", str(bare), "--method", "bf"]) == 2
     assert "--pulses-per-wheel-rev" in capsys.readouterr().err

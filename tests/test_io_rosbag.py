@@ -214,7 +214,9 @@ def test_ranges_and_stops_split_runs(tmp_path, sim):
 
 def test_bag_errors(tmp_path, sim):
     bag = write_ros2(tmp_path / "b", "sqlite3", *sim, "pose")
-    with pytest.raises(InputError, match="no topic '/nope'.*topics: /joint_states, /mocap/pose"):
+    with pytest.raises(
+        InputError, match=r"no topic '/nope'.*topics: /joint_states \(JointState\), /mocap/pose \(PoseStamped\)"
+    ):
         read_bag(bag, nominal=NOMINAL, joints=("wheel_left", "wheel_right"), gt_topic="/nope")
     with pytest.raises(InputError, match="names both joints"):
         read_bag(bag, nominal=NOMINAL, joints=("wheel_left", "nope"))
@@ -229,7 +231,14 @@ def test_cli_bag_info_and_replay(tmp_path, sim, capsys):
     bag = write_ros2(tmp_path / "b", "mcap", *sim, "pose")
     info = bag_info(bag)
     assert {t.topic for t in info.topics} == {"/joint_states", "/mocap/pose"}
-    joints = {"topic": "/joint_states", "type": "sensor_msgs/msg/JointState", "messages": len(sim[0])}
+    joints = {
+        "topic": "/joint_states",
+        "type": "sensor_msgs/msg/JointState",
+        "messages": len(sim[0]),
+        "rate_hz": pytest.approx(1 / DT),
+        "joint_names": ["wheel_left", "caster", "wheel_right"],
+        "frame_id": "",
+    }
     assert info.to_dict()["topics"][0] == joints
     assert main(["bag-info", str(bag)]) == 0
     assert "/mocap/pose" in capsys.readouterr().out

@@ -59,9 +59,18 @@ def log_options(f):
             help="Square side: the runs are UMBmark squares (optiodom: from the metadata).",
         ),
         click.option("--wheel-diameter-mm", type=float, default=None, help="Nominal wheel diameter (CSV, bags)."),
+        click.option(
+            "--wheel-radius-m", type=float, default=None, help="Nominal wheel radius, ROS's wheel_radius (instead)."
+        ),
         click.option("--left-diameter-mm", type=float, default=None, help="Nominal left wheel diameter."),
         click.option("--right-diameter-mm", type=float, default=None, help="Nominal right wheel diameter."),
         click.option("--wheelbase-mm", type=float, default=None, help="Nominal wheelbase (CSV, bags)."),
+        click.option(
+            "--wheel-separation-m",
+            type=float,
+            default=None,
+            help="Nominal wheelbase, ROS's wheel_separation (instead).",
+        ),
         click.option(
             "--pulses-per-wheel-rev",
             type=float,
@@ -80,6 +89,11 @@ def log_options(f):
         click.option("--ticks-topic", default=None, help="Bag: topic with encoder counts."),
         click.option("--left-field", default=None, help="Bag: field of the left count, e.g. data[0]."),
         click.option("--right-field", default=None, help="Bag: field of the right count, e.g. data[1]."),
+        click.option(
+            "--odom-topic",
+            default=None,
+            help="Bag: nav_msgs/Odometry as the wheels (its increments through the nominal geometry).",
+        ),
         click.option("--gt-topic", default=None, help="Bag: ground truth (PoseStamped, Odometry or /tf)."),
         click.option("--gt-frame", default=None, help="Bag, /tf ground truth: the tracked child frame."),
         click.option("--gt-parent", default=None, help="Bag, /tf ground truth: its parent frame (optional)."),
@@ -97,6 +111,15 @@ def log_options(f):
             show_default=True,
             help="Bag: the stillness (seconds) that ends a run with --split-stops.",
         ),
+        click.option(
+            "--time-offset",
+            default=None,
+            metavar="auto|SECONDS",
+            help="Bag with --gt-topic: how late the ground truth's stamps are against the wheels'. "
+            "Without it the offset is estimated (cross-correlation of the turn rates), reported in the "
+            "JSON `time_offset` and warned about when over 50 ms; auto subtracts the estimate; "
+            "SECONDS subtracts that (positive: ground truth late).",
+        ),
     ]
     for o in reversed(opts):
         f = o(f)
@@ -106,12 +129,15 @@ def log_options(f):
 _LOG_KEYS = (
     "side_mm",
     "wheel_diameter_mm",
+    "wheel_radius_m",
     "left_diameter_mm",
     "right_diameter_mm",
     "wheelbase_mm",
+    "wheel_separation_m",
     "pulses_per_wheel_rev",
     "ticks",
     "joints",
+    "odom_topic",
     "joint_topic",
     "ticks_topic",
     "left_field",
@@ -122,6 +148,7 @@ _LOG_KEYS = (
     "ranges",
     "split_stops",
     "stop_s",
+    "time_offset",
 )
 
 
@@ -132,9 +159,11 @@ def _load(paths, log_format, kw):
     for k in (
         "side_mm",
         "wheel_diameter_mm",
+        "wheel_radius_m",
         "left_diameter_mm",
         "right_diameter_mm",
         "wheelbase_mm",
+        "wheel_separation_m",
         "pulses_per_wheel_rev",
         "stop_s",
     ):
@@ -145,14 +174,28 @@ def _load(paths, log_format, kw):
 
 
 def _datasets(paths, log_format, kw):
-    """Each PATH is a data set, except CSV files: all CSV files given form one data set."""
+    """Each PATH is a data set, except CSV files and bags: all CSV files given form one data
+    set, and so do all bags given (the runs of one test)."""
     paths = list(paths)
     if log_format in ("csv",) or (
         log_format == "auto" and all(Path(p).is_file() and Path(p).suffix.lower() == ".csv" for p in paths)
     ):
         with progress(f"reading {len(paths)} CSV log(s)"):
             return [_load(paths, "csv", kw)]
+    if len(paths) > 1 and _all_bags(paths, log_format):
+        with progress(f"reading {len(paths)} bags"):
+            return [_load(paths, "bag", kw)]
     return [_load([p], log_format, kw) for p in track(paths, "reading logs")]
+
+
+def _all_bags(paths, log_format) -> bool:
+    if log_format == "bag":
+        return True
+    if log_format != "auto":
+        return False
+    from umbmark.io.load import detect_format
+
+    return all(detect_format(p) == "bag" for p in paths)
 
 
 def _print_report(rep) -> None:
@@ -308,6 +351,20 @@ def _print_stream(rep) -> None:
 )
 @log_options
 @click.option(
+    "--gt-scan-topic",
+    default=None,
+    metavar="TOPIC",
+    help="Bag: the robot's lidar as the ground truth (LaserScan topic): each run's first scan after "
+    "the wheels stop registered against its last scan before they start (the robot at rest).",
+)
+@click.option(
+    "--sensor-pose",
+    default=None,
+    metavar="X_MM,Y_MM,YAW_DEG|SELFCAL.json",
+    help="--gt-scan-topic: the lidar's mounting pose in the robot frame, or the sensor_pose of a "
+    "`umbmark selfcal` JSON (default: the bag's /tf_static).",
+)
+@click.option(
     "--pool", is_flag=True, help="lsq: fit one geometry to all data sets together (held out: leave-one-data-set-out)."
 )
 @click.option(
@@ -388,15 +445,21 @@ def replay(
 ):
     """Replay real-robot logs, calibrate, and compare the odometry before and after.
 
-    Each DATASET is an optiodom data-set folder, a ROS bag, or (all together) CSV log files.
-    The logged wheel increments are replayed with the nominal geometry and with the
+    Each DATASET is an optiodom data-set folder; or (all together, the runs of one test) ROS
+    bags, or CSV log files. The logged wheel increments (bags: joint states, encoder counts or
+    the robot's own nav_msgs/Odometry) are replayed with the nominal geometry and with the
     calibrated one; the errors are measured against the logged ground truth. Square runs
     (UMBmark) are benchmarked (E_max,syst; cw/ccw from the odometry's total turn). Held-out
     figures: leave-one-run-out, and across data sets when several are given.
 
     \b
-    Example:
+    Examples:
       umbmark replay data/optiodom/square/230620202144 --method bf
+      umbmark replay calibration_bag --joints left_wheel_joint,right_wheel_joint \\
+        --gt-topic /mocap/robot/pose --split-stops --side-mm 2000 \\
+        --wheel-radius-m 0.05 --wheel-separation-m 0.30 --method exact
+      umbmark replay run1_bag run2_bag run3_bag --odom-topic /odom --gt-topic /mocap/pose \\
+        --side-mm 2000 --wheel-diameter-mm 100 --wheelbase-mm 300 --method exact
     """
     if not (math.isfinite(heading_weight_m) and heading_weight_m >= 0):
         raise InputError(f"--heading-weight-m must be >= 0, got {heading_weight_m!r}")
@@ -409,7 +472,11 @@ def replay(
         return
     from umbmark.realrobot.replay import pooled_report, replay_report
 
-    sets = _datasets(paths, log_format, kw)
+    scan_truth = None
+    if kw.get("gt_scan_topic") is not None or kw.get("sensor_pose") is not None:
+        sets, scan_truth = _scan_truth(paths, log_format, kw)
+    else:
+        sets = _datasets(paths, log_format, kw)
     lsq_opts = {
         "mode": lsq_mode,
         "scale": scale,
@@ -425,13 +492,15 @@ def replay(
     else:
         with progress("replaying and calibrating"):
             rep = replay_report(sets, method, lsq_opts, heldout=not no_heldout)
+    if scan_truth is not None:
+        rep = _with_warnings(rep, scan_truth.warnings)
     if save:
         from umbmark.io.atomic import write_json
 
-        write_json(save, rep.to_dict())
+        write_json(save, _report_dict(rep, scan_truth))
     rec = record_report_if_requested(robot, record, db, rep, list(paths), kind="replay", method=method)
     if as_json:
-        d = rep.to_dict()
+        d = _report_dict(rep, scan_truth)
         emit_json(d if rec is None else {**d, "history": rec})
         return
     if is_quiet():
@@ -450,6 +519,63 @@ def replay(
         _print_across(rep)
 
 
+def _scan_truth(paths, log_format, kw):
+    """``replay --gt-scan-topic``: the data sets with each run's end pose measured by the lidar."""
+    from umbmark.io.load import parse_joints
+    from umbmark.realrobot.scan_truth import attach_scan_truth, parse_sensor_pose
+
+    topic = kw.get("gt_scan_topic")
+    if topic is None:
+        raise InputError("--sensor-pose works with --gt-scan-topic (the lidar as the ground truth)")
+    if kw.get("gt_topic") is not None:
+        raise InputError("give one ground truth: --gt-topic or --gt-scan-topic, not both")
+    if log_format not in ("auto", "bag"):
+        raise InputError("--gt-scan-topic reads the scans of ROS bags (--format bag)")
+    pose, pose_src = (None, "given") if kw.get("sensor_pose") is None else parse_sensor_pose(kw["sensor_pose"])
+    sets = _datasets(paths, log_format, kw)
+    joints = kw.get("joints")
+    with progress("registering each run's scans"):
+        return attach_scan_truth(
+            sets,
+            topic,
+            sensor_pose=pose,
+            sensor_pose_source=pose_src,
+            joints=None if joints is None else parse_joints(joints),
+            joint_topic=kw.get("joint_topic") or "/joint_states",
+            ticks_topic=kw.get("ticks_topic"),
+            left_field=kw.get("left_field"),
+            right_field=kw.get("right_field"),
+            ticks=kw.get("ticks") or "cumulative",
+            units_per_rev=kw.get("pulses_per_wheel_rev"),
+            odom_topic=kw.get("odom_topic"),
+        )
+
+
+def _with_warnings(rep, warnings):
+    """A replay report with more warnings first (each data set's report of several)."""
+    from dataclasses import replace
+
+    from umbmark.realrobot.results import MultiReplayReport, ReplayReport
+
+    if not warnings:
+        return rep
+    if isinstance(rep, ReplayReport):
+        return replace(rep, warnings=tuple(warnings) + tuple(rep.warnings))
+    if isinstance(rep, MultiReplayReport):
+        return replace(rep, reports=tuple(_with_warnings(r, warnings) for r in rep.reports))
+    for w in warnings:  # a pooled report has no warnings of its own
+        click.echo(f"umbmark: warning: {cli_message(w)}", err=True)
+    return rep
+
+
+def _report_dict(rep, scan_truth) -> dict:
+    """The JSON of a replay report, with the lidar ground truth's ``scan_truth`` block."""
+    d = rep.to_dict()
+    if scan_truth is not None:
+        d["scan_truth"] = scan_truth.to_dict()
+    return d
+
+
 def _stream(paths, log_format, decimate, poses_out, as_json, kw) -> None:
     """``replay --stream``: one long CSV log in bounded memory (no calibration)."""
     from umbmark.realrobot.replay import stream_log
@@ -465,7 +591,9 @@ def _stream(paths, log_format, decimate, poses_out, as_json, kw) -> None:
 @click.argument("bag")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 def bag_info_cmd(bag, as_json):
-    """List the topics of a ROS 1 or ROS 2 bag (to choose --joints, --gt-topic ...).
+    """List the topics of a ROS 1 or ROS 2 bag (to choose --joints, --gt-topic ...): types,
+    message counts and rates, the joint names of JointState topics, the frames of poses,
+    odometry, scans and transforms.
 
     \b
     Example:
@@ -481,8 +609,8 @@ def bag_info_cmd(bag, as_json):
         console().print(
             table(
                 f"{bag}: {info.messages} messages, {info.duration_s:.1f} s",
-                ["topic", "type", "messages"],
-                [[t.topic, t.type, t.messages] for t in info.topics],
+                ["topic", "type", "messages", "rate [Hz]", "joints / frames"],
+                [[t.topic, t.type, t.messages, fmt(t.rate_hz, 1), t.describe()] for t in info.topics],
             )
         )
 
@@ -502,9 +630,15 @@ def bag_info_cmd(bag, as_json):
 def convert(paths, log_format, target, out, **kw):
     """Convert logs: to the generic CSV log, or (square runs) to a runs file for `analyze`.
 
+    Several bags (or CSV logs) are the runs of one data set. The generic CSV log records the
+    nominal geometry in a comment line; `umbmark replay` of it uses that geometry for what its
+    options do not give.
+
     \b
-    Example:
+    Examples:
       umbmark convert data/optiodom/square/230620202144 --to runs --out runs.csv
+      umbmark convert run1_bag run2_bag --odom-topic /odom --gt-topic /mocap/pose \\
+        --wheel-diameter-mm 100 --wheelbase-mm 300 --out log.csv
     """
     from umbmark.io.atomic import atomic_write
     from umbmark.io.generic_csv import format_generic_csv
@@ -513,7 +647,7 @@ def convert(paths, log_format, target, out, **kw):
 
     sets = _datasets(paths, log_format, kw)
     if len(sets) != 1:
-        raise InputError("convert takes one data set")
+        raise InputError("convert takes one data set (one optiodom folder, or bags, or CSV logs)")
     ds = sets[0]
     if target == "csv":
         atomic_write(out, format_generic_csv(ds))

@@ -14,8 +14,13 @@ names the columns (any order, extra columns ignored):
 * optional ``run``: a run label; rows of one run must be consecutive.
 
 Blank lines and lines starting with ``#`` are skipped. The nominal geometry (wheel
-diameters, wheelbase, pulses per wheel revolution) is not in the file: it is given to the
-reader (``--wheel-diameter-mm``, ``--wheelbase-mm``, ``--pulses-per-wheel-rev``).
+diameters, wheelbase, pulses per wheel revolution) is given to the reader
+(``--wheel-diameter-mm``, ``--wheelbase-mm``, ``--pulses-per-wheel-rev``), or read from a
+comment line before the header as :func:`format_generic_csv` writes it
+(:func:`read_csv_geometry`), e.g. (one line)::
+
+    # umbmark nominal geometry: left_diameter_mm=100.0 right_diameter_mm=100.0
+      wheelbase_mm=300.0 pulses_per_wheel_rev=6.283185307179586
 """
 
 from __future__ import annotations
@@ -32,10 +37,85 @@ from umbmark.errors import InputError
 from umbmark.io._text import csv_rows, header_columns, parse_number, read_text
 from umbmark.model.dataset import Dataset, Run, WheelGeometry, to_start_frame
 
-__all__ = ["read_generic_csv", "format_generic_csv", "iter_generic_csv", "CsvChunk", "REQUIRED", "OPTIONAL"]
+__all__ = [
+    "read_generic_csv",
+    "format_generic_csv",
+    "read_csv_geometry",
+    "iter_generic_csv",
+    "CsvChunk",
+    "REQUIRED",
+    "OPTIONAL",
+    "GEOMETRY_KEYS",
+]
 
 REQUIRED = ("time_s", "left_ticks", "right_ticks")
 OPTIONAL = ("x_m", "y_m", "theta_rad", "theta_deg", "run")
+
+
+GEOMETRY_KEYS = ("left_diameter_mm", "right_diameter_mm", "wheelbase_mm", "pulses_per_wheel_rev")
+_GEOMETRY_LINE = "# umbmark nominal geometry:"
+_OLD_GEOMETRY_LINE = "# umbmark generic log; nominal diameters left/right [mm], wheelbase [mm], pulses per wheel rev:"
+
+
+def _geometry_values(line: str, src: str, n: int) -> dict | None:
+    """The geometry of one comment line (None: not a geometry line)."""
+    s = line.strip()
+    if s.startswith(_GEOMETRY_LINE):
+        out = {}
+        for item in s[len(_GEOMETRY_LINE) :].split():
+            key, eq, val = item.partition("=")
+            if not eq or key not in GEOMETRY_KEYS:
+                raise InputError(f"bad nominal geometry item {item!r} (expected {', '.join(GEOMETRY_KEYS)})", src, n)
+            out[key] = val
+    elif s.lstrip('"').startswith(_OLD_GEOMETRY_LINE):  # the comment row format_generic_csv wrote before
+        cells = next(csv.reader([s]))[1:]
+        if len(cells) != 4:
+            raise InputError("bad nominal geometry line: expected 4 numbers", src, n)
+        out = dict(zip(GEOMETRY_KEYS, cells))
+    else:
+        return None
+    missing = [k for k in GEOMETRY_KEYS if k not in out]
+    if missing:
+        raise InputError(f"the nominal geometry line lacks {', '.join(missing)}", src, n)
+    vals = {}
+    for k in GEOMETRY_KEYS:
+        v = parse_number(out[k], k, src, n)
+        if not (math.isfinite(v) and v > 0):
+            raise InputError(f"nominal geometry {k} must be a positive number, got {out[k]!r}", src, n)
+        vals[k] = v
+    return vals
+
+
+def read_csv_geometry(path) -> dict | None:
+    """The nominal geometry written into a generic CSV log's comment lines (before its header).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+
+    Returns
+    -------
+    dict or None
+        ``left_diameter_mm``, ``right_diameter_mm``, ``wheelbase_mm``, ``pulses_per_wheel_rev``;
+        None when the file holds no geometry line.
+
+    Raises
+    ------
+    InputError
+        An unreadable file, or a geometry line that is not four positive numbers (line named).
+    """
+    src = str(path)
+    for n, line in enumerate(read_text(path).splitlines(), 1):
+        s = line.strip()
+        if not s:
+            continue
+        if not s.lstrip('"').startswith("#"):
+            return None  # the header: no geometry before it
+        vals = _geometry_values(s, src, n)
+        if vals is not None:
+            return vals
+    return None
 
 
 def _check_ticks(ticks: str) -> None:
@@ -216,7 +296,8 @@ def format_generic_csv(ds: Dataset) -> str:
     """A data set as one generic CSV file.
 
     A ``run`` column, cumulative ticks, the ground truth in each run's start frame; a first
-    comment line records the nominal geometry (the reader does not use it).
+    comment line records the nominal geometry (:func:`read_csv_geometry` reads it back, and
+    :func:`umbmark.io.load.load_logs` uses it for what its options do not give).
 
     Parameters
     ----------
@@ -229,16 +310,10 @@ def format_generic_csv(ds: Dataset) -> str:
         The file's text.
     """
     out = io.StringIO()
+    g = ds.nominal
+    values = (g.diameter_left_m * 1e3, g.diameter_right_m * 1e3, g.wheelbase_m * 1e3, ds.units_per_rev)
+    out.write(_GEOMETRY_LINE + "".join(f" {k}={float(v)!r}" for k, v in zip(GEOMETRY_KEYS, values)) + "\n")
     w = csv.writer(out, lineterminator="\n")
-    w.writerow(
-        [
-            "# umbmark generic log; nominal diameters left/right [mm], wheelbase [mm], pulses per wheel rev:",
-            f"{ds.nominal.diameter_left_m * 1e3:.6g}",
-            f"{ds.nominal.diameter_right_m * 1e3:.6g}",
-            f"{ds.nominal.wheelbase_m * 1e3:.6g}",
-            f"{ds.units_per_rev:.9g}",
-        ]
-    )
     w.writerow(["run", "time_s", "left_ticks", "right_ticks", "x_m", "y_m", "theta_rad"])
     f = lambda v: "" if not math.isfinite(v) else repr(round(float(v), 9))  # noqa: E731
     for r in ds.runs:

@@ -7,12 +7,21 @@ keyword arguments and passes each format's reader what it needs.
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from umbmark.errors import InputError
 from umbmark.model.dataset import Dataset, WheelGeometry
 
-__all__ = ["LOG_FORMATS", "detect_format", "nominal_geometry", "load_logs", "parse_ranges", "parse_joints"]
+__all__ = [
+    "LOG_FORMATS",
+    "detect_format",
+    "nominal_geometry",
+    "csv_recorded_geometry",
+    "load_logs",
+    "parse_ranges",
+    "parse_joints",
+]
 
 LOG_FORMATS = ("auto", "optiodom", "csv", "bag")
 
@@ -52,16 +61,31 @@ def detect_format(path) -> str:
     )
 
 
-def nominal_geometry(opts: dict, source: str) -> WheelGeometry:
+def _either(opts: dict, mm_key: str, m_key: str, factor: float) -> float | None:
+    """An option given in mm or in the ROS form in metres (``factor``: mm per unit of ``m_key``);
+    both given: they must agree."""
+    mm, m = opts.get(mm_key), opts.get(m_key)
+    if m is None:
+        return mm
+    if mm is not None and not math.isclose(mm, m * factor, rel_tol=1e-6):
+        raise InputError(f"`{mm_key}` {mm:g} and `{m_key}` {m:g} disagree ({m * factor:g} mm): give one of them")
+    return m * factor
+
+
+def nominal_geometry(opts: dict, source: str, fallback: WheelGeometry | None = None) -> WheelGeometry:
     """The nominal geometry of a log format that does not hold it, from the reader options.
 
     Parameters
     ----------
     opts : dict
-        ``wheel_diameter_mm`` (or ``left_diameter_mm`` / ``right_diameter_mm``) and
-        ``wheelbase_mm``.
+        ``wheel_diameter_mm`` or ``wheel_radius_m`` (or ``left_diameter_mm`` /
+        ``right_diameter_mm``), and ``wheelbase_mm`` or ``wheel_separation_m`` (ROS's
+        ``wheel_radius`` and ``wheel_separation``, in metres).
     source : str
         The log, for the error message.
+    fallback : WheelGeometry, optional
+        The geometry the log itself records (e.g. in a CSV log's header): what the options do
+        not give is taken from it.
 
     Returns
     -------
@@ -70,16 +94,21 @@ def nominal_geometry(opts: dict, source: str) -> WheelGeometry:
     Raises
     ------
     InputError
-        A diameter or the wheelbase is missing.
+        A diameter or the wheelbase is missing; the mm and metre forms of one disagree.
     """
-    d = opts.get("wheel_diameter_mm")
+    d = _either(opts, "wheel_diameter_mm", "wheel_radius_m", 2000.0)
     dl = opts.get("left_diameter_mm") or d
     dr = opts.get("right_diameter_mm") or d
-    b = opts.get("wheelbase_mm")
+    b = _either(opts, "wheelbase_mm", "wheel_separation_m", 1000.0)
+    if fallback is not None:
+        dl = fallback.diameter_left_m * 1e3 if dl is None else dl
+        dr = fallback.diameter_right_m * 1e3 if dr is None else dr
+        b = fallback.wheelbase_m * 1e3 if b is None else b
     if dl is None or dr is None or b is None:
         raise InputError(
             "this log format does not hold the nominal geometry: give `wheel_diameter_mm` (or "
-            "`left_diameter_mm`/`right_diameter_mm`) and `wheelbase_mm`",
+            "`wheel_radius_m`, or `left_diameter_mm`/`right_diameter_mm`) and `wheelbase_mm` (or "
+            "`wheel_separation_m`)",
             source=source,
         )
     return WheelGeometry(dl * 1e-3, dr * 1e-3, b * 1e-3)
@@ -91,14 +120,16 @@ def load_logs(paths, fmt: str = "auto", **opts) -> Dataset:
     Parameters
     ----------
     paths : str, Path or sequence of them
-        An optiodom folder or a bag (one path), or CSV logs (one or more files).
+        An optiodom folder (one path), bags or CSV logs (one or more).
     fmt : str
         One of :data:`LOG_FORMATS` (``auto``: :func:`detect_format` of the first path).
     **opts
         Reader options: ``side_mm`` (square runs), the nominal geometry
-        (:func:`nominal_geometry`), ``pulses_per_wheel_rev``, ``ticks``; for bags ``joints``,
-        ``joint_topic``, ``ticks_topic``, ``left_field``, ``right_field``, ``gt_topic``,
-        ``gt_frame``, ``gt_parent``, ``ranges``, ``split_stops``, ``stop_s``.
+        (:func:`nominal_geometry`; a CSV log's recorded geometry fills what is not given),
+        ``pulses_per_wheel_rev``, ``ticks``; for bags ``joints``, ``joint_topic``,
+        ``ticks_topic``, ``left_field``, ``right_field``, ``odom_topic``, ``gt_topic``,
+        ``gt_frame``, ``gt_parent``, ``ranges``, ``split_stops``, ``stop_s``. Several bags are
+        the runs of one test (one data set; a run's name starts with its bag's).
 
     Returns
     -------
@@ -136,23 +167,94 @@ def _load_optiodom(paths: list, side_m: float | None) -> Dataset:
     return ds if side_m is None else replace(ds, side_m=side_m)
 
 
+def csv_recorded_geometry(paths: list) -> tuple[WheelGeometry | None, float | None]:
+    """The nominal geometry and pulses per wheel revolution the CSV logs record in their header
+    comments (``umbmark convert`` writes them); (None, None) when they record none.
+
+    Parameters
+    ----------
+    paths : list of str or Path
+        The CSV logs of one data set.
+
+    Returns
+    -------
+    tuple
+        ``(WheelGeometry or None, pulses_per_wheel_rev or None)``.
+
+    Raises
+    ------
+    InputError
+        A bad geometry line; files that record different geometries.
+    """
+    from umbmark.io.generic_csv import read_csv_geometry
+
+    found = [(p, read_csv_geometry(p)) for p in paths]
+    found = [(p, g) for p, g in found if g is not None]
+    if not found:
+        return None, None
+    p0, g0 = found[0]
+    for p, g in found[1:]:
+        if any(not math.isclose(g[k], g0[k], rel_tol=1e-9) for k in g0):
+            raise InputError(f"records another nominal geometry than {p0} ({g} vs {g0})", source=str(p))
+    geom = WheelGeometry(g0["left_diameter_mm"] * 1e-3, g0["right_diameter_mm"] * 1e-3, g0["wheelbase_mm"] * 1e-3)
+    return geom, g0["pulses_per_wheel_rev"]
+
+
 def _load_csv(paths: list, side_m: float | None, opts: dict) -> Dataset:
     from umbmark.io.generic_csv import read_generic_csv
 
-    ppr = opts.get("pulses_per_wheel_rev")
+    recorded, recorded_ppr = csv_recorded_geometry(paths)
+    ppr = opts.get("pulses_per_wheel_rev") or recorded_ppr
     if ppr is None:
         raise InputError(
             "the CSV log needs `pulses_per_wheel_rev` (encoder pulses per wheel revolution)", source=str(paths[0])
         )
-    nominal = nominal_geometry(opts, str(paths[0]))
+    nominal = nominal_geometry(opts, str(paths[0]), recorded)
     return read_generic_csv(paths, nominal, ppr, opts.get("ticks") or "cumulative", side_m)
 
 
 def _load_bag(paths: list, side_m: float | None, opts: dict) -> Dataset:
+    """One bag, or several bags as the runs of one test (each bag one run, or cut into runs)."""
+    if len(paths) == 1:
+        return _read_one_bag(paths[0], side_m, opts)
+    from dataclasses import replace
+
+    sets = [_read_one_bag(p, side_m, opts) for p in paths]
+    runs, names, warnings = [], set(), []
+    for ds in sets:
+        warnings += ds.meta.get("warnings") or ()
+        for r in ds.runs:
+            if len(ds.runs) == 1:
+                name = ds.name
+            elif "#" in r.name:  # a piece between stops: "bag#3" -> "<bag's name>#3"
+                name = ds.name + r.name[r.name.index("#") :]
+            else:
+                name = f"{ds.name}/{r.name}"
+            base, k = name, 2
+            while name in names:
+                name, k = f"{base}~{k}", k + 1
+            names.add(name)
+            runs.append(replace(r, name=name))
+    first = sets[0]
+    return Dataset(
+        f"{first.name}..{sets[-1].name}",
+        first.nominal,
+        first.units_per_rev,
+        tuple(runs),
+        side_m,
+        first.source,
+        meta={
+            "format": "bag",
+            "warnings": tuple(warnings),
+            "sources": tuple(str(p) for p in paths),
+            "time_offset": tuple(o for ds in sets for o in ds.meta.get("time_offset") or ()),
+        },
+    )
+
+
+def _read_one_bag(path, side_m: float | None, opts: dict) -> Dataset:
     from umbmark.io.rosbag import read_bag
 
-    if len(paths) != 1:
-        raise InputError("one bag per data set")
     joints = opts.get("joints")
     if isinstance(joints, str):
         joints = parse_joints(joints)
@@ -160,8 +262,8 @@ def _load_bag(paths: list, side_m: float | None, opts: dict) -> Dataset:
     if isinstance(ranges, str):
         ranges = parse_ranges(ranges)
     return read_bag(
-        paths[0],
-        nominal=nominal_geometry(opts, str(paths[0])),
+        path,
+        nominal=nominal_geometry(opts, str(path)),
         joints=joints,
         joint_topic=opts.get("joint_topic") or "/joint_states",
         ticks_topic=opts.get("ticks_topic"),
@@ -176,6 +278,8 @@ def _load_bag(paths: list, side_m: float | None, opts: dict) -> Dataset:
         stops=bool(opts.get("split_stops")),
         stop_s=opts.get("stop_s") or 1.0,
         side_m=side_m,
+        odom_topic=opts.get("odom_topic"),
+        time_offset=opts.get("time_offset"),
     )
 
 

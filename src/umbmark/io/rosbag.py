@@ -40,7 +40,14 @@ from pathlib import Path
 import numpy as np
 
 from umbmark.errors import InputError
-from umbmark.model.dataset import Dataset, Run, WheelGeometry, split_at_stops
+from umbmark.model.dataset import (
+    Dataset,
+    Run,
+    WheelGeometry,
+    replay_increments,
+    split_at_stops,
+    wheel_travel_from_poses,
+)
 
 __all__ = [
     "read_bag",
@@ -86,6 +93,12 @@ def _open(path):
     # A ROS 2 storage file given directly: open its folder when it has the metadata.
     if p.is_file() and p.suffix in (".db3", ".mcap") and (p.parent / "metadata.yaml").is_file():
         p = p.parent
+    elif p.is_file() and p.suffix == ".db3":
+        raise InputError(
+            "a ROS 2 .db3 file is read with its bag folder's metadata.yaml, and there is none beside it: "
+            "give the bag folder as recorded (the .db3 file with its metadata.yaml)",
+            source=str(path),
+        )
     try:
         reader = AnyReader([p], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
         reader.open()
@@ -108,15 +121,54 @@ class TopicInfo:
         The message type (e.g. ``sensor_msgs/msg/JointState``).
     messages : int
         How many messages it holds.
+    rate_hz : float or None
+        Messages per second over its time span in the bag (None: fewer than two messages).
+    joint_names : tuple of str
+        ``sensor_msgs/JointState``: the joint names its messages carry (first seen first).
+    frame_id : str or None
+        Messages with a header (poses, odometry, scans): the ``header.frame_id`` of the first.
+    child_frame_id : str or None
+        ``nav_msgs/Odometry``: the ``child_frame_id`` of the first message.
+    transforms : tuple of (str, str)
+        ``tf2_msgs/TFMessage``: the ``(parent, child)`` frames of its transforms.
     """
 
     topic: str
     type: str
     messages: int
+    rate_hz: float | None = None
+    joint_names: tuple[str, ...] = ()
+    frame_id: str | None = None
+    child_frame_id: str | None = None
+    transforms: tuple[tuple[str, str], ...] = ()
 
     def to_dict(self) -> dict:
-        """``topic``, ``type``, ``messages``."""
-        return {"topic": self.topic, "type": self.type, "messages": self.messages}
+        """``topic``, ``type``, ``messages``, ``rate_hz``; ``joint_names`` (JointState),
+        ``frame_id`` (messages with a header), ``child_frame_id`` (Odometry), ``transforms``
+        (TFMessage: ``parent``, ``child``) where the topic has them."""
+        d: dict = {"topic": self.topic, "type": self.type, "messages": self.messages, "rate_hz": self.rate_hz}
+        kind = self.type.split("/")[-1]
+        if kind == "JointState":
+            d["joint_names"] = list(self.joint_names)
+        if self.frame_id is not None:
+            d["frame_id"] = self.frame_id
+        if self.child_frame_id is not None:
+            d["child_frame_id"] = self.child_frame_id
+        if kind == "TFMessage":
+            d["transforms"] = [{"parent": p, "child": c} for p, c in self.transforms]
+        return d
+
+    def describe(self) -> str:
+        """What a topic's messages name, in words (joints, frames), for tables and messages."""
+        if self.joint_names:
+            return "joints " + ", ".join(self.joint_names)
+        if self.transforms:
+            return ", ".join(f"{p} -> {c}" for p, c in self.transforms)
+        if self.child_frame_id is not None:
+            return f"{self.frame_id} -> {self.child_frame_id}"
+        if self.frame_id:
+            return f"frame {self.frame_id}"
+        return ""
 
 
 @dataclass(frozen=True)
@@ -172,14 +224,64 @@ def bag_info(path) -> BagInfo:
         counts: dict[str, list] = {}
         for c in reader.connections:
             counts.setdefault(c.topic, [c.msgtype, 0])[1] += c.msgcount
+        span: dict[str, list] = {}
+        seen: dict[str, dict] = {}
+        for c, ns, raw in reader.messages():
+            sp = span.setdefault(c.topic, [ns, ns])
+            sp[0], sp[1] = min(sp[0], ns), max(sp[1], ns)
+            info = seen.setdefault(c.topic, {"n": 0, "joints": [], "frame": None, "child": None, "tf": []})
+            if info["n"] >= _LOOK_AT or c.msgtype.split("/")[-1] not in _DESCRIBED:
+                continue
+            info["n"] += 1
+            try:
+                _describe(reader.deserialize(raw, c.msgtype), info)
+            except Exception:  # a message rosbags cannot decode: the topic is listed without details
+                info["n"] = _LOOK_AT
+        topics = []
+        for name, (kind, n) in sorted(counts.items()):
+            a, b = span.get(name, (0, 0))
+            info = seen.get(name, {})
+            topics.append(
+                TopicInfo(
+                    name,
+                    kind,
+                    n,
+                    rate_hz=(n - 1) / ((b - a) * 1e-9) if n >= 2 and b > a else None,
+                    joint_names=tuple(info.get("joints", ())),
+                    frame_id=info.get("frame"),
+                    child_frame_id=info.get("child"),
+                    transforms=tuple(info.get("tf", ())),
+                )
+            )
         return BagInfo(
             bag=str(path),
             duration_s=reader.duration * 1e-9 if reader.message_count else 0.0,
             messages=reader.message_count,
-            topics=tuple(TopicInfo(name, kind, n) for name, (kind, n) in sorted(counts.items())),
+            topics=tuple(topics),
         )
     finally:
         reader.close()
+
+
+_LOOK_AT = 100  # messages per topic that bag_info decodes for joint names and frames
+_DESCRIBED = ("JointState", "PoseStamped", "PoseWithCovarianceStamped", "Odometry", "TFMessage", "LaserScan", "Imu")
+
+
+def _describe(msg, info: dict) -> None:
+    """Collect the joint names and frames of one message into ``info``."""
+    for j in getattr(msg, "name", None) or ():
+        if isinstance(j, str) and j not in info["joints"]:
+            info["joints"].append(j)
+    h = getattr(msg, "header", None)
+    if h is not None and info["frame"] is None:
+        info["frame"] = h.frame_id.lstrip("/")
+    child = getattr(msg, "child_frame_id", None)
+    if isinstance(child, str) and info["child"] is None:
+        info["child"] = child.lstrip("/")
+    for tr in getattr(msg, "transforms", None) or ():
+        pair = (tr.header.frame_id.lstrip("/"), tr.child_frame_id.lstrip("/"))
+        if pair not in info["tf"] and len(info["tf"]) < 50:
+            info["tf"].append(pair)
 
 
 def _stamp(msg, bag_ns):
@@ -224,26 +326,39 @@ def _yaw(q) -> float:
 def _topic_conns(reader, topic, source, what):
     conns = [c for c in reader.connections if c.topic == topic]
     if not conns:
-        have = ", ".join(sorted({c.topic for c in reader.connections})) or "none"
-        raise InputError(f"no topic {topic!r} for the {what} (topics: {have})", source)
+        raise InputError(f"no topic {topic!r} for the {what} (topics: {_topics_hint(reader)})", source)
     return conns
 
 
 def _read_joints(reader, joints, joint_topic: str, src: str):
     """Times and positions [rad] of the two wheel joints in JointState messages."""
     left, right = joints
-    conns = _topic_conns(reader, joint_topic, src, "wheel joints")
+    conns = _typed_conns(reader, joint_topic, ("JointState",), src, "wheel joints")
     t, pl, pr = [], [], []
-    for c, ns, raw in reader.messages(connections=conns):
+    seen: set[str] = set()
+    for n, (c, ns, raw) in enumerate(reader.messages(connections=conns), 1):
         msg = reader.deserialize(raw, c.msgtype)
         names = list(getattr(msg, "name", []))
         if left in names and right in names:
             pos = msg.position
+            i, j = names.index(left), names.index(right)
+            if len(pos) <= max(i, j):
+                raise InputError(
+                    f"JointState message {n} on {joint_topic} names {len(names)} joints but carries "
+                    f"{len(pos)} positions: no position for {names[max(i, j)]!r}",
+                    src,
+                )
             t.append(_stamp(msg, ns))
-            pl.append(float(pos[names.index(left)]))
-            pr.append(float(pos[names.index(right)]))
+            pl.append(float(pos[i]))
+            pr.append(float(pos[j]))
+        elif len(seen) < 50:
+            seen.update(names)
     if not t:
-        raise InputError(f"no JointState message on {joint_topic} names both joints {left!r} and {right!r}", src)
+        raise InputError(
+            f"no JointState message on {joint_topic} names both joints {left!r} and {right!r} "
+            f"(joints there: {', '.join(sorted(seen)) or 'none'}; `joints` takes LEFT,RIGHT)",
+            src,
+        )
     return t, pl, pr
 
 
@@ -290,6 +405,44 @@ def _read_truth(reader, gt_topic: str, gt_frame, gt_parent, src: str) -> list[tu
     return gt
 
 
+def _read_odom(reader, odom_topic: str, nominal: WheelGeometry, src: str):
+    """Times and cumulative wheel angles [rad] of the wheel travel that the odometry on
+    ``odom_topic`` integrated: its pose increments turned back into left and right wheel travel
+    through the nominal wheelbase (exact arcs, :func:`wheel_travel_from_poses`) and into wheel
+    angles through the nominal diameters. Replayed with the nominal geometry they give back the
+    recorded odometry, whatever the odom frame's origin (each run is measured from its start)."""
+    conns = _typed_conns(reader, odom_topic, ("Odometry",), src, "wheel odometry")
+    rows = []
+    for c, ns, raw in reader.messages(connections=conns):
+        msg = reader.deserialize(raw, c.msgtype)
+        p = msg.pose.pose
+        rows.append((_stamp(msg, ns), p.position.x, p.position.y, _yaw(p.orientation)))
+    a = np.asarray(rows, dtype=float)
+    a = a[np.argsort(a[:, 0], kind="stable")]
+    a = a[np.concatenate([[True], np.diff(a[:, 0]) > 0])]
+    if len(a) < 2:
+        raise InputError(f"fewer than two odometry poses on {odom_topic}", src)
+    if not np.all(np.isfinite(a)):
+        raise InputError(f"the odometry poses on {odom_topic} contain NaN or infinite values", src)
+    dl, dr = wheel_travel_from_poses(a[:, 1], a[:, 2], np.unwrap(a[:, 3]), nominal.wheelbase_m)
+    pl = np.cumsum(dl) / (0.5 * nominal.diameter_left_m)
+    pr = np.cumsum(dr) / (0.5 * nominal.diameter_right_m)
+    return a[:, 0], pl, pr
+
+
+def _wheel_hint(reader) -> str:
+    """The wheel sources a bag offers, for the message that asks for one."""
+    kinds: dict[str, list[str]] = {}
+    for c in reader.connections:
+        kinds.setdefault(c.msgtype.split("/")[-1], []).append(c.topic)
+    hints = []
+    if "Odometry" in kinds:
+        hints.append(f"its nav_msgs/Odometry (`odom_topic`, e.g. `odom_topic={sorted(kinds['Odometry'])[0]}`)")
+    if "JointState" in kinds:
+        hints.append(f"the wheel joints of its JointState topic {sorted(kinds['JointState'])[0]} (`joints`)")
+    return (": this bag offers " + " or ".join(hints)) if hints else ""
+
+
 def _whole_run(t, pl, pr, cumulative: bool, gt, src: str) -> Run:
     """The bag as one run: wheel samples in time order (repeated times dropped), increments,
     and the ground truth interpolated to the wheel samples (the run limited to its span)."""
@@ -322,11 +475,74 @@ def _whole_run(t, pl, pr, cumulative: bool, gt, src: str) -> Run:
         gtk = np.column_stack(
             [np.interp(t, g[:, 0], g[:, 1]), np.interp(t, g[:, 0], g[:, 2]), np.interp(t, g[:, 0], th)]
         )
+        _truth_at_rest(t, dl, dr, g[:, 0], np.column_stack([g[:, 1], g[:, 2], th]), gtk)
     return Run("bag", t - t[0], dl, dr, gtk, None, src)
 
 
-def _cut_runs(whole: Run, ranges, stops: bool, stop_s: float, units_per_rev: float, src: str) -> list[Run]:
-    """The runs of the bag: cut at time ranges, or at stops, or the whole bag."""
+def _truth_at_rest(t, dl, dr, tg, poses, gtk) -> None:
+    """Where the wheels stand still from sample i to sample j, the robot is at rest from t[i]
+    to t[j]: the ground truth at i (at j) becomes its first (last) measurement in that time,
+    in place of the interpolation across the start (end) of the stop, which blends in a pose
+    measured while moving when the ground truth is sampled more slowly than the wheels. (A
+    robot carried during a pause is measured before and after it is carried.)"""
+    still = np.concatenate([[False], (dl[1:] == 0) & (dr[1:] == 0), [False]])
+    edges = np.flatnonzero(np.diff(still.astype(np.int8)))
+    first_inc, last_inc = edges[0::2] + 1, edges[1::2]  # still increments first_inc..last_inc
+    i, j = first_inc - 1, last_inc
+    lo = np.searchsorted(tg, t[i], side="left")
+    hi = np.searchsorted(tg, t[j], side="right") - 1
+    ok = lo <= hi
+    gtk[i[ok]] = poses[lo[ok]]
+    gtk[j[ok]] = poses[hi[ok]]
+
+
+def _turn_deg(run: Run, nominal: WheelGeometry, units_per_rev: float) -> float:
+    """The total turn of a run's nominal odometry [deg]."""
+    th = replay_increments(run.d_left, run.d_right, nominal.params(units_per_rev), end=True)[2]
+    return math.degrees(float(np.reshape(th, -1)[0]))
+
+
+def _one_square(turn_deg: float) -> bool:
+    return abs(abs(turn_deg) - 360.0) <= 45.0
+
+
+def _square_runs(whole: Run, nominal: WheelGeometry, units_per_rev: float, stop_s: float, src: str, warnings: list):
+    """The runs of a square bag cut neither by time ranges nor at stops: the whole bag when it
+    turns about one revolution, else the pieces between its stops when each of them does."""
+    turn = _turn_deg(whole, nominal, units_per_rev)
+    if _one_square(turn):
+        return [whole.slice(0, len(whole), name="run-01")]
+    pieces = split_at_stops(whole, units_per_rev, stop_s=stop_s)
+    turns = [_turn_deg(p, nominal, units_per_rev) for p in pieces]
+    if len(pieces) >= 2 and all(_one_square(t) for t in turns):
+        n_cw = sum(t < 0 for t in turns)
+        warnings.append(
+            f"{src}: the odometry turns {turn:.0f} deg over the whole bag, not about +-360 deg as on one "
+            f"UMBmark square: split where both wheels stand still for {stop_s:g} s into {len(pieces)} runs "
+            f"({n_cw} cw, {len(pieces) - n_cw} ccw); give `split_stops` to split it so without this warning"
+        )
+        return pieces
+    found = ", ".join(f"{t:.0f}" for t in turns) or "none"
+    raise InputError(
+        f"the odometry turns {turn:.0f} deg over the whole bag, not about +-360 deg as on one UMBmark square, "
+        f"and the pauses of at least {stop_s:g} s do not cut it into squares (turns of the pieces [deg]: {found}): "
+        "cut the runs with `ranges` (START-END seconds from the first wheel sample), or with `split_stops` "
+        "and a `stop_s` shorter than the pauses between runs and longer than the stops inside a run",
+        src,
+    )
+
+
+def _cut_runs(
+    whole: Run,
+    ranges,
+    stops: bool,
+    stop_s: float,
+    units_per_rev: float,
+    src: str,
+    square: tuple[WheelGeometry, list] | None = None,
+) -> list[Run]:
+    """The runs of the bag: cut at time ranges, or at stops, or the whole bag (for squares,
+    ``square=(nominal, warnings)``: split at stops when the whole bag is not one square)."""
     if ranges:
         runs = []
         for n, (a, b) in enumerate(ranges, 1):
@@ -340,6 +556,8 @@ def _cut_runs(whole: Run, ranges, stops: bool, stop_s: float, units_per_rev: flo
         if not runs:
             raise InputError("no motion found to split at stops", src)
         return runs
+    if square is not None:
+        return _square_runs(whole, square[0], units_per_rev, stop_s, src, square[1])
     return [whole.slice(0, len(whole), name="run-01")]
 
 
@@ -362,6 +580,8 @@ def read_bag(
     stop_s: float = 1.0,
     side_m: float | None = None,
     name: str | None = None,
+    odom_topic: str | None = None,
+    time_offset: float | str | None = None,
 ) -> Dataset:
     """Read one bag into a data set (see the module docstring).
 
@@ -374,7 +594,12 @@ def read_bag(
     joints : (str, str), optional
         The left and right wheel joints of ``sensor_msgs/JointState`` messages; or:
     ticks_topic, left_field, right_field : str, optional
-        A topic of encoder counts and the fields of the left and right count.
+        A topic of encoder counts and the fields of the left and right count; or:
+    odom_topic : str, optional
+        A ``nav_msgs/Odometry`` topic (the odometry the robot computed, e.g. diff_drive_controller's
+        ``/odom``): its pose increments are turned back into left and right wheel angles through
+        the nominal wheelbase and diameters (log units radians), so that the replay with the
+        nominal geometry is the recorded odometry.
     joint_topic : str
         The JointState topic.
     ticks : str
@@ -392,9 +617,16 @@ def read_bag(
     stop_s : float
         The stillness that ends a run.
     side_m : float, optional
-        The side of the square: the runs are UMBmark squares.
+        The side of the square: the runs are UMBmark squares. Without ``ranges`` and
+        ``stops``, a bag whose nominal odometry does not turn about one revolution is split at
+        its stops when every piece does (with a warning in ``meta["warnings"]``), else refused
+        with what to give.
     name : str, optional
         The data set's name (default: the bag's).
+    time_offset : None, "auto" or float
+        The ground truth's delay against the wheels [s]: None estimates and reports it (a
+        warning when it is large), ``"auto"`` also subtracts the estimate from the ground
+        truth's stamps, a number subtracts that (:func:`umbmark.model.timing.check_streams`).
 
     Returns
     -------
@@ -406,13 +638,28 @@ def read_bag(
         Unreadable bags, missing topics, joints or fields, and bad content.
     """
     src = str(path)
-    if (joints is None) == (ticks_topic is None):
-        raise InputError("give either the wheel joint names (JointState) or a ticks topic with its fields", src)
+    n_sources = sum(v is not None for v in (joints, ticks_topic, odom_topic))
+    if n_sources > 1:
+        raise InputError(
+            "give one source of wheel data, not several: the wheel joints (`joints`), a ticks topic "
+            "(`ticks_topic`) or an odometry topic (`odom_topic`)",
+            src,
+        )
     if ticks not in ("cumulative", "incremental"):
         raise InputError(f"ticks must be 'cumulative' or 'incremental', got {ticks!r}", src)
     reader = _open(path)
     try:
-        if joints is not None:
+        if not n_sources:
+            raise InputError(
+                "give the wheel data: the wheel joints (`joints`) of a JointState topic, a ticks topic with "
+                f"its fields (`ticks_topic`) or an odometry topic (`odom_topic`){_wheel_hint(reader)} "
+                f"(topics: {_topics_hint(reader)})",
+                src,
+            )
+        if odom_topic is not None:
+            t, pl, pr = _read_odom(reader, odom_topic, nominal, src)
+            cumulative, upr = True, 2.0 * math.pi
+        elif joints is not None:
             t, pl, pr = _read_joints(reader, joints, joint_topic, src)
             cumulative, upr = True, 2.0 * math.pi
         else:
@@ -425,9 +672,34 @@ def read_bag(
         gt = None if gt_topic is None else _read_truth(reader, gt_topic, gt_frame, gt_parent, src)
     finally:
         reader.close()
+    from umbmark.model.timing import check_streams
+
+    kind = "odometry poses" if odom_topic else "joint states" if joints is not None else "encoder counts"
+    chk = check_streams(
+        t,
+        pl,
+        pr,
+        None if gt is None else np.asarray(gt, dtype=float),
+        metres_per_unit_left=math.pi * nominal.diameter_left_m / upr,
+        metres_per_unit_right=math.pi * nominal.diameter_right_m / upr,
+        wheelbase_m=nominal.wheelbase_m,
+        cumulative=cumulative,
+        time_offset=time_offset,
+        wheel_what=kind,
+        wheel_topic=str(odom_topic or (joint_topic if joints is not None else ticks_topic)),
+        truth_topic=str(gt_topic),
+        source=src,
+    )
+    t, pl, pr = chk.t, chk.left, chk.right
+    gt = None if chk.truth is None else [tuple(row) for row in chk.truth.tolist()]
     whole = _whole_run(t, pl, pr, cumulative, gt, src)
-    runs = _cut_runs(whole, ranges, stops, stop_s, upr, src)
-    return Dataset(name or Path(path).stem, nominal, upr, tuple(runs), side_m, src, meta={"format": "bag"})
+    warnings: list[str] = list(chk.warnings)
+    square = None if side_m is None else (nominal, warnings)
+    runs = _cut_runs(whole, ranges, stops, stop_s, upr, src, square)
+    meta = {"format": "bag", "warnings": tuple(warnings)}
+    if chk.time_offset is not None:
+        meta["time_offset"] = ({"bag": src, **chk.time_offset.to_dict()},)
+    return Dataset(name or Path(path).stem, nominal, upr, tuple(runs), side_m, src, meta=meta)
 
 
 # -- lidar self-calibration ------------------------------------------------------------------------

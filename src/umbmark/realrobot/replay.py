@@ -225,14 +225,15 @@ def prepare(ds: Dataset) -> tuple[Dataset, list[str], np.ndarray]:
         ``ds`` with ``directions`` detected (:func:`detect_directions`); unchanged when it is not
         a square data set.
     warnings : list of str
-        The detection's warnings.
+        The reader's warnings (``ds.meta["warnings"]``) and the detection's.
     turn : numpy.ndarray
         The runs' total turns [rad] (empty for general paths).
     """
+    read = list(ds.meta.get("warnings") or ())
     if not ds.is_square:
-        return ds, [], np.array([])
+        return ds, read, np.array([])
     dirs, turn, warnings = detect_directions(ds)
-    return replace(ds, directions=tuple(dirs)), warnings, turn
+    return replace(ds, directions=tuple(dirs)), read + warnings, turn
 
 
 def _check_method(method: str) -> None:
@@ -421,6 +422,7 @@ def _report(ds: Dataset, method: str, cal: Calibrated, turn, warnings, heldout: 
         after=evaluate(ds, cal.geometry),
         warnings=tuple(warnings),
         heldout=heldout,
+        time_offset=tuple(ds.meta.get("time_offset") or ()),
     )
 
 
@@ -679,7 +681,7 @@ def stream_log(
         ``decimate``, or a bad log (file and line named).
     """
     from umbmark.io.generic_csv import iter_generic_csv
-    from umbmark.io.load import detect_format, nominal_geometry
+    from umbmark.io.load import csv_recorded_geometry, detect_format, nominal_geometry
     from umbmark.io.poses_csv import write_poses_csv
 
     if isinstance(path, (list, tuple)):
@@ -697,12 +699,13 @@ def stream_log(
             "streaming replays one run with the given geometry; UMBmark squares (`side_mm`) need "
             "the whole data set (replay it without `stream`)"
         )
-    ppr = opts.get("pulses_per_wheel_rev")
+    recorded, recorded_ppr = csv_recorded_geometry([path])
+    ppr = opts.get("pulses_per_wheel_rev") or recorded_ppr
     if ppr is None:
         raise InputError(
             "the CSV log needs `pulses_per_wheel_rev` (encoder pulses per wheel revolution)", source=str(path)
         )
-    nominal = nominal_geometry(opts, str(path))
+    nominal = nominal_geometry(opts, str(path), recorded)
     rep = stream_replay(
         iter_generic_csv(path, opts.get("ticks") or "cumulative", chunk_rows), nominal, ppr, decimate=decimate
     )
