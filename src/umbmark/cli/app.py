@@ -133,6 +133,7 @@ PARAM_FLAGS = {
     "side_mm": "--side-mm",
     "split_stops": "--split-stops",
     "stop_s": "--stop-s",
+    "straight_mm": "--straight-mm",
     "stream": "--stream",
     "ticks_topic": "--ticks-topic",
     "time_offset": "--time-offset",

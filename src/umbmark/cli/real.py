@@ -749,7 +749,13 @@ def export(
     """
     from dataclasses import replace
 
-    from umbmark.io.export import ExportCalibration, calibration_from_json, format_export, write_export
+    from umbmark.io.export import (
+        ExportCalibration,
+        calibration_from_json,
+        export_warnings,
+        format_export,
+        write_export,
+    )
 
     flags = (c_left, c_right, eb)
     if calibration is not None:
@@ -778,6 +784,8 @@ def export(
         wheel_radius_m,
         wheel_separation_m,
     )
+    for w in export_warnings(cal, left_multiplier, right_multiplier, separation_multiplier):
+        click.echo(f"warning: {cli_message(w)}", err=True)
     rec = _record_selfcal(calibration, robot, record, db) if record else None
     if out:
         write_export(text, out)

@@ -37,6 +37,7 @@ from __future__ import annotations
 import json
 import math
 import re
+import unicodedata
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -52,6 +53,10 @@ __all__ = [
     "calibration_from_json",
     "urdf_origin",
     "static_transform_command",
+    "export_warnings",
+    "scale_note",
+    "FACTOR_LIMITS",
+    "PLAUSIBLE_FACTORS",
 ]
 
 FORMATS = ("ros2", "ros1", "json", "firmware", "urdf", "tf")
@@ -61,6 +66,38 @@ _TF2_ARGS = ("x", "y", "z", "roll", "pitch", "yaw", "frame-id", "child-frame-id"
 
 
 _FRAME = re.compile(r"[A-Za-z0-9_./][A-Za-z0-9_./-]*")
+_CONTROLLER = re.compile(r"[A-Za-z0-9_~/.][A-Za-z0-9_~/.-]*")
+_PARAM_TICKS = re.compile(r"`([^`]*)`")
+
+# a factor outside these is no correction of a wheel or a wheelbase: refused
+FACTOR_LIMITS = (1e-3, 1e3)
+# sizes and counts written (mm, pulses per revolution, mm per pulse): refused outside these
+_SIZE_LIMITS = (1e-9, 1e12)
+# factors beyond these are far from any calibration of a real robot: a warning
+PLAUSIBLE_FACTORS = {"c": (0.8, 1.25), "Ed": (0.8, 1.25), "Eb": (0.5, 2.0)}
+
+
+def _plain(text) -> str:
+    """A string as one line of plain text: control characters, line and paragraph separators
+    (a newline, NUL, U+2028 ...) and format characters written as escapes (``\\x0a``)."""
+    out = []
+    for ch in str(text):
+        if unicodedata.category(ch) in ("Cc", "Cf", "Cs", "Co", "Cn", "Zl", "Zp"):
+            out.append(f"\\x{ord(ch):02x}" if ord(ch) < 256 else f"\\u{ord(ch):04x}")
+        else:
+            out.append(ch)
+    return "".join(out)
+
+
+def _c_comment(text: str) -> str:
+    """Text for the inside of a C comment: one line, no ``*/`` (nor ``/*``)."""
+    return _plain(text).replace("*/", "*\\/").replace("/*", "/\\*")
+
+
+def _xml_comment(text: str) -> str:
+    """Text for the inside of an XML comment: one line, no ``--``, not ending in ``-``."""
+    t = re.sub(r"-(?=-)", "- ", _plain(text))
+    return t + " " if t.endswith("-") else t
 
 
 def _finite(name, v, source=None) -> float:
@@ -73,6 +110,28 @@ def _pos(name, v, source=None):
     if v is None or not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0):
         raise InputError(f"{name} must be a positive number, got {v!r}", source=source)
     return float(v)
+
+
+def _factor(name, v, source=None) -> float:
+    """A correction factor: positive, finite, within :data:`FACTOR_LIMITS`."""
+    v = _pos(name, v, source)
+    lo, hi = FACTOR_LIMITS
+    if not lo <= v <= hi:
+        raise InputError(
+            f"{name} = {v:.6g} is not a correction factor (a wheel or wheelbase {lo:g} to {hi:g} times the nominal "
+            "one): refusing to export it",
+            source=source,
+        )
+    return v
+
+
+def _size(name, v, source=None) -> float:
+    """A size or count to write: positive, finite, within :data:`_SIZE_LIMITS`."""
+    v = _pos(name, v, source)
+    lo, hi = _SIZE_LIMITS
+    if not lo <= v <= hi:
+        raise InputError(f"{name} = {v:.6g} is not a usable value ({lo:g} to {hi:g}): refusing to export it", source)
+    return v
 
 
 @dataclass(frozen=True)
@@ -99,12 +158,17 @@ class ExportCalibration:
         The rest of its mounting pose (not calibrated: the nominal one).
     base_frame, sensor_frame : str
         The frames of the transform (``base_link`` -> ``laser``).
+    scale_observed : bool or None
+        Whether the method measured the wheel scale (the mean diameter): False for ``bf`` and
+        for ``exact`` without a straight run (a closed square hides it), True for ``lsq`` with
+        the scale fitted and for a lidar self-calibration, None when unknown.
 
     Raises
     ------
     InputError
-        A factor or size that is not a positive number, a sensor pose that is not finite, a
-        frame name with spaces, quotes or markup characters.
+        A factor or size that is not a positive number, a factor outside
+        :data:`FACTOR_LIMITS`, a sensor pose that is not finite, a frame name with spaces,
+        quotes or markup characters.
     """
 
     c_left: float
@@ -122,13 +186,22 @@ class ExportCalibration:
     sensor_pitch_rad: float = 0.0
     base_frame: str = "base_link"
     sensor_frame: str = "laser"
+    scale_observed: bool | None = None
 
     def __post_init__(self):
         for k in ("c_left", "c_right", "eb"):
-            _pos(k, getattr(self, k), self.source)
-        for k in ("nominal_diameter_left_m", "nominal_diameter_right_m", "nominal_wheelbase_m", "pulses_per_wheel_rev"):
+            object.__setattr__(self, k, _factor(k, getattr(self, k), self.source))
+        for k in ("nominal_diameter_left_m", "nominal_diameter_right_m", "nominal_wheelbase_m"):
             if getattr(self, k) is not None:
-                _pos(k, getattr(self, k), self.source)
+                _size(k[:-2] + "_mm", getattr(self, k) * 1e3, self.source)
+        if self.pulses_per_wheel_rev is not None:
+            object.__setattr__(
+                self, "pulses_per_wheel_rev", _size("pulses_per_wheel_rev", self.pulses_per_wheel_rev, self.source)
+            )
+        if self.source is not None:
+            object.__setattr__(self, "source", str(self.source))
+        if self.method is not None:
+            object.__setattr__(self, "method", str(self.method))
         if self.sensor_pose is not None:
             pose = tuple(_finite("sensor_pose", v, self.source) for v in self.sensor_pose)
             if len(pose) != 3:
@@ -187,12 +260,48 @@ def _selfcal_calibration(d: dict, src: str) -> ExportCalibration:
         math.radians(rest["pitch_deg"]),
         str(d.get("base_frame") or "base_link"),
         str(d.get("sensor_frame") or "laser"),
+        scale_observed=True,
+    )
+
+
+def _scale_observed(d: dict) -> bool | None:
+    """Whether the method behind a replay or analyze JSON measured the wheel scale."""
+    method = d.get("method")
+    if method == "lsq":
+        return bool(d["scale_fitted"]) if isinstance(d.get("scale_fitted"), bool) else None
+    if method == "bf":
+        return False
+    if method == "exact":  # measured only with a straight run: E_s of the pass is then not exactly 1
+        es = d.get("Es_pass")
+        return isinstance(es, (int, float)) and not isinstance(es, bool) and es != 1.0
+    return None
+
+
+def _calibrate_calibration(d: dict, src: str) -> ExportCalibration:
+    """The final calibration in the JSON of ``umbmark calibrate``: its factors relative to the
+    odometry of the first pass."""
+    final, passes = d.get("final_calibration"), d.get("passes")
+    if not isinstance(final, dict) or not isinstance(passes, list) or not passes or not isinstance(passes[0], dict):
+        raise InputError("no final calibration: not the JSON of umbmark calibrate (or the loop made none)", src)
+    first = passes[0].get("calibration_used")
+    if not isinstance(first, dict):
+        raise InputError("no 'calibration_used' in the first pass: not the JSON of umbmark calibrate", src)
+    b0 = _pos("wheelbase_mm of the first pass", first.get("wheelbase_mm"), src)
+    b = _pos("final wheelbase_mm", final.get("wheelbase_mm"), src)
+    return ExportCalibration(
+        final.get("c_left"),
+        final.get("c_right"),
+        b / b0,
+        nominal_wheelbase_m=b0 * 1e-3,
+        source=src,
+        method=d.get("method"),
+        scale_observed=False,
     )
 
 
 def calibration_from_json(path, dataset: str | None = None) -> ExportCalibration:
-    """Read a calibration from the JSON of ``umbmark replay --json``, ``umbmark analyze --json``
-    or ``umbmark selfcal --json``.
+    """Read a calibration from the JSON of ``umbmark replay --json``, ``umbmark analyze --json``,
+    ``umbmark calibrate --json`` or ``umbmark selfcal --json``.
 
     Parameters
     ----------
@@ -237,6 +346,8 @@ def calibration_from_json(path, dataset: str | None = None) -> ExportCalibration
         d = d["datasets"][names.index(dataset)]
     if d.get("method") == "selfcal" or ("sensor_pose" in d and "nominal_wheel_diameter_mm" in d):
         return _selfcal_calibration(d, src)
+    if "final_calibration" in d:
+        return _calibrate_calibration(d, src)
     for k in ("c_left", "c_right"):
         if k not in d:
             raise InputError(f"no {k!r}: not the JSON of umbmark replay or analyze", source=src)
@@ -264,6 +375,7 @@ def calibration_from_json(path, dataset: str | None = None) -> ExportCalibration
         nom.get("units_per_wheel_rev"),
         src,
         d.get("method"),
+        scale_observed=_scale_observed(d),
     )
 
 
@@ -286,24 +398,97 @@ def ros_multipliers(cal: ExportCalibration, left0: float = 1.0, right0: float = 
     Raises
     ------
     InputError
-        A multiplier that is not a positive number.
+        A multiplier (in use or new) that is not a positive number within :data:`FACTOR_LIMITS`.
     """
     for n, v in (("left multiplier", left0), ("right multiplier", right0), ("separation multiplier", separation0)):
-        _pos(n, v)
-    return {
+        _factor(n, v)
+    out = {
         "wheel_separation_multiplier": separation0 * cal.eb,
         "left_wheel_radius_multiplier": left0 * cal.c_left,
         "right_wheel_radius_multiplier": right0 * cal.c_right,
     }
+    for k, v in out.items():
+        _factor(k, v, cal.source)
+    return out
 
 
 def _header(cal: ExportCalibration, comment: str) -> str:
+    """The first comment line (plain text: the caller escapes it for its format)."""
     src = f" from {cal.source}" if cal.source else ""
     meth = f" (method {cal.method})" if cal.method else ""
     return (
         f"{comment} umbmark calibration{src}{meth}: E_d = {cal.ed:.6f}, c_L = {cal.c_left:.6f}, "
         f"c_R = {cal.c_right:.6f}, E_b = {cal.eb:.6f}\n"
     )
+
+
+def scale_note(cal: ExportCalibration) -> str | None:
+    """What the export says about the wheel scale when the method could not see it.
+
+    Parameters
+    ----------
+    cal : ExportCalibration
+        The calibration.
+
+    Returns
+    -------
+    str or None
+        None when the scale was measured (``scale_observed`` True) or nothing is known of
+        the method; else one line saying the mean wheel diameter is the nominal one and how to
+        measure it.
+    """
+    if cal.scale_observed is not False:
+        return None
+    how = _plain(cal.method) if cal.method else "this method"
+    return (
+        f"wheel scale not measured: {how} cannot see it (a closed square hides the mean wheel diameter), so "
+        "the wheel factors keep the nominal mean diameter; measure the scale with a straight run of known "
+        "length (analyze, method exact, `straight_mm`) or a ground-truth or lidar track (replay, method lsq)"
+    )
+
+
+def _outside(name: str, v: float, key: str) -> str | None:
+    lo, hi = PLAUSIBLE_FACTORS[key]
+    if lo <= v <= hi:
+        return None
+    return (
+        f"{name} = {v:.6g} is far outside the corrections of real robots ({lo:g} to {hi:g}): check the "
+        "calibration (units, the nominal geometry it was made with) before loading it"
+    )
+
+
+def export_warnings(
+    cal: ExportCalibration, left0: float = 1.0, right0: float = 1.0, separation0: float = 1.0
+) -> list[str]:
+    """The warnings an export of ``cal`` carries: implausible factors, an unmeasured scale.
+
+    Parameters
+    ----------
+    cal : ExportCalibration
+        The calibration.
+    left0, right0, separation0 : float
+        The diff_drive_controller multipliers in use (``ros2``, ``ros1``).
+
+    Returns
+    -------
+    list of str
+        One message per finding (parameters named in backticks).
+    """
+    found = [
+        _outside("c_left", cal.c_left, "c"),
+        _outside("c_right", cal.c_right, "c"),
+        _outside("E_d = c_right / c_left", cal.ed, "Ed"),
+        _outside("E_b", cal.eb, "Eb"),
+    ]
+    if (left0, right0, separation0) != (1.0, 1.0, 1.0):
+        m = ros_multipliers(cal, left0, right0, separation0)
+        found += [
+            _outside("left_wheel_radius_multiplier", m["left_wheel_radius_multiplier"], "c"),
+            _outside("right_wheel_radius_multiplier", m["right_wheel_radius_multiplier"], "c"),
+            _outside("wheel_separation_multiplier", m["wheel_separation_multiplier"], "Eb"),
+        ]
+    found.append(scale_note(cal))
+    return [w for w in found if w]
 
 
 def format_export(
@@ -340,10 +525,20 @@ def format_export(
     ------
     InputError
         An unknown format, a bad controller name, a firmware export without the nominal
-        diameters and pulses per revolution, a ``urdf`` or ``tf`` export without a sensor pose.
+        diameters and pulses per revolution, a ``urdf`` or ``tf`` export without a sensor pose,
+        a value to write that is not finite, not positive or absurd (see :data:`FACTOR_LIMITS`).
+
+    Notes
+    -----
+    Every string of the calibration (its source, its method) is written as data: through the
+    YAML and JSON libraries, or as one line of plain text in a comment escaped for the format
+    (no line breaks, no ``*/`` in C, no ``--`` in XML). The warnings of :func:`export_warnings`
+    (implausible factors, a wheel scale the method could not see) are comments in the file
+    (``warnings`` and ``scale_note`` in ``json``).
     """
     if fmt not in FORMATS:
         raise InputError(f"unknown export format {fmt!r} (choose from {', '.join(FORMATS)})")
+    notes = [_PARAM_TICKS.sub(r"\1", w) for w in export_warnings(cal, left0, right0, separation0)]
     if fmt in _SENSOR_FORMATS:
         if cal.sensor_pose is None:
             raise InputError(
@@ -351,21 +546,23 @@ def format_export(
                 "(umbmark selfcal)"
             )
         if fmt == "urdf":
-            return f"<!-- {_header(cal, '').strip().replace('--', '- -')} -->\n{urdf_origin(cal)}\n"
+            comments = "".join(f"<!-- warning: {_xml_comment(w)} -->\n" for w in notes)
+            return f"<!-- {_xml_comment(_header(cal, '').strip())} -->\n{comments}{urdf_origin(cal)}\n"
         return (
-            _header(cal, "#")
+            _hash_comment(_header(cal, "").strip())
+            + "".join(_hash_comment("warning: " + w) for w in notes)
             + f"# the pose of {cal.sensor_frame} in {cal.base_frame}; ROS 1: {static_transform_command(cal, ros=1)}\n"
             + static_transform_command(cal)
             + "\n"
         )
     if fmt in ("ros2", "ros1"):
-        if not controller or any(c in controller for c in ":{}[]#, \t\n"):
-            raise InputError(f"bad controller name {controller!r}")
+        if not isinstance(controller, str) or not _CONTROLLER.fullmatch(controller):
+            raise InputError(f"bad controller name {controller!r} (letters, digits, _ / ~ . -)")
         params = ros_multipliers(cal, left0, right0, separation0)
         if wheel_radius_m is not None:
-            params = {"wheel_radius": _pos("wheel radius", wheel_radius_m), **params}
+            params = {"wheel_radius": _size("wheel radius", wheel_radius_m * 1e3) * 1e-3, **params}
         if wheel_separation_m is not None:
-            params = {"wheel_separation": _pos("wheel separation", wheel_separation_m), **params}
+            params = {"wheel_separation": _size("wheel separation", wheel_separation_m * 1e3) * 1e-3, **params}
         body = {controller: {"ros__parameters": params}} if fmt == "ros2" else {controller: params}
         note = (
             f"# composed with the multipliers in use: left {left0:.6g}, right {right0:.6g}, "
@@ -373,18 +570,26 @@ def format_export(
         )
         import yaml
 
-        text = _header(cal, "#") + note + yaml.safe_dump(body, sort_keys=False, default_flow_style=False)
+        text = (
+            _hash_comment(_header(cal, "").strip())
+            + "".join(_hash_comment("warning: " + w) for w in notes)
+            + note
+            + yaml.safe_dump(body, sort_keys=False, default_flow_style=False)
+        )
         return text + _sensor_comment(cal, 2 if fmt == "ros2" else 1)
     out: dict = {"Ed": cal.ed, "Eb": cal.eb, "c_left": cal.c_left, "c_right": cal.c_right}
     if cal.nominal_diameter_left_m and cal.nominal_diameter_right_m:
-        out["diameter_left_mm"] = cal.c_left * cal.nominal_diameter_left_m * 1e3
-        out["diameter_right_mm"] = cal.c_right * cal.nominal_diameter_right_m * 1e3
+        out["diameter_left_mm"] = _size("diameter_left_mm", cal.c_left * cal.nominal_diameter_left_m * 1e3)
+        out["diameter_right_mm"] = _size("diameter_right_mm", cal.c_right * cal.nominal_diameter_right_m * 1e3)
     if cal.nominal_wheelbase_m:
-        out["wheelbase_mm"] = cal.eb * cal.nominal_wheelbase_m * 1e3
+        out["wheelbase_mm"] = _size("wheelbase_mm", cal.eb * cal.nominal_wheelbase_m * 1e3)
     mmpp = None
     if cal.nominal_diameter_left_m and cal.nominal_diameter_right_m and cal.pulses_per_wheel_rev:
         k = math.pi / cal.pulses_per_wheel_rev * 1e3
-        mmpp = (cal.c_left * cal.nominal_diameter_left_m * k, cal.c_right * cal.nominal_diameter_right_m * k)
+        mmpp = (
+            _size("left_mm_per_pulse", cal.c_left * cal.nominal_diameter_left_m * k),
+            _size("right_mm_per_pulse", cal.c_right * cal.nominal_diameter_right_m * k),
+        )
         out["left_mm_per_pulse"], out["right_mm_per_pulse"] = mmpp
     if cal.sensor_pose is not None:
         x, y, yaw = cal.sensor_pose
@@ -398,6 +603,11 @@ def format_export(
         }
         out["base_frame"], out["sensor_frame"] = cal.base_frame, cal.sensor_frame
     if fmt == "json":
+        out["scale_observed"] = cal.scale_observed
+        if scale_note(cal):
+            out["scale_note"] = _PARAM_TICKS.sub(r"\1", scale_note(cal) or "")
+        out["method"], out["source"] = cal.method, cal.source
+        out["warnings"] = notes
         return json.dumps(out, indent=2) + "\n"
     # firmware
     if mmpp is None:
@@ -405,8 +615,9 @@ def format_export(
             "the firmware export needs the nominal wheel diameters and encoder pulses per wheel "
             "revolution (give `wheel_diameter_mm` and `pulses_per_wheel_rev`, or use replay's JSON)"
         )
-    lines = [
-        "/* " + _header(cal, "").strip() + " */",
+    lines = ["/* " + _c_comment(_header(cal, "").strip()) + " */"]
+    lines += ["/* warning: " + _c_comment(w) + " */" for w in notes]
+    lines += [
         "#ifndef UMBMARK_CALIBRATION_H",
         "#define UMBMARK_CALIBRATION_H",
         f"#define UMBMARK_LEFT_MM_PER_PULSE  {mmpp[0]:.9g}",
@@ -416,6 +627,11 @@ def format_export(
         lines.append(f"#define UMBMARK_WHEELBASE_MM       {out['wheelbase_mm']:.6f}")
     lines.append("#endif")
     return "\n".join(lines) + "\n"
+
+
+def _hash_comment(text: str) -> str:
+    """One ``#`` comment line (YAML, shell) holding ``text`` as plain text."""
+    return f"# {_plain(text)}\n"
 
 
 def _n(v: float) -> str:
