@@ -14,10 +14,12 @@ Topics (header stamps and bag times are the sample times, from ``epoch_s``):
   as float32 with ``inf`` for no return (``time_increment`` 0: the scans are instantaneous);
 * ``/odom`` (``nav_msgs/Odometry``, ``odom`` -> ``base_link``, optional) at the wheel rate:
   the odometry of the nominal geometry, its twist in the robot frame;
-* ``/tf_static`` (``tf2_msgs/TFMessage``), once at the start: ``base_link`` -> ``laser``, the
+* ``/tf_static`` (``tf2_msgs/TFMessage``, optional), once at the start: ``base_link`` -> ``laser``, the
   sensor pose (latched in ROS 1, transient-local in ROS 2);
 * ``/ground_truth`` (``geometry_msgs/PoseStamped``, frame ``map``, optional) at the wheel rate:
-  the true robot pose in the room.
+  the true robot pose in the room;
+* ``/imu`` (``sensor_msgs/Imu``, frame ``base_link``, optional): the turn rates of a gyro
+  (``angular_velocity.z`` [rad/s]; orientation unknown: ``orientation_covariance[0]`` is -1).
 
 A bag is written into a temporary name beside its destination and moved there when complete:
 a failed write leaves nothing behind, and an existing bag is never overwritten.
@@ -34,6 +36,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from umbmark.errors import InputError
 from umbmark.model.drive import DriveLog
@@ -62,6 +65,7 @@ _T = {
     "odom": ("/odom", "nav_msgs/msg/Odometry"),
     "tf_static": ("/tf_static", "tf2_msgs/msg/TFMessage"),
     "truth": ("/ground_truth", "geometry_msgs/msg/PoseStamped"),
+    "imu": ("/imu", "sensor_msgs/msg/Imu"),
 }
 
 
@@ -110,7 +114,15 @@ def _quat(T: Any, yaw: float) -> Any:
 class _Messages:
     """Builds the messages of one drive for one typestore (ROS 1 headers carry a sequence number)."""
 
-    def __init__(self, log: DriveLog, ts: Any, ros1: bool, epoch_s: float, joints: tuple[str, str]) -> None:
+    def __init__(
+        self,
+        log: DriveLog,
+        ts: Any,
+        ros1: bool,
+        epoch_s: float,
+        joints: tuple[str, str],
+        gyro: tuple[np.ndarray, np.ndarray] | None = None,
+    ) -> None:
         self.log, self.T, self.ros1, self.joints = log, ts.types, ros1, list(joints)
         self.wheel_ns = _stamp_ns(epoch_s, log.t_s)
         self.scan_ns = _stamp_ns(epoch_s, log.scan_t_s)
@@ -119,6 +131,8 @@ class _Messages:
         self.vel_r = np.concatenate([[0.0], np.diff(log.right_rad) / dt])
         self._odom: np.ndarray | None = None
         self._seq: dict[str, int] = {}
+        self.gyro: tuple[np.ndarray, np.ndarray] | None = gyro
+        self.gyro_ns = None if gyro is None else _stamp_ns(epoch_s, gyro[0])
 
     def header(self, ns: int, frame: str, key: str) -> Any:
         T = self.T
@@ -200,7 +214,22 @@ class _Messages:
         )
         return T["tf2_msgs/msg/TFMessage"](transforms=[tr])
 
-    def stream(self, odom: bool, truth: bool):
+    def imu(self, k: int) -> Any:
+        T = self.T
+        t_s, rate = self.gyro  # type: ignore[misc]
+        vec = T["geometry_msgs/msg/Vector3"]
+        cov = np.zeros(9)
+        return T["sensor_msgs/msg/Imu"](
+            header=self.header(int(self.gyro_ns[k]), BASE_FRAME, "imu"),
+            orientation=T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=0.0, w=1.0),
+            orientation_covariance=np.array([-1.0] + [0.0] * 8),
+            angular_velocity=vec(x=0.0, y=0.0, z=float(rate[k])),
+            angular_velocity_covariance=cov,
+            linear_acceleration=vec(x=0.0, y=0.0, z=9.81),
+            linear_acceleration_covariance=cov,
+        )
+
+    def stream(self, odom: bool, truth: bool, tf_static: bool = True):
         """``(ns, key, message factory)`` of every message, in time order (ties: in topic order)."""
         n = len(self.log.t_s)
         wheel = (
@@ -208,11 +237,14 @@ class _Messages:
             + ([("odom", self.odom)] if odom else [])
             + ([("truth", self.truth)] if truth else [])
         )
-        streams = [[(int(self.wheel_ns[0]), 0, "tf_static", -1)]]
+        streams = [[(int(self.wheel_ns[0]), 0, "tf_static", -1)]] if tf_static else []
         for order, (key, _) in enumerate(wheel, start=1):
             streams.append([(int(self.wheel_ns[k]), order, key, k) for k in range(n)])
         streams.append([(int(self.scan_ns[m]), len(wheel) + 1, "scan", m) for m in range(len(self.log.scan_t_s))])
         make = dict(wheel, scan=self.scan)
+        if self.gyro is not None:
+            streams.append([(int(ns), len(wheel) + 2, "imu", k) for k, ns in enumerate(self.gyro_ns)])
+            make["imu"] = self.imu
         for ns, _, key, i in heapq.merge(*streams):
             yield ns, key, (self.tf_static() if key == "tf_static" else make[key](i))
 
@@ -239,14 +271,24 @@ def _static_qos() -> list[Any]:
     ]
 
 
-def _write(log: DriveLog, target: Path, storage: str, epoch_s: float, joints, odom: bool, truth: bool) -> None:
+def _write(
+    log: DriveLog,
+    target: Path,
+    storage: str,
+    epoch_s: float,
+    joints,
+    odom: bool,
+    truth: bool,
+    tf_static: bool = True,
+    gyro: tuple[np.ndarray, np.ndarray] | None = None,
+) -> None:
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
     ros1 = storage == "ros1"
     ts = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
     if _T["tf_static"][1] not in ts.types:  # the ROS 1 store has no tf2_msgs: its definition
         ts.register(get_types_from_msg("geometry_msgs/TransformStamped[] transforms", _T["tf_static"][1]))
-    msgs = _Messages(log, ts, ros1, epoch_s, joints)
+    msgs = _Messages(log, ts, ros1, epoch_s, joints, gyro)
     if ros1:
         from rosbags.rosbag1 import Writer as Writer1
 
@@ -261,8 +303,10 @@ def _write(log: DriveLog, target: Path, storage: str, epoch_s: float, joints, od
         serialize = ts.serialize_cdr
     with writer:
         conns = {}
-        for key in ("tf_static", "joint", "odom", "truth", "scan"):
+        for key in ("tf_static", "joint", "odom", "truth", "scan", "imu"):
             if (key == "odom" and not odom) or (key == "truth" and not truth):
+                continue
+            if (key == "tf_static" and not tf_static) or (key == "imu" and gyro is None):
                 continue
             topic, mtype = _T[key]
             if key == "tf_static":
@@ -270,7 +314,7 @@ def _write(log: DriveLog, target: Path, storage: str, epoch_s: float, joints, od
             else:
                 extra = {}
             conns[key] = writer.add_connection(topic, mtype, typestore=ts, **extra)
-        for ns, key, msg in msgs.stream(odom, truth):
+        for ns, key, msg in msgs.stream(odom, truth, tf_static):
             writer.write(conns[key], ns, serialize(msg, _T[key][1]))
 
 
@@ -283,6 +327,8 @@ def write_drive_bag(
     truth: bool = False,
     epoch_s: float = EPOCH_S,
     joints: tuple[str, str] = JOINT_NAMES,
+    tf_static: bool = True,
+    gyro: tuple[ArrayLike, ArrayLike] | None = None,
 ) -> Path:
     """Write ``log`` as a ROS bag (see the module docstring for the topics).
 
@@ -302,6 +348,11 @@ def write_drive_bag(
         The time of the drive's start [s since 1970].
     joints : (str, str)
         The names of the left and right wheel joints.
+    tf_static : bool
+        Write ``/tf_static`` (the lidar's mounting pose).
+    gyro : (array_like, array_like), optional
+        Write ``/imu``: the times [s, from the drive's start] and turn rates [rad/s] of a gyro
+        (e.g. :meth:`umbmark.model.sensors.Gyro.measure`).
 
     Returns
     -------
@@ -311,9 +362,15 @@ def write_drive_bag(
     Raises
     ------
     InputError
-        ``path`` exists, its folder does not, a bad storage or epoch, or the ``rosbags``
-        package missing.
+        ``path`` exists, its folder does not, a bad storage or epoch, gyro arrays of different
+        lengths or not finite, or the ``rosbags`` package missing.
     """
+    rates = None
+    if gyro is not None:
+        g_t, g_w = (np.asarray(a, dtype=float).reshape(-1) for a in gyro)
+        if g_t.shape != g_w.shape or not (np.all(np.isfinite(g_t)) and np.all(np.isfinite(g_w))):
+            raise InputError("`gyro` must be two finite arrays of one length (times, turn rates)")
+        rates = (g_t, g_w)
     dest = Path(path)
     fmt = storage_of(dest, storage)
     if not (math.isfinite(epoch_s) and epoch_s >= 0):
@@ -330,7 +387,7 @@ def write_drive_bag(
     work = Path(tempfile.mkdtemp(prefix=f".{dest.name}.", dir=parent))
     try:
         target = work / dest.name
-        _write(log, target, fmt, epoch_s, tuple(joints), odom, truth)
+        _write(log, target, fmt, epoch_s, tuple(joints), odom, truth, tf_static, rates)
         if dest.exists() or dest.is_symlink():
             raise InputError("appeared while the bag was written: not overwriting it", str(dest))
         os.rename(target, dest)

@@ -22,7 +22,8 @@ true pose at each scan time. The result is a :class:`DriveLog`.
 Programs: :func:`mixed_program` (straights, arcs of both signs, spins both ways and pauses,
 planned so the robot stays at least ``clearance_m`` from every wall), and the simpler
 :func:`straight_only`, :func:`spins_only` and :func:`one_way_turns`, which leave parts of the
-calibration unobservable.
+calibration unobservable; :func:`square_program`, one UMBmark run at rest before and after.
+:func:`concatenate_drives` joins drives as if the robot had been carried between them.
 """
 
 from __future__ import annotations
@@ -55,6 +56,8 @@ __all__ = [
     "spins_only",
     "one_way_turns",
     "default_start",
+    "square_program",
+    "concatenate_drives",
     "MAX_SAMPLES",
 ]
 
@@ -916,3 +919,142 @@ def one_way_turns(
     arc_cmd = Command(quarter * radius_m / speed_mps, speed_mps, speed_mps / radius_m)
     spin_cmd = Command(quarter / omega_radps, 0.0, omega_radps)
     return _repeat([arc_cmd, spin_cmd], duration_s, step_s)
+
+
+def square_program(
+    direction: str,
+    side_m: float = 2.0,
+    *,
+    speed_mps: float = 0.25,
+    omega_radps: float = 0.5 * math.pi / 4.0,
+    pause_s: float = 0.5,
+    rest_s: float = 3.0,
+) -> Program:
+    """One UMBmark run: four legs of ``side_m`` and four on-the-spot 90 degree turns, at rest before and after.
+
+    The robot rests ``rest_s`` seconds, then drives each leg and turns (to the right for
+    ``cw``, to the left for ``ccw``), pausing ``pause_s`` seconds after every leg and turn
+    but the last, and rests ``rest_s`` seconds at the end.
+
+    Parameters
+    ----------
+    direction : str
+        ``"cw"`` or ``"ccw"``.
+    side_m : float
+        The side of the square [m].
+    speed_mps : float
+        Speed along the legs [m/s].
+    omega_radps : float
+        Turn rate of the turns [rad/s].
+    pause_s : float
+        Stillness between a leg and its turn (0: none; keep it below the stillness that ends a run).
+    rest_s : float
+        Stillness before and after the run [s].
+
+    Returns
+    -------
+    Program
+
+    Raises
+    ------
+    InputError
+        An unknown direction or a parameter that is not positive (``pause_s`` may be 0).
+    """
+    if direction not in ("cw", "ccw"):
+        raise InputError(f"`direction` must be 'cw' or 'ccw', got {direction!r}")
+    for name, v in (("side_m", side_m), ("speed_mps", speed_mps), ("omega_radps", omega_radps), ("rest_s", rest_s)):
+        _check_rate(name, v)
+    if not (math.isfinite(pause_s) and pause_s >= 0):
+        raise InputError(f"`pause_s` must be >= 0, got {pause_s!r}")
+    turn = -omega_radps if direction == "cw" else omega_radps
+    out = [Command(rest_s)]
+    for leg in range(4):
+        out.append(Command(side_m / speed_mps, speed_mps, 0.0))
+        if pause_s > 0:
+            out.append(Command(pause_s))
+        out.append(Command(0.5 * math.pi / omega_radps, 0.0, turn))
+        if pause_s > 0 and leg < 3:
+            out.append(Command(pause_s))
+    out.append(Command(rest_s))
+    return Program(tuple(out))
+
+
+def concatenate_drives(logs: Sequence[DriveLog]) -> DriveLog:
+    """Several drives of one robot as one log, as if the robot had been carried between them.
+
+    Drive ``i + 1`` starts one wheel sample after drive ``i`` ended, at its own start pose (the
+    wheels do not turn in between: the robot was lifted and put down at rest); the wheel angles
+    continue from where they were. Each drive should end and start at rest.
+
+    Parameters
+    ----------
+    logs : sequence of DriveLog
+        Drives of the same robot, lidar and rates.
+
+    Returns
+    -------
+    DriveLog
+        Times, wheel angles, true poses and scans of all drives in order (seed and commands of
+        the first drive).
+
+    Raises
+    ------
+    InputError
+        No drives, or drives of different robots, lidars or rates.
+    """
+    logs = list(logs)
+    if not logs:
+        raise InputError("no drives to concatenate")
+    first = logs[0]
+    for lg in logs[1:]:
+        same = (
+            lg.wheel_rate_hz == first.wheel_rate_hz
+            and lg.scan_rate_hz == first.scan_rate_hz
+            and lg.lidar == first.lidar
+            and lg.sensor_pose == first.sensor_pose
+            and lg.nominal_geometry == first.nominal_geometry
+            and lg.true_geometry == first.true_geometry
+        )
+        if not same:
+            raise InputError("drives to concatenate must have one robot, lidar and sampling rates")
+    dt = 1.0 / first.wheel_rate_hz
+    t: list[np.ndarray] = []
+    left: list[np.ndarray] = []
+    right: list[np.ndarray] = []
+    scan_t: list[np.ndarray] = []
+    tl: list[np.ndarray] = []
+    tr: list[np.ndarray] = []
+    t0, l0, r0 = 0.0, 0.0, 0.0
+    for i, lg in enumerate(logs):
+        if i:
+            tl.append(np.zeros(1))
+            tr.append(np.zeros(1))
+        t.append(lg.t_s + t0)
+        scan_t.append(lg.scan_t_s + t0)
+        left.append(lg.left_rad + l0)
+        right.append(lg.right_rad + r0)
+        tl.append(lg.travel_left_m)
+        tr.append(lg.travel_right_m)
+        t0 = float(t[-1][-1]) + dt
+        l0, r0 = float(left[-1][-1]), float(right[-1][-1])
+    return DriveLog(
+        t_s=np.concatenate(t),
+        left_rad=np.concatenate(left),
+        right_rad=np.concatenate(right),
+        true_pose=np.concatenate([lg.true_pose for lg in logs]),
+        travel_left_m=np.concatenate(tl),
+        travel_right_m=np.concatenate(tr),
+        scan_t_s=np.concatenate(scan_t),
+        scan_pose=np.concatenate([lg.scan_pose for lg in logs]),
+        ranges_m=np.concatenate([lg.ranges_m for lg in logs]),
+        angles_rad=first.angles_rad,
+        lidar=first.lidar,
+        sensor_pose=first.sensor_pose,
+        nominal_geometry=first.nominal_geometry,
+        true_geometry=first.true_geometry,
+        room=first.room,
+        wheel_rate_hz=first.wheel_rate_hz,
+        scan_rate_hz=first.scan_rate_hz,
+        commands=tuple(c for lg in logs for c in lg.commands),
+        seed=first.seed,
+    )
