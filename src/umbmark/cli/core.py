@@ -205,16 +205,24 @@ def _next_commands(a: Analysis, runs_file, side_mm, method, c_left, c_right, los
     return again, export
 
 
-def _print_analysis(a: Analysis, again: str, export: str) -> None:
+def _analysis_dict(a: Analysis, plausibility: list[str]) -> dict:
+    """The analysis as a dict, its warnings after the plausibility checks' (each once)."""
+    d = a.to_dict()
+    d["warnings"] = list(dict.fromkeys(plausibility + d.get("warnings", [])))
+    return d
+
+
+def _print_analysis(a: Analysis, again: str, export: str, plausibility: list[str] | None = None) -> None:
     """The human output of ``umbmark analyze``: the figures, what each means, and what to do next.
 
     ``again``: the command that analyses the runs of the calibrated robot; ``export``: the
-    command that writes this analysis as JSON for ``umbmark export``.
+    command that writes this analysis as JSON for ``umbmark export``; ``plausibility``: the
+    warnings of the plausibility checks.
     """
     from rich.markup import escape
 
     c = console()
-    d = a.to_dict()
+    d = _analysis_dict(a, plausibility or [])
     res = a.result
     c.print(
         _stats_table(
@@ -412,10 +420,12 @@ def analyze(
       umbmark analyze runs.csv --wheelbase-mm 340 --side-mm 4000 --robot r1 --record
     """
     from umbmark.correct.analysis import analyze as analyze_runs
+    from umbmark.correct.plausibility import check_geometry, runs_warnings
     from umbmark.io.runs_csv import read_runs_csv
 
     side_m = positive("--side-mm", side_mm) * 1e-3
     wheelbase_m = positive("--wheelbase-mm", wheelbase_mm) * 1e-3
+    plausibility = check_geometry(side_m, wheelbase_m)
     options = {}
     if loss is not None:
         options["loss"] = loss
@@ -427,6 +437,7 @@ def analyze(
         raise InputError("--loss and --straight-mm need --method exact")
     runs = read_runs_csv(runs_file)
     prior = _prior(c_left, c_right)
+    plausibility += runs_warnings(runs, side_m)
     a = analyze_runs(runs, side_m, wheelbase_m, method, prior, **options)
     if plot_path:
         from umbmark.viz.plots import save_figure, scatter_figure
@@ -434,12 +445,16 @@ def analyze(
         save_figure(scatter_figure(runs, title=f"UMBmark: {Path(runs_file).name}"), plot_path)
     rec = record_if_requested(robot, record, db, analysis=a, kind="analyze", source=runs_file, prior=prior)
     if as_json:
-        out = {"file": str(runs_file), **a.to_dict()}
+        out = {"file": str(runs_file), **_analysis_dict(a, plausibility)}
         if rec:
             out["history"] = rec
+        for w in out["warnings"]:
+            click.echo(f"warning: {cli_message(w)}", err=True)
         emit_json(out)
     elif not is_quiet():
-        _print_analysis(a, *_next_commands(a, runs_file, side_mm, method, c_left, c_right, loss, straight_mm))
+        _print_analysis(
+            a, *_next_commands(a, runs_file, side_mm, method, c_left, c_right, loss, straight_mm), plausibility
+        )
         if plot_path:
             console().print(f"scatter plot: {plot_path}")
         print_recorded(rec)

@@ -77,13 +77,29 @@ def read_metadata(path) -> dict:
         A missing or unreadable file.
     """
     text = read_text(path)
-    meta = {}
+    meta: dict = {}
     for i, raw in enumerate(text.splitlines(), 1):
         cells = [c.strip() for c in raw.split(",")]
         if not cells or not cells[0]:
             continue
-        meta[cells[0]] = (i, [c for c in cells[1:] if c])
+        vals = [c for c in cells[1:] if c]
+        if cells[0] in USED_KEYS and cells[0] in meta and meta[cells[0]][1] != vals:
+            first = meta[cells[0]]
+            raise InputError(
+                f"metadata row {cells[0]!r} appears twice with different values ({','.join(first[1])} on line "
+                f"{first[0]}, {','.join(vals)} here): keep the right one",
+                str(path),
+                i,
+            )
+        meta[cells[0]] = (i, vals)
     return meta
+
+
+# the metadata rows the reader uses
+USED_KEYS = ("type", "ngear", "encRes", "Li", "Di", "N", "L")
+# a wheel diameter or wheelbase (m) beyond these is one given in millimetres
+_MAX_DIAMETER_M = 2.0
+_MAX_WHEELBASE_M = 5.0
 
 
 def _num(meta: dict, key: str, source: str, count: int = 1, required: bool = True):
@@ -149,6 +165,17 @@ def read_optiodom(folder) -> Dataset:
     if n != int(n):
         raise InputError(f"metadata N: {n!r} is not a whole number", src, meta["N"][0])
     n = int(n)
+    for key, values, top, what in (
+        ("Di", (d_right, d_left), _MAX_DIAMETER_M, "wheel diameter"),
+        ("Li", (b,), _MAX_WHEELBASE_M, "wheelbase"),
+    ):
+        if max(values) > top:
+            raise InputError(
+                f"metadata {key}: a {what} of {max(values):g} m: {key} is in metres ({max(values):g} mm would be "
+                f"{max(values) / 1e3:g})",
+                src,
+                meta[key][0],
+            )
     side = _num(meta, "L", src, required=False)
     prefix = mfile.name[: -len("_metadata.csv")]
     runs = []
@@ -160,18 +187,88 @@ def read_optiodom(folder) -> Dataset:
     expected = {f"{prefix}_run-{i:02d}.csv" for i in range(1, n + 1)}
     extra = sorted(p.name for p in folder.glob(f"{prefix}_run-*.csv") if p.name not in expected)
     directions = None
+    warnings = []
+    if extra:
+        warnings.append(
+            f"{src}: metadata says N = {n} runs but the folder also holds {', '.join(extra)}: they are ignored "
+            "(check N)"
+        )
     if side is not None and n % 2 == 0:
         directions = tuple(["cw"] * (n // 2) + ["ccw"] * (n // 2))
+    elif side is not None:
+        warnings.append(
+            f"{src}: N = {n} runs is odd, so the square runs are not half cw and half ccw as declared: check N "
+            "(each run's direction is taken from its odometry)"
+        )
+    nominal = WheelGeometry(d_left, d_right, b)
+    for run in runs:
+        warnings += _check_run(run, nominal, ngear * enc, src)
     return Dataset(
         name=folder.name,
-        nominal=WheelGeometry(d_left, d_right, b),
+        nominal=nominal,
         units_per_rev=ngear * enc,
         runs=tuple(runs),
         side_m=side,
         source=str(folder),
         directions=directions,
-        meta={"format": "optiodom", "gear_ratio": ngear, "pulses_per_rev": enc, "ignored_files": extra},
+        meta={
+            "format": "optiodom",
+            "gear_ratio": ngear,
+            "pulses_per_rev": enc,
+            "ignored_files": extra,
+            "warnings": tuple(warnings),
+        },
     )
+
+
+# the ground truth of a run that moves less than this never moved (nothing was tracked)
+_STILL_M = 1e-3
+_STILL_RAD = math.radians(0.5)
+# the wheels' travel against the ground truth's: outside these ratios the geometry's units are wrong
+_TRAVEL_RATIO = (0.5, 2.0)
+_STEP_S = 0.5
+_MIN_TURN_RAD = math.radians(90.0)
+
+
+def _check_run(run: Run, nominal: WheelGeometry, units_per_rev: float, meta_src: str) -> list[str]:
+    """The run's ground truth against its wheels and the metadata: an error for a ground truth
+    that never moves or headings in degrees, warnings for travel or turns that disagree."""
+    src = run.source or run.name
+    # compared every half second, so that the motion capture's jitter does not add up
+    k = np.unique(np.searchsorted(run.t, np.arange(0.0, run.t[-1], _STEP_S)))
+    k = np.append(k[k < len(run.t)], len(run.t) - 1)
+    gx, gy, gth = run.gt[k, 0], run.gt[k, 1], run.gt[k, 2]
+    gt_path = float(np.sum(np.hypot(np.diff(gx), np.diff(gy))))
+    gt_turn = float(np.sum(np.abs(np.diff(gth))))
+    dl = np.cumsum(run.d_left)[k] * math.pi * nominal.diameter_left_m / units_per_rev
+    dr = np.cumsum(run.d_right)[k] * math.pi * nominal.diameter_right_m / units_per_rev
+    wheel_path = float(np.sum(np.abs(np.diff(dl + dr)) / 2.0))
+    wheel_turn = float(np.sum(np.abs(np.diff(dr - dl)))) / nominal.wheelbase_m
+    if gt_path < _STILL_M and gt_turn < _STILL_RAD and wheel_path > 100 * _STILL_M:
+        raise InputError(
+            f"the ground truth never moves (x_gt, y_gt, theta_gt constant) while the wheels travel {wheel_path:.2f} m: "
+            "the robot was not tracked in this run",
+            src,
+        )
+    out = []
+    lo, hi = _TRAVEL_RATIO
+    if gt_path > 100 * _STILL_M and not lo <= wheel_path / gt_path <= hi:
+        out.append(
+            f"{src}: the wheels travel {wheel_path:.3g} m by the metadata's Di and encoder figures, the ground truth "
+            f"{gt_path:.3g} m: check Di (metres), ngear and encRes in {meta_src}"
+        )
+    elif wheel_turn > _MIN_TURN_RAD and lo * 180 / math.pi <= gt_turn / wheel_turn <= hi * 180 / math.pi:
+        out.append(
+            f"{src}: the ground truth turns {gt_turn:.3g} units in total, {gt_turn / wheel_turn:.0f} times what the "
+            f"wheels turn in radians: theta_gt looks like degrees (it is in radians)"
+        )
+    elif max(gt_turn, wheel_turn) > _MIN_TURN_RAD and not lo <= wheel_turn / gt_turn <= hi:
+        out.append(
+            f"{src}: the wheels turn the robot by {math.degrees(wheel_turn):.3g} deg in total by the metadata's Li, "
+            f"the ground truth by {math.degrees(gt_turn):.3g} deg: check Li (metres) in {meta_src} and that theta_gt "
+            "is in radians"
+        )
+    return out
 
 
 def read_run_file(path) -> Run:
