@@ -70,7 +70,9 @@ def test_add_and_read_back(tmp_path):
     assert r.wheelbase_mm == pytest.approx(336.0) and r.ed == 1.002 and r.eb == 0.988 and r.emax_syst_mm == 300.0
     assert r.results["nan"] is None and r.inputs == {"runs": [1, 2]} and r.software_version
     ex = export_parameters(r)
-    assert ex["wheelbase_m"] == pytest.approx(0.336) and ex["c_left"] == 0.999 and ex["record_id"] == rid
+    assert ex["corrected_wheelbase_m"] == pytest.approx(0.336) and ex["c_left"] == 0.999 and ex["record_id"] == rid
+    # no wheelbase in use recorded: the nominal one is the corrected one over E_b
+    assert ex["nominal_wheelbase_mm"] == pytest.approx(336.0 / 0.988) and "wheelbase_mm" not in ex
 
 
 def test_records_are_ordered_by_time_and_latest(tmp_path):
@@ -182,7 +184,8 @@ def test_three_calibrations_table_plot_export(tmp_path, three_runs_files, capsys
     assert main(["analyze", str(three_runs_files[2]), *ANALYZE, "--json"]) == 0
     a = json.loads(capsys.readouterr().out)
     assert exported["c_left"] == pytest.approx(a["c_left"], rel=1e-12)
-    assert exported["wheelbase_mm"] == pytest.approx(a["wheelbase_corrected_mm"], rel=1e-12)
+    assert exported["corrected_wheelbase_mm"] == pytest.approx(a["wheelbase_corrected_mm"], rel=1e-12)
+    assert exported["nominal_wheelbase_mm"] == pytest.approx(a["wheelbase_mm"], rel=1e-12)
 
     assert main(["history", "r1", "--json"]) == 0
     h = json.loads(capsys.readouterr().out)

@@ -32,7 +32,7 @@ from pathlib import Path
 
 import click
 
-from umbmark.cli.app import app, console, emit_json, fmt, is_quiet, positive, prior_options, table
+from umbmark.cli.app import app, cli_message, console, emit_json, fmt, is_quiet, positive, prior_options, table
 from umbmark.errors import InputError
 
 __all__ = ["history_options", "record_if_requested", "record_report_if_requested", "print_recorded"]
@@ -207,19 +207,25 @@ def history_cmd(robot, db, plot_path, export_path, limit, show_id, as_json):
 
     with open_history(db, create=False) as h:
         if show_id is not None:
-            emit_json(h.get(show_id).to_dict(full=True))
+            rec = h.get(show_id)
+            _print_warnings(h.warnings)
+            emit_json({**rec.to_dict(full=True), "warnings": h.warnings})
             return
         if robot is None:
             if plot_path or export_path:
                 raise click.UsageError("--plot and --export need a ROBOT")
             robots = h.robots()
+            _print_warnings(h.warnings)
             if as_json:
-                emit_json({"db": str(h.path), "robots": robots})
+                emit_json({"db": str(h.path), "robots": robots, "warnings": h.warnings})
             elif not is_quiet():
                 _print_robots(h.path, robots)
             return
-        h.latest(robot)  # no records of this robot: an error naming the robots there are
-        recs = h.records(robot, limit=limit)
+        # the newest record (an error naming the robots there are when it has none); the one
+        # exported: a damaged newest record is an error, not an older record exported instead
+        latest = h.latest(robot, strict=export_path is not None)
+        recs = h.records(robot, limit=limit) or [latest]
+        _print_warnings(h.warnings)
         if plot_path:
             from umbmark.viz.history_plot import history_figure
             from umbmark.viz.plots import save_figure
@@ -228,7 +234,7 @@ def history_cmd(robot, db, plot_path, export_path, limit, show_id, as_json):
         exported = None
         if export_path:
             suffix = Path(export_path).suffix.lower()
-            text = format_export(recs[-1], "yaml" if suffix in (".yaml", ".yml") else "json")
+            text = format_export(latest, "yaml" if suffix in (".yaml", ".yml") else "json")
             if export_path == "-":
                 sys.stdout.write(text)
             else:
@@ -244,12 +250,19 @@ def history_cmd(robot, db, plot_path, export_path, limit, show_id, as_json):
                     "records": [r.to_dict(full=False) for r in recs],
                     "plot": plot_path,
                     "export": exported,
+                    "warnings": h.warnings,
                 }
             )
             return
         if is_quiet() or export_path == "-":
             return
         _print_records(robot, recs, plot_path, exported)
+
+
+def _print_warnings(warnings: list[str]) -> None:
+    """Each warning of the history (damaged records) on stderr, one line each."""
+    for w in warnings:
+        click.echo(f"warning: {cli_message(w)}", err=True)
 
 
 def _print_robots(db_path, robots: list[dict]) -> None:

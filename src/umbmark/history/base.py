@@ -510,6 +510,17 @@ def _record(row, db="the history") -> tuple[Record, list[str]]:
         notes.append(f"record #{rid} in the history database {db}: column {col} holds {_short(v)}, not a number")
         return None
 
+    def numbers_in(d: dict, col: str) -> dict:
+        # the numbers every reader of a record uses; another value there is shown as missing
+        for k in ("c_left", "c_right", "wheelbase_mm", "wheelbase_m", "Ed", "Eb"):
+            v = d.get(k)
+            if v is not None and not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)):
+                notes.append(
+                    f"record #{rid} in the history database {db}: {k} in {col} holds {_short(v)}, not a number"
+                )
+                d[k] = None
+        return d
+
     name = text(1, "robot name")
     when = text(2, "created_utc")
     try:
@@ -527,8 +538,8 @@ def _record(row, db="the history") -> tuple[Record, list[str]]:
         text(7, "input_sha256", True),
         text(8, "source", True),
         obj(9, "results_json"),
-        obj(10, "parameters_json"),
-        obj(11, "parameters_in_use_json"),
+        numbers_in(obj(10, "parameters_json"), "parameters_json"),
+        numbers_in(obj(11, "parameters_in_use_json"), "parameters_in_use_json"),
         number(12, "emax_syst_mm"),
         number(13, "ed"),
         number(14, "eb"),
@@ -948,22 +959,32 @@ def runs_from_rows(rows: list[dict]):
 
     from umbmark.model.runs import RunsTable
 
+    if not isinstance(rows, list) or not rows or not all(isinstance(r, dict) for r in rows):
+        raise InputError("the stored runs are not a list of runs (a damaged record)")
     g = lambda k: np.array([r[k] for r in rows], dtype=float) * 1e-3  # noqa: E731
-    th = lambda k: np.radians([r[k] for r in rows]) if rows and all(k in r for r in rows) else None  # noqa: E731
-    return RunsTable.from_columns(
-        [r["direction"] for r in rows],
-        g("x_abs"),
-        g("y_abs"),
-        g("x_odo"),
-        g("y_odo"),
-        th("theta_abs"),
-        th("theta_odo"),
-        np.array([r["run"] for r in rows]),
-    )
+    th = lambda k: np.radians(np.array([r[k] for r in rows], dtype=float)) if all(k in r for r in rows) else None  # noqa: E731
+    try:
+        return RunsTable.from_columns(
+            [str(r["direction"]) for r in rows],
+            g("x_abs"),
+            g("y_abs"),
+            g("x_odo"),
+            g("y_odo"),
+            th("theta_abs"),
+            th("theta_odo"),
+            np.array([str(r["run"]) for r in rows]),
+        )
+    except KeyError as e:
+        raise InputError(f"a stored run has no {e.args[0]!r} (a damaged record)") from None
+    except (TypeError, ValueError) as e:
+        raise InputError(f"the stored runs hold a value that is not a number (a damaged record): {e}") from None
 
 
 def export_parameters(record: Record) -> dict:
-    """The parameters to load into the robot's odometry, from one record.
+    """The parameters to load into the robot's odometry, from one record, saying what each
+    holds: the wheel factors and E_b relative to the odometry the record's data were made
+    with, the wheelbase that odometry used (``nominal_wheelbase_mm``) and the corrected one
+    (``corrected_wheelbase_mm``), so that a reader (``umbmark export``) applies E_b once.
 
     Parameters
     ----------
@@ -973,15 +994,26 @@ def export_parameters(record: Record) -> dict:
     Returns
     -------
     dict
-        JSON-able: the record's robot, id, time, kind and method, ``c_left``, ``c_right``, the
-        wheelbase in metres and millimetres, ``Ed``, ``Eb``, the measured E_max,syst and the
-        version that made it.
+        JSON-able: the record's ``robot``, ``record_id``, ``time_utc``, ``kind`` and ``method``;
+        ``c_left``, ``c_right`` (factors on the nominal wheel diameters, any prior calibration
+        included), ``Ed``, ``Eb`` (corrected over nominal wheelbase); ``nominal_wheelbase_mm``
+        (the wheelbase the odometry used: the record's ``parameters_in_use``),
+        ``corrected_wheelbase_mm`` and ``corrected_wheelbase_m`` (the one to load); the nominal
+        wheel diameters and encoder units per wheel revolution when the record has them
+        (``nominal_diameter_left_mm``, ``nominal_diameter_right_mm``, ``units_per_wheel_rev``);
+        ``parameters_in_use`` (what the robot ran with, as recorded); the measured
+        ``emax_syst_mm_measured`` and the ``software_version`` that made it.
     """
     p = record.parameters
     wb_mm = _num(p.get("wheelbase_mm"))
     if wb_mm is None and _num(p.get("wheelbase_m")) is not None:
         wb_mm = _num(p.get("wheelbase_m")) * 1e3
-    return {
+    piu = record.parameters_in_use if isinstance(record.parameters_in_use, dict) else {}
+    nominal_wb = _num(piu.get("wheelbase_mm"))
+    eb = record.eb if record.eb is not None else _num(p.get("Eb"))
+    if nominal_wb is None and wb_mm is not None and eb:
+        nominal_wb = wb_mm / eb  # the record holds the corrected wheelbase and E_b only
+    d = {
         "robot": record.robot,
         "record_id": record.id,
         "time_utc": record.created_utc,
@@ -989,13 +1021,27 @@ def export_parameters(record: Record) -> dict:
         "method": record.method,
         "c_left": _num(p.get("c_left")),
         "c_right": _num(p.get("c_right")),
-        "wheelbase_m": None if wb_mm is None else wb_mm * 1e-3,
-        "wheelbase_mm": wb_mm,
         "Ed": record.ed,
-        "Eb": record.eb,
-        "emax_syst_mm_measured": record.emax_syst_mm,
-        "software_version": record.software_version,
+        "Eb": eb,
+        "nominal_wheelbase_mm": nominal_wb,
+        "corrected_wheelbase_mm": wb_mm,
+        "corrected_wheelbase_m": None if wb_mm is None else wb_mm * 1e-3,
     }
+    dl = _num(piu.get("diameter_left_mm", piu.get("wheel_diameter_mm")))
+    dr = _num(piu.get("diameter_right_mm", piu.get("wheel_diameter_mm")))
+    if dl is not None and dr is not None:
+        d["nominal_diameter_left_mm"], d["nominal_diameter_right_mm"] = dl, dr
+    units = _num(piu.get("units_per_wheel_rev"))
+    if units is not None:
+        d["units_per_wheel_rev"] = units
+    d.update(
+        {
+            "parameters_in_use": piu,
+            "emax_syst_mm_measured": record.emax_syst_mm,
+            "software_version": record.software_version,
+        }
+    )
+    return d
 
 
 def format_export(record: Record, fmt: str = "json") -> str:
@@ -1016,8 +1062,16 @@ def format_export(record: Record, fmt: str = "json") -> str:
     ------
     InputError
         For another format.
+    HistoryError
+        If the record holds no usable wheel factors or E_b (nothing to load).
     """
     d = jsonable(export_parameters(record))
+    for k in ("c_left", "c_right", "Eb"):
+        if not (d.get(k) is not None and d[k] > 0):
+            raise HistoryError(
+                f"record #{record.id} of robot {record.robot!r} holds no usable {k} "
+                f"({_short(d.get(k))}): nothing exported"
+            )
     if fmt == "json":
         return json.dumps(d, indent=2, allow_nan=False) + "\n"
     if fmt == "yaml":

@@ -299,6 +299,31 @@ def _calibrate_calibration(d: dict, src: str) -> ExportCalibration:
     )
 
 
+def _history_calibration(d: dict, src: str) -> ExportCalibration:
+    """The parameters of ``umbmark history ROBOT --export``: E_b from the corrected and the
+    nominal wheelbase it names (a file without ``corrected_wheelbase_mm`` held the corrected
+    wheelbase as ``wheelbase_mm``: its nominal one is that over E_b)."""
+    mm = lambda k: None if d.get(k) is None else _pos(k, d[k], src) * 1e-3  # noqa: E731
+    eb = _pos("Eb", d.get("Eb"), src)
+    if "corrected_wheelbase_mm" in d:
+        b, b0 = mm("corrected_wheelbase_mm"), mm("nominal_wheelbase_mm")
+        eb = b / b0 if b is not None and b0 is not None else eb
+    else:
+        b = mm("wheelbase_mm")
+        b0 = None if b is None else b / eb
+    return ExportCalibration(
+        d.get("c_left"),
+        d.get("c_right"),
+        eb,
+        mm("nominal_diameter_left_mm"),
+        mm("nominal_diameter_right_mm"),
+        b0,
+        d.get("units_per_wheel_rev"),
+        src,
+        d.get("method"),
+    )
+
+
 def calibration_from_json(path, dataset: str | None = None) -> ExportCalibration:
     """Read a calibration from the JSON of ``umbmark replay --json``, ``umbmark analyze --json``,
     ``umbmark calibrate --json`` or ``umbmark selfcal --json``.
@@ -344,6 +369,8 @@ def calibration_from_json(path, dataset: str | None = None) -> ExportCalibration
         if dataset not in names:
             raise InputError(f"no data set {dataset!r} (have {', '.join(map(str, names))})", source=src)
         d = d["datasets"][names.index(dataset)]
+    if "record_id" in d and ("corrected_wheelbase_mm" in d or "emax_syst_mm_measured" in d):
+        return _history_calibration(d, src)  # umbmark history ROBOT --export
     if d.get("method") == "selfcal" or ("sensor_pose" in d and "nominal_wheel_diameter_mm" in d):
         return _selfcal_calibration(d, src)
     if "final_calibration" in d:

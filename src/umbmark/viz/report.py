@@ -482,7 +482,7 @@ def history_report(records, *, title: str | None = None, db_path: str | None = N
     body.append(
         f'<div class="box"><p>Record #{latest.id} ({_e(latest.created_utc)}): '
         f"<b>c_left = {fmt(ex['c_left'], 6)}</b>, <b>c_right = {fmt(ex['c_right'], 6)}</b>, "
-        f"<b>wheelbase = {fmt(ex['wheelbase_mm'], 2)} mm</b>.</p></div>"
+        f"<b>wheelbase = {fmt(ex['corrected_wheelbase_mm'], 2)} mm</b>.</p></div>"
     )
     runs_rows = latest.inputs.get("runs") if isinstance(latest.inputs, dict) else None
     if runs_rows:
