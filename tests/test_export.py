@@ -159,3 +159,179 @@ def test_cli_export_errors(tmp_path, capsys, content, msg):
     err = capsys.readouterr().err
     assert msg in err and str(f) in err and err.count("\n") == 1
     assert main(["export", "--format", "ros2", "--c-left", "1"]) == 2
+
+
+# -- absurd values, plausibility, the wheel scale ------------------------------------------------
+
+
+@pytest.mark.parametrize(
+    "fields, msg",
+    [
+        ({"c_left": 1e308}, "c_left = 1e+308 is not a correction factor"),
+        ({"c_right": 1e-300}, "c_right = 1e-300 is not a correction factor"),
+        ({"Eb": 1e-300, "wheelbase_corrected_mm": None}, "eb = 1e-300 is not a correction factor"),
+        ({"c_left": float("inf")}, "c_left must be a positive number"),
+        ({"c_left": -1.0}, "c_left must be a positive number"),
+        ({"c_left": 0.0}, "c_left must be a positive number"),
+        ({"c_left": "1.0"}, "c_left must be a positive number"),
+        ({"c_left": True}, "c_left must be a positive number"),
+    ],
+)
+def test_absurd_factors_are_refused(tmp_path, capsys, fields, msg):
+    d = {
+        "method": "bf",
+        "c_left": 1.0,
+        "c_right": 1.0,
+        "Eb": 1.0,
+        "wheelbase_mm": 340.0,
+        "wheelbase_corrected_mm": 340.0,
+    }
+    d.update(fields)
+    d = {k: v for k, v in d.items() if v is not None}
+    f = tmp_path / "cal.json"
+    f.write_text(json.dumps(d).replace("Infinity", "1e999"))
+    out = tmp_path / "out.h"
+    for fmt in ("json", "ros2", "firmware"):
+        code = main(
+            ["export", str(f), "--format", fmt, "--out", str(out), "--wheel-diameter-mm", "150"]
+            + ["--pulses-per-wheel-rev", "1000"]
+        )
+        err = capsys.readouterr().err
+        assert code == 2 and msg in err and len(err.strip().splitlines()) == 1, err
+        assert not out.exists()
+
+
+def test_absurd_written_values_are_refused(capsys):
+    """Factors that are fine, a nominal geometry or multiplier that makes the written value absurd."""
+    cal = ExportCalibration(1.0, 1.0, 1.0, 0.15, 0.15, 0.34, 1000.0)
+    with pytest.raises(InputError, match="wheel separation multiplier = 1e-300|separation multiplier = 1e-300"):
+        format_export(cal, "ros2", separation0=1e-300)
+    with pytest.raises(InputError, match="left_wheel_radius_multiplier"):
+        format_export(ExportCalibration(900.0, 1.0, 1.0), "ros2", left0=900.0)
+    with pytest.raises(InputError, match="left_mm_per_pulse"):
+        format_export(ExportCalibration(1.0, 1.0, 1.0, 1e5, 1e5, 0.34, 1e-5), "firmware")
+    with pytest.raises(InputError, match="pulses_per_wheel_rev = 1e-300"):
+        ExportCalibration(1.0, 1.0, 1.0, 0.15, 0.15, 0.34, 1e-300)
+    with pytest.raises(InputError, match="nominal_diameter_left_mm = 1e\\+308"):
+        ExportCalibration(1.0, 1.0, 1.0, 1e305, 0.15, 0.34, 1000.0)
+    with pytest.raises(InputError, match="wheel radius"):
+        format_export(cal, "ros2", wheel_radius_m=1e300)
+    # the command line: one line, exit 2
+    for args in (
+        ["--c-left", "1e308", "--c-right", "1", "--eb", "1", "--format", "json"],
+        ["--c-left", "1", "--c-right", "1", "--eb", "1", "--format", "ros2", "--separation-multiplier", "1e-300"],
+        ["--c-left", "1", "--c-right", "1", "--eb", "1e-300", "--format", "ros2"],
+    ):
+        assert main(["export", *args]) == 2
+        err = capsys.readouterr().err
+        assert "not a correction factor" in err and len(err.strip().splitlines()) == 1
+
+
+def test_implausible_factors_are_warned_about(capsys):
+    code = main(["export", "--c-left", "50", "--c-right", "0.02", "--eb", "1", "--format", "json"])
+    cap = capsys.readouterr()
+    assert code == 0
+    d = json.loads(cap.out)
+    assert d["c_left"] == 50 and d["c_right"] == 0.02
+    assert any(w.startswith("c_left = 50 is far outside") for w in d["warnings"])
+    assert any(w.startswith("c_right = 0.02 is far outside") for w in d["warnings"])
+    assert any(w.startswith("E_d = c_right / c_left = 0.0004") for w in d["warnings"])
+    assert cap.err.count("warning: ") == 3
+    # ros: in the file as comments, and the composed multiplier is checked too
+    code = main(
+        ["export", "--c-left", "1.01", "--c-right", "0.99", "--eb", "1.4", "--format", "ros2"]
+        + ["--separation-multiplier", "1.6"]
+    )
+    cap = capsys.readouterr()
+    assert code == 0
+    assert "wheel_separation_multiplier = 2.24 is far outside" in cap.err
+    assert "# warning: wheel_separation_multiplier = 2.24" in cap.out
+    assert yaml.safe_load(cap.out)["diff_drive_controller"]["ros__parameters"]["wheel_separation_multiplier"] == (
+        pytest.approx(2.24)
+    )
+    # a real calibration: no warning
+    assert main(["export", "--c-left", "1.01", "--c-right", "0.99", "--eb", "0.97", "--format", "json"]) == 0
+    cap = capsys.readouterr()
+    assert json.loads(cap.out)["warnings"] == [] and cap.err == ""
+
+
+@pytest.fixture(scope="module")
+def analyses(tmp_path_factory):
+    """The analyze JSON of one simulated test (wheel scale 1.003) by bf, exact, and exact with a
+    straight run."""
+    import contextlib
+    import io
+
+    d = tmp_path_factory.mktemp("scale")
+    runs = d / "runs.csv"
+    sim = ["-q", "simulate", "--ed", "1.004", "--eb", "0.99", "--es", "1.003", "--seed", "4", "--noise", "none"]
+    assert main([*sim, "--out", str(runs)]) == 0
+    out = {}
+    for key, extra in (("bf", []), ("exact", []), ("straight", ["--straight-mm", "4000", "4012"])):
+        method = "bf" if key == "bf" else "exact"
+        args = ["analyze", str(runs), "--wheelbase-mm", "340", "--side-mm", "4000", "--method", method, *extra]
+        buf = io.StringIO()
+        with contextlib.redirect_stdout(buf), contextlib.redirect_stderr(io.StringIO()):
+            assert main([*args, "--json"]) == 0
+        out[key] = d / f"{key}.json"
+        out[key].write_text(buf.getvalue())
+    return out
+
+
+@pytest.mark.parametrize("fmt", ["json", "ros2", "ros1", "firmware"])
+def test_a_scale_the_method_cannot_see_is_said(analyses, capsys, fmt):
+    """bf and exact on closed squares cannot see the wheel scale: the export says so (file and
+    warning) and names how to measure it; exact with a straight run and lsq did measure it."""
+    extra = ["--wheel-diameter-mm", "150", "--pulses-per-wheel-rev", "1000"] if fmt == "firmware" else []
+    for key, method, said in (("bf", "bf", True), ("exact", "exact", True), ("straight", "exact", False)):
+        cal = analyses[key]
+        assert main(["export", str(cal), "--format", fmt, *extra]) == 0
+        cap = capsys.readouterr()
+        assert ("wheel scale not measured" in cap.out) == said, key
+        assert ("wheel scale not measured" in cap.err) == said
+        if said:
+            assert f"{method} cannot see it" in cap.err
+            assert "--straight-mm" in cap.err and "lsq" in cap.err
+            assert "straight_mm" in cap.out and "lsq" in cap.out
+        if fmt == "json":
+            d = json.loads(cap.out)
+            assert d["scale_observed"] is (not said)
+            assert ("scale_note" in d) == said
+
+
+def test_lsq_and_selfcal_measure_the_scale(optiodom, tmp_path, capsys):
+    optiodom = optiodom / "square" / "230620202144"
+    save = tmp_path / "lsq.json"
+    assert main(["-q", "replay", str(optiodom), "--method", "lsq", "--no-heldout", "--save", str(save)]) == 0
+    assert main(["export", str(save), "--format", "json"]) == 0
+    cap = capsys.readouterr()
+    assert json.loads(cap.out)["scale_observed"] is True and "scale" not in cap.err
+    fixed = tmp_path / "fixed.json"
+    assert (
+        main(
+            ["-q", "replay", str(optiodom), "--method", "lsq", "--scale", "fixed", "--no-heldout"]
+            + ["--save", str(fixed)]
+        )
+        == 0
+    )
+    assert main(["export", str(fixed), "--format", "ros2"]) == 0
+    cap = capsys.readouterr()
+    assert "wheel scale not measured: lsq cannot see it" in cap.err
+    assert calibration_from_json(fixed).scale_observed is False
+    cal = ExportCalibration(1.0, 1.0, 1.0, source="x", method="selfcal", scale_observed=True)
+    assert "scale" not in format_export(cal, "json").split('"warnings"')[1]
+
+
+def test_the_json_of_calibrate_is_read(tmp_path, capsys):
+    assert main(["calibrate", "--ed", "1.02", "--eb", "0.95", "--seed", "1", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    f = tmp_path / "loop.json"
+    f.write_text(json.dumps(d))
+    cal = calibration_from_json(f)
+    final = d["final_calibration"]
+    assert cal.c_left == final["c_left"] and cal.c_right == final["c_right"]
+    assert cal.eb * cal.nominal_wheelbase_m * 1e3 == pytest.approx(final["wheelbase_mm"], rel=1e-12)
+    assert cal.scale_observed is False
+    f.write_text(json.dumps({**d, "final_calibration": None}))
+    with pytest.raises(InputError, match="no final calibration"):
+        calibration_from_json(f)
