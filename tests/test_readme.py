@@ -216,8 +216,32 @@ def _write_lidar_bag(path, duration_s, seed, urdf_pose):
     write_drive_bag(dataclasses.replace(log, sensor_pose=SensorPose(*urdf_pose)), path, storage="mcap", odom=True)
 
 
+# The lidar square test of docs/ros.md: a LabMate (wheels 150 mm, wheelbase 340 mm nominal) with
+# E_d 1.004, E_b 1.03, its 360-beam lidar (5 mm noise, 10 Hz) 35 mm ahead of the axle, driving 3 cw
+# and 3 ccw 2 m squares, put back on its mark before each, resting 3 s before and after; a ROS 2
+# sqlite3 bag with /joint_states and /scan only.
+LIDAR_SQUARE_BAGS = {"lidar_squares_bag": dict(seed=1)}
+
+
+def _write_lidar_square_bag(path, seed):
+    from umbmark.io.rosbag_write import write_drive_bag
+    from umbmark.model.drive import SimRobot, WheelNoise, concatenate_drives, simulate_drive, square_program
+    from umbmark.model.geometry import LABMATE, ErrorParams
+    from umbmark.model.sensors import Lidar, SensorPose
+
+    robot = SimRobot(LABMATE, ErrorParams(ed=1.004, eb=1.03), SensorPose(0.035, 0.0, 0.0), Lidar(range_noise_m=0.005))
+    drives = [
+        simulate_drive(square_program(d), robot, start_pose=(4.0, 4.0, 0.0), noise=WheelNoise(0.01), seed=seed + i)
+        for i, d in enumerate(["cw"] * 3 + ["ccw"] * 3)
+    ]
+    write_drive_bag(concatenate_drives(drives), path, odom=False, tf_static=False)
+
+
 def write_example_bags(folder, text):
     """The example bags a page mentions, simulated into ``folder``."""
+    for name, spec in LIDAR_SQUARE_BAGS.items():
+        if name in text:
+            _write_lidar_square_bag(folder / name, **spec)
     for name, spec in BAG_ROBOTS.items():
         if name in text:
             _write_ros2_bag(folder / name, *_square_session(BAG_TRUE, spec["model"], seed=spec["seed"]))

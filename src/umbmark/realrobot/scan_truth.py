@@ -205,7 +205,7 @@ def read_sensor_pose(path) -> tuple[float, float, float]:
         vals = (float(sp["x_mm"]) * 1e-3, float(sp["y_mm"]) * 1e-3, math.radians(float(sp["yaw_deg"])))  # type: ignore[index]
     except (TypeError, KeyError, ValueError):
         raise InputError(
-            'no "sensor_pose" with x_mm, y_mm, yaw_deg (the JSON of a self-calibration, umbmark selfcal --json)',
+            'no "sensor_pose" with x_mm, y_mm, yaw_deg (the JSON a self-calibration writes)',
             source=str(path),
         ) from None
     if not all(math.isfinite(v) for v in vals):
