@@ -279,3 +279,30 @@ def test_sensor_to_robot_displacement(a, b, mount):
     got = robot_displacement(sensor, mount)
     assert np.allclose(got[:2], want[:2], atol=1e-9)
     assert abs(math.remainder(got[2] - want[2], 2 * math.pi)) < 1e-9
+
+
+@pytest.mark.parametrize("ed, eb", [(1.01, 1.08), (0.99, 0.93)])
+def test_return_errors_of_a_metre_and_forty_degrees(tmp_path, ed, eb):
+    """Large return errors (up to 1 m and 40 deg) are found by the coarse stage."""
+    from umbmark.io.load import load_logs
+    from umbmark.realrobot.scan_truth import attach_scan_truth
+
+    robot = SimRobot(ROBOT.nominal, ErrorParams(ed=ed, eb=eb), ROBOT.sensor_pose, ROBOT.lidar)
+    drives = [
+        simulate_drive(square_program(d), robot, start_pose=START, seed=1 + i) for i, d in enumerate(("cw", "ccw"))
+    ]
+    bag = write_drive_bag(concatenate_drives(drives), tmp_path / "big", odom=False, tf_static=False)
+    opts = dict(split_stops=True, side_mm=2000, wheel_diameter_mm=150, wheelbase_mm=340)
+    ds = load_logs([bag], "bag", joints="left_wheel_joint,right_wheel_joint", **opts)
+    sets, truth = attach_scan_truth([ds], "/scan", sensor_pose=(0.035, 0, 0), joints=JOINTS[1].split(","))
+    true, odo = truth_of(drives)
+    assert (
+        np.max(np.hypot(*true[:, :2].T)) > 0.5
+        and np.max(np.abs(np.degrees(np.remainder(true[:, 2] + np.pi, 2 * np.pi) - np.pi))) > 30
+    )
+    got = np.array([r.displacement for r in truth.runs])
+    assert np.max(np.hypot(*(got[:, :2] - true[:, :2]).T)) < 4e-3
+    assert (
+        np.max(np.abs(got[:, 2] - odo[:, 2] - np.remainder(true[:, 2] - odo[:, 2] + np.pi, 2 * np.pi) + np.pi)) < 2e-3
+    )
+    assert [r.gt_end.tolist() for r in sets[0].runs] == got.tolist()
