@@ -104,7 +104,7 @@ def test_theta_gt_in_degrees_warns(optiodom, tmp_path):
     a[:, 3] = np.degrees(np.unwrap(a[:, 3]))
     _write_rows(f, a)
     w = read_optiodom(d).meta["warnings"]
-    assert len(w) == 1 and "theta_gt looks like degrees" in w[0] and "run-01" in w[0]
+    assert len(w) == 1 and "headings look like degrees" in w[0] and "run-01" in w[0]
 
 
 def test_wheels_against_ground_truth_name_the_metadata(optiodom, tmp_path):

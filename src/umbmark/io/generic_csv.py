@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from umbmark.errors import InputError
+from umbmark.io._checks import wheels_against_truth
 from umbmark.io._text import csv_rows, header_columns, parse_number, read_text
 from umbmark.model.dataset import Dataset, Run, WheelGeometry, to_start_frame
 
@@ -220,6 +221,32 @@ def _ground_truth(g3: np.ndarray, lines: np.ndarray, degrees: bool, src: str):
     return gt, None
 
 
+_MAX_TICKS = 2.0**63  # beyond any encoder counter
+_NEGATIVE_SHARE = 0.25  # of a counter's non-zero differences, in both wheels: the ticks are per sample
+
+
+def _check_tick_values(ticks_lr: np.ndarray, lines: np.ndarray, src: str, ticks: str) -> None:
+    """Refuse a tick beyond any counter, and counters that run backwards as often as per-sample
+    counts do (the tick mode is wrong)."""
+    big = np.flatnonzero(~(np.abs(ticks_lr) < _MAX_TICKS).all(axis=1))
+    if big.size:
+        k = int(big[0])
+        i = 0 if not abs(ticks_lr[k, 0]) < _MAX_TICKS else 1
+        col = ("left_ticks", "right_ticks")[i]
+        raise InputError(f"column {col}: {ticks_lr[k, i]:g} is beyond any encoder counter", src, int(lines[k]))
+    if ticks != "cumulative" or len(ticks_lr) < 20:
+        return
+    d = np.diff(ticks_lr, axis=0)
+    shares = [float(np.mean(d[d[:, i] != 0, i] < 0)) if np.any(d[:, i] != 0) else 0.0 for i in (0, 1)]
+    if min(shares) >= _NEGATIVE_SHARE:
+        raise InputError(
+            f"the ticks are read as cumulative counters, but {shares[0]:.0%} of the left and {shares[1]:.0%} of the "
+            'right differences are negative: they look like pulses per sample (`ticks="incremental"`)',
+            src,
+            int(lines[0]),
+        )
+
+
 def _batch_run(label: str, rows: list, src: str, where: str, ticks: str, degrees: bool) -> Run:
     """One run from its ``(line, values)`` rows (see :func:`_group_runs`)."""
     lines = np.array([ln for ln, _ in rows])
@@ -230,6 +257,7 @@ def _batch_run(label: str, rows: list, src: str, where: str, ticks: str, degrees
     if bad.size:
         k = int(bad[0]) + 1
         raise InputError(f"time {a[k, 0]:g} s does not increase (previous row: {a[k - 1, 0]:g} s)", src, int(lines[k]))
+    _check_tick_values(a[:, 1:3], lines, src, ticks)
     dl, dr = _increments(a, ticks)
     gt = gt_end = None
     if a.shape[1] > 3:
@@ -287,9 +315,17 @@ def read_generic_csv(
         raise InputError("no runs")
     if name is None:
         name = Path(paths[0]).stem if len(paths) == 1 else Path(paths[0]).parent.name or "logs"
-    return Dataset(
-        name, nominal, float(pulses_per_wheel_rev), tuple(runs), side_m, str(paths[0]), meta={"format": "csv"}
-    )
+    warnings = []
+    for run in runs:  # the wheels against the ground truth: units, swapped wheels, nothing tracked
+        warnings += wheels_against_truth(
+            run,
+            nominal,
+            float(pulses_per_wheel_rev),
+            "that x_m and y_m are in metres, the wheel diameters and the pulses per wheel revolution",
+            "the wheelbase, that the heading column is in its unit (theta_rad or theta_deg)",
+        )
+    meta = {"format": "csv", "warnings": tuple(warnings)} if warnings else {"format": "csv"}
+    return Dataset(name, nominal, float(pulses_per_wheel_rev), tuple(runs), side_m, str(paths[0]), meta=meta)
 
 
 def format_generic_csv(ds: Dataset) -> str:

@@ -23,6 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from umbmark.errors import InputError
+from umbmark.io._checks import wheels_against_truth
 from umbmark.io._text import check_increasing_time, numeric_rows, read_text
 from umbmark.model.dataset import Dataset, Run, WheelGeometry, to_start_frame
 
@@ -202,7 +203,9 @@ def read_optiodom(folder) -> Dataset:
         )
     nominal = WheelGeometry(d_left, d_right, b)
     for run in runs:
-        warnings += _check_run(run, nominal, ngear * enc, src)
+        warnings += wheels_against_truth(
+            run, nominal, ngear * enc, f"Di (metres), ngear and encRes in {src}", f"Li (metres) in {src}"
+        )
     return Dataset(
         name=folder.name,
         nominal=nominal,
@@ -219,56 +222,6 @@ def read_optiodom(folder) -> Dataset:
             "warnings": tuple(warnings),
         },
     )
-
-
-# the ground truth of a run that moves less than this never moved (nothing was tracked)
-_STILL_M = 1e-3
-_STILL_RAD = math.radians(0.5)
-# the wheels' travel against the ground truth's: outside these ratios the geometry's units are wrong
-_TRAVEL_RATIO = (0.5, 2.0)
-_STEP_S = 0.5
-_MIN_TURN_RAD = math.radians(90.0)
-
-
-def _check_run(run: Run, nominal: WheelGeometry, units_per_rev: float, meta_src: str) -> list[str]:
-    """The run's ground truth against its wheels and the metadata: an error for a ground truth
-    that never moves or headings in degrees, warnings for travel or turns that disagree."""
-    src = run.source or run.name
-    # compared every half second, so that the motion capture's jitter does not add up
-    k = np.unique(np.searchsorted(run.t, np.arange(0.0, run.t[-1], _STEP_S)))
-    k = np.append(k[k < len(run.t)], len(run.t) - 1)
-    gx, gy, gth = run.gt[k, 0], run.gt[k, 1], run.gt[k, 2]
-    gt_path = float(np.sum(np.hypot(np.diff(gx), np.diff(gy))))
-    gt_turn = float(np.sum(np.abs(np.diff(gth))))
-    dl = np.cumsum(run.d_left)[k] * math.pi * nominal.diameter_left_m / units_per_rev
-    dr = np.cumsum(run.d_right)[k] * math.pi * nominal.diameter_right_m / units_per_rev
-    wheel_path = float(np.sum(np.abs(np.diff(dl + dr)) / 2.0))
-    wheel_turn = float(np.sum(np.abs(np.diff(dr - dl)))) / nominal.wheelbase_m
-    if gt_path < _STILL_M and gt_turn < _STILL_RAD and wheel_path > 100 * _STILL_M:
-        raise InputError(
-            f"the ground truth never moves (x_gt, y_gt, theta_gt constant) while the wheels travel {wheel_path:.2f} m: "
-            "the robot was not tracked in this run",
-            src,
-        )
-    out = []
-    lo, hi = _TRAVEL_RATIO
-    if gt_path > 100 * _STILL_M and not lo <= wheel_path / gt_path <= hi:
-        out.append(
-            f"{src}: the wheels travel {wheel_path:.3g} m by the metadata's Di and encoder figures, the ground truth "
-            f"{gt_path:.3g} m: check Di (metres), ngear and encRes in {meta_src}"
-        )
-    elif wheel_turn > _MIN_TURN_RAD and lo * 180 / math.pi <= gt_turn / wheel_turn <= hi * 180 / math.pi:
-        out.append(
-            f"{src}: the ground truth turns {gt_turn:.3g} units in total, {gt_turn / wheel_turn:.0f} times what the "
-            f"wheels turn in radians: theta_gt looks like degrees (it is in radians)"
-        )
-    elif max(gt_turn, wheel_turn) > _MIN_TURN_RAD and not lo <= wheel_turn / gt_turn <= hi:
-        out.append(
-            f"{src}: the wheels turn the robot by {math.degrees(wheel_turn):.3g} deg in total by the metadata's Li, "
-            f"the ground truth by {math.degrees(gt_turn):.3g} deg: check Li (metres) in {meta_src} and that theta_gt "
-            "is in radians"
-        )
-    return out
 
 
 def read_run_file(path) -> Run:

@@ -1,0 +1,99 @@
+"""Plausibility of a log's run: its wheels against its ground truth (units, swapped wheels, a
+ground truth that never moves). Shared by the log readers."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from umbmark.errors import InputError
+from umbmark.model.dataset import Run, WheelGeometry
+
+__all__ = ["wheels_against_truth"]
+
+# the ground truth of a run that moves less than this never moved (nothing was tracked)
+_STILL_M = 1e-3
+_STILL_RAD = math.radians(0.5)
+# the wheels' travel against the ground truth's: outside these ratios the geometry's units are wrong
+_TRAVEL_RATIO = (0.5, 2.0)
+# compared every half second, so that the motion capture's jitter does not add up
+_STEP_S = 0.5
+_MIN_TURN_RAD = math.radians(90.0)
+
+
+def wheels_against_truth(
+    run: Run, nominal: WheelGeometry, units_per_rev: float, travel_hint: str, turn_hint: str
+) -> list[str]:
+    """The run's ground-truth track against its wheels and the nominal geometry.
+
+    Parameters
+    ----------
+    run : Run
+        A run with a ground-truth track (others are not checked).
+    nominal : WheelGeometry
+        The geometry the wheels are read with.
+    units_per_rev : float
+        Encoder units per wheel revolution.
+    travel_hint, turn_hint : str
+        What to check when the travels, or the turns, disagree (named in the warning).
+
+    Returns
+    -------
+    list of str
+        Warnings: travels differing by more than a factor of 2 (a unit of the positions or the
+        geometry), turns in opposite senses (left and right swapped), ground-truth turns about
+        57 times the wheels' (headings in degrees), turns differing by more than a factor of 2.
+
+    Raises
+    ------
+    InputError
+        The ground truth never moves while the wheels travel (nothing was tracked).
+    """
+    if run.gt is None or len(run.t) < 2 or not np.isfinite(run.gt).all():
+        return []
+    src = run.source or run.name
+    k = np.unique(np.searchsorted(run.t, np.arange(0.0, run.t[-1], _STEP_S)))
+    k = np.append(k[k < len(run.t)], len(run.t) - 1)
+    gx, gy, gth = run.gt[k, 0], run.gt[k, 1], run.gt[k, 2]
+    gt_path = float(np.sum(np.hypot(np.diff(gx), np.diff(gy))))
+    gt_dth = np.diff(gth)
+    gt_turn = float(np.sum(np.abs(gt_dth)))
+    dl = np.cumsum(run.d_left)[k] * math.pi * nominal.diameter_left_m / units_per_rev
+    dr = np.cumsum(run.d_right)[k] * math.pi * nominal.diameter_right_m / units_per_rev
+    wheel_path = float(np.sum(np.abs(np.diff(dl + dr)) / 2.0))
+    wheel_dth = np.diff(dr - dl) / nominal.wheelbase_m
+    wheel_turn = float(np.sum(np.abs(wheel_dth)))
+    if not (math.isfinite(wheel_path) and math.isfinite(wheel_turn)):
+        return []
+    if gt_path < _STILL_M and gt_turn < _STILL_RAD and wheel_path > 100 * _STILL_M:
+        raise InputError(
+            f"the ground truth never moves (position and heading constant) while the wheels travel {wheel_path:.2f} m: "
+            "the robot was not tracked in this run",
+            src,
+        )
+    lo, hi = _TRAVEL_RATIO
+    if gt_path > 100 * _STILL_M and not lo <= wheel_path / gt_path <= hi:
+        return [
+            f"{src}: the wheels travel {wheel_path:.3g} m by the nominal geometry, the ground truth {gt_path:.3g} m: "
+            f"check {travel_hint}"
+        ]
+    if max(gt_turn, wheel_turn) < _MIN_TURN_RAD:
+        return []
+    norm = float(np.linalg.norm(gt_dth) * np.linalg.norm(wheel_dth))
+    if norm > 0 and float(np.dot(gt_dth, wheel_dth)) < -0.5 * norm:
+        return [
+            f"{src}: the wheels turn the robot the other way than the ground truth does: the left and right wheel "
+            "data look swapped"
+        ]
+    if wheel_turn > _MIN_TURN_RAD and lo * 180 / math.pi <= gt_turn / wheel_turn <= hi * 180 / math.pi:
+        return [
+            f"{src}: the ground truth turns {gt_turn:.3g} units in total, {gt_turn / wheel_turn:.0f} times what the "
+            "wheels turn in radians: its headings look like degrees (they are read as radians)"
+        ]
+    if not lo <= wheel_turn / max(gt_turn, 1e-12) <= hi:
+        return [
+            f"{src}: the wheels turn the robot by {math.degrees(wheel_turn):.3g} deg in total by the nominal geometry, "
+            f"the ground truth by {math.degrees(gt_turn):.3g} deg: check {turn_hint}"
+        ]
+    return []
