@@ -150,25 +150,34 @@ _URL_IN_TEXT = re.compile(r"[A-Za-z][A-Za-z0-9+.-]*://[^\s'\"<>]+")
 def _split_userinfo(rest: str) -> tuple[str | None, str | None, str]:
     """``user``, ``password`` and the remainder (host, path, query) of a URL after ``://``.
 
-    The credentials end at the last ``@`` before the query (so ``user:p@ss@host`` has the
-    password ``p@ss``); an ``@`` in a path without a ``:`` before it is not a credential."""
+    The credentials end at the last ``@`` before the host: ``user:p@ss@host`` has the password
+    ``p@ss``, and a ``?`` before any path is part of the password (``user:p?ss@host/db``), while
+    an ``@`` in the query (``?user=a@b.org``) or in a path without a ``:`` before it is not a
+    credential."""
     q = rest.find("?")
-    end = len(rest) if q < 0 else q
-    at = rest.rfind("@", 0, end)
-    if at < 0 and q >= 0:
-        # a password holding "?": the "@" is after it, and no "=" of a query comes before it
-        at2 = rest.rfind("@")
-        if at2 > q and "=" not in rest[:at2] and ":" in rest[:q]:
-            at = at2
+    at = rest.rfind("@", 0, q if q >= 0 else len(rest))
+    if q >= 0 and "@" in rest[q:]:
+        if "=" not in rest[q + 1 : rest.rfind("@")]:
+            in_authority = True  # no query parameter before the last "@": the "?" is in the password
+        elif at >= 0:
+            in_authority = "/" not in rest[at + 1 : q]  # no path yet: the "?" is in the password
+        else:
+            head = rest[:q]
+            in_authority = (
+                ":" in head
+                and not head.startswith("[")
+                and "/" not in head.split(":", 1)[0]
+                and re.match(r"[^:]*:\d+/", head) is None  # host:port/db?...: a real query
+            )
+        if in_authority:
+            at = rest.rfind("@")
     if at < 0:
         return None, None, rest
     info = rest[:at]
-    if ":" in info:
-        user, pw = info.split(":", 1)
-        return user, pw, rest[at + 1 :]
-    if "/" in info:
+    user, colon, pw = info.partition(":")
+    if "/" in user:
         return None, None, rest  # a path with an "@" in it, not a user name
-    return info, None, rest[at + 1 :]
+    return user, (pw if colon else None), rest[at + 1 :]
 
 
 def _mask_query(query: str) -> str:

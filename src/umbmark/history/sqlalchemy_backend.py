@@ -16,7 +16,15 @@ from pathlib import Path
 
 from umbmark._version import __version__
 from umbmark.errors import InputError
-from umbmark.history.base import SCHEMA_VERSION, HistoryError, _Backend, display_db, mask_secrets, retry_while_locked
+from umbmark.history.base import (
+    SCHEMA_VERSION,
+    HistoryError,
+    _Backend,
+    _split_userinfo,
+    display_db,
+    mask_secrets,
+    retry_while_locked,
+)
 
 __all__ = ["SQLAlchemyHistory"]
 
@@ -50,6 +58,19 @@ def _import():
             "a database URL needs SQLAlchemy: pip install 'umbmark[db]' (or 'umbmark[postgres]' for PostgreSQL)"
         ) from None
     return sa
+
+
+def _parse_url(sa, url: str):
+    """The SQLAlchemy URL, with the credentials split off at the last ``@`` before the host (as
+    :func:`umbmark.history.base.display_db` does): SQLAlchemy's parser ends the password at its
+    first ``@`` and would take the rest of it for the host."""
+    from urllib.parse import unquote
+
+    scheme, _, rest = url.partition("://")
+    user, pw, tail = _split_userinfo(rest)
+    if pw is None:
+        return sa.engine.make_url(url)
+    return sa.engine.make_url(f"{scheme}://{user}@{tail}").set(password=unquote(pw))
 
 
 def _tables(sa):
@@ -115,7 +136,7 @@ class SQLAlchemyHistory(_Backend):
     def __init__(self, url: str, timeout_s: float = 60.0, create: bool = True):
         sa = self._sa = _import()
         try:
-            u = sa.engine.make_url(url)
+            u = _parse_url(sa, url)
         except Exception:  # noqa: BLE001  sqlalchemy.exc.ArgumentError (its message holds the URL)
             raise InputError(f"not a database URL: {display_db(url)!r}") from None
         self._shown = self.path = display_db(url)
