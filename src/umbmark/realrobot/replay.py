@@ -280,9 +280,25 @@ def calibrate(ds, method: str, lsq_options: dict | None = None) -> Calibrated:
         )
     if ds.directions is None:
         ds = prepare(ds)[0]
+    _check_both_directions(ds)
     runs = square_runs(ds, ds.nominal, ds.directions)
     corr = correct_runs(method, runs, ds.side_m, ds.nominal.wheelbase_m)
     return Calibrated(method, ds.nominal.calibrated(corr.calibration), ds.nominal, correction=corr)
+
+
+def _check_both_directions(ds: Dataset) -> None:
+    """Refuse square runs in one direction only, naming every run with its direction and log."""
+    missing = [d for d in ("cw", "ccw") if d not in ds.directions]
+    if not missing:
+        return
+    several = len({r.source for r in ds.runs}) > 1  # several logs: each run's named
+    listed = [f"{r.name} {d}" + (f" ({r.source})" if several else "") for r, d in zip(ds.runs, ds.directions)]
+    more = f", and {len(listed) - 20} more" if len(listed) > 20 else ""
+    raise InputError(
+        f"no {missing[0]} runs: the bi-directional test needs runs in both directions (the direction of a run "
+        f"is the sign of its odometry's total turn); the {len(listed)} runs: {', '.join(listed[:20])}{more}",
+        source=ds.source,
+    )
 
 
 def _run_errors(ds: Dataset, geometry: WheelGeometry) -> list[tuple[float, float, float]]:

@@ -1,0 +1,393 @@
+"""Bags in the shapes people record: the robot's own nav_msgs/Odometry as the wheels, one bag per
+run, both directions in one bag without --split-stops, a motion capture slower than the wheels,
+bag-info's joint names, frames and rates, ROS units, convert of several bags, broken JointState
+messages. Every bag is written here with rosbags from the closed-loop simulator of
+tests/simlogs.py (noise free), with the motion capture in a rotated world frame."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+pytest.importorskip("rosbags")
+import simlogs  # noqa: E402
+from rosbags.rosbag2 import StoragePlugin, Writer  # noqa: E402
+from rosbags.typesys import Stores, get_typestore  # noqa: E402
+
+from umbmark.cli import main  # noqa: E402
+from umbmark.errors import InputError  # noqa: E402
+from umbmark.io.load import load_logs  # noqa: E402
+from umbmark.io.rosbag import bag_info, read_bag  # noqa: E402
+from umbmark.metrics import umbmark  # noqa: E402
+from umbmark.model.dataset import WheelGeometry, replay_increments  # noqa: E402
+from umbmark.model.geometry import ErrorParams, wrap_angle  # noqa: E402
+from umbmark.model.runs import RunsTable  # noqa: E402
+from umbmark.model.simulate import square_program  # noqa: E402
+from umbmark.realrobot.replay import end_poses, replay_report  # noqa: E402
+
+DT = 0.02  # wheels and odometry at 50 Hz
+SIDE_M = 2.0
+D, B = simlogs.GEOM.wheel_diameter_m, simlogs.GEOM.wheelbase_m
+NOMINAL = WheelGeometry(D, D, B)
+GEOMETRY = ["--wheel-diameter-mm", "100", "--wheelbase-mm", "300", "--side-mm", "2000"]
+T0 = 1_760_000_000.0
+YAW = 0.7  # the world frame of the motion capture, rotated against the start of the first run
+TS = get_typestore(Stores.ROS2_HUMBLE)
+T = TS.types
+JOINTS = ["left_wheel_joint", "right_wheel_joint"]
+NO_SCALE = ErrorParams(ed=simlogs.TRUE.ed, eb=simlogs.TRUE.eb)
+
+
+def _compose(base, rel):
+    """Poses ``rel`` (K, 3) in the frame of pose ``base``."""
+    c, s = math.cos(base[2]), math.sin(base[2])
+    return np.column_stack(
+        [base[0] + c * rel[:, 0] - s * rel[:, 1], base[1] + s * rel[:, 0] + c * rel[:, 1], base[2] + rel[:, 2]]
+    )
+
+
+def _odometry(al, ar):
+    """The nominal geometry's odometry (what diff_drive_controller publishes) of wheel rotations [rad]."""
+    x, y, th = replay_increments(al, ar, NOMINAL.params(2 * math.pi))
+    return np.column_stack([x, y, th])
+
+
+def session(directions, pause_s=3.0, carry=True, origin=(1.5, -0.8, YAW), errors=simlogs.TRUE):
+    """A session of UMBmark squares: wheel samples (times, cumulative angles), the true poses in the
+    world frame and the robot's odometry (one continuous odom frame) at every wheel sample, with
+    ``pause_s`` of standstill before, between and after the runs; during a pause the robot is
+    carried back near its start mark (``carry``), which its odometry does not see.
+
+    Returns the arrays and, per run, the true return error's inputs: (direction, true end pose in
+    the start frame, odometry end pose in the start frame)."""
+    still = int(round(pause_s / DT))
+    origin = np.asarray(origin, dtype=float)
+    al_all, ar_all, world = [np.zeros(1)], [np.zeros(1)], [origin[None]]
+    truth = []
+    rng = np.random.default_rng(3)
+    for d in directions:
+        al, ar, pose = simlogs.simulate_wheels(square_program(d, SIDE_M), errors, dt=DT)
+        here = world[-1][-1]
+        start = origin + rng.normal(0, [0.05, 0.05, 0.05]) if carry else here
+        half = still // 2
+        world += [np.repeat(here[None], half, 0), np.repeat(start[None], still - half, 0)]
+        al_all += [np.zeros(still)]
+        ar_all += [np.zeros(still)]
+        world.append(_compose(start, pose[1:]))
+        al_all.append(al[1:])
+        ar_all.append(ar[1:])
+        odo = _odometry(al, ar)[-1]
+        truth.append((d, pose[-1], odo))
+    world.append(np.repeat(world[-1][-1:], still, 0))
+    al_all.append(np.zeros(still))
+    ar_all.append(np.zeros(still))
+    inc_l, inc_r = np.concatenate(al_all), np.concatenate(ar_all)
+    t = np.arange(len(inc_l)) * DT
+    odom = _compose(np.array([3.0, 4.0, -1.0]), _odometry(inc_l, inc_r))  # the odom frame's own origin
+    return t, np.cumsum(inc_l), np.cumsum(inc_r), np.concatenate(world), odom, truth
+
+
+def true_emax(truth):
+    """E_max,syst of the simulated runs: true end pose against the odometry's, in the start frame."""
+    d = [r[0] for r in truth]
+    tr = np.array([r[1] for r in truth])
+    od = np.array([r[2] for r in truth])
+    runs = RunsTable.from_columns(d, tr[:, 0], tr[:, 1], od[:, 0], od[:, 1], wrap_angle(tr[:, 2]), wrap_angle(od[:, 2]))
+    return umbmark(runs).emax_syst
+
+
+def _header(t, frame):
+    sec = int(t)
+    stamp = T["builtin_interfaces/msg/Time"](sec=sec, nanosec=int(round((t - sec) * 1e9)))
+    return T["std_msgs/msg/Header"](stamp=stamp, frame_id=frame)
+
+
+def _pose(x, y, th):
+    return T["geometry_msgs/msg/Pose"](
+        position=T["geometry_msgs/msg/Point"](x=float(x), y=float(y), z=0.0),
+        orientation=T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=math.sin(th / 2), w=math.cos(th / 2)),
+    )
+
+
+def _interp_poses(t_new, t, poses):
+    th = np.unwrap(poses[:, 2])
+    return np.column_stack(
+        [np.interp(t_new, t, poses[:, 0]), np.interp(t_new, t, poses[:, 1]), np.interp(t_new, t, th)]
+    )
+
+
+def write_bag(
+    path, t, pl, pr, world, odom, *, mocap_hz=30.0, mocap_delay_s=0.013, joints=True, odometry=True, positions=None
+):
+    """A ROS 2 sqlite3 bag: /joint_states and /odom at the wheel samples, /mocap/pose
+    (PoseStamped, frame world) at ``mocap_hz`` from ``mocap_delay_s`` after the first wheel
+    sample (not aligned with the wheels). ``positions(k, pos)`` may damage JointState message k."""
+    msgs = []
+    for k in range(len(t)):
+        tk = T0 + t[k]
+        ns = int(round(tk * 1e9))
+        if joints:
+            pos = np.array([pl[k], pr[k]])
+            if positions is not None:
+                pos = positions(k, pos)
+            js = T["sensor_msgs/msg/JointState"](
+                header=_header(tk, ""),
+                name=JOINTS,
+                position=pos,
+                velocity=np.array([], float),
+                effort=np.array([], float),
+            )
+            msgs.append((ns, "/joint_states", "sensor_msgs/msg/JointState", js))
+        if odometry:
+            cov = np.zeros(36)
+            zero = T["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0)
+            od = T["nav_msgs/msg/Odometry"](
+                header=_header(tk, "odom"),
+                child_frame_id="base_link",
+                pose=T["geometry_msgs/msg/PoseWithCovariance"](pose=_pose(*odom[k]), covariance=cov),
+                twist=T["geometry_msgs/msg/TwistWithCovariance"](
+                    twist=T["geometry_msgs/msg/Twist"](linear=zero, angular=zero), covariance=cov
+                ),
+            )
+            msgs.append((ns, "/odom", "nav_msgs/msg/Odometry", od))
+    tm = np.arange(t[0] + mocap_delay_s, t[-1], 1.0 / mocap_hz)
+    for tt, p in zip(tm, _interp_poses(tm, t, world)):
+        ps = T["geometry_msgs/msg/PoseStamped"](header=_header(T0 + tt, "world"), pose=_pose(*p))
+        msgs.append((int(round((T0 + tt) * 1e9)), "/mocap/pose", "geometry_msgs/msg/PoseStamped", ps))
+    msgs.sort(key=lambda m: m[0])
+    with Writer(path, version=9, storage_plugin=StoragePlugin.SQLITE3) as w:
+        conns = {}
+        for ns, topic, kind, msg in msgs:
+            if topic not in conns:
+                conns[topic] = w.add_connection(topic, kind, typestore=TS)
+            w.write(conns[topic], ns, TS.serialize_cdr(msg, kind))
+    return path
+
+
+# -- six one-run bags with the robot's own odometry: one test of six runs ----------------------------
+
+
+@pytest.fixture(scope="module")
+def six_bags(tmp_path_factory):
+    d = tmp_path_factory.mktemp("six")
+    bags, truth = [], []
+    odom_start = np.array([3.0, 4.0, -1.0])
+    for i, direction in enumerate(["cw", "ccw", "cw", "ccw", "cw", "ccw"]):
+        # one bag per run: the robot is carried back between the recordings
+        t, pl, pr, world, _, tr = session([direction], pause_s=1.0, carry=False, origin=(1.5 + 0.03 * i, -0.8, YAW))
+        # the odom frame runs on from bag to bag (the robot carried back keeps counting)
+        rel = _odometry(np.diff(pl, prepend=pl[0]), np.diff(pr, prepend=pr[0]))
+        odom = _compose(odom_start, rel)
+        odom_start = odom[-1]
+        bags.append(write_bag(d / f"run{i + 1}", t, pl, pr, world, odom, joints=False))
+        truth += tr
+    return bags, truth
+
+
+def test_six_one_run_bags_with_odometry_are_one_test(six_bags, capsys):
+    bags, truth = six_bags
+    args = ["replay", *map(str, bags), "--odom-topic", "/odom", "--gt-topic", "/mocap/pose"]
+    args += ["--wheelbase-mm", "300", "--wheel-diameter-mm", "100", "--side-mm", "2000", "--method", "exact", "--json"]
+    assert main(args) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert "datasets" not in d  # one test, not six data sets
+    assert [r["run"] for r in d["runs"]] == [f"run{i}" for i in range(1, 7)]
+    assert [r["direction"] for r in d["runs"]] == ["cw", "ccw"] * 3
+    assert d["before"]["emax_syst_mm"] == pytest.approx(true_emax(truth) * 1e3, abs=2.0)
+    true = simlogs.TRUE
+    assert d["Ed"] == pytest.approx(true.ed, abs=2e-4)
+    assert d["Eb"] == pytest.approx(true.eb / true.es, abs=1e-3)  # relative to the wheel scale
+    assert d["after"]["emax_syst_mm"] < 0.01 * d["before"]["emax_syst_mm"]
+
+
+def test_odometry_replayed_with_the_nominal_geometry_is_the_recorded_odometry(six_bags):
+    bags, truth = six_bags
+    ds = load_logs(
+        bags, "bag", odom_topic="/odom", gt_topic="/mocap/pose", wheel_diameter_mm=100, wheelbase_mm=300, side_mm=2000
+    )
+    assert len(ds.runs) == 6 and all(r.source == str(b) for r, b in zip(ds.runs, bags))
+    odo = end_poses(ds, ds.nominal)
+    # each run from its own start, though the odom frame ran on over the six bags
+    assert np.allclose(odo, [r[2] for r in truth], atol=1e-9)
+
+
+def test_several_bags_missing_a_direction_names_the_bags(six_bags, capsys):
+    bags, _ = six_bags
+    cw = [str(b) for b in bags[0::2]]
+    assert main(["replay", *cw, "--odom-topic", "/odom", "--gt-topic", "/mocap/pose", *GEOMETRY, "--method", "bf"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "no ccw runs" in err
+    for b in cw:
+        assert b in err
+
+
+def test_missing_wheel_source_suggests_the_odometry(six_bags, capsys):
+    bag = six_bags[0][0]
+    assert main(["replay", str(bag), "--gt-topic", "/mocap/pose", *GEOMETRY]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--odom-topic /odom" in err and "/odom (Odometry)" in err
+
+
+# -- one bag with both directions, no --split-stops; a motion capture slower than the wheels ----------
+
+
+@pytest.fixture(scope="module")
+def session_bag(tmp_path_factory):
+    d = tmp_path_factory.mktemp("session")
+    # no scale error (E_s = 1): the square methods then explain the runs exactly
+    t, pl, pr, world, odom, truth = session(["cw", "cw", "ccw", "ccw"], pause_s=3.0, errors=NO_SCALE)
+    slow = write_bag(d / "slow", t, pl, pr, world, odom, mocap_hz=7.0, mocap_delay_s=0.031)
+    return slow, truth
+
+
+def _replay(bag, *extra, method="exact"):
+    ds = load_logs(
+        [bag],
+        "bag",
+        joints="left_wheel_joint,right_wheel_joint",
+        gt_topic="/mocap/pose",
+        wheel_diameter_mm=100,
+        wheelbase_mm=300,
+        side_mm=2000,
+        **dict(extra),
+    )
+    return replay_report(ds, method).to_dict()
+
+
+def test_both_directions_in_one_bag_split_at_stops_without_asking(session_bag):
+    bag, truth = session_bag
+    auto = _replay(bag)
+    asked = _replay(bag, ("split_stops", True))
+    assert [r["direction"] for r in auto["runs"]] == ["cw", "cw", "ccw", "ccw"]
+    assert any("split where both wheels stand still" in w and "split_stops" in w for w in auto["warnings"])
+    assert not any("split where" in w for w in asked["warnings"])
+    assert auto["Ed"] == asked["Ed"] and auto["Eb"] == asked["Eb"]
+
+
+def test_a_bag_that_is_not_squares_says_what_to_give(session_bag, capsys):
+    bag, _ = session_bag
+    # pauses shorter than --stop-s: no square pieces
+    args = ["replay", str(bag), "--joints", "left_wheel_joint,right_wheel_joint", "--gt-topic", "/mocap/pose"]
+    assert main([*args, *GEOMETRY, "--stop-s", "5"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--ranges" in err and "--split-stops" in err and "--stop-s" in err
+
+
+def test_end_pose_is_the_ground_truth_at_rest(session_bag, monkeypatch):
+    """A 7 Hz motion capture against 50 Hz wheels, noise free: the exact method leaves nothing; the
+    truth interpolated across the start and end of the stops leaves about a millimetre."""
+    bag, truth = session_bag
+    rep = _replay(bag, ("split_stops", True))
+    assert rep["before"]["emax_syst_mm"] == pytest.approx(true_emax(truth) * 1e3, abs=0.05)
+    assert rep["after"]["emax_syst_mm"] < 0.1
+    assert rep["Ed"] == pytest.approx(NO_SCALE.ed, abs=2e-5) and rep["Eb"] == pytest.approx(NO_SCALE.eb, abs=2e-5)
+    import umbmark.io.rosbag as rosbag
+
+    monkeypatch.setattr(rosbag, "_truth_at_rest", lambda *a: None)  # interpolated across the stops
+    blended = _replay(bag, ("split_stops", True))
+    assert blended["after"]["emax_syst_mm"] > 0.5
+
+
+# -- bag-info, errors that list what the bag has ---------------------------------------------------------
+
+
+def test_bag_info_shows_joint_names_frames_and_rates(session_bag, capsys):
+    bag, _ = session_bag
+    info = {t["topic"]: t for t in bag_info(bag).to_dict()["topics"]}
+    assert info["/joint_states"]["joint_names"] == JOINTS
+    assert info["/joint_states"]["rate_hz"] == pytest.approx(50.0, rel=1e-6)
+    assert info["/odom"]["frame_id"] == "odom" and info["/odom"]["child_frame_id"] == "base_link"
+    assert info["/mocap/pose"]["frame_id"] == "world"
+    assert info["/mocap/pose"]["rate_hz"] == pytest.approx(7.0, rel=1e-6)
+    assert main(["bag-info", str(bag)]) == 0
+    out = capsys.readouterr().out
+    assert "left_wheel_joint, right_wheel_joint" in out and "odom -> base_link" in out and "frame world" in out
+    assert main(["bag-info", str(bag), "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["topics"][0]["joint_names"] == JOINTS
+
+
+def test_topic_errors_list_what_the_bag_has(session_bag, capsys):
+    bag, _ = session_bag
+    base = ["replay", str(bag), "--gt-topic", "/mocap/pose", *GEOMETRY]
+    assert main([*base, "--joints", "left_wheel,right_wheel"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "joints there: left_wheel_joint, right_wheel_joint" in err
+    assert main([*base, "--joints", "left_wheel_joint,right_wheel_joint", "--joint-topic", "/joints"]) == 2
+    err = capsys.readouterr().err
+    assert "no topic '/joints'" in err and "/joint_states (JointState)" in err and "/mocap/pose (PoseStamped)" in err
+
+
+# -- ROS units, convert of several bags, --help --------------------------------------------------------
+
+
+def test_ros_units_are_accepted_and_must_agree(session_bag, capsys):
+    bag, _ = session_bag
+    base = ["replay", str(bag), "--joints", "left_wheel_joint,right_wheel_joint", "--gt-topic", "/mocap/pose"]
+    base += ["--split-stops", "--side-mm", "2000", "--method", "exact", "--json", "--no-heldout"]
+    assert main([*base, "--wheel-diameter-mm", "100", "--wheelbase-mm", "300"]) == 0
+    mm = json.loads(capsys.readouterr().out)
+    assert main([*base, "--wheel-radius-m", "0.05", "--wheel-separation-m", "0.30"]) == 0
+    ros = json.loads(capsys.readouterr().out)
+    assert ros["Ed"] == mm["Ed"] and ros["nominal"] == mm["nominal"]
+    assert main([*base, "--wheel-radius-m", "0.05", "--wheel-diameter-mm", "100", "--wheelbase-mm", "300"]) == 0
+    capsys.readouterr()
+    assert main([*base, "--wheel-radius-m", "0.06", "--wheel-diameter-mm", "100", "--wheelbase-mm", "300"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--wheel-diameter-mm 100 and --wheel-radius-m 0.06 disagree" in err
+
+
+def test_convert_several_bags_keeps_the_geometry_for_replay(six_bags, tmp_path, capsys):
+    bags, _ = six_bags
+    src = ["--odom-topic", "/odom", "--gt-topic", "/mocap/pose", "--wheel-diameter-mm", "100", "--wheelbase-mm", "300"]
+    out = tmp_path / "six.csv"
+    assert main(["convert", *map(str, bags), *src, "--out", str(out)]) == 0
+    capsys.readouterr()
+    assert out.read_text().startswith("# umbmark nominal geometry: left_diameter_mm=100.0 right_diameter_mm=100.0")
+    common = ["--side-mm", "2000", "--method", "exact", "--json", "--no-heldout"]
+    assert main(["replay", str(out), *common]) == 0  # no --pulses-per-wheel-rev, no geometry
+    csv_rep = json.loads(capsys.readouterr().out)
+    assert main(["replay", *map(str, bags), *src, *common]) == 0
+    bag_rep = json.loads(capsys.readouterr().out)
+    assert csv_rep["nominal"] == bag_rep["nominal"]
+    for k in ("Ed", "Eb"):
+        assert csv_rep[k] == pytest.approx(bag_rep[k], abs=1e-9)
+    assert csv_rep["before"]["emax_syst_mm"] == pytest.approx(bag_rep["before"]["emax_syst_mm"], abs=1e-5)
+
+
+def test_replay_help_shows_a_bag_example(capsys):
+    assert main(["replay", "--help"]) == 0
+    out = capsys.readouterr().out
+    example = out.split("Example", 1)[1]
+    assert "--joints" in example and "--gt-topic" in example and "--odom-topic" in example
+
+
+# -- broken JointState messages, a .db3 alone ---------------------------------------------------------------
+
+
+@pytest.mark.parametrize("damage", ["short", "empty"])
+def test_jointstate_without_positions_is_one_line(tmp_path, capsys, damage):
+    t, pl, pr, world, odom, _ = session(["cw"], pause_s=0.5)
+
+    def positions(k, pos):
+        if k != 7:
+            return pos
+        return pos[:1] if damage == "short" else np.array([], float)
+
+    bag = write_bag(tmp_path / "b", t, pl, pr, world, odom, positions=positions)
+    with pytest.raises(InputError, match=r"JointState message 8 on /joint_states names 2 joints but carries") as e:
+        read_bag(bag, nominal=NOMINAL, joints=tuple(JOINTS), gt_topic="/mocap/pose")
+    assert e.value.source == str(bag)
+    args = ["replay", str(bag), "--joints", ",".join(JOINTS), "--gt-topic", "/mocap/pose", *GEOMETRY]
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and str(bag) in err and "message 8" in err and "Traceback" not in err
+
+
+def test_db3_without_its_metadata_is_one_line(session_bag, tmp_path, capsys):
+    bag, _ = session_bag
+    lone = tmp_path / "lone.db3"
+    lone.write_bytes(next(bag.glob("*.db3")).read_bytes())
+    assert main(["bag-info", str(lone)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "metadata.yaml" in err and str(lone) in err
