@@ -533,21 +533,45 @@ def _analysis_page(a: dict, out_path, after_file, attach, n_boot, seed) -> dict:
 @app.command("guide")
 @click.option("--side-mm", type=float, default=4000.0, show_default=True, help="Side of the square.")
 @click.option("--runs", type=click.IntRange(min=1), default=5, show_default=True, help="Runs per direction.")
-def guide_cmd(side_mm, runs):
+@click.option(
+    "--ros2-script",
+    is_flag=True,
+    help="Print instead a ROS 2 Python node that drives the runs, closed loop on the robot's odometry.",
+)
+@click.option("--speed-m-s", type=float, default=0.2, show_default=True, help="--ros2-script: speed on the legs.")
+@click.option(
+    "--turn-rate-deg-s", type=float, default=30.0, show_default=True, help="--ros2-script: turn rate on the spot."
+)
+@click.option("--cmd-vel-topic", default="/cmd_vel", show_default=True, help="--ros2-script: velocity command topic.")
+@click.option("--odom-topic", default="/odom", show_default=True, help="--ros2-script: the odometry it drives on.")
+@click.option("--stamped", is_flag=True, help="--ros2-script: publish TwistStamped instead of Twist.")
+@click.option(
+    "--pause-s", type=float, default=8.0, show_default=True, help="--ros2-script: rest between runs (seconds)."
+)
+def guide_cmd(side_mm, runs, ros2_script, speed_m_s, turn_rate_deg_s, cmd_vel_topic, odom_topic, stamped, pause_s):
     """Print the field procedure of the UMBmark test, step by step.
 
     Where to start, how to measure the return position with a tape in the start frame, 5 runs
-    each way, and what to type into the distances or runs file.
+    each way, and what to type into the distances or runs file. With --ros2-script: a ROS 2
+    node that drives the runs (each leg and turn ends on the robot's own odometry, a rest
+    between runs).
 
     \b
     Examples:
       umbmark guide
       umbmark guide --side-mm 2000 > procedure.txt
+      umbmark guide --ros2-script --side-mm 2000 --odom-topic /diff_drive_controller/odom > umbmark_runs.py
     """
-    from umbmark.realrobot.guide import guide_text
+    from umbmark.realrobot.guide import guide_text, ros2_runs_script
 
     positive("--side-mm", side_mm)
-    click.echo(guide_text(side_mm, runs), nl=False)
+    if ros2_script:
+        text = ros2_runs_script(
+            side_mm / 1000.0, runs, speed_m_s, turn_rate_deg_s, cmd_vel_topic, odom_topic, stamped, pause_s
+        )
+        click.echo(text, nl=False)
+    else:
+        click.echo(guide_text(side_mm, runs), nl=False)
 
 
 # -- umbmark measure -----------------------------------------------------------------------------------

@@ -1,8 +1,15 @@
-"""The field procedure of the bi-directional UMBmark test, as text (``umbmark guide``)."""
+"""The field procedure of the bi-directional UMBmark test, as text (``umbmark guide``), and a ROS 2
+node that drives its squares closed loop on the robot's own odometry
+(``umbmark guide --ros2-script``)."""
 
 from __future__ import annotations
 
-__all__ = ["guide_text", "STEP_TITLES"]
+import math
+import re
+
+from umbmark.errors import InputError
+
+__all__ = ["STEP_TITLES", "guide_text", "ros2_runs_script"]
 
 STEP_TITLES = (
     "Before you start",
@@ -97,3 +104,230 @@ def guide_text(side_mm: float = 4000.0, runs: int = 5, speed_m_s: float = 0.2) -
         out.append(body if body.startswith("  ") else "   " + body)
         out.append("")
     return "\n".join(out).rstrip() + "\n"
+
+
+_SCRIPT = '''#!/usr/bin/env python3
+"""Drive the UMBmark runs of a ROS 2 robot, closed loop on its own odometry (as the paper's robot).
+
+@@RUNS@@ clockwise, then @@RUNS@@ counter-clockwise squares of @@SIDE_M@@ m. A leg ends when the odometry
+has covered the side, a turn when the odometry has turned 90 degrees; the robot rests
+@@PAUSE_S@@ s between runs (where `umbmark replay --split-stops` cuts the bag into runs).
+
+Written by `umbmark guide --ros2-script`. Start the bag recording first, in another terminal:
+    ros2 bag record -o calibration_bag /joint_states /mocap/robot/pose
+then run this file with a sourced ROS 2 environment:  python3 umbmark_runs.py
+Keep a hand on the emergency stop. Ctrl-C stops the robot; the robot also stops whenever the
+odometry is older than STALE_S seconds.
+"""
+
+import math
+
+SIDE_M = @@SIDE_M@@
+RUNS = @@RUNS@@
+SPEED_M_S = @@SPEED_M_S@@
+TURN_RATE_RAD_S = @@TURN_RATE_RAD_S@@
+PAUSE_S = @@PAUSE_S@@
+CMD_VEL_TOPIC = @@CMD_VEL_TOPIC@@
+ODOM_TOPIC = @@ODOM_TOPIC@@
+STAMPED = @@STAMPED@@
+RATE_HZ = 50.0
+STALE_S = 0.5
+APPROACH_GAIN = 2.0  # 1/s: the command shrinks in proportion to what is left of a leg or turn
+MIN_FRACTION = 0.1  # the slowest approach, as a fraction of the speed or turn rate
+HEADING_GAIN = 1.0  # rad/s per rad: a leg holds the heading it started with
+
+
+def wrap(a):
+    """An angle in (-pi, pi]."""
+    return math.pi - (math.pi - a) % (2.0 * math.pi)
+
+
+class SquareDriver:
+    """The runs as a sequence of legs, turns and rests, driven on the odometry pose (no ROS here)."""
+
+    def __init__(self):
+        self.steps = []
+        for direction, sign in (("cw", -1.0), ("ccw", 1.0)):
+            for run in range(1, RUNS + 1):
+                label = f"{direction} run {run} of {RUNS}"
+                self.steps += [("leg", sign, label), ("turn", sign, label)] * 4
+                self.steps.append(("rest", sign, label))
+        self.index = 0
+        self.start = None
+
+    @property
+    def label(self):
+        """The run the current step belongs to (None when all are done)."""
+        return self.steps[self.index][2] if self.index < len(self.steps) else None
+
+    def command(self, t, x, y, yaw):
+        """(forward m/s, turn rad/s) for the odometry pose (x, y, yaw) at time t; None when done."""
+        if self.index >= len(self.steps):
+            return None
+        kind, sign, _ = self.steps[self.index]
+        if self.start is None:
+            self.start = (t, x, y, yaw)
+        t0, x0, y0, yaw0 = self.start
+        if kind == "leg":
+            left = SIDE_M - math.hypot(x - x0, y - y0)
+            if left <= 0.0:
+                return self._next()
+            v = min(SPEED_M_S, max(MIN_FRACTION * SPEED_M_S, APPROACH_GAIN * left))
+            return v, -HEADING_GAIN * wrap(yaw - yaw0)
+        if kind == "turn":
+            left = math.pi / 2.0 - abs(wrap(yaw - yaw0))
+            if left <= 0.0:
+                return self._next()
+            w = min(TURN_RATE_RAD_S, max(MIN_FRACTION * TURN_RATE_RAD_S, APPROACH_GAIN * left))
+            return 0.0, sign * w
+        if t - t0 >= PAUSE_S:
+            return self._next()
+        return 0.0, 0.0
+
+    def _next(self):
+        self.index += 1
+        self.start = None
+        return 0.0, 0.0
+
+
+def yaw_of(q):
+    """The yaw of a quaternion message."""
+    return math.atan2(2.0 * (q.w * q.z + q.x * q.y), 1.0 - 2.0 * (q.y * q.y + q.z * q.z))
+
+
+def main():
+    import rclpy
+    from geometry_msgs.msg import Twist, TwistStamped
+    from nav_msgs.msg import Odometry
+    from rclpy.node import Node
+
+    class Runner(Node):
+        def __init__(self):
+            super().__init__("umbmark_runs")
+            self.driver = SquareDriver()
+            self.pose = None
+            self.pose_time = None
+            self.finished = False
+            self.said = None
+            self.pub = self.create_publisher(TwistStamped if STAMPED else Twist, CMD_VEL_TOPIC, 10)
+            self.create_subscription(Odometry, ODOM_TOPIC, self.on_odom, 10)
+            self.create_timer(1.0 / RATE_HZ, self.tick)
+
+        def now(self):
+            return self.get_clock().now().nanoseconds * 1e-9
+
+        def on_odom(self, msg):
+            p = msg.pose.pose
+            self.pose = (p.position.x, p.position.y, yaw_of(p.orientation))
+            self.pose_time = self.now()
+
+        def tick(self):
+            t = self.now()
+            if self.pose is None or t - self.pose_time > STALE_S:
+                self.say(f"waiting for odometry on {ODOM_TOPIC}")
+                self.send(0.0, 0.0)
+                return
+            cmd = self.driver.command(t, *self.pose)
+            if cmd is None:
+                self.finished = True
+                cmd = (0.0, 0.0)
+            else:
+                self.say(self.driver.label or "done")
+            self.send(*cmd)
+
+        def say(self, text):
+            if text != self.said:
+                self.get_logger().info(text)
+                self.said = text
+
+        def send(self, v, w):
+            msg = TwistStamped() if STAMPED else Twist()
+            twist = msg.twist if STAMPED else msg
+            if STAMPED:
+                msg.header.stamp = self.get_clock().now().to_msg()
+            twist.linear.x = float(v)
+            twist.angular.z = float(w)
+            self.pub.publish(msg)
+
+    rclpy.init()
+    node = Runner()
+    try:
+        while rclpy.ok() and not node.finished:
+            rclpy.spin_once(node, timeout_sec=0.1)
+    finally:
+        node.send(0.0, 0.0)
+        node.get_logger().info("done: stop the recording")
+        node.destroy_node()
+        rclpy.shutdown()
+
+
+if __name__ == "__main__":
+    main()
+'''
+
+
+def ros2_runs_script(
+    side_m: float = 2.0,
+    runs: int = 5,
+    speed_m_s: float = 0.2,
+    turn_rate_deg_s: float = 30.0,
+    cmd_vel_topic: str = "/cmd_vel",
+    odom_topic: str = "/odom",
+    stamped: bool = False,
+    pause_s: float = 8.0,
+) -> str:
+    """A ROS 2 Python node that drives the UMBmark runs closed loop on the robot's odometry.
+
+    ``runs`` clockwise squares, then ``runs`` counter-clockwise ones; a leg ends when the
+    odometry (``nav_msgs/Odometry`` on ``odom_topic``) has covered ``side_m``, a turn when it has
+    turned 90 degrees, with ``pause_s`` seconds at rest between runs. The driving logic is a
+    plain class (``SquareDriver``) of the script, free of ROS, so it can be tested on its own.
+
+    Parameters
+    ----------
+    side_m : float
+        Side of the square.
+    runs : int
+        Runs per direction.
+    speed_m_s, turn_rate_deg_s : float
+        Speed on the legs and turn rate on the spot (the approach to the end of each slows down).
+    cmd_vel_topic, odom_topic : str
+        The controller's velocity command and odometry topics.
+    stamped : bool
+        Publish ``geometry_msgs/msg/TwistStamped`` (stamped now) instead of
+        ``geometry_msgs/msg/Twist``.
+    pause_s : float
+        Rest between two runs, in seconds.
+
+    Returns
+    -------
+    str
+        The script (Python 3, needs ``rclpy``, ``geometry_msgs`` and ``nav_msgs``).
+    """
+    for name, v in (
+        ("side_m", side_m),
+        ("speed_m_s", speed_m_s),
+        ("turn_rate_deg_s", turn_rate_deg_s),
+        ("pause_s", pause_s),
+    ):
+        if not (math.isfinite(v) and v > 0):
+            raise InputError(f"`{name}` must be a positive number, not {v!r}")
+    if runs < 1:
+        raise InputError(f"`runs` must be at least 1, not {runs!r}")
+    for name, topic in (("cmd_vel_topic", cmd_vel_topic), ("odom_topic", odom_topic)):
+        if not re.fullmatch(r"~?/?[A-Za-z_][A-Za-z0-9_]*(/[A-Za-z_][A-Za-z0-9_]*)*", topic):
+            raise InputError(f"`{name}` is not a ROS topic name: {topic!r}")
+    values = {
+        "SIDE_M": repr(float(side_m)),
+        "RUNS": repr(int(runs)),
+        "SPEED_M_S": repr(float(speed_m_s)),
+        "TURN_RATE_RAD_S": repr(math.radians(turn_rate_deg_s)),
+        "PAUSE_S": repr(float(pause_s)),
+        "CMD_VEL_TOPIC": repr(cmd_vel_topic),
+        "ODOM_TOPIC": repr(odom_topic),
+        "STAMPED": repr(bool(stamped)),
+    }
+    text = _SCRIPT
+    for key, value in values.items():
+        text = text.replace(f"@@{key}@@", value)
+    return text
