@@ -58,6 +58,8 @@ __all__ = [
     "read_selfcal_bag",
     "SelfcalBag",
     "StaticTransform",
+    "read_gyro_bag",
+    "GyroBag",
 ]
 
 _GT_TYPES = ("PoseStamped", "Odometry", "TFMessage", "PoseWithCovarianceStamped")
@@ -93,18 +95,18 @@ def _open(path):
     # A ROS 2 storage file given directly: open its folder when it has the metadata.
     if p.is_file() and p.suffix in (".db3", ".mcap") and (p.parent / "metadata.yaml").is_file():
         p = p.parent
-    elif p.is_file() and p.suffix == ".db3":
-        raise InputError(
-            "a ROS 2 .db3 file is read with its bag folder's metadata.yaml, and there is none beside it: "
-            "give the bag folder as recorded (the .db3 file with its metadata.yaml)",
-            source=str(path),
-        )
     try:
         reader = AnyReader([p], default_typestore=get_typestore(Stores.ROS2_HUMBLE))
         reader.open()
     except Exception as e:  # rosbags raises several error types for unreadable bags
+        hint = ""
+        if p.is_file() and p.suffix in (".db3", ".mcap"):
+            hint = (
+                f" (a ROS 2 {p.suffix} file without the metadata.yaml of its bag folder beside it: give the bag "
+                "folder as recorded)"
+            )
         raise InputError(
-            f"cannot read as a ROS bag: {' '.join(str(e).split()) or type(e).__name__}", source=str(path)
+            f"cannot read as a ROS bag: {' '.join(str(e).split()) or type(e).__name__}{hint}", source=str(path)
         ) from None
     return reader
 
@@ -1107,4 +1109,137 @@ def read_selfcal_bag(
         static_transforms=tuple(tfs.values()),
         topics=topics,
         warnings=tuple(warnings),
+    )
+
+
+# -- gyro ------------------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, eq=False)
+class GyroBag:
+    """The gyro and wheel streams of one bag, in time order (header stamps).
+
+    Attributes
+    ----------
+    source : str
+        The bag.
+    imu_topic : str
+        The ``sensor_msgs/Imu`` topic.
+    imu_frame : str
+        Its ``header.frame_id``.
+    imu_t_s : numpy.ndarray
+        ``(G,)`` stamps of the readings [s].
+    rate_z_radps : numpy.ndarray
+        ``(G,)`` ``angular_velocity.z`` [rad/s].
+    wheel_t_s : numpy.ndarray
+        ``(K,)`` stamps of the wheel data [s].
+    left_rad, right_rad : numpy.ndarray
+        ``(K,)`` cumulative wheel angles [rad] (odometry: through the nominal geometry).
+    wheel_description : str
+        Where the wheel data come from, in words.
+    """
+
+    source: str
+    imu_topic: str
+    imu_frame: str
+    imu_t_s: np.ndarray
+    rate_z_radps: np.ndarray
+    wheel_t_s: np.ndarray
+    left_rad: np.ndarray
+    right_rad: np.ndarray
+    wheel_description: str
+
+
+def read_gyro_bag(
+    path,
+    *,
+    imu_topic: str,
+    nominal: WheelGeometry,
+    joints=None,
+    joint_topic: str = "/joint_states",
+    ticks_topic: str | None = None,
+    left_field: str | None = None,
+    right_field: str | None = None,
+    ticks: str = "cumulative",
+    units_per_rev: float | None = None,
+    odom_topic: str | None = None,
+) -> GyroBag:
+    """Read the turn rates of an IMU and the wheel data of a bag (for the gyro as a rotation reference).
+
+    Parameters
+    ----------
+    path : str or Path
+        A ROS 1 ``.bag``, a ROS 2 bag folder, or its ``.db3`` / ``.mcap`` file.
+    imu_topic : str
+        The ``sensor_msgs/Imu`` topic (its ``angular_velocity.z``).
+    nominal : WheelGeometry
+        The nominal geometry (turns odometry poses back into wheel angles).
+    joints, joint_topic, ticks_topic, left_field, right_field, ticks, units_per_rev, odom_topic
+        The wheel data, as :func:`read_bag`.
+
+    Returns
+    -------
+    GyroBag
+
+    Raises
+    ------
+    InputError
+        An unreadable bag; a missing topic or one of another type (the message lists the bag's
+        topics); not exactly one wheel source; fewer than two readings or wheel samples; stamps
+        that go backwards; values that are not finite.
+    """
+    src = str(path)
+    if sum(x is not None for x in (joints, ticks_topic, odom_topic)) != 1:
+        raise InputError(
+            "give one source of wheel data: the wheel joints (`joints`), a ticks topic (`ticks_topic`) or an "
+            "odometry topic (`odom_topic`)",
+            src,
+        )
+    reader = _open(path)
+    try:
+        iconns = _typed_conns(reader, imu_topic, ("Imu",), src, "gyro")
+        it, iw, frames = [], [], set()
+        for c, ns, raw in reader.messages(connections=iconns):
+            msg = reader.deserialize(raw, c.msgtype)
+            it.append(_stamp(msg, ns))
+            iw.append(float(msg.angular_velocity.z))
+            frames.add(msg.header.frame_id.lstrip("/"))
+        if joints is not None:
+            t, pl, pr = _read_joints(reader, joints, joint_topic, src)
+            scale, desc = 1.0, f"JointState {joints[0]}, {joints[1]} on {joint_topic}"
+        elif ticks_topic is not None:
+            if not left_field or not right_field:
+                raise InputError("a ticks topic needs `left_field` and `right_field`", src)
+            if units_per_rev is None or not (math.isfinite(units_per_rev) and units_per_rev > 0):
+                raise InputError("encoder ticks need the pulses per wheel revolution (`pulses_per_wheel_rev`)", src)
+            t, pl, pr = _read_ticks(reader, ticks_topic, left_field, right_field, src)
+            if ticks == "incremental":
+                pl, pr = list(np.cumsum(pl)), list(np.cumsum(pr))
+            scale, desc = 2.0 * math.pi / float(units_per_rev), f"encoder counts on {ticks_topic}"
+        else:
+            t, pl, pr = _read_odom(reader, str(odom_topic), nominal, src)
+            scale, desc = 1.0, f"nav_msgs/Odometry on {odom_topic}"
+    finally:
+        reader.close()
+    g_t = np.asarray(it, dtype=float)
+    keep, _ = _ordered(g_t, "gyro readings", imu_topic, src)
+    g_t, g_w = g_t[keep], np.asarray(iw, dtype=float)[keep]
+    w_t = np.asarray(t, dtype=float)
+    wkeep, _ = _ordered(w_t, "wheel data", joint_topic if joints is not None else str(ticks_topic or odom_topic), src)
+    left = np.asarray(pl, dtype=float)[wkeep] * scale
+    right = np.asarray(pr, dtype=float)[wkeep] * scale
+    if len(g_t) < 2 or len(wkeep) < 2:
+        raise InputError(f"fewer than two gyro readings on {imu_topic} or wheel samples", src)
+    if not (np.all(np.isfinite(g_w)) and np.all(np.isfinite(left)) and np.all(np.isfinite(right))):
+        raise InputError(f"the gyro readings on {imu_topic} or the wheel data contain NaN or infinite values", src)
+    return GyroBag(
+        source=src,
+        imu_topic=imu_topic,
+        imu_frame=sorted(frames)[0] if frames else "",
+        imu_t_s=g_t,
+        rate_z_radps=g_w,
+        wheel_t_s=w_t[wkeep],
+        left_rad=left,
+        right_rad=right,
+        wheel_description=desc,
     )
