@@ -229,11 +229,12 @@ def test_ground_truth_2_s_late_is_warned_about(clean, clean_cal, tmp_path, capsy
     assert d["time_offset"][0]["estimated_s"] == pytest.approx(2.0, abs=0.01)
 
 
-# the tolerance measured: E_d and E_b after --time-offset auto against the undelayed bag's
-ED_TOL, EB_TOL = 2e-5, 2e-4
+# E_d and E_b after time_offset auto against the undelayed bag's: measured equal (the offset is
+# found to within 0.4 ms, and the runs' end poses lie in the stops)
+ED_TOL, EB_TOL = 1e-8, 1e-8
 
 
-@pytest.mark.parametrize("tau_s", [0.1, 0.35, 1.0, 2.0])
+@pytest.mark.parametrize("tau_s", [0.1, 0.1234, 0.357, 1.0, 1.987])
 def test_late_ground_truth_is_detected_and_corrected(clean, clean_cal, tmp_path, tau_s):
     """A 25 Hz ground truth delayed by 0.1-2 s: found to within one of its periods (40 ms), and
     the calibration with ``time_offset="auto"`` matches the undelayed one."""

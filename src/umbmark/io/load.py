@@ -128,7 +128,8 @@ def load_logs(paths, fmt: str = "auto", **opts) -> Dataset:
         (:func:`nominal_geometry`; a CSV log's recorded geometry fills what is not given),
         ``pulses_per_wheel_rev``, ``ticks``; for bags ``joints``, ``joint_topic``,
         ``ticks_topic``, ``left_field``, ``right_field``, ``odom_topic``, ``gt_topic``,
-        ``gt_frame``, ``gt_parent``, ``ranges``, ``split_stops``, ``stop_s``. Several bags are
+        ``gt_frame``, ``gt_parent``, ``ranges``, ``split_stops``, ``stop_s``; for every
+        format ``time_offset`` (the ground truth's delay, :mod:`umbmark.model.timing`). Several bags are
         the runs of one test (one data set; a run's name starts with its bag's).
 
     Returns
@@ -149,10 +150,13 @@ def load_logs(paths, fmt: str = "auto", **opts) -> Dataset:
         fmt = detect_format(paths[0])
     side = opts.get("side_mm")
     side_m = None if side is None else side * 1e-3
-    if fmt == "optiodom":
-        return _load_optiodom(paths, side_m)
-    if fmt == "csv":
-        return _load_csv(paths, side_m, opts)
+    if fmt in ("optiodom", "csv"):
+        ds = _load_optiodom(paths, side_m) if fmt == "optiodom" else _load_csv(paths, side_m, opts)
+        if opts.get("time_offset") is None:
+            return ds
+        from umbmark.model.timing import align_truth
+
+        return align_truth(ds, opts["time_offset"], "optiodom folder" if fmt == "optiodom" else "CSV log")
     return _load_bag(paths, side_m, opts)
 
 

@@ -13,12 +13,15 @@ the wheel data and the ground truth.
   parabolic interpolation of the correlation's peak).
 * :func:`check_streams`: all of it for the wheel and ground-truth streams of one log, with the
   offset applied when asked (``time_offset``: ``None``, ``"auto"`` or seconds).
+* :func:`align_truth`: the offset applied to a data set whose runs hold the wheels and the
+  ground truth in the same rows (CSV logs, optiodom folders).
 
 Sign of the offset: ``offset_s`` is the ground truth's stamp minus the wheels' stamp of the
 same instant; positive when the ground truth is late (a motion-capture or localisation stream
 delivered after the fact). Correcting it subtracts ``offset_s`` from the ground truth's stamps.
 
-Pure numpy: imports only numpy and :mod:`umbmark.errors`.
+Pure numpy: imports only numpy, :mod:`umbmark.errors` and (for :func:`align_truth`)
+:mod:`umbmark.model.dataset`.
 """
 
 from __future__ import annotations
@@ -44,6 +47,7 @@ __all__ = [
     "parse_time_offset",
     "StreamCheck",
     "check_streams",
+    "align_truth",
 ]
 
 MAX_WHEEL_SPEED_MPS = 30.0
@@ -584,3 +588,97 @@ def check_streams(
                 "are interpolated across it"
             )
     return StreamCheck(t, pl, pr, g, tuple(warnings), offset)
+
+
+def align_truth(ds, time_offset, what: str = "log"):
+    """A data set whose ground-truth trajectories are moved in time against the wheels.
+
+    For logs that hold the wheels and the ground truth in the same rows (CSV, optiodom): each
+    run's ground truth is re-interpolated at ``t + offset`` (positive ``offset``: the ground
+    truth is late), and the run is cut to the samples where that time is inside it (then
+    brought into its new start frame). With ``"auto"`` the offset of each run with a
+    trajectory is estimated from the turn rates (:func:`estimate_time_offset`) and the median
+    over the runs is applied to all of them.
+
+    Parameters
+    ----------
+    ds : umbmark.model.dataset.Dataset
+        The logged runs.
+    time_offset : "auto" or float
+        See :func:`parse_time_offset`.
+    what : str
+        What the runs were read from, for messages.
+
+    Returns
+    -------
+    umbmark.model.dataset.Dataset
+        The runs moved; ``meta["time_offset"]`` one entry per run with a trajectory (``log``,
+        ``run`` and :meth:`TimeOffset.to_dict`).
+
+    Raises
+    ------
+    InputError
+        No run with a ground-truth trajectory; ``auto`` without an estimate; an offset that
+        leaves a run fewer than two samples.
+    """
+    from dataclasses import replace
+
+    from umbmark.model.dataset import Run
+
+    request = parse_time_offset(time_offset)
+    if request is None:
+        return ds
+    g = ds.nominal
+    mpu_l = math.pi * g.diameter_left_m / ds.units_per_rev
+    mpu_r = math.pi * g.diameter_right_m / ds.units_per_rev
+    runs = [r for r in ds.runs if r.has_trajectory]
+    if not runs:
+        raise InputError(f"`time_offset` needs a ground-truth trajectory; this {what} has none", ds.source)
+    found = []
+    for r in runs:
+        ok = np.all(np.isfinite(r.gt), axis=1)
+        heading = np.cumsum(r.d_right * mpu_r - r.d_left * mpu_l) / g.wheelbase_m
+        found.append(estimate_time_offset(r.t, heading, r.t[ok], r.gt[ok, 2]))
+    good = [f[0] for f in found if f[0] is not None]
+    if request == "auto":
+        if not good:
+            why = next(f[3] for f in found if f[3] is not None)
+            raise InputError(f"`time_offset` auto: cannot estimate the offset in this {what}: {why}", ds.source)
+        applied = float(np.median(good))
+    else:
+        applied = float(request)
+    new_runs, entries = [], []
+    estimates = iter(found)
+    for r in ds.runs:
+        if not r.has_trajectory:
+            new_runs.append(r)
+            continue
+        est, corr, max_lag, reason = next(estimates)
+        ok = np.all(np.isfinite(r.gt), axis=1)
+        tt = r.t + applied
+        inside = (tt >= r.t[ok][0]) & (tt <= r.t[ok][-1])
+        if inside.sum() < 2:
+            raise InputError(
+                f"a time offset of {applied:.3f} s leaves run {r.name} fewer than two samples with a ground truth",
+                r.source or ds.source,
+            )
+        gt = np.full_like(r.gt, np.nan)
+        for c in range(3):
+            gt[inside, c] = np.interp(tt[inside], r.t[ok], r.gt[ok, c])
+        a, b = np.flatnonzero(inside)[[0, -1]]
+        moved = Run(r.name, r.t, r.d_left, r.d_right, gt, None, r.source).slice(int(a), int(b) + 1, name=r.name)
+        new_runs.append(moved)
+        period = _median_period(r.t[ok])
+        off = TimeOffset(
+            None if est is None else round(est, 6) + 0.0,
+            None if corr is None else round(corr, 4),
+            applied,
+            request if isinstance(request, str) else f"{request:g}",
+            round(period, 9),
+            round(_median_period(r.t), 9),
+            max_lag,
+            reason,
+        )
+        entries.append({"log": r.source or ds.source, "run": r.name, **off.to_dict()})
+    meta = {**ds.meta, "time_offset": tuple(entries)}
+    return replace(ds, runs=tuple(new_runs), meta=meta)

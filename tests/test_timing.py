@@ -1,0 +1,201 @@
+"""umbmark.model.timing: stamp order, repeats, spikes, coverage, and the time offset between the
+wheels and the ground truth (estimated from the turn rates; applied to data sets of CSV-like
+runs)."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+import simlogs
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from umbmark.errors import InputError
+from umbmark.model.dataset import Dataset, Run
+from umbmark.model.timing import (
+    align_truth,
+    check_streams,
+    coverage,
+    estimate_time_offset,
+    ordered_stamps,
+    parse_time_offset,
+    wheel_spikes,
+)
+from umbmark.realrobot.replay import replay_report
+
+
+def _turning(seed: int, duration_s: float = 60.0, dt: float = 0.01):
+    """Times and the heading of a robot turning at a random, piecewise-constant rate."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, duration_s, dt)
+    pieces = rng.uniform(0.5, 3.0, 200).cumsum()
+    rates = rng.choice([-0.8, 0.0, 0.0, 0.5, 1.0], 200)
+    rate = rates[np.searchsorted(pieces, t) % 200]
+    return t, np.concatenate([[0.0], np.cumsum(rate[1:] * dt)])
+
+
+@settings(max_examples=25, deadline=None)
+@given(
+    seed=st.integers(0, 10_000),
+    tau=st.floats(-2.0, 2.0),
+    period=st.sampled_from([0.01, 0.02, 0.04, 0.1]),
+    scale=st.floats(0.8, 1.25),
+)
+def test_offset_is_found_to_within_one_truth_period(seed, tau, period, scale):
+    """A ground truth of any rate, late or early by up to 2 s, against wheels whose heading is
+    scaled (a wrong wheelbase), with noise on the ground-truth heading."""
+    t, h = _turning(seed)
+    rng = np.random.default_rng(seed + 1)
+    tg = np.arange(0.0, t[-1], period) + tau + rng.uniform(0, period)
+    hg = np.interp(tg - tau, t, h) + rng.normal(0, 0.002, tg.size)
+    est, corr, _, reason = estimate_time_offset(t, scale * h, tg, hg)
+    assert reason is None and corr > 0.9
+    assert abs(est - tau) < period
+
+
+def test_no_offset_without_turns():
+    t = np.arange(0, 10, 0.01)
+    est, corr, _, reason = estimate_time_offset(t, np.zeros_like(t), t, np.zeros_like(t))
+    assert est is None and "hardly turns" in reason
+
+
+def test_unrelated_turn_rates_give_no_estimate():
+    t, h = _turning(1)
+    _, h2 = _turning(2)
+    est, corr, _, reason = estimate_time_offset(t, h, t, -h2)
+    assert est is None and "hardly agree" in reason
+
+
+def test_ordered_stamps():
+    keep, rep, first = ordered_stamps([0.0, 0.1, 0.1, 0.2, 0.2, 0.2, 0.3], "joint states", "/js")
+    assert list(keep) == [0, 2, 5, 6] and rep == 3 and first == 3
+    with pytest.raises(InputError, match=r"joint states on /js go backwards at message 3 of 4: 0.050000 s after "):
+        ordered_stamps([0.0, 0.1, 0.05, 0.2], "joint states", "/js", "x.bag")
+    with pytest.raises(InputError, match="not a number at message 2"):
+        ordered_stamps([0.0, math.nan], "joint states", "/js")
+
+
+def test_wheel_spikes():
+    t = np.arange(10) * 0.01
+    pos = np.arange(10) * 0.01
+    assert wheel_spikes(t, pos, pos, 0.05)[0].size == 0
+    spiky = pos.copy()
+    spiky[4] = 1e300
+    bad, isolated = wheel_spikes(t, spiky, pos, 0.05)
+    assert list(bad) == [4] and isolated
+    jumped = pos.copy()
+    jumped[6:] += 1e4
+    bad, isolated = wheel_spikes(t, pos, jumped, 0.05)
+    assert list(bad) == [6] and not isolated
+
+
+def test_coverage():
+    frac, gap, at = coverage(np.arange(0, 100.0), np.concatenate([np.arange(0, 10.0), np.arange(15.0, 20.0)]))
+    assert frac == pytest.approx(19 / 99) and gap == 6.0 and at == 9.0
+
+
+def test_parse_time_offset():
+    assert parse_time_offset(None) is None and parse_time_offset(" ") is None
+    assert parse_time_offset("AUTO") == "auto" and parse_time_offset("0.12") == 0.12
+    assert parse_time_offset("-0.5s") == -0.5 and parse_time_offset(0.25) == 0.25
+    for bad in ("soon", "nan", "1e9", math.inf):
+        with pytest.raises(InputError, match="`time_offset`"):
+            parse_time_offset(bad)
+
+
+def test_incremental_counts_at_a_repeated_stamp_are_added():
+    t = [0.0, 0.01, 0.01, 0.02]
+    inc = [0.0, 1.0, 2.0, 3.0]
+    chk = check_streams(
+        t,
+        inc,
+        inc,
+        metres_per_unit_left=1e-3,
+        metres_per_unit_right=1e-3,
+        wheelbase_m=0.3,
+        cumulative=False,
+        wheel_topic="/ticks",
+    )
+    assert list(chk.t) == [0.0, 0.01, 0.02] and list(chk.left) == [0.0, 3.0, 3.0]
+    assert "1 of the 4 wheel positions on /ticks repeat the stamp" in chk.warnings[0]
+
+
+def _padded_squares(still_s: float = 3.0, dt: float = 0.02) -> Dataset:
+    """Simulated square runs (wheels and ground truth in the same rows, as a CSV log), each with
+    ``still_s`` of standstill before and after it."""
+    ds = simlogs.dataset(simlogs.squares(2), dt=dt, side_m=2.0)
+    n = int(round(still_s / dt))
+    runs = []
+    for r in ds.runs:
+        z = np.zeros(n)
+        gt = np.vstack([np.repeat(r.gt[:1], n, 0), r.gt, np.repeat(r.gt[-1:], n, 0)])
+        k = len(r) + 2 * n
+        runs.append(
+            Run(r.name, np.arange(k) * dt, np.concatenate([z, r.d_left, z]), np.concatenate([z, r.d_right, z]), gt)
+        )
+    return ds.with_runs(runs)
+
+
+def _late(ds: Dataset, tau: float) -> Dataset:
+    """The ground truth of every run ``tau`` seconds late (the pose of t - tau in the row of t)."""
+    runs = []
+    for r in ds.runs:
+        tt = np.clip(r.t - tau, r.t[0], r.t[-1])
+        gt = np.column_stack([np.interp(tt, r.t, r.gt[:, c]) for c in range(3)])
+        runs.append(Run(r.name, r.t, r.d_left, r.d_right, gt))
+    return ds.with_runs(runs)
+
+
+@pytest.mark.parametrize("tau", [0.1, 0.53, 1.9])
+def test_align_truth_corrects_a_late_ground_truth_in_csv_runs(tau):
+    clean = _padded_squares()
+    late = _late(clean, tau)
+    ref = replay_report(clean, "lsq", heldout=False).to_dict()
+    bad = replay_report(late, "lsq", heldout=False).to_dict()
+    fixed_ds = align_truth(late, "auto", "CSV log")
+    entries = fixed_ds.meta["time_offset"]
+    assert len(entries) == len(clean.runs)
+    for e in entries:
+        assert abs(e["estimated_s"] - tau) < e["truth_period_s"] and e["applied_s"] == pytest.approx(tau, abs=0.02)
+    fixed = replay_report(fixed_ds, "lsq", heldout=False).to_dict()
+    # measured: within 2e-8 in E_d and 7e-6 in E_b of the undelayed fit (lsq along the path)
+    assert abs(fixed["Ed"] - ref["Ed"]) < 1e-6 and abs(fixed["Eb"] - ref["Eb"]) < 2e-5
+    # the delay biased the uncorrected fit by far more (E_b by 1.2e-3 at 0.1 s, 3.9e-2 at 1.9 s)
+    assert abs(bad["Eb"] - ref["Eb"]) > 1e-3
+    assert align_truth(late, tau).meta["time_offset"][0]["applied_s"] == tau
+
+
+def test_align_truth_needs_a_trajectory():
+    ds = simlogs.dataset(simlogs.squares(1), side_m=2.0)
+    bare = ds.with_runs([Run(r.name, r.t, r.d_left, r.d_right, None, r.gt[-1]) for r in ds.runs])
+    with pytest.raises(InputError, match="needs a ground-truth trajectory"):
+        align_truth(bare, "auto")
+    assert align_truth(ds, None) is ds
+
+
+def test_cli_time_offset_on_a_real_optiodom_folder(capsys):
+    """The real OptiOdom squares: no delay beyond one motion-capture period (50 ms) is found, and
+    correcting the tiny one found leaves the calibration as it was."""
+    import json
+
+    from conftest import REPO
+
+    from umbmark.cli import main
+
+    folder = str(REPO / "data" / "optiodom" / "square" / "230620202144")
+    args = ["replay", folder, "--method", "bf", "--no-heldout", "--json"]
+    assert main(args) == 0
+    plain = json.loads(capsys.readouterr().out)
+    assert "time_offset" not in plain
+    assert main([*args, "--time-offset", "auto"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert len(d["time_offset"]) == len(d["runs"]) == 6
+    for e in d["time_offset"]:
+        assert abs(e["estimated_s"]) < e["truth_period_s"] == pytest.approx(0.05) and e["correlation"] > 0.9
+    assert abs(d["Ed"] - plain["Ed"]) < 1e-4 and abs(d["Eb"] - plain["Eb"]) < 1e-4
+    assert main([*args, "--time-offset", "0.1"]) == 0
+    assert {e["applied_s"] for e in json.loads(capsys.readouterr().out)["time_offset"]} == {0.1}
+    assert main([*args, "--time-offset", "later"]) == 2
+    assert "--time-offset" in capsys.readouterr().err
