@@ -182,7 +182,7 @@ def test_bad_files_one_line_exit_2(tmp_path, capsys, name, content, match):
         (["--wheelbase-mm", "340", "--side-mm", "4000", "--method", "magic"], "Invalid value for '--method'"),
         (["--wheelbase-mm", "abc", "--side-mm", "4000"], "Invalid value for '--wheelbase-mm'"),
         (["--side-mm", "4000"], "Missing option '--wheelbase-mm'"),
-        (["--wheelbase-mm", "6000", "--side-mm", "100"], "undefined"),
+        (["--wheelbase-mm", "6000", "--side-mm", "100"], "not longer than the wheelbase"),
     ],
 )
 def test_bad_flags_one_line_exit_2(tmp_path, capsys, flags, match):
