@@ -784,9 +784,9 @@ def export(
         wheel_radius_m,
         wheel_separation_m,
     )
+    rec = _record_selfcal(calibration, robot, record, db) if record else None
     for w in export_warnings(cal, left_multiplier, right_multiplier, separation_multiplier):
         click.echo(f"warning: {cli_message(w)}", err=True)
-    rec = _record_selfcal(calibration, robot, record, db) if record else None
     if out:
         write_export(text, out)
         if not is_quiet():
