@@ -130,7 +130,7 @@ BASE = {
         "--back",
         "-200,0",
     ],
-    "replay": ["replay", "{paths}", "--db", "{db}"],
+    "replay": ["replay", "{paths}", "--sensor-pose", "{sensor_pose}", "--db", "{db}"],
     "report": ["report", "{runs_file}", "--after", "{after_file}", "--attach", "{attach}", "--db", "{db}"],
     "selfcal": [
         "selfcal",
@@ -154,6 +154,7 @@ INPUT_FILE = {
     ("export", "calibration"): "cal.json",
     ("measure", "distances_file"): "distances.csv",
     ("replay", "paths"): "log.csv",
+    ("replay", "sensor_pose"): "cal.json",
     ("report", "runs_file"): "runs.csv",
     ("report", "after_file"): "after.csv",
     ("report", "attach"): "cal.json",

@@ -33,12 +33,20 @@ PATH_ROLES: dict[str, dict[str, str]] = {
     "bench accuracy": {"out_dir": "output_dir"},
     "bench speed": {"out_dir": "output_dir"},
     "calibrate": {"runs_files": "input", "save_runs": "output_dir", "db": "db"},
-    "convert": {"paths": "input", "out": "output"},
+    "convert": {"paths": "input", "out": "output", "time_offset": "name"},
     "demo": {"out_dir": "output_dir"},
     "export": {"calibration": "input", "dataset": "name", "out": "output", "db": "db"},
     "history": {"robot": "name", "db": "db", "plot_path": "output", "export_path": "output"},
     "measure": {"distances_file": "input", "out_path": "output"},
-    "replay": {"paths": "input", "save": "output", "poses_out": "output", "db": "db"},
+    "replay": {
+        "paths": "input",
+        "sensor_pose": "input",  # X,Y,YAW or a selfcal JSON
+        "save": "output",
+        "poses_out": "output",
+        "db": "db",
+        "time_offset": "name",
+        "imu_topic": "name",
+    },
     "report": {
         "runs_file": "input",
         "after_file": "input",
