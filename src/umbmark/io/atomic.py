@@ -137,7 +137,9 @@ def atomic_path(path):
 def _special(path: Path):
     """The content is made in a temporary file, then written into ``path`` (a device or pipe:
     it cannot be renamed over, and a failed write, e.g. /dev/full, is an OSError)."""
-    fd, tmp = tempfile.mkstemp(prefix=".umbmark.", suffix=path.suffix or ".tmp")
+    scratch = Path(tempfile.gettempdir()) / path.name
+    remove_stale_temporaries(scratch)
+    fd, tmp = tempfile.mkstemp(prefix=_temp_prefix(scratch) + f"{os.getpid()}.", suffix=path.suffix or ".tmp")
     os.close(fd)
     try:
         yield Path(tmp)
