@@ -234,7 +234,7 @@ def history_cmd(robot, db, plot_path, export_path, limit, show_id, as_json):
         exported = None
         if export_path:
             suffix = Path(export_path).suffix.lower()
-            text = format_export(latest, "yaml" if suffix in (".yaml", ".yml") else "json")
+            text = format_export(latest, "yaml" if suffix in (".yaml", ".yml") else "json", db=h.path)
             if export_path == "-":
                 sys.stdout.write(text)
             else:

@@ -1053,7 +1053,7 @@ def export_parameters(record: Record) -> dict:
     return d
 
 
-def format_export(record: Record, fmt: str = "json") -> str:
+def format_export(record: Record, fmt: str = "json", db=None) -> str:
     """:func:`export_parameters` as JSON or YAML text.
 
     Parameters
@@ -1062,6 +1062,8 @@ def format_export(record: Record, fmt: str = "json") -> str:
         The record.
     fmt : str
         ``"json"`` or ``"yaml"``.
+    db : str or Path, optional
+        The database the record is from (named in the message of a record with nothing to load).
 
     Returns
     -------
@@ -1078,7 +1080,9 @@ def format_export(record: Record, fmt: str = "json") -> str:
     for k in ("c_left", "c_right", "Eb"):
         if not (d.get(k) is not None and d[k] > 0):
             raise HistoryError(
-                f"record #{record.id} of robot {record.robot!r} holds no usable {k} "
+                f"record #{record.id} of robot {record.robot!r}"
+                + ("" if db is None else f" in the history database {display_db(db)}")
+                + f" holds no usable {k} "
                 f"({_short(d.get(k))}): nothing exported"
             )
     if fmt == "json":
