@@ -39,7 +39,7 @@ from umbmark.errors import InputError
 from umbmark.model.geometry import LABMATE, ErrorParams, Geometry, WheelGeometry
 from umbmark.model.intervals import Intervals
 from umbmark.model.se2 import arc, between, compose
-from umbmark.model.sensors import Lidar, Room, SensorPose
+from umbmark.model.sensors import Gyro, Lidar, Room, SensorPose
 from umbmark.model.simulate import child_seeds
 
 __all__ = [
@@ -58,6 +58,8 @@ __all__ = [
     "default_start",
     "square_program",
     "concatenate_drives",
+    "skid_steer_robot",
+    "simulate_gyro",
     "MAX_SAMPLES",
 ]
 
@@ -1058,3 +1060,87 @@ def concatenate_drives(logs: Sequence[DriveLog]) -> DriveLog:
         commands=tuple(c for lg in logs for c in lg.commands),
         seed=first.seed,
     )
+
+
+def skid_steer_robot(
+    track_m: float = 0.40,
+    wheel_diameter_m: float = 0.20,
+    factor: float = 1.6,
+    *,
+    ed: float = 1.0,
+    sensor_pose: SensorPose | None = None,
+    lidar: Lidar | None = None,
+) -> SimRobot:
+    """A skid-steer robot: its wheels slide sideways in every turn, so it turns as a differential
+    drive with a wider wheelbase than its track (``factor`` times it, 1.5 to 2 for four-wheel
+    skid-steer platforms on carpet or concrete).
+
+    Its nominal geometry is what its drawing says (the track as wheelbase); its true effective
+    wheelbase is ``factor x track`` (E_b = ``factor``): what ROS users set through
+    ``wheel_separation_multiplier``.
+
+    Parameters
+    ----------
+    track_m : float
+        The distance between the left and right wheels [m].
+    wheel_diameter_m : float
+        The nominal wheel diameter [m].
+    factor : float
+        Effective wheelbase over track.
+    ed : float
+        E_d of the wheels.
+    sensor_pose, lidar : optional
+        The lidar and its mounting (default: centred, the default :class:`Lidar`).
+
+    Returns
+    -------
+    SimRobot
+
+    Raises
+    ------
+    InputError
+        A size or factor that is not positive.
+    """
+    for name, v in (("track_m", track_m), ("wheel_diameter_m", wheel_diameter_m), ("factor", factor)):
+        _check_rate(name, v)
+    return SimRobot(
+        nominal=Geometry(wheel_diameter_m=wheel_diameter_m, wheelbase_m=track_m, pulses_per_rev=1024.0, gear_ratio=1.0),
+        errors=ErrorParams(ed=ed, eb=factor),
+        sensor_pose=SensorPose() if sensor_pose is None else sensor_pose,
+        lidar=Lidar() if lidar is None else lidar,
+    )
+
+
+def simulate_gyro(
+    log: DriveLog, gyro: Gyro, seed: int | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The readings of a yaw-rate gyro on the robot during a drive (:meth:`Gyro.measure`).
+
+    Parameters
+    ----------
+    log : DriveLog
+        The drive.
+    gyro : Gyro
+        The gyro.
+    seed : int, optional
+        Seed of its noise (needed when it is noisy).
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(t_s, rate_radps)``: reading times from ``1 / rate_hz`` to the end of the drive, and
+        the readings.
+
+    Raises
+    ------
+    InputError
+        A noisy gyro without a seed, or a drive shorter than two gyro samples.
+    """
+    if seed is None and gyro.noise_radps > 0:
+        raise InputError("a gyro with noise needs a `seed`")
+    n = int(math.floor(log.duration_s * gyro.rate_hz + 1e-9))
+    if n < 1:
+        raise InputError("the drive is shorter than one gyro sample")
+    t = np.arange(n + 1) / gyro.rate_hz
+    yaw = log.true_pose_at(t)[:, 2]
+    return gyro.measure(t, yaw, None if seed is None else np.random.default_rng(seed))

@@ -10,6 +10,8 @@ Pure numpy (and numba, when installed, for the ray caster): this module imports 
 * :class:`SensorPose`: where the sensor sits on the robot (robot frame: x forward, y left).
 * :class:`Lidar`: beams, field of view, range limits, Gaussian range noise and dropouts;
   :meth:`Lidar.scan` simulates the scans of many sensor poses at once.
+* :class:`Gyro`: a yaw-rate gyro (scale factor, bias, white noise): :meth:`Gyro.measure` turns
+  true headings at its sample times into its readings.
 * :func:`cast_rays`: the exact ranges of rays from many sensor poses (beams x segments, over
   poses in chunks of bounded memory); ``inf`` where a ray hits nothing within range.
 
@@ -33,6 +35,7 @@ __all__ = [
     "Room",
     "SensorPose",
     "Lidar",
+    "Gyro",
     "cast_rays",
     "have_numba",
 ]
@@ -439,6 +442,83 @@ class Lidar:
                 r[g.random(r.shape) < self.dropout_prob] = np.inf
         r[(r < self.min_range_m) | (r > self.max_range_m)] = np.inf
         return r
+
+
+@dataclass(frozen=True)
+class Gyro:
+    """A yaw-rate gyro (the z axis of an IMU), read at a fixed rate.
+
+    Each reading is the mean true turn rate over the sample period that ends at its time, times
+    ``scale``, plus ``bias_radps`` and Gaussian noise of standard deviation ``noise_radps``.
+
+    Parameters
+    ----------
+    rate_hz : float
+        Readings per second.
+    scale : float
+        The gyro's scale factor (1: exact).
+    bias_radps : float
+        Constant offset of every reading [rad/s].
+    noise_radps : float
+        Standard deviation of the noise on each reading [rad/s].
+
+    Raises
+    ------
+    InputError
+        A rate or scale that is not positive, a bias that is not finite, a negative noise.
+    """
+
+    rate_hz: float = 100.0
+    scale: float = 1.0
+    bias_radps: float = 0.0
+    noise_radps: float = 0.0
+
+    def __post_init__(self) -> None:
+        for name in ("rate_hz", "scale"):
+            v = getattr(self, name)
+            if not (math.isfinite(v) and v > 0):
+                raise InputError(f"`{name}` must be a positive number, got {v!r}")
+        if not math.isfinite(self.bias_radps):
+            raise InputError(f"`bias_radps` must be finite, got {self.bias_radps!r}")
+        if not (math.isfinite(self.noise_radps) and self.noise_radps >= 0):
+            raise InputError(f"`noise_radps` must be >= 0, got {self.noise_radps!r}")
+
+    def measure(
+        self, t_s: ArrayLike, yaw_rad: ArrayLike, rng: np.random.Generator | int | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """The readings at the times ``t_s[1:]``, from the true headings at ``t_s``.
+
+        Parameters
+        ----------
+        t_s : array_like
+            ``(K,)`` increasing times [s] (the gyro's sample times, one before the first reading).
+        yaw_rad : array_like
+            ``(K,)`` true headings at those times [rad], accumulated (not wrapped).
+        rng : numpy.random.Generator or int, optional
+            The noise source; needed when ``noise_radps`` is positive.
+
+        Returns
+        -------
+        tuple of numpy.ndarray
+            ``(t_s[1:], readings [rad/s])``.
+
+        Raises
+        ------
+        InputError
+            Arrays of different lengths, fewer than two times or times that do not increase; a
+            noisy gyro without ``rng``.
+        """
+        t = np.asarray(t_s, dtype=float).reshape(-1)
+        yaw = np.asarray(yaw_rad, dtype=float).reshape(-1)
+        if t.shape != yaw.shape or t.size < 2 or not np.all(np.diff(t) > 0):
+            raise InputError("a gyro needs two or more increasing times and one heading per time")
+        rate = self.scale * np.diff(yaw) / np.diff(t) + self.bias_radps
+        if self.noise_radps > 0:
+            if rng is None:
+                raise InputError("a gyro with noise needs a random generator (`rng`)")
+            g = rng if isinstance(rng, np.random.Generator) else np.random.default_rng(rng)
+            rate = rate + self.noise_radps * g.standard_normal(rate.shape)
+        return t[1:], rate
 
 
 # ---------------------------------------------------------------- ray casting

@@ -1,0 +1,472 @@
+"""The gyro as a rotation reference: the effective wheelbase from on-the-spot turns, without any
+external measurement, and the gyro's own scale factor where the true turns are known.
+
+From a bag's ``sensor_msgs/Imu`` turn rates (``angular_velocity.z``) and its wheel data
+(:func:`umbmark.io.rosbag.read_gyro_bag`), :func:`gyro_reference`:
+
+* **Still periods**: stretches of at least ``still_s`` seconds in which neither wheel turns.
+  The gyro's **bias** is the mean of its readings inside them (``margin_s`` in from either end),
+  interpolated linearly in time between still periods (a slowly drifting bias is followed); its
+  noise is their standard deviation. Without a still period the bias is not removed (warned).
+* **Turns**: the motion between two still periods. The gyro's turn is the integral of its
+  readings (bias removed) from the middle of one still period to the middle of the next (the
+  robot at rest at both ends, so the readings' timing does not matter); the wheels' turn is
+  ``(s_R - s_L) / b`` of the nominal wheel travel and wheelbase. A turn is **on the spot** when
+  the wheels' mean travel is below ``spin_travel`` of the turn's arc (half the wheelbase times
+  the angle): a spin, or the turn of a UMBmark square. Only turns of at least ``min_turn_rad``
+  are used; only turns on the spot when there are any (on a straight or an arc the wheel
+  diameter ratio E_d also turns the robot).
+* **Effective wheelbase**: on the spot the robot turns by ``Delta psi = (s_R - s_L) / b_eff``
+  whatever E_d, so ``psi_gyro = scale x psi_wheels x b / b_eff``: the least-squares ratio ``k``
+  of the gyro's to the wheels' turns gives ``E_b = scale / k`` and ``b_eff = E_b x b``, the
+  wheelbase the odometry should use with its nominal wheels (for a skid-steer robot much wider
+  than its track: ``wheel_separation_multiplier``). Relative to the wheel scale: wheels that
+  roll further than their nominal size turn the robot further too.
+* **The gyro's scale**: assumed 1 unless the true turns are known: ``full_turns`` (every turn on
+  the spot was a whole number of revolutions, counted: the true turn is the gyro's rounded to
+  whole turns) or ``scans`` (the robot's lidar: the last scan at rest before each turn and the
+  first after it registered, :func:`umbmark.realrobot.scanmatch.match_scans` with the coarse
+  stage around the gyro's turn). ``scale`` is the least-squares ratio of the gyro's turns to the
+  true ones.
+* **Intervals** (95 %): from the scatter of the turns about the fitted ratio (Student t, one
+  degree of freedom less than the turns used); with one turn, none (warned).
+
+SI units. Imports numpy, scipy, :mod:`umbmark.model`, :mod:`umbmark.io` and the scan matcher.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from umbmark.errors import InputError
+from umbmark.io.rosbag import GyroBag, SelfcalBag
+from umbmark.model.dataset import WheelGeometry
+from umbmark.model.se2 import compose, inverse
+from umbmark.realrobot.scan_truth import SCAN_TRUTH_ICP, robot_displacement
+from umbmark.realrobot.scanmatch import ICPConfig, match_scans
+
+__all__ = ["GyroTurn", "GyroReference", "gyro_reference", "still_periods"]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class GyroTurn:
+    """One turn between two still periods.
+
+    Attributes
+    ----------
+    source : str
+        The bag.
+    t_s : (float, float)
+        Its start and end (the middles of the still periods around it) [s, the bag's clock].
+    wheels_rad : float
+        The nominal odometry's turn.
+    gyro_rad : float
+        The gyro's turn (bias removed).
+    travel_m : float
+        The wheels' mean travel (zero for a turn on the spot).
+    on_the_spot : bool
+        The wheels' mean travel is small beside the turn's arc.
+    true_rad : float or None
+        The true turn (whole turns, or from the lidar), when known.
+    used : bool
+        Used in the fit.
+    """
+
+    source: str
+    t_s: tuple[float, float]
+    wheels_rad: float
+    gyro_rad: float
+    travel_m: float
+    on_the_spot: bool
+    true_rad: float | None
+    used: bool
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-ready values (degrees)."""
+        return {
+            "source": self.source,
+            "t_s": list(self.t_s),
+            "wheels_deg": math.degrees(self.wheels_rad),
+            "gyro_deg": math.degrees(self.gyro_rad),
+            "true_deg": None if self.true_rad is None else math.degrees(self.true_rad),
+            "travel_mm": self.travel_m * 1e3,
+            "on_the_spot": self.on_the_spot,
+            "used": self.used,
+        }
+
+
+@dataclass(frozen=True)
+class GyroReference:
+    """The gyro's verdict on the wheelbase, and its own scale factor.
+
+    Attributes
+    ----------
+    imu_topic : str
+        The Imu topic.
+    nominal_wheelbase_m : float
+        The wheelbase the wheels' turns were computed with.
+    wheelbase_m : float
+        The effective wheelbase.
+    wheelbase_m_ci95 : (float, float) or None
+        Its 95 % interval.
+    eb : float
+        ``wheelbase_m / nominal_wheelbase_m``: the factor on the wheelbase in use
+        (``wheel_separation_multiplier`` when the nominal one is ``wheel_separation``).
+    eb_ci95 : (float, float) or None
+    gyro_scale : float
+        The gyro's scale factor (1 when it is assumed).
+    gyro_scale_ci95 : (float, float) or None
+    gyro_scale_source : str
+        ``assumed``, ``full turns`` or ``lidar``.
+    bias_radps, noise_radps : float
+        The mean bias removed and the readings' standard deviation at rest.
+    still_s : float
+        The time at rest the bias was measured over.
+    readings : int
+        Gyro readings in all.
+    turns : tuple of GyroTurn
+    warnings : tuple of str
+    """
+
+    imu_topic: str
+    nominal_wheelbase_m: float
+    wheelbase_m: float
+    wheelbase_m_ci95: tuple[float, float] | None
+    eb: float
+    eb_ci95: tuple[float, float] | None
+    gyro_scale: float
+    gyro_scale_ci95: tuple[float, float] | None
+    gyro_scale_source: str
+    bias_radps: float
+    noise_radps: float
+    still_s: float
+    readings: int
+    turns: tuple[GyroTurn, ...]
+    warnings: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        """The ``gyro`` block of ``umbmark replay --imu-topic ... --json``."""
+
+        def pair(p):
+            return None if p is None else [float(p[0]), float(p[1])]
+
+        return {
+            "imu_topic": self.imu_topic,
+            "wheelbase_m": self.wheelbase_m,
+            "wheelbase_m_ci95": pair(self.wheelbase_m_ci95),
+            "nominal_wheelbase_m": self.nominal_wheelbase_m,
+            "Eb": self.eb,
+            "Eb_ci95": pair(self.eb_ci95),
+            "wheel_separation_multiplier": self.eb,
+            "gyro_scale": self.gyro_scale,
+            "gyro_scale_ci95": pair(self.gyro_scale_ci95),
+            "gyro_scale_source": self.gyro_scale_source,
+            "bias_rad_per_s": self.bias_radps,
+            "noise_rad_per_s": self.noise_radps,
+            "still_s": self.still_s,
+            "readings": self.readings,
+            "turns_used": sum(t.used for t in self.turns),
+            "turns": [t.to_dict() for t in self.turns],
+            "warnings": list(self.warnings),
+        }
+
+
+def still_periods(t_s, left_rad, right_rad, still_s: float) -> list[tuple[float, float]]:
+    """The stretches in which neither wheel turns, at least ``still_s`` long.
+
+    Parameters
+    ----------
+    t_s : array_like
+        ``(K,)`` wheel stamps [s].
+    left_rad, right_rad : array_like
+        ``(K,)`` cumulative wheel angles.
+    still_s : float
+        The shortest stillness [s].
+
+    Returns
+    -------
+    list of (float, float)
+        ``(start, end)`` times: from the last sample of the motion before (or the first sample)
+        to the sample before the next motion (or the last sample).
+    """
+    t = np.asarray(t_s, dtype=float)
+    dl = np.diff(np.asarray(left_rad, dtype=float))
+    dr = np.diff(np.asarray(right_rad, dtype=float))
+    moving = np.concatenate([[False], (dl != 0) | (dr != 0)])
+    idx = np.flatnonzero(moving)
+    bounds = [0] + [int(i) for i in idx] + [len(t)]  # still from sample a to sample b - 1 between motions
+    out = []
+    for a, b in zip(bounds[:-1], bounds[1:]):
+        lo, hi = float(t[a]), float(t[b - 1])
+        if hi - lo >= still_s:
+            out.append((lo, hi))
+    return out
+
+
+def _bias(bag: GyroBag, stills, margin_s: float) -> tuple[FloatArray, float, float, float]:
+    """The bias at every reading (interpolated between still periods), the mean bias, noise, still time."""
+    t, w = bag.imu_t_s, bag.rate_z_radps
+    dt = float(np.median(np.diff(t)))
+    centres, means, inside_all, total = [], [], [], 0.0
+    for lo, hi in stills:
+        inside = (t - dt >= lo + margin_s) & (t <= hi - margin_s)
+        if inside.sum() >= 3:
+            centres.append(0.5 * (lo + hi))
+            means.append(float(np.mean(w[inside])))
+            inside_all.append(inside)
+            total += hi - lo - 2 * margin_s
+    if not centres:
+        return np.zeros_like(t), 0.0, float("nan"), 0.0
+    bias = np.interp(t, centres, means)
+    sel = np.any(inside_all, axis=0)
+    resid = w[sel] - bias[sel]
+    return bias, float(np.mean(w[sel])), float(np.std(resid, ddof=1)) if resid.size > 1 else 0.0, total
+
+
+def _heading(bag: GyroBag, bias: FloatArray):
+    """The gyro's integrated heading as a function of time (each reading over the period before it)."""
+    t = bag.imu_t_s
+    dt = np.diff(t, prepend=t[0] - float(np.median(np.diff(t))))
+    psi = np.concatenate([[0.0], np.cumsum((bag.rate_z_radps - bias) * dt)])
+    knots = np.concatenate([[t[0] - dt[0]], t])
+
+    def at(time: float) -> float:
+        return float(np.interp(time, knots, psi))
+
+    return at
+
+
+def _turns(bag: GyroBag, nominal: WheelGeometry, stills, heading, spin_travel: float) -> list[GyroTurn]:
+    t = bag.wheel_t_s
+    sl = np.concatenate([[0.0], np.cumsum(np.diff(bag.left_rad))]) * 0.5 * nominal.diameter_left_m
+    sr = np.concatenate([[0.0], np.cumsum(np.diff(bag.right_rad))]) * 0.5 * nominal.diameter_right_m
+    dist = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(sl) + np.diff(sr)) / 2)])
+    out = []
+    for (a0, a1), (b0, b1) in zip(stills[:-1], stills[1:]):
+        ta, tb = 0.5 * (a0 + a1), 0.5 * (b0 + b1)
+        ia, ib = int(np.searchsorted(t, ta)), int(np.searchsorted(t, tb))
+        ia, ib = min(ia, len(t) - 1), min(ib, len(t) - 1)
+        wheels = float((sr[ib] - sl[ib]) - (sr[ia] - sl[ia])) / nominal.wheelbase_m
+        travel = float(dist[ib] - dist[ia])
+        arc = 0.5 * nominal.wheelbase_m * abs(wheels)
+        out.append(
+            GyroTurn(
+                bag.source,
+                (ta, tb),
+                wheels,
+                heading(tb) - heading(ta),
+                travel,
+                travel <= spin_travel * arc,
+                None,
+                False,
+            )
+        )
+    return out
+
+
+def _lidar_turn(
+    turn: GyroTurn, stills, scans: SelfcalBag, sensor_pose: FloatArray, config: ICPConfig
+) -> tuple[float | None, str]:
+    """The true turn from the scans at rest before and after it (None and why when it fails)."""
+    st = scans.scan_t_s
+    before = [s for s in stills if 0.5 * (s[0] + s[1]) == turn.t_s[0]][0]
+    after = [s for s in stills if 0.5 * (s[0] + s[1]) == turn.t_s[1]][0]
+    i = np.flatnonzero((st >= before[0]) & (st <= before[1]))
+    j = np.flatnonzero((st >= after[0]) & (st <= after[1]))
+    if i.size == 0 or j.size == 0:
+        return None, "no scan at rest before or after it"
+    wrapped = math.remainder(turn.gyro_rad, 2.0 * math.pi)
+    guess = compose(compose(inverse(sensor_pose), [0.0, 0.0, wrapped]), sensor_pose)
+    m = match_scans(scans.ranges_m[int(i[-1])], scans.ranges_m[int(j[0])], scans.angles_rad, guess, config)
+    if not m.converged:
+        return None, m.reason
+    d = robot_displacement(m.pose, sensor_pose)
+    return float(d[2]) + 2.0 * math.pi * round((turn.gyro_rad - float(d[2])) / (2.0 * math.pi)), ""
+
+
+def _ratio(y: FloatArray, x: FloatArray) -> tuple[float, float | None]:
+    """Least-squares ``k`` of ``y = k x`` and its standard error (None with one point)."""
+    k = float(np.dot(x, y) / np.dot(x, x))
+    if x.size < 2:
+        return k, None
+    s2 = float(np.sum((y - k * x) ** 2)) / (x.size - 1)
+    return k, math.sqrt(s2 / float(np.dot(x, x)))
+
+
+def _ci(value: float, rel_sd: float | None, dof: int) -> tuple[float, float] | None:
+    if rel_sd is None or dof < 1:
+        return None
+    from scipy.stats import t as student_t
+
+    half = float(student_t.ppf(0.975, dof)) * rel_sd * value
+    return (value - half, value + half)
+
+
+def gyro_reference(
+    bags: Sequence[GyroBag],
+    nominal: WheelGeometry,
+    *,
+    full_turns: bool = False,
+    scans: dict[str, SelfcalBag] | None = None,
+    sensor_pose=(0.0, 0.0, 0.0),
+    still_s: float = 0.3,
+    margin_s: float = 0.1,
+    min_turn_rad: float = math.radians(20.0),
+    spin_travel: float = 0.1,
+    config: ICPConfig = SCAN_TRUTH_ICP,
+) -> GyroReference:
+    """The effective wheelbase from the gyro's turns and the wheels' (module docstring).
+
+    Parameters
+    ----------
+    bags : sequence of GyroBag
+        The gyro and wheel data (pooled over bags).
+    nominal : WheelGeometry
+        The nominal wheels and wheelbase the wheels' turns are computed with.
+    full_turns : bool
+        Every turn on the spot was a whole number of revolutions: the gyro's scale from them.
+    scans : dict, optional
+        The scans of each bag (by ``source``): the gyro's scale from the lidar.
+    sensor_pose : array_like
+        The lidar's mounting pose ``(x_m, y_m, yaw_rad)`` (with ``scans``).
+    still_s, margin_s : float
+        The shortest stillness, and the time left out at either end of it for the bias [s].
+    min_turn_rad : float
+        Turns below this are not used.
+    spin_travel : float
+        A turn is on the spot when the wheels' mean travel is below this fraction of its arc.
+    config : ICPConfig
+        The scan registration (with ``scans``).
+
+    Returns
+    -------
+    GyroReference
+
+    Raises
+    ------
+    InputError
+        Both ``full_turns`` and ``scans``; no bags; no turn of ``min_turn_rad`` between two still
+        periods; with ``full_turns``, no turn of a revolution or more.
+    """
+    if full_turns and scans:
+        raise InputError("the gyro's scale comes from counted full turns or from the lidar, not both")
+    if not bags:
+        raise InputError("no bags with gyro readings")
+    if not (math.isfinite(still_s) and still_s > 2 * margin_s >= 0):
+        raise InputError(f"`still_s` must exceed twice the margin {margin_s:g} s, got {still_s!r}")
+    warnings: list[str] = []
+    turns: list[GyroTurn] = []
+    stills_of: dict[str, list] = {}
+    biases, noises, weights, readings, still_total = [], [], [], 0, 0.0
+    for bag in bags:
+        name = Path(bag.source).name
+        stills = still_periods(bag.wheel_t_s, bag.left_rad, bag.right_rad, still_s)
+        stills_of[bag.source] = stills
+        bias, mean, noise, total = _bias(bag, stills, margin_s)
+        readings += len(bag.imu_t_s)
+        if total == 0.0:
+            warnings.append(
+                f"{name}: no still period of {still_s:g} s with gyro readings: the gyro's bias is not removed "
+                "(rest the robot a few seconds before and after each turn)"
+            )
+        else:
+            biases.append(mean)
+            noises.append(noise)
+            weights.append(total)
+            still_total += total
+        turns += _turns(bag, nominal, stills, _heading(bag, bias), spin_travel)
+    big = [i for i, tr in enumerate(turns) if abs(tr.wheels_rad) >= min_turn_rad]
+    spots = [i for i in big if turns[i].on_the_spot]
+    if not big:
+        raise InputError(
+            f"no turn of {math.degrees(min_turn_rad):.0f} deg or more between two still periods of {still_s:g} s: "
+            "spin the robot on the spot both ways, resting before and after each spin"
+        )
+    if not spots:
+        warnings.append(
+            "no turn on the spot: the wheelbase comes from turns while driving, where the wheel diameter "
+            "ratio E_d turns the robot too (spin on the spot for the wheelbase)"
+        )
+        spots = big
+    directions = {np.sign(turns[i].wheels_rad) for i in spots}
+    if len(directions) < 2:
+        warnings.append("every turn used goes one way: spin both ways, so that a gyro bias left over cancels")
+    true: dict[int, float] = {}
+    source = "assumed"
+    if full_turns:
+        source = "full turns"
+        for i in spots:
+            g = turns[i].gyro_rad
+            n = round(g / (2.0 * math.pi))
+            if n == 0:
+                continue
+            true[i] = 2.0 * math.pi * n
+            if abs(g / true[i] - 1.0) > 0.03:
+                warnings.append(
+                    f"the gyro turned {g / (2.0 * math.pi):.2f} revolutions in the turn at {turns[i].t_s[0]:.1f} s "
+                    "(given as whole turns): its scale is off by more than 3 %, or the turn was not whole"
+                )
+        if not true:
+            raise InputError("counted full turns: no turn on the spot of a revolution or more")
+    elif scans:
+        source = "lidar"
+        pose = np.asarray(sensor_pose, dtype=float)
+        for i in spots:
+            scan_bag = scans.get(turns[i].source)
+            if scan_bag is None:
+                continue
+            val, why = _lidar_turn(turns[i], stills_of[turns[i].source], scan_bag, pose, config)
+            if val is None:
+                warnings.append(f"the turn at {turns[i].t_s[0]:.1f} s: the scan registration failed ({why})")
+            else:
+                true[i] = val
+        if not true:
+            warnings.append("no turn measured by the lidar: the gyro's scale is assumed 1")
+            source = "assumed"
+    scale, scale_ci = 1.0, None
+    if true:
+        idx = sorted(true)
+        scale, sd = _ratio(np.array([turns[i].gyro_rad for i in idx]), np.array([true[i] for i in idx]))
+        scale_ci = _ci(scale, None if sd is None else sd / scale, len(idx) - 1)
+    g = np.array([turns[i].gyro_rad for i in spots])
+    w = np.array([turns[i].wheels_rad for i in spots])
+    k, k_sd = _ratio(g, w)
+    eb = scale / k
+    rel = None
+    if k_sd is not None:
+        rel = math.hypot(k_sd / k, 0.0 if scale_ci is None else (scale_ci[1] - scale) / 1.96 / scale)
+    else:
+        warnings.append("one turn used: no interval (spin several times both ways)")
+    eb_ci = _ci(eb, rel, len(spots) - 1)
+    used = set(spots)
+    turns = [
+        GyroTurn(t.source, t.t_s, t.wheels_rad, t.gyro_rad, t.travel_m, t.on_the_spot, true.get(i), i in used)
+        for i, t in enumerate(turns)
+    ]
+    b = nominal.wheelbase_m
+    return GyroReference(
+        imu_topic=bags[0].imu_topic,
+        nominal_wheelbase_m=b,
+        wheelbase_m=eb * b,
+        wheelbase_m_ci95=None if eb_ci is None else (eb_ci[0] * b, eb_ci[1] * b),
+        eb=eb,
+        eb_ci95=eb_ci,
+        gyro_scale=scale,
+        gyro_scale_ci95=scale_ci,
+        gyro_scale_source=source,
+        bias_radps=float(np.average(biases, weights=weights)) if weights else 0.0,
+        noise_radps=float(np.average(noises, weights=weights)) if weights else float("nan"),
+        still_s=still_total,
+        readings=readings,
+        turns=tuple(turns),
+        warnings=tuple(dict.fromkeys(warnings)),
+    )
