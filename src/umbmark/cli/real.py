@@ -365,6 +365,20 @@ def _print_stream(rep) -> None:
     "`umbmark selfcal` JSON (default: the bag's /tf_static).",
 )
 @click.option(
+    "--imu-topic",
+    default=None,
+    metavar="TOPIC",
+    help="Bag: the gyro (sensor_msgs/Imu angular_velocity.z) as a rotation reference: the effective "
+    "wheelbase (wheel_separation_multiplier; skid-steer robots too) from the turns on the spot, its "
+    "bias removed at rest; the gyro's scale from the lidar (--gt-scan-topic) or --full-turns. "
+    "Without a ground truth (or a square side), only this (JSON block `gyro`).",
+)
+@click.option(
+    "--full-turns",
+    is_flag=True,
+    help="--imu-topic: every spin on the spot was a whole number of revolutions (counted): the gyro's scale from them.",
+)
+@click.option(
     "--pool", is_flag=True, help="lsq: fit one geometry to all data sets together (held out: leave-one-data-set-out)."
 )
 @click.option(
@@ -472,6 +486,12 @@ def replay(
         return
     from umbmark.realrobot.replay import pooled_report, replay_report
 
+    gyro = None
+    if kw.get("imu_topic") is not None or kw.get("full_turns"):
+        gyro = _gyro(paths, log_format, kw)
+        if kw.get("gt_topic") is None and (kw.get("gt_scan_topic") is None or kw.get("side_mm") is None):
+            _emit_gyro(gyro, save, as_json)
+            return
     scan_truth = None
     if kw.get("gt_scan_topic") is not None or kw.get("sensor_pose") is not None:
         sets, scan_truth = _scan_truth(paths, log_format, kw)
@@ -497,10 +517,10 @@ def replay(
     if save:
         from umbmark.io.atomic import write_json
 
-        write_json(save, _report_dict(rep, scan_truth))
+        write_json(save, _report_dict(rep, scan_truth, gyro))
     rec = record_report_if_requested(robot, record, db, rep, list(paths), kind="replay", method=method)
     if as_json:
-        d = _report_dict(rep, scan_truth)
+        d = _report_dict(rep, scan_truth, gyro)
         emit_json(d if rec is None else {**d, "history": rec})
         return
     if is_quiet():
@@ -517,6 +537,8 @@ def replay(
         _print_report(r)
     if several:
         _print_across(rep)
+    if gyro is not None:
+        _print_gyro(gyro)
 
 
 def _scan_truth(paths, log_format, kw):
@@ -568,12 +590,97 @@ def _with_warnings(rep, warnings):
     return rep
 
 
-def _report_dict(rep, scan_truth) -> dict:
-    """The JSON of a replay report, with the lidar ground truth's ``scan_truth`` block."""
+def _report_dict(rep, scan_truth, gyro=None) -> dict:
+    """The JSON of a replay report, with the lidar ground truth's ``scan_truth`` block and the
+    gyro's ``gyro`` block."""
     d = rep.to_dict()
     if scan_truth is not None:
         d["scan_truth"] = scan_truth.to_dict()
+    if gyro is not None:
+        d["gyro"] = gyro.to_dict()
     return d
+
+
+def _gyro(paths, log_format, kw):
+    """``replay --imu-topic``: the gyro's effective wheelbase (and scale) from the bags' turns."""
+    from umbmark.io.load import nominal_geometry, parse_joints
+    from umbmark.io.rosbag import read_gyro_bag, read_selfcal_bag
+    from umbmark.realrobot.gyro import gyro_reference
+    from umbmark.realrobot.scan_truth import parse_sensor_pose
+
+    topic = kw.get("imu_topic")
+    if topic is None:
+        raise InputError("--full-turns works with --imu-topic (the gyro)")
+    if log_format not in ("auto", "bag") or not _all_bags(paths, log_format if log_format == "bag" else "auto"):
+        raise InputError("--imu-topic reads the gyro of ROS bags")
+    if kw.get("full_turns") and kw.get("gt_scan_topic"):
+        raise InputError("the gyro's scale comes from --full-turns or from the lidar (--gt-scan-topic), not both")
+    joints = kw.get("joints")
+    wheel = dict(
+        joints=None if joints is None else parse_joints(joints),
+        joint_topic=kw.get("joint_topic") or "/joint_states",
+        ticks_topic=kw.get("ticks_topic"),
+        left_field=kw.get("left_field"),
+        right_field=kw.get("right_field"),
+        ticks=kw.get("ticks") or "cumulative",
+        units_per_rev=kw.get("pulses_per_wheel_rev"),
+        odom_topic=kw.get("odom_topic"),
+    )
+    nominal = nominal_geometry(kw, str(paths[0]))
+    with progress("reading the gyro"):
+        bags = [read_gyro_bag(p, imu_topic=topic, nominal=nominal, **wheel) for p in paths]
+    scans, pose = None, (0.0, 0.0, 0.0)
+    if kw.get("gt_scan_topic"):
+        with progress("reading the scans"):
+            scans = {b.source: read_selfcal_bag(b.source, scan_topic=kw["gt_scan_topic"], **wheel) for b in bags}
+        if kw.get("sensor_pose") is not None:
+            pose = parse_sensor_pose(kw["sensor_pose"])[0]
+    return gyro_reference(bags, nominal, full_turns=bool(kw.get("full_turns")), scans=scans, sensor_pose=pose)
+
+
+def _emit_gyro(gyro, save, as_json) -> None:
+    """``replay --imu-topic`` without a ground truth: the gyro's block alone."""
+    d = {"gyro": gyro.to_dict(), "warnings": list(gyro.warnings)}
+    if save:
+        from umbmark.io.atomic import write_json
+
+        write_json(save, d)
+    if as_json:
+        emit_json(d)
+    elif not is_quiet():
+        _print_gyro(gyro)
+
+
+def _print_gyro(g) -> None:
+    """The gyro's verdict as a table and lines."""
+    from rich.markup import escape
+
+    def ci(p, f, k=1.0):
+        return "-" if p is None else f"{f(p[0] * k)} .. {f(p[1] * k)}"
+
+    rows = [
+        [
+            "wheelbase [mm]",
+            fmt(g.nominal_wheelbase_m * 1e3, 2),
+            fmt(g.wheelbase_m * 1e3, 2),
+            ci(g.wheelbase_m_ci95, lambda v: fmt(v, 2), 1e3),
+        ],
+        ["E_b (wheel_separation_multiplier)", "1", fmt(g.eb, 5), ci(g.eb_ci95, lambda v: fmt(v, 5))],
+        [f"gyro scale ({g.gyro_scale_source})", "1", fmt(g.gyro_scale, 5), ci(g.gyro_scale_ci95, lambda v: fmt(v, 5))],
+    ]
+    c = console()
+    used = sum(t.used for t in g.turns)
+    c.print(
+        table(
+            f"Gyro {g.imu_topic}: {used} turns used of {len(g.turns)}", ["", "nominal", "gyro", "95 % interval"], rows
+        )
+    )
+    c.print(
+        f"bias {math.degrees(g.bias_radps):.4f} deg/s removed (measured over {g.still_s:.1f} s at rest), "
+        f"noise {fmt(math.degrees(g.noise_radps), 4)} deg/s per reading"
+    )
+    for w in g.warnings:
+        c.print(f"[yellow]warning:[/yellow] {escape(cli_message(w))}")
 
 
 def _stream(paths, log_format, decimate, poses_out, as_json, kw) -> None:
