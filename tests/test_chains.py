@@ -180,3 +180,26 @@ def test_history_then_export(runs, tmp_path):
         assert e["json"]["wheelbase_mm"] == pytest.approx(a["wheelbase_corrected_mm"], rel=1e-12)
         fw = firmware(p, "--wheel-diameter-mm", "150", "--pulses-per-wheel-rev", "1000")
         assert fw["WHEELBASE_MM"] == pytest.approx(a["wheelbase_corrected_mm"], abs=1e-6)
+
+
+def test_a_prior_in_the_analysis_is_not_applied_twice_without_a_word(runs, tmp_path, capsys):
+    """analyze given the robot's calibration (--c-left/--c-right) prints total wheel factors;
+    exported with the multipliers in use they would be applied twice: export says so."""
+    args = ["analyze", str(runs), "--wheelbase-mm", "340", "--side-mm", "4000", "--c-left", "1.004"]
+    a = json.loads(run([*args, "--c-right", "0.996", "--json"]))
+    cal = tmp_path / "a.json"
+    cal.write_text(json.dumps(a))
+    capsys.readouterr()
+    assert (
+        main(["export", str(cal), "--format", "ros2", "--left-multiplier", "1.004", "--right-multiplier", "0.996"]) == 0
+    )
+    cap = capsys.readouterr()
+    assert "already include the wheel factors the robot ran with" in cap.err
+    assert "# warning: c_left and c_right of this calibration already include" in cap.out
+    # without multipliers, or from an analysis without a prior: no such warning
+    assert main(["export", str(cal), "--format", "ros2"]) == 0
+    assert "already include" not in capsys.readouterr().err
+    b = json.loads(run(["analyze", str(runs), "--wheelbase-mm", "340", "--side-mm", "4000", "--json"]))
+    cal.write_text(json.dumps(b))
+    assert main(["export", str(cal), "--format", "ros2", "--left-multiplier", "1.004"]) == 0
+    assert "already include" not in capsys.readouterr().err

@@ -162,6 +162,9 @@ class ExportCalibration:
         Whether the method measured the wheel scale (the mean diameter): False for ``bf`` and
         for ``exact`` without a straight run (a closed square hides it), True for ``lsq`` with
         the scale fitted and for a lidar self-calibration, None when unknown.
+    wheels_include_prior : bool
+        ``c_left`` and ``c_right`` already include the wheel factors the robot ran with (the
+        JSON of ``analyze`` given a prior calibration: they are relative to the nominal wheels).
 
     Raises
     ------
@@ -187,6 +190,7 @@ class ExportCalibration:
     base_frame: str = "base_link"
     sensor_frame: str = "laser"
     scale_observed: bool | None = None
+    wheels_include_prior: bool = False
 
     def __post_init__(self):
         for k in ("c_left", "c_right", "eb"):
@@ -277,6 +281,14 @@ def _scale_observed(d: dict) -> bool | None:
     return None
 
 
+def _includes_prior(d: dict) -> bool:
+    """An analyze JSON whose c_left, c_right compose a prior calibration with this pass's."""
+    ed, ed_pass = d.get("Ed"), d.get("Ed_pass")
+    if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0 for v in (ed, ed_pass)):
+        return False
+    return abs(ed / ed_pass - 1.0) > 1e-12
+
+
 def _calibrate_calibration(d: dict, src: str) -> ExportCalibration:
     """The final calibration in the JSON of ``umbmark calibrate``: its factors relative to the
     odometry of the first pass."""
@@ -311,6 +323,11 @@ def _history_calibration(d: dict, src: str) -> ExportCalibration:
     else:
         b = mm("wheelbase_mm")
         b0 = None if b is None else b / eb
+    sp = d.get("sensor_pose")
+    pose = None
+    if isinstance(sp, dict) and sp.get("x_mm") is not None:  # a self-calibration's lidar pose
+        pose = (sp["x_mm"] * 1e-3, sp.get("y_mm", 0.0) * 1e-3, math.radians(sp.get("yaw_deg", 0.0)))
+    scale = d.get("scale_observed")
     return ExportCalibration(
         d.get("c_left"),
         d.get("c_right"),
@@ -321,6 +338,8 @@ def _history_calibration(d: dict, src: str) -> ExportCalibration:
         d.get("units_per_wheel_rev"),
         src,
         d.get("method"),
+        pose,
+        scale_observed=scale if isinstance(scale, bool) else None,
     )
 
 
@@ -403,6 +422,7 @@ def calibration_from_json(path, dataset: str | None = None) -> ExportCalibration
         src,
         d.get("method"),
         scale_observed=_scale_observed(d),
+        wheels_include_prior=_includes_prior(d),
     )
 
 
@@ -514,6 +534,12 @@ def export_warnings(
             _outside("right_wheel_radius_multiplier", m["right_wheel_radius_multiplier"], "c"),
             _outside("wheel_separation_multiplier", m["wheel_separation_multiplier"], "Eb"),
         ]
+    if cal.wheels_include_prior and (left0, right0) != (1.0, 1.0):
+        found.append(
+            "c_left and c_right of this calibration already include the wheel factors the robot ran with "
+            "(its analysis was given them): they are relative to the nominal wheels, and composing them with "
+            "the wheel multipliers in use applies those twice unless the multipliers are something else"
+        )
     found.append(scale_note(cal))
     return [w for w in found if w]
 
