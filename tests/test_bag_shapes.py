@@ -5,165 +5,30 @@ messages. Every bag is written here with rosbags from the closed-loop simulator 
 tests/simlogs.py (noise free), with the motion capture in a rotated world frame."""
 
 import json
-import math
 
 import numpy as np
 import pytest
 
 pytest.importorskip("rosbags")
 import simlogs  # noqa: E402
-from rosbags.rosbag2 import StoragePlugin, Writer  # noqa: E402
-from rosbags.typesys import Stores, get_typestore  # noqa: E402
+from test_bag_shapes_sim import (  # noqa: E402
+    GEOMETRY,
+    JOINTS,
+    NO_SCALE,
+    NOMINAL,
+    YAW,
+    _compose,
+    _odometry,
+    session,
+    true_emax,
+    write_bag,
+)
 
 from umbmark.cli import main  # noqa: E402
 from umbmark.errors import InputError  # noqa: E402
 from umbmark.io.load import load_logs  # noqa: E402
 from umbmark.io.rosbag import bag_info, read_bag  # noqa: E402
-from umbmark.metrics import umbmark  # noqa: E402
-from umbmark.model.dataset import WheelGeometry, replay_increments  # noqa: E402
-from umbmark.model.geometry import ErrorParams, wrap_angle  # noqa: E402
-from umbmark.model.runs import RunsTable  # noqa: E402
-from umbmark.model.simulate import square_program  # noqa: E402
 from umbmark.realrobot.replay import end_poses, replay_report  # noqa: E402
-
-DT = 0.02  # wheels and odometry at 50 Hz
-SIDE_M = 2.0
-D, B = simlogs.GEOM.wheel_diameter_m, simlogs.GEOM.wheelbase_m
-NOMINAL = WheelGeometry(D, D, B)
-GEOMETRY = ["--wheel-diameter-mm", "100", "--wheelbase-mm", "300", "--side-mm", "2000"]
-T0 = 1_760_000_000.0
-YAW = 0.7  # the world frame of the motion capture, rotated against the start of the first run
-TS = get_typestore(Stores.ROS2_HUMBLE)
-T = TS.types
-JOINTS = ["left_wheel_joint", "right_wheel_joint"]
-NO_SCALE = ErrorParams(ed=simlogs.TRUE.ed, eb=simlogs.TRUE.eb)
-
-
-def _compose(base, rel):
-    """Poses ``rel`` (K, 3) in the frame of pose ``base``."""
-    c, s = math.cos(base[2]), math.sin(base[2])
-    return np.column_stack(
-        [base[0] + c * rel[:, 0] - s * rel[:, 1], base[1] + s * rel[:, 0] + c * rel[:, 1], base[2] + rel[:, 2]]
-    )
-
-
-def _odometry(al, ar):
-    """The nominal geometry's odometry (what diff_drive_controller publishes) of wheel rotations [rad]."""
-    x, y, th = replay_increments(al, ar, NOMINAL.params(2 * math.pi))
-    return np.column_stack([x, y, th])
-
-
-def session(directions, pause_s=3.0, carry=True, origin=(1.5, -0.8, YAW), errors=simlogs.TRUE):
-    """A session of UMBmark squares: wheel samples (times, cumulative angles), the true poses in the
-    world frame and the robot's odometry (one continuous odom frame) at every wheel sample, with
-    ``pause_s`` of standstill before, between and after the runs; during a pause the robot is
-    carried back near its start mark (``carry``), which its odometry does not see.
-
-    Returns the arrays and, per run, the true return error's inputs: (direction, true end pose in
-    the start frame, odometry end pose in the start frame)."""
-    still = int(round(pause_s / DT))
-    origin = np.asarray(origin, dtype=float)
-    al_all, ar_all, world = [np.zeros(1)], [np.zeros(1)], [origin[None]]
-    truth = []
-    rng = np.random.default_rng(3)
-    for d in directions:
-        al, ar, pose = simlogs.simulate_wheels(square_program(d, SIDE_M), errors, dt=DT)
-        here = world[-1][-1]
-        start = origin + rng.normal(0, [0.05, 0.05, 0.05]) if carry else here
-        half = still // 2
-        world += [np.repeat(here[None], half, 0), np.repeat(start[None], still - half, 0)]
-        al_all += [np.zeros(still)]
-        ar_all += [np.zeros(still)]
-        world.append(_compose(start, pose[1:]))
-        al_all.append(al[1:])
-        ar_all.append(ar[1:])
-        odo = _odometry(al, ar)[-1]
-        truth.append((d, pose[-1], odo))
-    world.append(np.repeat(world[-1][-1:], still, 0))
-    al_all.append(np.zeros(still))
-    ar_all.append(np.zeros(still))
-    inc_l, inc_r = np.concatenate(al_all), np.concatenate(ar_all)
-    t = np.arange(len(inc_l)) * DT
-    odom = _compose(np.array([3.0, 4.0, -1.0]), _odometry(inc_l, inc_r))  # the odom frame's own origin
-    return t, np.cumsum(inc_l), np.cumsum(inc_r), np.concatenate(world), odom, truth
-
-
-def true_emax(truth):
-    """E_max,syst of the simulated runs: true end pose against the odometry's, in the start frame."""
-    d = [r[0] for r in truth]
-    tr = np.array([r[1] for r in truth])
-    od = np.array([r[2] for r in truth])
-    runs = RunsTable.from_columns(d, tr[:, 0], tr[:, 1], od[:, 0], od[:, 1], wrap_angle(tr[:, 2]), wrap_angle(od[:, 2]))
-    return umbmark(runs).emax_syst
-
-
-def _header(t, frame):
-    sec = int(t)
-    stamp = T["builtin_interfaces/msg/Time"](sec=sec, nanosec=int(round((t - sec) * 1e9)))
-    return T["std_msgs/msg/Header"](stamp=stamp, frame_id=frame)
-
-
-def _pose(x, y, th):
-    return T["geometry_msgs/msg/Pose"](
-        position=T["geometry_msgs/msg/Point"](x=float(x), y=float(y), z=0.0),
-        orientation=T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=math.sin(th / 2), w=math.cos(th / 2)),
-    )
-
-
-def _interp_poses(t_new, t, poses):
-    th = np.unwrap(poses[:, 2])
-    return np.column_stack(
-        [np.interp(t_new, t, poses[:, 0]), np.interp(t_new, t, poses[:, 1]), np.interp(t_new, t, th)]
-    )
-
-
-def write_bag(
-    path, t, pl, pr, world, odom, *, mocap_hz=30.0, mocap_delay_s=0.013, joints=True, odometry=True, positions=None
-):
-    """A ROS 2 sqlite3 bag: /joint_states and /odom at the wheel samples, /mocap/pose
-    (PoseStamped, frame world) at ``mocap_hz`` from ``mocap_delay_s`` after the first wheel
-    sample (not aligned with the wheels). ``positions(k, pos)`` may damage JointState message k."""
-    msgs = []
-    for k in range(len(t)):
-        tk = T0 + t[k]
-        ns = int(round(tk * 1e9))
-        if joints:
-            pos = np.array([pl[k], pr[k]])
-            if positions is not None:
-                pos = positions(k, pos)
-            js = T["sensor_msgs/msg/JointState"](
-                header=_header(tk, ""),
-                name=JOINTS,
-                position=pos,
-                velocity=np.array([], float),
-                effort=np.array([], float),
-            )
-            msgs.append((ns, "/joint_states", "sensor_msgs/msg/JointState", js))
-        if odometry:
-            cov = np.zeros(36)
-            zero = T["geometry_msgs/msg/Vector3"](x=0.0, y=0.0, z=0.0)
-            od = T["nav_msgs/msg/Odometry"](
-                header=_header(tk, "odom"),
-                child_frame_id="base_link",
-                pose=T["geometry_msgs/msg/PoseWithCovariance"](pose=_pose(*odom[k]), covariance=cov),
-                twist=T["geometry_msgs/msg/TwistWithCovariance"](
-                    twist=T["geometry_msgs/msg/Twist"](linear=zero, angular=zero), covariance=cov
-                ),
-            )
-            msgs.append((ns, "/odom", "nav_msgs/msg/Odometry", od))
-    tm = np.arange(t[0] + mocap_delay_s, t[-1], 1.0 / mocap_hz)
-    for tt, p in zip(tm, _interp_poses(tm, t, world)):
-        ps = T["geometry_msgs/msg/PoseStamped"](header=_header(T0 + tt, "world"), pose=_pose(*p))
-        msgs.append((int(round((T0 + tt) * 1e9)), "/mocap/pose", "geometry_msgs/msg/PoseStamped", ps))
-    msgs.sort(key=lambda m: m[0])
-    with Writer(path, version=9, storage_plugin=StoragePlugin.SQLITE3) as w:
-        conns = {}
-        for ns, topic, kind, msg in msgs:
-            if topic not in conns:
-                conns[topic] = w.add_connection(topic, kind, typestore=TS)
-            w.write(conns[topic], ns, TS.serialize_cdr(msg, kind))
-    return path
-
 
 # -- six one-run bags with the robot's own odometry: one test of six runs ----------------------------
 

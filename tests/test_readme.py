@@ -237,8 +237,32 @@ def _write_lidar_square_bag(path, seed):
     write_drive_bag(concatenate_drives(drives), path, odom=False, tf_static=False)
 
 
+# The gyro example of docs/ros.md: a skid-steer robot (track 400 mm, wheels 200 mm, effective
+# wheelbase 1.6 x the track, E_d 1.01) spinning 4 whole turns alternately both ways, resting 1.5 s
+# between spins; a 100 Hz gyro with scale 1.01, bias 0.01 rad/s and 0.005 rad/s of noise; a ROS 2
+# sqlite3 bag with /joint_states, /imu, /scan and /tf_static.
+GYRO_BAGS = {"gyro_spins_bag": dict(seed=1)}
+
+
+def _write_gyro_bag(path, seed):
+    from umbmark.io.rosbag_write import write_drive_bag
+    from umbmark.model.drive import Command, Program, simulate_drive, simulate_gyro, skid_steer_robot
+    from umbmark.model.sensors import Gyro, Lidar
+
+    robot = skid_steer_robot(0.40, 0.20, 1.6, ed=1.01, lidar=Lidar(range_noise_m=0.005))
+    cmds = [Command(2.0)]
+    for sign in (1, -1, 1, -1):
+        cmds += [Command(2 * math.pi * 1.6 / 0.8, 0.0, sign * 0.8), Command(1.5)]
+    log = simulate_drive(Program(tuple(cmds)), robot, seed=seed)
+    t, w = simulate_gyro(log, Gyro(100.0, 1.01, 0.01, 0.005), seed=seed + 1)
+    write_drive_bag(log, path, gyro=(t, w), odom=False)
+
+
 def write_example_bags(folder, text):
     """The example bags a page mentions, simulated into ``folder``."""
+    for name, spec in GYRO_BAGS.items():
+        if name in text:
+            _write_gyro_bag(folder / name, **spec)
     for name, spec in LIDAR_SQUARE_BAGS.items():
         if name in text:
             _write_lidar_square_bag(folder / name, **spec)
@@ -248,6 +272,10 @@ def write_example_bags(folder, text):
     for name, spec in LIDAR_BAGS.items():
         if name in text:
             _write_lidar_bag(folder / name, **spec)
+    if "odom_runs/" in text:  # six one-run bags with /odom and a motion capture (tests/test_bag_shapes_sim.py)
+        from test_bag_shapes_sim import write_odom_run_bags
+
+        write_odom_run_bags(folder)
 
 
 # --- running the pages -------------------------------------------------------------------------------
