@@ -300,3 +300,111 @@ def test_record_a_replay_report(tmp_path, optiodom, capsys):
     assert one[0]["record_id"] == 3
     with History(db) as h:
         assert h.get(3).ed == pytest.approx(stored[1].ed)
+
+
+def _cli_json(capsys, *argv):
+    assert main([*argv, "--json"]) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def _cli_text(capsys, *argv):
+    assert main(list(argv)) == 0, capsys.readouterr().err
+    return capsys.readouterr().out
+
+
+def test_history_export_chain_gives_the_recorded_parameters(tmp_path, optiodom, capsys, monkeypatch):
+    """analyze (with a prior), replay and calibrate --record, then history --export, then export
+    json / ros2 / firmware: the parameters the first command printed, E_b applied once."""
+    import yaml
+
+    monkeypatch.chdir(tmp_path)
+    db = ["--db", "h.sqlite"]
+    write_runs_csv(simulate_umbmark(ErrorParams(1.004, 0.985), n_runs=5, noise="paper", seed=7), tmp_path / "runs.csv")
+    firsts = {
+        "r1": _cli_json(
+            capsys,
+            "analyze",
+            "runs.csv",
+            *ANALYZE,
+            "--c-left",
+            "1.01",
+            "--c-right",
+            "0.99",
+            "--robot",
+            "r1",
+            "--record",
+            *db,
+        ),
+        "opti": _cli_json(
+            capsys,
+            "replay",
+            str(optiodom / "square" / "230620202144"),
+            "--method",
+            "bf",
+            "--no-heldout",
+            "--robot",
+            "opti",
+            "--record",
+            *db,
+        ),
+        "sim": _cli_json(
+            capsys, "calibrate", "--seed", "1", "--runs", "2", "--max-passes", "2", "--robot", "sim", "--record", *db
+        ),
+    }
+    for robot, first in firsts.items():
+        if robot == "sim":
+            f = first["final_calibration"]
+            want = {"c_left": f["c_left"], "c_right": f["c_right"], "wheelbase_mm": f["wheelbase_mm"]}
+            nominal_wb = first["passes"][0]["calibration_used"]["wheelbase_mm"]
+        else:
+            want = {
+                "c_left": first["c_left"],
+                "c_right": first["c_right"],
+                "wheelbase_mm": first["wheelbase_corrected_mm"],
+            }
+            nominal_wb = first["nominal"]["wheelbase_mm"] if robot == "opti" else first["wheelbase_mm"]
+        _cli_text(capsys, "history", robot, *db, "--export", f"{robot}.json")
+        exported = json.loads((tmp_path / f"{robot}.json").read_text())
+        assert exported["corrected_wheelbase_mm"] == pytest.approx(want["wheelbase_mm"], rel=1e-12)
+        assert exported["nominal_wheelbase_mm"] == pytest.approx(nominal_wb, rel=1e-12)
+        assert "wheelbase_mm" not in exported  # no key that could be read as either
+
+        out = json.loads(_cli_text(capsys, "export", f"{robot}.json", "--format", "json"))
+        for k, v in want.items():
+            assert out[k] == pytest.approx(v, rel=1e-9), (robot, k)
+        assert out["Eb"] == pytest.approx(want["wheelbase_mm"] / nominal_wb, rel=1e-9)
+
+        ros = yaml.safe_load(_cli_text(capsys, "export", f"{robot}.json", "--format", "ros2"))
+        p = ros["diff_drive_controller"]["ros__parameters"]
+        assert p["left_wheel_radius_multiplier"] == pytest.approx(want["c_left"], rel=1e-12)
+        assert p["right_wheel_radius_multiplier"] == pytest.approx(want["c_right"], rel=1e-12)
+        assert p["wheel_separation_multiplier"] * nominal_wb == pytest.approx(want["wheelbase_mm"], rel=1e-9)
+
+        extra = [] if robot == "opti" else ["--wheel-diameter-mm", "150", "--pulses-per-wheel-rev", "4096"]
+        header = _cli_text(capsys, "export", f"{robot}.json", "--format", "firmware", *extra)
+        defines = dict(
+            line.split()[1:3]
+            for line in header.splitlines()
+            if line.startswith("#define UMBMARK_") and "_H" not in line
+        )
+        assert float(defines["UMBMARK_WHEELBASE_MM"]) == pytest.approx(want["wheelbase_mm"], abs=1e-6)
+        if robot == "opti":  # the same header as the replay's own JSON gives
+            (tmp_path / "first.json").write_text(json.dumps(first))
+            direct = _cli_text(capsys, "export", "first.json", "--format", "firmware")
+            assert [ln for ln in header.splitlines() if ln.startswith("#define")] == [
+                ln for ln in direct.splitlines() if ln.startswith("#define")
+            ]
+        else:
+            import math
+
+            k = math.pi * 150 / 4096
+            assert float(defines["UMBMARK_LEFT_MM_PER_PULSE"]) == pytest.approx(want["c_left"] * k, rel=1e-8)
+            assert float(defines["UMBMARK_RIGHT_MM_PER_PULSE"]) == pytest.approx(want["c_right"] * k, rel=1e-8)
+
+    # a history export written before the keys said what they hold: wheelbase_mm was the corrected one
+    old = json.loads((tmp_path / "r1.json").read_text())
+    legacy = {k: old[k] for k in ("robot", "record_id", "time_utc", "kind", "method", "c_left", "c_right", "Ed", "Eb")}
+    legacy.update(wheelbase_mm=old["corrected_wheelbase_mm"], emax_syst_mm_measured=1.0)
+    (tmp_path / "legacy.json").write_text(json.dumps(legacy))
+    out = json.loads(_cli_text(capsys, "export", "legacy.json", "--format", "json"))
+    assert out["wheelbase_mm"] == pytest.approx(firsts["r1"]["wheelbase_corrected_mm"], rel=1e-9)

@@ -1010,6 +1010,8 @@ def export_parameters(record: Record) -> dict:
         ``corrected_wheelbase_mm`` and ``corrected_wheelbase_m`` (the one to load); the nominal
         wheel diameters and encoder units per wheel revolution when the record has them
         (``nominal_diameter_left_mm``, ``nominal_diameter_right_mm``, ``units_per_wheel_rev``);
+        a self-calibration's ``sensor_pose`` (``x_mm``, ``y_mm``, ``yaw_deg``);
+        ``scale_observed`` (whether the method measured the mean wheel scale; None: not known);
         ``parameters_in_use`` (what the robot ran with, as recorded); the measured
         ``emax_syst_mm_measured`` and the ``software_version`` that made it.
     """
@@ -1043,14 +1045,33 @@ def export_parameters(record: Record) -> dict:
     units = _num(piu.get("units_per_wheel_rev"))
     if units is not None:
         d["units_per_wheel_rev"] = units
+    sp = p.get("sensor_pose")
+    if isinstance(sp, dict) and all(_num(sp.get(k)) is not None for k in ("x_mm", "y_mm", "yaw_deg")):
+        d["sensor_pose"] = {k: _num(sp[k]) for k in ("x_mm", "y_mm", "yaw_deg")}
     d.update(
         {
+            "scale_observed": _scale_observed(record),
             "parameters_in_use": piu,
             "emax_syst_mm_measured": record.emax_syst_mm,
             "software_version": record.software_version,
         }
     )
     return d
+
+
+def _scale_observed(record: Record) -> bool | None:
+    """Whether the method behind a record measured the mean wheel scale (None: not known)."""
+    res = record.results if isinstance(record.results, dict) else {}
+    if record.kind == "selfcal":
+        return True
+    if record.kind == "calibrate" or record.method == "bf":
+        return False
+    if record.method == "lsq":
+        return res.get("scale_fitted") if isinstance(res.get("scale_fitted"), bool) else None
+    if record.method == "exact":
+        es = res.get("Es_pass")
+        return isinstance(es, (int, float)) and not isinstance(es, bool) and es != 1.0
+    return None
 
 
 def format_export(record: Record, fmt: str = "json", db=None) -> str:

@@ -325,8 +325,9 @@ def _history_calibration(d: dict, src: str) -> ExportCalibration:
         b0 = None if b is None else b / eb
     sp = d.get("sensor_pose")
     pose = None
-    if isinstance(sp, dict) and sp.get("x_mm") is not None:  # a self-calibration's lidar pose
-        pose = (sp["x_mm"] * 1e-3, sp.get("y_mm", 0.0) * 1e-3, math.radians(sp.get("yaw_deg", 0.0)))
+    if isinstance(sp, dict):  # a self-calibration's lidar pose
+        x, y, yaw = (_finite(f"sensor_pose {k}", sp.get(k), src) for k in ("x_mm", "y_mm", "yaw_deg"))
+        pose = (x * 1e-3, y * 1e-3, math.radians(yaw))
     scale = d.get("scale_observed")
     return ExportCalibration(
         d.get("c_left"),
