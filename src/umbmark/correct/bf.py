@@ -18,6 +18,7 @@ from __future__ import annotations
 import math
 from typing import Any
 
+from umbmark.correct.plausibility import check_units
 from umbmark.correct.registry import register
 from umbmark.correct.result import CorrectionResult, compose
 from umbmark.errors import CorrectionUndefined, InputError
@@ -29,11 +30,13 @@ __all__ = ["bf_correction", "alpha_beta", "ed_from_beta", "eb_from_alpha"]
 
 
 def _check_geometry(side_m: float, wheelbase_m: float) -> None:
-    """Refuse a side or wheelbase that is not a positive finite length."""
+    """Refuse a side or wheelbase that is not a positive finite length, a wheelbase below 10 mm
+    and a side beyond 1 km (units mistaken: see :func:`umbmark.correct.plausibility.check_geometry`)."""
     if not (isinstance(side_m, (int, float)) and math.isfinite(side_m) and side_m > 0):
         raise InputError(f"side must be a positive length, got {side_m!r}")
     if not (isinstance(wheelbase_m, (int, float)) and math.isfinite(wheelbase_m) and wheelbase_m > 0):
         raise InputError(f"wheelbase must be a positive length, got {wheelbase_m!r}")
+    check_units(side_m, wheelbase_m)
 
 
 def alpha_beta(result: UMBmarkResult, side_m: float) -> dict[str, float]:

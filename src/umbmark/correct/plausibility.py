@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from functools import partial
+from functools import lru_cache, partial
 from typing import Any
 
 import numpy as np
@@ -41,6 +41,7 @@ from umbmark.model.runs import RunsTable
 
 __all__ = [
     "check_geometry",
+    "check_units",
     "geometry_warnings",
     "runs_warnings",
     "consistency",
@@ -95,6 +96,29 @@ def check_geometry(side_m: float, wheelbase_m: float) -> list[str]:
         A wheelbase below 10 mm (metres typed as millimetres), a side beyond 1 km, or a side
         not longer than the wheelbase.
     """
+    check_units(side_m, wheelbase_m)
+    b_mm, l_mm = wheelbase_m * 1e3, side_m * 1e3
+    if side_m <= wheelbase_m:
+        raise InputError(
+            f"the side of the square ({l_mm:.6g} mm, `side_mm`) is not longer than the wheelbase "
+            f"({b_mm:.6g} mm, `wheelbase_mm`): one of them is in the wrong unit (both in millimetres)"
+        )
+    return geometry_warnings(side_m, wheelbase_m)
+
+
+def check_units(side_m: float, wheelbase_m: float) -> None:
+    """Refuse a wheelbase below 10 mm and a side beyond 1 km (every correction method does).
+
+    Parameters
+    ----------
+    side_m, wheelbase_m : float
+        Side of the square and the wheelbase [m].
+
+    Raises
+    ------
+    InputError
+        A wheelbase below 10 mm (metres typed as millimetres) or a side beyond 1 km.
+    """
     b_mm, l_mm = wheelbase_m * 1e3, side_m * 1e3
     if wheelbase_m < MIN_WHEELBASE_M:
         raise InputError(
@@ -106,12 +130,6 @@ def check_geometry(side_m: float, wheelbase_m: float) -> list[str]:
             f"the side of the square is {l_mm:.6g} mm (`side_mm`), more than 1 km: check the unit "
             "(millimetres; 4000 for a 4 m square)"
         )
-    if side_m <= wheelbase_m:
-        raise InputError(
-            f"the side of the square ({l_mm:.6g} mm, `side_mm`) is not longer than the wheelbase "
-            f"({b_mm:.6g} mm, `wheelbase_mm`): one of them is in the wrong unit (both in millimetres)"
-        )
-    return geometry_warnings(side_m, wheelbase_m)
 
 
 def geometry_warnings(side_m: float, wheelbase_m: float) -> list[str]:
@@ -221,7 +239,7 @@ def _fit(dirs: dict[str, _Dir], side_m: float) -> tuple[float, float]:
         if not np.all(np.isfinite(step)):
             break
         p = np.clip(p + step, -1.0, 1.0)
-        if np.max(np.abs(step)) < 1e-12:
+        if np.max(np.abs(step)) < 1e-10:
             break
     return float(p[0]), float(p[1])
 
@@ -272,6 +290,7 @@ def consistency(runs: RunsTable, side_m: float) -> dict[str, float] | None:
     return out
 
 
+@lru_cache(maxsize=256)
 def t_limit(dof: int) -> float:
     """The limit on a check's t statistic: its two-sided false-alarm probability is
     :data:`FALSE_ALARM` per check for normal scatter (Student's t with ``dof`` degrees of freedom).
