@@ -401,6 +401,14 @@ def test_history_export_chain_gives_the_recorded_parameters(tmp_path, optiodom, 
             assert float(defines["UMBMARK_LEFT_MM_PER_PULSE"]) == pytest.approx(want["c_left"] * k, rel=1e-8)
             assert float(defines["UMBMARK_RIGHT_MM_PER_PULSE"]) == pytest.approx(want["c_right"] * k, rel=1e-8)
 
+    # r1's wheel factors include the prior it ran with: composing them with multipliers says so
+    assert (
+        main(["export", "r1.json", "--format", "ros2", "--left-multiplier", "1.01", "--right-multiplier", "0.99"]) == 0
+    )
+    assert "already include the wheel factors the robot ran with" in capsys.readouterr().err
+    assert main(["export", "opti.json", "--format", "ros2", "--left-multiplier", "1.01"]) == 0
+    assert "already include" not in capsys.readouterr().err
+
     # a history export written before the keys said what they hold: wheelbase_mm was the corrected one
     old = json.loads((tmp_path / "r1.json").read_text())
     legacy = {k: old[k] for k in ("robot", "record_id", "time_utc", "kind", "method", "c_left", "c_right", "Ed", "Eb")}

@@ -329,6 +329,9 @@ def _history_calibration(d: dict, src: str) -> ExportCalibration:
         x, y, yaw = (_finite(f"sensor_pose {k}", sp.get(k), src) for k in ("x_mm", "y_mm", "yaw_deg"))
         pose = (x * 1e-3, y * 1e-3, math.radians(yaw))
     scale = d.get("scale_observed")
+    piu = d.get("parameters_in_use") if isinstance(d.get("parameters_in_use"), dict) else {}
+    prior = [piu.get(k) for k in ("c_left", "c_right")]  # the wheel factors the robot ran with
+    with_prior = any(isinstance(v, (int, float)) and not isinstance(v, bool) and v != 1.0 for v in prior)
     return ExportCalibration(
         d.get("c_left"),
         d.get("c_right"),
@@ -341,6 +344,7 @@ def _history_calibration(d: dict, src: str) -> ExportCalibration:
         d.get("method"),
         pose,
         scale_observed=scale if isinstance(scale, bool) else None,
+        wheels_include_prior=with_prior,
     )
 
 
