@@ -147,6 +147,8 @@ def test_geometry_warnings():
     assert "side in centimetres" in w and "`side_mm`" in w
     (w,) = check_geometry(60.0, 0.34)
     assert "more than 50 m" in w
+    (w,) = check_geometry(4.0, 0.034)  # a wheelbase in centimetres
+    assert "outside the 50 to 3000 mm" in w and "`wheelbase_mm`" in w
 
 
 @pytest.mark.parametrize(
@@ -269,3 +271,13 @@ def test_property_mislabelled_runs_are_flagged(ed, eb, seed, how):
 )
 def test_property_clean_runs_give_no_warning(ed, eb, seed, side, n):
     assert runs_warnings(_sim(ed, eb, seed, side, n), side) == []
+
+
+@pytest.mark.parametrize("method", ["bf", "exact"])
+@pytest.mark.parametrize("side_m, wheelbase_m", [(1e6, 0.34), (1e305, 0.34), (4.0, 3.4e-4)])
+def test_library_methods_refuse_a_unit_mistaken_geometry(method, side_m, wheelbase_m):
+    """Through the library too: the exact fit ran out of memory on a side of 1e9 mm."""
+    from umbmark.correct.analysis import analyze
+
+    with pytest.raises(InputError, match="more than 1 km|metres given as millimetres"):
+        analyze(_sim(), side_m, wheelbase_m, method)

@@ -55,6 +55,7 @@ __all__ = [
 MIN_WHEELBASE_M = 0.01
 MAX_SIDE_M = 1000.0
 WARN_SIDE_M = 50.0
+WARN_WHEELBASE_M = (0.05, 3.0)
 MIN_SIDE_PER_WHEELBASE = 2.0
 
 # the model check: a centre of gravity (or mean heading error) is inconsistent with the square
@@ -88,7 +89,8 @@ def check_geometry(side_m: float, wheelbase_m: float) -> list[str]:
     Returns
     -------
     list of str
-        Warnings: a side shorter than twice the wheelbase, a side beyond 50 m.
+        Warnings: a side shorter than twice the wheelbase, a side beyond 50 m, a wheelbase
+        outside 50 to 3000 mm.
 
     Raises
     ------
@@ -151,6 +153,11 @@ def geometry_warnings(side_m: float, wheelbase_m: float) -> list[str]:
             f"the side of the square ({l_mm:.6g} mm, `side_mm`) is only {side_m / wheelbase_m:.2f} times the "
             f"wheelbase ({b_mm:.6g} mm, `wheelbase_mm`): a side in centimetres, or the wheelbase in the wrong "
             "unit? (both in millimetres; the paper's square has a side of 4000 mm)"
+        )
+    if wheelbase_m < WARN_WHEELBASE_M[0] or wheelbase_m > WARN_WHEELBASE_M[1]:
+        out.append(
+            f"the wheelbase is {b_mm:.6g} mm (`wheelbase_mm`), outside the 50 to 3000 mm of most robots: check the "
+            "unit (millimetres; a wheelbase in centimetres gives an E_d 10 times too close to 1)"
         )
     if side_m > WARN_SIDE_M:
         out.append(f"the side of the square is {l_mm:.6g} mm (`side_mm`), more than 50 m: check the unit (millimetres)")
