@@ -92,6 +92,10 @@ def test_missing_wheel_source_suggests_the_odometry(six_bags, capsys):
     assert main(["replay", str(bag), "--gt-topic", "/mocap/pose", *GEOMETRY]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "--odom-topic /odom" in err and "/odom (Odometry)" in err
+    # no geometry either: the geometry asked for, and the odometry suggested
+    assert main(["replay", str(bag), "--gt-topic", "/mocap/pose", "--side-mm", "2000"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--wheel-separation-m" in err and "--odom-topic /odom" in err
 
 
 # -- one bag with both directions, no --split-stops; a motion capture slower than the wheels ----------

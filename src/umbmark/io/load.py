@@ -257,7 +257,15 @@ def _load_bag(paths: list, side_m: float | None, opts: dict) -> Dataset:
 
 
 def _read_one_bag(path, side_m: float | None, opts: dict) -> Dataset:
-    from umbmark.io.rosbag import read_bag
+    from umbmark.io.rosbag import read_bag, wheel_source_hint
+
+    try:
+        nominal = nominal_geometry(opts, str(path))
+    except InputError as e:
+        if any(opts.get(k) for k in ("joints", "ticks_topic", "odom_topic")):
+            raise
+        hint = wheel_source_hint(path)  # no wheel source either: say which the bag offers
+        raise InputError(e.message + (f"; and the wheel data{hint}" if hint else ""), source=e.source) from None
 
     joints = opts.get("joints")
     if isinstance(joints, str):
@@ -267,7 +275,7 @@ def _read_one_bag(path, side_m: float | None, opts: dict) -> Dataset:
         ranges = parse_ranges(ranges)
     return read_bag(
         path,
-        nominal=nominal_geometry(opts, str(path)),
+        nominal=nominal,
         joints=joints,
         joint_topic=opts.get("joint_topic") or "/joint_states",
         ticks_topic=opts.get("ticks_topic"),

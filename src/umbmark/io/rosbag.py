@@ -51,6 +51,7 @@ from umbmark.model.dataset import (
 
 __all__ = [
     "read_bag",
+    "wheel_source_hint",
     "bag_info",
     "BagInfo",
     "TopicInfo",
@@ -443,6 +444,29 @@ def _wheel_hint(reader) -> str:
     if "JointState" in kinds:
         hints.append(f"the wheel joints of its JointState topic {sorted(kinds['JointState'])[0]} (`joints`)")
     return (": this bag offers " + " or ".join(hints)) if hints else ""
+
+
+def wheel_source_hint(path) -> str:
+    """The wheel sources a bag offers (its Odometry and JointState topics), as the end of a
+    message that asks for one; empty when it offers none or cannot be read.
+
+    Parameters
+    ----------
+    path : str or Path
+        The bag.
+
+    Returns
+    -------
+    str
+    """
+    try:
+        reader = _open(path)
+    except InputError:
+        return ""
+    try:
+        return _wheel_hint(reader)
+    finally:
+        reader.close()
 
 
 def _whole_run(t, pl, pr, cumulative: bool, gt, src: str) -> Run:
