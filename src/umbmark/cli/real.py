@@ -537,6 +537,8 @@ def replay(
         _print_report(r)
     if several:
         _print_across(rep)
+    if scan_truth is not None:
+        _print_scan_truth(scan_truth)
     if gyro is not None:
         _print_gyro(gyro)
 
@@ -599,6 +601,21 @@ def _report_dict(rep, scan_truth, gyro=None) -> dict:
     if gyro is not None:
         d["gyro"] = gyro.to_dict()
     return d
+
+
+def _print_scan_truth(st) -> None:
+    """One line on how the lidar measured the runs."""
+    kept = [r for r in st.runs if r.displacement is not None]
+    x, y, yaw = st.sensor_pose
+    line = (
+        f"lidar ground truth ({st.scan_topic}): {len(kept)} of {len(st.runs)} runs measured, the lidar at "
+        f"x {x * 1e3:.1f} mm, y {y * 1e3:.1f} mm, yaw {math.degrees(yaw):.2f} deg ({st.sensor_pose_source})"
+    )
+    if kept:
+        rms = [r.rms_m * 1e3 for r in kept]
+        frac = [r.inlier_fraction for r in kept]
+        line += f"; residual {min(rms):.1f} to {max(rms):.1f} mm RMS, {min(frac):.0%} or more of each end scan matched"
+    console().print(line)
 
 
 def _gyro(paths, log_format, kw):
