@@ -306,3 +306,15 @@ def test_return_errors_of_a_metre_and_forty_degrees(tmp_path, ed, eb):
         np.max(np.abs(got[:, 2] - odo[:, 2] - np.remainder(true[:, 2] - odo[:, 2] + np.pi, 2 * np.pi) + np.pi)) < 2e-3
     )
     assert [r.gt_end.tolist() for r in sets[0].runs] == got.tolist()
+
+
+def test_odometry_as_the_wheels(put_back, tmp_path):
+    """The robot's nav_msgs/Odometry instead of the joint states: the same runs, the same truth."""
+    drives, _ = put_back
+    bag = write_drive_bag(concatenate_drives(drives), tmp_path / "odom", odom=True, tf_static=False)
+    geo = ["--odom-topic", "/odom", *GEO, "--sensor-pose", "35,0,0"]
+    d = json.loads(run(["replay", str(bag), "--gt-scan-topic", "/scan", *geo, "--method", "exact", "--json"]))
+    assert abs(d["before"]["emax_syst_mm"] - truth_emax(drives, DIRECTIONS) * 1e3) < 5.0
+    assert abs(d["Ed"] - ED) < 5e-4 and abs(d["Eb"] - EB) < 3e-3
+    text = run(["replay", str(bag), "--gt-scan-topic", "/scan", *geo, "--no-heldout"])
+    assert "lidar ground truth (/scan): 6 of 6 runs measured" in text and "(given)" in text
