@@ -873,6 +873,7 @@ def export(
     """
     from dataclasses import replace
 
+    from umbmark.cli.app import positive
     from umbmark.io.export import (
         ExportCalibration,
         calibration_from_json,
@@ -890,6 +891,13 @@ def export(
         if any(v is None for v in flags):
             raise InputError("give CAL.json (from replay/analyze --json) or all of --c-left, --c-right, --eb")
         cal = ExportCalibration(c_left, c_right, eb, source="command line")
+    for flag, v in (
+        ("--wheel-diameter-mm", wheel_diameter_mm),
+        ("--wheelbase-mm", wheelbase_mm),
+        ("--pulses-per-wheel-rev", pulses_per_wheel_rev),
+    ):
+        if v is not None:
+            positive(flag, v)
     if wheel_diameter_mm is not None:
         cal = replace(
             cal, nominal_diameter_left_m=wheel_diameter_mm * 1e-3, nominal_diameter_right_m=wheel_diameter_mm * 1e-3
