@@ -7,9 +7,12 @@
   every other output and the history database (:func:`os.path.samefile` where both exist, else
   the resolved paths); an output inside an input folder is refused too. tests/test_outputs_guard.py
   enumerates the commands and fails on a path parameter missing from the registry.
-* **Sizes are sizes.** A float option in millimetres or metres (``--*-mm``, ``--*-m``) must be
-  finite and below :data:`MAX_SIZE_M` (a thousand kilometres): an overflow such as
-  ``--wheel-diameter-mm 1e308`` is one line, not a traceback.
+* **Sizes are sizes.** A float option in millimetres or metres (``--*-mm``, ``--*-m``) beyond
+  :data:`MAX_SIZE_M` (a thousand kilometres: ``--wheel-diameter-mm 1e308``) is refused in one
+  line before the command runs, except the square's side and the tape's resolution, which the
+  commands check against tighter limits. NaN and infinities are left to the commands' own
+  checks; a failure such a value causes deep in the numbers that those miss is reported as
+  that option, in one line, not a traceback.
 * **A file whose name starts with a dash** (``-x.csv``) is read by click as options: the
   error says to write ``./-x.csv`` or to put ``--`` before it.
 """
@@ -18,9 +21,12 @@ from __future__ import annotations
 
 import math
 import os
+import warnings
 from pathlib import Path
 
 import click
+
+from umbmark.errors import UmbmarkError
 
 __all__ = ["MAX_SIZE_M", "PATH_ROLES", "ROLES", "GuardedCommand", "GuardedGroup", "check_paths", "path_roles"]
 
@@ -61,8 +67,10 @@ PATH_ROLES: dict[str, dict[str, str]] = {
     "selfcal": {"paths": "input", "save": "output", "intervals_out": "output", "db": "db"},
 }
 
-# a size option beyond this is not the size of a robot, a wheel or a test track
+# a size option beyond this (a thousand kilometres) is not the size of a robot, a wheel or a test track
 MAX_SIZE_M = 1e6
+# size options the commands check against their own, tighter, limits (with their own messages)
+_OWN_SIZE_CHECKS = ("side_mm", "resolution_mm")
 
 
 def path_roles(command_path: str) -> dict[str, str]:
@@ -193,19 +201,22 @@ def check_paths(command_path: str, params: dict, flags: dict[str, str] | None = 
                     )
 
 
-def _check_sizes(command: click.Command, params: dict) -> None:
+def _absurd_sizes(command: click.Command, params: dict) -> list[tuple[click.Parameter, float]]:
+    """The size options (``--*-mm``, ``--*-m``) whose value is not finite or beyond :data:`MAX_SIZE_M`."""
+    out = []
     for p in command.params:
-        if not isinstance(p, click.Option) or not isinstance(p.type, click.types.FloatParamType):
+        if not isinstance(p, click.Option) or not isinstance(p.type, click.types.FloatParamType) or not p.name:
             continue
         scale = 1e-3 if p.name.endswith("_mm") else 1.0 if p.name.endswith("_m") else None
         if scale is None:
             continue
-        for v in _values_num(params.get(p.name)):
-            if not math.isfinite(v) or abs(v) * scale > MAX_SIZE_M:
-                raise click.BadParameter(
-                    f"must be a finite size below {MAX_SIZE_M / scale:g} {'mm' if scale != 1 else 'm'}, got {v!r}",
-                    param=p,
-                )
+        out += [(p, v) for v in _values_num(params.get(p.name)) if not math.isfinite(v) or abs(v) * scale > MAX_SIZE_M]
+    return out
+
+
+def _size_message(p: click.Parameter, v: float) -> str:
+    unit = "mm" if (p.name or "").endswith("_mm") else "m"
+    return f"must be a finite size below {MAX_SIZE_M * (1e3 if unit == 'mm' else 1.0):g} {unit}, got {v!r}"
 
 
 def _values_num(v) -> list[float]:
@@ -227,7 +238,8 @@ def _flag_names(command: click.Command) -> dict[str, str]:
 
 
 class GuardedCommand(click.Command):
-    """A command that runs :func:`check_paths` and the size checks before its callback, and names
+    """A command that runs :func:`check_paths` before its callback, reports a failure an absurd
+    size option causes as that option (see the module docstring), and names
     the ``./`` and ``--`` ways of giving a file whose name starts with a dash."""
 
     def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
@@ -251,12 +263,32 @@ class GuardedCommand(click.Command):
     def invoke(self, ctx: click.Context):
         path = ctx.command_path.split(" ", 1)[1] if " " in ctx.command_path else ctx.command_path
         try:
-            _check_sizes(self, ctx.params)
             check_paths(path, ctx.params, _flag_names(self))
         except click.UsageError as e:
             e.ctx = ctx
             raise
-        return super().invoke(ctx)
+        absurd = _absurd_sizes(self, ctx.params)
+        for p, v in absurd:
+            if math.isfinite(v) and p.name not in _OWN_SIZE_CHECKS:
+                raise click.BadParameter(_size_message(p, v), ctx=ctx, param=p)
+        if not absurd:
+            return super().invoke(ctx)
+        # a size no robot has: the command's own checks speak first; what they do not catch
+        # (an overflow deep in the numbers) is reported as that size, in one line
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            try:
+                rv = super().invoke(ctx)
+            except (click.exceptions.ClickException, click.exceptions.Exit, click.exceptions.Abort):
+                raise
+            except (UmbmarkError, OSError):
+                raise
+            except Exception:
+                p, v = absurd[0]
+                raise click.BadParameter(_size_message(p, v), ctx=ctx, param=p) from None
+        for w in caught:
+            warnings.showwarning(w.message, w.category, w.filename, w.lineno)
+        return rv
 
 
 class GuardedGroup(click.Group):
