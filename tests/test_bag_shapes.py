@@ -87,6 +87,16 @@ def test_several_bags_missing_a_direction_names_the_bags(six_bags, capsys):
         assert b in err
 
 
+def test_a_bag_that_is_not_a_square_is_named(six_bags, tmp_path, capsys):
+    bags, _ = six_bags
+    t, pl, pr, world, odom, _ = session(["ccw"], pause_s=1.0, carry=False, turns=3)  # stopped a turn short
+    short = write_bag(tmp_path / "short", t, pl, pr, world, odom)
+    args = ["replay", str(bags[0]), str(short), str(bags[1]), "--odom-topic", "/odom", "--gt-topic", "/mocap/pose"]
+    assert main([*args, *GEOMETRY, "--method", "exact"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith(f"umbmark: error: {short}: the odometry turns 270 deg")
+
+
 def test_missing_wheel_source_suggests_the_odometry(six_bags, capsys):
     bag = six_bags[0][0]
     assert main(["replay", str(bag), "--gt-topic", "/mocap/pose", *GEOMETRY]) == 2

@@ -46,21 +46,24 @@ def _odometry(al, ar, geom=simlogs.GEOM):
     return np.column_stack([x, y, th])
 
 
-def session(directions, pause_s=3.0, carry=True, origin=(1.5, -0.8, YAW), errors=simlogs.TRUE, geom=simlogs.GEOM):
+def session(
+    directions, pause_s=3.0, carry=True, origin=(1.5, -0.8, YAW), errors=simlogs.TRUE, geom=simlogs.GEOM, turns=4
+):
     """A session of UMBmark squares: wheel samples (times, cumulative angles), the true poses in the
     world frame and the robot's odometry (one continuous odom frame) at every wheel sample, with
     ``pause_s`` of standstill before, between and after the runs; during a pause the robot is
     carried back near its start mark (``carry``), which its odometry does not see.
 
     Returns the arrays and, per run, the true return error's inputs: (direction, true end pose in
-    the start frame, odometry end pose in the start frame)."""
+    the start frame, odometry end pose in the start frame). ``turns`` below 4: runs that stop
+    short of the last turns."""
     still = int(round(pause_s / DT))
     origin = np.asarray(origin, dtype=float)
     al_all, ar_all, world = [np.zeros(1)], [np.zeros(1)], [origin[None]]
     truth = []
     rng = np.random.default_rng(3)
     for d in directions:
-        al, ar, pose = simlogs.simulate_wheels(square_program(d, SIDE_M), errors, geom, dt=DT)
+        al, ar, pose = simlogs.simulate_wheels(square_program(d, SIDE_M, turns), errors, geom, dt=DT)
         here = world[-1][-1]
         start = origin + rng.normal(0, [0.05, 0.05, 0.05]) if carry else here
         half = still // 2

@@ -153,18 +153,22 @@ def detect_directions(ds: Dataset) -> tuple[list[str], np.ndarray, list[str]]:
     turn = end_poses(ds, ds.nominal)[:, 2]
     dirs = ["cw" if t < 0 else "ccw" for t in turn]
     warnings = []
+    several = len({r.source for r in ds.runs}) > 1  # runs of several logs: each named with its log
+
+    def where(run) -> str:
+        return f"{ds.name}/{run.name}" + (f" ({run.source})" if several and run.source else "")
+
     for run, t in zip(ds.runs, turn):
         if abs(abs(math.degrees(t)) - 360.0) > 45.0:
             warnings.append(
-                f"{ds.name}/{run.name}: the odometry turns {math.degrees(t):.0f} deg in total, not about "
+                f"{where(run)}: the odometry turns {math.degrees(t):.0f} deg in total, not about "
                 "+-360 deg as on a UMBmark square"
             )
     if ds.directions is not None:
         for run, d, decl in zip(ds.runs, dirs, ds.directions):
             if d != decl:
                 warnings.append(
-                    f"{ds.name}/{run.name}: detected direction {d} differs from the declared {decl} "
-                    "(the detected one is used)"
+                    f"{where(run)}: detected direction {d} differs from the declared {decl} (the detected one is used)"
                 )
     return dirs, turn, warnings
 
@@ -714,6 +718,10 @@ def stream_log(
         raise InputError(
             "streaming replays one run with the given geometry; UMBmark squares (`side_mm`) need "
             "the whole data set (replay it without `stream`)"
+        )
+    if opts.get("time_offset") is not None:
+        raise InputError(
+            "streaming does not move the ground truth in time (`time_offset`): replay the log without `stream`"
         )
     recorded, recorded_ppr = csv_recorded_geometry([path])
     ppr = opts.get("pulses_per_wheel_rev") or recorded_ppr
