@@ -318,3 +318,16 @@ def test_odometry_as_the_wheels(put_back, tmp_path):
     assert abs(d["Ed"] - ED) < 5e-4 and abs(d["Eb"] - EB) < 3e-3
     text = run(["replay", str(bag), "--gt-scan-topic", "/scan", *geo, "--no-heldout"])
     assert "lidar ground truth (/scan): 6 of 6 runs measured" in text and "(given)" in text
+
+
+def test_one_bag_per_run(put_back, tmp_path):
+    """Six one-run bags given together are one test; each run measured in its own bag, the
+    mounting pose from their /tf_static."""
+    drives, _ = put_back
+    bags = [str(write_drive_bag(d, tmp_path / f"run{i + 1}", odom=False)) for i, d in enumerate(drives)]
+    geo = ["--wheel-diameter-mm", "150", "--wheelbase-mm", "340", "--side-mm", "2000"]
+    d = json.loads(run(["replay", *bags, "--gt-scan-topic", "/scan", *JOINTS, *geo, "--method", "exact", "--json"]))
+    assert [r["source"] for r in d["scan_truth"]["runs"]] == bags
+    assert d["scan_truth"]["sensor_pose_source"] == "/tf_static base_link -> laser"
+    assert abs(d["before"]["emax_syst_mm"] - truth_emax(drives, DIRECTIONS) * 1e3) < 5.0
+    assert abs(d["Ed"] - ED) < 5e-4 and abs(d["Eb"] - EB) < 3e-3
