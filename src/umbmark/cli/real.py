@@ -462,8 +462,9 @@ def replay(
     Each DATASET is an optiodom data-set folder; or (all together, the runs of one test) ROS
     bags, or CSV log files. The logged wheel increments (bags: joint states, encoder counts or
     the robot's own nav_msgs/Odometry) are replayed with the nominal geometry and with the
-    calibrated one; the errors are measured against the logged ground truth. Square runs
-    (UMBmark) are benchmarked (E_max,syst; cw/ccw from the odometry's total turn). Held-out
+    calibrated one; the errors are measured against the logged ground truth, or against the
+    robot's own lidar scans at rest before and after each run (--gt-scan-topic); --imu-topic adds
+    the gyro's verdict on the wheelbase. Square runs (UMBmark) are benchmarked (E_max,syst; cw/ccw from the odometry's total turn). Held-out
     figures: leave-one-run-out, and across data sets when several are given.
 
     \b
@@ -474,6 +475,11 @@ def replay(
         --wheel-radius-m 0.05 --wheel-separation-m 0.30 --method exact
       umbmark replay run1_bag run2_bag run3_bag --odom-topic /odom --gt-topic /mocap/pose \\
         --side-mm 2000 --wheel-diameter-mm 100 --wheelbase-mm 300 --method exact
+      umbmark replay squares_bag --gt-scan-topic /scan --sensor-pose 35,0,0 --split-stops \\
+        --joints left_wheel_joint,right_wheel_joint --side-mm 2000 \\
+        --wheel-diameter-mm 150 --wheelbase-mm 340 --method exact
+      umbmark replay spins_bag --imu-topic /imu --joints left_wheel_joint,right_wheel_joint \\
+        --wheel-radius-m 0.1 --wheel-separation-m 0.4
     """
     if not (math.isfinite(heading_weight_m) and heading_weight_m >= 0):
         raise InputError(f"--heading-weight-m must be >= 0, got {heading_weight_m!r}")
