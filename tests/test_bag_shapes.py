@@ -144,6 +144,28 @@ def test_both_directions_in_one_bag_split_at_stops_without_asking(session_bag):
     assert auto["Ed"] == asked["Ed"] and auto["Eb"] == asked["Eb"]
 
 
+def test_several_bags_each_split_into_runs_are_one_test(session_bag, tmp_path):
+    bag, truth = session_bag
+    t, pl, pr, world, odom, truth2 = session(["ccw", "cw"], pause_s=3.0, errors=NO_SCALE)
+    second = write_bag(tmp_path / "second", t, pl, pr, world, odom, mocap_hz=7.0, mocap_delay_s=0.05)
+    ds = load_logs(
+        [bag, second],
+        "bag",
+        joints="left_wheel_joint,right_wheel_joint",
+        gt_topic="/mocap/pose",
+        wheel_diameter_mm=100,
+        wheelbase_mm=300,
+        side_mm=2000,
+        split_stops=True,
+    )
+    assert [r.name for r in ds.runs] == ["slow#1", "slow#2", "slow#3", "slow#4", "second#1", "second#2"]
+    assert [r.source for r in ds.runs] == [str(bag)] * 4 + [str(second)] * 2
+    rep = replay_report(ds, "exact").to_dict()
+    assert [r["direction"] for r in rep["runs"]] == ["cw", "cw", "ccw", "ccw", "ccw", "cw"]
+    assert rep["before"]["emax_syst_mm"] == pytest.approx(true_emax(truth + truth2) * 1e3, abs=0.05)
+    assert rep["Ed"] == pytest.approx(NO_SCALE.ed, abs=2e-5)
+
+
 def test_a_bag_that_is_not_squares_says_what_to_give(session_bag, capsys):
     bag, _ = session_bag
     # pauses shorter than --stop-s: no square pieces
