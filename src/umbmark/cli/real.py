@@ -464,8 +464,9 @@ def replay(
     the robot's own nav_msgs/Odometry) are replayed with the nominal geometry and with the
     calibrated one; the errors are measured against the logged ground truth, or against the
     robot's own lidar scans at rest before and after each run (--gt-scan-topic); --imu-topic adds
-    the gyro's verdict on the wheelbase. Square runs (UMBmark) are benchmarked (E_max,syst; cw/ccw from the odometry's total turn). Held-out
-    figures: leave-one-run-out, and across data sets when several are given.
+    the gyro's verdict on the wheelbase. Square runs (UMBmark) are benchmarked (E_max,syst;
+    cw/ccw from the odometry's total turn). Held-out figures: leave-one-run-out, and across data
+    sets when several are given.
 
     \b
     Examples:
