@@ -431,3 +431,21 @@ def test_a_database_in_a_read_only_folder_is_still_read(db, tmp_path, capsys):
     finally:
         undo()
     assert sorted(os.listdir(folder)) == ["h.sqlite"]
+
+
+def test_a_dropped_table_on_every_backend(any_db, capsys):
+    with open_history(any_db) as h:
+        h.add("r1", kind="other", method="m", results={}, parameters={"c_left": 1.0, "c_right": 1.0, "Eb": 1.0})
+    if isinstance(any_db, str):
+        import sqlalchemy as sa
+
+        eng = sa.create_engine(any_db)
+        with eng.begin() as c:
+            c.exec_driver_sql("DROP TABLE calibrations" + (" CASCADE" if eng.dialect.name == "postgresql" else ""))
+        eng.dispose()
+    else:
+        _execute(any_db, "PRAGMA foreign_keys = OFF", "DROP TABLE calibrations")
+    for argv in (["history"], ["history", "r1"], ["history", "--show", "1"], ["history", "r1", "--export", "-"]):
+        rc = main([*argv, "--db", str(any_db)])
+        err = capsys.readouterr().err
+        _one_line_error(rc, err, "calibrations")
