@@ -177,6 +177,13 @@ def test_tf_ground_truth_and_tick_topic(tmp_path, sim):
     # quantised to whole pulses: still close
     assert abs(res.geometry.ed - true.ed) < 5e-4
     assert res.geometry.wheelbase_m == pytest.approx(true.wheelbase_m, rel=3e-3)
+    # a frame /tf does not hold: the transforms it does hold are listed
+    joints = dict(nominal=NOMINAL, joints=("wheel_left", "wheel_right"))
+    with pytest.raises(InputError, match="for frame 'robot'.*transforms there: world -> decoy, world -> robot_mocap"):
+        read_bag(bag, **joints, gt_topic="/tf", gt_frame="robot")
+    # a ground-truth topic of another type: the topics and their types are listed
+    with pytest.raises(InputError, match=r"has type std_msgs/msg/Int64MultiArray.*/tf \(TFMessage\)"):
+        read_bag(bag, **joints, gt_topic="/encoders")
 
 
 def test_ranges_and_stops_split_runs(tmp_path, sim):

@@ -383,16 +383,20 @@ def _read_truth(reader, gt_topic: str, gt_frame, gt_parent, src: str) -> list[tu
     gtype = gconns[0].msgtype.split("/")[-1]
     if gtype not in _GT_TYPES:
         raise InputError(
-            f"ground-truth topic {gt_topic} has type {gconns[0].msgtype}; expected PoseStamped, Odometry or TFMessage",
+            f"ground-truth topic {gt_topic} has type {gconns[0].msgtype}; expected PoseStamped, Odometry or "
+            f"TFMessage (topics: {_topics_hint(reader)})",
             src,
         )
     if gtype == "TFMessage" and not gt_frame:
         raise InputError("ground truth from /tf needs the tracked frame (`gt_frame`)", src)
     gt = []
+    pairs: set[tuple[str, str]] = set()
     for c, ns, raw in reader.messages(connections=gconns):
         msg = reader.deserialize(raw, c.msgtype)
         if gtype == "TFMessage":
             for tr in msg.transforms:
+                if len(pairs) < 50:
+                    pairs.add((tr.header.frame_id.lstrip("/"), tr.child_frame_id.lstrip("/")))
                 if tr.child_frame_id.lstrip("/") != gt_frame.lstrip("/"):
                     continue
                 if gt_parent and tr.header.frame_id.lstrip("/") != gt_parent.lstrip("/"):
@@ -404,7 +408,10 @@ def _read_truth(reader, gt_topic: str, gt_frame, gt_parent, src: str) -> list[tu
             gt.append((_stamp(msg, ns), pose.position.x, pose.position.y, _yaw(pose.orientation)))
     if not gt:
         frame = f" for frame {gt_frame!r}" if gt_frame else ""
-        raise InputError(f"no ground-truth poses on {gt_topic}{frame}", src)
+        have = ""
+        if gtype == "TFMessage":
+            have = " (transforms there: " + (", ".join(f"{a} -> {b}" for a, b in sorted(pairs)) or "none") + ")"
+        raise InputError(f"no ground-truth poses on {gt_topic}{frame}{have}", src)
     return gt
 
 
