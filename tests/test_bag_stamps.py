@@ -276,3 +276,25 @@ def test_auto_without_turns_is_an_error(tmp_path):
     assert "hardly turns" in ds.meta["time_offset"][0]["reason"]
     with pytest.raises(InputError, match="`time_offset` auto: cannot estimate.*hardly turns.*give it in seconds"):
         read_bag(bag, **kw, time_offset="auto")
+
+
+def test_convert_says_the_ground_truth_is_late_and_can_correct_it(clean, clean_cal, tmp_path, capsys):
+    """``convert`` of a late bag warns (stderr); with ``--time-offset auto`` the CSV it writes
+    holds the aligned ground truth, and replaying that CSV gives the undelayed calibration.
+    ``--stream`` cannot move a ground truth: an error."""
+    bag = edit_bag(clean, tmp_path / "late", ground_truth=delayed(0.4, every=4))
+    geometry = CLI[:8]
+    out = tmp_path / "late.csv"
+    assert main(["convert", str(bag), *geometry, "--split-stops", "--out", str(out)]) == 0
+    err = capsys.readouterr().err
+    assert "warning: the ground truth on /ground_truth is 0.40" in err and "--time-offset auto" in err
+    fixed = tmp_path / "fixed.csv"
+    args = ["convert", str(bag), *geometry, "--split-stops", "--time-offset", "auto", "--out", str(fixed)]
+    assert main(args) == 0
+    assert "warning" not in capsys.readouterr().err
+    assert main(["replay", str(fixed), "--side-mm", "2000", "--method", "exact", "--no-heldout", "--json"]) == 0
+    d = json.loads(capsys.readouterr().out)
+    assert abs(d["Ed"] - clean_cal[0]) < 1e-6 and abs(d["Eb"] - clean_cal[1]) < 1e-5
+    assert main(["replay", str(out), "--stream", "--time-offset", "auto", "--json"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--time-offset" in err and "--stream" in err

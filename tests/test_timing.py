@@ -199,3 +199,68 @@ def test_cli_time_offset_on_a_real_optiodom_folder(capsys):
     assert {e["applied_s"] for e in json.loads(capsys.readouterr().out)["time_offset"]} == {0.1}
     assert main([*args, "--time-offset", "later"]) == 2
     assert "--time-offset" in capsys.readouterr().err
+
+
+@pytest.fixture(scope="module")
+def drive():
+    """A simulated drive of mixed motion (wheels at 100 Hz) and its true poses."""
+    import dataclasses
+
+    from umbmark.model.drive import EXAMPLE_ROBOT, mixed_program, simulate_drive
+    from umbmark.model.sensors import Lidar
+
+    robot = dataclasses.replace(EXAMPLE_ROBOT, lidar=Lidar(n_beams=4, range_noise_m=0.0))
+    return simulate_drive(mixed_program(60.0, seed=3, robot=robot), robot, scan_rate_hz=1.0)
+
+
+def _streams(drive, tau: float, period: float, seed: int, noise_m: float = 5e-4):
+    """The drive's wheel angles and a ground truth at ``period``, ``tau`` seconds late, with noise."""
+    rng = np.random.default_rng(seed)
+    t = drive.t_s
+    tg = np.arange(rng.uniform(0, period), t[-1], period)
+    pose = drive.true_pose_at(np.clip(tg, 0, t[-1]))
+    pose = pose + rng.normal(0, 1, pose.shape) * [noise_m, noise_m, math.radians(0.1)]
+    truth = np.column_stack([tg + tau, pose])
+    g = drive.nominal_geometry
+    kw = dict(
+        metres_per_unit_left=g.diameter_left_m / 2,
+        metres_per_unit_right=g.diameter_right_m / 2,
+        wheelbase_m=g.wheelbase_m,
+        wheel_topic="/joint_states",
+        truth_topic="/mocap",
+    )
+    return (t + 1.7e9, drive.left_rad, drive.right_rad, truth + [1.7e9, 0, 0, 0]), kw
+
+
+@settings(max_examples=20, deadline=None)
+@given(
+    seed=st.integers(0, 1000),
+    late=st.floats(0.0, 1.9),
+    sign=st.sampled_from([1.0, -1.0]),
+    period=st.sampled_from([0.01, 0.02, 1 / 30, 0.1]),
+)
+def test_a_shifted_ground_truth_is_always_flagged_and_a_clean_one_never(drive, seed, late, sign, period):
+    """Ground-truth stamps shifted by more than 50 ms and one sample period (either way) give a
+    warning every time; the same streams unshifted (with motion-capture noise) give none."""
+    tau = sign * (max(0.05, period) + 0.005 + late)
+    args, kw = _streams(drive, tau, period, seed)
+    chk = check_streams(*args, **kw)
+    (w,) = chk.warnings
+    assert "/mocap" in w and ("late" if tau > 0 else "early") in w and "`time_offset=auto`" in w
+    assert abs(chk.time_offset.estimated_s - tau) < period
+    fixed = check_streams(*args, **kw, time_offset="auto")
+    assert fixed.warnings == () and abs(fixed.time_offset.applied_s - tau) < period
+    clean_args, _ = _streams(drive, 0.0, period, seed)
+    clean = check_streams(*clean_args, **kw)
+    assert clean.warnings == () and abs(clean.time_offset.estimated_s) < period
+
+
+def test_align_truth_warns_when_it_cuts_moving_samples():
+    """Runs logged without stops around them: moving a late ground truth leaves the last moving
+    samples without one, which is said (the square is left open)."""
+    late = _late(simlogs.dataset(simlogs.squares(1), side_m=2.0), 0.3)
+    out = align_truth(late, "auto")
+    cut = [w for w in out.meta["warnings"] if "without a ground truth where the robot moves" in w]
+    assert [w.split(":")[0] for w in cut] == [r.name for r in late.runs]
+    assert all(len(a) == len(b) - 15 for a, b in zip(out.runs, late.runs))  # 0.3 s at 50 Hz
+    assert align_truth(_padded_squares(), 0.3).meta["warnings"] == ()

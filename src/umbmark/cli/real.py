@@ -115,10 +115,10 @@ def log_options(f):
             "--time-offset",
             default=None,
             metavar="auto|SECONDS",
-            help="Bag with --gt-topic: how late the ground truth's stamps are against the wheels'. "
-            "Without it the offset is estimated (cross-correlation of the turn rates), reported in the "
-            "JSON `time_offset` and warned about when over 50 ms; auto subtracts the estimate; "
-            "SECONDS subtracts that (positive: ground truth late).",
+            help="How late the ground truth is against the wheels. Bags with --gt-topic: without it "
+            "the offset is estimated (cross-correlation of the turn rates), reported in the JSON "
+            "key time_offset and warned about when over 50 ms; auto subtracts the estimate; SECONDS "
+            "subtracts that (positive: ground truth late). CSV logs, optiodom: applied when given.",
         ),
     ]
     for o in reversed(opts):
@@ -780,6 +780,7 @@ def convert(paths, log_format, target, out, **kw):
     if len(sets) != 1:
         raise InputError("convert takes one data set (one optiodom folder, or bags, or CSV logs)")
     ds = sets[0]
+    warnings = list(ds.meta.get("warnings") or ())
     if target == "csv":
         atomic_write(out, format_generic_csv(ds))
     else:
@@ -795,6 +796,8 @@ def convert(paths, log_format, target, out, **kw):
                 f"analyze it with: umbmark analyze {out} --wheelbase-mm {ds.nominal.wheelbase_m * 1e3:g} "
                 f"--side-mm {ds.side_m * 1e3:g}"
             )
+    for w in warnings:
+        click.echo(f"warning: {cli_message(w)}", err=True)
 
 
 @app.command()

@@ -342,7 +342,34 @@ def estimate_time_offset(
         )
     if abs(lags[j]) == m:
         return None, best, max_lag_s, f"the best match is at the end of the search (+-{max_lag_s:.3g} s)"
+    fine, fine_best = _refine(tw, hw, tg, hg, offset, max(2 * dt, _median_period(tg)))
+    if fine is not None:
+        offset, best = fine, max(best, fine_best)
     return float(offset), best, max_lag_s, None
+
+
+def _refine(
+    tw: np.ndarray, hw: np.ndarray, tg: np.ndarray, hg: np.ndarray, guess: float, half_s: float
+) -> tuple[float | None, float]:
+    """The offset near ``guess`` at which the ground truth's heading steps, sample to sample,
+    best match the wheels' heading steps over the same intervals (the wheels interpolated at
+    the ground truth's stamps minus the offset): no interpolation of the ground truth, so a slow
+    ground truth is not smeared. A fine grid of +-``half_s`` and a parabola through its peak."""
+    dg = np.diff(hg)
+    grid = guess + np.linspace(-half_s, half_s, 41)
+    scores = np.empty(grid.size)
+    for i, tau in enumerate(grid):
+        dw = np.diff(np.interp(tg - tau, tw, hw, left=np.nan, right=np.nan))
+        ok = np.isfinite(dw)
+        den = math.sqrt(float(np.sum(dw[ok] ** 2)) * float(np.sum(dg[ok] ** 2)))
+        scores[i] = float(np.sum(dw[ok] * dg[ok])) / den if ok.sum() > 2 and den > 0 else -np.inf
+    j = int(np.argmax(scores))
+    if not np.isfinite(scores[j]) or j in (0, grid.size - 1):
+        return None, float(scores[j])
+    a, b, e = scores[j - 1], scores[j], scores[j + 1]
+    den2 = a - 2 * b + e
+    shift = float(np.clip(0.5 * (a - e) / den2, -0.5, 0.5)) if den2 < 0 else 0.0
+    return float(grid[j] + shift * (grid[1] - grid[0])), float(b)
 
 
 def parse_time_offset(value) -> float | str | None:
@@ -613,7 +640,8 @@ def align_truth(ds, time_offset, what: str = "log"):
     -------
     umbmark.model.dataset.Dataset
         The runs moved; ``meta["time_offset"]`` one entry per run with a trajectory (``log``,
-        ``run`` and :meth:`TimeOffset.to_dict`).
+        ``run`` and :meth:`TimeOffset.to_dict`); ``meta["warnings"]`` also names the runs cut
+        where the robot moves (their ground truth ends before the wheels').
 
     Raises
     ------
@@ -648,6 +676,7 @@ def align_truth(ds, time_offset, what: str = "log"):
     else:
         applied = float(request)
     new_runs, entries = [], []
+    notes: list[str] = []
     estimates = iter(found)
     for r in ds.runs:
         if not r.has_trajectory:
@@ -655,8 +684,19 @@ def align_truth(ds, time_offset, what: str = "log"):
             continue
         est, corr, max_lag, reason = next(estimates)
         ok = np.all(np.isfinite(r.gt), axis=1)
+        period = _median_period(r.t[ok])
+        lo, hi = r.t[ok][0], r.t[ok][-1]
         tt = r.t + applied
-        inside = (tt >= r.t[ok][0]) & (tt <= r.t[ok][-1])
+        inside = (tt >= lo - 0.5 * period) & (tt <= hi + 0.5 * period)  # half a sample: the edge pose
+        tt = np.clip(tt, lo, hi)
+        moving = (np.abs(r.d_left) + np.abs(r.d_right)) > 0
+        moving[0] = False
+        if np.any(moving & ~inside):
+            notes.append(
+                f"{r.name}: a time offset of {applied:.3f} s leaves {int((~inside).sum())} samples of the wheels "
+                "without a ground truth where the robot moves: the run is cut to the rest (a square may be "
+                "left open); for a bag give `time_offset` when reading it, or log past the stops"
+            )
         if inside.sum() < 2:
             raise InputError(
                 f"a time offset of {applied:.3f} s leaves run {r.name} fewer than two samples with a ground truth",
@@ -668,7 +708,6 @@ def align_truth(ds, time_offset, what: str = "log"):
         a, b = np.flatnonzero(inside)[[0, -1]]
         moved = Run(r.name, r.t, r.d_left, r.d_right, gt, None, r.source).slice(int(a), int(b) + 1, name=r.name)
         new_runs.append(moved)
-        period = _median_period(r.t[ok])
         off = TimeOffset(
             None if est is None else round(est, 6) + 0.0,
             None if corr is None else round(corr, 4),
@@ -680,5 +719,5 @@ def align_truth(ds, time_offset, what: str = "log"):
             reason,
         )
         entries.append({"log": r.source or ds.source, "run": r.name, **off.to_dict()})
-    meta = {**ds.meta, "time_offset": tuple(entries)}
+    meta = {**ds.meta, "time_offset": tuple(entries), "warnings": (*(ds.meta.get("warnings") or ()), *notes)}
     return replace(ds, runs=tuple(new_runs), meta=meta)
