@@ -416,3 +416,51 @@ def test_history_export_chain_gives_the_recorded_parameters(tmp_path, optiodom, 
     (tmp_path / "legacy.json").write_text(json.dumps(legacy))
     out = json.loads(_cli_text(capsys, "export", "legacy.json", "--format", "json"))
     assert out["wheelbase_mm"] == pytest.approx(firsts["r1"]["wheelbase_corrected_mm"], rel=1e-9)
+
+
+def test_history_export_chain_of_a_self_calibration(tmp_path, capsys, monkeypatch):
+    """selfcal --record of a simulated bag, history --export, export json / urdf / ros2: the same
+    parameters and lidar pose as exporting the selfcal JSON itself."""
+    import math
+
+    pytest.importorskip("rosbags")
+    import yaml
+
+    from umbmark.io.rosbag_write import write_drive_bag
+    from umbmark.model.drive import SimRobot, mixed_program, simulate_drive
+    from umbmark.model.geometry import LABMATE
+    from umbmark.model.sensors import Lidar, SensorPose
+
+    robot = SimRobot(
+        nominal=LABMATE,
+        errors=ErrorParams(ed=1.006, eb=1.015, es=1.0),
+        sensor_pose=SensorPose(0.08, -0.01, math.radians(2.0)),
+        lidar=Lidar(n_beams=180, range_noise_m=0.003),
+    )
+    monkeypatch.chdir(tmp_path)
+    bag = write_drive_bag(
+        simulate_drive(mixed_program(40.0, seed=4, robot=robot), robot, seed=5),
+        tmp_path / "drive",
+        storage="mcap",
+        odom=True,
+    )
+    argv = ["selfcal", str(bag), "--joints", "left_wheel_joint,right_wheel_joint", "--wheel-diameter-mm", "150"]
+    argv += ["--wheelbase-mm", "340", "--robot", "s1", "--record", "--db", "h.sqlite", "--save", "selfcal.json"]
+    first = _cli_json(capsys, *argv)
+    _cli_text(capsys, "history", "s1", "--db", "h.sqlite", "--export", "s1.json")
+    via_history = json.loads(_cli_text(capsys, "export", "s1.json", "--format", "json"))
+    direct = json.loads(_cli_text(capsys, "export", "selfcal.json", "--format", "json"))
+    for k in ("c_left", "c_right", "wheelbase_mm", "diameter_left_mm", "diameter_right_mm", "Eb"):
+        assert via_history[k] == pytest.approx(direct[k], rel=1e-9), k
+    assert via_history["wheelbase_mm"] == pytest.approx(first["wheelbase_mm"], rel=1e-9)
+    for k in ("x_mm", "y_mm", "yaw_deg"):
+        assert via_history["sensor_pose"][k] == pytest.approx(first["sensor_pose"][k], rel=1e-9, abs=1e-9)
+    assert via_history["scale_observed"] is True
+    origin = [ln for ln in _cli_text(capsys, "export", "s1.json", "--format", "urdf").splitlines() if "<origin" in ln]
+    assert origin == [
+        ln for ln in _cli_text(capsys, "export", "selfcal.json", "--format", "urdf").splitlines() if "<origin" in ln
+    ]
+    p = yaml.safe_load(_cli_text(capsys, "export", "s1.json", "--format", "ros2"))["diff_drive_controller"][
+        "ros__parameters"
+    ]
+    assert p["wheel_separation_multiplier"] == pytest.approx(first["wheelbase_mm"] / 340, rel=1e-9)
