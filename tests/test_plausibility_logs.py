@@ -87,8 +87,35 @@ def test_per_sample_ticks_read_as_cumulative_name_the_tick_mode(tmp_path, capsys
             r[k] = repr(float(x))
     f = _write(tmp_path, header, rows)
     assert len(_read(f, "incremental").runs) == 2  # right with the right mode
-    with pytest.raises(InputError, match='look like pulses per sample \\(`ticks="incremental"`\\)'):
+    with pytest.raises(InputError, match='the ticks look incremental \\(`ticks="incremental"`\\)'):
         _read(f)
     args = ["replay", str(f), "--wheel-diameter-mm", "100", "--wheelbase-mm", "300", "--pulses-per-wheel-rev", "1000"]
     assert main([*args, "--method", "lsq"]) == 2
     assert "--ticks incremental" in capsys.readouterr().err
+
+
+def test_streaming_reader_refuses_the_same_ticks(tmp_path, capsys):
+    header, rows = _rows(tmp_path)
+    one = [r for r in rows if r[header.index("run")] == rows[0][header.index("run")]]
+    one[10][header.index("left_ticks")] = "-1e308"
+    f = _write(tmp_path, header, one)
+    args = ["replay", str(f), "--stream", "--wheel-diameter-mm", "100", "--wheelbase-mm", "300"]
+    assert main([*args, "--pulses-per-wheel-rev", "1000"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"{f}:12: column left_ticks: -1e+308 is beyond any encoder counter" in err
+
+
+def test_counters_read_as_per_sample_ticks_name_the_tick_mode(tmp_path):
+    header, rows = _rows(tmp_path)
+    f = _write(tmp_path, header, rows)
+    with pytest.raises(InputError, match='the ticks look cumulative \\(`ticks="cumulative"`\\)'):
+        _read(f, "incremental")
+
+
+def test_without_ground_truth_the_squares_sides_are_the_travel(tmp_path):
+    header, rows = _rows(tmp_path)
+    keep = [header.index(c) for c in ("run", "time_s", "left_ticks", "right_ticks")]
+    f = _write(tmp_path, [header[k] for k in keep], [[r[k] for k in keep] for r in rows])
+    assert len(_read(f).runs) == 2
+    with pytest.raises(InputError, match="the ticks look cumulative"):
+        _read(f, "incremental")

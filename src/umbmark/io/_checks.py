@@ -10,7 +10,7 @@ import numpy as np
 from umbmark.errors import InputError
 from umbmark.model.dataset import Run, WheelGeometry
 
-__all__ = ["wheels_against_truth"]
+__all__ = ["wheels_against_truth", "check_tick_mode"]
 
 # the ground truth of a run that moves less than this never moved (nothing was tracked)
 _STILL_M = 1e-3
@@ -20,6 +20,9 @@ _TRAVEL_RATIO = (0.5, 2.0)
 # compared every half second, so that the motion capture's jitter does not add up
 _STEP_S = 0.5
 _MIN_TURN_RAD = math.radians(90.0)
+# the tick-mode check: runs of at least this many samples; a counter spans this many steps
+_MIN_SAMPLES = 50
+_COUNTER_SPAN = 20.0
 
 
 def wheels_against_truth(
@@ -97,3 +100,75 @@ def wheels_against_truth(
             f"the ground truth by {math.degrees(gt_turn):.3g} deg: check {turn_hint}"
         ]
     return []
+
+
+def _track_length(run: Run) -> float | None:
+    """The ground-truth track's length, sampled every half second (None without a track)."""
+    if run.gt is None or len(run.t) < 2 or not np.isfinite(run.gt).all():
+        return None
+    k = np.unique(np.searchsorted(run.t, np.arange(0.0, run.t[-1], _STEP_S)))
+    k = np.append(k[k < len(run.t)], len(run.t) - 1)
+    return float(np.sum(np.hypot(np.diff(run.gt[k, 0]), np.diff(run.gt[k, 1]))))
+
+
+def check_tick_mode(
+    raw: np.ndarray,
+    ticks: str,
+    run: Run,
+    nominal: WheelGeometry,
+    units_per_rev: float,
+    side_m: float | None,
+    line: int,
+) -> None:
+    """Refuse ticks read in the wrong mode: the travel they give is off by far from the ground
+    truth's track (or the square's four sides), and the other mode matches it.
+
+    Parameters
+    ----------
+    raw : numpy.ndarray
+        The run's left and right tick cells, shape (K, 2).
+    ticks : str
+        The mode they are read in: ``cumulative`` or ``incremental``.
+    run : Run
+        The run read from them (its ground truth and source).
+    nominal : WheelGeometry
+        The nominal geometry.
+    units_per_rev : float
+        Encoder pulses per wheel revolution.
+    side_m : float or None
+        The square's side, when the runs are squares.
+    line : int
+        The run's first line, for the message.
+
+    Raises
+    ------
+    InputError
+        The other tick mode explains the travel and this one does not.
+    """
+    expected = _track_length(run)
+    if expected is None or expected < 100 * _STILL_M:
+        expected = None if side_m is None else 4.0 * side_m
+    if expected is None or len(raw) < _MIN_SAMPLES:
+        return
+    kl = math.pi * nominal.diameter_left_m / units_per_rev
+    kr = math.pi * nominal.diameter_right_m / units_per_rev
+
+    def travel(d: np.ndarray) -> float:
+        return float(np.sum(np.abs(d[:, 0] * kl + d[:, 1] * kr)) / 2.0)
+
+    d = np.diff(raw, axis=0)
+    cum = travel(d)
+    inc = travel(raw[1:])
+    this, other, name = (cum, inc, "incremental") if ticks == "cumulative" else (inc, cum, "cumulative")
+    # and the ticks themselves: a counter's values span many times its largest step (the
+    # whole travel), pulses per sample hardly more than their largest change
+    span = np.ptp(raw, axis=0) / np.maximum(np.max(np.abs(d), axis=0), 1e-12)
+    counter = bool(np.max(span) >= _COUNTER_SPAN)
+    looks = not counter if ticks == "cumulative" else counter
+    if looks and not 0.1 <= this / expected <= 10.0 and 0.67 <= other / expected <= 1.5:
+        raise InputError(
+            f"read as {ticks} ticks the wheels travel {this:.3g} m, as {name} ticks {other:.3g} m, and the robot "
+            f'travelled about {expected:.3g} m: the ticks look {name} (`ticks="{name}"`)',
+            run.source,
+            line,
+        )

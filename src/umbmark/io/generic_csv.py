@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from umbmark.errors import InputError
-from umbmark.io._checks import wheels_against_truth
+from umbmark.io._checks import check_tick_mode, wheels_against_truth
 from umbmark.io._text import csv_rows, header_columns, parse_number, read_text
 from umbmark.model.dataset import Dataset, Run, WheelGeometry, to_start_frame
 
@@ -222,29 +222,16 @@ def _ground_truth(g3: np.ndarray, lines: np.ndarray, degrees: bool, src: str):
 
 
 _MAX_TICKS = 2.0**63  # beyond any encoder counter
-_NEGATIVE_SHARE = 0.25  # of a counter's non-zero differences, in both wheels: the ticks are per sample
 
 
 def _check_tick_values(ticks_lr: np.ndarray, lines: np.ndarray, src: str, ticks: str) -> None:
-    """Refuse a tick beyond any counter, and counters that run backwards as often as per-sample
-    counts do (the tick mode is wrong)."""
+    """Refuse a tick beyond any counter."""
     big = np.flatnonzero(~(np.abs(ticks_lr) < _MAX_TICKS).all(axis=1))
     if big.size:
         k = int(big[0])
         i = 0 if not abs(ticks_lr[k, 0]) < _MAX_TICKS else 1
         col = ("left_ticks", "right_ticks")[i]
         raise InputError(f"column {col}: {ticks_lr[k, i]:g} is beyond any encoder counter", src, int(lines[k]))
-    if ticks != "cumulative" or len(ticks_lr) < 20:
-        return
-    d = np.diff(ticks_lr, axis=0)
-    shares = [float(np.mean(d[d[:, i] != 0, i] < 0)) if np.any(d[:, i] != 0) else 0.0 for i in (0, 1)]
-    if min(shares) >= _NEGATIVE_SHARE:
-        raise InputError(
-            f"the ticks are read as cumulative counters, but {shares[0]:.0%} of the left and {shares[1]:.0%} of the "
-            'right differences are negative: they look like pulses per sample (`ticks="incremental"`)',
-            src,
-            int(lines[0]),
-        )
 
 
 def _batch_run(label: str, rows: list, src: str, where: str, ticks: str, degrees: bool) -> Run:
@@ -311,6 +298,8 @@ def read_generic_csv(
         for label, group in _group_runs(path, header, rows, src):
             where = f"{src} (run {label})" if with_runs else src
             runs.append(_batch_run(label, group, src, where, ticks, degrees))
+            raw = np.array([v[1:3] for _, v in group], dtype=float)
+            check_tick_mode(raw, ticks, runs[-1], nominal, float(pulses_per_wheel_rev), side_m, group[0][0])
     if not runs:
         raise InputError("no runs")
     if name is None:
@@ -479,6 +468,7 @@ class _StreamedRun:
         if bad.size:
             k = int(bad[0])
             raise InputError(f"time {t[k]:g} s does not increase (previous row: {prev_t[k]:g} s)", self.src, int(ln[k]))
+        _check_tick_values(a[:, 1:3], ln, self.src, self.ticks)
         if first:
             self.t0 = t[0]
         if self.ticks == "cumulative":
