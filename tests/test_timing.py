@@ -247,7 +247,8 @@ def test_a_shifted_ground_truth_is_always_flagged_and_a_clean_one_never(drive, s
     chk = check_streams(*args, **kw)
     (w,) = chk.warnings
     assert "/mocap" in w and ("late" if tau > 0 else "early") in w and "`time_offset=auto`" in w
-    assert abs(chk.time_offset.estimated_s - tau) < period
+    # within one period, and (measured over 200 random cases: 2.5 ms at worst) within 5 ms
+    assert abs(chk.time_offset.estimated_s - tau) < min(period, 0.005)
     fixed = check_streams(*args, **kw, time_offset="auto")
     assert fixed.warnings == () and abs(fixed.time_offset.applied_s - tau) < period
     clean_args, _ = _streams(drive, 0.0, period, seed)
