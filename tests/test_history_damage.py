@@ -303,7 +303,9 @@ def test_any_value_in_any_column_is_read_or_named(pristine, tmp_path, column, va
 def test_huge_ids_and_limits(db, capsys):
     rc, _, err = _run(["history", "--show", "99999999999999999999"], db, capsys)
     _one_line_error(rc, err, "no record #99999999999999999999", "h.sqlite")
-    rc, out, err = _run(["history", "r1", "--limit", "99999999999999999999", "--json"], db, capsys)
+    rc, _, err = _run(["history", "r1", "--limit", "99999999999999999999"], db, capsys)
+    _one_line_error(rc, err, "--limit must be from 0 to 9223372036854775807", "h.sqlite", "99999999999999999999")
+    rc, out, err = _run(["history", "r1", "--limit", str(2**63 - 1), "--json"], db, capsys)
     assert rc == 0, err
     assert [r["id"] for r in json.loads(out)["records"]] == [1, 2, 3]
     rc, out, _ = _run(["history", "r1", "--limit", "1", "--json"], db, capsys)
@@ -361,7 +363,9 @@ def test_damaged_record_on_every_backend(any_db):
             h.get(2)
         with pytest.raises(Exception, match="no record #99999999999999999999"):
             h.get(99999999999999999999)
-        assert len(h.records("r1", limit=99999999999999999999)) == 2
+        assert len(h.records("r1", limit=2**63 - 1)) == 2
+        with pytest.raises(Exception, match="`limit` must be from 0"):
+            h.records("r1", limit=99999999999999999999)
 
 
 # -- reading creates nothing; a database that cannot be written --------------------------------------

@@ -119,6 +119,7 @@ PARAM_FLAGS = {
     "joints": "--joints",
     "left_diameter_mm": "--left-diameter-mm",
     "left_field": "--left-field",
+    "limit": "--limit",
     "max_wheel_gap_s": "--max-wheel-gap-s",
     "method": "--method",
     "odom_topic": "--odom-topic",

@@ -705,11 +705,16 @@ class _Backend:
 
         Raises
         ------
+        InputError
+            A ``limit`` below 0 or above :data:`MAX_INT`.
         HistoryError
             If the database cannot be read.
         """
-        if limit is not None:
-            limit = max(0, min(int(limit), MAX_INT))
+        if limit is not None and not 0 <= int(limit) <= MAX_INT:
+            raise InputError(
+                f"`limit` must be from 0 to {MAX_INT} (the most records the history database "
+                f"{self.path} can count), got {limit}"
+            )
         recs = [self._decode(r) for r in self._fetch(robot=robot, limit=limit)]
         return [r for r in reversed(recs) if r is not None]
 
@@ -728,7 +733,7 @@ class _Backend:
         Raises
         ------
         InputError
-            If there is no such record.
+            If there is no such record (also for an id no database integer holds).
         DamagedRecord
             If the record is damaged.
         """
