@@ -110,7 +110,11 @@ def test_lidar_ground_truth_recovers_the_test(put_back):
         p = r["displacement"]
         assert math.hypot(p["x_mm"] - t[0] * 1e3, p["y_mm"] - t[1] * 1e3) < 4.0
         assert abs(math.radians(p["theta_deg"]) - (t[2] + 2 * math.pi * round((o[2] - t[2]) / (2 * math.pi)))) < 2e-3
-        assert r["converged"] and r["end_scan_s"] >= r["motion_s"][1] and r["start_scan_s"] <= r["motion_s"][0]
+        assert (
+            r["converged"]
+            and r["end_scan_s"] >= r["motion_s"][1]
+            and r["start_scan_s"] + 0.1 <= r["motion_s"][0] + 1e-9
+        )
     # bf: the paper's correction from the same runs, a smaller but real improvement
     b = json.loads(run([*cmd, "--method", "bf", "--json"]))
     assert b["before"]["emax_syst_mm"] == pytest.approx(d["before"]["emax_syst_mm"], rel=1e-9)

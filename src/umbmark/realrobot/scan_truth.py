@@ -7,9 +7,10 @@ a ground truth), :func:`attach_scan_truth`:
 * places the run in the bag's wheel stream (the run's samples are a stretch of the bag's: same
   relative times, same samples with wheel motion) and finds where the wheels start and stop
   turning;
-* takes the **last scan before the wheels start** (the robot at rest at its start) and the
+* takes the **last scan before the wheels start** (the robot at rest at its start; one whose
+  sweep, a scan period from its stamp, ends before they start, when there is one) and the
   **first scan after they stop** (at rest at its end), each inside the stillness around the
-  run (a scan taken while the wheels turn is never used);
+  run (a scan stamped while the wheels turn is never used);
 * registers the end scan against the start scan (:func:`umbmark.realrobot.scanmatch.match_scans`
   with the coarse correlative stage around the odometry's prediction: return errors up to a
   metre and 30 degrees are found);
@@ -376,7 +377,11 @@ def _measure_run(
     rest_from = t[before[-1]] if before.size else -math.inf  # the wheels still from here ...
     rest_to = t[last + 1 + after[0] - 1] if after.size else math.inf  # ... and until here
     t0 = float(t[a])
-    i = _still_scan(bag.scan_t_s, rest_from, float(t[first - 1]), last=True)
+    # a scan is stamped at its start: the start scan should be complete before the wheels turn
+    period = float(np.median(np.diff(bag.scan_t_s))) if len(bag.scan_t_s) > 1 else 0.0
+    i = _still_scan(bag.scan_t_s, rest_from, float(t[first - 1]) - period, last=True)
+    if i is None:
+        i = _still_scan(bag.scan_t_s, rest_from, float(t[first - 1]), last=True)
     j = _still_scan(bag.scan_t_s, float(t[last]), rest_to, last=False)
     motion = (float(t[first - 1]) - t0, float(t[last]) - t0)
     if i is None or j is None:
