@@ -10,6 +10,8 @@ import io
 import numpy as np
 import pytest
 import simlogs
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from umbmark.cli import main
 from umbmark.errors import InputError
@@ -119,3 +121,46 @@ def test_without_ground_truth_the_squares_sides_are_the_travel(tmp_path):
     assert len(_read(f).runs) == 2
     with pytest.raises(InputError, match="the ticks look cumulative"):
         _read(f, "incremental")
+
+
+# --- the property: mislabelled simulated logs flagged, clean ones (in any world frame) not ------
+
+LOG_MISLABEL = ("swap_wheels", "x_in_mm", "theta_in_deg", "per_sample_as_counter", "counter_as_per_sample")
+
+
+def _log_file(tmp_path, ed, eb, yaw, how):
+    from umbmark.model.geometry import ErrorParams
+
+    ds = simlogs.dataset(simlogs.squares(1, 1.0), errors=ErrorParams(ed, eb, 1.0), side_m=1.0)
+    header = ["run", "time_s", "left_ticks", "right_ticks", "x_m", "y_m", "theta_rad"]
+    rows = []
+    for r in ds.runs:
+        pose = simlogs.world(r.gt, yaw=yaw)  # the ground truth in a rotated world frame
+        left, right = np.cumsum(r.d_left) + 5000, np.cumsum(r.d_right) + 5000
+        if how == "swap_wheels":
+            left, right = right, left
+        if how == "x_in_mm":
+            pose = pose * [1000.0, 1000.0, 1.0]
+        if how == "theta_in_deg":
+            pose = pose * [1.0, 1.0, 180 / np.pi]
+        if how == "per_sample_as_counter":
+            left, right = r.d_left, r.d_right
+        rows += [[r.name, t, a, b, *p] for t, a, b, p in zip(r.t, left, right, pose)]
+    f = _write(tmp_path, header, [[x if isinstance(x, str) else repr(float(x)) for x in row] for row in rows])
+    return f, ("incremental" if how == "counter_as_per_sample" else "cumulative")
+
+
+@settings(max_examples=15, deadline=None, derandomize=True)
+@given(
+    ed=st.floats(0.99, 1.01),
+    eb=st.floats(0.95, 1.05),
+    yaw=st.floats(-3.0, 3.0),
+    how=st.sampled_from(("clean",) + LOG_MISLABEL),
+)
+def test_property_mislabelled_logs_are_flagged_clean_ones_not(tmp_path_factory, ed, eb, yaw, how):
+    f, ticks = _log_file(tmp_path_factory.mktemp("log"), ed, eb, yaw, how)
+    try:
+        warned = bool(_read(f, ticks).meta.get("warnings"))
+    except InputError:
+        warned = True
+    assert warned == (how != "clean")
