@@ -428,3 +428,25 @@ def test_only_temporaries_of_dead_writers_are_removed(tmp_path):
     atomic_write(target, "{}\n")  # a write cleans up too
     assert not stale.exists() and target.read_text() == "{}\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(["out.json", live.name, other.name, unrelated.name])
+
+
+def test_the_default_database_file_is_guarded(files, tmp_path, capsys, monkeypatch):
+    """Without --db or $UMBMARK_DB, the per-user default file is the history."""
+    monkeypatch.delenv("UMBMARK_DB", raising=False)
+    monkeypatch.setenv("XDG_DATA_HOME", str(tmp_path / "xdg"))
+    default = tmp_path / "xdg" / "umbmark" / "history.sqlite"
+    default.parent.mkdir(parents=True)
+    shutil.copy(files / "h.sqlite", default)
+    before = digest(default)
+    assert main(["history", "r1", "--export", str(default)]) == 2
+    assert "history database" in capsys.readouterr().err
+    args = ["analyze", str(files / "runs.csv"), "--wheelbase-mm", "340", "--side-mm", "4000", "--plot", str(default)]
+    assert main(args) == 2
+    assert digest(default) == before
+
+
+def test_a_database_url_names_its_file(files, tmp_path, capsys):
+    db = tmp_path / "h.sqlite"
+    shutil.copy(files / "h.sqlite", db)
+    assert main(["history", "r1", "--db", f"sqlite:///{db}", "--export", str(db)]) == 2
+    assert "history database" in capsys.readouterr().err

@@ -126,18 +126,23 @@ def _special(path: str) -> bool:
         return False
 
 
-def _db_file(value) -> str | None:
-    """The history database file a command uses (None for a database URL)."""
-    from umbmark.history.base import is_url, resolve_db
+def _db_file(value, outputs: list[str]) -> str | None:
+    """The history database file a command uses (``--db``, else ``$UMBMARK_DB``, else the
+    default file; None for a database URL). The default is looked up only when an output is
+    called like it (the lookup imports the history package)."""
+    v = value or os.environ.get("UMBMARK_DB") or None
+    if v is None:
+        if not any(Path(o).name == "history.sqlite" for o in outputs):
+            return None
+        from umbmark.history.base import default_db_path
 
-    if isinstance(value, str) and value.startswith("sqlite:///"):
-        return value[len("sqlite:///") :] or None
-    if isinstance(value, str) and value.startswith("sqlite://"):
-        return None  # in memory
-    db = resolve_db(value)
-    if is_url(str(db)):
-        return None
-    return str(db)
+        return str(default_db_path())
+    v = str(v)
+    if v.startswith("sqlite:///"):
+        return v[len("sqlite:///") :] or None
+    if "://" in v or v.startswith("sqlite:"):
+        return None  # another database server, or SQLite in memory
+    return os.path.expanduser(v)
 
 
 def check_paths(command_path: str, params: dict, flags: dict[str, str] | None = None) -> None:
@@ -191,7 +196,7 @@ def check_paths(command_path: str, params: dict, flags: dict[str, str] | None = 
                 raise click.UsageError(f"{name(k)} {d} is the input {inp} ({name(ki)}): choose another folder")
     dbs = [k for k, r in roles.items() if r == "db"]
     if dbs and outputs:
-        db = _db_file(params.get(dbs[0]))
+        db = _db_file(params.get(dbs[0]), [out for _, out in outputs])
         if db is not None:
             for k, out in outputs:
                 if _same(out, db):
