@@ -298,3 +298,29 @@ def test_convert_says_the_ground_truth_is_late_and_can_correct_it(clean, clean_c
     assert main(["replay", str(out), "--stream", "--time-offset", "auto", "--json"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "--time-offset" in err and "--stream" in err
+
+
+def test_selfcal_bag_spike_is_dropped_and_a_jump_is_an_error(clean, tmp_path):
+    """The lidar self-calibration's reader: a 1e300 joint position in one message is dropped
+    with a warning naming topic and time; a jump that stays is an error."""
+    from umbmark.io.rosbag import read_selfcal_bag
+
+    ref = read_selfcal_bag(clean, joints=JOINT_NAMES)
+    assert not any("spike" in w for w in ref.warnings)
+
+    def spike(msgs):
+        k = len(msgs) // 3
+        return [(ns, _with_position(m, 1e300) if i == k else m) for i, (ns, m) in enumerate(msgs)]
+
+    got = read_selfcal_bag(edit_bag(clean, tmp_path / "spike", joint_states=spike), joints=JOINT_NAMES)
+    (w,) = [w for w in got.warnings if "spike" in w]
+    assert "/joint_states" in w and "at t=" in w
+    assert len(got.wheel_t_s) == len(ref.wheel_t_s) - 1
+    assert np.array_equal(np.delete(ref.left_rad, len(ref.left_rad) // 3), got.left_rad)
+
+    def jump(msgs):
+        k = len(msgs) // 3
+        return [(ns, _with_position(m, m.position[0] + 1e6) if i >= k else m) for i, (ns, m) in enumerate(msgs)]
+
+    with pytest.raises(InputError, match="/joint_states jump at t=.*do not come back"):
+        read_selfcal_bag(edit_bag(clean, tmp_path / "jump", joint_states=jump), joints=JOINT_NAMES)

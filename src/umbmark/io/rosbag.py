@@ -1121,6 +1121,22 @@ def read_selfcal_bag(
                 a1, a2 = np.cumsum(a1), np.cumsum(a2)
             left, right = a1 * scale, a2 * scale
             desc = f"encoder counts {left_field}, {right_field} on {wtopic} ({ticks}, {float(units_per_rev):g} per rev)"  # type: ignore[arg-type]
+        from umbmark.model.timing import wheel_spikes
+
+        bad, isolated = wheel_spikes(t, left, right, 0.01)  # a 2 cm wheel at 30 m/s: 3000 rad/s
+        if bad.size:
+            k = int(bad[0])
+            where = f"at t={t[k] - t[0]:.3f} s (sample {k + 1})"
+            if not isolated:
+                raise InputError(
+                    f"the {what} on {wtopic} jump {where} faster than any wheel turns, and do not come back: "
+                    "a counter reset or a corrupt message; cut the bag there",
+                    src,
+                )
+            warnings.append(f"{bad.size} spike(s) in the {what} on {wtopic}, the first {where}: dropped")
+            ok = np.ones(len(t), dtype=bool)
+            ok[bad] = False
+            t, left, right = t[ok], left[ok], right[ok]
     first, inc = scans.layout[1], scans.layout[2]  # type: ignore[index]
     return SelfcalBag(
         source=src,
