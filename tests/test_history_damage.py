@@ -197,8 +197,22 @@ def test_every_record_damaged(db, capsys):
     ):
         rc, _, err = _run(argv, db, capsys)
         _one_line_error(rc, err, "h.sqlite", "damaged")
-    rc, out, err = _run(["history", "--json"], db, capsys)
-    assert rc == 0 and "latest_id" not in json.loads(out)["robots"][0] and "record #3" in err
+    rc, _, err = _run(["history", "--json"], db, capsys)  # records, and not one readable
+    _one_line_error(rc, err, "h.sqlite", "damaged")
+
+
+def test_a_robot_whose_every_record_is_damaged_beside_a_sound_one(pristine, tmp_path, capsys):
+    p = _make_history(tmp_path / "two.sqlite", robots=("r1", "r2"), n=2)
+    _execute(p, "UPDATE calibrations SET results_json = '{' WHERE robot_id = (SELECT id FROM robots WHERE name = 'r1')")
+    rc, out, err = _run(["history", "--json"], p, capsys)
+    assert rc == 0, err
+    robots = {r["robot"]: r for r in json.loads(out)["robots"]}
+    assert "latest_id" not in robots["r1"] and robots["r1"]["records"] == 2 and robots["r2"]["latest_id"] == 4
+    assert "record #3" in err  # r1's newest, named
+    rc, _, err = _run(["history", "r1"], p, capsys)
+    _one_line_error(rc, err, "two.sqlite", "damaged")
+    rc, out, _ = _run(["history", "r2", "--json"], p, capsys)
+    assert rc == 0 and [r["id"] for r in json.loads(out)["records"]] == [2, 4]
 
 
 def test_odd_column_values_are_shown_as_missing(db, capsys):

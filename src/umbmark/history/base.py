@@ -792,8 +792,14 @@ class _Backend:
             ``robot``, ``records``, ``first_utc``, ``last_utc`` and, when it has a readable
             record, the latest one's ``latest_id``, ``emax_syst_mm``, ``Ed``, ``Eb``,
             ``wheelbase_mm``.
+
+        Raises
+        ------
+        DamagedRecord
+            If the database holds records and not one of them is readable.
         """
         out = []
+        damaged: DamagedRecord | None = None
         for name, n, first, last in self._robot_counts():
             name = str(name)
             first, last = (t if t is None or isinstance(t, str) else _short(t) for t in (first, last))
@@ -803,6 +809,7 @@ class _Backend:
                     rec = self.latest(name)
                 except DamagedRecord as e:
                     self._warn(f"{e}: skipped")
+                    damaged = e
                 else:
                     d.update(
                         {
@@ -814,6 +821,8 @@ class _Backend:
                         }
                     )
             out.append(d)
+        if damaged is not None and not any("latest_id" in d for d in out):
+            raise damaged  # records, and not one of them readable
         return out
 
     def _known_hint(self) -> str:
