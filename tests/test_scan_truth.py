@@ -113,7 +113,7 @@ def test_lidar_ground_truth_recovers_the_test(put_back):
         assert (
             r["converged"]
             and r["end_scan_s"] >= r["motion_s"][1]
-            and r["start_scan_s"] + 0.1 <= r["motion_s"][0] + 1e-9
+            and r["start_scan_s"] + 0.1 <= r["motion_s"][0] + 1e-6
         )
     # bf: the paper's correction from the same runs, a smaller but real improvement
     b = json.loads(run([*cmd, "--method", "bf", "--json"]))
