@@ -281,3 +281,15 @@ def test_library_methods_refuse_a_unit_mistaken_geometry(method, side_m, wheelba
 
     with pytest.raises(InputError, match="more than 1 km|metres given as millimetres"):
         analyze(_sim(), side_m, wheelbase_m, method)
+
+
+def test_simulate_refuses_and_warns_like_analyze(tmp_path, capsys):
+    out = str(tmp_path / "s.csv")
+    assert main(["simulate", "--wheelbase-mm", "0.34", "--out", out]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "metres given as millimetres" in err
+    assert not (tmp_path / "s.csv").exists()
+    assert main(["simulate", "--side-mm", "400", "--out", out, "--json"]) == 0
+    cap = capsys.readouterr()
+    assert json.loads(cap.out)["out"] == out
+    assert "warning: the side of the square (400 mm, --side-mm)" in cap.err

@@ -328,6 +328,10 @@ def simulate(
         LABMATE.gear_ratio,
     )
     side_m = positive("--side-mm", side_mm) * 1e-3
+    from umbmark.correct.plausibility import check_geometry
+
+    for w in check_geometry(side_m, geom.wheelbase_m):
+        click.echo(f"warning: {cli_message(w)}", err=True)
     if model_wheelbase_mm is not None:
         positive("--model-wheelbase-mm", model_wheelbase_mm)
     errors = ErrorParams(error_param("--ed", ed), error_param("--eb", eb), error_param("--es", es))
