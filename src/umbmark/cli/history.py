@@ -350,7 +350,8 @@ def _print_records(robot: str, recs, plot_path, exported) -> None:
     type=click.IntRange(min=0),
     default=None,
     help="Bootstrap resamples for the intervals of E_d, E_b, wheelbase (0: none). Default: 1000 "
-    "for bf; none for other methods (they may report their own intervals).",
+    "for bf; for exact 1000 where they take under 10 s, fewer or none on many runs; none for other "
+    "methods (they may report their own intervals).",
 )
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True, help="Bootstrap seed.")
 @click.option(
@@ -389,12 +390,17 @@ def report_cmd(
 
     With FILE.csv: the UMBmark numbers with 95 % intervals, the scatter (before and, with
     --after, after calibration), the recommended parameters and any --attach'ed exported files.
+    FILE may also be the JSON of replay --save (square runs): its runs before and after
+    calibration and the calibration it found, no sizes needed. Bootstrap by default: bf
+    1000 resamples; exact 1000 where they take under 10 s (fewer, or none, on many runs: the
+    report says so).
     With --robot NAME and no file: the robot's calibration history (table, plot over time,
     latest parameters). With --id N: a recorded analysis.
 
     \b
     Examples:
       umbmark report runs.csv --wheelbase-mm 340 --side-mm 4000 --out report.html
+      umbmark report replay-result.json --out replay-report.html
       umbmark report --robot r1 --out r1-history.html
     """
     if runs_file is None and record_id is None:
@@ -407,8 +413,6 @@ def report_cmd(
                 raise click.UsageError("give either FILE.csv or --id, not both")
             a = _record_analysis(record_id, db)
         else:
-            if wheelbase_mm is None or side_mm is None:
-                raise click.UsageError("with FILE.csv, --wheelbase-mm and --side-mm are required")
             a = _file_analysis(runs_file, wheelbase_mm, side_mm, method, c_left, c_right, robot)
         summary = _analysis_page(a, out_path, after_file, attach, n_boot, seed)
     if as_json:
@@ -461,12 +465,71 @@ def _record_analysis(record_id: int, db) -> dict:
     }
 
 
+def _is_json(path) -> bool:
+    """Whether a file holds JSON (a replay result) rather than a runs table."""
+    try:
+        with open(path, "rb") as f:
+            head = f.read(256).lstrip()
+    except OSError:
+        return False  # the reader says what is wrong with it
+    return head.startswith(b"{")
+
+
+def _replay_file_analysis(runs_file, wheelbase_mm, side_mm, method, c_left, c_right, robot) -> dict:
+    """What a report of a replay result (``replay --save``) needs (as :func:`_record_analysis`)."""
+    import json
+
+    from umbmark.history import file_sha256
+    from umbmark.viz.report import replay_analysis
+
+    given = [
+        flag
+        for flag, v, default in (
+            ("--wheelbase-mm", wheelbase_mm, None),
+            ("--side-mm", side_mm, None),
+            ("--c-left", c_left, 1.0),
+            ("--c-right", c_right, 1.0),
+        )
+        if v != default
+    ]
+    if given:
+        raise click.UsageError(f"a replay result holds its geometry and calibration: drop {', '.join(given)}")
+    try:
+        d = json.loads(Path(runs_file).read_text(encoding="utf-8"))
+    except (UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise InputError(f"not a replay result: {e}", source=str(runs_file)) from None
+    analysis, after = replay_analysis(d, str(runs_file))
+    ctx = click.get_current_context(silent=True)
+    explicit = ctx is not None and ctx.get_parameter_source("method") != click.core.ParameterSource.DEFAULT
+    if explicit and method != analysis.correction.method:
+        raise click.UsageError(
+            f"the replay result was calibrated with {analysis.correction.method}; drop --method {method}"
+        )
+    return {
+        "runs": analysis.runs,
+        "side_mm": analysis.side_m * 1e3,
+        "wheelbase_mm": analysis.wheelbase_m * 1e3,
+        "method": analysis.correction.method,
+        "robot": robot,
+        "source": str(runs_file),
+        "sha": file_sha256(runs_file),
+        "label": f"replay of {d.get('dataset') or Path(runs_file).name}",
+        "prior": None,
+        "analysis": analysis,
+        "after_runs": after,
+    }
+
+
 def _file_analysis(runs_file, wheelbase_mm, side_mm, method, c_left, c_right, robot) -> dict:
-    """What a report of a runs file needs (as :func:`_record_analysis`)."""
+    """What a report of a runs file or of a replay result needs (as :func:`_record_analysis`)."""
     from umbmark.history import file_sha256
     from umbmark.io.runs_csv import read_runs_csv
     from umbmark.model.geometry import Calibration
 
+    if _is_json(runs_file):
+        return _replay_file_analysis(runs_file, wheelbase_mm, side_mm, method, c_left, c_right, robot)
+    if wheelbase_mm is None or side_mm is None:
+        raise click.UsageError("with FILE.csv, --wheelbase-mm and --side-mm are required")
     runs = read_runs_csv(runs_file)
     sha = file_sha256(runs_file)
     for name, v in (("--c-left", c_left), ("--c-right", c_right)):
@@ -491,13 +554,13 @@ def _analysis_page(a: dict, out_path, after_file, attach, n_boot, seed) -> dict:
     from umbmark.correct.analysis import analyze
     from umbmark.io.atomic import atomic_write
     from umbmark.io.runs_csv import read_runs_csv
-    from umbmark.viz.report import analysis_report, bootstrap_intervals
+    from umbmark.viz.report import analysis_report, bootstrap_intervals, default_bootstrap
 
     runs, method, prior, robot, source = a["runs"], a["method"], a["prior"], a["robot"], a["source"]
     side_m = positive("--side-mm", a["side_mm"]) * 1e-3
     wheelbase_m = positive("--wheelbase-mm", a["wheelbase_mm"]) * 1e-3
-    analysis = analyze(runs, side_m, wheelbase_m, method, prior)
-    after = read_runs_csv(after_file) if after_file else None
+    analysis = a.get("analysis") or analyze(runs, side_m, wheelbase_m, method, prior)
+    after = read_runs_csv(after_file) if after_file else a.get("after_runs")
     exported = {}
     for f in attach:
         p = Path(f)
@@ -507,12 +570,19 @@ def _analysis_page(a: dict, out_path, after_file, attach, n_boot, seed) -> dict:
             exported[p.name] = p.read_text(encoding="utf-8")
         except UnicodeDecodeError:
             raise InputError("not a text file (only text exports can be shown)", source=f) from None
-    boot = None
+    boot, note = None, None
     if n_boot is None:
-        n_boot = 1000 if method == "bf" else 0
+        n_boot, note = default_bootstrap(method, len(runs))
+    if n_boot and method not in ("bf", "exact") and "analysis" in a:
+        raise click.UsageError(f"the bootstrap of a replay result works with bf and exact, not {method}")
     if n_boot:
         with progress("bootstrap", total=n_boot) as advance:
             boot = bootstrap_intervals(runs, side_m, wheelbase_m, method, prior, n_boot, seed, advance=advance)
+        if "analysis" in a and method == "exact":
+            note = (note + "; " if note else "") + (
+                "the bootstrap refits exact on the replay's return errors (the result does not hold the "
+                "odometry's end poses), so its intervals may sit slightly off the replay's calibration"
+            )
     what = a["label"] or (Path(source).name if source else "runs")
     page = analysis_report(
         analysis,
@@ -524,9 +594,13 @@ def _analysis_page(a: dict, out_path, after_file, attach, n_boot, seed) -> dict:
         exported=exported or None,
         boot=boot,
         robot=robot,
+        boot_note=note,
     )
     atomic_write(out_path, page)
-    return {"out": out_path, "emax_syst_mm": analysis.result.emax_syst * 1e3, "bootstrap": boot}
+    summary = {"out": out_path, "emax_syst_mm": analysis.result.emax_syst * 1e3, "bootstrap": boot}
+    if note:
+        summary["bootstrap_note"] = note
+    return summary
 
 
 # -- umbmark guide -------------------------------------------------------------------------------------

@@ -28,7 +28,16 @@ from umbmark._version import __version__
 from umbmark.errors import CorrectionUndefined
 from umbmark.viz.text import fmt
 
-__all__ = ["analysis_report", "history_report", "figure_data_uri", "bootstrap_intervals", "cg_intervals"]
+__all__ = [
+    "analysis_report",
+    "history_report",
+    "figure_data_uri",
+    "bootstrap_intervals",
+    "cg_intervals",
+    "default_bootstrap",
+    "exact_resample_options",
+    "replay_analysis",
+]
 
 _CSS = """
 body{font-family:system-ui,-apple-system,"Segoe UI",Helvetica,Arial,sans-serif;margin:2em auto;max-width:60em;
@@ -129,6 +138,81 @@ def cg_intervals(runs, level: float = 0.95) -> dict:
     return out
 
 
+# Cost of one bootstrap resample of method exact [s]: a + b * runs, measured on one core by
+# ``python benchmarks/exact_scale.py`` (benchmarks/results/exact_scale.md, "bootstrap").
+EXACT_RESAMPLE_COST_S = (0.012, 4.5e-5)
+BOOTSTRAP_BUDGET_S = 10.0
+BOOTSTRAP_RESAMPLES = 1000
+BOOTSTRAP_MIN_RESAMPLES = 200
+
+
+def exact_resample_options(full) -> dict:
+    """The options of method ``exact`` for the bootstrap's resamples.
+
+    A resample lies next to the runs, so the answer's basin is the one to look in: each is
+    fitted from the answer on all runs, with its heading weight, without the global search,
+    without intervals, with analytic Jacobians and the compiled model.
+
+    Parameters
+    ----------
+    full : CorrectionResult
+        Method ``exact`` on all runs.
+
+    Returns
+    -------
+    dict
+        Keyword options of :func:`umbmark.correct.exact.exact_correction`.
+    """
+    options = {"_start": (full.ed_pass, full.eb), "global_search": False, "_intervals": False, "_fast": True}
+    if full.extra.get("heading_weight_m") is not None:
+        options["heading_weight_m"] = full.extra["heading_weight_m"]
+    return options
+
+
+def default_bootstrap(method: str, n_runs: int) -> tuple[int, str | None]:
+    """How many bootstrap resamples a report makes by default, and why none where none.
+
+    ``bf``: 1000. ``exact``: 1000 where they take under 10 s by the measured cost of one
+    resample (:data:`EXACT_RESAMPLE_COST_S`), else as many as fit in 10 s (in hundreds), and
+    none where fewer than 200 would. Other methods: none (they may report their own
+    intervals).
+
+    Parameters
+    ----------
+    method : str
+        The correction method.
+    n_runs : int
+        The number of runs.
+
+    Returns
+    -------
+    n_boot : int
+        The resamples (0: no bootstrap).
+    note : str or None
+        For ``exact`` without the full 1000: what was done and why, for the report.
+    """
+    if method == "bf":
+        return BOOTSTRAP_RESAMPLES, None
+    if method != "exact":
+        return 0, None
+    a, b = EXACT_RESAMPLE_COST_S
+    each = a + b * n_runs
+    fit = int(BOOTSTRAP_BUDGET_S / each) // 100 * 100
+    if fit >= BOOTSTRAP_RESAMPLES:
+        return BOOTSTRAP_RESAMPLES, None
+    if fit >= BOOTSTRAP_MIN_RESAMPLES:
+        return fit, (
+            f"bootstrap with {fit} resamples instead of {BOOTSTRAP_RESAMPLES}: one resample of exact on "
+            f"{n_runs} runs takes about {each * 1e3:.0f} ms, and the default bootstrap stays under "
+            f"{BOOTSTRAP_BUDGET_S:.0f} s"
+        )
+    return 0, (
+        f"bootstrap skipped: {BOOTSTRAP_MIN_RESAMPLES} resamples of exact on {n_runs} runs would take about "
+        f"{BOOTSTRAP_MIN_RESAMPLES * each:.0f} s (more than {BOOTSTRAP_BUDGET_S:.0f} s); the method's own "
+        "intervals are shown (give the number of resamples to bootstrap anyway)"
+    )
+
+
 def bootstrap_intervals(
     runs,
     side_m: float,
@@ -143,7 +227,8 @@ def bootstrap_intervals(
     """Percentile bootstrap intervals of Ed, Eb, wheelbase_mm, c_left, c_right.
 
     The runs are resampled with replacement within each direction and the correction is
-    recomputed with the same method on each resample.
+    recomputed with the same method on each resample. Method ``exact``: each resample is
+    fitted as :func:`exact_resample_options` says.
 
     Parameters
     ----------
@@ -173,6 +258,9 @@ def bootstrap_intervals(
     """
     from umbmark.correct import correct_runs
 
+    options: dict = {}
+    if method == "exact":  # each resample fitted from the answer on all runs: see exact_resample_options
+        options = exact_resample_options(correct_runs(method, runs, side_m, wheelbase_m, prior))
     rng = np.random.default_rng(seed)
     idx = {d: np.flatnonzero(runs.direction == d) for d in ("cw", "ccw")}
     keys = ("Ed", "Eb", "wheelbase_mm", "c_left", "c_right")
@@ -181,7 +269,7 @@ def bootstrap_intervals(
     for _ in range(n_boot):
         pick = np.concatenate([rng.choice(idx[d], size=idx[d].size, replace=True) for d in ("cw", "ccw")])
         try:
-            c = correct_runs(method, runs.select(pick), side_m, wheelbase_m, prior)
+            c = correct_runs(method, runs.select(pick), side_m, wheelbase_m, prior, **options)
         except CorrectionUndefined:
             failed += 1
         else:
@@ -199,11 +287,131 @@ def bootstrap_intervals(
     return out
 
 
-def _analysis_sections(analysis, boot: dict | None, prior=None) -> str:
+_CORRECTION_KEYS = (
+    "method",
+    "alpha_deg",
+    "beta_deg",
+    "radius_mm",
+    "Ed",
+    "Ed_pass",
+    "Eb",
+    "c_left",
+    "c_right",
+    "wheelbase_corrected_mm",
+)
+
+
+def _replay_runs(block: dict, what: str, source: str):
+    """The runs table of a replay result's ``before`` or ``after`` block: its return errors
+    (truth minus odometry) as the absolute end poses of an odometry that closed."""
+    from umbmark.errors import InputError
+    from umbmark.model.runs import RunsTable
+
+    rows = block.get("runs") if isinstance(block, dict) else None
+    if not isinstance(rows, list) or not rows:
+        raise InputError(f"the replay result has no runs {what} calibration", source=source)
+    try:
+        eps = np.array([[float(r["eps_x_mm"]), float(r["eps_y_mm"])] for r in rows]) * 1e-3
+        theta = np.radians([float(r["end_heading_error_deg"]) for r in rows])
+        direction = [str(r["direction"]) for r in rows]
+        names = [str(r["run"]) for r in rows]
+    except (KeyError, TypeError, ValueError):
+        raise InputError(
+            f"the replay result's runs {what} calibration have no return errors (eps_x_mm, eps_y_mm, direction): "
+            "a replay of square runs is needed",
+            source=source,
+        ) from None
+    zero = np.zeros(len(rows))
+    return RunsTable.from_columns(direction, eps[:, 0], eps[:, 1], zero, zero, theta, zero, run=names)
+
+
+def replay_analysis(result: dict, source: str = "<replay>"):
+    """The analysis a ``replay`` result holds: its runs, its calibration, its runs after it.
+
+    The result (the JSON ``umbmark replay --save`` writes) holds each run's return error
+    before and after calibration and the calibration the replay found; the report shows
+    these as they are (no refit). The runs table is the return errors of an odometry that
+    closed (the result does not hold the odometry's end poses): the centres of gravity, the
+    scatter and the bootstrap of ``bf`` are those of the replay's runs.
+
+    Parameters
+    ----------
+    result : dict
+        The replay result.
+    source : str
+        The file it came from (for messages).
+
+    Returns
+    -------
+    analysis : umbmark.correct.analysis.Analysis
+        The runs before calibration, their figures and the replay's calibration.
+    after : RunsTable or None
+        The runs replayed with the calibration.
+
+    Raises
+    ------
+    InputError
+        Not a replay result of square runs, or one without its calibration or geometry.
+    """
+    from umbmark.correct.analysis import Analysis
+    from umbmark.correct.result import CorrectionResult
+    from umbmark.errors import InputError
+    from umbmark.metrics import umbmark
+    from umbmark.model.geometry import Calibration
+
+    if not isinstance(result, dict) or "before" not in result or "method" not in result:
+        raise InputError("not a replay result (the JSON of umbmark replay --save)", source=source)
+    if result.get("kind") != "square":
+        raise InputError(
+            f"the replay result is of a {result.get('kind', 'general')} path, not square runs: the report needs "
+            "square runs",
+            source=source,
+        )
+    try:
+        side_m = float(result["side_mm"]) * 1e-3
+        wheelbase_m = float(result["nominal"]["wheelbase_mm"]) * 1e-3
+        corr = dict(result.get("correction") or {})
+        cal = Calibration(
+            float(result["c_left"]), float(result["c_right"]), float(result["wheelbase_corrected_mm"]) * 1e-3
+        )
+        ed, eb = float(result["Ed"]), float(result["Eb"])
+    except (KeyError, TypeError, ValueError):
+        raise InputError(
+            "the replay result has no calibration (Ed, Eb, c_left, c_right, wheelbase_corrected_mm, side_mm, "
+            "nominal.wheelbase_mm)",
+            source=source,
+        ) from None
+    runs = _replay_runs(result["before"], "before", source)
+    after = _replay_runs(result["after"], "after", source) if isinstance(result.get("after"), dict) else None
+
+    def rad(key: str):
+        v = corr.get(key)
+        return None if v is None else math.radians(float(v))
+
+    radius = corr.get("radius_mm")
+    extra = {k: v for k, v in corr.items() if k not in _CORRECTION_KEYS}
+    extra["warnings"] = [str(w) for w in result.get("warnings", [])]
+    correction = CorrectionResult(
+        str(result["method"]),
+        ed,
+        float(corr.get("Ed_pass", ed)),
+        eb,
+        cal,
+        rad("alpha_deg"),
+        rad("beta_deg"),
+        None if radius is None else float(radius) * 1e-3,
+        extra,
+    )
+    return Analysis(runs, umbmark(runs), correction, side_m, wheelbase_m), after
+
+
+def _analysis_sections(analysis, boot: dict | None, prior=None, boot_note: str | None = None) -> str:
     """The return errors, the correction and the recommended parameters of one analysis, as HTML."""
     d = analysis.to_dict()
     parts = (
-        _errors_section(analysis, d) + _correction_section(analysis, d) + _parameters_section(analysis, d, boot, prior)
+        _errors_section(analysis, d)
+        + _correction_section(analysis, d)
+        + _parameters_section(analysis, d, boot, prior, boot_note)
     )
     for w in d.get("warnings", []):
         parts.append(f'<p class="warn">Warning: {_e(w)}</p>')
@@ -262,7 +470,7 @@ def _correction_section(analysis, d: dict) -> list[str]:
     return parts
 
 
-def _parameters_section(analysis, d: dict, boot: dict | None, prior) -> list[str]:
+def _parameters_section(analysis, d: dict, boot: dict | None, prior, boot_note: str | None = None) -> list[str]:
     """The parameters to load into the odometry, with the bootstrap's and the method's intervals."""
     corr = analysis.correction
     cal = corr.calibration
@@ -298,6 +506,8 @@ def _parameters_section(analysis, d: dict, boot: dict | None, prior) -> list[str
             f"(seed {b['seed']}); {b['failed']} resamples had no defined correction. With few runs per "
             "direction the bootstrap intervals are rough.</p>"
         )
+    if boot_note:
+        parts.append(f'<p class="meta bootnote">{_e(boot_note[0].upper() + boot_note[1:])}.</p>')
     return parts
 
 
@@ -314,6 +524,7 @@ def analysis_report(
     boot: dict | None = None,
     robot: str | None = None,
     when: str | None = None,
+    boot_note: str | None = None,
 ) -> str:
     """HTML page of one analysis: the UMBmark figures, the correction, the recommended
     parameters with intervals, the scatter plot and the definitions.
@@ -342,6 +553,8 @@ def analysis_report(
         The robot's name, shown in the header.
     when : str, optional
         When the page was made (default: now, UTC).
+    boot_note : str, optional
+        Why the bootstrap was skipped or shortened (:func:`default_bootstrap`).
 
     Returns
     -------
@@ -359,7 +572,7 @@ def analysis_report(
     if source:
         meta.append(f"input {source}" + (f" (sha256 {source_sha256[:16]}\u2026)" if source_sha256 else ""))
     body = [f"<h1>{_e(title)}</h1>", f'<p class="meta">{" &middot; ".join(_e(m) for m in meta)}</p>']
-    body.append(_analysis_sections(analysis, boot, prior))
+    body.append(_analysis_sections(analysis, boot, prior, boot_note))
     body.append("<h2>Return position errors: scatter</h2>")
     if after_runs is not None:
         after = umbmark(after_runs)

@@ -105,6 +105,9 @@ __all__ = [
 
 LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
 
+# above this many runs: analytic Jacobians, and the global search on pseudo-runs (_Problem.compressed)
+_FAST_RUNS = 64
+
 GlobalSearch = Literal["auto"] | bool
 
 
@@ -197,13 +200,15 @@ def _solve(
     sems: Sequence[float | None],
     heading_weight_m: float | None,
     global_search: GlobalSearch,
+    start: tuple[float, float] | None = None,
 ) -> tuple[_Solution, bool, list[tuple[float, float]]]:
-    """The fit: from the paper's estimate, headings weighed by the data, a global search where
-    that does not explain the runs, and the turn-angle aliases of the answer.
+    """The fit: from the paper's estimate (or ``start``), headings weighed by the data, a
+    global search where that does not explain the runs, and the turn-angle aliases of the
+    answer.
 
     Returns ``(solution, searched, alternatives)``.
     """
-    bf0 = _bf_start(runs, prob.side_m, prob.b)
+    bf0 = _bf_start(runs, prob.side_m, prob.b) if start is None else np.asarray(start, dtype=float)
     with _quiet():
         sol = _fit(prob, [bf0], loss, f_scale) if bf0 is not None else None
         reweigh = prob.heading and heading_weight_m is None
@@ -248,11 +253,12 @@ def _global_search(
         if global_search is False or (global_search == "auto" and _explains(prob, sol, need)):
             break
         searched = True
+        sp = prob.small() or prob  # many runs: the starts from pseudo-runs of the same minima
 
-        def explains(q, need=need):
-            return _explains(prob, q, need)
+        def explains(q, need=need, sp=sp):
+            return _explains(sp, q, need)
 
-        sol2 = _fit(prob, stage(prob), loss, f_scale, good=explains if global_search == "auto" else None)
+        sol2 = _fit(prob, stage(sp), loss, f_scale, good=explains if global_search == "auto" else None)
         if sol is None or (sol2 is not None and sol2.cost < sol.cost):
             sol = sol2
     return sol, searched
@@ -350,6 +356,10 @@ def exact_correction(
     straight_m: tuple[float, float] | None = None,
     global_search: GlobalSearch = "auto",
     confidence: float = 0.95,
+    _reference: bool = False,
+    _start: tuple[float, float] | None = None,
+    _intervals: bool = True,
+    _fast: bool = False,
 ) -> CorrectionResult:
     """Exact calibration from square runs (see the module docstring).
 
@@ -379,6 +389,18 @@ def exact_correction(
         (``"auto"``), always, or never.
     confidence : float
         Confidence level of the intervals, in (0.5, 1).
+    _reference : bool
+        The reference computation on any number of runs (tests): central-difference
+        Jacobians and the global search on every run, as on up to 64 runs. Default above 64
+        runs: analytic Jacobians, and the global search on pseudo-runs with the same
+        least-squares cost (:meth:`_Problem.compressed`), its answer refitted on the runs.
+    _start : tuple of float or None
+        ``(E_d,pass, E_b,pass)`` to start from instead of the paper's estimate (the
+        bootstrap of a report starts each resample from the answer on all runs).
+    _intervals : bool
+        Compute the intervals (``False``: the bootstrap's resamples need only the answer).
+    _fast : bool
+        Analytic Jacobians and the compiled model on any number of runs (the bootstrap).
 
     Returns
     -------
@@ -399,6 +421,7 @@ def exact_correction(
     n_cw, n_ccw = _direction_counts(runs)
     es = _scale_from_straight(straight_m)
     prob = _Problem(runs, side_m, wheelbase_m, es, use_heading, heading_weight_m)
+    prob.fast = not _reference and (prob.n > _FAST_RUNS or _fast)
     warns = _closure_warnings(runs, prob, side_m)
     f_scale = _robust_scale(prob, loss, f_scale_m, side_m)
     st = umbmark(runs)
@@ -406,7 +429,7 @@ def exact_correction(
     if global_search not in ("auto", True, False):
         raise InputError(f"global_search must be 'auto', True or False, got {global_search!r}")
 
-    sol, searched, alternatives = _solve(prob, runs, loss, f_scale, sems, heading_weight_m, global_search)
+    sol, searched, alternatives = _solve(prob, runs, loss, f_scale, sems, heading_weight_m, global_search, _start)
     p = sol.x
     if alternatives:
         warns.append(_ambiguity_warning(alternatives, es, p))
@@ -432,7 +455,11 @@ def exact_correction(
     ed_total, cal = compose(ed_pass, eb_pass, wheelbase_m, prior)
     if es != 1.0:
         cal = Calibration(cal.c_left * es, cal.c_right * es, cal.wheelbase_m)
-    figures, ci_warns = interval_figures(prob, p, weights, sems, (prior or Calibration()).ed, wheelbase_m, confidence)
+    figures: dict[str, Any] = {}
+    ci_warns: list[str] = []
+    if _intervals:
+        prior_ed = (prior or Calibration()).ed
+        figures, ci_warns = interval_figures(prob, p, weights, sems, prior_ed, wheelbase_m, confidence)
     extra.update(figures)
     warns += ci_warns
     alpha, beta, radius = _paper_angles(es, ed_pass, eb_pass, side_m, wheelbase_m)

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from umbmark.correct.exact import kernel
 from umbmark.errors import CorrectionUndefined, InputError
 from umbmark.model.geometry import wrap_angle
 from umbmark.model.runs import RunsTable
@@ -101,6 +102,92 @@ def square_errors(
         xt, yt, tt = arc(xt, yt, tt, 0.5 * (k_r - k_l) * half, (k_r + k_l) * half / b_t)
         to = to + phi
     return xt - xo, yt - yo, tt - to
+
+
+def _dsinc(x: FloatArray) -> FloatArray:
+    """The derivative of :func:`numpy.sinc` (``sin(pi x) / (pi x)``), accurate near 0."""
+    px = np.pi * x
+    small = np.abs(px) < 1e-2
+    safe = np.where(small, 1.0, x)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        far = (np.cos(np.pi * safe) - np.sinc(safe)) / safe
+    p2 = px * px
+    near = -(np.pi * px / 3.0) * (1.0 - p2 / 10.0 + p2 * p2 / 280.0 - p2 * p2 * p2 / 15120.0)
+    out: FloatArray = np.where(small, near, far)
+    return out
+
+
+def _square_errors_grad(
+    ed: FloatArray,
+    eb: FloatArray,
+    side_m: float,
+    wheelbase_m: float,
+    sign: FloatArray,
+    es: float,
+    adjs: Sequence[FloatArray],
+) -> tuple[FloatArray, FloatArray]:
+    """:func:`square_errors` and its analytic derivatives with respect to ``ed`` and ``eb``.
+
+    Forward-mode differentiation of the same arcs: every quantity is carried as an array of
+    shape ``(3, ...)`` holding its value and its two partial derivatives.
+
+    Parameters
+    ----------
+    ed, eb : numpy.ndarray
+        ``E_d,pass`` and ``E_b,pass`` (broadcast with ``sign`` and ``adjs``).
+    side_m, wheelbase_m : float
+        Side of the square and the wheelbase the odometry uses [m].
+    sign : numpy.ndarray
+        +1 for ccw runs, -1 for cw runs.
+    es : float
+        ``E_s,pass``.
+    adjs : sequence of four numpy.ndarray
+        The odometry's extra turn of each corner [rad].
+
+    Returns
+    -------
+    value : numpy.ndarray
+        Shape ``(3, ...)``: ``eps_x``, ``eps_y``, ``eps_theta`` (not wrapped).
+    grad : numpy.ndarray
+        Shape ``(3, ..., 2)``: their derivatives with respect to ``(ed, eb)``.
+    """
+    ed, eb, sign, *adjs = np.broadcast_arrays(ed, eb, sign, *adjs)
+    zero = np.zeros(ed.shape)
+    one = np.ones(ed.shape)
+
+    def dual(v: Any, d0: Any, d1: Any) -> FloatArray:
+        return np.stack(np.broadcast_arrays(v, d0, d1))
+
+    def mul(a: FloatArray, b: FloatArray) -> FloatArray:
+        return dual(a[0] * b[0], a[1] * b[0] + a[0] * b[1], a[2] * b[0] + a[0] * b[2])
+
+    def chain(f: FloatArray, df: FloatArray, a: FloatArray) -> FloatArray:
+        return dual(f, df * a[1], df * a[2])
+
+    k_l = dual(2.0 * es / (1.0 + ed), -2.0 * es / (1.0 + ed) ** 2, zero)
+    k_r = mul(dual(ed, one, zero), k_l)
+    inv_bt = dual(1.0 / (eb * wheelbase_m), zero, -1.0 / (eb * eb * wheelbase_m))
+    xt, yt, tt = (dual(zero, zero, zero) for _ in range(3))
+    xo, yo, to = zero, zero, zero
+
+    def arc(x: FloatArray, y: FloatArray, th: FloatArray, du: FloatArray, dth: FloatArray):
+        u = dth / (2.0 * np.pi)
+        c = mul(du, chain(np.sinc(u[0]), _dsinc(u[0]), u))
+        m = th + 0.5 * dth
+        cm, sm = np.cos(m[0]), np.sin(m[0])
+        return x + mul(c, chain(cm, -sm, m)), y + mul(c, chain(sm, cm, m)), th + dth
+
+    du_leg = 0.5 * side_m * (k_l + k_r)
+    dth_leg = side_m * mul(k_r - k_l, inv_bt)
+    for i in range(4):
+        xt, yt, tt = arc(xt, yt, tt, du_leg, dth_leg)
+        xo, yo = xo + side_m * np.cos(to), yo + side_m * np.sin(to)
+        phi = sign * (0.5 * np.pi) + adjs[i]
+        half = 0.5 * wheelbase_m * phi
+        xt, yt, tt = arc(xt, yt, tt, (0.5 * half) * (k_r - k_l), mul(half * (k_r + k_l), inv_bt))
+        to = to + phi
+    out = np.stack([xt - np.stack([xo, zero, zero]), yt - np.stack([yo, zero, zero]), tt - np.stack([to, zero, zero])])
+    return out[:, 0], np.moveaxis(out[:, 1:], 1, -1)
 
 
 def odometry_turns(
@@ -233,6 +320,154 @@ class _Problem:
         self.eth = None if eth is None else np.asarray(eth, dtype=float)
         self.w = float(heading_weight_m if heading_weight_m is not None else side_m)
         self.ncomp = 3 if self.heading else 2
+        self.fast = False  # analytic Jacobians (set by the fit for many runs)
+        self.sw: FloatArray | None = None  # square roots of the runs' weights (pseudo-runs only)
+        self.cache: dict[str, Any] = {}
+
+    def weighted(self, r: FloatArray) -> FloatArray:
+        """Residuals of shape ``(..., n, ncomp)`` times the square roots of the runs' weights.
+
+        Parameters
+        ----------
+        r : numpy.ndarray
+            Residuals, runs on the second-last axis.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``r`` itself where every run weighs 1.
+        """
+        if self.sw is None:
+            return r
+        out: FloatArray = r * self.sw[:, None]
+        return out
+
+    def model_jacobian(self, ed: npt.ArrayLike, eb: npt.ArrayLike) -> FloatArray:
+        """Analytic per-run Jacobian of the *residuals* for many parameter pairs.
+
+        Parameters
+        ----------
+        ed, eb : array_like
+            Shape (P,): the parameter pairs.
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape (P, n, ncomp, 2): derivatives of ``data - model`` with respect to
+            ``E_d,pass`` and ``E_b,pass`` (unweighted).
+        """
+        if self.fast and kernel.available():
+            return kernel.residuals_jacobian(self, np.asarray(ed, dtype=float), np.asarray(eb, dtype=float), 2)[1]
+        ed = np.asarray(ed, dtype=float)[:, None]
+        eb = np.asarray(eb, dtype=float)[:, None]
+        _, g = _square_errors_grad(ed, eb, self.side_m, self.b, self.sign[None, :], self.es, self.adj)
+        comps = [-g[0], -g[1]]
+        if self.heading:
+            comps.append(-self.w * g[2])
+        return np.stack(comps, axis=-2)
+
+    def residual_jacobian(self, p: npt.ArrayLike) -> FloatArray:
+        """The Jacobian of :meth:`residuals` at one parameter pair (analytic).
+
+        Parameters
+        ----------
+        p : array_like
+            ``(E_d,pass, E_b,pass)``.
+
+        Returns
+        -------
+        numpy.ndarray
+            Shape (n * ncomp, 2).
+        """
+        q = np.asarray(p, dtype=float)
+        J = self.model_jacobian([q[0]], [q[1]])[0]
+        if self.sw is not None:
+            J = J * self.sw[:, None, None]
+        return J.reshape(-1, 2)
+
+    def small(self) -> _Problem | None:
+        """The pseudo-runs of :meth:`compressed` (made once), with this problem's heading weight.
+
+        Returns
+        -------
+        _Problem or None
+            ``None`` unless :attr:`fast`, or where the pseudo-runs would not be fewer.
+        """
+        if not self.fast or self.sw is not None:
+            return None
+        if "small" not in self.cache:
+            self.cache["small"] = self.compressed()
+        q: _Problem | None = self.cache["small"]
+        if q is not None:
+            q.w = self.w
+        return q
+
+    def compressed(self) -> _Problem | None:
+        """A few weighted pseudo-runs whose least-squares cost has the minima of these runs'.
+
+        The model depends on a run only through its direction and its odometry turn
+        deviations ``delta`` (four per run), and nearly linearly over their spread
+        (milliradians). To second order in that spread the sum of squared residuals of a
+        direction's ``n_d`` runs is then a constant plus a function of ``(E_d, E_b)`` that
+        depends on the runs only through the means of the data ``e = (eps_x, eps_y,
+        [eps_theta])`` and of ``delta``, the covariance of ``delta`` and the covariance of
+        ``e`` with ``delta``. Per direction ``2 k`` pseudo-runs reproduce these:
+        ``delta = mean +- sqrt(k lambda_j) u_j`` (``lambda_j, u_j``: the ``k`` eigenpairs of the
+        population covariance of ``delta`` above 1e-9 of the largest and above 1e-24 rad^2) and ``e = mean +- sqrt(k
+        lambda_j) B u_j`` (``B``: the regression of ``e`` on ``delta``), each of weight
+        ``n_d / (2 k)``. Headings are taken about their circular mean. The constant (the
+        scatter of ``e`` not explained by ``delta``) is left out: costs of the pseudo-runs
+        compare with each other, not with the runs'. Where ``delta`` does not vary, one
+        pseudo-run of weight ``n_d`` per direction.
+
+        Returns
+        -------
+        _Problem or None
+            ``None`` where it would not hold fewer runs than this problem.
+        """
+        parts = []
+        for mask, sgn in ((self.is_cw, -1.0), (~self.is_cw, 1.0)):
+            cols = [self.ex[mask], self.ey[mask]]
+            if self.heading and self.eth is not None:
+                th = self.eth[mask]
+                cm = float(np.angle(np.mean(np.exp(1j * th))))
+                cols.append(cm + wrap_angle(th - cm))
+            e = np.stack(cols, axis=1)
+            dv = self.dev[mask]
+            nd = e.shape[0]
+            e_mean, d_mean = e.mean(axis=0), dv.mean(axis=0)
+            de, dd = e - e_mean, dv - d_mean
+            lam, u = np.linalg.eigh(dd.T @ dd / nd)
+            keep = lam > max(1e-9 * float(lam[-1]), 1e-24)  # turns that vary by more than a picoradian
+            k = int(np.sum(keep))
+            if k == 0:
+                pe, pd, wz = e_mean[None, :], d_mean[None, :], np.array([float(nd)])
+            else:
+                lk, uk = lam[keep], u[:, keep]
+                B = (de.T @ dd / nd) @ uk / lk  # (m, k): the regression of e on delta, in the eigenbasis
+                s = np.sqrt(k * lk)
+                step_d, step_e = (s * uk).T, (s * B).T  # (k, 4), (k, m)
+                pd = np.concatenate([d_mean + step_d, d_mean - step_d])
+                pe = np.concatenate([e_mean + step_e, e_mean - step_e])
+                wz = np.full(2 * k, nd / (2.0 * k))
+            parts.append((pe, pd, wz, np.full(len(wz), sgn)))
+        n_small = sum(len(p[2]) for p in parts)
+        if n_small >= self.n:
+            return None
+        q = object.__new__(_Problem)
+        q.__dict__.update(self.__dict__)
+        q.cache = {}
+        q.sign = np.concatenate([p[3] for p in parts])
+        q.is_cw = q.sign < 0
+        q.n = n_small
+        pe = np.concatenate([p[0] for p in parts])
+        q.ex, q.ey = pe[:, 0], pe[:, 1]
+        q.eth = pe[:, 2] if self.heading else None
+        q.dev = np.concatenate([p[1] for p in parts])
+        q.adj = [q.dev[None, :, i] for i in range(4)]
+        q.odo_misfit = np.zeros(q.n)
+        q.sw = np.sqrt(np.concatenate([p[2] for p in parts]))
+        return q
 
     def residuals_matrix(self, ed: npt.ArrayLike, eb: npt.ArrayLike) -> FloatArray:
         """Residuals ``data - model`` of every run for many parameter pairs.
@@ -247,6 +482,8 @@ class _Problem:
         numpy.ndarray
             Shape (P, n, ncomp).
         """
+        if self.fast and kernel.available():
+            return kernel.residuals_jacobian(self, np.asarray(ed, dtype=float), np.asarray(eb, dtype=float), 1)[0]
         ed = np.asarray(ed, dtype=float)[:, None]
         eb = np.asarray(eb, dtype=float)[:, None]
         px, py, pth = square_errors(ed, eb, self.side_m, self.b, self.sign[None, :], self.es, self.adj)
@@ -269,7 +506,7 @@ class _Problem:
             Shape (n * ncomp,).
         """
         q = np.asarray(p, dtype=float)
-        return self.residuals_matrix([q[0]], [q[1]])[0].ravel()
+        return self.weighted(self.residuals_matrix([q[0]], [q[1]])[0]).ravel()
 
     def jacobian_matrix(self, ed: npt.ArrayLike, eb: npt.ArrayLike, h: float = 1e-7) -> FloatArray:
         """Per-run Jacobian of the *model* (central differences) for many parameter pairs.

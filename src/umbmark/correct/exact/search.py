@@ -23,6 +23,7 @@ import numpy as np
 import numpy.typing as npt
 
 from umbmark.correct.bf import bf_correction
+from umbmark.correct.exact import kernel
 from umbmark.correct.exact.model import FloatArray, _Problem
 from umbmark.errors import CorrectionUndefined
 from umbmark.metrics import umbmark
@@ -154,6 +155,10 @@ def _grid(prob: _Problem) -> tuple[FloatArray, FloatArray, FloatArray]:
         Shape (n_beta, n_eb): the sums of squared residuals (``inf`` outside the searched
         range).
     """
+    key = f"grid {prob.w!r}"
+    if key in prob.cache:
+        cached: tuple[FloatArray, FloatArray, FloatArray] = prob.cache[key]
+        return cached
     beta = _grid_beta(prob)
     BETA, EB = np.meshgrid(beta, _GRID_EB, indexing="ij")
     q = BETA * EB * prob.b / (2.0 * prob.es * prob.side_m)
@@ -166,9 +171,13 @@ def _grid(prob: _Problem) -> tuple[FloatArray, FloatArray, FloatArray]:
     chunk = max(1, 400000 // max(prob.n, 1))
     for i in range(0, idx_ok.size, chunk):
         sel = idx_ok[i : i + chunk]
-        r = prob.residuals_matrix(flat_ed[sel], flat_eb[sel])
+        if prob.fast and kernel.available():
+            cost[sel] = kernel.residuals_jacobian(prob, flat_ed[sel], flat_eb[sel], 0)[0]
+            continue
+        r = prob.weighted(prob.residuals_matrix(flat_ed[sel], flat_eb[sel]))
         cost[sel] = np.sum(r * r, axis=(1, 2))
     grid: FloatArray = cost.reshape(ED.shape)
+    prob.cache[key] = (ED, EB, grid)
     return ED, EB, grid
 
 
@@ -422,8 +431,17 @@ def _gauss_newton_cost(prob: _Problem, ed: npt.ArrayLike, eb: npt.ArrayLike) -> 
         Shape (P,): the predicted sums of squared residuals.
     """
     ed = np.asarray(ed, dtype=float)
-    r = prob.residuals_matrix(ed, eb).reshape(ed.size, -1)  # (P, m)
-    J = -prob.jacobian_matrix(ed, eb).reshape(ed.size, -1, 2)  # of the residuals: (P, m, 2)
+    if prob.fast:
+        if kernel.available():
+            r, J = kernel.residuals_jacobian(prob, ed, np.asarray(eb, dtype=float), 2)
+        else:
+            r, J = prob.residuals_matrix(ed, eb), prob.model_jacobian(ed, eb)
+        if prob.sw is not None:  # (P, n, ncomp), (P, n, ncomp, 2): weighted
+            r, J = r * prob.sw[:, None], J * prob.sw[:, None, None]
+        r, J = r.reshape(ed.size, -1), J.reshape(ed.size, -1, 2)
+    else:
+        r = prob.weighted(prob.residuals_matrix(ed, eb)).reshape(ed.size, -1)  # (P, m)
+        J = -prob.jacobian_matrix(ed, eb).reshape(ed.size, -1, 2)  # of the residuals: (P, m, 2)
     JtJ = np.einsum("pmi,pmj->pij", J, J)
     Jtr = np.einsum("pmi,pm->pi", J, r)
     ridge = 1e-12 * np.trace(JtJ, axis1=1, axis2=2)[:, None, None] * np.eye(2) + 1e-300 * np.eye(2)
@@ -454,11 +472,105 @@ def _fit(
     good : callable or None
         ``good(solution)``: stop as soon as the best solution so far passes this test.
 
+    Where the problem has pseudo-runs (:meth:`_Problem.small`: many runs), the fits from the
+    starts run on them, and the best is refitted on the runs from where it ended (few
+    iterations: the pseudo-runs' minima are the runs' to second order in the spread of the
+    odometry turns).
+
     Returns
     -------
     scipy.optimize.OptimizeResult or None
         The solution with the lowest final cost; ``None`` when no fit ended finite.
     """
+    small = prob.small()
+    if small is not None:
+        best_small = _fit(small, starts, "linear", 1.0, good)
+        if best_small is None:
+            return None
+        if loss == "linear" and kernel.available():
+            polished = _polish(prob, best_small.x)
+            if polished is not None:
+                return polished
+        return _fit_from(prob, [best_small.x], loss, f_scale, None)
+    return _fit_from(prob, starts, loss, f_scale, good)
+
+
+class _Polished:
+    """A least-squares solution found by :func:`_polish` (what the fit uses of one)."""
+
+    def __init__(self, x: FloatArray, cost: float, nfev: int) -> None:
+        self.x = x
+        self.cost = cost
+        self.status = 1
+        self.nfev = nfev
+
+
+_LOWER = np.array([0.5, 0.05])
+_UPPER = np.array([2.0, 20.0])
+
+
+def _polish(prob: _Problem, x0: FloatArray, max_iter: int = 60) -> _Polished | None:
+    """The least-squares minimum next to ``x0`` (linear loss), by damped Gauss-Newton steps.
+
+    The normal equations are summed over the runs in one compiled pass each
+    (:func:`umbmark.correct.exact.kernel.residuals_jacobian`, mode 3), so a step costs one
+    evaluation of the model and no residual vector is held. Steps stop when they change
+    neither parameter by more than 1e-15 of its value or the cost stops decreasing.
+
+    Parameters
+    ----------
+    prob : _Problem
+        The runs.
+    x0 : numpy.ndarray
+        A start near the minimum (the pseudo-runs' fit).
+    max_iter : int
+        At most this many accepted steps.
+
+    Returns
+    -------
+    _Polished or None
+        ``None`` where a step would leave the bounds of the fit (the caller falls back to the
+        bounded fit).
+    """
+    x = np.asarray(x0, dtype=float).copy()
+    sums = kernel.residuals_jacobian(prob, x[:1], x[1:], 3)[0][0]
+    nfev, mu = 1, 0.0
+    for _ in range(max_iter):
+        A = np.array([[sums[1], sums[2]], [sums[2], sums[3]]])
+        g = sums[4:6]
+        damp = mu * np.diag(np.diag(A))
+        try:
+            step = -np.linalg.solve(A + damp, g)
+        except np.linalg.LinAlgError:
+            return None
+        if not np.all(np.isfinite(step)):
+            return None
+        if np.all(np.abs(step) <= 1e-15 * np.abs(x)):
+            break
+        x_new = x + step
+        if np.any(x_new <= _LOWER) or np.any(x_new >= _UPPER):
+            return None
+        new = kernel.residuals_jacobian(prob, x_new[:1], x_new[1:], 3)[0][0]
+        nfev += 1
+        if not np.isfinite(new[0]):
+            return None
+        if new[0] <= sums[0]:
+            x, sums, mu = x_new, new, 0.0
+            continue
+        if mu > 1e6:  # no descent left: at the minimum to rounding
+            break
+        mu = max(1e-6, 10.0 * mu)
+    return _Polished(x, 0.5 * float(sums[0]), nfev)
+
+
+def _fit_from(
+    prob: _Problem,
+    starts: Sequence[FloatArray | None],
+    loss: str,
+    f_scale: float,
+    good: Callable[[_Solution], bool] | None,
+) -> _Solution | None:
+    """:func:`_fit` on the problem's own runs."""
     from scipy import optimize
 
     best: _Solution | None = None
@@ -469,7 +581,7 @@ def _fit(
             sol = optimize.least_squares(
                 prob.residuals,
                 x0,
-                jac="3-point",
+                jac=prob.residual_jacobian if prob.fast else "3-point",
                 bounds=([0.5, 0.05], [2.0, 20.0]),
                 loss=loss,
                 f_scale=f_scale,
