@@ -61,7 +61,7 @@ def spins(turn_rad, signs, omega=0.8, rest_s=1.5):
 
 def bag_of(log, path, gyro, seed=2, **kw):
     t, w = simulate_gyro(log, gyro, seed=seed)
-    return write_drive_bag(log, path, gyro=(t, w), odom=False, **kw)
+    return write_drive_bag(log, path, gyro=(t, w), **{"odom": False, **kw})
 
 
 @pytest.fixture(scope="module")
@@ -205,3 +205,12 @@ def test_still_periods(pattern, min_samples):
         want.append((t[a], t[a + m]))
     assert len(got) == len(want)
     assert np.allclose(np.reshape(got, (-1, 2)), np.reshape(want, (-1, 2)), atol=1e-12)
+
+
+def test_ros1_bag_with_odometry_as_the_wheels(tmp_path):
+    """A ROS 1 bag, the wheels from nav_msgs/Odometry: the same wheelbase."""
+    log = simulate_drive(spins(2 * math.pi, [1, -1] * 2), SKID, seed=11)
+    bag = bag_of(log, tmp_path / "spins.bag", Gyro(100.0, 1.0, BIAS, NOISE), seed=12, storage="ros1", odom=True)
+    d = json.loads(run(["replay", str(bag), "--imu-topic", "/imu", "--odom-topic", "/odom", *SKID_GEO, "--json"]))
+    assert abs(d["gyro"]["wheelbase_m"] / (FACTOR * TRACK) - 1) < 0.005
+    assert d["gyro"]["turns_used"] == 4
