@@ -215,23 +215,26 @@ def test_a_robot_whose_every_record_is_damaged_beside_a_sound_one(pristine, tmp_
     assert rc == 0 and [r["id"] for r in json.loads(out)["records"]] == [2, 4]
 
 
-def test_odd_column_values_are_shown_as_missing(db, capsys):
-    """Text, bytes and infinities in the number columns and the parameters: plotted, reported,
-    listed, with a warning each; the values are missing, never a crash."""
-    _execute(
-        db,
-        "UPDATE calibrations SET emax_syst_mm = 'abc', ed = X'00ff', eb = 1e999, wheelbase_mm = 'x', "
-        'parameters_json = \'{"c_left": "zz", "c_right": [1], "Eb": true}\' WHERE id = 2',
-    )
+@pytest.mark.parametrize(
+    ("assignment", "problem"),
+    [
+        ("emax_syst_mm = 'abc'", "column emax_syst_mm holds 'abc', not a number"),
+        ("ed = X'00ff'", "column ed holds b'\\x00\\xff', not a number"),
+        ("eb = 1e999", "column eb holds inf, not a number"),
+        ("wheelbase_mm = 'x'", "column wheelbase_mm holds 'x', not a number"),
+        ('parameters_json = \'{"c_left": "zz", "c_right": 1.0}\'', "c_left in parameters_json holds 'zz'"),
+        ('parameters_json = \'{"c_left": 1.0, "Eb": true}\'', "Eb in parameters_json holds True"),
+    ],
+)
+def test_odd_column_values(db, capsys, assignment, problem):
+    """Text, bytes and infinities where numbers belong: that record is named and skipped;
+    plots, reports and listings go on with the others."""
+    _execute(db, f"UPDATE calibrations SET {assignment} WHERE id = 2")
     rc, out, err = _run(["history", "r1", "--json"], db, capsys)
     assert rc == 0, err
     j = json.loads(out)
-    r2 = j["records"][1]
-    assert r2["id"] == 2 and r2["emax_syst_mm"] is None and r2["Ed"] is None and r2["Eb"] is None
-    assert r2["wheelbase_mm"] is None and r2["parameters"]["c_left"] is None
-    assert j["records"][0]["emax_syst_mm"] > 0 and j["records"][2]["emax_syst_mm"] > 0
-    for col in ("emax_syst_mm holds 'abc'", "ed holds b'\\x00\\xff'", "eb holds inf", "c_left in parameters_json"):
-        assert any(col in w for w in j["warnings"]), (col, j["warnings"])
+    assert [r["id"] for r in j["records"]] == [1, 3] and all(r["emax_syst_mm"] > 0 for r in j["records"])
+    assert len(j["warnings"]) == 1 and "record #2" in j["warnings"][0] and problem in j["warnings"][0], j["warnings"]
     for argv in (
         ["history", "r1", "--plot", "p.png"],
         ["report", "--robot", "r1", "--out", "r.html"],
@@ -240,10 +243,21 @@ def test_odd_column_values_are_shown_as_missing(db, capsys):
         rc, _, err = _run(argv, db, capsys)
         assert rc == 0, err
     assert open("p.png", "rb").read(8) == b"\x89PNG\r\n\x1a\n"
-    # the record's parameters are unusable: exporting it is refused (here it is not the newest)
-    _execute(db, "DELETE FROM calibrations WHERE id = 3")
+    rc, _, err = _run(["history", "--show", "2"], db, capsys)
+    _one_line_error(rc, err, "record #2", "h.sqlite", problem)
+    # the only record odd: nothing to plot or report, one line
+    _execute(db, "DELETE FROM calibrations WHERE id <> 2")
+    for argv in (["history", "r1", "--plot", "p2.png"], ["report", "--robot", "r1", "--out", "r2.html"]):
+        rc, _, err = _run(argv, db, capsys)
+        _one_line_error(rc, err, "record #2", "h.sqlite", problem)
+    assert not os.path.exists("p2.png") and not os.path.exists("r2.html")
+
+
+def test_a_record_without_wheel_factors_is_not_exported(db, capsys):
+    _execute(db, "UPDATE calibrations SET parameters_json = '{\"Eb\": 1.0}' WHERE id = 3")
     rc, _, err = _run(["history", "r1", "--export", "p.json"], db, capsys)
-    _one_line_error(rc, err, "record #2", "h.sqlite", "no usable c_left")
+    _one_line_error(rc, err, "record #3", "h.sqlite", "no usable c_left")
+    assert not os.path.exists("p.json")
 
 
 def test_stored_runs_that_are_not_runs(db, capsys):

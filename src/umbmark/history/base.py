@@ -466,15 +466,15 @@ def _short(v) -> str:
     return r if len(r) <= 40 else r[:37] + "..."
 
 
-def _record(row, db="the history") -> tuple[Record, list[str]]:
-    """A record from the columns of :data:`_SELECT`, and what was odd in it (values that are not
-    numbers in the number columns, shown as missing).
+def _record(row, db="the history") -> Record:
+    """A record from the columns of :data:`_SELECT`.
 
     Raises
     ------
     DamagedRecord
-        For a value that makes the record unreadable: corrupt JSON, a time that is not ISO 8601,
-        text columns holding other types.
+        For a value no umbmark wrote: corrupt JSON, a time that is not ISO 8601, a text column
+        holding bytes, a number column (or a number of the parameters) holding text, bytes or
+        an infinity.
     """
     rid = row[0]
 
@@ -508,26 +508,20 @@ def _record(row, db="the history") -> tuple[Record, list[str]]:
             bad(f"column {col} holds {_short(d)}, not a JSON object")
         return d
 
-    notes: list[str] = []
-
     def number(i: int, col: str):
         v = row[i]
         if v is None:
             return None
-        if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v):
-            return float(v)
-        notes.append(f"record #{rid} in the history database {db}: column {col} holds {_short(v)}, not a number")
-        return None
+        if not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)):
+            bad(f"column {col} holds {_short(v)}, not a number")
+        return float(v)
 
     def numbers_in(d: dict, col: str) -> dict:
-        # the numbers every reader of a record uses; another value there is shown as missing
+        # the numbers every reader of a record uses (tables, plots, reports, the export)
         for k in ("c_left", "c_right", "wheelbase_mm", "wheelbase_m", "Ed", "Eb"):
             v = d.get(k)
             if v is not None and not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)):
-                notes.append(
-                    f"record #{rid} in the history database {db}: {k} in {col} holds {_short(v)}, not a number"
-                )
-                d[k] = None
+                bad(f"{k} in {col} holds {_short(v)}, not a number")
         return d
 
     name = text(1, "robot name")
@@ -556,7 +550,7 @@ def _record(row, db="the history") -> tuple[Record, list[str]]:
         text(16, "note", True),
         text(17, "host", True),
     )
-    return rec, notes
+    return rec
 
 
 def retry_while_locked(fn, timeout_s: float, errors):
@@ -621,15 +615,12 @@ class _Backend:
     def _decode(self, row, strict: bool = False) -> Record | None:
         """The record of one row; a damaged one is a warning and None (``strict``: raised)."""
         try:
-            rec, notes = _record(row, self.path)
+            return _record(row, self.path)
         except DamagedRecord as e:
             if strict:
                 raise
             self._warn(f"{e}: skipped")
             return None
-        for n in notes:
-            self._warn(f"{n}: shown as missing")
-        return rec
 
     def add(
         self,
