@@ -324,3 +324,44 @@ def test_selfcal_bag_spike_is_dropped_and_a_jump_is_an_error(clean, tmp_path):
 
     with pytest.raises(InputError, match="/joint_states jump at t=.*do not come back"):
         read_selfcal_bag(edit_bag(clean, tmp_path / "jump", joint_states=jump), joints=JOINT_NAMES)
+
+
+def test_selfcal_scan_delay_auto_and_seconds(tmp_path, capsys):
+    """Scans stamped 0.2 s late against the wheels: ``selfcal --scan-delay auto`` finds the delay
+    (scan-matched turns against the wheels' turns) and moves the scans back, and the calibration
+    is that of the undelayed bag; ``--scan-delay SECONDS`` applies a known delay."""
+    from umbmark.model.drive import SimRobot, mixed_program
+    from umbmark.model.geometry import LABMATE
+    from umbmark.model.sensors import SensorPose
+
+    robot = SimRobot(
+        nominal=LABMATE,
+        errors=ErrorParams(ed=1.008, eb=1.02, es=1.0),
+        sensor_pose=SensorPose(0.10, 0.02, math.radians(-3.0)),
+        lidar=Lidar(n_beams=180, range_noise_m=0.003),
+    )
+    log = simulate_drive(mixed_program(60.0, seed=2, robot=robot), robot, seed=3)
+    bag = write_drive_bag(log, tmp_path / "drive", odom=False)
+    late = edit_bag(bag, tmp_path / "late", scan=delayed(0.2))
+    args = ["--joints", ",".join(JOINT_NAMES), "--wheel-diameter-mm", "150", "--wheelbase-mm", "340", "--json"]
+
+    def selfcal(b, *extra):
+        assert main(["selfcal", str(b), *args, *extra]) == 0
+        return json.loads(capsys.readouterr().out)
+
+    ref, raw, auto, given = (
+        selfcal(bag),
+        selfcal(late),
+        selfcal(late, "--scan-delay", "auto"),
+        selfcal(late, "--scan-delay", "0.2"),
+    )
+    assert "scan_delay" not in ref and "scan_delay" not in raw
+    (d,) = auto["scan_delay"]
+    assert d["requested"] == "auto" and abs(d["applied_s"] - 0.2) < 2e-3 and d["correlation"] > d["correlation_at_zero"]
+    # measured: E_d within 5e-8 and E_b within 7e-6 of the undelayed bag's (uncorrected: 3e-5, 6e-5)
+    assert abs(auto["Ed"] - ref["Ed"]) < 1e-6 and abs(auto["Eb"] - ref["Eb"]) < 2e-5
+    assert abs(raw["Eb"] - ref["Eb"]) > 3e-5
+    assert given["scan_delay"][0]["applied_s"] == 0.2 and abs(given["Eb"] - ref["Eb"]) < 1e-6
+    assert main(["selfcal", str(late), *args, "--scan-delay", "soon"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "--scan-delay must be auto or seconds" in err

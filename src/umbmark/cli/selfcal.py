@@ -261,6 +261,14 @@ def _print_report(d: dict, again: str, export: str) -> None:
     help="Bag: search widely before each scan match (odometry far off, or keyframes far apart).",
 )
 @click.option(
+    "--scan-delay",
+    default=None,
+    metavar="auto|SECONDS",
+    help="Bag: how late the scans are stamped against the wheel data; auto estimates it (the "
+    "scan-matched turns against the wheels' turns, within +-0.3 s; a second scan-matching pass) "
+    "and both subtract it from the scans' stamps. JSON key scan_delay.",
+)
+@click.option(
     "--min-intervals", type=click.IntRange(min=3), default=10, show_default=True, help="Fewest matched intervals."
 )
 @click.option("--keep-outliers", is_flag=True, help="Fit every interval (no outlier rejection).")
@@ -324,13 +332,16 @@ def selfcal_cmd(
             rep = selfcal_from_intervals(list(paths), d_m, b_m, **opts)
         flags: list[str] = []
     else:
-        rep = _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json)
+        delays: list[dict] = []
+        rep = _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json, delays)
         flags = _bag_flags(kw)
     if keep_outliers:
         flags.append("--keep-outliers")
     if min_intervals != 10:
         flags.append(f"--min-intervals {min_intervals}")
     d = rep.to_dict()
+    if kind != "intervals" and delays:
+        d["scan_delay"] = delays
     if save:
         from umbmark.io.atomic import write_json
 
@@ -359,7 +370,15 @@ def _bag_flags(kw) -> list[str]:
         default = {"scan_topic": "/scan", "joint_topic": "/joint_states"}.get(name)
         if v is not None and v != default:
             out.append(f"--{name.replace('_', '-')} {q(str(v))}")
-    for name in ("pulses_per_wheel_rev", "sensor_pose", "base_frame", "scan_frame", "keyframe_s", "intervals_out"):
+    for name in (
+        "pulses_per_wheel_rev",
+        "sensor_pose",
+        "base_frame",
+        "scan_frame",
+        "keyframe_s",
+        "intervals_out",
+        "scan_delay",
+    ):
         if kw[name] is not None:
             out.append(f"--{name.replace('_', '-')} {q(str(kw[name]))}")
     if kw["ticks"] != "cumulative":
@@ -377,8 +396,36 @@ def _bag_flags(kw) -> list[str]:
     return out
 
 
-def _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json):
-    """Read, plan and match every bag (with progress bars), then self-calibrate the pooled intervals."""
+def _scan_delay(bag, value, d_m: float, b_m: float):
+    """``--scan-delay``: the bag with its scans' stamps moved earlier, and what was done (JSON)."""
+    from dataclasses import replace
+
+    from umbmark.model.timing import parse_time_offset
+
+    try:
+        want = parse_time_offset(value)
+    except InputError:
+        raise InputError(
+            f"--scan-delay must be auto or seconds (positive: the scans are late), got {value!r}"
+        ) from None
+    if want is None:
+        return bag, None
+    out: dict = {"bag": bag.source, "requested": want if isinstance(want, str) else f"{want:g}"}
+    if want == "auto":
+        from umbmark.studies.slam2d import estimate_scan_delay
+
+        est = estimate_scan_delay(bag, d_m, b_m)
+        out.update(est.to_dict())
+        delay = est.delay_s
+    else:
+        delay = float(want)
+    out["applied_s"] = delay
+    return replace(bag, scan_t_s=bag.scan_t_s - delay), out
+
+
+def _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json, delays=None):
+    """Read, plan and match every bag (with progress bars), then self-calibrate the pooled intervals;
+    with ``--scan-delay`` each bag's scans moved in time first (what was done appended to ``delays``)."""
     from umbmark.io.load import parse_joints
     from umbmark.io.rosbag import read_selfcal_bag
     from umbmark.realrobot.scanmatch import ICPConfig
@@ -426,6 +473,9 @@ def _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json):
         for p in paths:
             name = Path(p).name
             bag = read_selfcal_bag(p, progress=bars.bar(f"reading {name}"), **read)
+            bag, delay = _scan_delay(bag, kw.get("scan_delay"), d_m, b_m)
+            if delay is not None and delays is not None:
+                delays.append(delay)
             plan = plan_intervals(
                 bag,
                 d_m,
