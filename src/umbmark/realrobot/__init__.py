@@ -3,7 +3,9 @@ out, stream long logs (:mod:`~umbmark.realrobot.replay`, its results in
 :mod:`~umbmark.realrobot.results`); the return pose from a tape measure
 (:mod:`~umbmark.realrobot.measure`); the field procedure (:mod:`~umbmark.realrobot.guide`); 2D scan
 registration (:mod:`~umbmark.realrobot.scanmatch`); the lidar self-calibration from a bag
-(:mod:`~umbmark.realrobot.selfcal`).
+(:mod:`~umbmark.realrobot.selfcal`); the lidar as the ground truth of square runs
+(:mod:`~umbmark.realrobot.scan_truth`); the gyro as a rotation reference
+(:mod:`~umbmark.realrobot.gyro`).
 """
 
 from umbmark.realrobot.guide import STEP_TITLES, guide_text
