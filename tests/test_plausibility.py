@@ -293,3 +293,12 @@ def test_simulate_refuses_and_warns_like_analyze(tmp_path, capsys):
     cap = capsys.readouterr()
     assert json.loads(cap.out)["out"] == out
     assert "warning: the side of the square (400 mm, --side-mm)" in cap.err
+
+
+def test_noise_free_simulated_runs_give_no_warning_and_labels_still_show():
+    """Identical runs (no scatter) are a simulation, not a unit error; the model check still
+    sees a label swap against its floor."""
+    runs = simulate_umbmark(ErrorParams(1.002, 0.99, 1.0), LABMATE, 4.0, 3, None, "none", seed=0)
+    assert runs_warnings(runs, 4.0) == []
+    (w,) = runs_warnings(MISLABEL["labels"](runs), 4.0)
+    assert "cw and ccw labels look swapped" in w

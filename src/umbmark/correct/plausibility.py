@@ -72,6 +72,7 @@ MODEL_FLOOR_RAD = math.radians(0.05)
 # and a tape measure give 0.25 mm to 10 mm per metre; outside, the units are probably wrong
 MIN_SCATTER_PER_M = 2.5e-4
 MAX_SCATTER_PER_M = 1.2e-2
+NO_SCATTER_M = 1e-6  # runs that differ by less than a micrometre are copies of one run
 # the odometry of a robot driving on its odometry ends nearly at the same point each run
 ODO_SCATTER_RATIO = 3.0
 
@@ -380,18 +381,18 @@ def _candidates(runs: RunsTable) -> list[tuple[str, Callable[[], RunsTable]]]:
                 lambda: _heading_scaled(runs, 180.0 / math.pi),
             )
         )
-        for k, what in (
-            (1000.0, "1000 times too small: a runs file in metres"),
-            (100.0, "100 times too small: a runs file in decimetres"),
-            (10.0, "10 times too small: a runs file in centimetres"),
-            (0.1, "10 times too large: the side in centimetres"),
-            (0.01, "100 times too large: the side in decimetres"),
-            (0.001, "1000 times too large: the side in metres"),
+        for k, ratio, cause in (
+            (1000.0, "1000 times too small", "a runs file in metres?"),
+            (100.0, "100 times too small", "a runs file in decimetres?"),
+            (10.0, "10 times too small", "a runs file in centimetres?"),
+            (0.1, "10 times too large", "the side in centimetres?"),
+            (0.01, "100 times too large", "the side in decimetres?"),
+            (0.001, "1000 times too large", "the side in metres?"),
         ):
             out.append(
                 (
-                    f"the positions are about {what} for the side of the square (positions and `side_mm` "
-                    "are in millimetres)",
+                    f"the positions are about {ratio} for the side of the square ({cause} positions and "
+                    "`side_mm` are in millimetres)",
                     partial(_scaled, runs, k),
                 )
             )
@@ -410,6 +411,8 @@ def _scatter_warnings(runs: RunsTable, side_m: float) -> list[str]:
         ox, oy = float(np.std(rows.x_odo, ddof=1)), float(np.std(rows.y_odo, ddof=1))
         odo_stds.append((math.hypot(ax, ay), math.hypot(ox, oy)))
     per_m = float(np.mean(stds)) / (4.0 * side_m)
+    if max(stds) < NO_SCATTER_M:
+        return out  # identical runs (a noise-free simulation): no scatter to judge the units by
     if per_m < MIN_SCATTER_PER_M:
         out.append(
             f"the runs scatter by only {np.mean(stds) * 1e3:.3g} mm after {4 * side_m:.3g} m of driving "
