@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -262,6 +263,10 @@ def test_cli_time_offset_auto_and_seconds(clean, clean_cal, tmp_path, capsys):
     assert main(["replay", str(bag), *CLI, "--time-offset", "0.5"]) == 0
     d = json.loads(capsys.readouterr().out)
     assert d["time_offset"][0]["applied_s"] == 0.5 and d["time_offset"][0]["requested"] == "0.5"
+    text = [a for a in CLI if a != "--json"]
+    assert main(["replay", str(bag), *text, "--time-offset", "0.5"]) == 0
+    line = r"ground truth late by: estimated (49\d|50\d)\.\d ms, 500\.0 ms subtracted from its stamps"
+    assert re.search(line, capsys.readouterr().out)
     assert main(["replay", str(bag), *CLI, "--time-offset", "soon"]) == 2
     err = capsys.readouterr().err.strip()
     assert len(err.splitlines()) == 1 and "--time-offset" in err and "auto" in err

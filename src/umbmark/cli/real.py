@@ -270,6 +270,13 @@ def _print_report(rep) -> None:
             )
     from rich.markup import escape
 
+    for o in rep.time_offset:
+        est = "not estimated" if o["estimated_s"] is None else f"estimated {o['estimated_s'] * 1e3:.1f} ms"
+        where = o.get("bag") or f"{o.get('log')} {o.get('run')}"
+        c.print(
+            f"ground truth late by: {est}, {o['applied_s'] * 1e3:.1f} ms subtracted from its stamps "
+            f"({escape(str(where))})"
+        )
     for w in rep.warnings:
         c.print(f"[yellow]warning:[/yellow] {escape(cli_message(w))}")
 
