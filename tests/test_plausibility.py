@@ -302,3 +302,8 @@ def test_noise_free_simulated_runs_give_no_warning_and_labels_still_show():
     assert runs_warnings(runs, 4.0) == []
     (w,) = runs_warnings(MISLABEL["labels"](runs), 4.0)
     assert "cw and ccw labels look swapped" in w
+
+
+@pytest.mark.parametrize("k, cause", [(1 / 25.4, "a runs file in inches"), (25.4, "the side in inches")])
+def test_inches_are_named(k, cause):
+    assert any(cause in w for w in runs_warnings(_scale(_sim(), k), 4.0))

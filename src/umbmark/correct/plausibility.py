@@ -384,8 +384,10 @@ def _candidates(runs: RunsTable) -> list[tuple[str, Callable[[], RunsTable]]]:
         for k, ratio, cause in (
             (1000.0, "1000 times too small", "a runs file in metres?"),
             (100.0, "100 times too small", "a runs file in decimetres?"),
+            (25.4, "25 times too small", "a runs file in inches?"),
             (10.0, "10 times too small", "a runs file in centimetres?"),
             (0.1, "10 times too large", "the side in centimetres?"),
+            (1 / 25.4, "25 times too large", "the side in inches?"),
             (0.01, "100 times too large", "the side in decimetres?"),
             (0.001, "1000 times too large", "the side in metres?"),
         ):
@@ -416,8 +418,8 @@ def _scatter_warnings(runs: RunsTable, side_m: float) -> list[str]:
     if per_m < MIN_SCATTER_PER_M:
         out.append(
             f"the runs scatter by only {np.mean(stds) * 1e3:.3g} mm after {4 * side_m:.3g} m of driving "
-            f"({per_m * 1e3:.3g} mm per metre; robots scatter by 0.25 to 10): the positions look like metres or "
-            "centimetres, or the side is in the wrong unit (positions and `side_mm` are in millimetres)"
+            f"({per_m * 1e3:.3g} mm per metre; robots scatter by 0.25 to 10): the positions look like metres, "
+            "centimetres or inches, or the side is in the wrong unit (positions and `side_mm` are in millimetres)"
         )
     elif per_m > MAX_SCATTER_PER_M:
         out.append(
