@@ -411,6 +411,12 @@ def test_reading_a_missing_database_creates_nothing(tmp_path, capsys, monkeypatc
     assert main(["history", "r1"]) == 2
     capsys.readouterr()
     assert sorted(os.listdir(tmp_path)) == [], os.listdir(tmp_path)
+    empty = tmp_path / "empty.sqlite"
+    empty.touch()
+    for argv in READERS:
+        rc = main([*argv, "--db", str(empty)])
+        _one_line_error(rc, capsys.readouterr().err, "empty.sqlite", "empty")
+    assert empty.read_bytes() == b"" and sorted(os.listdir(tmp_path)) == ["empty.sqlite"]
 
 
 def _make_immutable(path):

@@ -50,6 +50,11 @@ class History(_Backend):
             )
         if self.path.is_dir():
             raise HistoryError(f"{self.path} is a folder, not a history database")
+        if not create and self.path.stat().st_size == 0:  # reading does not make it a history
+            raise HistoryError(
+                f"no umbmark history in {self.path}: the file is empty "
+                "(record a calibration with `robot` and `record=True`)"
+            )
         if create:
             try:
                 self.path.parent.mkdir(parents=True, exist_ok=True)
