@@ -64,7 +64,7 @@ PATH_ROLES: dict[str, dict[str, str]] = {
     },
     "reproduce": {"report_dir": "output_dir"},
     "simulate": {"out": "output"},
-    "selfcal": {"paths": "input", "save": "output", "intervals_out": "output", "db": "db"},
+    "selfcal": {"paths": "input", "save": "output", "intervals_out": "output", "db": "db", "scan_delay": "name"},
 }
 
 # a size option beyond this (a thousand kilometres) is not the size of a robot, a wheel or a test track
