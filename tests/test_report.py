@@ -293,3 +293,246 @@ def test_figures_leave_the_matplotlib_backend_alone(tmp_path, choose):
     before, after, pyplot = p.stdout.strip().split("|")
     assert before == after and pyplot == "False"
     assert out.read_bytes()[:8] == PNG
+
+
+# -- the history page: a table that fits 1280 px, a time axis in dates --------------------------------
+
+
+def _seconds_apart_history(tmp_path):
+    from umbmark.history import record_analysis
+
+    db = tmp_path / "h.sqlite"
+    for k, when in enumerate(["2026-01-10T12:00:00", "2026-01-10T12:00:01.500", "2026-01-10T12:00:03"]):
+        runs = simulate_umbmark(ErrorParams(1.001 + k * 1e-3, 0.99), n_runs=5, noise="paper", seed=k)
+        record_analysis(
+            "a-robot-with-a-long-name", analyze(runs, 4.0, 0.34), db=db, when=when, source="x" * 60 + ".csv"
+        )
+    with History(db) as h:
+        return h.records("a-robot-with-a-long-name")
+
+
+def test_history_time_axis_labels_dates_also_for_records_seconds_apart(tmp_path):
+    from umbmark.viz.history_plot import history_figure
+
+    for recs in (_seconds_apart_history(tmp_path), None):
+        if recs is None:  # and months apart
+            from umbmark.history import record_analysis
+
+            db = tmp_path / "m.sqlite"
+            for k, when in enumerate(["2026-01-10", "2026-03-10", "2026-06-10"]):
+                runs = simulate_umbmark(ErrorParams(1.001, 0.99), n_runs=5, noise="paper", seed=k)
+                record_analysis("bot", analyze(runs, 4.0, 0.34), db=db, when=when)
+            with History(db) as h:
+                recs = h.records("bot")
+        fig = history_figure(recs)
+        fig.canvas.draw()
+        ax = fig.axes[-1]
+        labels = [t.get_text() for t in ax.get_xticklabels() if t.get_text()]
+        assert len(labels) >= 2 and len(set(labels)) == len(labels)
+        assert all(lab.startswith("2026-") for lab in labels), labels  # dates, not "12.5 ... 14.0"
+        assert ax.xaxis.get_offset_text().get_text() == ""
+        lo, hi = ax.get_xlim()
+        import matplotlib.dates as mdates
+
+        times = [r.time for r in recs]
+        assert mdates.num2date(lo) < min(times) and max(times) < mdates.num2date(hi)
+
+
+class _Table(HTMLParser):
+    """The cells of the records table, with the classes of the table, the body and each cell."""
+
+    def __init__(self):
+        super().__init__()
+        self.body_cls, self.in_records, self.rows, self.cell = None, False, [], None
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        if tag == "body":
+            self.body_cls = a.get("class")
+        if tag == "table" and a.get("class") == "records":
+            self.in_records = True
+        if self.in_records and tag == "tr":
+            self.rows.append([])
+        if self.in_records and tag in ("td", "th"):
+            self.cell = [tag, a.get("class"), ""]
+
+    def handle_endtag(self, tag):
+        if tag == "table":
+            self.in_records = False
+        if self.in_records and tag in ("td", "th") and self.cell is not None:
+            self.rows[-1].append(tuple(self.cell))
+            self.cell = None
+
+    def handle_data(self, data):
+        if self.cell is not None:
+            self.cell[2] += data
+
+
+def _css_rules(page: str) -> dict[str, str]:
+    import re
+
+    css = re.search(r"<style>(.*?)</style>", page, re.S).group(1)
+    return {sel.strip(): body for sel, body in re.findall(r"([^{}]+)\{([^}]*)\}", css)}
+
+
+def test_history_table_fits_a_1280_px_window(tmp_path):
+    """No browser here: the CSS rules and the cells' widths are checked. Digits and letters at
+    most 0.62 em wide, the cell padding of the style sheet; cells that may wrap count with
+    their longest word, the input column with at most its max-width."""
+    recs = _seconds_apart_history(tmp_path)
+    page = history_report(recs)
+    rules = _css_rules(page)
+    t = _Table()
+    t.feed(page)
+    assert t.body_cls == "wide" and "max-width:75em" in rules["body.wide"]
+    assert "font-size:.8em" in rules["table.records"]
+    assert "white-space:nowrap" in rules["table.records td"]
+    assert (
+        "overflow-wrap:anywhere" in rules["table.records td.src"] and "max-width:14em" in rules["table.records td.src"]
+    )
+    base_px, font = 16.0, 0.8 * 16.0
+    content_px = min(1280 - 2 * base_px - 17, 75 * base_px - 2 * base_px)  # margins, a scroll bar
+    ncol = len(t.rows[0])
+    widths = [0.0] * ncol
+    for row in t.rows:
+        assert len(row) == ncol
+        for j, (tag, cls, text) in enumerate(row):
+            if cls == "src":
+                w = min(len(text) * 0.62 * font, 14 * font)
+            elif tag == "th":
+                w = max(len(word) for word in text.split()) * 0.62 * font
+            else:
+                w = len(text) * 0.62 * font
+            widths[j] = max(widths[j], w + 2 * 0.6 * font + 1)
+    assert sum(widths) < content_px, (sum(widths), widths)
+    text = "".join(c[2] for row in t.rows for c in row)
+    for r in recs:  # seconds apart: the times tell them apart
+        assert r.created_utc[:19].replace("T", " ") in text
+
+
+# -- the report of a replay result ------------------------------------------------------------------
+
+
+@pytest.fixture(scope="module")
+def replay_bag(tmp_path_factory):
+    """A simulated ROS 2 bag of 2 cw and 2 ccw 2 m squares (wheels and ground truth)."""
+    pytest.importorskip("rosbags")
+    import dataclasses
+    import math
+
+    from umbmark.io.rosbag_write import write_drive_bag
+    from umbmark.model.drive import EXAMPLE_ROBOT, Command, simulate_drive
+    from umbmark.model.sensors import Lidar
+
+    robot = dataclasses.replace(
+        EXAMPLE_ROBOT, errors=ErrorParams(ed=1.004, eb=1.02), lidar=Lidar(n_beams=4, range_noise_m=0.0)
+    )
+
+    def square(sign: int) -> list:
+        legs = []
+        for _ in range(4):
+            legs += [Command(2.0 / 0.4, 0.4), Command(0.3), Command(math.pi / 2 / 0.8, 0.0, sign * 0.8), Command(0.3)]
+        return legs + [Command(2.5)]
+
+    program = [Command(2.5)] + square(-1) + square(1) + square(-1) + square(1)
+    log = simulate_drive(program, robot, start_pose=(4.0, 4.0, 0.0), scan_rate_hz=1.0, seed=1)
+    bag = write_drive_bag(log, tmp_path_factory.mktemp("bags") / "squares", truth=True, odom=False)
+    return bag, robot.nominal_wheels
+
+
+def _replay_args(bag, nominal, method, save):
+    from umbmark.io.rosbag_write import JOINT_NAMES
+
+    return [
+        "-q",
+        "replay",
+        str(bag),
+        "--joints",
+        ",".join(JOINT_NAMES),
+        "--gt-topic",
+        "/ground_truth",
+        "--wheel-diameter-mm",
+        f"{nominal.diameter_left_m * 1e3:g}",
+        "--wheelbase-mm",
+        f"{nominal.wheelbase_m * 1e3:g}",
+        "--side-mm",
+        "2000",
+        "--split-stops",
+        "--method",
+        method,
+        "--no-heldout",
+        "--save",
+        str(save),
+    ]
+
+
+@pytest.mark.parametrize("method", ["bf", "exact"])
+def test_report_of_a_replay_result(replay_bag, tmp_path, capsys, method):
+    """``report RESULT.json`` of ``replay --save``: the replay's runs before and after its
+    calibration, the calibration it found, the bootstrap by default (bf and exact, a few runs)."""
+    bag, nominal = replay_bag
+    save = tmp_path / "replay.json"
+    assert main(_replay_args(bag, nominal, method, save)) == 0
+    capsys.readouterr()
+    rep = json.loads(save.read_text())
+    out = tmp_path / "r.html"
+    assert main(["report", str(save), "--out", str(out), "--json"]) == 0
+    j = json.loads(capsys.readouterr().out)
+    assert j["emax_syst_mm"] == pytest.approx(rep["before"]["emax_syst_mm"], rel=1e-9)
+    boot = j["bootstrap"]
+    assert boot is not None and boot["n_boot"] >= 200 and boot["failed"] == 0
+    assert boot["Ed"][0] < rep["Ed"] < boot["Ed"][1]
+    page = out.read_text()
+    text = "".join(check_page(page).text)
+    assert f"replay of {rep['dataset']}" in text and f"Correction (method {method})" in text
+    assert f"c_left = {rep['c_left']:.6f}" in text and f"wheelbase = {rep['wheelbase_corrected_mm']:.2f} mm" in text
+    after = rep["after"]["emax_syst_mm"]
+    assert f"after: {after:.1f} mm" in text
+    if method == "exact":
+        assert "odometry's end poses" in text  # the bootstrap's caveat is said
+
+
+def test_report_of_a_replay_result_refuses_what_it_cannot_use(replay_bag, tmp_path, capsys):
+    bag, nominal = replay_bag
+    save = tmp_path / "replay.json"
+    assert main(_replay_args(bag, nominal, "bf", save)) == 0
+    out = tmp_path / "x.html"
+    capsys.readouterr()
+    for extra, said in (
+        (["--side-mm", "2000"], "drop --side-mm"),
+        (["--method", "exact"], "calibrated with bf; drop --method exact"),
+    ):
+        assert main(["report", str(save), "--out", str(out), *extra]) == 2
+        err = capsys.readouterr().err
+        assert said in err and len(err.strip().splitlines()) == 1
+    d = json.loads(save.read_text())
+    for name, broken, said in (
+        ("path.json", {**d, "kind": "path"}, "not square runs"),
+        ("other.json", {"Ed": 1.0}, "not a replay result"),
+        ("norun.json", {**d, "before": {"runs": [{"run": "a"}]}}, "have no return errors"),
+    ):
+        (tmp_path / name).write_text(json.dumps(broken))
+        assert main(["report", str(tmp_path / name), "--out", str(out)]) == 2
+        err = capsys.readouterr().err
+        assert said in err and name in err and len(err.strip().splitlines()) == 1
+    (tmp_path / "cut.json").write_text(save.read_text()[:100])
+    assert main(["report", str(tmp_path / "cut.json"), "--out", str(out)]) == 2
+    assert "not a replay result" in capsys.readouterr().err
+    assert not out.exists()
+
+
+def test_default_bootstrap_follows_the_measured_cost_of_exact():
+    from umbmark.viz.report import BOOTSTRAP_BUDGET_S, EXACT_RESAMPLE_COST_S, default_bootstrap
+
+    assert default_bootstrap("bf", 10**6) == (1000, None)
+    assert default_bootstrap("lsq", 10) == (0, None)
+    a, b = EXACT_RESAMPLE_COST_S
+    for n in (10, 100, 1000, 10**4, 10**5):
+        n_boot, note = default_bootstrap("exact", n)
+        assert n_boot * (a + b * n) <= BOOTSTRAP_BUDGET_S
+        assert (note is None) == (n_boot == 1000)
+        if n_boot == 0:
+            assert "skipped" in note and f"{n} runs" in note
+        elif n_boot < 1000:
+            assert (n_boot + 100) * (a + b * n) > BOOTSTRAP_BUDGET_S and f"{n_boot} resamples" in note
+    assert default_bootstrap("exact", 10**5)[0] == 0

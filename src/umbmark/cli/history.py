@@ -576,12 +576,16 @@ def _analysis_page(a: dict, out_path, after_file, attach, n_boot, seed) -> dict:
     if n_boot and method not in ("bf", "exact") and "analysis" in a:
         raise click.UsageError(f"the bootstrap of a replay result works with bf and exact, not {method}")
     if n_boot:
+        center = analysis.correction if "analysis" in a and method == "exact" else None
         with progress("bootstrap", total=n_boot) as advance:
-            boot = bootstrap_intervals(runs, side_m, wheelbase_m, method, prior, n_boot, seed, advance=advance)
-        if "analysis" in a and method == "exact":
+            boot = bootstrap_intervals(
+                runs, side_m, wheelbase_m, method, prior, n_boot, seed, advance=advance, center=center
+            )
+        if center is not None:
             note = (note + "; " if note else "") + (
                 "the bootstrap refits exact on the replay's return errors (the result does not hold the "
-                "odometry's end poses), so its intervals may sit slightly off the replay's calibration"
+                "odometry's end poses) and is shifted by that refit's difference from the replay's "
+                f"calibration (E_d {boot['shift']['Ed']:+.2e}, E_b {boot['shift']['Eb']:+.2e})"
             )
     what = a["label"] or (Path(source).name if source else "runs")
     page = analysis_report(

@@ -46,6 +46,40 @@ def series(records: list[Record]) -> _Series:
     return s
 
 
+def _date_axis(ax, times: list) -> None:
+    """Label the time axis with dates (and times of day, and seconds where the records are
+    that close), never with an offset: records seconds apart read ``2026-05-04 12:00:05``,
+    not ``5 ... 9`` beside an offset label.
+
+    The view spans at least 20 s around the records, so the ticks fall on whole seconds.
+    """
+    from datetime import timedelta
+
+    import matplotlib.dates as mdates
+
+    if times:
+        lo, hi = min(times), max(times)
+        pad = max((hi - lo) * 0.05, timedelta(seconds=10))
+        ax.set_xlim(lo - pad, hi + pad)
+        span = hi - lo + 2 * pad
+    else:
+        span = timedelta(days=1)
+    if span > timedelta(days=3):
+        fmt = "%Y-%m-%d"
+    elif span > timedelta(hours=3):
+        fmt = "%Y-%m-%d\n%H:%M"
+    else:
+        fmt = "%Y-%m-%d\n%H:%M:%S"
+    loc = mdates.AutoDateLocator(minticks=3, maxticks=6)
+    if span <= timedelta(minutes=10):  # whole seconds only (the automatic locator may pick fractions)
+        loc.intervald[mdates.SECONDLY] = [1, 2, 5, 10, 15, 30]
+        loc.intervald[mdates.MICROSECONDLY] = []
+    ax.xaxis.set_major_locator(loc)
+    ax.xaxis.set_major_formatter(mdates.DateFormatter(fmt))
+    ax.tick_params(axis="x", labelsize=7)
+    ax.set_xlabel("time (UTC)")
+
+
 def history_figure(records: list[Record], title: str | None = None):
     """E_max,syst, E_d, E_b and the recommended wheelbase over time (one panel each).
 
@@ -60,7 +94,6 @@ def history_figure(records: list[Record], title: str | None = None):
     -------
     matplotlib.figure.Figure
     """
-    import matplotlib.dates as mdates
 
     from umbmark.viz.plots import new_figure
 
@@ -83,10 +116,7 @@ def history_figure(records: list[Record], title: str | None = None):
         ax.grid(True, lw=0.3)
         ax.ticklabel_format(axis="y", useOffset=False, style="plain")
     axes[0].set_ylim(bottom=0)
-    loc = mdates.AutoDateLocator()
-    axes[-1].xaxis.set_major_locator(loc)
-    axes[-1].xaxis.set_major_formatter(mdates.ConciseDateFormatter(loc))
-    axes[-1].set_xlabel("time (UTC)")
+    _date_axis(axes[-1], s.times)
     robot = records[0].robot if records else ""
     fig.suptitle(title or f"Calibration history of {robot} ({len(records)} records)")
     fig.tight_layout()

@@ -49,6 +49,8 @@ th{background:#f3f3f3}td:first-child,th:first-child{text-align:left}
 .meta{color:#555;font-size:.9em}.box{background:#eef6ee;border:1px solid #9c9;padding:.6em 1em;display:inline-block}
 .warn{color:#a40}img{max-width:100%;height:auto;border:1px solid #eee}pre{background:#f7f7f7;padding:.6em;
      overflow-x:auto;font-size:.85em}.big{font-size:1.3em;font-weight:bold}
+body.wide{max-width:75em}table.records{font-size:.8em}table.records td{white-space:nowrap}
+table.records th{white-space:normal}table.records td.src{white-space:normal;overflow-wrap:anywhere;max-width:14em}
 """
 
 
@@ -86,22 +88,30 @@ def _ci(lo_hi, digits) -> str:
     return f"[{fmt(lo_hi[0], digits)}, {fmt(lo_hi[1], digits)}]"
 
 
-def _table(header, rows) -> str:
-    h = "".join(f"<th>{_e(c)}</th>" for c in header)
-    body = "".join("<tr>" + "".join(f"<td>{_e(c)}</td>" for c in r) + "</tr>" for r in rows)
-    return f'<div class="scroll"><table><thead><tr>{h}</tr></thead><tbody>{body}</tbody></table></div>'
+def _table(header, rows, cls: str | None = None, col_cls: dict[int, str] | None = None) -> str:
+    col_cls = col_cls or {}
+
+    def cell(tag: str, j: int, c) -> str:
+        k = col_cls.get(j)
+        return f'<{tag} class="{k}">{_e(c)}</{tag}>' if k else f"<{tag}>{_e(c)}</{tag}>"
+
+    h = "".join(cell("th", j, c) for j, c in enumerate(header))
+    body = "".join("<tr>" + "".join(cell("td", j, c) for j, c in enumerate(r)) + "</tr>" for r in rows)
+    attr = f' class="{cls}"' if cls else ""
+    return f'<div class="scroll"><table{attr}><thead><tr>{h}</tr></thead><tbody>{body}</tbody></table></div>'
 
 
 def _img(uri: str, alt: str) -> str:
     return f'<p><img src="{uri}" alt="{_e(alt)}"></p>'
 
 
-def _page(title: str, body: str) -> str:
+def _page(title: str, body: str, body_cls: str | None = None) -> str:
+    attr = f' class="{body_cls}"' if body_cls else ""
     return (
         f'<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
         f'<meta name="viewport" content="width=device-width, initial-scale=1">\n'
         f'<meta name="generator" content="umbmark {_e(__version__)}">\n'
-        f"<title>{_e(title)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n{body}\n</body>\n</html>\n"
+        f"<title>{_e(title)}</title>\n<style>{_CSS}</style>\n</head>\n<body{attr}>\n{body}\n</body>\n</html>\n"
     )
 
 
@@ -223,6 +233,7 @@ def bootstrap_intervals(
     seed: int = 0,
     level: float = 0.95,
     advance=None,
+    center=None,
 ) -> dict:
     """Percentile bootstrap intervals of Ed, Eb, wheelbase_mm, c_left, c_right.
 
@@ -248,19 +259,35 @@ def bootstrap_intervals(
         Confidence level.
     advance : callable, optional
         Called once per resample (for a progress bar).
+    center : CorrectionResult, optional
+        A calibration of the same runs found with more than the runs table holds (a replay
+        result's, which knew the odometry's end poses): the resampled values are shifted by
+        its difference from the method on the runs table, so the intervals sit about it.
 
     Returns
     -------
     dict
         ``{"n_boot", "failed", "seed", "level", "Ed": (lo, hi), "Eb", "wheelbase_mm", "c_left",
         "c_right"}``; ``failed`` counts resamples where the correction is undefined (they are
-        left out); an interval is ``(None, None)`` with fewer than 10 defined resamples.
+        left out); an interval is ``(None, None)`` with fewer than 10 defined resamples. With
+        ``center``: ``shift``, the difference added to each key.
     """
     from umbmark.correct import correct_runs
 
+    def values(c) -> dict:
+        return {
+            "Ed": c.ed,
+            "Eb": c.eb,
+            "wheelbase_mm": c.calibration.wheelbase_m * 1e3,
+            "c_left": c.calibration.c_left,
+            "c_right": c.calibration.c_right,
+        }
+
     options: dict = {}
+    full = correct_runs(method, runs, side_m, wheelbase_m, prior) if method == "exact" or center else None
     if method == "exact":  # each resample fitted from the answer on all runs: see exact_resample_options
-        options = exact_resample_options(correct_runs(method, runs, side_m, wheelbase_m, prior))
+        options = exact_resample_options(full)
+    shift = {k: values(center)[k] - v for k, v in values(full).items()} if center is not None else None
     rng = np.random.default_rng(seed)
     idx = {d: np.flatnonzero(runs.direction == d) for d in ("cw", "ccw")}
     keys = ("Ed", "Eb", "wheelbase_mm", "c_left", "c_right")
@@ -273,14 +300,13 @@ def bootstrap_intervals(
         except CorrectionUndefined:
             failed += 1
         else:
-            vals["Ed"].append(c.ed)
-            vals["Eb"].append(c.eb)
-            vals["wheelbase_mm"].append(c.calibration.wheelbase_m * 1e3)
-            vals["c_left"].append(c.calibration.c_left)
-            vals["c_right"].append(c.calibration.c_right)
+            for k, v in values(c).items():
+                vals[k].append(v + (shift[k] if shift else 0.0))
         if advance is not None:
             advance()
     out: dict = {"n_boot": n_boot, "failed": failed, "seed": seed, "level": level}
+    if shift is not None:
+        out["shift"] = shift
     q = [50 * (1 - level), 100 - 50 * (1 - level)]
     for k in keys:
         out[k] = tuple(float(v) for v in np.percentile(vals[k], q)) if len(vals[k]) >= 10 else (None, None)
@@ -617,9 +643,8 @@ def _records_table(records) -> str:
         rows.append(
             [
                 f"#{r.id}",
-                r.created_utc[:16].replace("T", " "),
-                r.kind,
-                r.method,
+                r.created_utc[:19].replace("T", " "),
+                f"{r.kind}/{r.method}",
                 fmt(r.emax_syst_mm),
                 fmt(r.ed, 6),
                 fmt(r.eb, 6),
@@ -634,8 +659,7 @@ def _records_table(records) -> str:
         [
             "id",
             "time (UTC)",
-            "kind",
-            "method",
+            "kind/ method",
             "E_max,syst [mm]",
             "E_d",
             "E_b",
@@ -646,6 +670,8 @@ def _records_table(records) -> str:
             "input",
         ],
         rows,
+        cls="records",
+        col_cls={10: "src"},
     )
 
 
@@ -708,4 +734,4 @@ def history_report(records, *, title: str | None = None, db_path: str | None = N
         except Exception:  # noqa: BLE001  a malformed stored input must not stop the report
             body.append('<p class="warn">The latest record\'s runs could not be drawn.</p>')
     body.append(_definitions())
-    return _page(title, "\n".join(body))
+    return _page(title, "\n".join(body), body_cls="wide")
