@@ -109,8 +109,9 @@ def test_another_applications_sqlite_file_with_user_version_2(tmp_path, capsys, 
     argv = ["analyze", str(runs), "--wheelbase-mm", "340", "--side-mm", "4000", "--robot", "r1", "--record"]
     rc, _, err = _run(argv, foreign, capsys)
     _one_line_error(rc, err, "other.sqlite", "not an umbmark history")
-    with sqlite3.connect(foreign) as c:  # the foreign file is left as it was
+    with sqlite3.connect(foreign) as c:  # the foreign file is left as it was, journal mode included
         assert [r[0] for r in c.execute("SELECT name FROM sqlite_master WHERE type = 'table'")] == ["notes"]
+        assert c.execute("PRAGMA journal_mode").fetchone()[0] == "delete"
 
 
 @pytest.mark.parametrize("table", ["calibrations", "robots"])
@@ -417,6 +418,9 @@ def test_reading_a_missing_database_creates_nothing(tmp_path, capsys, monkeypatc
         rc = main([*argv, "--db", str(empty)])
         _one_line_error(rc, capsys.readouterr().err, "empty.sqlite", "empty")
     assert empty.read_bytes() == b"" and sorted(os.listdir(tmp_path)) == ["empty.sqlite"]
+    pytest.importorskip("sqlalchemy", reason="SQLAlchemy not installed (optional extra 'db')")
+    assert main(["history", "--db", f"sqlite:///{empty}"]) == 2
+    assert "no umbmark history" in capsys.readouterr().err and empty.read_bytes() == b""
 
 
 def _make_immutable(path):

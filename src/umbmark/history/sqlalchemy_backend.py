@@ -144,10 +144,16 @@ class SQLAlchemyHistory(_Backend):
         if u.get_backend_name() == "sqlite":
             kwargs["connect_args"] = {"timeout": timeout_s}
             f = u.database
-            if not create and f and f != ":memory:" and not f.startswith("file:") and not Path(f).is_file():
+            if (
+                not create
+                and f
+                and f != ":memory:"
+                and not f.startswith("file:")
+                and not (Path(f).is_file() and Path(f).stat().st_size > 0)
+            ):
                 # reading must not create the file (SQLite would, on connecting)
                 raise HistoryError(
-                    f"no umbmark history in {self._shown}: no such file "
+                    f"no umbmark history in {self._shown}: no such file, or an empty one "
                     "(record a calibration with `robot` and `record=True`)"
                 )
         try:

@@ -70,6 +70,7 @@ class History(_Backend):
         def setup():
             self._conn.execute("PRAGMA foreign_keys = ON")
             self._conn.execute(f"PRAGMA busy_timeout = {int(timeout_s * 1000)}")
+            self._refuse_foreign()  # before anything is written: another application's file stays as it is
             self.journal_mode = self._conn.execute("PRAGMA journal_mode = WAL").fetchone()[0]
             self._conn.execute("PRAGMA synchronous = FULL")
             self._migrate()
@@ -196,6 +197,18 @@ class History(_Backend):
     def schema_version(self) -> int:
         """The schema version of the file (SQLite's ``user_version``)."""
         return self._conn.execute("PRAGMA user_version").fetchone()[0]
+
+    def _refuse_foreign(self) -> None:
+        """Raise for a file of a newer umbmark, another application's database or a damaged
+        schema, reading only."""
+        v = self.schema_version
+        if v > SCHEMA_VERSION:
+            raise HistoryError(self._newer(v))
+        if v == 0:
+            if self._conn.execute("SELECT count(*) FROM sqlite_master WHERE type = 'table'").fetchone()[0]:
+                raise HistoryError(f"{self.path} is an SQLite database but not an umbmark history")
+        else:
+            self._check_schema(self._conn, v)
 
     def _migrate(self):
         v = self.schema_version
