@@ -164,6 +164,7 @@ def test_every_stamp_duplicated_is_warned_about(clean, clean_cal, tmp_path, same
     bag = edit_bag(clean, tmp_path / "dup", joint_states=dup)
     ds = read_bag(bag, **READ)
     (w,) = [w for w in ds.meta["warnings"] if "repeat the stamp" in w]
+    assert w.startswith(f"{ds.source}: ")  # the bag is named
     assert "/joint_states" in w and "joint states" in w
     ed, eb, _ = _cal(ds)
     if same_content:  # nothing lost: the same calibration
@@ -177,6 +178,7 @@ def test_ground_truth_covering_a_fifth_of_the_log_is_warned_about(clean, tmp_pat
     bag = edit_bag(clean, tmp_path / "short", ground_truth=first_fifth)
     ds = read_bag(bag, nominal=NOMINAL, joints=JOINT_NAMES, gt_topic="/ground_truth")
     (w,) = [w for w in ds.meta["warnings"] if "covers only" in w]
+    assert w.startswith(f"{ds.source}: ")  # the bag is named
     assert "/ground_truth" in w and "covers only 20 %" in w
 
 
@@ -187,6 +189,7 @@ def test_ground_truth_gap_is_warned_about(clean, tmp_path):
 
     ds = read_bag(edit_bag(clean, tmp_path / "gap", ground_truth=gap), **READ)
     (w,) = [w for w in ds.meta["warnings"] if "gap" in w]
+    assert w.startswith(f"{ds.source}: ")  # the bag is named
     assert "/ground_truth" in w and "5.0" in w
 
 
@@ -201,6 +204,7 @@ def test_a_1e300_spike_in_a_joint_position_is_dropped_with_a_warning(clean, clea
 
     ds = read_bag(edit_bag(clean, tmp_path / "spike", joint_states=spike), **READ)
     (w,) = [w for w in ds.meta["warnings"] if "spike" in w]
+    assert w.startswith(f"{ds.source}: ")  # the bag is named
     assert "/joint_states" in w and "at t=" in w and "1e+300" in w
     ed, eb, _ = _cal(ds)
     assert ed == pytest.approx(clean_cal[0], abs=1e-6) and eb == pytest.approx(clean_cal[1], abs=1e-5)
@@ -222,6 +226,7 @@ def test_ground_truth_2_s_late_is_warned_about(clean, clean_cal, tmp_path, capsy
     bag = edit_bag(clean, tmp_path / "late", ground_truth=delayed(2.0))
     ds = read_bag(bag, **READ)
     (w,) = [w for w in ds.meta["warnings"] if "late" in w]
+    assert w.startswith(f"{ds.source}: ")  # the bag is named
     assert "/ground_truth" in w and "2.000 s late" in w and "`time_offset=auto`" in w
     assert ds.meta["time_offset"][0]["applied_s"] == 0.0
     assert main(["replay", str(bag), *CLI]) == 0
@@ -292,7 +297,7 @@ def test_convert_says_the_ground_truth_is_late_and_can_correct_it(clean, clean_c
     out = tmp_path / "late.csv"
     assert main(["convert", str(bag), *geometry, "--split-stops", "--out", str(out)]) == 0
     err = capsys.readouterr().err
-    assert "warning: the ground truth on /ground_truth is 0.40" in err and "--time-offset auto" in err
+    assert f"warning: {bag}: the ground truth on /ground_truth is 0.40" in err and "--time-offset auto" in err
     fixed = tmp_path / "fixed.csv"
     args = ["convert", str(bag), *geometry, "--split-stops", "--time-offset", "auto", "--out", str(fixed)]
     assert main(args) == 0

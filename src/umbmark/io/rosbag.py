@@ -726,7 +726,7 @@ def read_bag(
     t, pl, pr = chk.t, chk.left, chk.right
     gt = None if chk.truth is None else [tuple(row) for row in chk.truth.tolist()]
     whole = _whole_run(t, pl, pr, cumulative, gt, src)
-    warnings: list[str] = list(chk.warnings)
+    warnings: list[str] = [f"{src}: {w}" for w in chk.warnings]
     square = None if side_m is None else (nominal, warnings)
     runs = _cut_runs(whole, ranges, stops, stop_s, upr, src, square)
     meta = {"format": "bag", "warnings": tuple(warnings)}
