@@ -211,3 +211,22 @@ def test_ros1_bag_with_odometry_as_the_wheels(tmp_path):
     d = json.loads(run(["replay", str(bag), "--imu-topic", "/imu", "--odom-topic", "/odom", *SKID_GEO, "--json"]))
     assert abs(d["gyro"]["wheelbase_m"] / (FACTOR * TRACK) - 1) < 0.005
     assert d["gyro"]["turns_used"] == 4
+
+
+def test_robot_turned_by_hand_while_the_wheels_rest(tmp_path):
+    """Lifted and turned 40 deg by hand for 2 s of an 8 s rest (the wheels still): neither the
+    bias nor the turns take it in."""
+    cmds = [Command(2.0)]
+    for i, sign in enumerate([1, -1, 1, -1]):
+        cmds += [Command(2 * math.pi / 0.8, 0.0, sign * 0.8), Command(8.0 if i == 1 else 1.5)]
+    log = simulate_drive(Program(tuple(cmds)), SKID, seed=13)
+    t, w = simulate_gyro(log, Gyro(100.0, 1.0, BIAS, NOISE), seed=14)
+    rest = 2.0 + 2 * (2 * math.pi / 0.8) + 1.5  # where the long rest begins
+    hand = (t > rest + 2.0) & (t <= rest + 4.0)
+    w = w + np.where(hand, math.radians(40.0) / 2.0 * (1 - np.cos(np.pi * (t - rest - 2.0))), 0.0)
+    bag = write_drive_bag(log, tmp_path / "carried", gyro=(t, w), odom=False)
+    g = json.loads(run(["replay", str(bag), "--imu-topic", "/imu", *JOINTS, *SKID_GEO, "--json"]))["gyro"]
+    assert abs(g["wheelbase_m"] / (FACTOR * TRACK) - 1) < 0.005
+    assert abs(g["bias_rad_per_s"] - BIAS) < 0.1 * BIAS
+    # the hand's turn is there, outside every turn the fit uses
+    assert all(not (u["t_s"][0] < rest + 3.0 < u["t_s"][1]) for u in g["turns"])

@@ -5,12 +5,16 @@ From a bag's ``sensor_msgs/Imu`` turn rates (``angular_velocity.z``) and its whe
 (:func:`umbmark.io.rosbag.read_gyro_bag`), :func:`gyro_reference`:
 
 * **Still periods**: stretches of at least ``still_s`` seconds in which neither wheel turns.
-  The gyro's **bias** is the mean of its readings inside them (``margin_s`` in from either end),
-  interpolated linearly in time between still periods (a slowly drifting bias is followed); its
-  noise is their standard deviation. Without a still period the bias is not removed (warned).
+  The gyro's **bias** is the mean of its readings inside each (``margin_s`` in from either end)
+  that lie within 4 robust standard deviations of their median (the robot lifted and turned by
+  hand for part of a still period does not move it), interpolated linearly in time between
+  still periods (a slowly drifting bias is followed); its noise is the standard deviation of
+  those readings. Without a still period the bias is not removed (warned).
 * **Turns**: the motion between two still periods. The gyro's turn is the integral of its
-  readings (bias removed) from the middle of one still period to the middle of the next (the
-  robot at rest at both ends, so the readings' timing does not matter); the wheels' turn is
+  readings (bias removed) from ``guard_s`` before the wheels start to ``guard_s`` after they
+  stop (at most from the middle of the still periods: the robot at rest at both ends, so the
+  readings' timing does not matter, and a robot carried back to its mark long before is not
+  counted); the wheels' turn is
   ``(s_R - s_L) / b`` of the nominal wheel travel and wheelbase. A turn is **on the spot** when
   the wheels' mean travel is below ``spin_travel`` of the turn's arc (half the wheelbase times
   the angle): a spin, or the turn of a UMBmark square. Only turns of at least ``min_turn_rad``
@@ -216,20 +220,25 @@ def _bias(bag: GyroBag, stills, margin_s: float) -> tuple[FloatArray, float, flo
     """The bias at every reading (interpolated between still periods), the mean bias, noise, still time."""
     t, w = bag.imu_t_s, bag.rate_z_radps
     dt = float(np.median(np.diff(t)))
-    centres, means, inside_all, total = [], [], [], 0.0
+    centres, levels, counts, resid, total = [], [], [], [], 0.0
     for lo, hi in stills:
-        inside = (t - dt >= lo + margin_s) & (t <= hi - margin_s)
-        if inside.sum() >= 3:
-            centres.append(0.5 * (lo + hi))
-            means.append(float(np.mean(w[inside])))
-            inside_all.append(inside)
-            total += hi - lo - 2 * margin_s
+        r = w[(t - dt >= lo + margin_s) & (t <= hi - margin_s)]
+        if r.size < 3:
+            continue
+        med = float(np.median(r))
+        spread = max(1.4826 * float(np.median(np.abs(r - med))), 1e-12)
+        kept = r[np.abs(r - med) <= 4.0 * spread]  # not the readings of a robot turned by hand
+        centres.append(0.5 * (lo + hi))
+        levels.append(float(np.mean(kept)))
+        counts.append(kept.size)
+        resid.append(kept - levels[-1])
+        total += hi - lo - 2 * margin_s
     if not centres:
         return np.zeros_like(t), 0.0, float("nan"), 0.0
-    bias = np.interp(t, centres, means)
-    sel = np.any(inside_all, axis=0)
-    resid = w[sel] - bias[sel]
-    return bias, float(np.mean(w[sel])), float(np.std(resid, ddof=1)) if resid.size > 1 else 0.0, total
+    bias = np.interp(t, centres, levels)
+    res = np.concatenate(resid)
+    noise = float(np.sqrt(np.sum(res**2) / max(res.size - len(levels), 1)))
+    return bias, float(np.average(levels, weights=counts)), noise, total
 
 
 def _heading(bag: GyroBag, bias: FloatArray):
@@ -245,14 +254,14 @@ def _heading(bag: GyroBag, bias: FloatArray):
     return at
 
 
-def _turns(bag: GyroBag, nominal: WheelGeometry, stills, heading, spin_travel: float) -> list[GyroTurn]:
+def _turns(bag: GyroBag, nominal: WheelGeometry, stills, heading, spin_travel: float, guard_s: float) -> list[GyroTurn]:
     t = bag.wheel_t_s
     sl = np.concatenate([[0.0], np.cumsum(np.diff(bag.left_rad))]) * 0.5 * nominal.diameter_left_m
     sr = np.concatenate([[0.0], np.cumsum(np.diff(bag.right_rad))]) * 0.5 * nominal.diameter_right_m
     dist = np.concatenate([[0.0], np.cumsum(np.abs(np.diff(sl) + np.diff(sr)) / 2)])
     out = []
     for (a0, a1), (b0, b1) in zip(stills[:-1], stills[1:]):
-        ta, tb = 0.5 * (a0 + a1), 0.5 * (b0 + b1)
+        ta, tb = max(0.5 * (a0 + a1), a1 - guard_s), min(0.5 * (b0 + b1), b0 + guard_s)
         ia, ib = int(np.searchsorted(t, ta)), int(np.searchsorted(t, tb))
         ia, ib = min(ia, len(t) - 1), min(ib, len(t) - 1)
         wheels = float((sr[ib] - sl[ib]) - (sr[ia] - sl[ia])) / nominal.wheelbase_m
@@ -278,8 +287,8 @@ def _lidar_turn(
 ) -> tuple[float | None, str]:
     """The true turn from the scans at rest before and after it (None and why when it fails)."""
     st = scans.scan_t_s
-    before = [s for s in stills if 0.5 * (s[0] + s[1]) == turn.t_s[0]][0]
-    after = [s for s in stills if 0.5 * (s[0] + s[1]) == turn.t_s[1]][0]
+    before = [s for s in stills if s[0] <= turn.t_s[0] <= s[1]][-1]
+    after = [s for s in stills if s[0] <= turn.t_s[1] <= s[1]][0]
     i = np.flatnonzero((st >= before[0]) & (st <= before[1]))
     j = np.flatnonzero((st >= after[0]) & (st <= after[1]))
     if i.size == 0 or j.size == 0:
@@ -320,6 +329,7 @@ def gyro_reference(
     sensor_pose=(0.0, 0.0, 0.0),
     still_s: float = 0.3,
     margin_s: float = 0.1,
+    guard_s: float = 0.5,
     min_turn_rad: float = math.radians(20.0),
     spin_travel: float = 0.1,
     config: ICPConfig = SCAN_TRUTH_ICP,
@@ -340,6 +350,9 @@ def gyro_reference(
         The lidar's mounting pose ``(x_m, y_m, yaw_rad)`` (with ``scans``).
     still_s, margin_s : float
         The shortest stillness, and the time left out at either end of it for the bias [s].
+    guard_s : float
+        A turn is integrated from this long before the wheels start to this long after they
+        stop (at most from the middle of the still periods around it) [s].
     min_turn_rad : float
         Turns below this are not used.
     spin_travel : float
@@ -383,7 +396,7 @@ def gyro_reference(
             noises.append(noise)
             weights.append(total)
             still_total += total
-        turns += _turns(bag, nominal, stills, _heading(bag, bias), spin_travel)
+        turns += _turns(bag, nominal, stills, _heading(bag, bias), spin_travel, guard_s)
     big = [i for i, tr in enumerate(turns) if abs(tr.wheels_rad) >= min_turn_rad]
     spots = [i for i in big if turns[i].on_the_spot]
     if not big:
