@@ -466,7 +466,7 @@ def _short(v) -> str:
     return r if len(r) <= 40 else r[:37] + "..."
 
 
-def _record(row, db="the history") -> Record:
+def _record(row, db) -> Record:
     """A record from the columns of :data:`_SELECT`.
 
     Raises
@@ -591,8 +591,9 @@ class _Backend:
     record_id)`` (the rows of :data:`_SELECT`, newest first) and ``_robot_counts()`` (name,
     number of records, first and last time per robot).
 
-    Reading skips a damaged record (corrupt JSON, a time that is not a time) and says so in
-    :attr:`warnings`; :meth:`get` of a damaged record raises :class:`DamagedRecord`."""
+    Reading skips a damaged record (a value no umbmark wrote: corrupt JSON, a time that is not
+    a time, text where a number belongs) and says so in :attr:`warnings`; :meth:`get` of a
+    damaged record raises :class:`DamagedRecord`."""
 
     path: object
 
@@ -604,7 +605,8 @@ class _Backend:
 
     @property
     def warnings(self) -> list[str]:
-        """What reading found damaged or odd (one message per record and problem)."""
+        """The damaged records reading skipped (one message each, naming the record, the
+        database and what is wrong)."""
         return list(self.__dict__.setdefault("_warnings", []))
 
     def _warn(self, msg: str) -> None:
