@@ -160,3 +160,12 @@ def test_a_password_with_at_signs_reaches_the_server(postgres_url):
     rid = record_result("r1", kind="other", method="m", results={}, parameters={}, db=url)
     with open_history(url, create=False) as h:
         assert h.get(rid).robot == "r1" and "p@ss" not in h.path and "umbmark:***@" in h.path
+
+
+def test_a_url_where_a_file_is_needed_is_named_masked():
+    from umbmark.errors import InputError
+    from umbmark.history import resolve_db_path
+
+    with pytest.raises(InputError) as e:
+        resolve_db_path("postgresql://user:p@ss@host/db")
+    assert "postgresql://user:***@host/db" in str(e.value) and "ss@" not in str(e.value)
