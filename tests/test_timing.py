@@ -69,12 +69,29 @@ def test_unrelated_turn_rates_give_no_estimate():
 
 
 def test_ordered_stamps():
-    keep, rep, first = ordered_stamps([0.0, 0.1, 0.1, 0.2, 0.2, 0.2, 0.3], "joint states", "/js")
-    assert list(keep) == [0, 2, 5, 6] and rep == 3 and first == 3
-    with pytest.raises(InputError, match=r"joint states on /js go backwards at message 3 of 4: 0.050000 s after "):
-        ordered_stamps([0.0, 0.1, 0.05, 0.2], "joint states", "/js", "x.bag")
+    keep, rep, first, moved = ordered_stamps([0.0, 0.1, 0.1, 0.2, 0.2, 0.2, 0.3], "joint states", "/js")
+    assert list(keep) == [0, 2, 5, 6] and rep == 3 and first == 3 and moved == (0, 0.0)
+    # a message delivered late (a step back of 15 ms at 100 Hz): put in stamp order
+    keep, rep, first, moved = ordered_stamps([0.0, 0.01, 0.03, 0.015, 0.04], "joint states", "/js")
+    assert list(keep) == [0, 1, 3, 2, 4] and rep == 0 and moved == (1, pytest.approx(0.015))
+    # a clock that jumps back: an error naming the message
+    with pytest.raises(InputError, match=r"joint states on /js go backwards at message 5 of 6: 0.030000 s after "):
+        ordered_stamps([0.0, 0.01, 0.02, 0.5, 0.03, 0.04], "joint states", "/js", "x.bag")
     with pytest.raises(InputError, match="not a number at message 2"):
         ordered_stamps([0.0, math.nan], "joint states", "/js")
+
+
+def test_messages_out_of_order_are_sorted_with_a_warning():
+    t = np.arange(10) * 0.01
+    t[[4, 5]] = t[[5, 4]]
+    pos = t * 10.0
+    chk = check_streams(
+        t, pos, pos, metres_per_unit_left=1e-3, metres_per_unit_right=1e-3, wheelbase_m=0.3, wheel_topic="/js"
+    )
+    assert np.all(np.diff(chk.t) > 0) and np.array_equal(chk.left, chk.t * 10.0)
+    assert chk.warnings == (
+        "1 of the 10 wheel positions on /js arrive out of stamp order (by up to 10.0 ms): put in stamp order",
+    )
 
 
 def test_wheel_spikes():

@@ -39,6 +39,7 @@ __all__ = [
     "MIN_COVERAGE",
     "LARGE_OFFSET_S",
     "MIN_CORRELATION",
+    "MAX_REORDER_S",
     "ordered_stamps",
     "wheel_spikes",
     "coverage",
@@ -62,11 +63,21 @@ LARGE_OFFSET_S = 0.05
 MIN_CORRELATION = 0.5
 """Below this peak correlation of the turn rates the offset estimate is not trusted."""
 
+MAX_REORDER_S = 0.1
+"""Messages stamped up to this much (and five sample periods) before the one received before
+them are put in stamp order; a longer step back is an error (a clock that jumped)."""
+
 _MAX_GRID = 400_000  # samples of the common time grid of the cross-correlation
 
 
-def ordered_stamps(t: ArrayLike, what: str, topic: str, source: str | None = None) -> tuple[np.ndarray, int, int]:
-    """Check that a stream's stamps never go backwards; find the repeated ones.
+def ordered_stamps(
+    t: ArrayLike, what: str, topic: str, source: str | None = None
+) -> tuple[np.ndarray, int, int, tuple[int, float]]:
+    """Check that a stream's stamps do not jump backwards; find the repeated ones.
+
+    Messages a little out of order (each step back shorter than :data:`MAX_REORDER_S` and five
+    sample periods: delivered late over a network) are put in stamp order; a longer step back is
+    a clock that jumped, an error.
 
     Parameters
     ----------
@@ -82,17 +93,19 @@ def ordered_stamps(t: ArrayLike, what: str, topic: str, source: str | None = Non
     Returns
     -------
     keep : numpy.ndarray
-        Indices of the messages kept: the last of each run of equal stamps.
+        Indices of the messages kept, in stamp order: the last of each run of equal stamps.
     repeated : int
         How many messages repeat the stamp of the one before (not kept).
     first_repeat : int
         The 1-based index of the first such message (0: none).
+    reordered : (int, float)
+        How many messages were out of order, and the longest step back [s].
 
     Raises
     ------
     InputError
-        A stamp earlier than the one before (the message, both stamps, how often and by how
-        much in all), or a stamp that is not finite.
+        A step back longer than that (the message, both stamps, how often and by how much in
+        all), or a stamp that is not finite.
     """
     t = np.asarray(t, dtype=float)
     if not np.all(np.isfinite(t)):
@@ -100,19 +113,26 @@ def ordered_stamps(t: ArrayLike, what: str, topic: str, source: str | None = Non
         raise InputError(f"the {what} on {topic} have a stamp that is not a number at message {k + 1}", source)
     d = np.diff(t)
     back = np.flatnonzero(d < 0)
+    order = np.arange(t.size)
+    reordered = (0, 0.0)
     if back.size:
-        i = int(back[0])
-        raise InputError(
-            f"the stamps of the {what} on {topic} go backwards at message {i + 2} of {t.size}: "
-            f"{t[i + 1] - t[0]:.6f} s after {t[i] - t[0]:.6f} s (from the first stamp; "
-            f"{'once' if back.size == 1 else f'{back.size} times'} in all, by up to {-float(d.min()):.3f} s): "
-            "record with one clock, or cut the bag there",
-            source,
-        )
-    same = d == 0
-    keep = np.flatnonzero(np.concatenate([~same, [True]]))
-    first = int(np.flatnonzero(same)[0]) + 2 if same.any() else 0
-    return keep, int(same.sum()), first
+        longest = -float(d.min())
+        if longest > min(MAX_REORDER_S, 5 * _median_period(t)):
+            i = int(back[0])
+            raise InputError(
+                f"the stamps of the {what} on {topic} go backwards at message {i + 2} of {t.size}: "
+                f"{t[i + 1] - t[0]:.6f} s after {t[i] - t[0]:.6f} s (from the first stamp; "
+                f"{'once' if back.size == 1 else f'{back.size} times'} in all, by up to {longest:.3f} s): "
+                "record with one clock, or cut the bag there",
+                source,
+            )
+        order = np.argsort(t, kind="stable")
+        reordered = (int(back.size), longest)
+    ts = t[order]
+    same = np.diff(ts) == 0
+    keep = order[np.concatenate([~same, [True]])]
+    first = int(order[np.flatnonzero(same)[0] + 1]) + 1 if same.any() else 0
+    return keep, int(same.sum()), first, reordered
 
 
 def wheel_spikes(t: ArrayLike, left: ArrayLike, right: ArrayLike, metres_per_unit: float) -> tuple[np.ndarray, bool]:
@@ -502,7 +522,15 @@ def check_streams(
     t = np.asarray(t, dtype=float)
     pl = np.asarray(left, dtype=float)
     pr = np.asarray(right, dtype=float)
-    keep, rep, first = ordered_stamps(t, wheel_what, wheel_topic, source)
+    keep, rep, first, (moved, back_s) = ordered_stamps(t, wheel_what, wheel_topic, source)
+    if moved:
+        warnings.append(
+            f"{moved} of the {t.size} {wheel_what} on {wheel_topic} arrive out of stamp order (by up to "
+            f"{back_s * 1e3:.1f} ms): put in stamp order"
+        )
+        order = np.argsort(t, kind="stable")
+        t, pl, pr = t[order], pl[order], pr[order]
+        keep, rep, first, _ = ordered_stamps(t, wheel_what, wheel_topic, source)
     if rep:
         if cumulative:
             note = "the last of each stamp is kept"
@@ -550,7 +578,12 @@ def check_streams(
     offset = None
     if truth is not None:
         g = np.asarray(truth, dtype=float).reshape(-1, 4)
-        gkeep, grep, gfirst = ordered_stamps(g[:, 0], "ground-truth poses", truth_topic, source)
+        gkeep, grep, gfirst, (gmoved, gback) = ordered_stamps(g[:, 0], "ground-truth poses", truth_topic, source)
+        if gmoved:
+            warnings.append(
+                f"{gmoved} of the {len(g)} ground-truth poses on {truth_topic} arrive out of stamp order (by up to "
+                f"{gback * 1e3:.1f} ms): put in stamp order"
+            )
         if grep:
             warnings.append(
                 f"{grep} of the {len(g)} ground-truth poses on {truth_topic} repeat the stamp of the pose before "
