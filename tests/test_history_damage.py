@@ -112,6 +112,11 @@ def test_another_applications_sqlite_file_with_user_version_2(tmp_path, capsys, 
     with sqlite3.connect(foreign) as c:  # the foreign file is left as it was, journal mode included
         assert [r[0] for r in c.execute("SELECT name FROM sqlite_master WHERE type = 'table'")] == ["notes"]
         assert c.execute("PRAGMA journal_mode").fetchone()[0] == "delete"
+    pytest.importorskip("sqlalchemy", reason="SQLAlchemy not installed (optional extra 'db')")
+    rc, _, err = _run(["history"], f"sqlite:///{foreign}", capsys)  # the same through SQLAlchemy
+    _one_line_error(rc, err, "other.sqlite", "not an umbmark history")
+    with sqlite3.connect(foreign) as c:
+        assert c.execute("PRAGMA journal_mode").fetchone()[0] == "delete"
 
 
 @pytest.mark.parametrize("table", ["calibrations", "robots"])

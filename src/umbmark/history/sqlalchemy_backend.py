@@ -166,8 +166,13 @@ class SQLAlchemyHistory(_Backend):
             @sa.event.listens_for(self._engine, "connect")
             def _connect(dbapi_conn, record):
                 dbapi_conn.isolation_level = None
-                for pragma in ("foreign_keys = ON", "journal_mode = WAL", "synchronous = FULL"):
-                    dbapi_conn.execute(f"PRAGMA {pragma}")
+                # WAL (a setting kept in the file) only for a new file or an umbmark history:
+                # another application's database, refused below, is left as it was
+                tables = {r[0] for r in dbapi_conn.execute("SELECT name FROM sqlite_master WHERE type = 'table'")}
+                wal = not tables or "umbmark_schema" in tables
+                for pragma in ("foreign_keys = ON", "journal_mode = WAL" if wal else None, "synchronous = FULL"):
+                    if pragma:
+                        dbapi_conn.execute(f"PRAGMA {pragma}")
 
             @sa.event.listens_for(self._engine, "begin")
             def _begin(conn):
@@ -247,7 +252,12 @@ class SQLAlchemyHistory(_Backend):
                     v = self._version(conn)
                     if v is None:
                         names = set(sa.inspect(conn).get_table_names())
-                        if not create:
+                        if not create and names and not names & {"robots", "calibrations"}:
+                            raise HistoryError(
+                                f"{self._shown} holds other tables but not an umbmark history "
+                                "(record a calibration with `robot` and `record=True`)"
+                            )
+                        if not create and not names:
                             raise HistoryError(
                                 f"no umbmark history in {self._shown} "
                                 "(record a calibration with `robot` and `record=True`)"
