@@ -393,3 +393,29 @@ def test_messages_a_little_out_of_order_are_sorted_with_a_warning(clean, clean_c
     assert w.startswith(f"{ds.source}: ") and "ground-truth poses on /ground_truth" in w and "10.0 ms" in w
     ed, eb, _ = _cal(ds)
     assert ed == pytest.approx(clean_cal[0], abs=1e-12) and eb == pytest.approx(clean_cal[1], abs=1e-12)
+
+
+def _moved(msg, dx_m: float):
+    p = msg.pose.position
+    pos = dataclasses.replace(p, x=p.x + dx_m)
+    return dataclasses.replace(msg, pose=dataclasses.replace(msg.pose, position=pos))
+
+
+def test_ground_truth_spike_is_dropped_and_a_jump_is_warned_about(clean, clean_cal, tmp_path):
+    def spike(msgs):
+        k = len(msgs) // 3
+        return [(ns, _moved(m, 1e300) if i == k else m) for i, (ns, m) in enumerate(msgs)]
+
+    ds = read_bag(edit_bag(clean, tmp_path / "spike", ground_truth=spike), **READ)
+    (w,) = [w for w in ds.meta["warnings"] if "spike" in w]
+    assert w.startswith(f"{ds.source}: ") and "ground-truth poses on /ground_truth" in w and "at t=" in w
+    ed, eb, _ = _cal(ds)
+    assert ed == pytest.approx(clean_cal[0], abs=1e-6) and eb == pytest.approx(clean_cal[1], abs=1e-5)
+
+    def jump(msgs):
+        k = len(msgs) // 3
+        return [(ns, _moved(m, 3.0) if i >= k else m) for i, (ns, m) in enumerate(msgs)]
+
+    ds = read_bag(edit_bag(clean, tmp_path / "jump", ground_truth=jump), **READ)
+    (w,) = [w for w in ds.meta["warnings"] if "jump by" in w]
+    assert "/ground_truth jump by 3 m at t=" in w and "stay there" in w

@@ -484,6 +484,8 @@ def check_streams(
       and not corrected.
     * The ground truth's coverage of the wheel data (after the offset): a warning below
       :data:`MIN_COVERAGE` or with a gap longer than a second and 20 sample periods.
+    * Ground-truth positions that jump faster than :data:`MAX_WHEEL_SPEED_MPS`: an isolated
+      spike is dropped, a jump that stays is warned about (the tracker lost the robot).
 
     Parameters
     ----------
@@ -592,6 +594,25 @@ def check_streams(
         g = g[gkeep]
         if not np.all(np.isfinite(g)):
             raise InputError(f"the ground-truth poses on {truth_topic} contain NaN or infinite values", source)
+        gbad, gisolated = wheel_spikes(g[:, 0], g[:, 1], g[:, 2], 1.0)  # the robot faster than 30 m/s
+        if gbad.size:
+            k = int(gbad[0])
+            jump = float(np.hypot(*(g[k, 1:3] - g[k - 1, 1:3])))
+            where = f"at t={g[k, 0] - g[0, 0]:.3f} s (pose {k + 1})"
+            if gisolated:
+                warnings.append(
+                    f"{gbad.size} spike(s) in the ground-truth poses on {truth_topic}, the first {where} (a jump of "
+                    f"{jump:.3g} m and back): dropped"
+                )
+                ok = np.ones(len(g), dtype=bool)
+                ok[gbad] = False
+                g = g[ok]
+            else:
+                warnings.append(
+                    f"the ground-truth poses on {truth_topic} jump by {jump:.3g} m {where}, faster than "
+                    f"{MAX_WHEEL_SPEED_MPS:g} m/s, and stay there: the tracker lost or re-initialised the robot; "
+                    "check the runs around it"
+                )
         g[:, 3] = np.unwrap(g[:, 3])
         heading_w = (cr * metres_per_unit_right - cl * metres_per_unit_left) / wheelbase_m
         est, corr, max_lag, reason = estimate_time_offset(t, heading_w, g[:, 0], g[:, 3])
