@@ -492,6 +492,11 @@ def _fit(
             if polished is not None:
                 return polished
         return _fit_from(prob, [best_small.x], loss, f_scale, None)
+    one = len(starts) == 1 and starts[0] is not None
+    if one and prob.fast and prob.sw is None and loss == "linear" and kernel.available():
+        polished = _polish(prob, np.asarray(starts[0], dtype=float))  # a start next to its minimum (bootstrap)
+        if polished is not None:
+            return polished
     return _fit_from(prob, starts, loss, f_scale, good)
 
 
@@ -515,7 +520,8 @@ def _polish(prob: _Problem, x0: FloatArray, max_iter: int = 60) -> _Polished | N
     The normal equations are summed over the runs in one compiled pass each
     (:func:`umbmark.correct.exact.kernel.residuals_jacobian`, mode 3), so a step costs one
     evaluation of the model and no residual vector is held. Steps stop when they change
-    neither parameter by more than 1e-15 of its value or the cost stops decreasing.
+    neither parameter by more than 1e-15 of its value, or by more than 1e-10 while the cost
+    falls by at most 1e-15 of itself, or when no damped step lowers the cost.
 
     Parameters
     ----------
@@ -555,7 +561,10 @@ def _polish(prob: _Problem, x0: FloatArray, max_iter: int = 60) -> _Polished | N
         if not np.isfinite(new[0]):
             return None
         if new[0] <= sums[0]:
+            gain = sums[0] - new[0]
             x, sums, mu = x_new, new, 0.0
+            if gain <= 1e-15 * sums[0] and np.all(np.abs(step) <= 1e-10 * np.abs(x)):
+                break  # at the minimum to rounding
             continue
         if mu > 1e6:  # no descent left: at the minimum to rounding
             break
