@@ -3,7 +3,8 @@
 Clean runs files simulated with the paper's noise (E_d within 1 +- 0.01, E_b within 1 +- 0.05,
 sides of 2, 4 and 6 m, seeded) must give no warning; the same robots' runs mislabelled (units,
 labels, columns, frames) must. Prints one JSON object: per runs-per-direction the number of
-clean files that warned, and per mislabelling how many were flagged.
+clean files that warned, per mislabelling how many were flagged, and how many clean files of
+robots with large wheelbase errors (E_b 0.6 to 4) warned.
 
     python benchmarks/plausibility.py --seeds 2000 --runs 3 5 10
 """
@@ -84,7 +85,23 @@ def main(argv=None) -> dict:
         runs = simulate_umbmark(ErrorParams(ed, eb, 1.0), LABMATE, 4.0, 5, None, "paper", seed=10_000 + seed)
         for k, f in MISLABEL.items():
             flagged[k] += bool(runs_warnings(f(runs), 4.0))
-    res = {"seeds": a.seeds, "clean_files_warned": clean, "mislabelled_files": n_bad, "mislabelled_flagged": flagged}
+    # clean files of robots with large wheelbase errors (skid steering): 20 per E_b, 4 m square
+    large: dict[str, int] = {}
+    for eb in (0.6, 0.65, 0.7, 1.5, 2.0, 2.5, 3.0, 4.0):
+        fired = 0
+        for seed in range(20):
+            ed = 1 + rng.uniform(-0.01, 0.01)
+            runs = simulate_umbmark(ErrorParams(ed, eb, 1.0), LABMATE, 4.0, 5, None, "paper", seed=20_000 + seed)
+            fired += bool(runs_warnings(runs, 4.0))
+        large[f"Eb_{eb:g}"] = fired
+    res = {
+        "seeds": a.seeds,
+        "clean_files_warned": clean,
+        "mislabelled_files": n_bad,
+        "mislabelled_flagged": flagged,
+        "large_Eb_files": 20,
+        "large_Eb_warned": large,
+    }
     print(json.dumps(res, indent=2))
     return res
 

@@ -64,6 +64,7 @@ MIN_SIDE_PER_WHEELBASE = 2.0
 # where MODEL_REL of its size (and MODEL_FLOOR_M, MODEL_FLOOR_RAD) is added to the standard
 # error for what the model leaves out (controller over- and undershoot, slip)
 FALSE_ALARM = 1e-4
+MAX_ANGLE_RAD = math.radians(50.0)
 MODEL_REL = 0.05
 MODEL_FLOOR_M = 0.5e-3
 MODEL_FLOOR_RAD = math.radians(0.05)
@@ -210,9 +211,7 @@ class _Dir:
         self.c = np.array([ex.mean(), ey.mean()])
         self.odo = np.array([rows.x_odo.mean(), rows.y_odo.mean()])
         self.cov = np.cov(np.vstack([ex, ey])) if self.n >= 2 else None
-        et = rows.eps_theta
-        self.dth = None if et is None else float(np.mean(et))
-        self.dth_var = None if et is None or self.n < 2 else float(np.var(et, ddof=1))
+        self.eth = rows.eps_theta
 
 
 def _predict(alpha: float, beta: float, side_m: float, d: str, odo: np.ndarray) -> tuple[np.ndarray, float]:
@@ -223,9 +222,12 @@ def _predict(alpha: float, beta: float, side_m: float, d: str, odo: np.ndarray) 
     return np.array([x, y]) + shift, th
 
 
-def _fit(dirs: dict[str, _Dir], side_m: float) -> tuple[float, float]:
-    """alpha, beta of the square model that best explains both centres of gravity (Gauss-Newton
-    from the paper's linear estimates)."""
+def _resid(dirs: dict[str, _Dir], side_m: float, q: np.ndarray) -> np.ndarray:
+    return np.concatenate([_predict(q[0], q[1], side_m, d, dirs[d].odo)[0] - dirs[d].c for d in ("cw", "ccw")])
+
+
+def _linear_start(dirs: dict[str, _Dir], side_m: float) -> np.ndarray:
+    """The paper's linear estimates of alpha and beta (the averages of the x- and y-based ones)."""
     cw, ccw = dirs["cw"].c, dirs["ccw"].c
     k = -4.0 * side_m
     p = np.array(
@@ -234,10 +236,16 @@ def _fit(dirs: dict[str, _Dir], side_m: float) -> tuple[float, float]:
             0.5 * ((cw[0] - ccw[0]) + (cw[1] + ccw[1])) / k,
         ]
     )
-    p = np.clip(p, -1.0, 1.0)
+    return np.clip(p, -1.0, 1.0)
+
+
+def _fit(dirs: dict[str, _Dir], side_m: float, start: np.ndarray) -> tuple[float, float]:
+    """alpha, beta of the square model that best explains both centres of gravity (Gauss-Newton
+    from ``start``)."""
+    p = start.copy()
 
     def resid(q: np.ndarray) -> np.ndarray:
-        return np.concatenate([_predict(q[0], q[1], side_m, d, dirs[d].odo)[0] - dirs[d].c for d in ("cw", "ccw")])
+        return _resid(dirs, side_m, q)
 
     for _ in range(8):
         r = resid(p)
@@ -246,7 +254,7 @@ def _fit(dirs: dict[str, _Dir], side_m: float) -> tuple[float, float]:
         step, *_ = np.linalg.lstsq(jac, -r, rcond=None)
         if not np.all(np.isfinite(step)):
             break
-        p = np.clip(p + step, -1.0, 1.0)
+        p = np.clip(p + step, -1.6, 1.6)
         if np.max(np.abs(step)) < 1e-10:
             break
     return float(p[0]), float(p[1])
@@ -274,27 +282,38 @@ def consistency(runs: RunsTable, side_m: float) -> dict[str, float] | None:
         (with :data:`MODEL_REL` of the centre's size and :data:`MODEL_FLOOR_M` added);
         ``h_cw``, ``h_ccw`` (with headings): the same for the mean heading errors against the
         fitted square; ``alpha``, ``beta``: the fit [rad]. None with fewer than 2 runs in a
-        direction (the scatter is unknown).
+        direction (the scatter is unknown), or a fit beyond 50 deg in alpha or beta (errors the
+        check is not calibrated for).
     """
     dirs = {d: _Dir(runs.direction_rows(d)) for d in ("cw", "ccw")}
     if any(v.n < 2 for v in dirs.values()):
         return None
-    alpha, beta = _fit(dirs, side_m)
+    out = _stats(dirs, side_m, *_fit(dirs, side_m, _linear_start(dirs, side_m)))
+    if max(abs(out["alpha"]), abs(out["beta"])) > MAX_ANGLE_RAD:
+        return None  # beyond the errors the check was calibrated on
+    return out
+
+
+def _stats(dirs: dict[str, _Dir], side_m: float, alpha: float, beta: float) -> dict[str, float]:
+    """The t statistics of the runs against the square of ``alpha``, ``beta`` (see :func:`consistency`)."""
     dof = sum(v.n - 1 for v in dirs.values())
     out: dict[str, float] = {"alpha": alpha, "beta": beta, "dof": float(dof)}
     # one scatter for both directions (the same robot and floor): pooled over the runs
     pos_var = sum((v.n - 1) * float(_NORMAL[d] @ v.cov @ _NORMAL[d]) for d, v in dirs.items() if v.cov is not None)
     pos_var /= dof
-    heads = all(v.dth_var is not None for v in dirs.values())
-    head_var = sum((v.n - 1) * (v.dth_var or 0.0) for v in dirs.values()) / dof
+    heads: dict[str, tuple[np.ndarray, float]] = {}
     for d, v in dirs.items():
         pred, th = _predict(alpha, beta, side_m, d, v.odo)
         nrm = _NORMAL[d]
         var = pos_var / v.n + (MODEL_REL * float(np.hypot(*v.c))) ** 2 + MODEL_FLOOR_M**2
         out[f"t_{d}"] = float(nrm @ (v.c - pred)) / math.sqrt(var)
-        if heads and v.dth is not None:
-            hvar = head_var / v.n + (MODEL_REL * abs(th)) ** 2 + MODEL_FLOOR_RAD**2
-            out[f"h_{d}"] = (v.dth - th) / math.sqrt(hvar)
+        if v.eth is not None:  # each run's heading error off the model's, wrapped (a turn of 180 deg or more)
+            heads[d] = (np.angle(np.exp(1j * (v.eth - th))), th)
+    if len(heads) == 2:
+        head_var = sum((len(r) - 1) * float(np.var(r, ddof=1)) for r, _ in heads.values()) / dof
+        for d, (r, th) in heads.items():
+            hvar = head_var / len(r) + (MODEL_REL * abs(th)) ** 2 + MODEL_FLOOR_RAD**2
+            out[f"h_{d}"] = float(np.mean(r)) / math.sqrt(hvar)
     return out
 
 
@@ -436,6 +455,19 @@ def _scatter_warnings(runs: RunsTable, side_m: float) -> list[str]:
     return out
 
 
+def _explanations(runs: RunsTable, side_m: float, candidates: list[tuple[str, Callable[[], RunsTable]]]) -> str:
+    """The (at most two) mislabellings whose correction makes the runs fit the square, best first."""
+    fits = []
+    for msg, make in candidates:
+        try:
+            cand = consistency(make(), side_m)
+        except InputError:
+            continue
+        if cand is not None and _score(cand) <= 1.0:
+            fits.append((_score(cand), msg))
+    return "; or ".join(m for _, m in sorted(fits)[:2])
+
+
 def runs_warnings(runs: RunsTable, side_m: float) -> list[str]:
     """Warnings about runs that are well formed but probably mislabelled (see the module docstring).
 
@@ -453,6 +485,12 @@ def runs_warnings(runs: RunsTable, side_m: float) -> list[str]:
     """
     out = _scatter_warnings(runs, side_m)
     c = consistency(runs, side_m)
+    if c is None and out and runs.theta_abs is not None and runs.theta_odo is not None:
+        # beyond the square model as given, yet scattered like a unit error: the headings tell which
+        scales = [(m, f) for m, f in _candidates(runs) if "times too" in m]
+        named = _explanations(runs, side_m, scales)
+        if named:
+            out[-1] += f" (by the headings: {named})"
     if c is None or _score(c) <= 1.0:
         return out
     worst = max((k for k in c if k[:2] in ("t_", "h_")), key=lambda k: abs(c[k]))
@@ -466,16 +504,8 @@ def runs_warnings(runs: RunsTable, side_m: float) -> list[str]:
             f"the {worst[2:]} heading errors do not match the positions ({abs(c[worst]):.0f} standard errors "
             "off the square that explains the positions)"
         )
-    fits = []
-    for msg, make in _candidates(runs):
-        try:
-            s = _score(consistency(make(), side_m))
-        except InputError:
-            continue
-        if s <= 1.0:
-            fits.append((s, msg))
-    if fits:
-        named = "; or ".join(m for _, m in sorted(fits)[:2])
+    named = _explanations(runs, side_m, _candidates(runs))
+    if named:
         out.append(f"{head}: {named}; the calibration from these runs is wrong")
     else:
         out.append(
