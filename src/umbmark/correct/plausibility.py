@@ -455,6 +455,11 @@ def _scatter_warnings(runs: RunsTable, side_m: float) -> list[str]:
     return out
 
 
+def _judged(runs: RunsTable) -> bool:
+    """Whether both directions have the 2 runs the model check needs."""
+    return all(len(runs.direction_rows(d)) >= 2 for d in ("cw", "ccw"))
+
+
 def _explanations(runs: RunsTable, side_m: float, candidates: list[tuple[str, Callable[[], RunsTable]]]) -> str:
     """The (at most two) mislabellings whose correction makes the runs fit the square, best first."""
     fits = []
@@ -485,12 +490,14 @@ def runs_warnings(runs: RunsTable, side_m: float) -> list[str]:
     """
     out = _scatter_warnings(runs, side_m)
     c = consistency(runs, side_m)
-    if c is None and out and runs.theta_abs is not None and runs.theta_odo is not None:
-        # beyond the square model as given, yet scattered like a unit error: the headings tell which
+    if c is None and runs.theta_abs is not None and runs.theta_odo is not None and _judged(runs):
+        # beyond the errors the model judges as given; rescaled, the positions may fit the headings
         scales = [(m, f) for m, f in _candidates(runs) if "times too" in m]
         named = _explanations(runs, side_m, scales)
-        if named:
+        if named and out:
             out[-1] += f" (by the headings: {named})"
+        elif named:
+            out.append(f"the runs fit no square with plausible errors as given: {named}")
     if c is None or _score(c) <= 1.0:
         return out
     worst = max((k for k in c if k[:2] in ("t_", "h_")), key=lambda k: abs(c[k]))
