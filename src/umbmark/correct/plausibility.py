@@ -23,7 +23,9 @@ checks here compare the inputs against each other and against the geometry of th
 
 Thresholds: a false-alarm probability of :data:`FALSE_ALARM` per check (Student's t on the runs'
 pooled scatter), with :data:`MODEL_REL` of the centre of gravity added for what the model leaves
-out; the false-alarm rate measured on files simulated with the paper's noise is in
+out; fits beyond :data:`MAX_ANGLE_RAD` in alpha or beta are not judged (robots turning far off
+90 deg per corner: the fit from the linear estimates may end in another valley). The rates
+measured on files simulated with the paper's noise (``benchmarks/plausibility.py``) are in
 ``docs/troubleshooting.md``.
 """
 
@@ -47,6 +49,7 @@ __all__ = [
     "consistency",
     "square_error",
     "FALSE_ALARM",
+    "MAX_ANGLE_RAD",
     "t_limit",
     "MODEL_REL",
 ]
@@ -64,7 +67,7 @@ MIN_SIDE_PER_WHEELBASE = 2.0
 # where MODEL_REL of its size (and MODEL_FLOOR_M, MODEL_FLOOR_RAD) is added to the standard
 # error for what the model leaves out (controller over- and undershoot, slip)
 FALSE_ALARM = 1e-4
-MAX_ANGLE_RAD = math.radians(50.0)
+MAX_ANGLE_RAD = math.radians(50.0)  # the largest alpha or beta the check judges
 MODEL_REL = 0.05
 MODEL_FLOOR_M = 0.5e-3
 MODEL_FLOOR_RAD = math.radians(0.05)
