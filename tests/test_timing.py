@@ -123,8 +123,8 @@ def test_parse_time_offset():
 
 
 def test_incremental_counts_at_a_repeated_stamp_are_added():
-    t = [0.0, 0.01, 0.01, 0.02]
-    inc = [0.0, 1.0, 2.0, 3.0]
+    t = [0.0, 0.01, 0.01, 0.02, 0.03, 0.03]
+    inc = [0.0, 1.0, 2.0, 3.0, 4.0, 4.0]  # two counts at 0.01 s; a message recorded twice at 0.03 s
     chk = check_streams(
         t,
         inc,
@@ -135,8 +135,8 @@ def test_incremental_counts_at_a_repeated_stamp_are_added():
         cumulative=False,
         wheel_topic="/ticks",
     )
-    assert list(chk.t) == [0.0, 0.01, 0.02] and list(chk.left) == [0.0, 3.0, 3.0]
-    assert "1 of the 4 wheel positions on /ticks repeat the stamp" in chk.warnings[0]
+    assert list(chk.t) == [0.0, 0.01, 0.02, 0.03] and list(chk.left) == [0.0, 3.0, 3.0, 4.0]
+    assert "2 of the 6 wheel positions on /ticks repeat the stamp" in chk.warnings[0]
 
 
 def _padded_squares(still_s: float = 3.0, dt: float = 0.02) -> Dataset:

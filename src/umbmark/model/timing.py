@@ -475,7 +475,8 @@ def check_streams(
     * Stamps that go backwards: an error naming the message (the log cannot be trusted to be
       in order: a second clock, a bag of several recordings).
     * Repeated stamps: the last message of each stamp is kept, with a warning (incremental
-      counts of the dropped messages are added to the kept one, so no travel is lost).
+      counts: identical copies count once, different counts of one stamp are added up, so no
+      travel is lost).
     * Wheel positions that jump faster than any wheel turns (:data:`MAX_WHEEL_SPEED_MPS`): an
       isolated spike is dropped with a warning naming its time; a jump that stays is an error.
     * The time offset between the wheels and the ground truth (:func:`estimate_time_offset`):
@@ -536,10 +537,14 @@ def check_streams(
     if rep:
         if cumulative:
             note = "the last of each stamp is kept"
-        else:
+        else:  # incremental: identical copies count once, different counts of one stamp add up
             groups = np.concatenate([[0], keep[:-1] + 1])
-            pl, pr = np.add.reduceat(pl, groups), np.add.reduceat(pr, groups)
-            note = "their counts are added to the last of each stamp"
+            same = (np.maximum.reduceat(pl, groups) == np.minimum.reduceat(pl, groups)) & (
+                np.maximum.reduceat(pr, groups) == np.minimum.reduceat(pr, groups)
+            )
+            pl = np.where(same, pl[keep], np.add.reduceat(pl, groups))
+            pr = np.where(same, pr[keep], np.add.reduceat(pr, groups))
+            note = "identical copies are counted once, different counts of one stamp are added up"
         warnings.append(
             f"{rep} of the {t.size} {wheel_what} on {wheel_topic} repeat the stamp of the message before "
             f"(first at message {first}): {note}; check the publisher's stamps"
