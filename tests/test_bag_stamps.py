@@ -235,6 +235,9 @@ def test_ground_truth_2_s_late_is_warned_about(clean, clean_cal, tmp_path, capsy
     d = json.loads(capsys.readouterr().out)
     assert any("--time-offset auto" in x for x in d["warnings"])
     assert d["time_offset"][0]["estimated_s"] == pytest.approx(2.0, abs=0.01)
+    pooled = [a if a != "exact" else "lsq" for a in CLI] + ["--pool"]
+    assert main(["replay", str(bag), *pooled]) == 0
+    assert "2.000 s late" in capsys.readouterr().err
 
 
 # E_d and E_b after time_offset auto against the undelayed bag's: measured equal (the offset is

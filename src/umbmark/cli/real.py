@@ -523,6 +523,8 @@ def replay(
             raise InputError("--pool works with --method lsq")
         with progress("fitting and replaying"):
             rep = pooled_report(sets, lsq_opts, heldout=not no_heldout)
+        for w in (w for ds in sets for w in ds.meta.get("warnings") or ()):  # the readers' (a pooled report has none)
+            click.echo(f"warning: {cli_message(w)}", err=True)
     else:
         with progress("replaying and calibrating"):
             rep = replay_report(sets, method, lsq_opts, heldout=not no_heldout)
