@@ -150,7 +150,7 @@ def cg_intervals(runs, level: float = 0.95) -> dict:
 
 # Cost of one bootstrap resample of method exact [s]: a + b * runs, measured on one core by
 # ``python benchmarks/exact_scale.py`` (benchmarks/results/exact_scale.md, "bootstrap").
-EXACT_RESAMPLE_COST_S = (0.012, 4.5e-5)
+EXACT_RESAMPLE_COST_S = (0.0030, 1.01e-5)
 BOOTSTRAP_BUDGET_S = 10.0
 BOOTSTRAP_RESAMPLES = 1000
 BOOTSTRAP_MIN_RESAMPLES = 200
