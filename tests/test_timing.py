@@ -282,3 +282,14 @@ def test_align_truth_warns_when_it_cuts_moving_samples():
     assert [w.split(":")[0] for w in cut] == [r.name for r in late.runs]
     assert all(len(a) == len(b) - 15 for a, b in zip(out.runs, late.runs))  # 0.3 s at 50 Hz
     assert align_truth(_padded_squares(), 0.3).meta["warnings"] == ()
+
+
+def test_a_ground_truth_that_does_not_match_the_wheels_is_warned_about(drive):
+    """The ground truth of another drive: the turn rates never line up, which is said."""
+    args, kw = _streams(drive, 0.0, 0.01, 1)
+    t, left, right, truth = args
+    other = truth.copy()
+    other[:, 3] = -truth[::-1, 3]  # the headings of the drive played backwards and mirrored
+    chk = check_streams(t, left, right, other, **kw)
+    (w,) = [w for w in chk.warnings if "do not line up" in w]
+    assert "/joint_states" in w and "/mocap" in w and "hardly agree" in w and chk.time_offset.estimated_s is None

@@ -650,6 +650,12 @@ def check_streams(
                 f"{wheel_topic} (cross-correlation of the turn rates, correlation {corr:.2f}): the calibration "
                 "is biased by it; give `time_offset=auto` to correct it"
             )
+        if est is None and corr is not None and request is None:
+            warnings.append(
+                f"the turn rates of the wheel data on {wheel_topic} and of the ground truth on {truth_topic} do not "
+                f"line up: {reason}; a ground truth of another robot or frame, or an offset beyond the search? "
+                "Check the topics, or give `time_offset` in seconds"
+            )
         if applied:
             g = g.copy()
             g[:, 0] -= applied
