@@ -184,3 +184,13 @@ def test_pseudo_runs_of_runs_whose_odometry_turns_do_not_vary():
     p = np.array([1.003]), np.array([1.1])
     one_each = prob.residuals_matrix(*p)[:, [int(np.argmax(prob.is_cw)), int(np.argmin(prob.is_cw))]]
     assert np.allclose(small.weighted(small.residuals_matrix(*p)) ** 2, 40 * one_each**2)
+
+
+@pytest.mark.parametrize("cell", [(1.05, 2.5), (0.995, 1.05)])
+def test_many_runs_without_numba_agree_with_the_reference(monkeypatch, cell):
+    """Without numba the same path runs on the numpy model and its analytic Jacobian (and the
+    refit on the runs by scipy)."""
+    runs, b = _cell_runs(*cell, 33, seed=5)
+    ref = exact_correction(runs, 4.0, b, _reference=True)
+    monkeypatch.setattr(exact_kernel, "available", lambda: False)
+    _assert_same(exact_correction(runs, 4.0, b), ref)
