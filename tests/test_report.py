@@ -536,3 +536,20 @@ def test_default_bootstrap_follows_the_measured_cost_of_exact():
         elif n_boot < 1000:
             assert (n_boot + 100) * (a + b * n) > BOOTSTRAP_BUDGET_S and f"{n_boot} resamples" in note
     assert default_bootstrap("exact", 10**5)[0] == 0
+
+
+def test_report_of_a_recorded_replay(replay_bag, tmp_path, capsys):
+    """``report --id N`` of a replay recorded in the history: the runs it built, as from its JSON."""
+    bag, nominal = replay_bag
+    save, db = tmp_path / "replay.json", tmp_path / "h.sqlite"
+    args = _replay_args(bag, nominal, "exact", save) + ["--robot", "bot", "--record", "--db", str(db)]
+    assert main(args) == 0
+    rep = json.loads(save.read_text())
+    capsys.readouterr()
+    out = tmp_path / "id.html"
+    assert main(["report", "--id", "1", "--db", str(db), "--out", str(out), "--json"]) == 0
+    j = json.loads(capsys.readouterr().out)
+    assert j["emax_syst_mm"] == pytest.approx(rep["before"]["emax_syst_mm"], rel=1e-9)
+    text = "".join(check_page(out.read_text()).text)
+    assert "(replay)" in text and f"c_left = {rep['c_left']:.6f}" in text
+    assert f"after: {rep['after']['emax_syst_mm']:.1f} mm" in text

@@ -445,6 +445,23 @@ def _record_analysis(record_id: int, db) -> dict:
     with open_history(db, create=False) as h:
         rec = h.get(record_id)
     rows = rec.inputs.get("runs") if isinstance(rec.inputs, dict) else None
+    if not rows and isinstance(rec.results, dict) and "before" in rec.results and rec.results.get("kind") == "square":
+        from umbmark.viz.report import replay_analysis  # a recorded replay: the runs it built
+
+        analysis, after = replay_analysis(rec.results, f"record #{record_id}")
+        return {
+            "runs": analysis.runs,
+            "side_mm": analysis.side_m * 1e3,
+            "wheelbase_mm": analysis.wheelbase_m * 1e3,
+            "method": analysis.correction.method,
+            "robot": rec.robot,
+            "source": rec.source,
+            "sha": rec.input_sha256,
+            "label": f"record #{rec.id} of {rec.created_utc[:16].replace('T', ' ')} UTC (replay)",
+            "prior": None,
+            "analysis": analysis,
+            "after_runs": after,
+        }
     if not rows or "side_mm" not in rec.inputs:
         raise InputError(f"record #{record_id} ({rec.kind}) does not hold runs to report")
     runs = runs_from_rows(rows)
