@@ -97,14 +97,15 @@ def test_a_ground_truth_that_never_moves_is_an_error(optiodom, tmp_path, capsys)
     assert err.count("\n") == 1 and "never moves" in err
 
 
-def test_theta_gt_in_degrees_warns(optiodom, tmp_path):
+def test_theta_gt_in_degrees_is_an_error(optiodom, tmp_path):
     d = _copy(optiodom, tmp_path)
     f = d / "230620202042_run-01.csv"
     a = _run_rows(f)
     a[:, 3] = np.degrees(np.unwrap(a[:, 3]))
     _write_rows(f, a)
-    w = read_optiodom(d).meta["warnings"]
-    assert len(w) == 1 and "headings look like degrees" in w[0] and "run-01" in w[0]
+    with pytest.raises(InputError, match="headings are degrees, read as radians \\(theta_gt is in radians\\)") as e:
+        read_optiodom(d)
+    assert e.value.source == str(f)
 
 
 def test_wheels_against_ground_truth_name_the_metadata(optiodom, tmp_path):

@@ -26,7 +26,7 @@ _COUNTER_SPAN = 20.0
 
 
 def wheels_against_truth(
-    run: Run, nominal: WheelGeometry, units_per_rev: float, travel_hint: str, turn_hint: str
+    run: Run, nominal: WheelGeometry, units_per_rev: float, travel_hint: str, turn_hint: str, degrees_hint: str
 ) -> list[str]:
     """The run's ground-truth track against its wheels and the nominal geometry.
 
@@ -40,18 +40,21 @@ def wheels_against_truth(
         Encoder units per wheel revolution.
     travel_hint, turn_hint : str
         What to check when the travels, or the turns, disagree (named in the warning).
+    degrees_hint : str
+        What to do about headings in degrees (named in the error).
 
     Returns
     -------
     list of str
         Warnings: travels differing by more than a factor of 2 (a unit of the positions or the
-        geometry), turns in opposite senses (left and right swapped), ground-truth turns about
-        57 times the wheels' (headings in degrees), turns differing by more than a factor of 2.
+        geometry), turns in opposite senses (left and right swapped), turns differing by more
+        than a factor of 2.
 
     Raises
     ------
     InputError
-        The ground truth never moves while the wheels travel (nothing was tracked).
+        The ground truth never moves while the wheels travel (nothing was tracked), or turns
+        about 57 times what the wheels turn (headings in degrees: the start frame is then wrong).
     """
     if run.gt is None or len(run.t) < 2 or not np.isfinite(run.gt).all():
         return []
@@ -90,10 +93,11 @@ def wheels_against_truth(
             "data look swapped"
         ]
     if wheel_turn > _MIN_TURN_RAD and lo * 180 / math.pi <= gt_turn / wheel_turn <= hi * 180 / math.pi:
-        return [
-            f"{src}: the ground truth turns {gt_turn:.3g} units in total, {gt_turn / wheel_turn:.0f} times what the "
-            "wheels turn in radians: its headings look like degrees (they are read as radians)"
-        ]
+        raise InputError(
+            f"the ground truth turns {gt_turn:.3g} units in total, {gt_turn / wheel_turn:.0f} times what the wheels "
+            f"turn in radians: its headings are degrees, read as radians ({degrees_hint})",
+            src,
+        )
     if not lo <= wheel_turn / max(gt_turn, 1e-12) <= hi:
         return [
             f"{src}: the wheels turn the robot by {math.degrees(wheel_turn):.3g} deg in total by the nominal geometry, "

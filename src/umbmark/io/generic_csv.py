@@ -312,6 +312,7 @@ def read_generic_csv(
             float(pulses_per_wheel_rev),
             "that x_m and y_m are in metres, the wheel diameters and the pulses per wheel revolution",
             "the wheelbase, that the heading column is in its unit (theta_rad or theta_deg)",
+            "name the column theta_deg for degrees",
         )
     meta = {"format": "csv", "warnings": tuple(warnings)} if warnings else {"format": "csv"}
     return Dataset(name, nominal, float(pulses_per_wheel_rev), tuple(runs), side_m, str(paths[0]), meta=meta)

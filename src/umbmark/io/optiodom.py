@@ -204,7 +204,12 @@ def read_optiodom(folder) -> Dataset:
     nominal = WheelGeometry(d_left, d_right, b)
     for run in runs:
         warnings += wheels_against_truth(
-            run, nominal, ngear * enc, f"Di (metres), ngear and encRes in {src}", f"Li (metres) in {src}"
+            run,
+            nominal,
+            ngear * enc,
+            f"Di (metres), ngear and encRes in {src}",
+            f"Li (metres) in {src}",
+            "theta_gt is in radians",
         )
     return Dataset(
         name=folder.name,
