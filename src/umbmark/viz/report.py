@@ -386,7 +386,7 @@ def replay_analysis(result: dict, source: str = "<replay>"):
     from umbmark.model.geometry import Calibration
 
     if not isinstance(result, dict) or "before" not in result or "method" not in result:
-        raise InputError("not a replay result (the JSON of umbmark replay --save)", source=source)
+        raise InputError("not a replay result (the JSON a replay saves)", source=source)
     if result.get("kind") != "square":
         raise InputError(
             f"the replay result is of a {result.get('kind', 'general')} path, not square runs: the report needs "
