@@ -77,6 +77,7 @@ MODEL_FLOOR_RAD = math.radians(0.05)
 MIN_SCATTER_PER_M = 2.5e-4
 MAX_SCATTER_PER_M = 1.2e-2
 NO_SCATTER_M = 1e-6  # runs that differ by less than a micrometre are copies of one run
+SCATTER_MIN_RUNS = 3  # per direction: the spread of two runs varies too much to judge units by
 # the odometry of a robot driving on its odometry ends nearly at the same point each run
 ODO_SCATTER_RATIO = 3.0
 
@@ -428,7 +429,7 @@ def _scatter_warnings(runs: RunsTable, side_m: float) -> list[str]:
     stds, odo_stds = [], []
     for d in ("cw", "ccw"):
         rows = runs.direction_rows(d)
-        if len(rows) < 2:
+        if len(rows) < SCATTER_MIN_RUNS:
             return out
         stds.append(math.hypot(float(np.std(rows.eps_x, ddof=1)), float(np.std(rows.eps_y, ddof=1))))
         ax, ay = float(np.std(rows.x_abs, ddof=1)), float(np.std(rows.y_abs, ddof=1))
