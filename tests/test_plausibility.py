@@ -307,3 +307,67 @@ def test_noise_free_simulated_runs_give_no_warning_and_labels_still_show():
 @pytest.mark.parametrize("k, cause", [(1 / 25.4, "a runs file in inches"), (25.4, "the side in inches")])
 def test_inches_are_named(k, cause):
     assert any(cause in w for w in runs_warnings(_scale(_sim(), k), 4.0))
+
+
+# --- a robot of its own, mislabelled the way a user edits a file ------------------------------
+
+
+def _csv_edit(text: str, how: str) -> str:
+    lines = text.splitlines()
+    header = lines[0].split(",")
+    rows = [ln.split(",") for ln in lines[1:]]
+    col = {c: i for i, c in enumerate(header)}
+    rename = {
+        "abs_odo_header": {"x_abs": "x_odo", "y_abs": "y_odo", "x_odo": "x_abs", "y_odo": "y_abs"},
+        "x_y_header": {"x_abs": "y_abs", "y_abs": "x_abs", "x_odo": "y_odo", "y_odo": "x_odo"},
+    }
+    if how in rename:
+        header = [rename[how].get(c, c) for c in header]
+    for r in rows:
+        if how == "labels_text":
+            r[col["direction"]] = {"cw": "ccw", "ccw": "cw"}[r[col["direction"]]]
+        for c, f in {"in_metres": 1e-3, "in_centimetres": 0.1}.items():
+            if how == c:
+                for k in ("x_abs", "y_abs", "x_odo", "y_odo"):
+                    r[col[k]] = repr(float(r[col[k]]) * f)
+        if how == "headings_radians":
+            for k in ("theta_abs", "theta_odo"):
+                r[col[k]] = repr(math.radians(float(r[col[k]])))
+    return "\n".join(",".join(r) for r in [header, *rows]) + "\n"
+
+
+@pytest.mark.parametrize(
+    "how, options, cause",
+    [
+        ("clean", [], None),
+        ("in_metres", [], "runs file in metres"),
+        ("in_centimetres", [], "runs file in centimetres"),
+        ("labels_text", [], "cw and ccw labels look swapped"),
+        ("abs_odo_header", [], "columns look swapped"),
+        ("x_y_header", [], "x and y look swapped"),
+        ("headings_radians", [], "headings look like radians"),
+        ("clean", ["--side-mm", "300"], "one of them is in the wrong unit"),  # shorter than the wheelbase
+        ("clean", ["--side-mm", "750"], "side in centimetres"),  # only 1.7 wheelbases
+        ("clean", ["--wheelbase-mm", "45"], "outside the 50 to 3000 mm"),
+        ("clean", ["--wheelbase-mm", "0.45"], "metres given as millimetres"),
+    ],
+)
+def test_a_robot_of_its_own_mislabelled_by_hand(tmp_path, capsys, how, options, cause):
+    """A robot the checks were not tuned on (wheelbase 450 mm, a 3 m square, E_d 0.995,
+    E_b 1.03), simulated through the CLI; the file edited as a user would get it wrong."""
+    f = tmp_path / "r.csv"
+    sim = ["simulate", "--ed", "0.995", "--eb", "1.03", "--wheelbase-mm", "450", "--side-mm", "3000"]
+    assert main([*sim, "--noise", "paper", "--seed", "7", "--out", str(f)]) == 0
+    f.write_text(_csv_edit(f.read_text(), how))
+    capsys.readouterr()
+    opts = {"--wheelbase-mm": "450", "--side-mm": "3000"}
+    opts.update(dict(zip(options[::2], options[1::2])))
+    code = main(["analyze", str(f), "--json", *[x for kv in opts.items() for x in kv]])
+    out = capsys.readouterr()
+    if cause is None:
+        assert code == 0 and json.loads(out.out)["warnings"] == []
+    elif code == 2:
+        assert cause in out.err and out.err.count("\n") == 1
+    else:
+        assert code == 0
+        assert any(cause in w for w in json.loads(out.out)["warnings"]), out.err
