@@ -205,14 +205,14 @@ def test_simulate_bad_values(tmp_path, capsys):
         assert code == 2 and err.count("\n") == 1 and match in err
     # inputs that would need more samples than memory holds (a MemoryError, or the process
     # killed) are refused before anything is allocated
-    for flags in (
-        ["--side-mm", "1e12"],
-        ["--speed", "1e-12"],
-        ["--sample-period-ms", "1e-9"],
-        ["--wheelbase-mm", "1e9"],
+    for flags, match in (
+        (["--side-mm", "1e12"], "more than 1 km: check the unit"),
+        (["--speed", "1e-12"], "samples (more than 5,000,000)"),
+        (["--sample-period-ms", "1e-9"], "samples (more than 5,000,000)"),
+        (["--wheelbase-mm", "1e9"], "is not longer than the wheelbase"),
     ):
         code, _, err = run(capsys, "simulate", *flags, "--out", str(tmp_path / "x.csv"))
-        assert code == 2 and err.count("\n") == 1 and "samples (more than 5,000,000)" in err
+        assert code == 2 and err.count("\n") == 1 and match in err, (flags, err)
     code, _, err = run(capsys, "simulate", "--out", str(tmp_path / "nodir" / "x.csv"))
     assert code == 2 and "does not exist" in err
     assert not (tmp_path / "x.csv").exists()
