@@ -19,7 +19,7 @@ import yaml
 from umbmark.cli import main
 from umbmark.io.export import ExportCalibration, format_export
 from umbmark.io.generic_csv import format_generic_csv
-from umbmark.io.runs_csv import format_runs_csv
+from umbmark.io.runs_csv import format_runs_csv, parse_runs_csv
 from umbmark.model.dataset import Dataset, Run, WheelGeometry
 from umbmark.model.runs import RunsTable
 
@@ -201,6 +201,8 @@ def test_runs_csv_labels_are_quoted(s):
     assert [r[0] for r in rows[1:]] == [s, s + "2"]
     assert [r[1] for r in rows[1:]] == ["cw", "ccw"]
     assert float(rows[1][2]) == 10.0
+    back = parse_runs_csv(format_runs_csv(runs), "runs.csv")  # umbmark's own reader: no row lost to a '#'
+    assert list(back.run) == [s, s + "2"] and list(back.direction) == ["cw", "ccw"]
 
 
 @pytest.mark.parametrize("s", HOSTILE, ids=IDS)

@@ -158,3 +158,36 @@ def test_write_through_links_and_into_special_files(tmp_path):
         write_runs_csv(t, tmp_path)
     with pytest.raises(InputError, match="no file name"):
         write_runs_csv(t, "")
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    st.lists(
+        st.text(alphabet=st.sampled_from(list('#ab1 ,"\n\r;') + ["\u2028"]), min_size=1, max_size=8).filter(
+            lambda s: s.strip() and s == s.strip()
+        ),
+        min_size=2,
+        max_size=4,
+    )
+)
+def test_run_labels_round_trip_even_when_they_look_like_comments(labels):
+    """A run label that starts with '#' (or holds quotes, commas, line breaks) is data: written
+    quoted, read back unchanged, never skipped as a comment line."""
+    n = len(labels)
+    runs = RunsTable(
+        np.array(["cw", "ccw"] * n)[:n],
+        np.arange(n, dtype=float) * 1e-3,
+        np.full(n, 2e-3),
+        np.zeros(n),
+        np.zeros(n),
+        run=np.array(labels, dtype=object),
+    )
+    back = parse_runs_csv(format_runs_csv(runs), "r.csv")
+    assert list(back.run) == labels
+    assert list(back.direction) == list(runs.direction)
+
+
+def test_comment_lines_are_still_comments():
+    text = "# a comment\nrun,direction,x_abs,y_abs,x_odo,y_odo\n  # indented comment\n1,cw,1,2,0,0\n#2,ccw,1,2,0,0\n3,ccw,1,2,0,0\n"
+    back = parse_runs_csv(text, "r.csv")
+    assert [str(r) for r in back.run] == ["1", "3"]

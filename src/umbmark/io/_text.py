@@ -11,7 +11,15 @@ import numpy as np
 
 from umbmark.errors import InputError
 
-__all__ = ["read_text", "csv_rows", "header_columns", "parse_number", "numeric_rows", "check_increasing_time"]
+__all__ = [
+    "check_increasing_time",
+    "csv_rows",
+    "csv_writer",
+    "header_columns",
+    "numeric_rows",
+    "parse_number",
+    "read_text",
+]
 
 
 def read_text(path) -> str:
@@ -47,7 +55,9 @@ def read_text(path) -> str:
 def csv_rows(text: str, source: str):
     """The CSV rows of a text that carry data.
 
-    Blank lines and lines whose first cell starts with ``#`` are skipped.
+    Blank lines and comment lines (a line that starts with ``#`` outside a quoted field) are
+    skipped; a quoted first cell that starts with ``#`` (``"#3"``, as :func:`csv_writer` writes
+    it) is data.
 
     Parameters
     ----------
@@ -68,7 +78,7 @@ def csv_rows(text: str, source: str):
     InputError
         Malformed CSV (the line named).
     """
-    reader = csv.reader(io.StringIO(text, newline=None))
+    reader = csv.reader(_without_comments(text))
     while True:
         try:
             row = next(reader)
@@ -76,9 +86,58 @@ def csv_rows(text: str, source: str):
             return
         except csv.Error as e:
             raise InputError(f"not valid CSV: {e}", source, reader.line_num) from None
-        if not row or all(not c.strip() for c in row) or row[0].lstrip().startswith("#"):
+        if not row or all(not c.strip() for c in row):
             continue
         yield reader.line_num, row
+
+
+def _without_comments(text: str):
+    """The lines of a CSV text, each comment line replaced by an empty one (line numbers kept).
+
+    A line is a comment when it starts (after blanks) with ``#`` and no quoted field is open
+    (an odd number of quote characters so far opens one: doubled quotes inside a field keep
+    the parity).
+    """
+    in_quotes = False
+    for line in io.StringIO(text, newline=""):
+        if not in_quotes and line.lstrip().startswith("#"):
+            yield "\n"
+            continue
+        if line.count('"') % 2:
+            in_quotes = not in_quotes
+        yield line
+
+
+class _CommentSafeWriter:
+    """A CSV writer (comma-separated, minimal quoting) whose rows read back exactly, through
+    :func:`csv_rows`, as the cells they were given: a cell is quoted when it holds a comma, a
+    quote or a line break (``\\r`` included, which :func:`csv.writer` leaves bare when the line
+    terminator is ``\\n``), and a first cell when it starts with ``#`` (it would read as a comment).
+    """
+
+    def __init__(self, out, lineterminator: str = "\n"):
+        self._out = out
+        self._end = lineterminator
+
+    @staticmethod
+    def _cell(v, first: bool) -> str:
+        c = repr(v) if isinstance(v, float) else str(v)
+        if any(ch in c for ch in ',"\r\n') or (first and c.lstrip().startswith("#")):
+            return '"' + c.replace('"', '""') + '"'
+        return c
+
+    def writerow(self, row) -> None:
+        self._out.write(",".join(self._cell(v, i == 0) for i, v in enumerate(row)) + self._end)
+
+    def writerows(self, rows) -> None:
+        for row in rows:
+            self.writerow(row)
+
+
+def csv_writer(out, lineterminator: str = "\n") -> _CommentSafeWriter:
+    """A CSV writer on ``out`` whose rows :func:`csv_rows` reads back as the same cells, never as
+    comments (see :class:`_CommentSafeWriter`)."""
+    return _CommentSafeWriter(out, lineterminator)
 
 
 def header_columns(row) -> list[str]:

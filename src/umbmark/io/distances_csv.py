@@ -11,13 +11,12 @@ row of the same direction is reused. Blank lines and lines starting with ``#`` a
 
 from __future__ import annotations
 
-import csv
 import io
 from dataclasses import dataclass
 from pathlib import Path
 
 from umbmark.errors import InputError
-from umbmark.io._text import csv_rows, header_columns, parse_number
+from umbmark.io._text import csv_rows, csv_writer, header_columns, parse_number
 from umbmark.model.runs import DIRECTIONS
 
 __all__ = [
@@ -204,7 +203,7 @@ def format_distances_csv(rows: list[MeasuredRun]) -> str:
         one line per row (an empty ``theta_odo`` when the heading was not read).
     """
     buf = io.StringIO()
-    w = csv.writer(buf, lineterminator="\n")
+    w = csv_writer(buf, lineterminator="\n")
     w.writerow(["run", "direction", *DIST_COLUMNS, "x_odo", "y_odo", "theta_odo"])
     for r in rows:
         w.writerow(

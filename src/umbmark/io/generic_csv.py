@@ -35,7 +35,7 @@ import numpy as np
 
 from umbmark.errors import InputError
 from umbmark.io._checks import check_tick_mode, wheels_against_truth
-from umbmark.io._text import csv_rows, header_columns, parse_number, read_text
+from umbmark.io._text import csv_rows, csv_writer, header_columns, parse_number, read_text
 from umbmark.model.dataset import Dataset, Run, WheelGeometry, to_start_frame
 
 __all__ = [
@@ -339,7 +339,7 @@ def format_generic_csv(ds: Dataset) -> str:
     g = ds.nominal
     values = (g.diameter_left_m * 1e3, g.diameter_right_m * 1e3, g.wheelbase_m * 1e3, ds.units_per_rev)
     out.write(_GEOMETRY_LINE + "".join(f" {k}={float(v)!r}" for k, v in zip(GEOMETRY_KEYS, values)) + "\n")
-    w = csv.writer(out, lineterminator="\n")
+    w = csv_writer(out, lineterminator="\n")
     w.writerow(["run", "time_s", "left_ticks", "right_ticks", "x_m", "y_m", "theta_rad"])
     f = lambda v: "" if not math.isfinite(v) else repr(round(float(v), 9))  # noqa: E731
     for r in ds.runs:

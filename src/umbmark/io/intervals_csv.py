@@ -18,14 +18,13 @@ Imports :mod:`umbmark.model.intervals`, :mod:`umbmark.errors` and the helpers of
 
 from __future__ import annotations
 
-import csv
 import io
 import math
 
 import numpy as np
 
 from umbmark.errors import InputError
-from umbmark.io._text import csv_rows, header_columns, parse_number, read_text
+from umbmark.io._text import csv_rows, csv_writer, header_columns, parse_number, read_text
 from umbmark.io.atomic import atomic_write
 from umbmark.model.intervals import Intervals
 
@@ -170,7 +169,7 @@ def format_intervals_csv(iv: Intervals) -> str:
         one line per interval.
     """
     out = io.StringIO()
-    w = csv.writer(out, lineterminator="\n")
+    w = csv_writer(out, lineterminator="\n")
     w.writerow(COLUMNS)
     cols = np.column_stack([iv.dt_s, iv.left_rad, iv.right_rad, iv.sensor])
     for row in cols:

@@ -9,14 +9,13 @@ every row: not measured).
 
 from __future__ import annotations
 
-import csv
 import io
 import math
 
 import numpy as np
 
 from umbmark.errors import InputError
-from umbmark.io._text import csv_rows, header_columns, parse_number, read_text
+from umbmark.io._text import csv_rows, csv_writer, header_columns, parse_number, read_text
 from umbmark.io.atomic import atomic_write
 from umbmark.model.runs import DIRECTIONS, RunsTable
 
@@ -166,7 +165,7 @@ def format_runs_csv(runs: RunsTable) -> str:
         theta_odo`` when both headings are known) and one line per run.
     """
     out = io.StringIO()
-    w = csv.writer(out, lineterminator="\n")
+    w = csv_writer(out, lineterminator="\n")
     theta_abs, theta_odo = runs.theta_abs, runs.theta_odo
     headings = (theta_abs, theta_odo) if theta_abs is not None and theta_odo is not None else None
     header = ["run", "direction", "x_abs", "y_abs", "x_odo", "y_odo"]

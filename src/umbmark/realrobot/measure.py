@@ -35,7 +35,6 @@ The distances file (the readings as typed, millimetres) is read by
 
 from __future__ import annotations
 
-import csv
 import io
 import math
 from dataclasses import dataclass, replace
@@ -43,6 +42,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from umbmark.errors import InputError
+from umbmark.io._text import csv_writer
 from umbmark.io.distances_csv import MeasuredRun
 from umbmark.model.geometry import wrap_angle
 from umbmark.model.runs import DIRECTIONS, RunsTable
@@ -596,7 +596,7 @@ def format_measured_csv(runs: RunsTable, m: Measurement) -> str:
         The file's text.
     """
     out = io.StringIO()
-    w = csv.writer(out, lineterminator="\n")
+    w = csv_writer(out, lineterminator="\n")
     has_theta = runs.theta_odo is not None
     header = ["run", "direction", "x_abs", "y_abs", "x_odo", "y_odo", "theta_abs"]
     if has_theta:
