@@ -188,6 +188,9 @@ def test_run_labels_round_trip_even_when_they_look_like_comments(labels):
 
 
 def test_comment_lines_are_still_comments():
-    text = "# a comment\nrun,direction,x_abs,y_abs,x_odo,y_odo\n  # indented comment\n1,cw,1,2,0,0\n#2,ccw,1,2,0,0\n3,ccw,1,2,0,0\n"
+    text = (
+        "# a comment\nrun,direction,x_abs,y_abs,x_odo,y_odo\n  # indented comment\n"
+        "1,cw,1,2,0,0\n#2,ccw,1,2,0,0\n3,ccw,1,2,0,0\n"
+    )
     back = parse_runs_csv(text, "r.csv")
     assert [str(r) for r in back.run] == ["1", "3"]
