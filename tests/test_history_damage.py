@@ -176,8 +176,11 @@ def test_corrupt_record_others_stay_readable(db, capsys, column, value, problem)
     assert open("p.png", "rb").read(8) == b"\x89PNG\r\n\x1a\n"
     rc, _, err = _run(["report", "--robot", "r1", "--out", "r.html"], db, capsys)
     assert rc == 0, err
+    assert "warning: record #2" in err and problem in err  # the page leaves it out, and says so
     html = open("r.html", encoding="utf-8").read()
     assert "#3" in html and "#1" in html
+    rc, out, err = _run(["report", "--robot", "r1", "--out", "r2.html", "--json"], db, capsys)
+    assert rc == 0 and any("record #2" in w for w in json.loads(out)["warnings"])
     rc, out, err = _run(["history", "--json"], db, capsys)
     assert rc == 0 and json.loads(out)["robots"][0]["latest_id"] == 3
 

@@ -430,11 +430,14 @@ def _history_page(robot: str, db, out_path) -> dict:
     from umbmark.viz.report import history_report
 
     with open_history(db, create=False) as h:
-        h.latest(robot)  # no records of this robot: an error naming the robots there are
         recs = h.records(robot)
+        if not recs:
+            h.latest(robot)  # an error naming the robots there are, or the damaged records
+        warnings = list(h.warnings)
         page = history_report(recs, db_path=str(h.path))
+    _print_warnings(warnings)
     atomic_write(out_path, page)
-    return {"out": out_path, "robot": robot, "records": len(recs)}
+    return {"out": out_path, "robot": robot, "records": len(recs), "warnings": warnings}
 
 
 def _record_analysis(record_id: int, db) -> dict:
