@@ -371,3 +371,19 @@ def test_a_robot_of_its_own_mislabelled_by_hand(tmp_path, capsys, how, options, 
     else:
         assert code == 0
         assert any(cause in w for w in json.loads(out.out)["warnings"]), out.err
+
+
+def test_library_analyze_carries_the_checks():
+    """umbmark.analyze (the library) runs the same checks as the command: a clean file has none,
+    swapped labels are named in Analysis.checks and in the dict's warnings; check=False skips them."""
+    import umbmark
+
+    clean = _sim(seed=4)
+    a = umbmark.analyze(clean, side_m=4.0, wheelbase_m=LABMATE.wheelbase_m)
+    assert a.checks == () and a.to_dict()["warnings"] == []
+    swapped = _with(clean, direction=["ccw" if d == "cw" else "cw" for d in clean.direction])
+    a = umbmark.analyze(swapped, side_m=4.0, wheelbase_m=LABMATE.wheelbase_m, method="exact")
+    assert a.checks and any("cw and ccw" in w or "swapped" in w for w in a.checks), a.checks
+    assert a.to_dict()["warnings"][: len(a.checks)] == list(a.checks)
+    quiet = umbmark.analyze(swapped, side_m=4.0, wheelbase_m=LABMATE.wheelbase_m, check=False)
+    assert quiet.checks == ()

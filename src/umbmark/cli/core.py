@@ -442,7 +442,7 @@ def analyze(
     runs = read_runs_csv(runs_file)
     prior = _prior(c_left, c_right)
     plausibility += runs_warnings(runs, side_m)
-    a = analyze_runs(runs, side_m, wheelbase_m, method, prior, **options)
+    a = analyze_runs(runs, side_m, wheelbase_m, method, prior, check=False, **options)
     if plot_path:
         from umbmark.viz.plots import save_figure, scatter_figure
 

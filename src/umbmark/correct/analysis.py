@@ -38,6 +38,9 @@ class Analysis:
         Side of the square [m].
     wheelbase_m : float
         The wheelbase the odometry used during the runs [m].
+    checks : tuple of str
+        The warnings of the plausibility checks (:mod:`umbmark.correct.plausibility`): units,
+        labels or columns that look mistaken.
     """
 
     runs: RunsTable
@@ -45,6 +48,7 @@ class Analysis:
     correction: CorrectionResult
     side_m: float
     wheelbase_m: float
+    checks: tuple[str, ...] = ()
 
     def to_dict(self) -> dict[str, Any]:
         """The figures and the correction as one JSON-ready dict.
@@ -53,13 +57,14 @@ class Analysis:
         -------
         dict
             The UMBmark figures, the correction's keys, ``side_mm``, ``wheelbase_mm`` and
-            ``warnings`` (the figures' and the correction's).
+            ``warnings`` (the plausibility checks', the figures' and the correction's, each once).
         """
         d = self.result.to_dict()
         d.update(self.correction.to_dict())
         d["side_mm"] = self.side_m * 1e3
         d["wheelbase_mm"] = self.wheelbase_m * 1e3
-        d["warnings"] = list(self.result.warnings) + list(self.correction.extra.get("warnings", []))
+        warnings = [*self.checks, *self.result.warnings, *self.correction.extra.get("warnings", [])]
+        d["warnings"] = list(dict.fromkeys(warnings))
         return d
 
 
@@ -69,6 +74,7 @@ def analyze(
     wheelbase_m: float,
     method: str = "bf",
     prior: Calibration | None = None,
+    check: bool = True,
     **options: Any,
 ) -> Analysis:
     """UMBmark metrics and a calibration from square runs.
@@ -85,6 +91,11 @@ def analyze(
         A registered square method (:data:`umbmark.correct.registry.METHODS`).
     prior : Calibration or None
         The correction factors the robot ran with (``None``: none).
+    check : bool
+        Run the plausibility checks on the geometry and the runs
+        (:func:`umbmark.correct.plausibility.check_geometry` and
+        :func:`~umbmark.correct.plausibility.runs_warnings`); their warnings go into
+        :attr:`Analysis.checks`. A geometry no answer can mean anything for is refused either way.
     **options
         The method's keyword options.
 
@@ -100,6 +111,11 @@ def analyze(
     """
     _positive("side_m", side_m)
     _positive("wheelbase_m", wheelbase_m)
+    checks: list[str] = []
+    if check:
+        from umbmark.correct.plausibility import check_geometry, runs_warnings
+
+        checks = check_geometry(side_m, wheelbase_m) + runs_warnings(runs, side_m)
     result = umbmark(runs)
     corr = correct_runs(method, runs, side_m, wheelbase_m, prior, **options)
-    return Analysis(runs, result, corr, side_m, wheelbase_m)
+    return Analysis(runs, result, corr, side_m, wheelbase_m, tuple(checks))
