@@ -450,3 +450,53 @@ def test_a_database_url_names_its_file(files, tmp_path, capsys):
     shutil.copy(files / "h.sqlite", db)
     assert main(["history", "r1", "--db", f"sqlite:///{db}", "--export", str(db)]) == 2
     assert "history database" in capsys.readouterr().err
+
+
+def test_a_file_the_system_refuses_to_read_is_one_line(files, tmp_path, capsys, monkeypatch):
+    """The permission error itself (as a non-root user gets it from a chmod 000 file), raised by
+    the operating-system calls that open the file: one line naming the file, exit 2."""
+    import builtins
+    import pathlib
+
+    f = tmp_path / "locked.csv"
+    shutil.copy(files / "runs.csv", f)
+    real_open, real_read_text, real_read_bytes = builtins.open, pathlib.Path.read_text, pathlib.Path.read_bytes
+
+    def refused(path) -> bool:
+        try:
+            return os.path.samefile(path, f)
+        except (OSError, TypeError, ValueError):
+            return False
+
+    def deny(path):
+        raise PermissionError(13, "Permission denied", str(path))
+
+    monkeypatch.setattr(builtins, "open", lambda p, *a, **k: deny(p) if refused(p) else real_open(p, *a, **k))
+    monkeypatch.setattr(
+        pathlib.Path, "read_text", lambda p, *a, **k: deny(p) if refused(p) else real_read_text(p, *a, **k)
+    )
+    monkeypatch.setattr(
+        pathlib.Path, "read_bytes", lambda p, *a, **k: deny(p) if refused(p) else real_read_bytes(p, *a, **k)
+    )
+    for args in (
+        ["analyze", str(f), "--wheelbase-mm", "340", "--side-mm", "4000"],
+        ["export", str(f), "--format", "json"],
+        [
+            "measure",
+            str(f),
+            "--front",
+            "150,-120",
+            "--rear",
+            "-150,-120",
+            "--back",
+            "-200,0",
+            "--out",
+            str(tmp_path / "m.csv"),
+        ],
+        ["report", str(f), "--wheelbase-mm", "340", "--side-mm", "4000", "--out", str(tmp_path / "r.html")],
+    ):
+        code = main(args)
+        err = capsys.readouterr().err
+        assert code == 2, (args, err)
+        assert len(err.strip().splitlines()) == 1 and "Traceback" not in err, (args, err)
+        assert "locked.csv" in err and "ermission denied" in err, (args, err)
