@@ -232,8 +232,10 @@ def test_ground_truth_2_s_late_is_warned_about(clean, clean_cal, tmp_path, capsy
     assert "/ground_truth" in w and "2.000 s late" in w and "`time_offset=auto`" in w
     assert ds.meta["time_offset"][0]["applied_s"] == 0.0
     assert main(["replay", str(bag), *CLI]) == 0
-    d = json.loads(capsys.readouterr().out)
+    captured = capsys.readouterr()
+    d = json.loads(captured.out)
     assert any("--time-offset auto" in x for x in d["warnings"])
+    assert "warning: " in captured.err and "2.000 s late" in captured.err  # stderr too, with --json
     assert d["time_offset"][0]["estimated_s"] == pytest.approx(2.0, abs=0.01)
     pooled = [a if a != "exact" else "lsq" for a in CLI] + ["--pool"]
     assert main(["replay", str(bag), *pooled]) == 0

@@ -537,6 +537,8 @@ def replay(
     rec = record_report_if_requested(robot, record, db, rep, list(paths), kind="replay", method=method)
     if as_json:
         d = _report_dict(rep, scan_truth, gyro)
+        for w in dict.fromkeys(_json_warnings(d)):  # on stderr too, as every command's warnings
+            click.echo(f"warning: {cli_message(w)}", err=True)
         emit_json(d if rec is None else {**d, "history": rec})
         return
     if is_quiet():
@@ -557,6 +559,21 @@ def replay(
         _print_scan_truth(scan_truth)
     if gyro is not None:
         _print_gyro(gyro)
+
+
+def _json_warnings(d) -> list[str]:
+    """Every ``warnings`` entry of a replay's JSON, its data sets' and blocks' included, in order."""
+    out: list[str] = []
+    if isinstance(d, dict):
+        for k, v in d.items():
+            if k == "warnings" and isinstance(v, list):
+                out += [w for w in v if isinstance(w, str)]
+            else:
+                out += _json_warnings(v)
+    elif isinstance(d, list):
+        for v in d:
+            out += _json_warnings(v)
+    return out
 
 
 def _scan_truth(paths, log_format, kw):
