@@ -48,7 +48,7 @@ def test_model_matches_simulator(ed, eb, side, b, ccw):
 
 
 @pytest.mark.slow
-@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(max_examples=25, deadline=None, suppress_health_check=[HealthCheck.too_slow])
 @given(
     ed=st.floats(0.95, 1.05),
     eb=st.floats(0.5, 2.5),
