@@ -82,7 +82,7 @@ def test_accuracy_cells_with_many_runs_agree_with_the_reference():
     assert searched >= 10  # the cells of E_b 0.5 and 2.5 and more: the search's path is covered
 
 
-@settings(max_examples=6, deadline=None)
+@settings(max_examples=4, deadline=None)
 @given(
     ed=st.floats(0.9, 1.1),
     eb=st.floats(0.4, 3.0),
