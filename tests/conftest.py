@@ -12,19 +12,6 @@ REPO = Path(__file__).resolve().parents[1]
 DATA = REPO / "data"
 
 
-def pytest_collection_modifyitems(config, items):
-    """Groups for pytest-xdist (``--dist loadgroup``): a test file runs in one worker, so that its
-    module-scoped fixtures are built once; the files that use the PostgreSQL server (one shared
-    database, whose tables each test drops) all run in one worker, one after the other."""
-    uses_postgres: dict[str, bool] = {}
-    for item in items:
-        path = str(item.path)
-        if path not in uses_postgres:
-            uses_postgres[path] = "postgres_url" in Path(path).read_text(encoding="utf-8")
-        group = "postgres" if uses_postgres[path] else item.nodeid.split("::")[0]
-        item.add_marker(pytest.mark.xdist_group(group))
-
-
 @pytest.fixture
 def repo_root() -> Path:
     return REPO
@@ -36,17 +23,28 @@ def optiodom() -> Path:
 
 
 @pytest.fixture
-def postgres_url() -> str:
+def postgres_url():
     """A PostgreSQL history database with no umbmark tables (UMBMARK_TEST_POSTGRES_URL; `.ci/postgres.sh`
-    starts a throw-away server), or a skip with the reason."""
+    starts a throw-away server), or a skip with the reason. The database is shared by every test
+    worker (pytest-xdist): a test holds an exclusive file lock on it while it runs."""
     url = os.environ.get("UMBMARK_TEST_POSTGRES_URL")
     if not url:
         pytest.skip("set UMBMARK_TEST_POSTGRES_URL to run the PostgreSQL backend tests")
+    import fcntl
+    import hashlib
+    import tempfile
+
     import sqlalchemy as sa
 
-    eng = sa.create_engine(url)
-    with eng.begin() as c:
-        for t in ("calibrations", "robots", "umbmark_schema"):
-            c.exec_driver_sql(f"DROP TABLE IF EXISTS {t} CASCADE")
-    eng.dispose()
-    return url
+    lock_path = Path(tempfile.gettempdir()) / f"umbmark-test-pg-{hashlib.sha256(url.encode()).hexdigest()[:12]}.lock"
+    with open(lock_path, "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            eng = sa.create_engine(url)
+            with eng.begin() as c:
+                for t in ("calibrations", "robots", "umbmark_schema"):
+                    c.exec_driver_sql(f"DROP TABLE IF EXISTS {t} CASCADE")
+            eng.dispose()
+            yield url
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)

@@ -110,6 +110,10 @@ def _tables(sa):
 
 
 _SCHEMA_LOCK = 0x756D626D  # the advisory lock that serialises schema creation on PostgreSQL ("umbm")
+# the advisory lock every write transaction takes first on PostgreSQL: umbmark's writes are a few
+# rows each, so one at a time costs nothing, and two writers can never deadlock on the rows and
+# indexes of the robots and calibrations tables ("umbw")
+_WRITE_LOCK = 0x756D6277
 
 
 class SQLAlchemyHistory(_Backend):
@@ -217,12 +221,15 @@ class SQLAlchemyHistory(_Backend):
 
     @contextmanager
     def transaction(self):
-        """One write transaction (on SQLite: ``BEGIN IMMEDIATE``); rolled back on any exception."""
+        """One write transaction (on SQLite: ``BEGIN IMMEDIATE``; on PostgreSQL: holding the write
+        advisory lock, so writers take turns); rolled back on any exception."""
         try:
             with self._engine.connect() as conn:
                 conn.info["umbmark_write"] = True
                 try:
                     with conn.begin():
+                        if self._engine.dialect.name == "postgresql":
+                            conn.exec_driver_sql(f"SELECT pg_advisory_xact_lock({_WRITE_LOCK})")
                         yield conn
                 finally:
                     conn.info.pop("umbmark_write", None)
