@@ -578,7 +578,7 @@ def _json_warnings(d) -> list[str]:
 
 def _scan_truth(paths, log_format, kw):
     """``replay --gt-scan-topic``: the data sets with each run's end pose measured by the lidar."""
-    from umbmark.io.load import parse_joints
+    from umbmark.io.load import wheel_source
     from umbmark.realrobot.scan_truth import attach_scan_truth, parse_sensor_pose
 
     topic = kw.get("gt_scan_topic")
@@ -590,22 +590,8 @@ def _scan_truth(paths, log_format, kw):
         raise InputError("--gt-scan-topic reads the scans of ROS bags (--format bag)")
     pose, pose_src = (None, "given") if kw.get("sensor_pose") is None else parse_sensor_pose(kw["sensor_pose"])
     sets = _datasets(paths, log_format, kw)
-    joints = kw.get("joints")
     with progress("registering each run's scans"):
-        return attach_scan_truth(
-            sets,
-            topic,
-            sensor_pose=pose,
-            sensor_pose_source=pose_src,
-            joints=None if joints is None else parse_joints(joints),
-            joint_topic=kw.get("joint_topic") or "/joint_states",
-            ticks_topic=kw.get("ticks_topic"),
-            left_field=kw.get("left_field"),
-            right_field=kw.get("right_field"),
-            ticks=kw.get("ticks") or "cumulative",
-            units_per_rev=kw.get("pulses_per_wheel_rev"),
-            odom_topic=kw.get("odom_topic"),
-        )
+        return attach_scan_truth(sets, topic, sensor_pose=pose, sensor_pose_source=pose_src, **wheel_source(kw))
 
 
 def _with_warnings(rep, warnings):
@@ -653,7 +639,7 @@ def _print_scan_truth(st) -> None:
 
 def _gyro(paths, log_format, kw):
     """``replay --imu-topic``: the gyro's effective wheelbase (and scale) from the bags' turns."""
-    from umbmark.io.load import nominal_geometry, parse_joints
+    from umbmark.io.load import nominal_geometry, wheel_source
     from umbmark.io.rosbag import read_gyro_bag, read_selfcal_bag
     from umbmark.realrobot.gyro import gyro_reference
     from umbmark.realrobot.scan_truth import parse_sensor_pose
@@ -665,17 +651,7 @@ def _gyro(paths, log_format, kw):
         raise InputError("--imu-topic reads the gyro of ROS bags")
     if kw.get("full_turns") and kw.get("gt_scan_topic"):
         raise InputError("the gyro's scale comes from --full-turns or from the lidar (--gt-scan-topic), not both")
-    joints = kw.get("joints")
-    wheel = dict(
-        joints=None if joints is None else parse_joints(joints),
-        joint_topic=kw.get("joint_topic") or "/joint_states",
-        ticks_topic=kw.get("ticks_topic"),
-        left_field=kw.get("left_field"),
-        right_field=kw.get("right_field"),
-        ticks=kw.get("ticks") or "cumulative",
-        units_per_rev=kw.get("pulses_per_wheel_rev"),
-        odom_topic=kw.get("odom_topic"),
-    )
+    wheel = wheel_source(kw)
     nominal = nominal_geometry(kw, str(paths[0]))
     with progress("reading the gyro"):
         bags = [read_gyro_bag(p, imu_topic=topic, nominal=nominal, **wheel) for p in paths]

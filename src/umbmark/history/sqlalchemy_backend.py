@@ -18,6 +18,7 @@ from umbmark._version import __version__
 from umbmark.errors import InputError
 from umbmark.history.base import (
     SCHEMA_VERSION,
+    TABLE_COLUMNS,
     HistoryError,
     _Backend,
     _split_userinfo,
@@ -28,26 +29,8 @@ from umbmark.history.base import (
 
 __all__ = ["SQLAlchemyHistory"]
 
-_COLS = (
-    "id",
-    "name",
-    "created_utc",
-    "kind",
-    "method",
-    "software_version",
-    "inputs_json",
-    "input_sha256",
-    "source",
-    "results_json",
-    "parameters_json",
-    "parameters_in_use_json",
-    "emax_syst_mm",
-    "ed",
-    "eb",
-    "wheelbase_mm",
-    "note",
-    "host",
-)
+# the columns of a record row: the calibration's, with the robot's name in place of its id
+_COLS = ("id", "name", *TABLE_COLUMNS["calibrations"][2:])
 
 
 def _import():

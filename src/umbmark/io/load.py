@@ -267,22 +267,13 @@ def _read_one_bag(path, side_m: float | None, opts: dict) -> Dataset:
         hint = wheel_source_hint(path)  # no wheel source either: say which the bag offers
         raise InputError(e.message + (f"; and the wheel data{hint}" if hint else ""), source=e.source) from None
 
-    joints = opts.get("joints")
-    if isinstance(joints, str):
-        joints = parse_joints(joints)
     ranges = opts.get("ranges")
     if isinstance(ranges, str):
         ranges = parse_ranges(ranges)
     return read_bag(
         path,
         nominal=nominal,
-        joints=joints,
-        joint_topic=opts.get("joint_topic") or "/joint_states",
-        ticks_topic=opts.get("ticks_topic"),
-        left_field=opts.get("left_field"),
-        right_field=opts.get("right_field"),
-        ticks=opts.get("ticks") or "cumulative",
-        units_per_rev=opts.get("pulses_per_wheel_rev"),
+        **wheel_source(opts),
         gt_topic=opts.get("gt_topic"),
         gt_frame=opts.get("gt_frame"),
         gt_parent=opts.get("gt_parent"),
@@ -290,8 +281,36 @@ def _read_one_bag(path, side_m: float | None, opts: dict) -> Dataset:
         stops=bool(opts.get("split_stops")),
         stop_s=opts.get("stop_s") or 1.0,
         side_m=side_m,
-        odom_topic=opts.get("odom_topic"),
         time_offset=opts.get("time_offset"),
+    )
+
+
+def wheel_source(opts: dict) -> dict:
+    """The wheel-data keywords of the bag readers (:func:`umbmark.io.rosbag.read_bag`,
+    ``read_selfcal_bag``, ``read_gyro_bag``, :func:`umbmark.realrobot.scan_truth.attach_scan_truth`)
+    from the log options of :func:`load_logs`: ``joints`` (``"L,R"`` parsed), ``joint_topic``,
+    ``ticks_topic``, ``left_field``, ``right_field``, ``ticks``, ``units_per_rev`` (from
+    ``pulses_per_wheel_rev``) and ``odom_topic``, with the readers' defaults where not given.
+
+    Parameters
+    ----------
+    opts : dict
+        The log options.
+
+    Returns
+    -------
+    dict
+    """
+    joints = opts.get("joints")
+    return dict(
+        joints=parse_joints(joints) if isinstance(joints, str) else joints,
+        joint_topic=opts.get("joint_topic") or "/joint_states",
+        ticks_topic=opts.get("ticks_topic"),
+        left_field=opts.get("left_field"),
+        right_field=opts.get("right_field"),
+        ticks=opts.get("ticks") or "cumulative",
+        units_per_rev=opts.get("pulses_per_wheel_rev"),
+        odom_topic=opts.get("odom_topic"),
     )
 
 
