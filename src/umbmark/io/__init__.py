@@ -1,6 +1,6 @@
 """Readers and writers: runs files, distances files, encoder logs (optiodom folders, the generic
 CSV, ROS bags), the intervals file of a lidar self-calibration, the relations files of the SLAM
-benchmark (ground-truth relative poses), poses files, parameter exports,
+benchmark (ground-truth relative poses), trajectories in the TUM format, poses files, parameter exports,
 simulated drives written as ROS bags, atomic file writes.
 
 Nothing here computes: the readers return the data structures of :mod:`umbmark.model` (SI
@@ -29,6 +29,7 @@ from umbmark.io.relations import Relations, format_relations, parse_relations, r
 from umbmark.io.rosbag import BagInfo, SelfcalBag, StaticTransform, bag_info, read_bag, read_selfcal_bag
 from umbmark.io.rosbag_write import write_drive_bag
 from umbmark.io.runs_csv import format_runs_csv, parse_runs_csv, read_runs_csv, write_runs_csv
+from umbmark.io.tum import Trajectory, format_tum, parse_tum, read_tum, write_tum
 
 __all__ = [
     "atomic_path",
@@ -76,4 +77,9 @@ __all__ = [
     "write_runs_csv",
     "parse_runs_csv",
     "format_runs_csv",
+    "Trajectory",
+    "read_tum",
+    "parse_tum",
+    "format_tum",
+    "write_tum",
 ]

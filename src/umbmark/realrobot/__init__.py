@@ -5,7 +5,8 @@ out, stream long logs (:mod:`~umbmark.realrobot.replay`, its results in
 registration (:mod:`~umbmark.realrobot.scanmatch`); the lidar self-calibration from a bag
 (:mod:`~umbmark.realrobot.selfcal`); the lidar as the ground truth of square runs
 (:mod:`~umbmark.realrobot.scan_truth`); the gyro as a rotation reference
-(:mod:`~umbmark.realrobot.gyro`).
+(:mod:`~umbmark.realrobot.gyro`); a calibration checked on a real log against SLAM relations or
+a trajectory (:mod:`~umbmark.realrobot.validate`).
 """
 
 from umbmark.realrobot.guide import STEP_TITLES, guide_text
@@ -61,6 +62,7 @@ from umbmark.realrobot.selfcal import (
     selfcal_from_intervals,
     selfcal_report,
 )
+from umbmark.realrobot.validate import CheckedCalibration, Validation, read_calibration, validate, validate_log
 
 __all__ = [
     "KeyframeRule",
@@ -72,6 +74,11 @@ __all__ = [
     "selfcal_from_bags",
     "selfcal_from_intervals",
     "selfcal_report",
+    "CheckedCalibration",
+    "Validation",
+    "read_calibration",
+    "validate",
+    "validate_log",
     "ICPConfig",
     "ScanMatch",
     "ScanMatches",

@@ -37,10 +37,14 @@ scale, heading drift per metre, fitted against the relations).
 
 :func:`study_log` runs it; :class:`Slam2dStudy` is its result (SI inside; ``to_dict()`` in mm,
 deg). :func:`relation_errors` is the metric. :class:`ScanMatchCheck` measures the scan matcher
-itself against the short relations.
+itself against the short relations. The metric, its statistics and the odometry helpers
+(:func:`relation_errors`, :class:`ErrorStats`, :class:`SystematicErrors`, :func:`in_sensor_frame`,
+:func:`odometry_from_wheels`, :func:`recorded_odometry_at_scans`, :data:`SHORT_MAX_S`) live in
+:mod:`umbmark.realrobot.validate` and are imported here under the same names.
 
 Imports numpy, :mod:`umbmark.model`, :mod:`umbmark.io` (the bag and relations readers),
-:mod:`umbmark.realrobot.selfcal` (the pipeline) and :mod:`umbmark.realrobot.scanmatch`.
+:mod:`umbmark.realrobot.selfcal` (the pipeline), :mod:`umbmark.realrobot.validate` (the metric)
+and :mod:`umbmark.realrobot.scanmatch`.
 """
 
 from __future__ import annotations
@@ -53,13 +57,12 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from umbmark.errors import InputError
 from umbmark.io.relations import read_relations
 from umbmark.io.rosbag import SelfcalBag, read_selfcal_bag
 from umbmark.model import se2
-from umbmark.model.drive import integrate_wheels
 from umbmark.realrobot.scanmatch import ICPConfig, match_scan_pairs
 from umbmark.realrobot.selfcal import (
     KeyframeRule,
@@ -69,6 +72,15 @@ from umbmark.realrobot.selfcal import (
     selfcal_report,
     sensor_pose_from_tf,
     wheel_angles_from_odometry,
+)
+from umbmark.realrobot.validate import (
+    SHORT_MAX_S,
+    ErrorStats,
+    SystematicErrors,
+    in_sensor_frame,
+    odometry_from_wheels,
+    recorded_odometry_at_scans,
+    relation_errors,
 )
 
 __all__ = [
@@ -90,43 +102,9 @@ __all__ = [
     "study_log",
 ]
 
-SHORT_MAX_S = 10.0
-"""A relation spanning less than this is short [s] (the benchmark's are 0.1 to 10 s, or loops)."""
-
 FloatArray = NDArray[np.float64]
 Pose = tuple[float, float, float]
 Progress = Callable[[str], None]
-
-
-def _wrap(a: ArrayLike) -> FloatArray:
-    return np.remainder(np.asarray(a, dtype=float) + math.pi, 2 * math.pi) - math.pi
-
-
-def relation_errors(predicted: ArrayLike, reference: ArrayLike) -> tuple[FloatArray, FloatArray]:
-    """The benchmark's error of each relation: ``e = reference^-1 (+) predicted``.
-
-    Parameters
-    ----------
-    predicted, reference : array_like
-        ``(K, 3)`` relative poses ``(x_m, y_m, yaw_rad)``.
-
-    Returns
-    -------
-    tuple of numpy.ndarray
-        ``(translation_m, rotation_rad)``, each ``(K,)``: ``|e_xy|`` and ``|e_yaw|`` (wrapped to
-        at most pi).
-
-    Raises
-    ------
-    InputError
-        If the shapes are not ``(K, 3)`` alike.
-    """
-    p = np.asarray(predicted, dtype=float)
-    r = np.asarray(reference, dtype=float)
-    if p.ndim != 2 or p.shape[1] != 3 or p.shape != r.shape:
-        raise InputError(f"`predicted` and `reference` must both be (K, 3), got {p.shape} and {r.shape}")
-    e = se2.between(r, p)
-    return np.hypot(e[:, 0], e[:, 1]), np.abs(_wrap(e[:, 2]))
 
 
 def wheel_angles_at_scans(
@@ -159,253 +137,6 @@ def wheel_angles_at_scans(
     wt = np.asarray(bag.wheel_t_s, dtype=float)
     st = np.asarray(bag.scan_t_s, dtype=float)
     return np.interp(st, wt, left), np.interp(st, wt, right)
-
-
-def odometry_from_wheels(
-    left_rad: ArrayLike, right_rad: ArrayLike, r_left_m: float, r_right_m: float, wheelbase_m: float
-) -> FloatArray:
-    """Odometry poses from cumulative wheel angles: exact arcs between samples.
-
-    Parameters
-    ----------
-    left_rad, right_rad : array_like
-        ``(M,)`` cumulative wheel angles [rad].
-    r_left_m, r_right_m, wheelbase_m : float
-        The geometry [m].
-
-    Returns
-    -------
-    numpy.ndarray
-        ``(M, 3)`` poses from ``(0, 0, 0)`` at the first sample (heading accumulated).
-    """
-    left = np.asarray(left_rad, dtype=float)
-    right = np.asarray(right_rad, dtype=float)
-    return integrate_wheels(r_left_m * np.diff(left), r_right_m * np.diff(right), wheelbase_m)
-
-
-def recorded_odometry_at_scans(bag: SelfcalBag) -> FloatArray:
-    """The recorded odometry poses interpolated linearly to the scan stamps (heading unwrapped).
-
-    Parameters
-    ----------
-    bag : SelfcalBag
-        A recording with ``nav_msgs/Odometry`` wheel data.
-
-    Returns
-    -------
-    numpy.ndarray
-        ``(M, 3)`` poses at the scans.
-
-    Raises
-    ------
-    InputError
-        If the bag's wheel data are not odometry.
-    """
-    if bag.odom_pose is None:
-        raise InputError("the bag's wheel data are not an odometry: no recorded odometry to compare", bag.source)
-    p = np.asarray(bag.odom_pose, dtype=float)
-    wt = np.asarray(bag.wheel_t_s, dtype=float)
-    st = np.asarray(bag.scan_t_s, dtype=float)
-    yaw = np.unwrap(p[:, 2])
-    return np.column_stack([np.interp(st, wt, p[:, 0]), np.interp(st, wt, p[:, 1]), np.interp(st, wt, yaw)])
-
-
-def in_sensor_frame(q: ArrayLike, sensor_pose: ArrayLike) -> FloatArray:
-    """Robot-frame relative poses seen from a sensor mounted at ``sensor_pose``: ``l^-1 (+) q (+) l``.
-
-    Parameters
-    ----------
-    q : array_like
-        ``(K, 3)`` relative poses of the robot.
-    sensor_pose : array_like
-        ``(x_m, y_m, yaw_rad)`` of the sensor in the robot frame.
-
-    Returns
-    -------
-    numpy.ndarray
-        ``(K, 3)``.
-    """
-    lp = np.asarray(sensor_pose, dtype=float).reshape(3)
-    return se2.compose(se2.inverse(lp), se2.compose(np.asarray(q, dtype=float), lp))
-
-
-@dataclass(frozen=True)
-class ErrorStats:
-    """The benchmark's error statistics over a set of relations.
-
-    Parameters
-    ----------
-    count : int
-        Relations.
-    mae_translation_m, sd_translation_m : float
-        Mean and standard deviation of ``|e_xy|`` [m].
-    mse_translation_m2, sd_sq_translation_m2 : float
-        Mean and standard deviation of ``|e_xy|^2`` [m^2].
-    mae_rotation_rad, sd_rotation_rad : float
-        Mean and standard deviation of ``|e_yaw|`` [rad].
-    mse_rotation_rad2, sd_sq_rotation_rad2 : float
-        Mean and standard deviation of ``e_yaw^2`` [rad^2].
-    """
-
-    count: int
-    mae_translation_m: float
-    sd_translation_m: float
-    mse_translation_m2: float
-    sd_sq_translation_m2: float
-    mae_rotation_rad: float
-    sd_rotation_rad: float
-    mse_rotation_rad2: float
-    sd_sq_rotation_rad2: float
-
-    @classmethod
-    def from_errors(cls, translation_m: ArrayLike, rotation_rad: ArrayLike) -> ErrorStats:
-        """The statistics of per-relation errors (NaN for an empty set).
-
-        Parameters
-        ----------
-        translation_m, rotation_rad : array_like
-            ``(K,)`` ``|e_xy|`` and ``|e_yaw|`` of :func:`relation_errors`.
-
-        Returns
-        -------
-        ErrorStats
-        """
-        t = np.abs(np.asarray(translation_m, dtype=float).reshape(-1))
-        r = np.abs(np.asarray(rotation_rad, dtype=float).reshape(-1))
-        if t.size == 0:
-            return cls(0, *([math.nan] * 8))
-        sd = lambda v: float(np.std(v, ddof=1)) if v.size > 1 else math.nan  # noqa: E731
-        return cls(
-            int(t.size),
-            float(t.mean()),
-            sd(t),
-            float((t * t).mean()),
-            sd(t * t),
-            float(r.mean()),
-            sd(r),
-            float((r * r).mean()),
-            sd(r * r),
-        )
-
-    def to_dict(self) -> dict[str, Any]:
-        """As JSON, in the benchmark's units (m, m^2, deg, deg^2).
-
-        Returns
-        -------
-        dict
-            ``count``, ``translation`` {``mae_m``, ``mae_sd_m``, ``mse_m2``, ``mse_sd_m2``},
-            ``rotation`` {``mae_deg``, ``mae_sd_deg``, ``mse_deg2``, ``mse_sd_deg2``}.
-        """
-        d = math.degrees(1.0)
-        return {
-            "count": self.count,
-            "translation": {
-                "mae_m": self.mae_translation_m,
-                "mae_sd_m": self.sd_translation_m,
-                "mse_m2": self.mse_translation_m2,
-                "mse_sd_m2": self.sd_sq_translation_m2,
-            },
-            "rotation": {
-                "mae_deg": self.mae_rotation_rad * d,
-                "mae_sd_deg": self.sd_rotation_rad * d,
-                "mse_deg2": self.mse_rotation_rad2 * d * d,
-                "mse_sd_deg2": self.sd_sq_rotation_rad2 * d * d,
-            },
-        }
-
-
-@dataclass(frozen=True)
-class SystematicErrors:
-    """An odometry's systematic errors over short relations, fitted against the ground truth.
-
-    ``distance_scale``: least squares of the predicted translations on the relations'
-    (``sum p_xy . r_xy / sum |r_xy|^2``). ``turn_scale`` and ``drift_rad_per_m``: least squares
-    of the heading error on the relation's turn and forward travel,
-    ``p_yaw - r_yaw = (turn_scale - 1) r_yaw + drift r_x`` (a drift is a heading error that
-    grows with the distance driven: unequal wheels). A perfectly calibrated odometry has 1, 1
-    and 0. The intervals assume independent relations.
-
-    Parameters
-    ----------
-    count : int
-        Relations fitted.
-    distance_scale, turn_scale, drift_rad_per_m : float
-        The estimates.
-    distance_scale_ci95, turn_scale_ci95, drift_rad_per_m_ci95 : tuple of float
-        Their 95 % intervals.
-    """
-
-    count: int
-    distance_scale: float
-    distance_scale_ci95: tuple[float, float]
-    turn_scale: float
-    turn_scale_ci95: tuple[float, float]
-    drift_rad_per_m: float
-    drift_rad_per_m_ci95: tuple[float, float]
-
-    @classmethod
-    def fit(cls, predicted: ArrayLike, reference: ArrayLike) -> SystematicErrors:
-        """Fit the three systematic errors (NaN with fewer than three relations).
-
-        Parameters
-        ----------
-        predicted, reference : array_like
-            ``(K, 3)`` relative poses.
-
-        Returns
-        -------
-        SystematicErrors
-        """
-        p = np.asarray(predicted, dtype=float).reshape(-1, 3)
-        r = np.asarray(reference, dtype=float).reshape(-1, 3)
-        k = len(r)
-        nan2 = (math.nan, math.nan)
-        if k < 3 or not np.any(r[:, :2]) or not np.any(r[:, 2]):
-            return cls(k, math.nan, nan2, math.nan, nan2, math.nan, nan2)
-        z = 1.959963984540054
-        # distance: p_xy ~ s r_xy (both components, one scale)
-        rr = r[:, :2].reshape(-1)
-        pp = p[:, :2].reshape(-1)
-        s = float(rr @ pp / (rr @ rr))
-        res = pp - s * rr
-        se_s = math.sqrt(float(res @ res) / max(len(rr) - 1, 1) / float(rr @ rr))
-        # heading: e_yaw ~ a r_yaw + c r_x
-        ey = _wrap(p[:, 2] - r[:, 2])
-        a_mat = np.column_stack([r[:, 2], r[:, 0]])
-        coef, *_ = np.linalg.lstsq(a_mat, ey, rcond=None)
-        res2 = ey - a_mat @ coef
-        cov = np.linalg.pinv(a_mat.T @ a_mat) * float(res2 @ res2) / max(k - 2, 1)
-        se = np.sqrt(np.diag(cov))
-        turn, drift = 1.0 + float(coef[0]), float(coef[1])
-        return cls(
-            k,
-            s,
-            (s - z * se_s, s + z * se_s),
-            turn,
-            (turn - z * float(se[0]), turn + z * float(se[0])),
-            drift,
-            (drift - z * float(se[1]), drift + z * float(se[1])),
-        )
-
-    def to_dict(self) -> dict[str, Any]:
-        """As JSON.
-
-        Returns
-        -------
-        dict
-            ``count``, ``distance_scale``, ``turn_scale``, ``drift_deg_per_m`` and their
-            ``_ci95``.
-        """
-        d = math.degrees(1.0)
-        return {
-            "count": self.count,
-            "distance_scale": self.distance_scale,
-            "distance_scale_ci95": list(self.distance_scale_ci95),
-            "turn_scale": self.turn_scale,
-            "turn_scale_ci95": list(self.turn_scale_ci95),
-            "drift_deg_per_m": self.drift_rad_per_m * d,
-            "drift_deg_per_m_ci95": [self.drift_rad_per_m_ci95[0] * d, self.drift_rad_per_m_ci95[1] * d],
-        }
 
 
 @dataclass(frozen=True)
