@@ -302,6 +302,7 @@ SIZE_ARGS = {
     "replay": ["replay", "log.csv", "--save", "new.json"],
     "selfcal": ["selfcal", "robot.bag", "--odom-topic", "/odom", "--wheelbase-mm", "400", "--save", "new.json"],
     "simulate": ["simulate", "--out", "new.csv"],
+    "validate": ["validate", "robot.bag", "cal.json", "--odom-topic", "/odom", "--relations", "robot.relations"],
 }
 
 

@@ -18,6 +18,7 @@ from umbmark.cli import (
     real,  # noqa: F401,E402  replay, export
     reproduce,  # noqa: F401,E402  reproduce
     selfcal,  # noqa: F401,E402  selfcal
+    validate,  # noqa: F401,E402  validate
 )
 from umbmark.cli.app import app, cli_message
 from umbmark.errors import UmbmarkError

@@ -65,6 +65,7 @@ PATH_ROLES: dict[str, dict[str, str]] = {
     "reproduce": {"report_dir": "output_dir"},
     "simulate": {"out": "output"},
     "selfcal": {"paths": "input", "save": "output", "intervals_out": "output", "db": "db", "scan_delay": "name"},
+    "validate": {"log": "input", "calibration": "input", "relations": "input", "reference": "input", "dataset": "name"},
 }
 
 # a size option beyond this (a thousand kilometres) is not the size of a robot, a wheel or a test track

@@ -1,0 +1,322 @@
+"""``umbmark validate``: check a calibration on a real log against a SLAM reference (relations or
+a TUM trajectory), before and after, as the calibrations of this project are judged.
+
+The library does the work (:func:`umbmark.realrobot.validate.validate_log`); this module parses
+the options, calls it, and prints its result's ``to_dict()`` or a table made from it. The options
+that read the bag's wheel data and give the nominal geometry are ``umbmark selfcal``'s own (the
+same click options, copied), read with :func:`umbmark.io.load.wheel_source` as the bag readers
+take them. No numerical module is imported before the command runs.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+import re
+
+import click
+
+from umbmark.cli.app import app, cli_message, console, emit_json, fmt, is_quiet, table
+from umbmark.cli.selfcal import selfcal_cmd
+from umbmark.errors import InputError
+
+__all__ = ["validate_cmd", "LEGEND", "READ_OPTIONS", "FAIL_EXIT_STATUS"]
+
+FAIL_EXIT_STATUS = 3
+"""The exit status of ``--fail-on-worse`` when a rule fails."""
+
+# selfcal's options that read the bag and give the nominal geometry, in the order shown
+READ_OPTIONS = (
+    "scan_topic",
+    "joints",
+    "joint_topic",
+    "ticks_topic",
+    "left_field",
+    "right_field",
+    "pulses_per_wheel_rev",
+    "ticks",
+    "odom_topic",
+    "wheel_diameter_mm",
+    "wheelbase_mm",
+    "wheel_radius_m",
+    "wheel_separation_m",
+    "base_frame",
+)
+
+# the library's parameters of this command -> its flags (the shared ones are in umbmark.cli.app)
+_FLAGS = {
+    "wheel_diameter_m": "--wheel-diameter-mm",
+    "wheelbase_m": "--wheelbase-mm",
+    "window_s": "--window",
+    "scan_delay_s": "--scan-delay",
+    "short_max_s": "--short-max-s",
+    "tolerance_s": "--stamp-tolerance-s",
+    "relations_path": "--relations",
+    "reference_path": "--reference",
+    "reference_frame": "--reference-frame",
+}
+_NAME = re.compile(r"`(\w+)`")
+
+LEGEND = (
+    "MSE: the mean squared error of the relations (the benchmark's metric: translation in m^2, rotation in "
+    "deg^2); short: relations spanning less than --short-max-s, long: the rest.",
+    "distance scale, turn scale: how far and how much the odometry moves and turns against the reference "
+    "(1 is right), over the short relations longer than 0.2 m / turning more than 10 deg.",
+    "heading drift: the heading error per metre driven (0 is right; unequal wheels show there).",
+    "before: the nominal geometry and sensor pose; after: the calibration's. A rule without relations does not apply.",
+)
+
+_ROWS = (
+    ("short translation MSE [m²]", lambda f: f["short"]["translation"]["mse_m2"], 6),
+    ("short rotation MSE [deg²]", lambda f: f["short"]["rotation"]["mse_deg2"], 4),
+    ("long translation MSE [m²]", lambda f: f["long"]["translation"]["mse_m2"], 4),
+    ("long rotation MSE [deg²]", lambda f: f["long"]["rotation"]["mse_deg2"], 2),
+    ("short translation MAE [mm]", lambda f: _mm(f["short"]["translation"]["mae_m"]), 1),
+    ("short rotation MAE [deg]", lambda f: f["short"]["rotation"]["mae_deg"], 3),
+    ("distance scale", lambda f: f["distance_scale"], 4),
+    ("turn scale", lambda f: f["turn_scale"], 4),
+    ("heading drift [deg/m]", lambda f: f["heading_drift_deg_per_m"], 3),
+)
+_RULE_ROW = {
+    "short_translation_mse": 0,
+    "short_rotation_mse": 1,
+    "long_translation_mse": 2,
+    "distance_scale": 6,
+    "turn_scale": 7,
+}
+
+
+def _mm(v):
+    return None if v is None else v * 1e3
+
+
+def _flags(text: str) -> str:
+    """A library message in this command's words (its own parameters, then the shared ones)."""
+    return cli_message(_NAME.sub(lambda m: _FLAGS.get(m.group(1), m.group(0)), text))
+
+
+def _window(text: str | None) -> tuple[float, float] | None:
+    if text is None:
+        return None
+    parts = text.split(":")
+    try:
+        lo, hi = (float(p) for p in parts)
+    except ValueError:
+        raise InputError(f"--window needs START_S:END_S (seconds from the log's first scan), got {text!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):
+        raise InputError(f"--window needs START_S:END_S with END_S after START_S, got {text!r}")
+    return lo, hi
+
+
+def _nominal(wheel_diameter_mm, wheelbase_mm, wheel_radius_m, wheel_separation_m) -> tuple[float | None, float | None]:
+    """The nominal wheel diameter and wheelbase [m] given (either form of each, or neither)."""
+    for a, b, va, vb in (
+        ("--wheel-diameter-mm", "--wheel-radius-m", wheel_diameter_mm, wheel_radius_m),
+        ("--wheelbase-mm", "--wheel-separation-m", wheelbase_mm, wheel_separation_m),
+    ):
+        if va is not None and vb is not None:
+            raise InputError(f"give {a} or {b}, not both")
+        for flag, v in ((a, va), (b, vb)):
+            if v is not None and not (math.isfinite(v) and v > 0):
+                raise InputError(f"{flag} must be a positive number, got {v!r}")
+    d = wheel_diameter_mm * 1e-3 if wheel_diameter_mm is not None else None
+    d = 2.0 * wheel_radius_m if wheel_radius_m is not None else d
+    b = wheelbase_mm * 1e-3 if wheelbase_mm is not None else None
+    b = wheel_separation_m if wheel_separation_m is not None else b
+    return d, b
+
+
+def _cell(v, digits: int) -> str:
+    return "" if v is None or (isinstance(v, float) and not math.isfinite(v)) else fmt(v, digits)
+
+
+def _print_report(d: dict) -> None:
+    from rich.markup import escape
+
+    c = console()
+    ref, cal = d["reference"], d["calibration"]
+    c.print(
+        escape(
+            f"{d['log']}: {d['scans']} scans over {d['log_duration_s']:.1f} s, wheels from {d['wheel_data']}; "
+            f"scan delay {d['scan_delay_s']:g} s ({d['scan_delay_source']})"
+        )
+    )
+    if ref["kind"] == "trajectory":
+        what = (
+            f"trajectory {ref['path']} ({ref['poses']} poses of the {ref['frame']} frame, {ref['mode']} at "
+            f"{ref['scans_with_pose']} scans): {ref['relations']} relations made"
+        )
+    else:
+        what = f"relations {ref['path']}: {ref['relations']}"
+    c.print(
+        escape(
+            f"  reference: {what}; {ref['unmatched']} without a scan at a stamp, {ref['without_wheel_data']} "
+            f"without wheel data, {ref['outside_window']} outside the window"
+        )
+    )
+    n, k = cal["nominal"], cal["calibrated"]
+    ns, ks = cal["nominal_sensor_pose"], cal["sensor_pose"]
+    c.print(
+        escape(
+            f"  calibration {cal['path']} ({cal['kind']}): D_L {k['diameter_left_mm']:.3f}, D_R "
+            f"{k['diameter_right_mm']:.3f}, wheelbase {k['wheelbase_mm']:.3f} mm (nominal "
+            f"{n['diameter_left_mm']:g}, {n['diameter_right_mm']:g}, {n['wheelbase_mm']:g}); lidar x "
+            f"{ks['x_mm']:.1f} mm, y {ks['y_mm']:.1f} mm, yaw {ks['yaw_deg']:.2f} deg (nominal {ns['x_mm']:.1f}, "
+            f"{ns['y_mm']:.1f}, {ns['yaw_deg']:.2f}: {ns['source']})"
+        )
+    )
+    for span in d["spans"]:
+        rules = {r["rule"]: r for r in span["rules"]}
+        by_row = {i: rules[key] for key, i in _RULE_ROW.items() if key in rules}
+        rows = []
+        for i, (label, get, digits) in enumerate(_ROWS):
+            b, a = get(span["before"]), get(span["after"])
+            r = by_row.get(i)
+            verdict = "" if r is None else {True: "pass", False: "FAIL", None: "n/a"}[r["passed"]]
+            rows.append([label, _cell(b, digits), _cell(a, digits), "" if r is None else r["test"], verdict])
+        before = span["before"]
+        title = (
+            f"{span['label']}, {span['t_start_s']:.1f} to {span['t_end_s']:.1f} s: {span['relations_short']} short "
+            f"and {span['relations_long']} long relations (scales: {before['distance_relations']} and "
+            f"{before['turn_relations']})"
+        )
+        c.print(table(title, ["", "before", "after", "rule", ""], rows))
+        c.print(f"[bold]{escape(span['label'])}: {span['verdict']}[/bold]")
+    for line in LEGEND:
+        c.print(f"[dim]{escape(line)}[/dim]")
+    for w in d["warnings"]:
+        c.print(f"[yellow]warning:[/yellow] {escape(w)}")
+
+
+@app.command("validate")
+@click.argument("log", metavar="LOG")
+@click.argument("calibration", metavar="CAL.json")
+@click.option("--relations", default=None, metavar="FILE", help="Reference: a relations file of the SLAM benchmark.")
+@click.option(
+    "--reference",
+    default=None,
+    metavar="FILE",
+    help="Reference: a planar trajectory file in the TUM format (timestamp x y z qx qy qz qw).",
+)
+@click.option(
+    "--reference-frame",
+    type=click.Choice(["base", "sensor"]),
+    default=None,
+    help="--reference: the poses are the robot's base frame as a SLAM publishes them (default; made the "
+    "lidar's with the nominal sensor pose) or the lidar's.",
+)
+@click.option("--dataset", default=None, help="The data set to take from a replay JSON of several.")
+@click.option(
+    "--window", default=None, metavar="START_S:END_S", help="Check only this span (seconds from the first scan)."
+)
+@click.option("--halves", is_flag=True, help="Check the two halves (of the log or the window) apart.")
+@click.option(
+    "--short-max-s",
+    type=float,
+    default=10.0,
+    show_default=True,
+    help="Relations spanning less than this are short.",
+)
+@click.option(
+    "--scan-delay",
+    type=float,
+    default=None,
+    metavar="SECONDS",
+    help="How late the scans are stamped against the wheel data (default: the calibration's, else 0).",
+)
+@click.option(
+    "--stamp-tolerance-s",
+    type=float,
+    default=0.001,
+    show_default=True,
+    help="How far a relation's stamp may be from its scan's.",
+)
+@click.option(
+    "--fail-on-worse",
+    is_flag=True,
+    help=f"Exit with status {FAIL_EXIT_STATUS} when a rule fails (default: 0 whatever the verdict).",
+)
+@click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+def validate_cmd(
+    log,
+    calibration,
+    relations,
+    reference,
+    reference_frame,
+    dataset,
+    window,
+    halves,
+    short_max_s,
+    scan_delay,
+    stamp_tolerance_s,
+    fail_on_worse,
+    as_json,
+    **kw,
+):
+    """Check a calibration on a real log against a SLAM reference: the odometry's relation errors,
+    distance and turn scale and heading drift, before (nominal geometry and lidar pose) and
+    after (the calibration's), with pass rules.
+
+    LOG is a ROS 1 or ROS 2 bag with laser scans and the robot's wheel data (--odom-topic,
+    --joints or --ticks-topic, read as umbmark selfcal reads them). CAL.json is the JSON of
+    `umbmark selfcal --save`, `umbmark replay --save` or `umbmark export --format json`. The
+    reference: --relations (the SLAM benchmark's format) or --reference (a TUM trajectory, e.g.
+    saved from slam_toolbox or cartographer; relations are made from it between the scans).
+    --wheel-diameter-mm and --wheelbase-mm (or --wheel-radius-m, --wheel-separation-m) give the
+    nominal geometry when CAL.json lacks it, or instead of its own.
+
+    The rules, per span: the short-relation MSEs (translation, rotation) after at most 2 % above
+    before; the long-relation translation MSE after not above before; each scale after within
+    1.5 % of 1, or no farther from 1 than before. The exit status is 0 whatever the verdict, 3
+    with --fail-on-worse when a rule fails, 2 on bad input.
+
+    \b
+    Example:
+      umbmark validate mit-csail.bag selfcal.json --odom-topic /odom --relations mit-csail.relations
+      umbmark validate robot_bag selfcal.json --joints left_wheel_joint,right_wheel_joint --reference slam.tum --halves
+      umbmark validate robot_bag cal.json --odom-topic /odom --reference slam.tum --window 0:120 --json
+    """
+    from umbmark.io.load import wheel_source
+    from umbmark.realrobot.validate import validate_log
+
+    if reference_frame is not None and reference is None:
+        raise InputError("--reference-frame is the frame of a --reference trajectory; the relations are the lidar's")
+    if kw["pulses_per_wheel_rev"] is not None and not (
+        math.isfinite(kw["pulses_per_wheel_rev"]) and kw["pulses_per_wheel_rev"] > 0
+    ):
+        raise InputError(f"--pulses-per-wheel-rev must be a positive number, got {kw['pulses_per_wheel_rev']!r}")
+    d_m, b_m = _nominal(kw["wheel_diameter_mm"], kw["wheelbase_mm"], kw["wheel_radius_m"], kw["wheel_separation_m"])
+    try:
+        v = validate_log(
+            log,
+            calibration,
+            relations_path=relations,
+            reference_path=reference,
+            reference_frame=reference_frame or "base",
+            dataset=dataset,
+            wheel_diameter_m=d_m,
+            wheelbase_m=b_m,
+            window_s=_window(window),
+            halves=halves,
+            short_max_s=short_max_s,
+            scan_delay_s=scan_delay,
+            base_frame=kw["base_frame"],
+            tolerance_s=stamp_tolerance_s,
+            scan_topic=kw["scan_topic"],
+            **wheel_source(kw),
+        )
+    except InputError as e:
+        raise InputError(_flags(e.message), e.source, e.line) from None
+    d = v.to_dict()
+    d["warnings"] = [_flags(w) for w in d["warnings"]]
+    if as_json:
+        emit_json(d)
+    elif not is_quiet():
+        _print_report(d)
+    if fail_on_worse and v.verdict == "fail":
+        raise click.exceptions.Exit(FAIL_EXIT_STATUS)
+
+
+# selfcal's options that read the bag's wheel data and give the nominal geometry, after the arguments
+_selfcal_params = {p.name: p for p in selfcal_cmd.params}
+validate_cmd.params[2:2] = [copy.copy(_selfcal_params[name]) for name in READ_OPTIONS]
