@@ -225,8 +225,8 @@ def test_failed_scan_matches_are_rejected():
     assert len(res.intervals_rejected) <= 22
     assert res.intervals_used == 400 - len(res.intervals_rejected)
     assert np.all(np.abs((res.params - TRUTH) / res.sd) < 4)
-    # without rejection the same data give a far worse answer
-    raw = selfcal(Intervals(iv.dt_s, fl, fr, s), 0.1, 0.3, reject_outliers=False)
+    # Gaussian noise without rejection: the same data give a far worse answer
+    raw = selfcal(Intervals(iv.dt_s, fl, fr, s), 0.1, 0.3, reject_outliers=False, loss="gaussian")
     assert raw.intervals_rejected == ()
     assert np.abs(raw.params - TRUTH)[2] > 5 * np.abs(res.params - TRUTH)[2]
 
@@ -452,6 +452,45 @@ def test_csv_end_to_end(tmp_path):
 def test_fisher_information_is_the_inverse_covariance_at_the_solution():
     rng = np.random.default_rng(17)
     fl, fr = mixed(rng, 200, 0.05, 0.3)
-    res = selfcal(simulate(rng, TRUTH, fl, fr), 0.1, 0.3)
+    res = selfcal(simulate(rng, TRUTH, fl, fr), 0.1, 0.3, loss="gaussian")
     info = fisher_information(res.params, fl, fr, np.array(res.noise_sd))
     np.testing.assert_allclose(np.linalg.inv(info), res.covariance, rtol=1e-6)
+    assert res.noise_dof == math.inf and res.covariance_blocks == 0
+
+
+def test_gaussian_noise_gives_the_student_fit_many_degrees_of_freedom():
+    """On Gaussian noise the Student t fit is the least-squares fit: its degrees of freedom come
+    out large and its estimate and standard deviations are the Gaussian fit's."""
+    rng = np.random.default_rng(17)
+    fl, fr = mixed(rng, 400, 0.05, 0.3)
+    iv = simulate(rng, TRUTH, fl, fr)
+    t, g = selfcal(iv, 0.1, 0.3), selfcal(iv, 0.1, 0.3, loss="gaussian")
+    assert t.noise_dof > 30
+    assert np.all(np.abs(t.params - g.params) < 0.2 * g.sd)
+    np.testing.assert_allclose(t.sd, g.sd, rtol=0.1)
+
+
+def test_heavy_tailed_noise_is_fitted_with_few_degrees_of_freedom():
+    """Noise with heavy tails (Student t, 2.5 degrees of freedom, as the residuals of real
+    recordings): the Student fit finds the tails, its errors are smaller than least squares'
+    and its intervals cover the truth."""
+    hits, err_t, err_g, dofs = [], [], [], []
+    for seed in range(30):
+        rng = np.random.default_rng([23, seed])
+        d, b, p = random_truth(rng)
+        fl, fr = mixed(rng, 300, 0.5 * d, b)
+        iv = intervals_from_motion(fl, fr, 0.1, p[0], p[1], p[2], p[3:])
+        # multivariate Student t: Gaussian noise over the square root of a chi-square per interval
+        noise = rng.normal(size=(300, 3)) * SIGMA / np.sqrt(rng.chisquare(2.5, (300, 1)) / 2.5)
+        iv = Intervals(iv.dt_s, fl, fr, iv.sensor + noise)
+        t = selfcal(iv, d, b, reject_outliers=False)
+        g = selfcal(iv, d, b, reject_outliers=False, loss="gaussian")
+        lo = np.array([t.ci95[n][0] for n in PARAMETERS])
+        hi = np.array([t.ci95[n][1] for n in PARAMETERS])
+        hits.append((lo[:5] <= p[:5]) & (p[:5] <= hi[:5]))
+        err_t.append((t.params - p)[:3] / p[:3])
+        err_g.append((g.params - p)[:3] / p[:3])
+        dofs.append(t.noise_dof)
+    assert 1.5 < np.median(dofs) < 5
+    assert 0.88 <= np.mean(hits) <= 1.0
+    assert np.sqrt(np.mean(np.square(err_t))) < 0.8 * np.sqrt(np.mean(np.square(err_g)))

@@ -4,21 +4,35 @@
 
 1. Start: the paper's closed form (:mod:`umbmark.correct.selfcal.closed_form`), or the
    sensor pose fitted with the nominal odometry, whichever leaves the smaller residuals (per
-   component, robustly); with outlier rejection it is refined first with a robust (Cauchy)
-   loss, so that failed scan matches do not pull it.
-2. Maximum likelihood: non-linear least squares (``scipy.optimize.least_squares``) of all six
-   parameters on the whitened residuals ``s_k - l^-1 (+) arc_k (+) l``. Without given
-   covariances the noise of each component (dx, dy, dyaw) is estimated from the residuals
-   and the fit repeated until it settles (iteratively reweighted).
-3. Outliers: an interval whose whitened residual is beyond the ``1 - outlier_tail`` quantile
-   of chi-square with 3 degrees of freedom is set aside (a failed scan match); the noise
-   scale is robust (median absolute deviation) in the first round, the inliers' root mean
-   square after it. 2 and 3 repeat until the set is stable.
-   Set-aside intervals are judged again every round (a good one can come back).
+   component, robustly); refined first with a robust (Cauchy) loss, so that failed scan
+   matches do not pull it.
+2. Maximum likelihood of all six parameters on the residuals ``s_k - l^-1 (+) arc_k (+) l``
+   (``scipy.optimize.least_squares`` inside). By default the noise is **Student t**: its
+   3 x 3 scatter matrix and its degrees of freedom ``nu`` are estimated with the parameters
+   (expectation maximisation: each interval weighs ``(nu + 3) / (nu + d_k^2)``, ``d_k`` its
+   Mahalanobis distance). Real recordings have heavy tails (wheel data stamped a little off
+   the scans, odometry that lags and catches up, scenes the matcher half fails on): a few
+   large residuals then weigh little instead of steering the fit, and on Gaussian noise
+   ``nu`` grows large and the fit is least squares. ``loss="gaussian"`` is the plain
+   maximum likelihood of Gaussian noise with the standard deviation of each component
+   estimated from the residuals; given covariances whiten the residuals instead of an
+   estimated scatter.
+3. Outliers: an interval beyond the ``1 - outlier_tail`` quantile of the fitted noise (the
+   F distribution of ``d_k^2 / 3`` for Student t, with at least :data:`OUTLIER_DOF_MIN`
+   degrees of freedom; chi-square with 3 degrees of freedom for
+   Gaussian noise, with a robust scale in the first round) is set aside (a failed scan
+   match). 2 and 3 repeat until the set is stable; set-aside intervals are judged again every
+   round (a good one can come back).
 4. Mirror: ``(r_L, r_R, b, l_x, l_y, l_yaw)`` and ``(-r_L, -r_R, -b, -l_x, -l_y, l_yaw + pi)``
    predict the same displacements; the one with positive radii (and wheelbase) is kept.
-5. Uncertainty: the covariance is the inverse of the Fisher information at the solution
-   (Gauss-Newton), the 95 % intervals use Student's t on the residual degrees of freedom.
+5. Uncertainty: the inverse of the Fisher information at the solution (for Student t noise
+   ``(nu + 3) / (nu + 5)`` times the whitened Gauss-Newton matrix). Errors shared by
+   neighbouring intervals (a stretch of a room the matcher measures a little short, wheels
+   slipping on one floor) are not in it: with at least :data:`MIN_BLOCKS` blocks of time
+   (:func:`time_blocks`, or the pipeline's labels) the covariance is also computed
+   cluster-robustly from the scores summed per block (a sandwich ``A^-1 B A^-1``), and each
+   parameter's standard deviation is the larger of the two; the 95 % intervals then use
+   Student's t on the blocks less one, else on the residual degrees of freedom.
 6. Identifiability and plausibility (:mod:`umbmark.correct.selfcal.identify`): warnings for
    what the driving leaves undetermined and for implausible values; an error when the
    information is singular.
@@ -36,18 +50,50 @@ from numpy.typing import ArrayLike, NDArray
 
 from umbmark.correct.selfcal import identify
 from umbmark.correct.selfcal.closed_form import ClosedFormFailed, closed_form, closed_form_fixed_scale
-from umbmark.correct.selfcal.model import fisher_information, jacobian, residuals, whiten, whitener
+from umbmark.correct.selfcal.model import jacobian, residuals, whiten, whitener
 from umbmark.correct.selfcal.result import SelfcalResult
 from umbmark.errors import InputError
 from umbmark.model.geometry import wrap_angle
 from umbmark.model.intervals import Intervals
 
-__all__ = ["selfcal", "mirror"]
+__all__ = [
+    "selfcal",
+    "mirror",
+    "time_blocks",
+    "LOSSES",
+    "DOF_MIN",
+    "DOF_MAX",
+    "BLOCK_S",
+    "MAX_BLOCKS",
+    "MIN_BLOCKS",
+    "OUTLIER_DOF_MIN",
+]
 
 FloatArray = NDArray[np.float64]
 
 # noise standard deviations are never taken below this (m, m, rad): noise-free data stay finite
 _SD_FLOOR = 1e-10
+_EM_ROUNDS = 200  # expectation-maximisation rounds of the Student t fit at most
+
+LOSSES = ("student", "gaussian")
+"""The noise models of :func:`selfcal`."""
+
+DOF_MIN, DOF_MAX = 1.0, 1000.0
+"""The bounds of the Student t degrees of freedom (1: Cauchy; 1000: Gaussian to all purposes)."""
+
+OUTLIER_DOF_MIN = 5.0
+"""The outliers of Student t noise are judged with at least these degrees of freedom: a few gross
+failures (a scan match in the wrong place) would otherwise make the fitted tails so heavy that
+nothing lies beyond them."""
+
+BLOCK_S = 10.0
+"""The shortest block of time of the covariance of shared errors [s] (:func:`time_blocks`)."""
+
+MAX_BLOCKS = 20
+"""The most blocks of time (longer recordings get longer blocks)."""
+
+MIN_BLOCKS = 8
+"""With fewer blocks than this the covariance is the Fisher information's alone."""
 _MAD = 1.482602218505602  # standard deviation / median absolute deviation of a Gaussian
 
 
@@ -84,7 +130,7 @@ def _robust_sd(r: FloatArray) -> FloatArray:
 
 
 class _Problem:
-    """The intervals in use and their whitening (given covariances, or standard deviations)."""
+    """The intervals in use and their whitening: given covariances, or a common scatter matrix."""
 
     def __init__(self, iv: Intervals, given_w: FloatArray | None):
         self.fl = np.asarray(iv.left_rad, float)
@@ -95,47 +141,124 @@ class _Problem:
     def res(self, p: FloatArray, idx: NDArray[np.intp]) -> FloatArray:
         return residuals(p, self.fl[idx], self.fr[idx], self.s[idx])
 
-    def weighted(self, r: FloatArray, idx: NDArray[np.intp], sd: FloatArray | None) -> FloatArray:
+    def white(self, r: FloatArray, idx: NDArray[np.intp], w3: FloatArray | None) -> FloatArray:
+        """Whiten residuals ``(n, 3)`` or a Jacobian ``(n, 3, 6)``: by the given covariances, else by ``w3``."""
         if self.given_w is not None:
             return whiten(self.given_w[idx], r)
-        assert sd is not None
-        return r / sd if r.ndim == 2 else r / sd[None, :, None]
+        assert w3 is not None
+        return r @ w3.T if r.ndim == 2 else np.einsum("ij,kjn->kin", w3, r)
 
-    def fit(self, p0: FloatArray, idx: NDArray[np.intp], sd: FloatArray | None, loss: str = "linear") -> FloatArray:
+    def fit(
+        self,
+        p0: FloatArray,
+        idx: NDArray[np.intp],
+        w3: FloatArray | None,
+        loss: str = "linear",
+        weights: FloatArray | None = None,
+    ) -> FloatArray:
         from scipy.optimize import least_squares
 
         fl, fr, s = self.fl[idx], self.fr[idx], self.s[idx]
-        fun: Callable[[FloatArray], FloatArray] = lambda p: self.weighted(residuals(p, fl, fr, s), idx, sd).ravel()  # noqa: E731
-        jac: Callable[[FloatArray], FloatArray] = lambda p: -self.weighted(jacobian(p, fl, fr), idx, sd).reshape(-1, 6)  # noqa: E731
+        sw = np.ones(len(idx)) if weights is None else np.sqrt(weights)
+        fun: Callable[[FloatArray], FloatArray] = lambda p: (  # noqa: E731
+            sw[:, None] * self.white(residuals(p, fl, fr, s), idx, w3)
+        ).ravel()
+        jac: Callable[[FloatArray], FloatArray] = lambda p: (  # noqa: E731
+            -sw[:, None, None] * self.white(jacobian(p, fl, fr), idx, w3)
+        ).reshape(-1, 6)
         method = "lm" if loss == "linear" else "trf"
         sol = least_squares(
             fun, p0, jac=jac, method=method, loss=loss, x_scale="jac", ftol=1e-12, xtol=1e-12, gtol=1e-12, max_nfev=500
         )
         return np.asarray(sol.x, dtype=float)
 
-    def information(self, p: FloatArray, idx: NDArray[np.intp], sd: FloatArray) -> FloatArray:
-        if self.given_w is None:
-            return fisher_information(p, self.fl[idx], self.fr[idx], sd)
-        jw = whiten(self.given_w[idx], jacobian(p, self.fl[idx], self.fr[idx])).reshape(-1, 6)
-        return np.asarray(jw.T @ jw, dtype=float)
+    def whitened_jacobian(self, p: FloatArray, idx: NDArray[np.intp], w3: FloatArray | None) -> FloatArray:
+        return self.white(jacobian(p, self.fl[idx], self.fr[idx]), idx, w3)
 
 
-def _ml_fit(prob: _Problem, p0: FloatArray, idx: NDArray[np.intp]) -> tuple[FloatArray, FloatArray]:
-    """Maximum-likelihood fit on the intervals ``idx``: the parameters and the noise sd."""
+def _diag_whitener(sd: FloatArray) -> FloatArray:
+    return np.diag(1.0 / np.maximum(sd, _SD_FLOOR))
+
+
+def _scatter_whitener(scatter: FloatArray) -> FloatArray:
+    """``W`` with ``W^T W = scatter^-1``, the scatter floored so that noise-free data stay finite."""
+    a = 0.5 * (scatter + scatter.T) + np.diag(np.full(3, _SD_FLOOR**2))
+    try:
+        return np.asarray(np.linalg.inv(np.linalg.cholesky(a)), dtype=float)
+    except np.linalg.LinAlgError:
+        return _diag_whitener(np.sqrt(np.maximum(np.diag(a), 0.0)))
+
+
+def _gaussian_fit(prob: _Problem, p0: FloatArray, idx: NDArray[np.intp]) -> tuple[FloatArray, FloatArray | None]:
+    """Maximum likelihood for Gaussian noise on the intervals ``idx``: the parameters and the
+    whitener (``None`` with given covariances; else that of the noise sd of each component,
+    estimated from the residuals and the fit repeated until it settles)."""
     if prob.given_w is not None:
-        return prob.fit(p0, idx, None), np.full(3, math.nan)
+        return prob.fit(p0, idx, None), None
     n = len(idx)
     sd = _robust_sd(prob.res(p0, idx))
     p = p0
     for _ in range(10):
-        p = prob.fit(p, idx, sd)
+        p = prob.fit(p, idx, _diag_whitener(sd))
         r = prob.res(p, idx)
         new = np.maximum(np.sqrt((r * r).sum(axis=0) / max(n - 2, 1)), _SD_FLOOR)
         done = bool(np.all(np.abs(new / sd - 1.0) < 1e-4))
         sd = new
         if done:
             break
-    return p, sd
+    return p, _diag_whitener(sd)
+
+
+def _t_loglik(nu: float, d2: FloatArray) -> float:
+    """The log-likelihood of squared Mahalanobis distances under a 3-variate Student t (up to the scatter)."""
+    from scipy.special import gammaln
+
+    return float(
+        np.sum(gammaln(0.5 * (nu + 3)) - gammaln(0.5 * nu) - 1.5 * np.log(nu) - 0.5 * (nu + 3) * np.log1p(d2 / nu))
+    )
+
+
+def _fit_dof(d2: FloatArray) -> float:
+    """The Student t degrees of freedom of most likelihood for these distances, within the bounds."""
+    from scipy.optimize import minimize_scalar
+
+    sol = minimize_scalar(
+        lambda u: -_t_loglik(math.exp(u), d2), bounds=(math.log(DOF_MIN), math.log(DOF_MAX)), method="bounded"
+    )
+    return float(math.exp(sol.x))
+
+
+def _student_fit(
+    prob: _Problem, p0: FloatArray, idx: NDArray[np.intp]
+) -> tuple[FloatArray, FloatArray | None, float, FloatArray]:
+    """Maximum likelihood for Student t noise on the intervals ``idx`` (expectation maximisation).
+
+    Returns the parameters, the whitener of the scatter matrix (``None`` with given covariances),
+    the degrees of freedom and the weight of each interval, ``(nu + 3) / (nu + d^2)``.
+    """
+    p = p0
+    r = prob.res(p, idx)
+    w3 = None if prob.given_w is not None else _diag_whitener(_robust_sd(r))
+    nu = 5.0
+    for _ in range(_EM_ROUNDS):
+        z = prob.white(r, idx, w3)
+        d2 = (z * z).sum(axis=1)
+        if prob.given_w is None:
+            wt = (nu + 3) / (nu + d2)
+            w3 = _scatter_whitener((wt[:, None] * r).T @ r / len(idx))
+            z = prob.white(r, idx, w3)
+            d2 = (z * z).sum(axis=1)
+        nu_new = _fit_dof(d2)
+        wt = (nu_new + 3) / (nu_new + d2)
+        q = prob.fit(p, idx, w3, weights=wt)
+        scale = np.array([p[0], p[1], p[2], p[2], p[2], 1.0])
+        done = bool(np.max(np.abs(q - p) / np.abs(scale)) < 1e-10 and abs(math.log(nu_new / nu)) < 1e-6)
+        p, nu = q, nu_new
+        r = prob.res(p, idx)
+        if done:
+            break
+    z = prob.white(r, idx, w3)
+    return p, w3, nu, (nu + 3) / (nu + (z * z).sum(axis=1))
 
 
 def _score(prob: _Problem, p: FloatArray, idx: NDArray[np.intp]) -> float:
@@ -144,6 +267,45 @@ def _score(prob: _Problem, p: FloatArray, idx: NDArray[np.intp]) -> float:
     if prob.given_w is not None:
         r = whiten(prob.given_w[idx], r)
     return float(np.log(_robust_sd(r)).sum())
+
+
+def time_blocks(dt_s: ArrayLike, block_s: float = BLOCK_S, max_blocks: int = MAX_BLOCKS) -> NDArray[np.intp]:
+    """Consecutive intervals grouped into blocks of time, for the covariance of errors they share.
+
+    The intervals are taken in time order; a block spans ``max(block_s, T / max_blocks)`` of
+    their summed duration ``T``, so there are at most ``max_blocks`` blocks.
+
+    Parameters
+    ----------
+    dt_s : array_like
+        ``(K,)`` durations [s], in time order.
+    block_s : float
+        The shortest block [s].
+    max_blocks : int
+        The most blocks.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(K,)`` block labels ``0, 1, ...`` (non-decreasing).
+    """
+    t = np.cumsum(np.asarray(dt_s, dtype=float)) if len(np.atleast_1d(dt_s)) else np.zeros(0)
+    if t.size == 0 or not t[-1] > 0:
+        return np.zeros(t.size, dtype=np.intp)
+    span = max(float(block_s), float(t[-1]) / max(int(max_blocks), 1))
+    lab = np.minimum(np.floor((t - 0.5 * np.asarray(dt_s, dtype=float)) / span), max(int(max_blocks), 1) - 1)
+    return np.asarray(lab, dtype=np.intp)
+
+
+def _block_covariance(a_inv: FloatArray, scores: FloatArray, labels: NDArray[np.intp]) -> tuple[FloatArray, int]:
+    """The cluster-robust (sandwich) covariance ``A^-1 B A^-1`` with ``B`` the outer products of
+    the scores summed per block (small-sample factor ``G / (G - 1)``), and the block count ``G``."""
+    uniq, inv = np.unique(labels, return_inverse=True)
+    g = np.zeros((len(uniq), scores.shape[1]))
+    np.add.at(g, inv, scores)
+    nb = len(uniq)
+    b = g.T @ g * (nb / max(nb - 1, 1))
+    return np.asarray(a_inv @ b @ a_inv, dtype=float), nb
 
 
 def _check_nominal(wheel_diameter_m: float, wheelbase_m: float) -> None:
@@ -159,19 +321,25 @@ def selfcal(
     *,
     sensor_covariance: ArrayLike | None = None,
     reject_outliers: bool = True,
+    loss: str = "student",
     outlier_tail: float = 1e-4,
     max_rounds: int = 10,
     limits: identify.Limits | None = None,
+    blocks: ArrayLike | None = None,
+    block_s: float = BLOCK_S,
+    max_blocks: int = MAX_BLOCKS,
 ) -> SelfcalResult:
     """Estimate the wheel radii, the wheelbase and the sensor pose from intervals.
 
-    The method of Censi, Franchi, Marchionni, Oriolo (IEEE T-RO 2013); the steps are in the
-    module docstring.
+    The method of Censi, Franchi, Marchionni, Oriolo (IEEE T-RO 2013), with heavy-tailed noise
+    and intervals that hold the errors shared within a recording; the steps are in the module
+    docstring.
 
     Parameters
     ----------
     intervals : Intervals
-        Wheel rotations and sensor displacements (:mod:`umbmark.model.intervals`).
+        Wheel rotations and sensor displacements (:mod:`umbmark.model.intervals`), in time
+        order.
     wheel_diameter_m : float
         Nominal wheel diameter [m] (the scale of the checks and of the closed form's
         fallback).
@@ -179,17 +347,27 @@ def selfcal(
         Nominal wheelbase [m] (``E_b`` is relative to it).
     sensor_covariance : array_like, optional
         The covariance of each sensor displacement ``(dx, dy, dyaw)``: (3, 3) for all
-        intervals or (K, 3, 3) per interval (e.g. the scan matcher's). ``None``: the noise of
-        each component is estimated from the residuals.
+        intervals or (K, 3, 3) per interval (e.g. the scan matcher's). ``None``: the noise's
+        scatter matrix is estimated from the residuals.
     reject_outliers : bool
         Set aside intervals whose residual is far beyond the rest.
+    loss : str
+        ``"student"`` (the default): the noise is Student t, its scatter and degrees of freedom
+        estimated with the parameters (heavy tails, e.g. wheel data that lag the scans now and
+        then, weigh less); ``"gaussian"``: Gaussian noise, independent per component.
     outlier_tail : float
-        The chi-square tail probability (3 degrees of freedom) beyond which an interval is
-        an outlier.
+        The tail probability of the fitted noise distribution beyond which an interval is an
+        outlier.
     max_rounds : int
         Fit-and-reject rounds at most.
     limits : identify.Limits, optional
         The standard deviations beyond which a parameter is reported poorly determined.
+    blocks : array_like, optional
+        ``(K,)`` labels of the blocks of time the intervals fall in (e.g. per bag and per
+        stretch of its recording), for the covariance of errors shared within a block; default
+        :func:`time_blocks` of the durations.
+    block_s, max_blocks : float, int
+        The shortest block and the most blocks of the default labels.
 
     Returns
     -------
@@ -201,13 +379,15 @@ def selfcal(
     ------
     InputError
         A nominal geometry that is not positive, fewer than 3 intervals, wheels that never
-        turn, a covariance that is not positive definite, or intervals that cannot determine
-        the parameters (a singular information matrix; the message names the parameters,
-        the cause and what to drive).
+        turn, a covariance that is not positive definite, an unknown loss, blocks that do not
+        fit the intervals, or intervals that cannot determine the parameters (a singular
+        information matrix; the message names the parameters, the cause and what to drive).
     """
     _check_nominal(wheel_diameter_m, wheelbase_m)
     if not isinstance(intervals, Intervals):
         raise InputError(f"`intervals` must be an Intervals, got {type(intervals).__name__}")
+    if loss not in LOSSES:
+        raise InputError(f"`loss` must be one of {', '.join(LOSSES)}, got {loss!r}")
     lim = limits or identify.Limits()
     if not 0 < outlier_tail < 1:
         raise InputError(f"`outlier_tail` must be a probability between 0 and 1, got {outlier_tail!r}")
@@ -215,6 +395,9 @@ def selfcal(
     k = len(intervals)
     if k < 3:
         raise InputError(f"a self-calibration needs at least 3 intervals, got {k}", src)
+    labels = time_blocks(intervals.dt_s, block_s, max_blocks) if blocks is None else np.asarray(blocks)
+    if labels.shape != (k,):
+        raise InputError(f"`blocks` must hold one label per interval ({k}), got shape {labels.shape}", src)
     r_nom = 0.5 * float(wheel_diameter_m)
     b_nom = float(wheelbase_m)
     fl, fr, s = intervals.left_rad, intervals.right_rad, intervals.sensor
@@ -230,8 +413,9 @@ def selfcal(
             raise InputError(f"`sensor_covariance`: {err}", src) from None
     prob = _Problem(intervals, given_w)
     idx = np.arange(k)
+    student = loss == "student"
 
-    # 1. the better start, refined robustly when outliers are rejected
+    # 1. the better start, refined robustly when outliers are rejected or the loss is robust
     starts = []
     for make in (
         lambda: closed_form(fl, fr, s),
@@ -244,9 +428,9 @@ def selfcal(
     if not starts:
         starts.append(np.array([r_nom, r_nom, b_nom, 0.0, 0.0, 0.0]))
     p0 = min(starts, key=lambda q: _score(prob, q, idx))
-    if reject_outliers:
-        sd0 = _robust_sd(prob.res(p0, idx)) if given_w is None else None
-        p = prob.fit(p0, idx, sd0, loss="cauchy")
+    if reject_outliers or student:
+        w0 = _diag_whitener(_robust_sd(prob.res(p0, idx))) if given_w is None else None
+        p = prob.fit(p0, idx, w0, loss="cauchy")
     else:
         p = p0
     if not np.all(np.isfinite(p)):
@@ -254,44 +438,62 @@ def selfcal(
 
     # 2-3. maximum likelihood and outliers, until the inliers settle
     inl = np.ones(k, dtype=bool)
-    sd = np.full(3, math.nan)
-    if reject_outliers:
-        from scipy.stats import chi2
+    w3: FloatArray | None = None
+    nu = math.inf
+    from scipy.stats import chi2
+    from scipy.stats import f as f_dist
 
-        thr = float(chi2.isf(outlier_tail, 3))
+    def fit_on(mask: NDArray[np.bool_], start: FloatArray) -> tuple[FloatArray, FloatArray | None, float]:
+        sel = np.flatnonzero(mask)
+        if student:
+            q, w, dof, _ = _student_fit(prob, start, sel)
+            return q, w, dof
+        q, w = _gaussian_fit(prob, start, sel)
+        return q, w, math.inf
+
     fitted = None
     for rnd in range(max_rounds):
-        idx = np.flatnonzero(inl)
-        p, sd = _ml_fit(prob, p, idx)
+        p, w3, nu = fit_on(inl, p)
         fitted = inl
         if not reject_outliers:
             break
         e = prob.res(p, np.arange(k))
-        if given_w is not None:
-            e = whiten(given_w, e)
-        # first round robust (the outliers are still in); then the scale of the inliers
-        ei = e[inl]
-        scale = _robust_sd(ei) if rnd == 0 else np.maximum(np.sqrt((ei * ei).mean(axis=0)), _SD_FLOOR)
-        new = ((e / scale) ** 2).sum(axis=1) <= thr
+        if student:
+            z = prob.white(e, np.arange(k), w3)
+            thr = 3.0 * float(f_dist.isf(outlier_tail, 3, max(nu, OUTLIER_DOF_MIN)))
+            new = (z * z).sum(axis=1) <= thr
+        else:
+            if given_w is not None:
+                e = whiten(given_w, e)
+            # first round robust (the outliers are still in); then the scale of the inliers
+            ei = e[inl]
+            scale = _robust_sd(ei) if rnd == 0 else np.maximum(np.sqrt((ei * ei).mean(axis=0)), _SD_FLOOR)
+            new = ((e / scale) ** 2).sum(axis=1) <= float(chi2.isf(outlier_tail, 3))
         if new.sum() < 3 or np.array_equal(new, inl):
             break
         inl = new
     idx = np.flatnonzero(inl)
     if fitted is not inl:  # the rounds ran out just after the inliers changed
-        p, sd = _ml_fit(prob, p, idx)
+        p, w3, nu = fit_on(inl, p)
 
     # 4. the physical one of the mirror pair
     p = _physical(p)
 
     # 5-6. uncertainty, identifiability, plausibility
-    if given_w is None:
-        info = prob.information(p, idx, sd)
-        noise_sd = (float(sd[0]), float(sd[1]), float(sd[2]))
-        from scipy.stats import t as student_t
+    jw = prob.whitened_jacobian(p, idx, w3)
+    z = prob.white(prob.res(p, idx), idx, w3)
+    d2 = (z * z).sum(axis=1)
+    wt = (nu + 3) / (nu + d2) if student else np.ones(len(idx))
+    info = np.einsum("kin,kim->nm", jw, jw) * ((nu + 3) / (nu + 5) if student else 1.0)
+    from scipy.stats import t as student_t
 
+    if given_w is None:
+        assert w3 is not None
+        scatter = np.linalg.inv(w3.T @ w3)
+        sd_noise = np.sqrt(np.maximum(np.diag(scatter), 0.0))
+        noise_sd = (float(sd_noise[0]), float(sd_noise[1]), float(sd_noise[2]))
         tq = float(student_t.ppf(0.975, max(3 * len(idx) - 6, 1)))
     else:
-        info = prob.information(p, idx, np.ones(3))
         cov_in = np.linalg.inv(np.einsum("kji,kjl->kil", given_w[idx], given_w[idx]))
         rms = np.sqrt(np.mean(np.diagonal(cov_in, axis1=1, axis2=2), axis=0))
         noise_sd = (float(rms[0]), float(rms[1]), float(rms[2]))
@@ -300,6 +502,17 @@ def selfcal(
     cov, id_warnings, singular = identify.identifiability(p, info, drv, r_nom, b_nom, lim)
     if singular is not None:
         raise InputError(singular, src)
+    n_blocks = 0
+    if len(np.unique(labels[idx])) >= MIN_BLOCKS:
+        scores = wt[:, None] * np.einsum("kin,ki->kn", jw, z)
+        cov_b, n_blocks = _block_covariance(cov, scores, labels[idx])
+        sd_m = np.sqrt(np.maximum(np.diag(cov), 0.0))
+        sd_b = np.sqrt(np.maximum(np.diag(cov_b), 0.0))
+        corr = cov_b / np.outer(np.where(sd_b > 0, sd_b, 1.0), np.where(sd_b > 0, sd_b, 1.0))
+        sd_c = np.maximum(sd_m, sd_b)
+        cov = corr * np.outer(sd_c, sd_c)
+        tq = float(student_t.ppf(0.975, n_blocks - 1))
+        cov, id_warnings, _ = identify.identifiability(p, info, drv, r_nom, b_nom, lim, covariance=cov)
     warnings = list(intervals.warnings)
     warnings += identify.plausibility(p, float(wheel_diameter_m), b_nom)
     warnings += id_warnings
@@ -312,7 +525,6 @@ def selfcal(
     sdp = np.sqrt(np.maximum(np.diag(cov), 0.0))
     names = ("r_left_m", "r_right_m", "wheelbase_m", "sensor_x_m", "sensor_y_m", "sensor_yaw_rad")
     ci = {n: (float(p[i] - tq * sdp[i]), float(p[i] + tq * sdp[i])) for i, n in enumerate(names)}
-    rw = prob.weighted(prob.res(p, idx), idx, sd if given_w is None else None)
     return SelfcalResult(
         r_left_m=float(p[0]),
         r_right_m=float(p[1]),
@@ -327,5 +539,7 @@ def selfcal(
         nominal_wheelbase_m=b_nom,
         noise_sd=noise_sd,
         t_quantile=tq,
-        cost=float(0.5 * (rw * rw).sum()),
+        cost=float(0.5 * (z * z).sum()),
+        noise_dof=float(nu),
+        covariance_blocks=n_blocks,
     )

@@ -202,6 +202,7 @@ def identifiability(
     r_nominal_m: float,
     wheelbase_m: float,
     limits: Limits = Limits(),
+    covariance: ArrayLike | None = None,
 ) -> tuple[FloatArray, list[str], str | None]:
     """The covariance of the parameters and what the intervals fail to determine.
 
@@ -217,11 +218,16 @@ def identifiability(
         Nominal radius and wheelbase (the scales).
     limits : Limits
         The standard deviations that count as poorly determined.
+    covariance : array_like, optional
+        The covariance to judge the standard deviations by (e.g. one that also holds the
+        errors shared within a recording); default the inverse of the information. The
+        singularity is always judged on the information.
 
     Returns
     -------
     covariance : numpy.ndarray
-        The inverse of the information (6 x 6); infinite where it is singular.
+        ``covariance`` when given, else the inverse of the information (6 x 6); infinite where
+        the information is singular.
     warnings : list of str
         One warning naming the poorly determined parameters and the causes (or none).
     singular : str or None
@@ -243,8 +249,7 @@ def identifiability(
         names = [_LABELS[i] for i in np.flatnonzero(weight > 0.2)] or [_LABELS[int(np.argmax(weight))]]
         msg = f"the intervals cannot determine {_join(names)} (the information matrix is singular): {advice}"
         return np.full((6, 6), np.inf), [], msg
-    cov_s = (v / w) @ v.T
-    cov = cov_s * np.outer(sc, sc)
+    cov = (v / w) @ v.T * np.outer(sc, sc) if covariance is None else np.asarray(covariance, float)
     sd = np.sqrt(np.maximum(np.diag(cov), 0.0))
     poor = []
     for i in range(3):

@@ -49,13 +49,19 @@ class SelfcalResult:
     nominal_wheel_diameter_m, nominal_wheelbase_m : float
         The nominal geometry the result is compared with.
     noise_sd : tuple of float
-        The noise of the sensor displacements ``(dx_m, dy_m, dyaw_rad)``: estimated from the
-        residuals, or the root mean square of the given covariances' standard deviations.
+        The noise of the sensor displacements ``(dx_m, dy_m, dyaw_rad)``: the scale of each
+        component estimated from the residuals (for Student t noise that of its scatter
+        matrix), or the root mean square of the given covariances' standard deviations.
     t_quantile : float
         The factor from standard deviations to the 95 % half-widths (Student t of the
-        residual degrees of freedom).
+        blocks less one, or of the residual degrees of freedom).
     cost : float
         Half the sum of the squared whitened residuals of the used intervals.
+    noise_dof : float
+        The Student t degrees of freedom of the noise (``inf``: Gaussian).
+    covariance_blocks : int
+        The blocks of time the covariance of shared errors was computed over (0: the Fisher
+        information's alone).
     """
 
     r_left_m: float
@@ -72,6 +78,8 @@ class SelfcalResult:
     noise_sd: tuple[float, float, float] = (math.nan, math.nan, math.nan)
     t_quantile: float = 1.959963984540054
     cost: float = math.nan
+    noise_dof: float = math.inf
+    covariance_blocks: int = 0
 
     @property
     def params(self) -> NDArray[np.float64]:
@@ -153,8 +161,11 @@ class SelfcalResult:
             ``Eb`` and ``<each>_ci95`` (``[low, high]``); ``sensor_pose`` with ``x_mm``,
             ``y_mm``, ``yaw_deg`` and their ``_ci95``; ``intervals_used``,
             ``intervals_rejected`` (indices), ``warnings``; the nominal geometry, the noise
-            of the sensor displacements, the standard deviations and the covariance (SI, in
-            the order of ``parameters``).
+            of the sensor displacements (``noise_sd``: the scale of each component;
+            ``noise_dof``: its Student t degrees of freedom, null for Gaussian noise),
+            ``covariance_blocks`` (the blocks of time of the covariance of shared errors, 0
+            for none), the standard deviations and the covariance (SI, in the order of
+            ``parameters``).
         """
         mm = lambda lo_hi: [lo_hi[0] * 1e3, lo_hi[1] * 1e3]  # noqa: E731
         deg = lambda lo_hi: [math.degrees(lo_hi[0]), math.degrees(lo_hi[1])]  # noqa: E731
@@ -188,6 +199,8 @@ class SelfcalResult:
                 "dy_mm": self.noise_sd[1] * 1e3,
                 "dyaw_deg": math.degrees(self.noise_sd[2]),
             },
+            "noise_dof": self.noise_dof if math.isfinite(self.noise_dof) else None,
+            "covariance_blocks": int(self.covariance_blocks),
             "parameters": list(PARAMETERS),
             "sd": [float(v) for v in self.sd],
             "covariance": [[float(v) for v in row] for row in self.covariance],
