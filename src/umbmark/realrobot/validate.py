@@ -1354,7 +1354,8 @@ def _window(st: FloatArray, window_s: tuple[float, float] | None, src: str) -> t
     if hi < 0 or lo > end:
         hint = " (seconds from the log's first scan, not time stamps)" if abs(lo) > 1e6 else ""
         raise InputError(
-            f"the window {lo:g} to {hi:g} s lies outside the log: its scans span 0 to {end:.3f} s from the first{hint}",
+            f"the window {lo:.10g} to {hi:.10g} s lies outside the log: its scans span 0 to {end:.3f} s from "
+            f"the first{hint}",
             src,
         )
     warnings = []
@@ -1373,23 +1374,38 @@ def _check_number(name: str, v: Any, positive: bool = True) -> float:
     return float(v)
 
 
-def _plausibility(fig: OdometryFigures, kind: str, src: str | None) -> list[str]:
-    """Errors for a reference in degrees or millimetres; warnings for a scale far from 1."""
-    ts, ds = fig.turn_scale, fig.distance_scale
-    if fig.turn_relations >= 3 and math.isfinite(ts) and 0.5 / _DEG < ts < 2.0 / _DEG:
-        raise InputError(
-            f"the {kind} turn about {1 / ts:.0f} times as much as the odometry (turn scale {ts:.4f}): their "
-            "angles look like degrees; radians are expected",
-            src,
-        )
-    if fig.distance_relations >= 3 and math.isfinite(ds) and 0.0005 < ds < 0.002:
-        raise InputError(
-            f"the {kind} move about {1 / ds:.0f} times as far as the odometry (distance scale {ds:.5f}): their "
-            "translations look like millimetres; metres are expected",
-            src,
-        )
+def _plausibility(
+    odometry: FloatArray,
+    i1: NDArray[np.int64],
+    i2: NDArray[np.int64],
+    reference: FloatArray,
+    sensor_pose: Pose,
+    fig: OdometryFigures,
+    kind: str,
+    src: str | None,
+) -> list[str]:
+    """Errors for a reference whose angles look like degrees or translations like millimetres (the
+    RMS of its turns or translations about 57 or 1000 times the nominal odometry's); warnings
+    for a nominal odometry whose scale is far from 1."""
+    q = in_sensor_frame(se2.between(odometry[i1], odometry[i2]), sensor_pose)
+    turn = odometry[i2, 2] - odometry[i1, 2]
+    for name, mine, theirs, factor, unit, want in (
+        ("turn", turn, reference[:, 2], _DEG, "degrees", "radians"),
+        ("move", np.hypot(q[:, 0], q[:, 1]), np.hypot(reference[:, 0], reference[:, 1]), 1e3, "millimetres", "metres"),
+    ):
+        den = float(mine @ mine)
+        if len(mine) < 5 or not den > 0:
+            continue
+        ratio = math.sqrt(float(theirs @ theirs) / den)
+        if factor / 3 < ratio < 3 * factor:
+            what = "angles" if unit == "degrees" else "translations"
+            raise InputError(
+                f"the {kind} {name} about {ratio:.0f} times as much as the odometry: their {what} look like "
+                f"{unit}; {want} are expected",
+                src,
+            )
     out = []
-    for name, v in (("distance", ds), ("turn", ts)):
+    for name, v in (("distance", fig.distance_scale), ("turn", fig.turn_scale)):
         if math.isfinite(v) and not 0.5 <= v <= 2.0:
             hint = " (wheel angles in degrees?)" if 30 < v < 120 else ""
             out.append(
@@ -1568,7 +1584,10 @@ def validate(
             OdometryFigures.compute(after_odo, *args, after_pose, short[sel]),
         )
 
-    warnings += _plausibility(figures(inside)[0], kind, rel.source)
+    sel = inside & short
+    warnings += _plausibility(
+        before_odo, k1[sel], k2[sel], rel.pose[sel], nominal_pose, figures(inside)[0], kind, rel.source
+    )
     # the spans
     t = st - origin
     if halves:
