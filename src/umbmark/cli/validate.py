@@ -143,15 +143,15 @@ def _print_report(d: dict) -> None:
     )
     if ref["kind"] == "trajectory":
         what = (
-            f"trajectory {ref['path']} ({ref['poses']} poses of the {ref['frame']} frame, {ref['mode']} at "
-            f"{ref['scans_with_pose']} scans): {ref['relations']} relations made"
+            f"{ref['relations']} relations made from the trajectory {ref['path']} ({ref['poses']} poses of the "
+            f"{ref['frame']} frame, {ref['mode']} at {ref['scans_with_pose']} scans)"
         )
     else:
-        what = f"relations {ref['path']}: {ref['relations']}"
+        what = f"{ref['relations']} relations from {ref['path']}"
     c.print(
         escape(
-            f"  reference: {what}; {ref['unmatched']} without a scan at a stamp, {ref['without_wheel_data']} "
-            f"without wheel data, {ref['outside_window']} outside the window"
+            f"  reference: {what}; not used: {ref['unmatched']} without a scan at a stamp, "
+            f"{ref['without_wheel_data']} without wheel data, {ref['outside_window']} outside the window"
         )
     )
     n, k = cal["nominal"], cal["calibrated"]
@@ -177,7 +177,7 @@ def _print_report(d: dict) -> None:
         before = span["before"]
         title = (
             f"{span['label']}, {span['t_start_s']:.1f} to {span['t_end_s']:.1f} s: {span['relations_short']} short "
-            f"and {span['relations_long']} long relations (scales: {before['distance_relations']} and "
+            f"and {span['relations_long']} long relations (the scales over {before['distance_relations']} and "
             f"{before['turn_relations']})"
         )
         c.print(table(title, ["", "before", "after", "rule", ""], rows))

@@ -1586,7 +1586,14 @@ def validate(
 
     sel = inside & short
     warnings += _plausibility(
-        before_odo, k1[sel], k2[sel], rel.pose[sel], nominal_pose, figures(inside)[0], kind, rel.source
+        before_odo,
+        k1[sel],
+        k2[sel],
+        rel.pose[sel],
+        nominal_pose,
+        figures(inside)[0],
+        "relations" if kind == "relations" else "relations made from the trajectory",
+        rel.source,
     )
     # the spans
     t = st - origin
