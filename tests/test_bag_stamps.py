@@ -352,9 +352,10 @@ def test_selfcal_bag_spike_is_dropped_and_a_jump_is_an_error(clean, tmp_path):
 
 
 def test_selfcal_scan_delay_auto_and_seconds(tmp_path, capsys):
-    """Scans stamped 0.2 s late against the wheels: ``selfcal --scan-delay auto`` finds the delay
-    (scan-matched turns against the wheels' turns) and moves the scans back, and the calibration
-    is that of the undelayed bag; ``--scan-delay SECONDS`` applies a known delay."""
+    """Scans stamped 0.2 s late against the wheels: ``selfcal`` (``--scan-delay auto``, the
+    default) finds the delay (scan-matched turns against the wheels' turns) and moves the scans
+    back, and the calibration is that of the undelayed bag; ``--scan-delay SECONDS`` applies a
+    known delay, ``--scan-delay off`` takes the stamps as recorded."""
     from umbmark.model.drive import SimRobot, mixed_program
     from umbmark.model.geometry import LABMATE
     from umbmark.model.sensors import SensorPose
@@ -374,13 +375,15 @@ def test_selfcal_scan_delay_auto_and_seconds(tmp_path, capsys):
         assert main(["selfcal", str(b), *args, *extra]) == 0
         return json.loads(capsys.readouterr().out)
 
-    ref, raw, auto, given = (
-        selfcal(bag),
-        selfcal(late),
+    ref, raw, auto, given, default = (
+        selfcal(bag, "--scan-delay", "off"),
+        selfcal(late, "--scan-delay", "off"),
         selfcal(late, "--scan-delay", "auto"),
         selfcal(late, "--scan-delay", "0.2"),
+        selfcal(late),
     )
-    assert "scan_delay" not in ref and "scan_delay" not in raw
+    assert ref["scan_delay"][0]["applied_s"] == 0 and raw["scan_delay"][0]["requested"] == "0"
+    assert default["scan_delay"] == auto["scan_delay"] and default["Eb"] == auto["Eb"]
     (d,) = auto["scan_delay"]
     assert d["requested"] == "auto" and abs(d["applied_s"] - 0.2) < 2e-3 and d["correlation"] > d["correlation_at_zero"]
     # measured: E_d within 5e-8 and E_b within 7e-6 of the undelayed bag's (uncorrected: 3e-5, 6e-5)
@@ -389,7 +392,7 @@ def test_selfcal_scan_delay_auto_and_seconds(tmp_path, capsys):
     assert given["scan_delay"][0]["applied_s"] == 0.2 and abs(given["Eb"] - ref["Eb"]) < 1e-6
     assert main(["selfcal", str(late), *args, "--scan-delay", "soon"]) == 2
     err = capsys.readouterr().err.strip()
-    assert len(err.splitlines()) == 1 and "--scan-delay must be auto or seconds" in err
+    assert len(err.splitlines()) == 1 and "--scan-delay must be auto, off or seconds" in err
 
 
 def test_messages_a_little_out_of_order_are_sorted_with_a_warning(clean, clean_cal, tmp_path):

@@ -29,8 +29,9 @@ LEGEND = (
     "E_d = D_R / D_L and E_b = wheelbase / nominal wheelbase: the two systematic errors of UMBmark.",
     "lidar x, y, yaw: where the lidar sits on the robot (x forward, y left of the midpoint between the "
     "wheels; yaw counter-clockwise from the robot's heading); nominal: the pose the scan matching started from.",
-    "95 % interval: from the scatter of the intervals about the fit; it does not cover errors shared by all "
-    "intervals (a bias of the scan matching, wheels slipping the same way on one floor).",
+    "95 % interval: from the scatter of the intervals about the fit and between stretches of the recording "
+    "(errors shared within a stretch, such as a room the scan matching measures a little short, count); it does "
+    "not cover errors shared by the whole recording (one floor, one day): calibrate on another to see those.",
 )
 
 
@@ -128,6 +129,17 @@ def _next_command(paths, save, d_m, b_m, flags: list[str]) -> tuple[str, str]:
     return again, f"umbmark export {q(cal)} --format ros2 --out params.yaml"
 
 
+def _delay_text(d: dict) -> str:
+    """How late the scans' stamps were taken to be, and where that came from."""
+    applied = f"{d['applied_s'] * 1e3:.1f} ms"
+    if d.get("requested") != "auto":
+        return f"{applied} (given)" if d["applied_s"] else f"{applied} (stamps as recorded)"
+    return (
+        f"{applied}, estimated (the matched turns correlate {d['correlation']:.4f} with the wheels' then, "
+        f"{d['correlation_at_zero']:.4f} as stamped; --scan-delay off for the stamps as recorded)"
+    )
+
+
 def _ci(lo_hi, digits: int) -> str:
     return f"{lo_hi[0]:.{digits}f} to {lo_hi[1]:.{digits}f}"
 
@@ -152,6 +164,7 @@ def _print_report(d: dict, again: str, export: str) -> None:
             if b["failure_reasons"]:
                 why = "; ".join(f"{n} {r}" for r, n in b["failure_reasons"].items())
                 c.print(escape(f"  failed matches: {why}"))
+            c.print(escape(f"  scans' delay: {_delay_text(b['scan_delay'])}"))
             n = b["nominal_sensor_pose"]
             src = "none (zero)" if n["source"] == "none" else n["source"]
             c.print(
@@ -262,11 +275,13 @@ def _print_report(d: dict, again: str, export: str) -> None:
 )
 @click.option(
     "--scan-delay",
-    default=None,
-    metavar="auto|SECONDS",
-    help="Bag: how late the scans are stamped against the wheel data; auto estimates it (the "
-    "scan-matched turns against the wheels' turns, within +-0.3 s; a second scan-matching pass) "
-    "and both subtract it from the scans' stamps. JSON key scan_delay.",
+    default="auto",
+    show_default=True,
+    metavar="auto|off|SECONDS",
+    help="Bag: how late the scans are stamped against the wheel data. auto estimates it (the "
+    "scan-matched turns against the wheels' turns, within +-0.3 s) and subtracts it from the scans' "
+    "stamps; off (or 0) takes the stamps as recorded; a number of seconds is applied as given. "
+    "Printed per bag; JSON key scan_delay.",
 )
 @click.option(
     "--min-intervals", type=click.IntRange(min=3), default=10, show_default=True, help="Fewest matched intervals."
@@ -332,16 +347,13 @@ def selfcal_cmd(
             rep = selfcal_from_intervals(list(paths), d_m, b_m, **opts)
         flags: list[str] = []
     else:
-        delays: list[dict] = []
-        rep = _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json, delays)
+        rep = _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json)
         flags = _bag_flags(kw)
     if keep_outliers:
         flags.append("--keep-outliers")
     if min_intervals != 10:
         flags.append(f"--min-intervals {min_intervals}")
     d = rep.to_dict()
-    if kind != "intervals" and delays:
-        d["scan_delay"] = delays
     if save:
         from umbmark.io.atomic import write_json
 
@@ -377,12 +389,13 @@ def _bag_flags(kw) -> list[str]:
         "scan_frame",
         "keyframe_s",
         "intervals_out",
-        "scan_delay",
     ):
         if kw[name] is not None:
             out.append(f"--{name.replace('_', '-')} {q(str(kw[name]))}")
     if kw["ticks"] != "cumulative":
         out.append(f"--ticks {kw['ticks']}")
+    if str(kw["scan_delay"]).strip().lower() != "auto":
+        out.append(f"--scan-delay {q(str(kw['scan_delay']))}")
     for name, usual in (
         ("keyframe_mm", 0.0),
         ("keyframe_deg", 0.0),
@@ -396,40 +409,13 @@ def _bag_flags(kw) -> list[str]:
     return out
 
 
-def _scan_delay(bag, value, d_m: float, b_m: float):
-    """``--scan-delay``: the bag with its scans' stamps moved earlier, and what was done (JSON)."""
-    from dataclasses import replace
-
-    from umbmark.model.timing import parse_time_offset
-
-    try:
-        want = parse_time_offset(value)
-    except InputError:
-        raise InputError(
-            f"--scan-delay must be auto or seconds (positive: the scans are late), got {value!r}"
-        ) from None
-    if want is None:
-        return bag, None
-    out: dict = {"bag": bag.source, "requested": want if isinstance(want, str) else f"{want:g}"}
-    if want == "auto":
-        from umbmark.studies.slam2d import estimate_scan_delay
-
-        est = estimate_scan_delay(bag, d_m, b_m)
-        out.update(est.to_dict())
-        delay = est.delay_s
-    else:
-        delay = float(want)
-    out["applied_s"] = delay
-    return replace(bag, scan_t_s=bag.scan_t_s - delay), out
-
-
-def _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json, delays=None):
-    """Read, plan and match every bag (with progress bars), then self-calibrate the pooled intervals;
-    with ``--scan-delay`` each bag's scans moved in time first (what was done appended to ``delays``)."""
+def _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json):
+    """Read, plan and match every bag (with progress bars; the scans' delay estimated or applied as
+    ``--scan-delay`` says), then self-calibrate the pooled intervals."""
     from umbmark.io.load import parse_joints
     from umbmark.io.rosbag import read_selfcal_bag
     from umbmark.realrobot.scanmatch import ICPConfig
-    from umbmark.realrobot.selfcal import KeyframeRule, match_intervals, plan_intervals, selfcal_report
+    from umbmark.realrobot.selfcal import KeyframeRule, bag_intervals, parse_scan_delay, selfcal_report
 
     for flag in ("keyframe_mm", "keyframe_deg", "keyframe_min_s"):
         v = kw[flag]
@@ -468,26 +454,30 @@ def _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json, delays=None):
         "scan_frame": kw["scan_frame"],
     }
     icp = ICPConfig(coarse=True) if kw["coarse"] else None
+    try:
+        scan_delay = parse_scan_delay(kw["scan_delay"])
+    except InputError:
+        raise InputError(
+            f"--scan-delay must be auto, off or seconds (positive: the scans are late), got {kw['scan_delay']!r}"
+        ) from None
     parts = []
     with _Bars(enabled=not as_json) as bars:
         for p in paths:
             name = Path(p).name
             bag = read_selfcal_bag(p, progress=bars.bar(f"reading {name}"), **read)
-            bag, delay = _scan_delay(bag, kw.get("scan_delay"), d_m, b_m)
-            if delay is not None and delays is not None:
-                delays.append(delay)
-            plan = plan_intervals(
-                bag,
-                d_m,
-                b_m,
-                keyframes=rule,
-                sensor_pose=pose,
-                base_frame=kw["base_frame"],
-                max_wheel_gap_s=kw["max_wheel_gap_s"],
-            )
             parts.append(
-                match_intervals(
-                    plan, icp=icp, min_intervals=min_intervals, progress=bars.bar(f"matching scans of {name}")
+                bag_intervals(
+                    bag,
+                    d_m,
+                    b_m,
+                    keyframes=rule,
+                    sensor_pose=pose,
+                    base_frame=kw["base_frame"],
+                    max_wheel_gap_s=kw["max_wheel_gap_s"],
+                    icp=icp,
+                    min_intervals=min_intervals,
+                    scan_delay=scan_delay,
+                    progress=bars.bar(f"matching scans of {name}"),
                 )
             )
         if not as_json:

@@ -12,7 +12,8 @@ and sensor parameters for mobile robots" (IEEE T-RO 29(2), 2013), estimated by
    ``ds -/+ b dth / 2`` (``b`` the NOMINAL wheelbase) and turned that travel over the NOMINAL
    radius (:func:`wheel_angles_from_odometry`). Joint positions that jump by more than half a
    turn between samples (wrapped to one turn) are unwrapped, with a warning. Scans outside the
-   wheel data, or inside a gap of it longer than ``max_wheel_gap_s``, are not used.
+   wheel data (by more than half a wheel sample), or inside a gap of it longer than
+   ``max_wheel_gap_s``, are not used.
 2. **Keyframes** (:class:`KeyframeRule`): by default every scan; or the next keyframe once the
    nominal odometry has moved a distance or turned an angle, or a time has passed. An
    interval joins two consecutive keyframes; those in which neither wheel moved are set aside
@@ -22,10 +23,17 @@ and sensor parameters for mobile robots" (IEEE T-RO 29(2), 2013), estimated by
    its nominal pose ``l0`` (``l0^-1 (+) q (+) l0``). ``l0`` is the ``/tf_static`` chain from
    the base frame to the scan frame when the bag has it, else given, else zero (the matching
    needs a start, the calibration does not). Failed matches are dropped and counted.
-4. :func:`umbmark.correct.selfcal.selfcal` on the intervals of all bags together.
+4. **The scans' delay** (:func:`estimate_scan_delay`, by default): a scan is stamped when it
+   arrives, after its sweep and the transfer, while the wheel data are stamped when read, so
+   the scans are often late against the wheels by a fraction of a sweep. The matched turns are
+   correlated with the wheels' turns read at ``stamp - d`` for trial delays ``d`` (on a sample
+   of the intervals); the best ``d`` is applied and 1-3 run again.
+5. :func:`umbmark.correct.selfcal.selfcal` on the intervals of all bags together (blocks of
+   time per bag, :func:`interval_blocks`, for the covariance of errors shared within a
+   recording).
 
-:func:`plan_intervals` does 1-2, :func:`match_intervals` 3 (:func:`bag_intervals` both),
-:func:`selfcal_report` 4 and its report (:class:`SelfcalReport`, the JSON of
+:func:`plan_intervals` does 1-2, :func:`match_intervals` 3 (:func:`bag_intervals` 1-4),
+:func:`selfcal_report` 5 and its report (:class:`SelfcalReport`, the JSON of
 ``umbmark selfcal``). :func:`selfcal_from_bags` and :func:`selfcal_from_intervals` run
 everything from files.
 
@@ -46,6 +54,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from umbmark.correct.selfcal import SelfcalResult, selfcal
+from umbmark.correct.selfcal.estimate import BLOCK_S, MAX_BLOCKS
 from umbmark.errors import InputError
 from umbmark.io.rosbag import SelfcalBag, StaticTransform
 from umbmark.model import se2
@@ -58,12 +67,16 @@ __all__ = [
     "KeyframeRule",
     "IntervalPlan",
     "ScanIntervals",
+    "ScanDelay",
+    "estimate_scan_delay",
+    "parse_scan_delay",
     "SelfcalReport",
     "wheel_angles_from_odometry",
     "sensor_pose_from_tf",
     "plan_intervals",
     "match_intervals",
     "bag_intervals",
+    "interval_blocks",
     "selfcal_report",
     "selfcal_from_bags",
     "selfcal_from_intervals",
@@ -72,6 +85,9 @@ __all__ = [
     "MAX_TILT_RAD",
     "POSE_WARN_M",
     "POSE_WARN_RAD",
+    "SCAN_DELAY_SEARCH_S",
+    "DELAY_PAIRS",
+    "MAX_SCAN_DELAY_S",
 ]
 
 BASE_FRAMES = ("base_link", "base_footprint")
@@ -85,6 +101,16 @@ MAX_TILT_RAD = math.radians(10.0)
 
 POSE_WARN_M, POSE_WARN_RAD = 0.01, math.radians(1.0)
 """An estimated sensor pose further than these from the ``/tf_static`` one is reported."""
+
+SCAN_DELAY_SEARCH_S = 0.3
+"""How far either way the scans' delay is searched [s] (:func:`estimate_scan_delay`)."""
+
+DELAY_PAIRS = 2000
+"""About how many scan pairs the scans' delay is estimated from (a sample of a long bag's)."""
+
+MAX_SCAN_DELAY_S = 1.0
+"""The largest scan delay accepted when given [s]: a scan is stamped within a sweep of when it was
+taken, and more points to milliseconds given as seconds."""
 
 _CHUNK = 500  # scan pairs per call of the matcher (the progress steps)
 
@@ -352,6 +378,8 @@ class IntervalPlan:
     ----------
     bag : SelfcalBag
         The recording.
+    scan_delay_s : float
+        The delay of the scans' stamps the wheel angles were read with [s].
     pairs : numpy.ndarray
         ``(K, 2)`` scan indices (start, end) of the intervals to match.
     dt_s, left_rad, right_rad : numpy.ndarray
@@ -379,6 +407,7 @@ class IntervalPlan:
     """
 
     bag: SelfcalBag
+    scan_delay_s: float
     pairs: NDArray[np.int64]
     dt_s: FloatArray
     left_rad: FloatArray
@@ -468,6 +497,7 @@ def plan_intervals(
     sensor_pose: ArrayLike | None = None,
     base_frame: str | None = None,
     max_wheel_gap_s: float = 0.5,
+    scan_delay_s: float = 0.0,
 ) -> IntervalPlan:
     """Wheel angles at the scans, keyframes, and the intervals to match (steps 1-2 of the module docstring).
 
@@ -489,6 +519,9 @@ def plan_intervals(
         :data:`BASE_FRAMES`.
     max_wheel_gap_s : float
         A scan between two wheel samples further apart than this has no wheel data.
+    scan_delay_s : float
+        How late the scans are stamped against the wheel data [s]: a scan stamped ``t`` takes
+        the wheel angles at ``t - scan_delay_s``.
 
     Returns
     -------
@@ -510,9 +543,13 @@ def plan_intervals(
     r_nom = 0.5 * d_nom
     left, right, unwrapped = _wheel_angles(bag, r_nom, b_nom)
     wt = np.asarray(bag.wheel_t_s, dtype=float)
-    st = np.asarray(bag.scan_t_s, dtype=float)
+    if not (isinstance(scan_delay_s, (int, float, np.floating)) and math.isfinite(scan_delay_s)):
+        raise InputError(f"`scan_delay_s` must be a finite number of seconds, got {scan_delay_s!r}")
+    st = np.asarray(bag.scan_t_s, dtype=float) - float(scan_delay_s)
     warnings: list[str] = list(bag.warnings) + unwrapped
-    inside = (st >= wt[0]) & (st <= wt[-1])
+    # a scan within half a wheel sample of the wheel data's ends takes the end's angles
+    edge = 0.5 * float(np.median(np.diff(wt))) if len(wt) > 1 else 0.0
+    inside = (st >= wt[0] - edge) & (st <= wt[-1] + edge)
     if inside.sum() < 2:
         raise InputError(
             f"the scans ({_span(st)}) and the wheel data ({_span(wt)}) do not overlap in time: "
@@ -554,6 +591,7 @@ def plan_intervals(
     idx = np.flatnonzero(usable)
     return IntervalPlan(
         bag=bag,
+        scan_delay_s=float(scan_delay_s),
         pairs=pairs[moving],
         dt_s=(st[b] - st[a])[moving],
         left_rad=phi_l[moving],
@@ -569,6 +607,47 @@ def plan_intervals(
         time_span_s=float(st[idx[-1]] - st[idx[0]]),
         warnings=tuple(warnings),
     )
+
+
+@dataclass(frozen=True)
+class ScanDelay:
+    """The delay of the scans' stamps behind the wheel data's clock (:func:`estimate_scan_delay`).
+
+    Parameters
+    ----------
+    delay_s : float
+        The estimate [s]: a scan stamped ``t`` was taken when the wheel data say ``t - delay_s``.
+    correlation : float
+        Correlation of the scan-matched turns with the wheels' turns at that delay.
+    correlation_at_zero : float
+        The same with the stamps as recorded.
+    pairs : int
+        Matched scan pairs it was estimated from.
+    search_s : float
+        The delays searched: ``-search_s`` to ``search_s`` [s].
+    """
+
+    delay_s: float
+    correlation: float
+    correlation_at_zero: float
+    pairs: int
+    search_s: float
+
+    def to_dict(self) -> dict[str, Any]:
+        """As JSON.
+
+        Returns
+        -------
+        dict
+            ``delay_s``, ``correlation``, ``correlation_at_zero``, ``pairs``, ``search_s``.
+        """
+        return {
+            "delay_s": self.delay_s,
+            "correlation": self.correlation,
+            "correlation_at_zero": self.correlation_at_zero,
+            "pairs": self.pairs,
+            "search_s": self.search_s,
+        }
 
 
 @dataclass(frozen=True, eq=False)
@@ -587,6 +666,15 @@ class ScanIntervals:
         Why the failed ones failed: reason -> count.
     match_rms_m : float
         Median root-mean-square point-to-line residual of the matched pairs [m].
+    matched : numpy.ndarray
+        ``(K,)`` booleans, one per planned pair: it matched (its interval is in ``intervals``).
+    poses : numpy.ndarray
+        ``(K, 3)`` the matcher's answer for every planned pair (also those that failed).
+    scan_delay : ScanDelay or None
+        The delay estimated from this bag (:func:`estimate_scan_delay`), or None when it was
+        given or not looked for.
+    scan_delay_requested : str
+        ``auto``, or the delay given in seconds (``0``: stamps as recorded).
     """
 
     intervals: Intervals
@@ -595,6 +683,31 @@ class ScanIntervals:
     pairs_failed: int
     failure_reasons: dict[str, int] = field(default_factory=dict)
     match_rms_m: float = math.nan
+    matched: NDArray[np.bool_] = field(default_factory=lambda: np.zeros(0, dtype=bool))
+    poses: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
+    scan_delay: ScanDelay | None = None
+    scan_delay_requested: str = "0"
+
+    @property
+    def start_s(self) -> FloatArray:
+        """``(K_matched,)`` the stamps of the intervals' first scans, delay applied [s]."""
+        st = np.asarray(self.plan.bag.scan_t_s, dtype=float) - self.plan.scan_delay_s
+        return np.asarray(st[self.plan.pairs[self.matched, 0]], dtype=float)
+
+    def delay_dict(self) -> dict[str, Any]:
+        """The scan delay of this bag as JSON (an element of ``scan_delay`` in the report).
+
+        Returns
+        -------
+        dict
+            ``bag``, ``requested`` (``auto`` or seconds), ``applied_s`` and, when estimated,
+            :meth:`ScanDelay.to_dict`'s keys.
+        """
+        out: dict[str, Any] = {"bag": self.plan.bag.source, "requested": self.scan_delay_requested}
+        if self.scan_delay is not None:
+            out.update(self.scan_delay.to_dict())
+        out["applied_s"] = self.plan.scan_delay_s
+        return out
 
     def to_dict(self) -> dict[str, Any]:
         """What the pipeline did with the bag, as JSON.
@@ -605,8 +718,8 @@ class ScanIntervals:
             ``path``, ``kind`` (``bag``), ``scan_topic``, ``scan_frame``, ``base_frame``,
             ``wheel_data``, ``scans_read``, ``scans_usable``, ``keyframes``, ``intervals_still``,
             ``pairs_matched``, ``pairs_failed``, ``failure_reasons``, ``match_rms_mm``,
-            ``time_span_s``, ``nominal_sensor_pose`` (``x_mm``, ``y_mm``, ``z_mm``,
-            ``roll_deg``, ``pitch_deg``, ``yaw_deg``, ``source``).
+            ``time_span_s``, ``scan_delay`` (:meth:`delay_dict`), ``nominal_sensor_pose``
+            (``x_mm``, ``y_mm``, ``z_mm``, ``roll_deg``, ``pitch_deg``, ``yaw_deg``, ``source``).
         """
         p = self.plan
         x, y, z, roll, pitch, yaw = p.nominal_sensor_pose
@@ -626,6 +739,7 @@ class ScanIntervals:
             "failure_reasons": dict(self.failure_reasons),
             "match_rms_mm": self.match_rms_m * 1e3,
             "time_span_s": p.time_span_s,
+            "scan_delay": self.delay_dict(),
             "nominal_sensor_pose": {
                 "x_mm": x * 1e3,
                 "y_mm": y * 1e3,
@@ -675,22 +789,22 @@ def match_intervals(
     ok = np.zeros(n, dtype=bool)
     rms = np.full(n, math.nan)
     reasons: Counter[str] = Counter()
-    for s in range(0, n, _CHUNK):
-        e = min(s + _CHUNK, n)
-        a, b = plan.pairs[s:e, 0], plan.pairs[s:e, 1]
-        m = match_scan_pairs(bag.ranges_m[a], bag.ranges_m[b], bag.angles_rad, plan.initial[s:e], icp)
-        poses[s:e] = m.poses
-        ok[s:e] = m.converged
-        rms[s:e] = m.rms_m
+    for s0 in range(0, n, _CHUNK):
+        e = min(s0 + _CHUNK, n)
+        a, b = plan.pairs[s0:e, 0], plan.pairs[s0:e, 1]
+        m = match_scan_pairs(bag.ranges_m[a], bag.ranges_m[b], bag.angles_rad, plan.initial[s0:e], icp)
+        poses[s0:e] = m.poses
+        ok[s0:e] = m.converged
+        rms[s0:e] = m.rms_m
         reasons.update(r.split(" (")[0] for r, c in zip(m.reasons, m.converged) if not c)
         if progress is not None:
             progress(e, n)
     matched = int(ok.sum())
     if matched < min_intervals:
-        why = "; ".join(f"{c} {r}" for r, c in reasons.most_common(3)) or "none failed"
+        causes = "; ".join(f"{c} {r}" for r, c in reasons.most_common(3)) or "none failed"
         raise InputError(
             f"only {matched} usable intervals (fewer than {min_intervals}): {n} scan pairs with motion, "
-            f"{n - matched} failed to match ({why}), {plan.intervals_still} without wheel motion; "
+            f"{n - matched} failed to match ({causes}), {plan.intervals_still} without wheel motion; "
             "drive longer, in view of walls and objects",
             bag.source,
         )
@@ -710,7 +824,128 @@ def match_intervals(
         pairs_failed=n - matched,
         failure_reasons=dict(reasons.most_common()),
         match_rms_m=float(np.median(rms[ok])),
+        matched=ok,
+        poses=poses,
     )
+
+
+def estimate_scan_delay(
+    matches: ScanIntervals,
+    wheel_diameter_m: float,
+    wheelbase_m: float,
+    *,
+    search_s: float = SCAN_DELAY_SEARCH_S,
+    step_s: float = 0.005,
+) -> ScanDelay:
+    """Estimate how late the scans are stamped against the wheel data, from the turns.
+
+    For each trial delay ``d`` on a grid, the robot's turn between ``t_a - d`` and ``t_b - d``
+    by the wheel data (the odometry's heading, or the wheel angles through the nominal
+    geometry; interpolated linearly) is correlated with the matched turn between the scans
+    stamped ``t_a``, ``t_b`` (the matches' intervals; the delay they were planned with is
+    added back). The delay of the highest correlation, refined by a parabola through its
+    neighbours, is the estimate. A turn's scale error does not move it (a correlation ignores
+    scale); a delay shows because the wheels' turn of an interval is then partly that of its
+    neighbours.
+
+    Parameters
+    ----------
+    matches : ScanIntervals
+        Matched intervals of one bag (:func:`match_intervals`).
+    wheel_diameter_m, wheelbase_m : float
+        The nominal geometry [m].
+    search_s : float
+        The largest delay searched, either way [s], around the delay the matches were planned
+        with.
+    step_s : float
+        The grid step [s].
+
+    Returns
+    -------
+    ScanDelay
+
+    Raises
+    ------
+    InputError
+        A search range or step that is not positive, or fewer than 10 matched pairs that turn.
+    """
+    if not (isinstance(search_s, (int, float)) and search_s > 0 and isinstance(step_s, (int, float)) and step_s > 0):
+        raise InputError(f"`search_s` and `step_s` must be positive, got {search_s!r} and {step_s!r}")
+    plan = matches.plan
+    bag = plan.bag
+    ok = matches.matched
+    turn = matches.poses[ok, 2]
+    if ok.sum() < 10 or not np.any(turn):
+        raise InputError(f"only {int(ok.sum())} matched scan pairs that turn: too few to estimate a delay", bag.source)
+    if bag.wheel_kind == "odom":
+        assert bag.odom_pose is not None
+        heading = np.unwrap(np.asarray(bag.odom_pose, dtype=float)[:, 2])
+    else:
+        assert bag.left_rad is not None and bag.right_rad is not None
+        left, right, _ = _wheel_angles(bag, 0.5 * wheel_diameter_m, wheelbase_m)
+        heading = 0.5 * wheel_diameter_m * (right - left) / wheelbase_m
+    wt = np.asarray(bag.wheel_t_s, dtype=float)
+    st = np.asarray(bag.scan_t_s, dtype=float)
+    ta, tb = st[plan.pairs[ok, 0]], st[plan.pairs[ok, 1]]
+    n = int(math.floor(search_s / step_s + 1e-9))
+    grid = plan.scan_delay_s + np.arange(-n, n + 1) * step_s
+
+    def corr(d: float) -> float:
+        o = np.interp(tb - d, wt, heading) - np.interp(ta - d, wt, heading)
+        if not np.any(o):
+            return math.nan
+        return float(np.corrcoef(o, turn)[0, 1])
+
+    c = np.array([corr(float(d)) for d in grid])
+    if not np.any(np.isfinite(c)):
+        raise InputError("the wheels do not turn between the matched scans: no delay to estimate", bag.source)
+    k = int(np.nanargmax(c))
+    best = float(grid[k])
+    if 0 < k < len(grid) - 1 and np.all(np.isfinite(c[k - 1 : k + 2])):
+        den = c[k - 1] - 2 * c[k] + c[k + 1]
+        if den < 0:
+            best += float(0.5 * (c[k - 1] - c[k + 1]) / den * step_s)
+    return ScanDelay(best + 0.0, corr(best), corr(0.0), int(ok.sum()), float(search_s))
+
+
+def parse_scan_delay(value: float | str | None) -> float | str:
+    """``auto`` or a delay in seconds, from what a user gives (``None``: auto; ``off``: 0).
+
+    Parameters
+    ----------
+    value : float, str or None
+        ``auto``, ``off``/``none`` (the stamps as recorded), or seconds.
+
+    Returns
+    -------
+    float or str
+        ``"auto"`` or the delay [s].
+
+    Raises
+    ------
+    InputError
+        Anything else, or a delay beyond :data:`MAX_SCAN_DELAY_S`.
+    """
+    if value is None:
+        return "auto"
+    if isinstance(value, str):
+        v = value.strip().lower()
+        if v == "auto":
+            return "auto"
+        if v in ("off", "none"):
+            return 0.0
+        try:
+            value = float(v)
+        except ValueError:
+            raise InputError(f"`scan_delay` must be auto, off or seconds, got {value!r}") from None
+    if not (isinstance(value, (int, float, np.floating)) and math.isfinite(value)):
+        raise InputError(f"`scan_delay` must be auto, off or seconds, got {value!r}")
+    if abs(value) > MAX_SCAN_DELAY_S:
+        raise InputError(
+            f"`scan_delay` {value:g} s is beyond +-{MAX_SCAN_DELAY_S:g} s: a scan is stamped within a sweep of "
+            "when it was taken (is it in milliseconds?)"
+        )
+    return float(value)
 
 
 def bag_intervals(
@@ -724,9 +959,17 @@ def bag_intervals(
     max_wheel_gap_s: float = 0.5,
     icp: ICPConfig | None = None,
     min_intervals: int = 10,
+    scan_delay: float | str | None = "auto",
     progress: Progress | None = None,
 ) -> ScanIntervals:
-    """:func:`plan_intervals` then :func:`match_intervals`.
+    """:func:`plan_intervals` then :func:`match_intervals`, the scans' delay estimated between.
+
+    With ``scan_delay="auto"`` the intervals are planned with the stamps as recorded, a sample
+    of them (at most about :data:`DELAY_PAIRS`) is matched, the delay is estimated from those
+    matches (:func:`estimate_scan_delay`), and the intervals are planned and matched again
+    with it: the matcher starts from the odometry of the delayed stamps (it stops within a
+    small fraction of a standard deviation of the optimum, on the side it started from, so a
+    start off by the delay would pull every match a little the same way).
 
     Parameters
     ----------
@@ -736,28 +979,63 @@ def bag_intervals(
         Nominal geometry [m].
     keyframes, sensor_pose, base_frame, max_wheel_gap_s
         As :func:`plan_intervals`.
-    icp, min_intervals, progress
+    icp, min_intervals
+        As :func:`match_intervals`.
+    scan_delay : float or str
+        ``"auto"`` (the default): estimated; a number: that delay [s] (0: the stamps as
+        recorded); see :func:`parse_scan_delay`.
+    progress : callable, optional
         As :func:`match_intervals`.
 
     Returns
     -------
     ScanIntervals
+        With the delay applied and, when estimated, :attr:`ScanIntervals.scan_delay`.
 
     Raises
     ------
     InputError
-        As the two steps.
+        As the two steps and :func:`estimate_scan_delay`.
     """
-    plan = plan_intervals(
-        bag,
-        wheel_diameter_m,
-        wheelbase_m,
-        keyframes=keyframes,
-        sensor_pose=sensor_pose,
-        base_frame=base_frame,
-        max_wheel_gap_s=max_wheel_gap_s,
+    want = parse_scan_delay(scan_delay)
+    options = dict(keyframes=keyframes, sensor_pose=sensor_pose, base_frame=base_frame, max_wheel_gap_s=max_wheel_gap_s)
+    first = 0.0 if want == "auto" else float(want)
+    plan = plan_intervals(bag, wheel_diameter_m, wheelbase_m, scan_delay_s=first, **options)
+    if want != "auto":
+        si = match_intervals(plan, icp=icp, min_intervals=min_intervals, progress=progress)
+        return replace(si, scan_delay_requested=f"{first:g}")
+    # the delay from a sample of the pairs, then every pair matched from the delayed odometry
+    sample = _every_nth(plan, max(1, len(plan) // DELAY_PAIRS))
+    n0, n1 = len(sample), len(plan)
+    step = None if progress is None else (lambda done, total: progress(done, n0 + n1))  # noqa: E731
+    est: ScanDelay | None = None
+    try:
+        est = estimate_scan_delay(
+            match_intervals(sample, icp=icp, min_intervals=1, progress=step), wheel_diameter_m, wheelbase_m
+        )
+    except InputError as err:
+        plan = replace(
+            plan, warnings=plan.warnings + (f"the scans' delay is not estimated ({err.message}): stamps as recorded",)
+        )
+    if est is not None:
+        plan = plan_intervals(bag, wheel_diameter_m, wheelbase_m, scan_delay_s=est.delay_s, **options)
+    step = None if progress is None else (lambda done, total: progress(n0 + min(done, n1), n0 + n1))  # noqa: E731
+    si = match_intervals(plan, icp=icp, min_intervals=min_intervals, progress=step)
+    return replace(si, scan_delay=est, scan_delay_requested="auto")
+
+
+def _every_nth(plan: IntervalPlan, n: int) -> IntervalPlan:
+    """The plan with every ``n``-th of its intervals."""
+    if n <= 1:
+        return plan
+    return replace(
+        plan,
+        pairs=plan.pairs[::n],
+        dt_s=plan.dt_s[::n],
+        left_rad=plan.left_rad[::n],
+        right_rad=plan.right_rad[::n],
+        initial=plan.initial[::n],
     )
-    return match_intervals(plan, icp=icp, min_intervals=min_intervals, progress=progress)
 
 
 @dataclass(frozen=True, eq=False)
@@ -818,7 +1096,9 @@ class SelfcalReport:
             ``base_frame``, ``sensor_frame``, ``nominal_sensor_pose`` (of the first bag, or
             null), the totals over the bags ``scans_read``, ``pairs_matched``,
             ``pairs_failed``, ``intervals_still``, ``time_span_s`` (null without bags),
-            ``keyframe_rule`` and ``inputs`` (one object per input: a bag's
+            ``keyframe_rule``, ``scan_delay`` (per bag :meth:`ScanIntervals.delay_dict`: the
+            delay of its scans' stamps, ``applied_s``; null without bags) and ``inputs`` (one
+            object per input: a bag's
             :meth:`ScanIntervals.to_dict`, or ``path`` and ``kind`` ``intervals``).
         """
         bags = self.bags
@@ -838,6 +1118,7 @@ class SelfcalReport:
                 "intervals_still": sum(b.plan.intervals_still for b in bags) if bags else None,
                 "time_span_s": sum(b.plan.time_span_s for b in bags) if bags else None,
                 "keyframe_rule": bags[0].plan.keyframe_rule.to_dict() if bags else None,
+                "scan_delay": [b.delay_dict() for b in bags] if bags else None,
                 "inputs": [
                     p.to_dict() if isinstance(p, ScanIntervals) else {"path": p, "kind": "intervals"}
                     for p in self.parts
@@ -941,6 +1222,44 @@ def _pose_warnings(parts: Sequence[ScanIntervals | str], result: SelfcalResult) 
     return out
 
 
+def interval_blocks(parts: Sequence[ScanIntervals | Intervals]) -> NDArray[np.intp]:
+    """Block labels of the pooled intervals of several inputs, for the covariance of shared errors.
+
+    Each input's intervals are cut into equal stretches of time (a bag's by its scans' stamps,
+    an intervals file's by its summed durations) of about ``max(BLOCK_S, T / MAX_BLOCKS)``,
+    ``T`` the inputs' total time; no block spans two inputs.
+
+    Parameters
+    ----------
+    parts : sequence
+        Per input: a :class:`ScanIntervals` or the :class:`Intervals` of a file.
+
+    Returns
+    -------
+    numpy.ndarray
+        One label per pooled interval, in the order of the inputs.
+    """
+    times = []
+    for p in parts:
+        if isinstance(p, ScanIntervals):
+            t = p.start_s
+            t = t - t[0] if t.size else t
+        else:
+            dt = np.asarray(p.dt_s, dtype=float)
+            t = np.cumsum(dt) - dt
+        times.append(np.asarray(t, dtype=float))
+    total = sum(float(t[-1] - t[0]) for t in times if t.size)
+    span = max(BLOCK_S, total / MAX_BLOCKS)
+    labels, base = [], 0
+    for t in times:
+        length = float(t[-1]) if t.size else 0.0
+        n = max(1, int(round(length / span)))
+        lab = np.minimum(np.floor(t / length * n), n - 1).astype(np.intp) if length > 0 else np.zeros(t.size, np.intp)
+        labels.append(base + lab)
+        base += n
+    return np.concatenate(labels) if labels else np.zeros(0, dtype=np.intp)
+
+
 def selfcal_report(
     parts: Sequence[ScanIntervals | tuple[str, Intervals]],
     wheel_diameter_m: float,
@@ -958,7 +1277,8 @@ def selfcal_report(
         Nominal geometry [m].
     **options
         Keyword arguments of :func:`umbmark.correct.selfcal.selfcal` (``reject_outliers``,
-        ``sensor_covariance`` ...).
+        ``loss``, ``sensor_covariance`` ...); the blocks of time of the covariance are the
+        inputs' (:func:`interval_blocks`).
 
     Returns
     -------
@@ -1001,7 +1321,8 @@ def selfcal_report(
         )
     else:
         pooled = ivs[0]
-    res = selfcal(pooled, wheel_diameter_m, wheelbase_m, **options)
+    blocks = interval_blocks([p if isinstance(p, ScanIntervals) else p[1] for p in parts])
+    res = selfcal(pooled, wheel_diameter_m, wheelbase_m, blocks=blocks, **options)
     extra_w = _pose_warnings(kept, res)
     if extra_w:
         res = replace(res, warnings=list(res.warnings) + extra_w)
@@ -1019,6 +1340,7 @@ def selfcal_from_bags(
     max_wheel_gap_s: float = 0.5,
     icp: ICPConfig | None = None,
     min_intervals: int = 10,
+    scan_delay: float | str | None = "auto",
     selfcal_options: dict[str, Any] | None = None,
     **read_options: Any,
 ) -> SelfcalReport:
@@ -1032,8 +1354,8 @@ def selfcal_from_bags(
         Nominal geometry [m].
     keyframes, sensor_pose, base_frame, max_wheel_gap_s
         As :func:`plan_intervals`.
-    icp, min_intervals
-        As :func:`match_intervals`.
+    icp, min_intervals, scan_delay
+        As :func:`bag_intervals` (the delay estimated per bag by default).
     selfcal_options : dict, optional
         Keyword arguments of :func:`umbmark.correct.selfcal.selfcal`.
     **read_options
@@ -1066,6 +1388,7 @@ def selfcal_from_bags(
                 max_wheel_gap_s=max_wheel_gap_s,
                 icp=icp,
                 min_intervals=min_intervals,
+                scan_delay=scan_delay,
             )
         )
     return selfcal_report(parts, wheel_diameter_m, wheelbase_m, **(selfcal_options or {}))

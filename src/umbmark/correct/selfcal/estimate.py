@@ -252,7 +252,7 @@ def _student_fit(
         wt = (nu_new + 3) / (nu_new + d2)
         q = prob.fit(p, idx, w3, weights=wt)
         scale = np.array([p[0], p[1], p[2], p[2], p[2], 1.0])
-        done = bool(np.max(np.abs(q - p) / np.abs(scale)) < 1e-10 and abs(math.log(nu_new / nu)) < 1e-6)
+        done = bool(np.max(np.abs(q - p) / np.abs(scale)) < 1e-13 and abs(math.log(nu_new / nu)) < 1e-9)
         p, nu = q, nu_new
         r = prob.res(p, idx)
         if done:
