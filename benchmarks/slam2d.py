@@ -14,7 +14,7 @@ fits, the scan matcher itself against the relations. Three runs per log:
 * ``recorded``: the scans' stamps as recorded, nominal geometry ``--nominal-mm`` (default
   wheels 200 mm, wheelbase 400 mm: the robots' geometry is not published; an assumption);
 * ``delay``: the same with the scans' delay behind the odometry estimated on each calibration
-  half (:func:`umbmark.studies.slam2d.estimate_scan_delay`);
+  half (:func:`umbmark.realrobot.selfcal.estimate_scan_delay`);
 * ``other nominal``: ``recorded`` with the nominal geometry ``--other-nominal-mm`` (default
   150 mm, 300 mm), to show which results depend on the assumption.
 

@@ -24,7 +24,8 @@ geometry goes with the estimated ``l``: they were estimated together).
 The odometry is read at the scans' stamps, as recorded; or, when the scans are stamped late
 against the odometry's clock (a laser scan is stamped when it arrives, after the sweep and the
 transfer), at ``stamp - scan_delay_s``: given, or estimated on each calibration part from the
-correlation of the scan-matched turns with the odometry's (:func:`estimate_scan_delay`).
+correlation of the scan-matched turns with the odometry's
+(:func:`umbmark.realrobot.selfcal.estimate_scan_delay`).
 
 The error of one relation is ``e = r^-1 (+) p`` (``r`` the relation, ``p`` the prediction);
 the metric (Kümmerle et al.) is the mean of ``|e_xy|^2`` and of ``e_yaw^2`` (translation and
@@ -66,9 +67,9 @@ from umbmark.model import se2
 from umbmark.realrobot.scanmatch import ICPConfig, match_scan_pairs
 from umbmark.realrobot.selfcal import (
     KeyframeRule,
+    ScanDelay,
     SelfcalReport,
     bag_intervals,
-    plan_intervals,
     selfcal_report,
     sensor_pose_from_tf,
     wheel_angles_from_odometry,
@@ -93,8 +94,6 @@ __all__ = [
     "ErrorStats",
     "SystematicErrors",
     "ScanMatchCheck",
-    "ScanDelay",
-    "estimate_scan_delay",
     "Calibration",
     "Evaluation",
     "HalfTest",
@@ -203,7 +202,8 @@ class Calibration:
     elapsed_s : float
         Wall time of the pipeline (intervals, scan matching, estimate) [s].
     scan_delay : ScanDelay or None
-        The scans' delay estimated on this part (:func:`estimate_scan_delay`), or None.
+        The scans' delay estimated on this part
+        (:func:`umbmark.realrobot.selfcal.estimate_scan_delay`), or None.
     scan_delay_s : float
         The delay applied to this part's odometry before calibrating [s].
     """
@@ -456,7 +456,7 @@ class Slam2dStudy:
         Relations spanning less than this are short [s].
     scan_delay_mode : str
         ``recorded`` (the stamps as recorded), ``given`` or ``estimated`` (per calibration part,
-        :func:`estimate_scan_delay`).
+        :func:`umbmark.realrobot.selfcal.estimate_scan_delay`).
     tf_sensor_pose : tuple of float
         The laser pose of ``/tf_static`` ``(x_m, y_m, yaw_rad)``.
     calibrations : tuple of Calibration
@@ -607,127 +607,6 @@ def _tf_pose(bag: SelfcalBag, base_frame: str | None) -> Pose:
     return (0.0, 0.0, 0.0)
 
 
-@dataclass(frozen=True)
-class ScanDelay:
-    """The delay of the scans' stamps behind the wheel data's clock (:func:`estimate_scan_delay`).
-
-    Parameters
-    ----------
-    delay_s : float
-        The estimate [s]: a scan stamped ``t`` was taken when the wheel data say ``t - delay_s``.
-    correlation : float
-        Correlation of the scan-matched turns with the wheels' turns at that delay.
-    correlation_at_zero : float
-        The same with the stamps as recorded.
-    pairs : int
-        Matched scan pairs it was estimated from.
-    search_s : float
-        The delays searched: ``-search_s`` to ``search_s`` [s].
-    """
-
-    delay_s: float
-    correlation: float
-    correlation_at_zero: float
-    pairs: int
-    search_s: float
-
-    def to_dict(self) -> dict[str, Any]:
-        """As JSON.
-
-        Returns
-        -------
-        dict
-            ``delay_s``, ``correlation``, ``correlation_at_zero``, ``pairs``, ``search_s``.
-        """
-        return {
-            "delay_s": self.delay_s,
-            "correlation": self.correlation,
-            "correlation_at_zero": self.correlation_at_zero,
-            "pairs": self.pairs,
-            "search_s": self.search_s,
-        }
-
-
-def estimate_scan_delay(
-    bag: SelfcalBag,
-    wheel_diameter_m: float,
-    wheelbase_m: float,
-    *,
-    search_s: float = 0.3,
-    step_s: float = 0.005,
-    icp: ICPConfig | None = None,
-) -> ScanDelay:
-    """Estimate how late the scans are stamped against the wheel data, from the turns.
-
-    Consecutive scans are matched (as :func:`umbmark.realrobot.selfcal.plan_intervals` plans
-    them); for each trial delay ``d`` on a grid, the robot's turn between ``t_a - d`` and
-    ``t_b - d`` by the wheel data (the odometry's heading, or the wheel angles through the
-    nominal geometry; interpolated linearly) is correlated with the matched turn between the
-    scans stamped ``t_a``, ``t_b``. The delay of the highest
-    correlation, refined by a parabola through its neighbours, is the estimate. A turn's scale
-    error does not move it (a correlation ignores scale); a delay shows because the wheels'
-    turn of an interval is then partly that of its neighbours.
-
-    Parameters
-    ----------
-    bag : SelfcalBag
-        The recording.
-    wheel_diameter_m, wheelbase_m : float
-        The nominal geometry [m].
-    search_s : float
-        The largest delay searched, either way [s].
-    step_s : float
-        The grid step [s].
-    icp : ICPConfig, optional
-        Scan-matcher settings.
-
-    Returns
-    -------
-    ScanDelay
-
-    Raises
-    ------
-    InputError
-        A search range or step that is not positive, or fewer than 10 matched pairs that turn.
-    """
-    if not (isinstance(search_s, (int, float)) and search_s > 0 and isinstance(step_s, (int, float)) and step_s > 0):
-        raise InputError(f"`search_s` and `step_s` must be positive, got {search_s!r} and {step_s!r}")
-    plan = plan_intervals(bag, wheel_diameter_m, wheelbase_m)
-    a, b = plan.pairs[:, 0], plan.pairs[:, 1]
-    m = match_scan_pairs(bag.ranges_m[a], bag.ranges_m[b], bag.angles_rad, plan.initial, icp)
-    ok = np.asarray(m.converged, dtype=bool)
-    turn = np.asarray(m.poses, dtype=float)[ok, 2]
-    if ok.sum() < 10 or not np.any(turn):
-        raise InputError(f"only {int(ok.sum())} matched scan pairs that turn: too few to estimate a delay", bag.source)
-    if bag.wheel_kind == "odom":
-        assert bag.odom_pose is not None
-        heading = np.unwrap(np.asarray(bag.odom_pose, dtype=float)[:, 2])
-    else:
-        assert bag.left_rad is not None and bag.right_rad is not None
-        heading = 0.5 * wheel_diameter_m * (np.asarray(bag.right_rad) - np.asarray(bag.left_rad)) / wheelbase_m
-    wt = np.asarray(bag.wheel_t_s, dtype=float)
-    ta, tb = bag.scan_t_s[a[ok]], bag.scan_t_s[b[ok]]
-    n = int(math.floor(search_s / step_s + 1e-9))
-    grid = np.arange(-n, n + 1) * step_s
-
-    def corr(d: float) -> float:
-        o = np.interp(tb - d, wt, heading) - np.interp(ta - d, wt, heading)
-        if not np.any(o):
-            return math.nan
-        return float(np.corrcoef(o, turn)[0, 1])
-
-    c = np.array([corr(float(d)) for d in grid])
-    if not np.any(np.isfinite(c)):
-        raise InputError("the wheels do not turn between the matched scans: no delay to estimate", bag.source)
-    k = int(np.nanargmax(c))
-    best = float(grid[k])
-    if 0 < k < len(grid) - 1 and np.all(np.isfinite(c[k - 1 : k + 2])):
-        den = c[k - 1] - 2 * c[k] + c[k + 1]
-        if den < 0:
-            best += float(0.5 * (c[k - 1] - c[k + 1]) / den * step_s)
-    return ScanDelay(best + 0.0, corr(best), corr(0.0), int(ok.sum()), float(search_s))
-
-
 def study_log(
     bag_path: str | Path,
     relations_path: str | Path,
@@ -768,8 +647,8 @@ def study_log(
         How late the scans are stamped behind the odometry's clock [s]: the odometry is read at
         ``stamp - scan_delay_s``. None: the stamps as recorded; a number: that delay
         everywhere; ``"estimate"``: estimated on each calibration part
-        (:func:`estimate_scan_delay`), and each half's test uses the delay estimated on the
-        other half (the full log's test, the full log's).
+        (:func:`umbmark.realrobot.selfcal.estimate_scan_delay`), and each half's test uses the delay
+        estimated on the other half (the full log's test, the full log's).
     keyframes, icp
         As :func:`umbmark.realrobot.selfcal.bag_intervals` (default: every scan, the matcher's
         defaults).
@@ -851,22 +730,17 @@ def study_log(
     for label, mask in parts.items():
         t0 = time.perf_counter()
         part = _slice_bag(bag, mask) if not mask.all() else bag
-        delay: ScanDelay | None = None
-        if mode == "estimated":
-            say(f"scan delay: {label}")
-            delay = estimate_scan_delay(part, wheel_diameter_m, wheelbase_m, icp=icp)
-            d_s = delay.delay_s
-        else:
-            d_s = float(scan_delay_s) if isinstance(scan_delay_s, (int, float)) else 0.0
         say(f"calibrate: {label}")
         si = bag_intervals(
-            _delayed(part, d_s),
+            part,
             wheel_diameter_m,
             wheelbase_m,
             keyframes=keyframes,
             base_frame=base_frame,
             icp=icp,
+            scan_delay="auto" if mode == "estimated" else (float(scan_delay_s) if mode == "given" else 0.0),
         )
+        delay, d_s = si.scan_delay, si.plan.scan_delay_s
         report = selfcal_report([si], wheel_diameter_m, wheelbase_m, **(selfcal_options or {}))
         elapsed = time.perf_counter() - t0
         timings[f"calibrate_{label.replace(' ', '_')}"] = elapsed
