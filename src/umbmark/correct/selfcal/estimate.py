@@ -73,7 +73,7 @@ FloatArray = NDArray[np.float64]
 
 # noise standard deviations are never taken below this (m, m, rad): noise-free data stay finite
 _SD_FLOOR = 1e-10
-_EM_ROUNDS = 200  # expectation-maximisation rounds of the Student t fit at most
+_EM_ROUNDS = 500  # expectation-maximisation rounds of the Student t fit at most
 
 LOSSES = ("student", "gaussian")
 """The noise models of :func:`selfcal`."""
@@ -146,7 +146,7 @@ class _Problem:
         if self.given_w is not None:
             return whiten(self.given_w[idx], r)
         assert w3 is not None
-        return r @ w3.T if r.ndim == 2 else np.einsum("ij,kjn->kin", w3, r)
+        return r @ w3.T if r.ndim == 2 else np.matmul(w3, r)
 
     def fit(
         self,
@@ -174,6 +174,32 @@ class _Problem:
 
     def whitened_jacobian(self, p: FloatArray, idx: NDArray[np.intp], w3: FloatArray | None) -> FloatArray:
         return self.white(jacobian(p, self.fl[idx], self.fr[idx]), idx, w3)
+
+    def gauss_newton(
+        self, p: FloatArray, idx: NDArray[np.intp], w3: FloatArray | None, weights: FloatArray
+    ) -> FloatArray:
+        """One Gauss-Newton step on ``sum w_k |W r_k|^2`` (the weights held), halved until it does not rise."""
+
+        def cost(q: FloatArray) -> float:
+            z = self.white(self.res(q, idx), idx, w3)
+            return float((weights[:, None] * z * z).sum())
+
+        z = self.white(self.res(p, idx), idx, w3)
+        sw = np.sqrt(weights)
+        jw = (sw[:, None, None] * self.whitened_jacobian(p, idx, w3)).reshape(-1, 6)
+        h = jw.T @ jw
+        g = jw.T @ (sw[:, None] * z).reshape(-1)
+        try:
+            step = np.linalg.solve(h, g)
+        except np.linalg.LinAlgError:
+            step = np.linalg.lstsq(h, g, rcond=None)[0]
+        c0 = float((weights[:, None] * z * z).sum())
+        for _ in range(10):
+            q = p + step
+            if np.all(np.isfinite(q)) and cost(q) <= c0 * (1.0 + 1e-12):  # not above it beyond rounding
+                return q
+            step = 0.5 * step
+        return p
 
 
 def _diag_whitener(sd: FloatArray) -> FloatArray:
@@ -250,9 +276,9 @@ def _student_fit(
             d2 = (z * z).sum(axis=1)
         nu_new = _fit_dof(d2)
         wt = (nu_new + 3) / (nu_new + d2)
-        q = prob.fit(p, idx, w3, weights=wt)
+        q = prob.gauss_newton(p, idx, w3, wt)
         scale = np.array([p[0], p[1], p[2], p[2], p[2], 1.0])
-        done = bool(np.max(np.abs(q - p) / np.abs(scale)) < 1e-13 and abs(math.log(nu_new / nu)) < 1e-9)
+        done = bool(np.max(np.abs(q - p) / np.abs(scale)) < 1e-11 and abs(math.log(nu_new / nu)) < 1e-7)
         p, nu = q, nu_new
         r = prob.res(p, idx)
         if done:
@@ -484,7 +510,8 @@ def selfcal(
     z = prob.white(prob.res(p, idx), idx, w3)
     d2 = (z * z).sum(axis=1)
     wt = (nu + 3) / (nu + d2) if student else np.ones(len(idx))
-    info = np.einsum("kin,kim->nm", jw, jw) * ((nu + 3) / (nu + 5) if student else 1.0)
+    flat = jw.reshape(-1, 6)
+    info = (flat.T @ flat) * ((nu + 3) / (nu + 5) if student else 1.0)
     from scipy.stats import t as student_t
 
     if given_w is None:
@@ -504,7 +531,7 @@ def selfcal(
         raise InputError(singular, src)
     n_blocks = 0
     if len(np.unique(labels[idx])) >= MIN_BLOCKS:
-        scores = wt[:, None] * np.einsum("kin,ki->kn", jw, z)
+        scores = wt[:, None] * (np.swapaxes(jw, 1, 2) @ z[:, :, None])[:, :, 0]
         cov_b, n_blocks = _block_covariance(cov, scores, labels[idx])
         sd_m = np.sqrt(np.maximum(np.diag(cov), 0.0))
         sd_b = np.sqrt(np.maximum(np.diag(cov_b), 0.0))

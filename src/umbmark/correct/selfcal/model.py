@@ -194,8 +194,8 @@ def whiten(w: FloatArray, r: FloatArray) -> FloatArray:
         ``W_k r_k`` for each k, the shape of ``r``.
     """
     if r.ndim == 2:
-        return np.einsum("kij,kj->ki", w, r)
-    return np.einsum("kij,kjn->kin", w, r)
+        return np.asarray(np.matmul(w, r[:, :, None])[:, :, 0], dtype=float)
+    return np.asarray(np.matmul(w, r), dtype=float)
 
 
 def fisher_information(p: ArrayLike, left_rad: ArrayLike, right_rad: ArrayLike, noise: ArrayLike) -> FloatArray:
