@@ -14,6 +14,12 @@ mounted at the pose ``l = (l_x, l_y, l_yaw)`` on the robot sees ``s_k = l^-1 (+)
 :func:`sensor_motion` is that model, :func:`intervals_from_motion` the exact intervals it
 gives (the noise-free truth of tests and simulations).
 
+An interval may also carry its **steps** (:class:`IntervalSteps`): the wheel rotations over
+consecutive pieces of it (e.g. from one scan to the next inside an interval between two
+keyframes). The robot's motion is then the composition of the steps' arcs (:func:`step_motion`),
+exact when the wheel speeds change within the interval; with one step per interval it is the
+arc above.
+
 Pure numpy: this module imports numpy, :mod:`umbmark.errors` and :mod:`umbmark.model.se2`.
 SI units: metres, radians, seconds.
 """
@@ -28,7 +34,7 @@ from numpy.typing import ArrayLike, NDArray
 from umbmark.errors import InputError
 from umbmark.model import se2
 
-__all__ = ["Intervals", "sensor_motion", "intervals_from_motion"]
+__all__ = ["Intervals", "IntervalSteps", "sensor_motion", "step_motion", "intervals_from_motion"]
 
 
 def _column(name: str, value: ArrayLike, source: str | None) -> NDArray[np.float64]:
@@ -39,6 +45,108 @@ def _column(name: str, value: ArrayLike, source: str | None) -> NDArray[np.float
     if a.ndim != 1:
         raise InputError(f"`{name}` must be one-dimensional (one value per interval), got shape {a.shape}", source)
     return a
+
+
+@dataclass(frozen=True)
+class IntervalSteps:
+    """The wheel rotations of the consecutive steps of each interval.
+
+    The arrays are copied (rotations to float, offsets to integers) and made read-only.
+
+    Parameters
+    ----------
+    left_rad, right_rad : array_like
+        ``(S,)`` rotation of each wheel in each step [rad], the steps of all intervals in order.
+    start : array_like
+        ``(K + 1,)`` offsets: the steps of interval ``k`` are ``start[k]`` to ``start[k + 1] - 1``
+        (``start[0] = 0``, ``start[K] = S``, at least one step per interval).
+
+    Raises
+    ------
+    InputError
+        Arrays of the wrong shape or lengths, values that are not finite, offsets that do not
+        start at 0, end at ``S`` and increase.
+    """
+
+    left_rad: NDArray[np.float64]
+    right_rad: NDArray[np.float64]
+    start: NDArray[np.intp]
+
+    def __post_init__(self) -> None:
+        left = _column("left_rad", self.left_rad, None)
+        right = _column("right_rad", self.right_rad, None)
+        try:
+            start = np.array(self.start, dtype=np.intp)
+        except (TypeError, ValueError):
+            raise InputError("`start` must be an array of integers") from None
+        if left.shape != right.shape:
+            raise InputError(f"`left_rad` has {len(left)} steps, `right_rad` {len(right)}")
+        if not (np.all(np.isfinite(left)) and np.all(np.isfinite(right))):
+            raise InputError("a step's rotation is not a finite number")
+        if start.ndim != 1 or len(start) < 2 or start[0] != 0 or start[-1] != len(left) or np.any(np.diff(start) < 1):
+            raise InputError("`start` must rise from 0 to the number of steps, at least one step per interval")
+        for name, a in (("left_rad", left), ("right_rad", right), ("start", start)):
+            a.setflags(write=False)
+            object.__setattr__(self, name, a)
+
+    def __len__(self) -> int:
+        return len(self.start) - 1
+
+    @property
+    def totals(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``(left_rad, right_rad)``: the rotation of each wheel over each interval, ``(K,)``."""
+        return np.add.reduceat(self.left_rad, self.start[:-1]), np.add.reduceat(self.right_rad, self.start[:-1])
+
+    def subset(self, index: ArrayLike) -> IntervalSteps:
+        """The steps of the intervals ``index`` (integer indices, in their order).
+
+        Parameters
+        ----------
+        index : array_like
+            Integer indices of intervals.
+
+        Returns
+        -------
+        IntervalSteps
+        """
+        idx = np.asarray(index, dtype=np.intp).reshape(-1)
+        counts = np.diff(self.start)[idx]
+        take = np.repeat(self.start[idx], counts) + (
+            np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts)
+        )
+        return IntervalSteps(self.left_rad[take], self.right_rad[take], np.concatenate([[0], np.cumsum(counts)]))
+
+    @classmethod
+    def concatenate(cls, parts: list[IntervalSteps]) -> IntervalSteps:
+        """The steps of several sets of intervals, one after the other.
+
+        Parameters
+        ----------
+        parts : list of IntervalSteps
+
+        Returns
+        -------
+        IntervalSteps
+        """
+        offsets = np.cumsum([0] + [len(p.left_rad) for p in parts[:-1]])
+        start = np.concatenate([[0]] + [p.start[1:] + o for p, o in zip(parts, offsets)])
+        return cls(np.concatenate([p.left_rad for p in parts]), np.concatenate([p.right_rad for p in parts]), start)
+
+    @classmethod
+    def one_each(cls, left_rad: ArrayLike, right_rad: ArrayLike) -> IntervalSteps:
+        """One step per interval (the arc model).
+
+        Parameters
+        ----------
+        left_rad, right_rad : array_like
+            ``(K,)`` the intervals' rotations.
+
+        Returns
+        -------
+        IntervalSteps
+        """
+        left = np.asarray(left_rad, dtype=float).reshape(-1)
+        return cls(left, np.asarray(right_rad, dtype=float).reshape(-1), np.arange(len(left) + 1))
 
 
 @dataclass(frozen=True)
@@ -62,12 +170,16 @@ class Intervals:
     warnings : tuple of str
         Things a reader noticed that do not stop a calibration but deserve a look (e.g.
         intervals of zero duration); a calibration reports them with its own.
+    steps : IntervalSteps, optional
+        The wheel rotations of each interval's steps (their sums are ``left_rad`` and
+        ``right_rad``); ``None``: one arc per interval.
 
     Raises
     ------
     InputError
         On arrays of different lengths or wrong shapes, a value that is not a finite number,
-        or a negative duration.
+        a negative duration, or steps that are not of these intervals (their number, or sums
+        other than the rotations).
     """
 
     dt_s: NDArray[np.float64]
@@ -76,6 +188,7 @@ class Intervals:
     sensor: NDArray[np.float64]
     source: str | None = None
     warnings: tuple[str, ...] = ()
+    steps: IntervalSteps | None = None
 
     def __post_init__(self) -> None:
         src = self.source
@@ -103,6 +216,16 @@ class Intervals:
         for name, a in cols.items():
             a.setflags(write=False)
             object.__setattr__(self, name, a)
+        st = self.steps
+        if st is not None:
+            if not isinstance(st, IntervalSteps):
+                raise InputError(f"`steps` must be IntervalSteps, got {type(st).__name__}", src)
+            if len(st) != k:
+                raise InputError(f"`steps` are of {len(st)} intervals, there are {k}", src)
+            tl, tr = st.totals
+            scale = 1e-9 * (1.0 + np.abs(cols["left_rad"]) + np.abs(cols["right_rad"]))
+            if np.any(np.abs(tl - cols["left_rad"]) > scale) or np.any(np.abs(tr - cols["right_rad"]) > scale):
+                raise InputError("the steps' rotations do not add up to the intervals' rotations", src)
 
     def __len__(self) -> int:
         return len(self.dt_s)
@@ -129,7 +252,12 @@ class Intervals:
         m = np.asarray(mask)
         if m.dtype == bool and m.shape != (len(self),):
             raise InputError(f"a mask of {m.shape} for {len(self)} intervals", self.source)
-        return Intervals(self.dt_s[m], self.left_rad[m], self.right_rad[m], self.sensor[m], self.source, self.warnings)
+        steps = None
+        if self.steps is not None:
+            steps = self.steps.subset(np.flatnonzero(m) if m.dtype == bool else m)
+        return Intervals(
+            self.dt_s[m], self.left_rad[m], self.right_rad[m], self.sensor[m], self.source, self.warnings, steps
+        )
 
 
 def sensor_motion(
@@ -162,6 +290,67 @@ def sensor_motion(
     q = se2.arc(r_left_m * np.asarray(left_rad, float), r_right_m * np.asarray(right_rad, float), wheelbase_m)
     lp = np.asarray(sensor_pose, dtype=float)
     return se2.compose(se2.inverse(lp), se2.compose(q, lp))
+
+
+def step_motion(
+    steps: IntervalSteps, r_left_m: float, r_right_m: float, wheelbase_m: float, derivatives: bool = False
+) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+    """The robot's motion over each interval: the arcs of its steps composed.
+
+    Parameters
+    ----------
+    steps : IntervalSteps
+        The steps of ``K`` intervals.
+    r_left_m, r_right_m : float
+        Wheel radii [m].
+    wheelbase_m : float
+        Wheelbase b [m].
+    derivatives : bool
+        Also return the derivatives by the radii and the wheelbase.
+
+    Returns
+    -------
+    q : numpy.ndarray
+        ``(K, 3)``: ``(x_m, y_m, yaw_rad)`` of the robot at each interval's end in its frame at
+        the start (yaw the heading change, not wrapped).
+    dq : numpy.ndarray or None
+        ``(K, 3, 3)``: ``d q_k[i] / d (r_L, r_R, b)[j]``, or None.
+    """
+    fl, fr, start = steps.left_rad, steps.right_rad, steps.start
+    first = start[:-1]
+    seg = np.repeat(np.arange(len(first)), np.diff(start))
+    ds = 0.5 * (r_left_m * fl + r_right_m * fr)
+    dth = (r_right_m * fr - r_left_m * fl) / wheelbase_m
+    half = 0.5 * dth
+    k = se2.sinc(half)
+    ch, sh = np.cos(half), np.sin(half)
+    lx, ly = ds * k * ch, ds * k * sh  # each step's own displacement
+    cum = np.cumsum(dth)
+    phi = cum - dth  # heading before each step, from the first step
+    phi = phi - phi[first][seg]  # ... from its interval's start
+    c, s = np.cos(phi), np.sin(phi)
+    gx, gy = c * lx - s * ly, s * lx + c * ly
+    q = np.column_stack([np.add.reduceat(gx, first), np.add.reduceat(gy, first), np.add.reduceat(dth, first)])
+    if not derivatives:
+        return q, None
+    # a step's displacement by its travel and its turn, rotated into the interval's frame
+    dk = se2.dsinc(half)
+    ddx_ds, ddy_ds = c * k * ch - s * k * sh, s * k * ch + c * k * sh
+    ex, ey = 0.5 * ds * (dk * ch - k * sh), 0.5 * ds * (dk * sh + k * ch)
+    ddx_dth, ddy_dth = c * ex - s * ey, s * ex + c * ey
+    # a turn also turns every later step of the interval: + J (q_end - position after the step)
+    px = np.cumsum(gx) - (np.cumsum(gx) - gx)[first][seg]
+    py = np.cumsum(gy) - (np.cumsum(gy) - gy)[first][seg]
+    ddx_dth = ddx_dth - (q[seg, 1] - py)
+    ddy_dth = ddy_dth + (q[seg, 0] - px)
+    dds = (0.5 * fl, 0.5 * fr, np.zeros_like(fl))
+    ddth = (-fl / wheelbase_m, fr / wheelbase_m, -dth / wheelbase_m)
+    dq = np.empty((len(first), 3, 3))
+    for j in range(3):
+        dq[:, 0, j] = np.add.reduceat(ddx_ds * dds[j] + ddx_dth * ddth[j], first)
+        dq[:, 1, j] = np.add.reduceat(ddy_ds * dds[j] + ddy_dth * ddth[j], first)
+        dq[:, 2, j] = np.add.reduceat(ddth[j], first)
+    return q, dq
 
 
 def intervals_from_motion(

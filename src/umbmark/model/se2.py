@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from umbmark.model.geometry import wrap_angle
 
-__all__ = ["compose", "inverse", "between", "arc", "sinc"]
+__all__ = ["compose", "inverse", "between", "arc", "sinc", "dsinc"]
 
 
 def _split(p: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
@@ -47,6 +47,29 @@ def sinc(u: ArrayLike) -> NDArray[np.float64]:
         ``sin(u) / u``, exact to rounding for every ``u`` (no cancellation near 0).
     """
     return np.asarray(np.sinc(np.asarray(u, dtype=float) / np.pi), dtype=float)
+
+
+def dsinc(u: ArrayLike) -> NDArray[np.float64]:
+    """The derivative of :func:`sinc`, ``(cos u - sin(u) / u) / u``, by its series below
+    ``|u| = 0.1`` (no cancellation near 0).
+
+    Parameters
+    ----------
+    u : array_like
+        Angles [rad].
+
+    Returns
+    -------
+    numpy.ndarray
+    """
+    x = np.asarray(u, dtype=float)
+    small = np.abs(x) < 0.1
+    us = np.where(small, x, 0.0)
+    u2 = us * us
+    series = us * (-1.0 / 3.0 + u2 * (1.0 / 30.0 + u2 * (-1.0 / 840.0 + u2 / 45360.0)))
+    ub = np.where(small, 1.0, x)
+    direct = (np.cos(ub) - np.sin(ub) / ub) / ub
+    return np.asarray(np.where(small, series, direct), dtype=float)
 
 
 def compose(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:

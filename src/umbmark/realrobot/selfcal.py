@@ -59,7 +59,7 @@ from umbmark.errors import InputError
 from umbmark.io.rosbag import SelfcalBag, StaticTransform
 from umbmark.model import se2
 from umbmark.model.drive import integrate_wheels
-from umbmark.model.intervals import Intervals
+from umbmark.model.intervals import Intervals, IntervalSteps
 from umbmark.realrobot.scanmatch import ICPConfig, match_scan_pairs
 
 __all__ = [
@@ -382,6 +382,9 @@ class IntervalPlan:
         The delay of the scans' stamps the wheel angles were read with [s].
     pairs : numpy.ndarray
         ``(K, 2)`` scan indices (start, end) of the intervals to match.
+    steps : IntervalSteps or None
+        The wheels' rotations from scan to scan inside each interval (keyframes more than one
+        scan apart; the robot's motion is then those arcs composed), or None (every scan).
     dt_s, left_rad, right_rad : numpy.ndarray
         ``(K,)`` durations and wheel rotations of those intervals.
     initial : numpy.ndarray
@@ -409,6 +412,7 @@ class IntervalPlan:
     bag: SelfcalBag
     scan_delay_s: float
     pairs: NDArray[np.int64]
+    steps: IntervalSteps | None
     dt_s: FloatArray
     left_rad: FloatArray
     right_rad: FloatArray
@@ -589,10 +593,18 @@ def plan_intervals(
     initial = se2.compose(se2.inverse(l0), se2.compose(q, l0))
     keyframe_count = int(np.unique(pairs).size)
     idx = np.flatnonzero(usable)
+    steps = None
+    kept = pairs[moving]
+    if np.any(kept[:, 1] - kept[:, 0] > 1):  # the wheels' rotations from scan to scan inside each interval
+        counts = kept[:, 1] - kept[:, 0]
+        j = np.repeat(kept[:, 0], counts) + np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts)
+        dl, dr = np.diff(sl), np.diff(sr)
+        steps = IntervalSteps(dl[j], dr[j], np.concatenate([[0], np.cumsum(counts)]))
     return IntervalPlan(
         bag=bag,
         scan_delay_s=float(scan_delay_s),
-        pairs=pairs[moving],
+        pairs=kept,
+        steps=steps,
         dt_s=(st[b] - st[a])[moving],
         left_rad=phi_l[moving],
         right_rad=phi_r[moving],
@@ -815,7 +827,13 @@ def match_intervals(
             f"({'; '.join(f'{c} {r}' for r, c in reasons.most_common(2))}): drive slower, or near more structure"
         )
     iv = Intervals(
-        plan.dt_s[ok], plan.left_rad[ok], plan.right_rad[ok], poses[ok], source=bag.source, warnings=tuple(warnings)
+        plan.dt_s[ok],
+        plan.left_rad[ok],
+        plan.right_rad[ok],
+        poses[ok],
+        source=bag.source,
+        warnings=tuple(warnings),
+        steps=None if plan.steps is None else plan.steps.subset(np.flatnonzero(ok)),
     )
     return ScanIntervals(
         intervals=iv,
@@ -964,10 +982,10 @@ def bag_intervals(
 ) -> ScanIntervals:
     """:func:`plan_intervals` then :func:`match_intervals`, the scans' delay estimated between.
 
-    With ``scan_delay="auto"`` the intervals are planned with the stamps as recorded, a sample
-    of them (at most about :data:`DELAY_PAIRS`) is matched, the delay is estimated from those
-    matches (:func:`estimate_scan_delay`), and the intervals are planned and matched again
-    with it: the matcher starts from the odometry of the delayed stamps (it stops within a
+    With ``scan_delay="auto"`` a sample (at most about :data:`DELAY_PAIRS`) of the pairs of
+    consecutive scans is matched with the stamps as recorded, the delay is estimated from those
+    matches (:func:`estimate_scan_delay`), and the intervals are planned and matched with it:
+    the matcher starts from the odometry of the delayed stamps (it stops within a
     small fraction of a standard deviation of the optimum, on the side it started from, so a
     start off by the delay would pull every match a little the same way).
 
@@ -1004,8 +1022,13 @@ def bag_intervals(
     if want != "auto":
         si = match_intervals(plan, icp=icp, min_intervals=min_intervals, progress=progress)
         return replace(si, scan_delay_requested=f"{first:g}")
-    # the delay from a sample of the pairs, then every pair matched from the delayed odometry
-    sample = _every_nth(plan, max(1, len(plan) // DELAY_PAIRS))
+    # the delay from a sample of the consecutive scans, then every interval matched from the delayed odometry
+    consecutive = (
+        plan
+        if plan.keyframe_rule.every_scan
+        else plan_intervals(bag, wheel_diameter_m, wheelbase_m, **{**options, "keyframes": None})
+    )
+    sample = _every_nth(consecutive, max(1, len(consecutive) // DELAY_PAIRS))
     n0, n1 = len(sample), len(plan)
     step = None if progress is None else (lambda done, total: progress(done, n0 + n1))  # noqa: E731
     est: ScanDelay | None = None
@@ -1030,6 +1053,7 @@ def _every_nth(plan: IntervalPlan, n: int) -> IntervalPlan:
         return plan
     return replace(
         plan,
+        steps=None if plan.steps is None else plan.steps.subset(np.arange(0, len(plan), n)),
         pairs=plan.pairs[::n],
         dt_s=plan.dt_s[::n],
         left_rad=plan.left_rad[::n],
@@ -1305,12 +1329,18 @@ def selfcal_report(
                 iv.sensor,
                 iv.source,
                 tuple(f"{Path(name).name}: {w}" for w in iv.warnings),
+                iv.steps,
             )
         ivs.append(iv)
         kept.append(p if isinstance(p, ScanIntervals) else str(p[0]))
     if several:
         frames = {p.plan.bag.scan_frame for p in kept if isinstance(p, ScanIntervals)}
         extra = () if len(frames) <= 1 else (f"the bags' scans are in different frames ({', '.join(sorted(frames))})",)
+        steps = None
+        if any(iv.steps is not None for iv in ivs):
+            steps = IntervalSteps.concatenate(
+                [iv.steps if iv.steps is not None else IntervalSteps.one_each(iv.left_rad, iv.right_rad) for iv in ivs]
+            )
         pooled = Intervals(
             np.concatenate([iv.dt_s for iv in ivs]),
             np.concatenate([iv.left_rad for iv in ivs]),
@@ -1318,6 +1348,7 @@ def selfcal_report(
             np.concatenate([iv.sensor for iv in ivs]),
             " + ".join(str(iv.source) for iv in ivs),
             tuple(w for iv in ivs for w in iv.warnings) + extra,
+            steps,
         )
     else:
         pooled = ivs[0]

@@ -136,10 +136,19 @@ class _Problem:
         self.fl = np.asarray(iv.left_rad, float)
         self.fr = np.asarray(iv.right_rad, float)
         self.s = np.asarray(iv.sensor, float)
+        self.steps = iv.steps
+        self.all = np.arange(len(iv))
         self.given_w = given_w
 
     def res(self, p: FloatArray, idx: NDArray[np.intp]) -> FloatArray:
-        return residuals(p, self.fl[idx], self.fr[idx], self.s[idx])
+        if self.steps is None:
+            return residuals(p, self.fl[idx], self.fr[idx], self.s[idx])
+        return residuals(p, self.fl, self.fr, self.s, self.steps)[idx]
+
+    def jac(self, p: FloatArray, idx: NDArray[np.intp]) -> FloatArray:
+        if self.steps is None:
+            return jacobian(p, self.fl[idx], self.fr[idx])
+        return jacobian(p, self.fl, self.fr, self.steps)[idx]
 
     def white(self, r: FloatArray, idx: NDArray[np.intp], w3: FloatArray | None) -> FloatArray:
         """Whiten residuals ``(n, 3)`` or a Jacobian ``(n, 3, 6)``: by the given covariances, else by ``w3``."""
@@ -158,13 +167,12 @@ class _Problem:
     ) -> FloatArray:
         from scipy.optimize import least_squares
 
-        fl, fr, s = self.fl[idx], self.fr[idx], self.s[idx]
         sw = np.ones(len(idx)) if weights is None else np.sqrt(weights)
         fun: Callable[[FloatArray], FloatArray] = lambda p: (  # noqa: E731
-            sw[:, None] * self.white(residuals(p, fl, fr, s), idx, w3)
+            sw[:, None] * self.white(self.res(p, idx), idx, w3)
         ).ravel()
         jac: Callable[[FloatArray], FloatArray] = lambda p: (  # noqa: E731
-            -sw[:, None, None] * self.white(jacobian(p, fl, fr), idx, w3)
+            -sw[:, None, None] * self.white(self.jac(p, idx), idx, w3)
         ).reshape(-1, 6)
         method = "lm" if loss == "linear" else "trf"
         sol = least_squares(
@@ -173,7 +181,7 @@ class _Problem:
         return np.asarray(sol.x, dtype=float)
 
     def whitened_jacobian(self, p: FloatArray, idx: NDArray[np.intp], w3: FloatArray | None) -> FloatArray:
-        return self.white(jacobian(p, self.fl[idx], self.fr[idx]), idx, w3)
+        return self.white(self.jac(p, idx), idx, w3)
 
     def gauss_newton(
         self, p: FloatArray, idx: NDArray[np.intp], w3: FloatArray | None, weights: FloatArray

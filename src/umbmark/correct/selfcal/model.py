@@ -10,8 +10,11 @@ sees ``h_k(p) = l^-1 (+) arc (+) l`` (:func:`umbmark.model.intervals.sensor_moti
 
     h_yaw = theta,    h_xy = R(-l_yaw) (q_xy + (R(theta) - I) l_xy)
 
-with ``q_xy = d sinc(theta/2) (cos(theta/2), sin(theta/2))``. :func:`jacobian` is the exact
-derivative of ``h`` (stable as ``theta -> 0``); :func:`fisher_information` the information
+with ``q_xy = d sinc(theta/2) (cos(theta/2), sin(theta/2))``. Intervals with steps
+(:class:`umbmark.model.intervals.IntervalSteps`) move by their steps' arcs composed
+(:func:`umbmark.model.intervals.step_motion`) instead: ``steps=`` of each function.
+:func:`jacobian` is the exact derivative of ``h`` (stable as ``theta -> 0``);
+:func:`fisher_information` the information
 ``sum_k J_k^T Sigma_k^-1 J_k`` of the intervals about ``p`` for Gaussian noise of covariance
 ``Sigma_k`` on ``s_k``: its inverse is the Cramer-Rao bound.
 
@@ -25,7 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from umbmark.model import se2
 from umbmark.model.geometry import wrap_angle
-from umbmark.model.intervals import sensor_motion
+from umbmark.model.intervals import IntervalSteps, sensor_motion, step_motion
 
 __all__ = ["PARAMETERS", "predict", "residuals", "jacobian", "whitener", "whiten", "fisher_information"]
 
@@ -34,7 +37,12 @@ PARAMETERS = ("r_left_m", "r_right_m", "wheelbase_m", "sensor_x_m", "sensor_y_m"
 FloatArray = NDArray[np.float64]
 
 
-def predict(p: ArrayLike, left_rad: ArrayLike, right_rad: ArrayLike) -> FloatArray:
+def _seen(q: FloatArray, sensor_pose: FloatArray) -> FloatArray:
+    """Robot motions ``(K, 3)`` seen from the sensor: ``l^-1 (+) q (+) l``, the yaw wrapped."""
+    return se2.compose(se2.inverse(sensor_pose), se2.compose(q, sensor_pose))
+
+
+def predict(p: ArrayLike, left_rad: ArrayLike, right_rad: ArrayLike, steps: IntervalSteps | None = None) -> FloatArray:
     """The sensor displacements the parameters predict.
 
     Parameters
@@ -43,6 +51,9 @@ def predict(p: ArrayLike, left_rad: ArrayLike, right_rad: ArrayLike) -> FloatArr
         The six parameters (:data:`PARAMETERS`).
     left_rad, right_rad : array_like
         Wheel rotations per interval [rad], shape (K,).
+    steps : IntervalSteps, optional
+        The intervals' steps (then the motion is theirs composed; ``left_rad`` and ``right_rad``
+        are their totals).
 
     Returns
     -------
@@ -50,10 +61,15 @@ def predict(p: ArrayLike, left_rad: ArrayLike, right_rad: ArrayLike) -> FloatArr
         Shape (K, 3): ``(dx_m, dy_m, dyaw_rad)``.
     """
     q = np.asarray(p, dtype=float)
-    return sensor_motion(left_rad, right_rad, q[0], q[1], q[2], q[3:6])
+    if steps is None:
+        return sensor_motion(left_rad, right_rad, q[0], q[1], q[2], q[3:6])
+    motion, _ = step_motion(steps, float(q[0]), float(q[1]), float(q[2]))
+    return _seen(motion, q[3:6])
 
 
-def residuals(p: ArrayLike, left_rad: ArrayLike, right_rad: ArrayLike, sensor: ArrayLike) -> FloatArray:
+def residuals(
+    p: ArrayLike, left_rad: ArrayLike, right_rad: ArrayLike, sensor: ArrayLike, steps: IntervalSteps | None = None
+) -> FloatArray:
     """Measured minus predicted sensor displacements, the yaw difference wrapped.
 
     Parameters
@@ -64,29 +80,20 @@ def residuals(p: ArrayLike, left_rad: ArrayLike, right_rad: ArrayLike, sensor: A
         Wheel rotations per interval [rad], shape (K,).
     sensor : array_like
         Measured displacements, shape (K, 3).
+    steps : IntervalSteps, optional
+        As :func:`predict`.
 
     Returns
     -------
     numpy.ndarray
         Shape (K, 3).
     """
-    r = np.asarray(sensor, dtype=float) - predict(p, left_rad, right_rad)
+    r = np.asarray(sensor, dtype=float) - predict(p, left_rad, right_rad, steps)
     r[:, 2] = wrap_angle(r[:, 2])
     return r
 
 
-def _dsinc(u: FloatArray) -> FloatArray:
-    """d/du (sin u / u), by its series below |u| = 0.1 (no cancellation)."""
-    small = np.abs(u) < 0.1
-    us = np.where(small, u, 0.0)
-    u2 = us * us
-    series = us * (-1.0 / 3.0 + u2 * (1.0 / 30.0 + u2 * (-1.0 / 840.0 + u2 / 45360.0)))
-    ub = np.where(small, 1.0, u)
-    direct = (np.cos(ub) - np.sin(ub) / ub) / ub
-    return np.where(small, series, direct)
-
-
-def jacobian(p: ArrayLike, left_rad: ArrayLike, right_rad: ArrayLike) -> FloatArray:
+def jacobian(p: ArrayLike, left_rad: ArrayLike, right_rad: ArrayLike, steps: IntervalSteps | None = None) -> FloatArray:
     """The derivative of the predicted displacements with respect to the parameters.
 
     Parameters
@@ -95,6 +102,8 @@ def jacobian(p: ArrayLike, left_rad: ArrayLike, right_rad: ArrayLike) -> FloatAr
         The six parameters.
     left_rad, right_rad : array_like
         Wheel rotations per interval [rad], shape (K,).
+    steps : IntervalSteps, optional
+        As :func:`predict`.
 
     Returns
     -------
@@ -102,45 +111,55 @@ def jacobian(p: ArrayLike, left_rad: ArrayLike, right_rad: ArrayLike) -> FloatAr
         Shape (K, 3, 6): ``d h_k[i] / d p[j]`` (the residuals' Jacobian is its negative).
     """
     rl, rr, b, lx, ly, lyaw = (float(v) for v in np.asarray(p, dtype=float))
-    fl = np.asarray(left_rad, dtype=float)
-    fr = np.asarray(right_rad, dtype=float)
-    d = 0.5 * (rl * fl + rr * fr)
-    th = (rr * fr - rl * fl) / b
-    u = 0.5 * th
-    cu, su = np.cos(u), np.sin(u)
-    k = se2.sinc(u)
-    dk = _dsinc(u)
-    # q_xy = d k (cos u, sin u); derivatives by d and by theta
-    dq_dd = np.stack([k * cu, k * su], axis=-1)
-    dq_dth = 0.5 * d[:, None] * np.stack([dk * cu - k * su, dk * su + k * cu], axis=-1)
+    if steps is None:
+        q, dq = _arc_motion(rl, rr, b, np.asarray(left_rad, dtype=float), np.asarray(right_rad, dtype=float))
+    else:
+        q, dq_steps = step_motion(steps, rl, rr, b, derivatives=True)
+        assert dq_steps is not None
+        dq = dq_steps
+    th = q[:, 2]
     ct, st = np.cos(th), np.sin(th)
-    # J R(theta) l  (J = rotation by +90 deg)
+    # J R(theta) l  (J = rotation by +90 deg): the derivative of R(theta) l by theta
     jrl = np.stack([-(st * lx + ct * ly), ct * lx - st * ly], axis=-1)
     cl, sl = np.cos(lyaw), np.sin(lyaw)
     rot = np.array([[cl, sl], [-sl, cl]])  # R(-l_yaw)
-    dh_dd = dq_dd @ rot.T
-    dh_dth = (dq_dth + jrl) @ rot.T
-    # h_xy itself, for the derivative by l_yaw (d/dl_yaw R(-l_yaw) v = -J R(-l_yaw) v)
-    q_xy = d[:, None] * dq_dd
-    rml = np.stack([ct * lx - st * ly - lx, st * lx + ct * ly - ly], axis=-1)
-    h_xy = (q_xy + rml) @ rot.T
-    out = np.zeros(fl.shape + (3, 6))
-    # chain rule through d and theta
-    dd = (0.5 * fl, 0.5 * fr, np.zeros_like(fl))
-    dth = (-fl / b, fr / b, -th / b)
-    for j in range(3):
-        out[:, :2, j] = dh_dd * dd[j][:, None] + dh_dth * dth[j][:, None]
-        out[:, 2, j] = dth[j]
+    out = np.zeros((len(q), 3, 6))
+    # the geometry through the robot's motion: h_xy = R(-l_yaw) (q_xy + (R(theta) - I) l_xy)
+    out[:, :2, :3] = np.matmul(rot, dq[:, :2, :] + jrl[:, :, None] * dq[:, 2:3, :])
+    out[:, 2, :3] = dq[:, 2, :]
     # sensor position: R(-l_yaw) (R(theta) - I)
     a11, a12, a21, a22 = ct - 1.0, -st, st, ct - 1.0
     out[:, 0, 3] = cl * a11 + sl * a21
     out[:, 0, 4] = cl * a12 + sl * a22
     out[:, 1, 3] = -sl * a11 + cl * a21
     out[:, 1, 4] = -sl * a12 + cl * a22
-    # sensor yaw: -J h_xy = (h_y, -h_x)
+    # sensor yaw: d/dl_yaw R(-l_yaw) v = -J R(-l_yaw) v, i.e. (h_y, -h_x)
+    rml = np.stack([ct * lx - st * ly - lx, st * lx + ct * ly - ly], axis=-1)
+    h_xy = (q[:, :2] + rml) @ rot.T
     out[:, 0, 5] = h_xy[:, 1]
     out[:, 1, 5] = -h_xy[:, 0]
     return out
+
+
+def _arc_motion(rl: float, rr: float, b: float, fl: FloatArray, fr: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The arc of each interval ``(K, 3)`` and its derivative by ``(r_L, r_R, b)``, ``(K, 3, 3)``."""
+    d = 0.5 * (rl * fl + rr * fr)
+    th = (rr * fr - rl * fl) / b
+    u = 0.5 * th
+    cu, su = np.cos(u), np.sin(u)
+    k = se2.sinc(u)
+    dk = se2.dsinc(u)
+    # q_xy = d k (cos u, sin u); derivatives by d and by theta
+    dq_dd = np.stack([k * cu, k * su], axis=-1)
+    dq_dth = 0.5 * d[:, None] * np.stack([dk * cu - k * su, dk * su + k * cu], axis=-1)
+    q = np.column_stack([d[:, None] * dq_dd, th])
+    dd = (0.5 * fl, 0.5 * fr, np.zeros_like(fl))
+    dth = (-fl / b, fr / b, -th / b)
+    dq = np.empty((len(fl), 3, 3))
+    for j in range(3):
+        dq[:, :2, j] = dq_dd * dd[j][:, None] + dq_dth * dth[j][:, None]
+        dq[:, 2, j] = dth[j]
+    return q, dq
 
 
 def whitener(noise: ArrayLike, k: int) -> FloatArray:
@@ -198,7 +217,9 @@ def whiten(w: FloatArray, r: FloatArray) -> FloatArray:
     return np.asarray(np.matmul(w, r), dtype=float)
 
 
-def fisher_information(p: ArrayLike, left_rad: ArrayLike, right_rad: ArrayLike, noise: ArrayLike) -> FloatArray:
+def fisher_information(
+    p: ArrayLike, left_rad: ArrayLike, right_rad: ArrayLike, noise: ArrayLike, steps: IntervalSteps | None = None
+) -> FloatArray:
     """The Fisher information of the intervals about the parameters.
 
     Parameters
@@ -211,6 +232,8 @@ def fisher_information(p: ArrayLike, left_rad: ArrayLike, right_rad: ArrayLike, 
     noise : array_like
         The noise on the sensor displacements: standard deviations (3,) or covariances
         (3, 3) / (K, 3, 3), as :func:`whitener` takes.
+    steps : IntervalSteps, optional
+        As :func:`predict`.
 
     Returns
     -------
@@ -218,6 +241,6 @@ def fisher_information(p: ArrayLike, left_rad: ArrayLike, right_rad: ArrayLike, 
         Shape (6, 6), ``sum_k J_k^T Sigma_k^-1 J_k``.
     """
     fl = np.asarray(left_rad, dtype=float)
-    jw = whiten(whitener(noise, len(fl)), jacobian(p, fl, right_rad))
+    jw = whiten(whitener(noise, len(fl)), jacobian(p, fl, right_rad, steps))
     flat = jw.reshape(-1, 6)
     return np.asarray(flat.T @ flat, dtype=float)
