@@ -178,3 +178,23 @@ def test_a_failed_write_leaves_nothing(tmp_path, log):
     with pytest.raises(ValueError):
         write_drive_bag(broken, tmp_path / "d", storage="mcap")
     assert not any(tmp_path.iterdir())
+
+
+def test_scans_stamped_late_and_with_jitter(log, tmp_path):
+    """DriveLog.stamped: the scans' stamps (only) are late by the delay, scattered by the jitter
+    and in order; the bag carries them, and the reader reads them back."""
+    late = log.stamped(delay_s=0.03, jitter_s=0.004, seed=2)
+    np.testing.assert_array_equal(late.scan_t_s, log.scan_t_s)
+    np.testing.assert_array_equal(late.ranges_m, log.ranges_m)
+    off = late.scan_stamps_s - log.scan_t_s
+    assert np.all(np.diff(late.scan_stamps_s) > 0)
+    assert abs(off.mean() - 0.03) < 0.002 and 0.002 < off.std() < 0.006
+    np.testing.assert_array_equal(log.stamped(0.03, 0.004, seed=2).scan_stamp_s, late.scan_stamp_s)
+    np.testing.assert_array_equal(log.stamped(0.5).scan_stamps_s, log.scan_t_s + 0.5)
+    from umbmark.io.rosbag import read_selfcal_bag
+
+    path = write_drive_bag(late, tmp_path / "late.bag", storage="ros1")
+    bag = read_selfcal_bag(path, joints=JOINT_NAMES)
+    np.testing.assert_allclose(bag.scan_t_s - EPOCH_S, late.scan_stamps_s, atol=1e-6)  # seconds since 1970
+    with pytest.raises(InputError, match="`jitter_s` >= 0"):
+        log.stamped(jitter_s=-1.0)

@@ -4,7 +4,9 @@ Imports numpy, :mod:`umbmark.errors` and :mod:`umbmark.model` (the drive log and
 :mod:`~umbmark.model.se2`); ``rosbags`` when a bag is written. Storage: a ROS 1 ``.bag`` file,
 or a ROS 2 bag folder (``metadata.yaml`` and one ``.db3`` (sqlite3) or ``.mcap`` file).
 
-Topics (header stamps and bag times are the sample times, from ``epoch_s``):
+Topics (header stamps and bag times are the sample times, from ``epoch_s``; a scan's, its
+stamp :attr:`umbmark.model.drive.DriveLog.scan_stamps_s`, late or jittered when the drive was
+:meth:`~umbmark.model.drive.DriveLog.stamped` so):
 
 * ``/joint_states`` (``sensor_msgs/JointState``) at the wheel rate: joints
   ``left_wheel_joint`` and ``right_wheel_joint``, ``position`` the cumulative wheel angles
@@ -125,7 +127,7 @@ class _Messages:
     ) -> None:
         self.log, self.T, self.ros1, self.joints = log, ts.types, ros1, list(joints)
         self.wheel_ns = _stamp_ns(epoch_s, log.t_s)
-        self.scan_ns = _stamp_ns(epoch_s, log.scan_t_s)
+        self.scan_ns = _stamp_ns(epoch_s, log.scan_stamps_s)
         dt = np.diff(log.t_s)
         self.vel_l = np.concatenate([[0.0], np.diff(log.left_rad) / dt])
         self.vel_r = np.concatenate([[0.0], np.diff(log.right_rad) / dt])

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -351,6 +351,10 @@ class DriveLog:
         The program driven.
     seed : int, optional
         The seed of the noise (``None``: noise free).
+    scan_stamp_s : numpy.ndarray, optional
+        ``(M,)`` the stamps the scans carry [s] when they differ from the times they were
+        taken (:meth:`stamped`: a lidar driver stamping on arrival, late and jittered);
+        ``None``: stamped when taken.
     """
 
     t_s: np.ndarray
@@ -372,6 +376,42 @@ class DriveLog:
     scan_rate_hz: float
     commands: tuple[Command, ...] = ()
     seed: int | None = None
+    scan_stamp_s: np.ndarray | None = None
+
+    @property
+    def scan_stamps_s(self) -> NDArray[np.float64]:
+        """``(M,)`` the stamps the scans carry [s] (:attr:`scan_stamp_s`, else the times taken)."""
+        return np.asarray(self.scan_t_s if self.scan_stamp_s is None else self.scan_stamp_s, dtype=float)
+
+    def stamped(self, delay_s: float = 0.0, jitter_s: float = 0.0, seed: int | None = None) -> DriveLog:
+        """The drive with its scans stamped late and with jitter, as a driver that stamps a scan on
+        arrival does: ``stamp = taken + delay_s + N(0, jitter_s^2)``, kept in order.
+
+        Parameters
+        ----------
+        delay_s : float
+            The mean delay of the stamps [s].
+        jitter_s : float
+            The standard deviation of the stamps about it [s].
+        seed : int, optional
+            The seed of the jitter.
+
+        Returns
+        -------
+        DriveLog
+            The same drive (scans, wheels, truth); only :attr:`scan_stamp_s` differs.
+
+        Raises
+        ------
+        InputError
+            A delay or jitter that is not finite, or a negative jitter.
+        """
+        if not (math.isfinite(delay_s) and math.isfinite(jitter_s) and jitter_s >= 0):
+            raise InputError(f"`delay_s` must be finite and `jitter_s` >= 0, got {delay_s!r}, {jitter_s!r}")
+        t = np.asarray(self.scan_t_s, dtype=float) + delay_s
+        if jitter_s > 0:
+            t = np.sort(t + np.random.default_rng(seed).normal(0.0, jitter_s, t.shape))
+        return replace(self, scan_stamp_s=t)
 
     @property
     def duration_s(self) -> float:
