@@ -205,3 +205,47 @@ def test_spin_seen_by_an_offset_sensor():
     phi = (math.pi / 2) * b / (2 * r)
     s = sensor_motion(-phi, phi, r, r, b, [0.2, 0.0, 0.0])
     np.testing.assert_allclose(s, [-0.2, 0.2, math.pi / 2], atol=1e-15)
+
+
+@settings(max_examples=50, deadline=None)
+@given(
+    st.lists(st.integers(1, 5), min_size=1, max_size=8),
+    st.integers(0, 2**32 - 1),
+)
+def test_intervals_of_several_steps_round_trip_exactly(counts, seed):
+    """Intervals with steps: one row per step, the sensor cells on each interval's last; read back
+    they are the same intervals with the same steps."""
+    from umbmark.model.intervals import IntervalSteps
+
+    rng = np.random.default_rng(seed)
+    n = sum(counts)
+    steps = IntervalSteps(
+        rng.normal(size=n), rng.normal(size=n), np.concatenate([[0], np.cumsum(counts)]), rng.uniform(0, 1, n)
+    )
+    tl, tr = steps.totals
+    dt = np.add.reduceat(steps.dt_s, steps.start[:-1])
+    iv = Intervals(dt, tl, tr, rng.normal(size=(len(counts), 3)), steps=steps)
+    text = format_intervals_csv(iv)
+    assert len(text.splitlines()) == 1 + n
+    back = parse_intervals_csv(text)
+    for name in ("dt_s", "left_rad", "right_rad", "sensor"):
+        np.testing.assert_allclose(getattr(back, name), getattr(iv, name), rtol=1e-12, atol=1e-15)
+    if max(counts) > 1:
+        np.testing.assert_array_equal(back.steps.start, steps.start)
+        np.testing.assert_array_equal(back.steps.left_rad, steps.left_rad)
+        np.testing.assert_array_equal(back.steps.dt_s, steps.dt_s)
+    else:
+        assert back.steps is None
+
+
+@pytest.mark.parametrize(
+    "tail, line, message",
+    [
+        ("0.1,0.1,0.1,,,\n", 4, "a step row without a row of the interval after it"),
+        ("0.1,0.1,0.1,0.2,,\n", 4, "some sensor cells are empty"),
+        ("0.1,0.1,x,,,\n0.1,0.1,0.1,0.1,0.1,0.1\n", 4, "column right_rad"),
+    ],
+)
+def test_step_rows_in_error_name_the_line(tail, line, message):
+    with pytest.raises(InputError, match=f"f.csv:{line}: .*{message}"):
+        parse_intervals_csv(GOOD + tail, "f.csv")

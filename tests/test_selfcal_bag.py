@@ -93,9 +93,10 @@ def test_joint_states_and_scans_give_the_true_geometry(bags, log, storage):
     d = rep.to_dict()
     check_truth(d, log)
     assert d["scans_read"] == len(log.scan_t_s)
-    assert d["pairs_failed"] == 0 and d["pairs_matched"] + d["intervals_still"] == len(log.scan_t_s) - 1
+    assert d["pairs_failed"] == 0 and d["pairs_matched"] + d["intervals_still"] == d["inputs"][0]["keyframes"] - 1
     assert d["time_span_s"] == pytest.approx(log.scan_t_s[-1] - log.scan_t_s[0], abs=1e-6)
-    assert d["keyframe_rule"]["description"] == "every scan"
+    assert d["keyframe_rule"]["description"] == "every 100 mm or 5 deg or 1 s"
+    assert len(log.scan_t_s) / 4 < d["inputs"][0]["keyframes"] < len(log.scan_t_s) / 1.5
     assert d["nominal_sensor_pose"]["source"] == "/tf_static base_link -> laser"
     assert d["nominal_sensor_pose"]["x_mm"] == pytest.approx(120.0, abs=1e-9)
     assert (d["base_frame"], d["sensor_frame"]) == ("base_link", "laser")
@@ -201,7 +202,7 @@ def test_intervals_are_the_simulated_ones(exact):
     log, path = exact
     bag = read_selfcal_bag(path, **JOINTS)
     assert np.array_equal(bag.ranges_m, log.ranges_m.astype(np.float32))
-    plan = plan_intervals(bag, D_NOM, B_NOM)
+    plan = plan_intervals(bag, D_NOM, B_NOM, keyframes=KeyframeRule())
     dt, left, right, motion = log.scan_intervals()
     a = plan.pairs[:, 0]
     assert np.array_equal(plan.pairs[:, 1], a + 1)
@@ -212,9 +213,18 @@ def test_intervals_are_the_simulated_ones(exact):
     np.testing.assert_allclose(plan.right_rad, right[a], atol=1e-9)
     nominal = sensor_motion(left[a], right[a], D_NOM / 2, D_NOM / 2, B_NOM, log.sensor_pose.as_array())
     np.testing.assert_allclose(plan.initial, nominal, atol=1e-9)
-    si = bag_intervals(bag, D_NOM, B_NOM)
+    si = bag_intervals(bag, D_NOM, B_NOM, keyframes=KeyframeRule(), scan_delay=0.0)
     assert si.pairs_failed == 0
     np.testing.assert_allclose(si.intervals.sensor, motion[a], atol=2e-6)
+    # keyframes (the default): each interval's steps are the scan-to-scan rotations inside it, and
+    # the matches the true motion between its keyframes
+    kf = bag_intervals(bag, D_NOM, B_NOM, scan_delay=0.0)
+    pairs = kf.plan.pairs[kf.matched]
+    assert kf.intervals.steps is not None and np.all(np.diff(kf.intervals.steps.start) == pairs[:, 1] - pairs[:, 0])
+    l_all, r_all = log.wheel_angles_at(log.scan_t_s)
+    np.testing.assert_allclose(kf.intervals.left_rad, l_all[pairs[:, 1]] - l_all[pairs[:, 0]], atol=1e-9)
+    true = se2.between(log.sensor_world_pose[pairs[:, 0]], log.sensor_world_pose[pairs[:, 1]])
+    np.testing.assert_allclose(kf.intervals.sensor, true, atol=2e-5)
 
 
 # -- the pieces: properties -----------------------------------------------------------------------------

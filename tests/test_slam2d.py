@@ -27,7 +27,7 @@ from umbmark.model import se2  # noqa: E402
 from umbmark.model.drive import SimRobot, mixed_program, simulate_drive  # noqa: E402
 from umbmark.model.geometry import LABMATE, ErrorParams  # noqa: E402
 from umbmark.model.sensors import Lidar, SensorPose  # noqa: E402
-from umbmark.realrobot.selfcal import estimate_scan_delay, match_intervals, plan_intervals  # noqa: E402
+from umbmark.realrobot.selfcal import KeyframeRule, estimate_scan_delay, match_intervals, plan_intervals  # noqa: E402
 from umbmark.studies.slam2d import (  # noqa: E402
     ErrorStats,
     SystematicErrors,
@@ -206,7 +206,7 @@ def test_simulated_after_matches_the_truth_and_before_has_the_predicted_errors(s
 
 def test_simulated_late_scans_are_found_and_corrected(sim):
     bag = read_selfcal_bag(sim["late"][0], odom_topic="/odom")
-    d = estimate_scan_delay(match_intervals(plan_intervals(bag, D_NOM, B_NOM)), D_NOM, B_NOM)
+    d = estimate_scan_delay(match_intervals(plan_intervals(bag, D_NOM, B_NOM, keyframes=KeyframeRule())), D_NOM, B_NOM)
     assert d.delay_s == pytest.approx(DELAY_S, abs=2e-3)
     assert d.correlation > 0.9999 > d.correlation_at_zero
     fixed = study_log(*sim["late"], D_NOM, B_NOM, scan_delay_s="estimate")

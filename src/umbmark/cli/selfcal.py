@@ -254,12 +254,12 @@ def _print_report(d: dict, again: str, export: str) -> None:
 @click.option(
     "--keyframe-mm",
     type=float,
-    default=0.0,
+    default=100.0,
     show_default=True,
-    help="Bag: next keyframe after this much travel (0: every scan, unless another keyframe option is set).",
+    help="Bag: the next keyframe after this much travel (0: no travel condition; all three 0: every scan).",
 )
-@click.option("--keyframe-deg", type=float, default=0.0, show_default=True, help="Bag: ... or this much turn.")
-@click.option("--keyframe-s", type=float, default=None, help="Bag: ... or this much time.")
+@click.option("--keyframe-deg", type=float, default=5.0, show_default=True, help="Bag: ... or this much turn.")
+@click.option("--keyframe-s", type=float, default=1.0, show_default=True, help="Bag: ... or this much time (0: none).")
 @click.option("--keyframe-min-s", type=float, default=0.0, show_default=True, help="Bag: least time between keyframes.")
 @click.option(
     "--max-wheel-gap-s",
@@ -387,7 +387,6 @@ def _bag_flags(kw) -> list[str]:
         "sensor_pose",
         "base_frame",
         "scan_frame",
-        "keyframe_s",
         "intervals_out",
     ):
         if kw[name] is not None:
@@ -397,8 +396,9 @@ def _bag_flags(kw) -> list[str]:
     if str(kw["scan_delay"]).strip().lower() != "auto":
         out.append(f"--scan-delay {q(str(kw['scan_delay']))}")
     for name, usual in (
-        ("keyframe_mm", 0.0),
-        ("keyframe_deg", 0.0),
+        ("keyframe_mm", 100.0),
+        ("keyframe_deg", 5.0),
+        ("keyframe_s", 1.0),
         ("keyframe_min_s", 0.0),
         ("max_wheel_gap_s", 0.5),
     ):
@@ -417,15 +417,14 @@ def _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json):
     from umbmark.realrobot.scanmatch import ICPConfig
     from umbmark.realrobot.selfcal import KeyframeRule, bag_intervals, parse_scan_delay, selfcal_report
 
-    for flag in ("keyframe_mm", "keyframe_deg", "keyframe_min_s"):
+    for flag in ("keyframe_mm", "keyframe_deg", "keyframe_s", "keyframe_min_s"):
         v = kw[flag]
         if not (math.isfinite(v) and v >= 0):
             raise InputError(f"--{flag.replace('_', '-')} must be a number >= 0, got {v!r}")
-    for flag in ("keyframe_s", "max_wheel_gap_s"):
-        v = kw[flag]
-        if v is not None and not (math.isfinite(v) and v > 0):
-            raise InputError(f"--{flag.replace('_', '-')} must be a positive number, got {v!r}")
-    if kw["keyframe_s"] is not None and kw["keyframe_s"] < kw["keyframe_min_s"]:
+    v = kw["max_wheel_gap_s"]
+    if not (math.isfinite(v) and v > 0):
+        raise InputError(f"--max-wheel-gap-s must be a positive number, got {v!r}")
+    if kw["keyframe_s"] > 0 and kw["keyframe_s"] < kw["keyframe_min_s"]:
         raise InputError(f"--keyframe-s {kw['keyframe_s']:g} is below --keyframe-min-s {kw['keyframe_min_s']:g}")
     if kw["pulses_per_wheel_rev"] is not None and not (
         math.isfinite(kw["pulses_per_wheel_rev"]) and kw["pulses_per_wheel_rev"] > 0
@@ -435,7 +434,7 @@ def _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json):
         min_distance_m=kw["keyframe_mm"] * 1e-3,
         min_rotation_rad=math.radians(kw["keyframe_deg"]),
         min_interval_s=kw["keyframe_min_s"],
-        max_interval_s=math.inf if kw["keyframe_s"] is None else kw["keyframe_s"],
+        max_interval_s=kw["keyframe_s"] if kw["keyframe_s"] > 0 else math.inf,
     )
     pose = None
     if kw["sensor_pose"] is not None:

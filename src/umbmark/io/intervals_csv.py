@@ -7,6 +7,12 @@ frame at the start of it, e.g. from matching consecutive scans). One row per int
 columns are ignored; blank lines and lines starting with ``#`` are skipped; a UTF-8 byte-order
 mark is dropped. See :mod:`umbmark.model.intervals` for the meaning.
 
+**Steps**: an interval may take several rows, its steps in order (e.g. from one scan to the
+next between two keyframes): a row whose three sensor cells are empty is a step of the
+interval that the next complete row ends. Each row holds its own step's ``dt_s``,
+``left_rad``, ``right_rad``; the interval is their sum, and its motion their arcs composed
+(:class:`~umbmark.model.intervals.IntervalSteps`).
+
 Errors name the file and line (``file:line: problem``). Values that parse but look wrong
 (zero durations, more than half a turn of the sensor in one interval, wheel rotations or
 displacements that suggest other units) do not stop the reading: they come back in
@@ -26,7 +32,7 @@ import numpy as np
 from umbmark.errors import InputError
 from umbmark.io._text import csv_rows, csv_writer, header_columns, parse_number, read_text
 from umbmark.io.atomic import atomic_write
-from umbmark.model.intervals import Intervals
+from umbmark.model.intervals import Intervals, IntervalSteps
 
 __all__ = ["COLUMNS", "read_intervals_csv", "parse_intervals_csv", "format_intervals_csv", "write_intervals_csv"]
 
@@ -77,7 +83,8 @@ def parse_intervals_csv(text: str, source: str = "<intervals>") -> Intervals:
     ------
     InputError
         No header with the six columns, a column twice, a row with too few fields, a cell that
-        is not a finite number, a negative duration, no rows (file and line named).
+        is not a finite number, a negative duration, a row with some sensor cells empty but not
+        all, steps that no complete row ends, no rows (file and line named).
     """
     header: list[str] | None = None
     header_line = 0
@@ -107,7 +114,15 @@ def parse_intervals_csv(text: str, source: str = "<intervals>") -> Intervals:
         need = max(col.values()) + 1
         if len(row) < need:
             raise InputError(f"has {len(row)} fields, the header has {len(header)}", source, line)
-        vals = [parse_number(row[col[c]], c, source, line) for c in COLUMNS]
+        blank = [not row[col[c]].strip() for c in COLUMNS[3:]]
+        if any(blank) and not all(blank):
+            raise InputError(
+                "some sensor cells are empty: a step row leaves all three empty, an interval's row fills them",
+                source,
+                line,
+            )
+        names = COLUMNS[:3] if all(blank) else COLUMNS
+        vals = [parse_number(row[col[c]], c, source, line) for c in names] + ([math.nan] * 3 if all(blank) else [])
         if vals[0] < 0:
             raise InputError(f"column dt_s: {row[col['dt_s']].strip()} s is negative", source, line)
         values.append(vals)
@@ -116,9 +131,22 @@ def parse_intervals_csv(text: str, source: str = "<intervals>") -> Intervals:
         raise InputError("empty file: no header and no intervals", source)
     if not values:
         raise InputError("no intervals after the header", source, header_line)
-    a = np.asarray(values, dtype=float)
-    warnings = _warnings(a, np.asarray(lines), source)
-    return Intervals(a[:, 0], a[:, 1], a[:, 2], a[:, 3:6], source, tuple(warnings))
+    rows = np.asarray(values, dtype=float)
+    ends = np.flatnonzero(~np.isnan(rows[:, 3]))
+    if ends.size == 0 or ends[-1] != len(rows) - 1:
+        first = int(ends[-1]) + 1 if ends.size else 0
+        raise InputError(
+            "a step row without a row of the interval after it (the last step's row holds the sensor's displacement)",
+            source,
+            int(lines[first]),
+        )
+    start = np.concatenate([[0], ends + 1])
+    steps = None
+    if len(ends) < len(rows):
+        steps = IntervalSteps(rows[:, 1], rows[:, 2], start, rows[:, 0])
+    a = np.column_stack([np.add.reduceat(rows[:, c], start[:-1]) for c in range(3)] + [rows[ends, 3:6]])
+    warnings = _warnings(a, np.asarray(lines)[ends], source)
+    return Intervals(a[:, 0], a[:, 1], a[:, 2], a[:, 3:6], source, tuple(warnings), steps)
 
 
 def _where(mask: np.ndarray, lines: np.ndarray, source: str) -> str:
@@ -166,14 +194,25 @@ def format_intervals_csv(iv: Intervals) -> str:
     -------
     str
         The header ``dt_s,left_rad,right_rad,sensor_dx_m,sensor_dy_m,sensor_dyaw_rad`` and
-        one line per interval.
+        one line per interval, or per step of the intervals that have steps (the sensor cells
+        on the interval's last step; a step's duration, when the steps do not know it, an
+        equal share of the interval's).
     """
     out = io.StringIO()
     w = csv_writer(out, lineterminator="\n")
     w.writerow(COLUMNS)
-    cols = np.column_stack([iv.dt_s, iv.left_rad, iv.right_rad, iv.sensor])
-    for row in cols:
-        w.writerow([repr(float(v)) for v in row])
+    st = iv.steps
+    if st is None:
+        for row in np.column_stack([iv.dt_s, iv.left_rad, iv.right_rad, iv.sensor]):
+            w.writerow([repr(float(v)) for v in row])
+        return out.getvalue()
+    counts = np.diff(st.start)
+    dt = np.repeat(iv.dt_s / counts, counts) if st.dt_s is None else st.dt_s
+    for k in range(len(iv)):
+        for j in range(int(st.start[k]), int(st.start[k + 1])):
+            cells = [repr(float(dt[j])), repr(float(st.left_rad[j])), repr(float(st.right_rad[j]))]
+            last = j == st.start[k + 1] - 1
+            w.writerow(cells + ([repr(float(v)) for v in iv.sensor[k]] if last else ["", "", ""]))
     return out.getvalue()
 
 

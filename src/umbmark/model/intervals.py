@@ -60,6 +60,9 @@ class IntervalSteps:
     start : array_like
         ``(K + 1,)`` offsets: the steps of interval ``k`` are ``start[k]`` to ``start[k + 1] - 1``
         (``start[0] = 0``, ``start[K] = S``, at least one step per interval).
+    dt_s : array_like, optional
+        ``(S,)`` the duration of each step [s] (``None``: not known; the model does not use
+        them, an intervals file writes them).
 
     Raises
     ------
@@ -71,10 +74,17 @@ class IntervalSteps:
     left_rad: NDArray[np.float64]
     right_rad: NDArray[np.float64]
     start: NDArray[np.intp]
+    dt_s: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
         left = _column("left_rad", self.left_rad, None)
         right = _column("right_rad", self.right_rad, None)
+        if self.dt_s is not None:
+            dt = _column("dt_s", self.dt_s, None)
+            if dt.shape != left.shape or not np.all(np.isfinite(dt)) or np.any(dt < 0):
+                raise InputError("`dt_s` must hold a finite duration >= 0 per step")
+            dt.setflags(write=False)
+            object.__setattr__(self, "dt_s", dt)
         try:
             start = np.array(self.start, dtype=np.intp)
         except (TypeError, ValueError):
@@ -130,23 +140,28 @@ class IntervalSteps:
         """
         offsets = np.cumsum([0] + [len(p.left_rad) for p in parts[:-1]])
         start = np.concatenate([[0]] + [p.start[1:] + o for p, o in zip(parts, offsets)])
-        return cls(np.concatenate([p.left_rad for p in parts]), np.concatenate([p.right_rad for p in parts]), start)
+        dts = [p.dt_s for p in parts]
+        dt = None if any(d is None for d in dts) else np.concatenate([d for d in dts if d is not None])
+        return cls(np.concatenate([p.left_rad for p in parts]), np.concatenate([p.right_rad for p in parts]), start, dt)
 
     @classmethod
-    def one_each(cls, left_rad: ArrayLike, right_rad: ArrayLike) -> IntervalSteps:
+    def one_each(cls, left_rad: ArrayLike, right_rad: ArrayLike, dt_s: ArrayLike | None = None) -> IntervalSteps:
         """One step per interval (the arc model).
 
         Parameters
         ----------
         left_rad, right_rad : array_like
             ``(K,)`` the intervals' rotations.
+        dt_s : array_like, optional
+            ``(K,)`` their durations.
 
         Returns
         -------
         IntervalSteps
         """
         left = np.asarray(left_rad, dtype=float).reshape(-1)
-        return cls(left, np.asarray(right_rad, dtype=float).reshape(-1), np.arange(len(left) + 1))
+        dt = None if dt_s is None else np.asarray(dt_s, dtype=float).reshape(-1)
+        return cls(left, np.asarray(right_rad, dtype=float).reshape(-1), np.arange(len(left) + 1), dt)
 
 
 @dataclass(frozen=True)
@@ -226,6 +241,10 @@ class Intervals:
             scale = 1e-9 * (1.0 + np.abs(cols["left_rad"]) + np.abs(cols["right_rad"]))
             if np.any(np.abs(tl - cols["left_rad"]) > scale) or np.any(np.abs(tr - cols["right_rad"]) > scale):
                 raise InputError("the steps' rotations do not add up to the intervals' rotations", src)
+            if st.dt_s is not None:
+                dt = np.add.reduceat(st.dt_s, st.start[:-1])
+                if np.any(np.abs(dt - cols["dt_s"]) > 1e-9 * (1.0 + cols["dt_s"])):
+                    raise InputError("the steps' durations do not add up to the intervals' durations", src)
 
     def __len__(self) -> int:
         return len(self.dt_s)

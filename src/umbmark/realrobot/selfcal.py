@@ -14,8 +14,9 @@ and sensor parameters for mobile robots" (IEEE T-RO 29(2), 2013), estimated by
    turn between samples (wrapped to one turn) are unwrapped, with a warning. Scans outside the
    wheel data (by more than half a wheel sample), or inside a gap of it longer than
    ``max_wheel_gap_s``, are not used.
-2. **Keyframes** (:class:`KeyframeRule`): by default every scan; or the next keyframe once the
-   nominal odometry has moved a distance or turned an angle, or a time has passed. An
+2. **Keyframes** (:class:`KeyframeRule`): the next keyframe once the nominal odometry has moved
+   a distance or turned an angle, or a time has passed (by default :data:`DEFAULT_KEYFRAMES`:
+   100 mm, 5 deg, 1 s; or every scan). An
    interval joins two consecutive keyframes; those in which neither wheel moved are set aside
    (they say nothing about the geometry).
 3. **Scan matching** (:func:`umbmark.realrobot.scanmatch.match_scan_pairs`) of the two scans of
@@ -65,6 +66,10 @@ from umbmark.realrobot.scanmatch import ICPConfig, match_scan_pairs
 __all__ = [
     "selfcal_history_fields",
     "KeyframeRule",
+    "DEFAULT_KEYFRAMES",
+    "DEFAULT_KEYFRAMES_M",
+    "DEFAULT_KEYFRAMES_RAD",
+    "DEFAULT_KEYFRAMES_S",
     "IntervalPlan",
     "ScanIntervals",
     "ScanDelay",
@@ -113,6 +118,10 @@ MAX_SCAN_DELAY_S = 1.0
 taken, and more points to milliseconds given as seconds."""
 
 _CHUNK = 500  # scan pairs per call of the matcher (the progress steps)
+
+DEFAULT_KEYFRAMES_M, DEFAULT_KEYFRAMES_RAD, DEFAULT_KEYFRAMES_S = 0.1, math.radians(5.0), 1.0
+"""The default keyframes: the next after 100 mm of travel, or 5 deg of turn, or 1 s
+(:data:`DEFAULT_KEYFRAMES`)."""
 
 FloatArray = NDArray[np.float64]
 Progress = Callable[[int, int], None]
@@ -261,6 +270,20 @@ class KeyframeRule:
                 out.append((anchor, j))
                 anchor = j
         return out
+
+
+DEFAULT_KEYFRAMES = KeyframeRule(
+    min_distance_m=DEFAULT_KEYFRAMES_M, min_rotation_rad=DEFAULT_KEYFRAMES_RAD, max_interval_s=DEFAULT_KEYFRAMES_S
+)
+"""The keyframes of a self-calibration unless told otherwise: every 100 mm or 5 deg or 1 s.
+
+Intervals from one scan to the next are short; the wheel data's own errors at their ends (a
+scan's stamp a few milliseconds off the moment it was taken, a wheel sample a little early or
+late, the scan matcher's error in each scan) are then a large part of each interval's
+motion, and a fit that takes the wheels as exact turns them into a wheel scale a few per
+cent small (regression dilution). Over 100 mm or 5 deg they weigh several times less, while
+the scans of an interval still overlap for the matcher; the motion inside an interval is the
+scan-to-scan steps composed (:class:`umbmark.model.intervals.IntervalSteps`)."""
 
 
 def wheel_angles_from_odometry(
@@ -514,7 +537,7 @@ def plan_intervals(
     wheelbase_m : float
         Nominal wheelbase [m] (the odometry's, for ``nav_msgs/Odometry`` wheel data).
     keyframes : KeyframeRule, optional
-        Default: every scan.
+        Default :data:`DEFAULT_KEYFRAMES`; ``KeyframeRule()``: every scan.
     sensor_pose : array_like, optional
         The nominal sensor pose ``(x_m, y_m, yaw_rad)`` the matching starts from; default the
         ``/tf_static`` chain from the base frame to the scan frame, else zero.
@@ -540,7 +563,7 @@ def plan_intervals(
     d_nom = _positive("wheel_diameter_m", wheel_diameter_m)
     b_nom = _positive("wheelbase_m", wheelbase_m)
     gap = _positive("max_wheel_gap_s", max_wheel_gap_s)
-    rule = KeyframeRule() if keyframes is None else keyframes
+    rule = DEFAULT_KEYFRAMES if keyframes is None else keyframes
     if not isinstance(rule, KeyframeRule):
         raise InputError(f"`keyframes` must be a KeyframeRule, got {type(rule).__name__}")
     src = bag.source
@@ -599,7 +622,7 @@ def plan_intervals(
         counts = kept[:, 1] - kept[:, 0]
         j = np.repeat(kept[:, 0], counts) + np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts)
         dl, dr = np.diff(sl), np.diff(sr)
-        steps = IntervalSteps(dl[j], dr[j], np.concatenate([[0], np.cumsum(counts)]))
+        steps = IntervalSteps(dl[j], dr[j], np.concatenate([[0], np.cumsum(counts)]), np.diff(st)[j])
     return IntervalPlan(
         bag=bag,
         scan_delay_s=float(scan_delay_s),
@@ -1026,7 +1049,7 @@ def bag_intervals(
     consecutive = (
         plan
         if plan.keyframe_rule.every_scan
-        else plan_intervals(bag, wheel_diameter_m, wheelbase_m, **{**options, "keyframes": None})
+        else plan_intervals(bag, wheel_diameter_m, wheelbase_m, **{**options, "keyframes": KeyframeRule()})
     )
     sample = _every_nth(consecutive, max(1, len(consecutive) // DELAY_PAIRS))
     n0, n1 = len(sample), len(plan)
@@ -1339,7 +1362,10 @@ def selfcal_report(
         steps = None
         if any(iv.steps is not None for iv in ivs):
             steps = IntervalSteps.concatenate(
-                [iv.steps if iv.steps is not None else IntervalSteps.one_each(iv.left_rad, iv.right_rad) for iv in ivs]
+                [
+                    iv.steps if iv.steps is not None else IntervalSteps.one_each(iv.left_rad, iv.right_rad, iv.dt_s)
+                    for iv in ivs
+                ]
             )
         pooled = Intervals(
             np.concatenate([iv.dt_s for iv in ivs]),
