@@ -370,20 +370,28 @@ def test_selfcal_scan_delay_auto_and_seconds(tmp_path, capsys):
     bag = write_drive_bag(log, tmp_path / "drive", odom=False)
     late = edit_bag(bag, tmp_path / "late", scan=delayed(0.2))
     args = ["--joints", ",".join(JOINT_NAMES), "--wheel-diameter-mm", "150", "--wheelbase-mm", "340", "--json"]
+    every = ["--keyframe-mm", "0", "--keyframe-deg", "0", "--keyframe-s", "0", "--keyframe-min-s", "0"]
 
     def selfcal(b, *extra):
         assert main(["selfcal", str(b), *args, *extra]) == 0
         return json.loads(capsys.readouterr().out)
 
-    ref, raw, auto, given, default = (
-        selfcal(bag, "--scan-delay", "off"),
-        selfcal(late, "--scan-delay", "off"),
-        selfcal(late, "--scan-delay", "auto"),
-        selfcal(late, "--scan-delay", "0.2"),
-        selfcal(late),
+    # every scan an interval: the pairs are matched again from the delayed odometry
+    ref, raw, auto, given = (
+        selfcal(bag, *every, "--scan-delay", "off"),
+        selfcal(late, *every, "--scan-delay", "off"),
+        selfcal(late, *every, "--scan-delay", "auto"),
+        selfcal(late, *every, "--scan-delay", "0.2"),
     )
     assert ref["scan_delay"][0]["applied_s"] == 0 and raw["scan_delay"][0]["requested"] == "0"
-    assert default["scan_delay"] == auto["scan_delay"] and default["Eb"] == auto["Eb"]
+    # the default keyframes: the same delay found; the keyframes, chosen on matches started from
+    # the late or the on-time odometry, are a few scans apart here and there, so the estimates
+    # agree within their intervals (measured: 0.4 of a half-width)
+    default, default_ref = selfcal(late), selfcal(bag, "--scan-delay", "off")
+    assert default["scan_delay"][0]["applied_s"] == pytest.approx(auto["scan_delay"][0]["applied_s"], abs=1e-3)
+    for key in ("Ed", "Eb"):
+        half = 0.5 * (default_ref[key + "_ci95"][1] - default_ref[key + "_ci95"][0])
+        assert abs(default[key] - default_ref[key]) < 0.6 * half
     (d,) = auto["scan_delay"]
     assert d["requested"] == "auto" and abs(d["applied_s"] - 0.2) < 2e-3 and d["correlation"] > d["correlation_at_zero"]
     # measured: E_d within 5e-8 and E_b within 7e-6 of the undelayed bag's (uncorrected: 3e-5, 6e-5)

@@ -95,8 +95,8 @@ def test_joint_states_and_scans_give_the_true_geometry(bags, log, storage):
     assert d["scans_read"] == len(log.scan_t_s)
     assert d["pairs_failed"] == 0 and d["pairs_matched"] + d["intervals_still"] == d["inputs"][0]["keyframes"] - 1
     assert d["time_span_s"] == pytest.approx(log.scan_t_s[-1] - log.scan_t_s[0], abs=1e-6)
-    assert d["keyframe_rule"]["description"] == "every 100 mm or 5 deg or 1 s"
-    assert len(log.scan_t_s) / 4 < d["inputs"][0]["keyframes"] < len(log.scan_t_s) / 1.5
+    assert d["keyframe_rule"]["description"] == "every 100 mm or 10 deg or 2 s, at least 0.5 s apart"
+    assert len(log.scan_t_s) / 25 < d["inputs"][0]["keyframes"] < len(log.scan_t_s) / 4
     assert d["nominal_sensor_pose"]["source"] == "/tf_static base_link -> laser"
     assert d["nominal_sensor_pose"]["x_mm"] == pytest.approx(120.0, abs=1e-9)
     assert (d["base_frame"], d["sensor_frame"]) == ("base_link", "laser")
@@ -125,6 +125,30 @@ def test_keyframes_every_few_cm_or_degrees(bags, log):
     a, b = si.plan.pairs.T
     assert np.all(b > a) and np.all(a[1:] >= b[:-1])  # consecutive keyframes, in order
     assert d["keyframe_rule"]["description"] == "every 50 mm or 5 deg or 1 s"
+
+
+def test_scans_stamped_on_arrival_late_and_with_jitter(log, tmp_path):
+    """A lidar driver that stamps each scan on arrival: 30 ms late, scattered by 10 ms. Every scan
+    as an interval, the wheels' rotations between two stamps hold errors of the size of the motion
+    between scans, and the wheel scale comes out percents small (regression dilution); the default
+    keyframes (at least 0.5 s apart; chosen on the scan matches) and the estimated delay bring it
+    within a few tenths of a per cent.
+
+    Measured on this drive with six draws of the jitter: every scan D_L -1.5 to -2.1 %, the
+    defaults -0.4 to +0.1 % (benchmarks/selfcal_keyframes.py measures more)."""
+    late = write_drive_bag(log.stamped(delay_s=0.03, jitter_s=0.01, seed=3), tmp_path / "late.bag", storage="ros1")
+    true = log.true_geometry
+    default = selfcal_from_bags(late, D_NOM, B_NOM, **JOINTS).to_dict()
+    (delay,) = default["scan_delay"]
+    assert abs(delay["applied_s"] - 0.03) < 0.01
+    for key, value in (
+        ("wheel_diameter_left_mm", true.diameter_left_m * 1e3),
+        ("wheel_diameter_right_mm", true.diameter_right_m * 1e3),
+        ("wheelbase_mm", true.wheelbase_m * 1e3),
+    ):
+        assert abs(default[key] / value - 1) < 0.006, (key, default[key], value)
+    every = selfcal_from_bags(late, D_NOM, B_NOM, keyframes=KeyframeRule(), **JOINTS).to_dict()
+    assert every["wheel_diameter_left_mm"] / (true.diameter_left_m * 1e3) - 1 < -0.012
 
 
 def test_intervals_csv_gives_the_bag_result(bags, tmp_path, capsys):

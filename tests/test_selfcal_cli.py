@@ -91,7 +91,10 @@ def test_json_has_the_pinned_keys(result, log):
     assert d["Ed"] == pytest.approx(1.008, abs=0.001)
     assert d["c_left"] == pytest.approx(d["wheel_diameter_left_mm"] / 150.0)
     assert d["scans_read"] == len(log.scan_t_s) and d["pairs_failed"] == 0
-    assert d["method"] == "selfcal" and d["keyframe_rule"]["description"] == "every 100 mm or 5 deg or 1 s"
+    assert (
+        d["method"] == "selfcal"
+        and d["keyframe_rule"]["description"] == "every 100 mm or 10 deg or 2 s, at least 0.5 s apart"
+    )
     assert json.loads(save.read_text()) == d
 
 
@@ -361,7 +364,7 @@ def test_sensor_pose_start_and_keyframe_options(bag, result):
         )
     )
     assert out["nominal_sensor_pose"]["source"] == "given"
-    assert out["keyframe_rule"]["description"] == "every 40 mm or 4 deg or 1 s"
+    assert out["keyframe_rule"]["description"] == "every 40 mm or 4 deg or 2 s, at least 0.5 s apart"
     assert out["sensor_pose"]["x_mm"] == pytest.approx(d["sensor_pose"]["x_mm"], abs=3.0)
     assert out["sensor_pose"]["yaw_deg"] == pytest.approx(d["sensor_pose"]["yaw_deg"], abs=0.2)
     text = run(["selfcal", str(bag), *JOINTS, *GEO, "--keyframe-mm", "40", "--keyframe-deg", "4"])
@@ -369,18 +372,18 @@ def test_sensor_pose_start_and_keyframe_options(bag, result):
 
 
 def test_keyframes_default_to_the_library_s_and_every_scan_is_an_option(bag, result):
-    """The command's keyframe defaults are the library's DEFAULT_KEYFRAMES; all three at 0 is every
+    """The command's keyframe defaults are the library's DEFAULT_KEYFRAMES; all four at 0 is every
     scan (and is shown in the next-step command)."""
     from umbmark.realrobot.selfcal import DEFAULT_KEYFRAMES
 
     d, _ = result
     assert d["keyframe_rule"] == DEFAULT_KEYFRAMES.to_dict()
-    every = ["--keyframe-mm", "0", "--keyframe-deg", "0", "--keyframe-s", "0"]
+    every = ["--keyframe-mm", "0", "--keyframe-deg", "0", "--keyframe-s", "0", "--keyframe-min-s", "0"]
     out = json.loads(run(["selfcal", str(bag), *JOINTS, *GEO, *every, "--json"]))
     assert out["keyframe_rule"]["description"] == "every scan"
     assert out["pairs_matched"] + out["intervals_still"] == out["scans_read"] - 1
     text = run(["selfcal", str(bag), *JOINTS, *GEO, *every])
-    assert "--keyframe-mm 0 --keyframe-deg 0 --keyframe-s 0" in text
+    assert "--keyframe-mm 0 --keyframe-deg 0 --keyframe-s 0 --keyframe-min-s 0" in text
 
 
 def test_a_wrong_urdf_pose_is_pointed_out(log, tmp_path):

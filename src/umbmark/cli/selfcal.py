@@ -256,11 +256,11 @@ def _print_report(d: dict, again: str, export: str) -> None:
     type=float,
     default=100.0,
     show_default=True,
-    help="Bag: the next keyframe after this much travel (0: no travel condition; all three 0: every scan).",
+    help="Bag: the next keyframe after this much travel (0: no travel condition; all four 0: every scan).",
 )
-@click.option("--keyframe-deg", type=float, default=5.0, show_default=True, help="Bag: ... or this much turn.")
-@click.option("--keyframe-s", type=float, default=1.0, show_default=True, help="Bag: ... or this much time (0: none).")
-@click.option("--keyframe-min-s", type=float, default=0.0, show_default=True, help="Bag: least time between keyframes.")
+@click.option("--keyframe-deg", type=float, default=10.0, show_default=True, help="Bag: ... or this much turn.")
+@click.option("--keyframe-s", type=float, default=2.0, show_default=True, help="Bag: ... or this much time (0: none).")
+@click.option("--keyframe-min-s", type=float, default=0.5, show_default=True, help="Bag: least time between keyframes.")
 @click.option(
     "--max-wheel-gap-s",
     type=float,
@@ -397,9 +397,9 @@ def _bag_flags(kw) -> list[str]:
         out.append(f"--scan-delay {q(str(kw['scan_delay']))}")
     for name, usual in (
         ("keyframe_mm", 100.0),
-        ("keyframe_deg", 5.0),
-        ("keyframe_s", 1.0),
-        ("keyframe_min_s", 0.0),
+        ("keyframe_deg", 10.0),
+        ("keyframe_s", 2.0),
+        ("keyframe_min_s", 0.5),
         ("max_wheel_gap_s", 0.5),
     ):
         if kw[name] != usual:

@@ -16,7 +16,7 @@ and sensor parameters for mobile robots" (IEEE T-RO 29(2), 2013), estimated by
    ``max_wheel_gap_s``, are not used.
 2. **Keyframes** (:class:`KeyframeRule`): the next keyframe once the nominal odometry has moved
    a distance or turned an angle, or a time has passed (by default :data:`DEFAULT_KEYFRAMES`:
-   100 mm, 5 deg, 1 s; or every scan). An
+   at least 0.5 s apart and 100 mm, 10 deg or 2 s; or every scan). An
    interval joins two consecutive keyframes; those in which neither wheel moved are set aside
    (they say nothing about the geometry).
 3. **Scan matching** (:func:`umbmark.realrobot.scanmatch.match_scan_pairs`) of the two scans of
@@ -69,12 +69,14 @@ __all__ = [
     "DEFAULT_KEYFRAMES",
     "DEFAULT_KEYFRAMES_M",
     "DEFAULT_KEYFRAMES_RAD",
+    "DEFAULT_KEYFRAMES_MIN_S",
     "DEFAULT_KEYFRAMES_S",
     "IntervalPlan",
     "ScanIntervals",
     "ScanDelay",
     "estimate_scan_delay",
     "parse_scan_delay",
+    "matched_motion",
     "SelfcalReport",
     "wheel_angles_from_odometry",
     "sensor_pose_from_tf",
@@ -91,7 +93,6 @@ __all__ = [
     "POSE_WARN_M",
     "POSE_WARN_RAD",
     "SCAN_DELAY_SEARCH_S",
-    "DELAY_PAIRS",
     "MAX_SCAN_DELAY_S",
 ]
 
@@ -110,18 +111,16 @@ POSE_WARN_M, POSE_WARN_RAD = 0.01, math.radians(1.0)
 SCAN_DELAY_SEARCH_S = 0.3
 """How far either way the scans' delay is searched [s] (:func:`estimate_scan_delay`)."""
 
-DELAY_PAIRS = 2000
-"""About how many scan pairs the scans' delay is estimated from (a sample of a long bag's)."""
-
 MAX_SCAN_DELAY_S = 1.0
 """The largest scan delay accepted when given [s]: a scan is stamped within a sweep of when it was
 taken, and more points to milliseconds given as seconds."""
 
 _CHUNK = 500  # scan pairs per call of the matcher (the progress steps)
 
-DEFAULT_KEYFRAMES_M, DEFAULT_KEYFRAMES_RAD, DEFAULT_KEYFRAMES_S = 0.1, math.radians(5.0), 1.0
-"""The default keyframes: the next after 100 mm of travel, or 5 deg of turn, or 1 s
-(:data:`DEFAULT_KEYFRAMES`)."""
+DEFAULT_KEYFRAMES_M, DEFAULT_KEYFRAMES_RAD = 0.1, math.radians(10.0)
+DEFAULT_KEYFRAMES_MIN_S, DEFAULT_KEYFRAMES_S = 0.5, 2.0
+"""The default keyframes: at least 0.5 s apart, the next after 100 mm of travel or 10 deg of
+turn, or 2 s (:data:`DEFAULT_KEYFRAMES`)."""
 
 FloatArray = NDArray[np.float64]
 Progress = Callable[[int, int], None]
@@ -273,17 +272,24 @@ class KeyframeRule:
 
 
 DEFAULT_KEYFRAMES = KeyframeRule(
-    min_distance_m=DEFAULT_KEYFRAMES_M, min_rotation_rad=DEFAULT_KEYFRAMES_RAD, max_interval_s=DEFAULT_KEYFRAMES_S
+    min_distance_m=DEFAULT_KEYFRAMES_M,
+    min_rotation_rad=DEFAULT_KEYFRAMES_RAD,
+    min_interval_s=DEFAULT_KEYFRAMES_MIN_S,
+    max_interval_s=DEFAULT_KEYFRAMES_S,
 )
-"""The keyframes of a self-calibration unless told otherwise: every 100 mm or 5 deg or 1 s.
+"""The keyframes of a self-calibration unless told otherwise: at least 0.5 s apart, and every
+100 mm or 10 deg or 2 s.
 
-Intervals from one scan to the next are short; the wheel data's own errors at their ends (a
-scan's stamp a few milliseconds off the moment it was taken, a wheel sample a little early or
-late, the scan matcher's error in each scan) are then a large part of each interval's
-motion, and a fit that takes the wheels as exact turns them into a wheel scale a few per
-cent small (regression dilution). Over 100 mm or 5 deg they weigh several times less, while
-the scans of an interval still overlap for the matcher; the motion inside an interval is the
-scan-to-scan steps composed (:class:`umbmark.model.intervals.IntervalSteps`)."""
+Intervals from one scan to the next are short; the errors of the wheel data at their ends (a
+scan stamped a few milliseconds off the moment it was taken, a wheel sample a little early or
+late, the matcher's error in each scan) are then a large part of each interval's motion, and a
+fit that takes the wheels as exact turns them into a wheel scale or a turn a few per cent
+small (regression dilution; ``benchmarks/results/selfcal_keyframes.md``). Such errors come
+with the speed, so the least time between keyframes divides their weight for every motion;
+100 mm or 10 deg make each interval a motion worth measuring, and the scans of an interval
+still overlap for the matcher. The motion inside an interval is its scan-to-scan steps
+composed (:class:`umbmark.model.intervals.IntervalSteps`), and the keyframes are chosen on the
+scan matches, not on the wheel data (:func:`bag_intervals`)."""
 
 
 def wheel_angles_from_odometry(
@@ -525,6 +531,7 @@ def plan_intervals(
     base_frame: str | None = None,
     max_wheel_gap_s: float = 0.5,
     scan_delay_s: float = 0.0,
+    motion: ArrayLike | None = None,
 ) -> IntervalPlan:
     """Wheel angles at the scans, keyframes, and the intervals to match (steps 1-2 of the module docstring).
 
@@ -549,6 +556,12 @@ def plan_intervals(
     scan_delay_s : float
         How late the scans are stamped against the wheel data [s]: a scan stamped ``t`` takes
         the wheel angles at ``t - scan_delay_s``.
+    motion : array_like, optional
+        ``(M, 3)`` the sensor's poses at the scans in one frame, e.g. the matches of
+        consecutive scans composed (:func:`matched_motion`): the keyframes are chosen on this
+        motion instead of the nominal odometry's (keyframes chosen where the wheel data's own
+        errors reach a threshold would bias the intervals' wheel rotations), and the matching
+        of each interval starts from it.
 
     Returns
     -------
@@ -599,7 +612,15 @@ def plan_intervals(
     sl = np.interp(st, wt, left)
     sr = np.interp(st, wt, right)
     odo = integrate_wheels(r_nom * np.diff(sl), r_nom * np.diff(sr), b_nom)
-    pairs = np.array(rule.select(st, odo, usable), dtype=np.int64).reshape(-1, 2)
+    seen = None
+    if motion is not None:
+        seen = np.asarray(motion, dtype=float)
+        if seen.shape != (len(st), 3):
+            raise InputError(f"`motion` must be ({len(st)}, 3), one pose per scan; got {seen.shape}", src)
+    pairs = np.array(
+        rule.select(st, odo if seen is None else seen, usable),
+        dtype=np.int64,
+    ).reshape(-1, 2)
     a, b = pairs[:, 0], pairs[:, 1]
     phi_l, phi_r = sl[b] - sl[a], sr[b] - sr[a]
     moving = (np.abs(phi_l) * r_nom > STILL_M) | (np.abs(phi_r) * r_nom > STILL_M)
@@ -614,6 +635,8 @@ def plan_intervals(
     l0 = np.array([pose[0], pose[1], pose[5]])
     q = se2.between(odo[a[moving]], odo[b[moving]])
     initial = se2.compose(se2.inverse(l0), se2.compose(q, l0))
+    if seen is not None:
+        initial = se2.between(seen[a[moving]], seen[b[moving]])
     keyframe_count = int(np.unique(pairs).size)
     idx = np.flatnonzero(usable)
     steps = None
@@ -1003,14 +1026,19 @@ def bag_intervals(
     scan_delay: float | str | None = "auto",
     progress: Progress | None = None,
 ) -> ScanIntervals:
-    """:func:`plan_intervals` then :func:`match_intervals`, the scans' delay estimated between.
+    """The intervals of a bag, matched: steps 1-4 of the module docstring.
 
-    With ``scan_delay="auto"`` a sample (at most about :data:`DELAY_PAIRS`) of the pairs of
-    consecutive scans is matched with the stamps as recorded, the delay is estimated from those
-    matches (:func:`estimate_scan_delay`), and the intervals are planned and matched with it:
-    the matcher starts from the odometry of the delayed stamps (it stops within a
-    small fraction of a standard deviation of the optimum, on the side it started from, so a
-    start off by the delay would pull every match a little the same way).
+    1. Every pair of consecutive scans is planned (:func:`plan_intervals`, the stamps as
+       recorded, or the delay given) and matched (:func:`match_intervals`).
+    2. With ``scan_delay="auto"`` the scans' delay is estimated from those matches
+       (:func:`estimate_scan_delay`).
+    3. The keyframes are chosen on the matches composed (:func:`matched_motion`), not on the
+       wheel data, whose errors would choose them; each interval's wheel rotations are read at
+       the delayed stamps, and its two keyframes matched starting from the composed matches.
+       Every scan a keyframe, the pairs are matched again from the delayed odometry when the
+       delay moved it (the matcher stops within a small fraction of a standard deviation of
+       the optimum on the side it started from, so a start off by the delay would pull every
+       match a little the same way).
 
     Parameters
     ----------
@@ -1019,7 +1047,7 @@ def bag_intervals(
     wheel_diameter_m, wheelbase_m : float
         Nominal geometry [m].
     keyframes, sensor_pose, base_frame, max_wheel_gap_s
-        As :func:`plan_intervals`.
+        As :func:`plan_intervals` (the keyframes by default :data:`DEFAULT_KEYFRAMES`).
     icp, min_intervals
         As :func:`match_intervals`.
     scan_delay : float or str
@@ -1039,50 +1067,65 @@ def bag_intervals(
         As the two steps and :func:`estimate_scan_delay`.
     """
     want = parse_scan_delay(scan_delay)
-    options = dict(keyframes=keyframes, sensor_pose=sensor_pose, base_frame=base_frame, max_wheel_gap_s=max_wheel_gap_s)
+    options = dict(sensor_pose=sensor_pose, base_frame=base_frame, max_wheel_gap_s=max_wheel_gap_s)
+    rule = DEFAULT_KEYFRAMES if keyframes is None else keyframes
     first = 0.0 if want == "auto" else float(want)
-    plan = plan_intervals(bag, wheel_diameter_m, wheelbase_m, scan_delay_s=first, **options)
-    if want != "auto":
-        si = match_intervals(plan, icp=icp, min_intervals=min_intervals, progress=progress)
-        return replace(si, scan_delay_requested=f"{first:g}")
-    # the delay from a sample of the consecutive scans, then every interval matched from the delayed odometry
-    consecutive = (
-        plan
-        if plan.keyframe_rule.every_scan
-        else plan_intervals(bag, wheel_diameter_m, wheelbase_m, **{**options, "keyframes": KeyframeRule()})
-    )
-    sample = _every_nth(consecutive, max(1, len(consecutive) // DELAY_PAIRS))
-    n0, n1 = len(sample), len(plan)
-    step = None if progress is None else (lambda done, total: progress(done, n0 + n1))  # noqa: E731
+    # every pair of consecutive scans matched: the scans' delay and the motion the keyframes are chosen on
+    plan = plan_intervals(bag, wheel_diameter_m, wheelbase_m, keyframes=KeyframeRule(), scan_delay_s=first, **options)
+    n0 = len(plan)
+    pass1 = None if progress is None else (lambda done, total: progress(done, 2 * n0))  # noqa: E731
+    si = match_intervals(plan, icp=icp, min_intervals=1 if not rule.every_scan else min_intervals, progress=pass1)
     est: ScanDelay | None = None
-    try:
-        est = estimate_scan_delay(
-            match_intervals(sample, icp=icp, min_intervals=1, progress=step), wheel_diameter_m, wheelbase_m
-        )
-    except InputError as err:
-        plan = replace(
-            plan, warnings=plan.warnings + (f"the scans' delay is not estimated ({err.message}): stamps as recorded",)
-        )
-    if est is not None:
-        plan = plan_intervals(bag, wheel_diameter_m, wheelbase_m, scan_delay_s=est.delay_s, **options)
-    step = None if progress is None else (lambda done, total: progress(n0 + min(done, n1), n0 + n1))  # noqa: E731
-    si = match_intervals(plan, icp=icp, min_intervals=min_intervals, progress=step)
-    return replace(si, scan_delay=est, scan_delay_requested="auto")
-
-
-def _every_nth(plan: IntervalPlan, n: int) -> IntervalPlan:
-    """The plan with every ``n``-th of its intervals."""
-    if n <= 1:
-        return plan
-    return replace(
-        plan,
-        steps=None if plan.steps is None else plan.steps.subset(np.arange(0, len(plan), n)),
-        pairs=plan.pairs[::n],
-        dt_s=plan.dt_s[::n],
-        left_rad=plan.left_rad[::n],
-        right_rad=plan.right_rad[::n],
-        initial=plan.initial[::n],
+    delay = first
+    if want == "auto":
+        try:
+            est = estimate_scan_delay(si, wheel_diameter_m, wheelbase_m)
+            delay = est.delay_s
+        except InputError as err:
+            note = f"the scans' delay is not estimated ({err.message}): stamps as recorded"
+            si = replace(si, plan=replace(si.plan, warnings=si.plan.warnings + (note,)))
+    motion = None if rule.every_scan else matched_motion(si)
+    if rule.every_scan and delay == first:
+        if len(si.intervals) < min_intervals:
+            match_intervals(si.plan, icp=icp, min_intervals=min_intervals)  # raises, naming the failures
+        return replace(si, scan_delay=est, scan_delay_requested="auto" if want == "auto" else f"{first:g}")
+    plan2 = plan_intervals(
+        bag, wheel_diameter_m, wheelbase_m, keyframes=rule, scan_delay_s=delay, motion=motion, **options
     )
+    if est is None and want == "auto":
+        plan2 = replace(plan2, warnings=si.plan.warnings)
+    n1 = len(plan2)
+    pass2 = None if progress is None else (lambda done, total: progress(n0 + round(done * n0 / max(n1, 1)), 2 * n0))  # noqa: E731
+    out = match_intervals(plan2, icp=icp, min_intervals=min_intervals, progress=pass2)
+    return replace(out, scan_delay=est, scan_delay_requested="auto" if want == "auto" else f"{first:g}")
+
+
+def matched_motion(matches: ScanIntervals) -> FloatArray:
+    """The sensor's poses at every scan from matches of consecutive scans, composed.
+
+    A pair that did not match moves by the nominal odometry's displacement seen from the sensor
+    (the matcher's start); a pair the plan left out (no wheel motion, or no wheel data) by
+    nothing. Keyframes never span a scan without wheel data, so the poses between two
+    keyframes are always those of the matches between them.
+
+    Parameters
+    ----------
+    matches : ScanIntervals
+        Matches of consecutive scans (every scan a keyframe).
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(M, 3)`` poses in the frame of the first scan (heading accumulated).
+    """
+    plan = matches.plan
+    step = np.zeros((plan.bag.n_scans - 1, 3))
+    step[plan.pairs[:, 0]] = np.where(matches.matched[:, None], matches.poses, plan.initial)
+    th = np.concatenate([[0.0], np.cumsum(step[:, 2])])
+    c, s = np.cos(th[:-1]), np.sin(th[:-1])
+    x = np.concatenate([[0.0], np.cumsum(c * step[:, 0] - s * step[:, 1])])
+    y = np.concatenate([[0.0], np.cumsum(s * step[:, 0] + c * step[:, 1])])
+    return np.column_stack([x, y, th])
 
 
 @dataclass(frozen=True, eq=False)
