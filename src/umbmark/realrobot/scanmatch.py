@@ -3,17 +3,30 @@
 The matcher is a point-to-line ICP in the manner of Censi's PLICP, built on the ordered structure of
 a scan (beams at uniformly spaced angles; ``inf``, ``nan`` or ``0`` where a beam has no return):
 
-* **Reference lines.** Every reference point gets the line fitted (total least squares) to
-  :attr:`ICPConfig.line_points` consecutive valid points around it (beams without a return
-  skipped): of the windows that contain the point, the one with the smallest fit residual, so a
-  point next to a corner takes the line of its own wall. Windows across a gap larger than
-  :attr:`ICPConfig.line_max_gap_m` or with a residual above :attr:`ICPConfig.line_max_rms_m`
-  give no line.
+* **Reference lines.** The reference scan's valid points, in the order of the beams (beams
+  without a return skipped), are cut into straight pieces: at gaps wider than
+  :attr:`ICPConfig.line_max_gap_m` and than :attr:`ICPConfig.line_max_gap_ratio` times the range,
+  and, recursively, at the point furthest from the chord of a piece's ends while it is more than
+  :attr:`ICPConfig.line_split_sigmas` times the scan's noise off (the noise is measured on the
+  lines themselves, in three rounds starting from a tolerance of 1.5
+  :attr:`ICPConfig.line_max_rms_m`; at least :attr:`ICPConfig.line_split_m`). Every piece of
+  :attr:`ICPConfig.line_points` or more points whose residual is within
+  :attr:`ICPConfig.line_max_rms_m` gives its points one total least squares line (an end point
+  four standard deviations off the line of the others is left out of it). A line spans a whole
+  straight wall, not a few neighbouring points: the steps of a coarse range resolution (ranges
+  rounded to a few centimetres, the same in consecutive scans of a wall the sensor moves along) stay
+  on one line instead of tilting the short lines that follow them, which would pull the pose
+  back towards the reference scan's. A line whose direction is uncertain by more than
+  :attr:`ICPConfig.line_max_normal_sd_rad` (a few points of a small object) pairs points and
+  counts inliers but is left out of the pose estimate.
 * **Correspondences.** Each current point, moved by the pose estimate, is projected into the
   reference scan's beam index; the nearest reference point is searched outwards from that beam,
   stopping as soon as the distance to the next beam's ray exceeds the best distance found (an
-  exact nearest-point search over the points that have a line). Pairs further apart than
-  :attr:`ICPConfig.max_correspondence_m` are dropped.
+  exact nearest-point search over the points that have a line). The pair counts only when the
+  current sensor's ray through the point meets that point's line within the extent of the
+  line's points (half a point spacing beyond its ends) and within
+  :attr:`ICPConfig.max_correspondence_m` of the point: a part of a surface that the reference
+  scan did not see (beyond a corner, behind an edge) is not matched to the end of another line.
 * **Outliers, in two stages.** Until the iteration first settles, the largest
   :attr:`ICPConfig.trim_fraction` of the point-to-line residuals are left out of each step
   (robust from far off); from there on, instead, the residuals beyond
@@ -22,10 +35,11 @@ a scan (beams at uniformly spaced angles; ``inf``, ``nan`` or ``0`` where a beam
 * **Step.** One Gauss-Newton step of the point-to-line cost per correspondence update: the 3x3
   normal equations solved in closed form. The iteration has settled when the step is below
   :attr:`ICPConfig.tolerance_m` and :attr:`ICPConfig.tolerance_rad`, or below
-  :attr:`ICPConfig.tolerance_sigma` standard deviations of the estimate. When the
-  correspondences cycle (the pose returns to where it was two steps before) or half of
-  :attr:`ICPConfig.max_iterations` is spent, they are kept fixed and that least-squares problem
-  is solved to the end.
+  :attr:`ICPConfig.tolerance_sigma` standard deviations of the estimate; no step is longer than
+  :attr:`ICPConfig.max_correspondence_m` (a direction the lines leave almost free does not throw
+  the pose out of reach). When the correspondences cycle (the pose returns to where it was two
+  steps before) or half of :attr:`ICPConfig.max_iterations` is spent, they are kept fixed and
+  that least-squares problem is solved to the end.
 * **Covariance.** ``sigma^2 H^-1`` at the solution, ``H`` the Gauss-Newton matrix of the kept
   correspondences and ``sigma^2`` their residual variance (``n - 3`` degrees of freedom), times
   :attr:`ICPConfig.covariance_scale`.
@@ -38,8 +52,9 @@ a scan (beams at uniformly spaced angles; ``inf``, ``nan`` or ``0`` where a beam
 
 A match is ``converged`` only when the iteration settled, enough points matched
 (:attr:`ICPConfig.min_points`, :attr:`ICPConfig.min_inlier_fraction`) and the geometry
-constrains all three degrees of freedom (:attr:`ICPConfig.min_constraint_ratio`: a corridor
-without visible ends does not); otherwise ``reason`` says why. Bad numbers never raise from the
+constrains all three degrees of freedom (:attr:`ICPConfig.min_constraint_ratio`, computed from the
+correspondences of the estimate: a corridor without visible ends does not, whether or not the
+iteration settled); otherwise ``reason`` says why. Bad numbers never raise from the
 compiled code: too few valid points is a result, not an exception.
 
 The kernels are compiled with numba when it is installed (once per machine: numba's cache); without
@@ -97,11 +112,22 @@ class ICPConfig:
         micrometre) are left out, and the iteration continues to convergence (0: no second
         stage).
     line_points : int
-        Consecutive reference points fitted to each reference line (at least 2).
+        Fewest points of a reference line (a straight piece of the reference scan, at least 2).
     line_max_rms_m : float
         A reference line whose fit residual (root mean square) exceeds this is not used.
-    line_max_gap_m : float
-        Consecutive reference points further apart than this are not on one line.
+    line_max_gap_m, line_max_gap_ratio : float
+        Consecutive points (in the order of the beams) further apart than ``line_max_gap_m``
+        and than ``line_max_gap_ratio`` times their range are not on one line (the second lets
+        the sparse points of far walls form lines).
+    line_split_m, line_split_sigmas : float
+        A run of points is split into straight pieces at the point furthest from the chord of
+        its ends while that distance exceeds ``line_split_sigmas`` times the scan's noise
+        (measured on its lines), and at least ``line_split_m``: steps of a coarse range
+        resolution stay on one line, corners do not.
+    line_max_normal_sd_rad : float
+        A reference line whose direction is uncertain by more than this (standard deviation,
+        from its residual, at least the scan's noise) still pairs points and counts inliers but
+        is left out of the pose estimate (``inf``: every line is used).
     tolerance_m, tolerance_rad : float
         The iteration has converged when the step is below both,
     tolerance_sigma : float
@@ -121,8 +147,9 @@ class ICPConfig:
     covariance_scale : float
         Factor applied to ``sigma^2 H^-1``. ``sigma^2 H^-1`` alone understates the error: the
         lines of neighbouring reference points share their points, so the residuals are not
-        independent. The default is the ratio of the actual to the predicted error variance on
-        simulated scans (1.3 to 1.5 for 2 to 10 mm of range noise, 180 to 720 beams, dropouts).
+        independent (all the points of a wall share its line). The default is the ratio of the
+        actual to the predicted error variance on simulated scans (1.6 to 2.0 for 2 to 10 mm of
+        range noise, 180 to 720 beams, no or 20 % dropouts).
     range_min_m, range_max_m : float
         Ranges outside ``[range_min_m, range_max_m]`` are dropped (as are inf, nan and ranges
         of zero or less: no return).
@@ -145,9 +172,13 @@ class ICPConfig:
     max_correspondence_m: float = 0.3
     trim_fraction: float = 0.05
     outlier_sigmas: float = 4.0
-    line_points: int = 5
-    line_max_rms_m: float = 0.02
+    line_points: int = 3
+    line_max_rms_m: float = 0.04
     line_max_gap_m: float = 0.5
+    line_max_gap_ratio: float = 0.1
+    line_split_m: float = 0.0001
+    line_split_sigmas: float = 4.0
+    line_max_normal_sd_rad: float = 0.05
     tolerance_m: float = 1e-7
     tolerance_rad: float = 1e-7
     tolerance_sigma: float = 0.05
@@ -155,7 +186,7 @@ class ICPConfig:
     inlier_threshold_m: float = 0.05
     min_inlier_fraction: float = 0.7
     min_constraint_ratio: float = 0.02
-    covariance_scale: float = 1.4
+    covariance_scale: float = 1.8
     range_min_m: float = 0.0
     range_max_m: float = math.inf
     coarse: bool = False
@@ -175,6 +206,9 @@ class ICPConfig:
             "max_correspondence_m",
             "line_max_rms_m",
             "line_max_gap_m",
+            "line_max_gap_ratio",
+            "line_split_m",
+            "line_split_sigmas",
             "tolerance_m",
             "tolerance_rad",
             "tolerance_sigma",
@@ -189,6 +223,9 @@ class ICPConfig:
             v = getattr(self, name)
             if not (isinstance(v, (int, float, np.integer, np.floating)) and math.isfinite(v) and v > 0):
                 raise InputError(f"`{name}` must be a positive number, got {v!r}")
+        v = self.line_max_normal_sd_rad
+        if not (isinstance(v, (int, float, np.integer, np.floating)) and v > 0):
+            raise InputError(f"`line_max_normal_sd_rad` must be a positive number or inf, got {v!r}")
         if not (math.isfinite(self.outlier_sigmas) and self.outlier_sigmas >= 0):
             raise InputError(f"`outlier_sigmas` must be a number >= 0, got {self.outlier_sigmas!r}")
         for name in ("trim_fraction", "min_inlier_fraction", "min_constraint_ratio"):
@@ -420,120 +457,302 @@ _I_WIDTH = 5
     _F_COARSE_RAD,
     _F_STEP_M,
     _F_STEP_RAD,
-) = range(18)
-_F_WIDTH = 18
+    _F_GAP_RATIO,
+    _F_SPLIT_M,
+    _F_SPLIT_SIGMAS,
+    _F_NORMAL_SD,
+) = range(22)
+_F_WIDTH = 22
 
 # a scan's arrays: rows of the float array ``pts`` and of the boolean array ``flags``
-_P_X, _P_Y, _P_NX, _P_NY, _P_LX, _P_LY = range(6)  # point; unit normal and a point of its line
-_P_WIDTH = 6
-_B_VALID, _B_LINE = range(2)  # a valid return; a line was fitted
-_B_WIDTH = 2
+# point; unit normal and a point of its line; the extent of the line (along (-ny, nx) from that point)
+_P_X, _P_Y, _P_NX, _P_NY, _P_LX, _P_LY, _P_U0, _P_U1 = range(8)
+_P_WIDTH = 8
+_B_VALID, _B_LINE, _B_WEAK = range(3)  # a valid return; a line was fitted; its direction is uncertain
+_B_WIDTH = 3
 
 
-def _fit_lines(pts, flags, wrap, m, max_rms2, max_gap2, work, order):
-    """The best-fitting line through ``m`` consecutive valid points around each valid point.
+def _split_pieces(x, y, order, nv, gap2, ratio2, split, iwork):
+    """Cut the valid points (in beam order) into straight pieces; returns their number.
 
-    Consecutive in the order of the beams, skipping beams without a return. Fills the normal
-    and line-point rows of ``pts`` and the line flags; ``work`` is a ``(5, n)`` and ``order`` an
-    ``(n,)`` integer scratch array. Returns the number of points with a line.
+    A piece ends where consecutive points are further apart than ``sqrt(gap2)`` and than
+    ``sqrt(ratio2)`` times the range of the nearer one; each run between such gaps is split
+    recursively at its point furthest from the chord of its end points while that distance
+    exceeds ``split``; the split point is on both pieces (it may be the corner, or next to it on
+    either wall: :func:`_fit_pieces` leaves it out of the line it is off). Rows of ``iwork``: 0
+    and 1 the first and last position of each piece in ``order``, 2 and 3 whether that end is a
+    split point, 4 and 5 the stack.
+    """
+    seg_a = iwork[0]
+    seg_b = iwork[1]
+    cut_a = iwork[2]
+    cut_b = iwork[3]
+    stack_a = iwork[4]
+    stack_b = iwork[5]
+    nseg = 0
+    start = 0
+    for t in range(1, nv + 1):
+        if t < nv:
+            k = order[t]
+            kp = order[t - 1]
+            lim2 = max(gap2, ratio2 * min(x[k] * x[k] + y[k] * y[k], x[kp] * x[kp] + y[kp] * y[kp]))
+            if (x[k] - x[kp]) ** 2 + (y[k] - y[kp]) ** 2 <= lim2:
+                continue
+        # the stack holds a piece as (first, last); a split end is stored as -1 - position
+        ns = 1
+        stack_a[0] = start
+        stack_b[0] = t - 1
+        while ns > 0:
+            ns -= 1
+            a = stack_a[ns]
+            b = stack_b[ns]
+            ca = a < 0
+            cb = b < 0
+            if ca:
+                a = -1 - a
+            if cb:
+                b = -1 - b
+            best = -1.0
+            bq = a
+            if b - a >= 2:
+                ka = order[a]
+                kb = order[b]
+                cx = x[kb] - x[ka]
+                cy = y[kb] - y[ka]
+                cl = math.sqrt(cx * cx + cy * cy)
+                for q in range(a + 1, b):
+                    k = order[q]
+                    if cl > 0.0:
+                        d = abs((x[k] - x[ka]) * cy - (y[k] - y[ka]) * cx) / cl
+                    else:
+                        d = math.sqrt((x[k] - x[ka]) ** 2 + (y[k] - y[ka]) ** 2)
+                    if d > best:
+                        best = d
+                        bq = q
+            if best > split:
+                stack_a[ns] = -1 - a if ca else a
+                stack_b[ns] = -1 - bq
+                stack_a[ns + 1] = -1 - bq
+                stack_b[ns + 1] = -1 - b if cb else b
+                ns += 2
+            else:
+                seg_a[nseg] = a
+                seg_b[nseg] = b
+                cut_a[nseg] = 1 if ca else 0
+                cut_b[nseg] = 1 if cb else 0
+                nseg += 1
+        start = t
+    return nseg
+
+
+def _tls(x, y, order, a, b):
+    """Total least squares line of the points ``order[a..b]``: (normal x, y, centroid x, y, sum
+    of squared distances to the line, scatter along it); the normal is ``nan`` for coincident
+    points."""
+    cnt = b - a + 1
+    # moments about the first point (no cancellation far from the sensor)
+    k0 = order[a]
+    x0 = x[k0]
+    y0 = y[k0]
+    sx = sy = sxx = sxy = syy = 0.0
+    for q in range(a, b + 1):
+        k = order[q]
+        u = x[k] - x0
+        v = y[k] - y0
+        sx += u
+        sy += v
+        sxx += u * u
+        sxy += u * v
+        syy += v * v
+    mx = sx / cnt
+    my = sy / cnt
+    ca = sxx - cnt * mx * mx
+    cb = sxy - cnt * mx * my
+    cc = syy - cnt * my * my
+    h = 0.5 * (ca - cc)
+    root = math.sqrt(h * h + cb * cb)
+    lam = max(0.5 * (ca + cc) - root, 0.0)
+    # the eigenvector of the smallest eigenvalue is the normal
+    if h > 0.0:
+        vx = cb
+        vy = lam - ca
+    else:
+        vx = lam - cc
+        vy = cb
+    nn = math.sqrt(vx * vx + vy * vy)
+    if not nn > 0.0:
+        return math.nan, math.nan, mx + x0, my + y0, lam, 0.5 * (ca + cc) + root
+    return vx / nn, vy / nn, mx + x0, my + y0, lam, 0.5 * (ca + cc) + root
+
+
+def _fit_pieces(x, y, order, nseg, iwork, fits, m, max_rms2, noise2):
+    """The total least squares line of every piece: rows of ``fits`` (normal x, y; centroid x, y;
+    sum of squared distances to the line; scatter along it), normal x ``nan`` when fewer than
+    ``m`` points fit or their residual (root mean square) exceeds ``sqrt(max_rms2)``.
+
+    An end point more than four standard deviations off the line of the other points (their
+    residual, at least ``noise2``) is left out of the fit, repeatedly: a point of the next
+    surface that the split tolerance let in. Rows 2 and 3 of ``iwork`` become the numbers of points left
+    out at the first and the last end.
+    """
+    for s in range(nseg):
+        a = iwork[0, s]
+        b = iwork[1, s]
+        fits[0, s] = math.nan
+        nx = ny = lx = ly = lam = lal = math.nan
+        while True:
+            nx, ny, lx, ly, lam, lal = _tls(x, y, order, a, b)
+            if not nx == nx or b - a + 1 <= 2:
+                break
+            # each end point against the line of the others: leave out the worse one if it is
+            # more than four standard deviations (of the others, at least the noise) off
+            worst = 0.0
+            side = 0
+            for e in range(2):
+                ke = order[a] if e == 0 else order[b]
+                fnx, fny, flx, fly, flam, _ = _tls(x, y, order, a + 1 - e, b - e)
+                if not fnx == fnx:
+                    continue
+                d2 = (fnx * (x[ke] - flx) + fny * (y[ke] - fly)) ** 2
+                z2 = d2 / (16.0 * max(flam / max(b - a - 2, 1), noise2) + 1e-24)
+                if z2 > worst:
+                    worst = z2
+                    side = e
+            if worst <= 1.0:
+                break
+            if side == 0:
+                a += 1
+            else:
+                b -= 1
+        cnt = b - a + 1
+        iwork[2, s] = a - iwork[0, s]
+        iwork[3, s] = iwork[1, s] - b
+        if cnt < m or not nx == nx or lam > max_rms2 * cnt:
+            continue
+        fits[0, s] = nx
+        fits[1, s] = ny
+        fits[2, s] = lx
+        fits[3, s] = ly
+        fits[4, s] = lam
+        fits[5, s] = lal
+
+
+def _scan_noise(iwork, fits, nseg, vals):
+    """The scan's noise: the median, over the points of the lines of 5 points or more, of their
+    line's residual variance (squared metres; 0 without such a line)."""
+    nval = 0
+    for s in range(nseg):
+        cnt = iwork[1, s] - iwork[3, s] - iwork[0, s] - iwork[2, s] + 1
+        if cnt >= 5 and fits[0, s] == fits[0, s]:
+            v = fits[4, s] / (cnt - 2)
+            for _ in range(cnt):
+                vals[nval] = v
+                nval += 1
+    if nval == 0:
+        return 0.0
+    return _kth_smallest(vals, nval, nval // 2)
+
+
+def _fit_lines(pts, flags, wrap, ip, fp, work, order, iwork, fits):
+    """The reference line of every valid point: the line of the straight piece of the scan it is on.
+
+    The valid points are taken in the order of the beams (a full circle starting after its
+    widest gap) and cut into straight pieces (:func:`_split_pieces`) three times: first within
+    1.5 ``line_max_rms_m``, then within ``line_split_sigmas`` times the noise of the pieces of
+    the round before (:func:`_scan_noise`; at least ``line_split_m``). A piece whose line
+    (:func:`_fit_pieces`) fits ``line_points`` or more points within ``line_max_rms_m`` gives its
+    points that line, the extent of its points along it (half a point spacing beyond the ends)
+    and, when the direction of the line is uncertain by more than ``line_max_normal_sd_rad``
+    (its residual variance, at least the scan's noise, over the scatter along it), the weak
+    flag. A point where two pieces meet takes the nearer line. ``work`` is a ``(5, n)`` scratch
+    array, ``order`` ``(n,)`` and ``iwork`` ``(6, n + 1)`` integer ones, ``fits``
+    ``(7, 2 n + 2)``. Returns the number of points with a line.
     """
     x = pts[_P_X]
     y = pts[_P_Y]
     valid = flags[_B_VALID]
+    m = ip[_I_LINE_POINTS]
     nv = 0
     for i in range(x.size):
         flags[_B_LINE, i] = False
+        flags[_B_WEAK, i] = False
         if valid[i]:
             order[nv] = i
             nv += 1
     if nv < m:
         return 0
-    nwin = nv if wrap else nv - m + 1
-    wl = work[0]
-    # total least squares fit of every window of m consecutive valid points
-    for s in range(nwin):
-        wl[s] = math.inf
-        ok = True
-        mx = 0.0
-        my = 0.0
-        q = s
-        kp = order[s]
-        for t in range(m):
-            k = order[q]
-            if t > 0:
-                dx = x[k] - x[kp]
-                dy = y[k] - y[kp]
-                if dx * dx + dy * dy > max_gap2:
-                    ok = False
-                    break
-            mx += x[k]
-            my += y[k]
-            kp = k
-            q += 1
-            if q == nv:
-                q = 0
-        if not ok:
-            continue
-        mx /= m
-        my /= m
-        a = 0.0
-        b = 0.0
-        c = 0.0
-        q = s
-        for _ in range(m):
-            k = order[q]
-            dx = x[k] - mx
-            dy = y[k] - my
-            a += dx * dx
-            b += dx * dy
-            c += dy * dy
-            q += 1
-            if q == nv:
-                q = 0
-        h = 0.5 * (a - c)
-        lam = 0.5 * (a + c) - math.sqrt(h * h + b * b)  # sum of squared distances to the line
-        # the eigenvector of the smallest eigenvalue is the normal
-        if h > 0.0:
-            vx = b
-            vy = lam - a
-        else:
-            vx = lam - c
-            vy = b
-        nn = math.sqrt(vx * vx + vy * vy)
-        if not nn > 0.0:  # the points coincide: no line
-            continue
-        wl[s] = lam
-        work[1, s] = vx / nn
-        work[2, s] = vy / nn
-        work[3, s] = mx
-        work[4, s] = my
-    # each point takes the best window that contains it
-    count = 0
-    lim = max_rms2 * m
+    if wrap:
+        # start after the widest gap, so that a wall across the first and last beam stays whole
+        bg = -1.0
+        bt = 0
+        for t in range(nv):
+            k = order[t]
+            kp = order[t - 1] if t > 0 else order[nv - 1]
+            g = (x[k] - x[kp]) ** 2 + (y[k] - y[kp]) ** 2
+            if g > bg:
+                bg = g
+                bt = t
+        tmp = iwork[4]
+        for t in range(nv):
+            tmp[t] = order[(t + bt) % nv]
+        for t in range(nv):
+            order[t] = tmp[t]
+    gap2 = fp[_F_LINE_GAP] ** 2
+    ratio2 = fp[_F_GAP_RATIO] ** 2
+    max_rms2 = fp[_F_LINE_RMS] ** 2
+    split_min = fp[_F_SPLIT_M]
+    # the noise of the pieces within a generous tolerance sets the tolerance of the next cut;
+    # a second round removes what corners inside the first pieces added to the noise
+    split = 1.5 * fp[_F_LINE_RMS]
+    noise2 = 0.0
+    for _ in range(3):
+        nseg = _split_pieces(x, y, order, nv, gap2, ratio2, split, iwork)
+        _fit_pieces(x, y, order, nseg, iwork, fits, m, max_rms2, noise2)
+        noise2 = _scan_noise(iwork, fits, nseg, fits[6])
+        split = max(split_min, fp[_F_SPLIT_SIGMAS] * math.sqrt(noise2))
+    sd2 = fp[_F_NORMAL_SD] ** 2
+    dist = work[0]
     for t in range(nv):
-        best = math.inf
-        bs = -1
-        for q in range(m):
-            s = t - q
-            if s < 0:
-                if not wrap:
-                    break
-                s += nv
-            if s < nwin and wl[s] < best:
-                best = wl[s]
-                bs = s
-        if bs >= 0 and best <= lim:
-            i = order[t]
-            pts[_P_NX, i] = work[1, bs]
-            pts[_P_NY, i] = work[2, bs]
-            pts[_P_LX, i] = work[3, bs]
-            pts[_P_LY, i] = work[4, bs]
-            flags[_B_LINE, i] = True
-            count += 1
+        dist[t] = math.inf
+    count = 0
+    for s in range(nseg):
+        if not fits[0, s] == fits[0, s]:
+            continue
+        a = iwork[0, s]
+        b = iwork[1, s]
+        cnt = b - a + 1 - iwork[2, s] - iwork[3, s]
+        nx = fits[0, s]
+        ny = fits[1, s]
+        lx = fits[2, s]
+        ly = fits[3, s]
+        weak = max(fits[4, s] / max(cnt - 2, 1), noise2) > sd2 * fits[5, s]
+        umin = math.inf
+        umax = -math.inf
+        for q in range(a, b + 1):
+            k = order[q]
+            u = nx * (y[k] - ly) - ny * (x[k] - lx)
+            umin = min(umin, u)
+            umax = max(umax, u)
+        pad = 0.5 * (umax - umin) / max(cnt - 1, 1)
+        for q in range(a, b + 1):
+            k = order[q]
+            d = abs(nx * (x[k] - lx) + ny * (y[k] - ly))
+            if d < dist[q]:
+                if dist[q] == math.inf:
+                    count += 1
+                dist[q] = d
+                pts[_P_NX, k] = nx
+                pts[_P_NY, k] = ny
+                pts[_P_LX, k] = lx
+                pts[_P_LY, k] = ly
+                pts[_P_U0, k] = umin - pad
+                pts[_P_U1, k] = umax + pad
+                flags[_B_LINE, k] = True
+                flags[_B_WEAK, k] = weak
     return count
 
 
-def _prepare_scan(r, cosa, sina, wrap, ip, fp, pts, flags, work, order):
+def _prepare_scan(r, cosa, sina, wrap, ip, fp, pts, flags, work, order, iwork, fits):
     """The points of one scan and the line of each; returns (valid points, points with a line)."""
     n = r.size
     rmin = fp[_F_RANGE_MIN]
@@ -547,9 +766,7 @@ def _prepare_scan(r, cosa, sina, wrap, ip, fp, pts, flags, work, order):
         pts[_P_Y, i] = ri * sina[i] if ok else 0.0
         if ok:
             nvalid += 1
-    nline = _fit_lines(
-        pts, flags, wrap, ip[_I_LINE_POINTS], fp[_F_LINE_RMS] ** 2, fp[_F_LINE_GAP] ** 2, work, order
-    )  # fmt: skip
+    nline = _fit_lines(pts, flags, wrap, ip, fp, work, order, iwork, fits)
     return nvalid, nline
 
 
@@ -617,6 +834,9 @@ def _icp(rpts, rflags, cpts, cflags, ncur, beams, sin2, pose0, ip, fp, wf, wn, w
     rlx = rpts[_P_LX]
     rly = rpts[_P_LY]
     rline = rflags[_B_LINE]
+    rweak = rflags[_B_WEAK]
+    ru0 = rpts[_P_U0]
+    ru1 = rpts[_P_U1]
     cx = cpts[_P_X]
     cy = cpts[_P_Y]
     cvalid = cflags[_B_VALID]
@@ -722,6 +942,20 @@ def _icp(rpts, rflags, cpts, cflags, ncur, beams, sin2, pose0, ip, fp, wf, wn, w
                 if kb < 0:
                     continue
                 res = rnx[kb] * (px - rlx[kb]) + rny[kb] * (py - rly[kb])
+                if abs(res) <= close_m:
+                    nclose += 1
+                # the line must be what the current sensor sees there: its ray through the point
+                # meets the line within the extent of the line's points (and within the gate)
+                rho = math.sqrt(qx * qx + qy * qy)
+                den = (rnx[kb] * qx + rny[kb] * qy) / rho if rho > 0.0 else 0.0
+                if abs(den) < 1e-6:
+                    continue
+                hit = rho - res / den  # range of the line along the ray
+                hx = tx + qx * (hit / rho)
+                hy = ty + qy * (hit / rho)
+                u = rnx[kb] * (hy - rly[kb]) - rny[kb] * (hx - rlx[kb])
+                if hit <= 0.0 or (hit - rho) ** 2 > gate2 or u < ru0[kb] or u > ru1[kb]:
+                    continue
                 wr[m] = res
                 wa[m] = abs(res)
                 wj0[m] = rnx[kb]
@@ -729,8 +963,6 @@ def _icp(rpts, rflags, cpts, cflags, ncur, beams, sin2, pose0, ip, fp, wf, wn, w
                 wj2[m] = rny[kb] * qx - rnx[kb] * qy
                 wc[m] = j
                 wk[m] = kb
-                if abs(res) <= close_m:
-                    nclose += 1
                 m += 1
             if m < min_points:
                 status = _FEW_CORR
@@ -743,8 +975,9 @@ def _icp(rpts, rflags, cpts, cflags, ncur, beams, sin2, pose0, ip, fp, wf, wn, w
                 # first stage: the largest trim fraction of the residuals out
                 kk = max(int(math.ceil(keep * m)) - 1, min(m, min_points) - 1)
                 thr = _kth_smallest(wa, m, kk)
+            # the lines of uncertain direction take part in the selection, not in the estimate
             for q in range(m):
-                wi[q] = abs(wr[q]) <= thr
+                wi[q] = abs(wr[q]) <= thr and not rweak[wk[q]]
         # the normal equations of the kept correspondences
         h00 = h01 = h02 = h11 = h12 = h22 = 0.0
         g0 = g1 = g2 = 0.0
@@ -784,6 +1017,14 @@ def _icp(rpts, rflags, cpts, cflags, ncur, beams, sin2, pose0, ip, fp, wf, wn, w
         d0 = -(c00 * g0 + c01 * g1 + c02 * g2) / det
         d1 = -(c01 * g0 + c11 * g1 + c12 * g2) / det
         d2 = -(c02 * g0 + c12 * g1 + c22 * g2) / det
+        # no step beyond the correspondence gate: a direction the lines leave almost free (a
+        # corridor) must not throw the pose out of reach of every correspondence
+        sl = math.sqrt(d0 * d0 + d1 * d1)
+        if sl > fp[_F_GATE]:
+            f = fp[_F_GATE] / sl
+            d0 *= f
+            d1 *= f
+            d2 *= f
         tx += d0
         ty += d1
         th += d2
@@ -857,11 +1098,11 @@ def _icp(rpts, rflags, cpts, cflags, ncur, beams, sin2, pose0, ip, fp, wf, wn, w
         sl = 1.0 / math.sqrt(ssp / nin) if ssp > 0.0 else 1.0
         ratio = _sym3_eigen_ratio(h00, h01, h02 * sl, h11, h12 * sl, h22 * sl * sl)
         out[_O_RATIO] = ratio
-        if status == _OK:
-            if ratio < fp[_F_MIN_RATIO]:
-                status = _DEGENERATE
-            elif nclose < fp[_F_MIN_INLIERS] * ncur:
-                status = _FEW_INLIERS
+        if ratio < fp[_F_MIN_RATIO]:
+            # also the reason when the iteration wandered along the free direction without end
+            status = _DEGENERATE
+        elif status == _OK and nclose < fp[_F_MIN_INLIERS] * ncur:
+            status = _FEW_INLIERS
     out[_O_STATUS] = status
 
 
@@ -979,8 +1220,12 @@ def _match_batch(scans, ref_idx, cur_idx, init, cosa, sina, beams, ip, fp, out):
     nline = np.zeros(ns, dtype=np.int64)
     work = np.zeros((5, n))
     order = np.zeros(n, dtype=np.int64)
+    iwork = np.zeros((6, n + 1), dtype=np.int64)
+    fits = np.zeros((7, 2 * n + 2))
     for i in range(ns):
-        nvalid[i], nline[i] = _prepare_scan(scans[i], cosa, sina, wrap, ip, fp, pts[i], flags[i], work, order)
+        nvalid[i], nline[i] = _prepare_scan(
+            scans[i], cosa, sina, wrap, ip, fp, pts[i], flags[i], work, order, iwork, fits
+        )  # fmt: skip
     # the squared sine of the smallest angle between a direction and a beam d steps from its nearest
     sin2 = np.ones(n + 1)
     for d in range(n + 1):
@@ -1031,6 +1276,10 @@ def _match_batch(scans, ref_idx, cur_idx, init, cosa, sina, beams, ip, fp, out):
 
 
 _KERNELS = (
+    "_split_pieces",
+    "_tls",
+    "_fit_pieces",
+    "_scan_noise",
     "_fit_lines",
     "_prepare_scan",
     "_kth_smallest",
@@ -1150,6 +1399,10 @@ def _run(
     fp[_F_COARSE_RAD] = cfg.coarse_range_rad
     fp[_F_STEP_M] = cfg.coarse_step_m
     fp[_F_STEP_RAD] = cfg.coarse_step_rad
+    fp[_F_GAP_RATIO] = cfg.line_max_gap_ratio
+    fp[_F_SPLIT_M] = cfg.line_split_m
+    fp[_F_SPLIT_SIGMAS] = cfg.line_split_sigmas
+    fp[_F_NORMAL_SD] = cfg.line_max_normal_sd_rad
     beams = np.array([a0, inc, 1.0 if wrap else 0.0])
     out = np.zeros((k, _O_WIDTH))
     if k:
