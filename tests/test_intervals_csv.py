@@ -249,3 +249,21 @@ def test_intervals_of_several_steps_round_trip_exactly(counts, seed):
 def test_step_rows_in_error_name_the_line(tail, line, message):
     with pytest.raises(InputError, match=f"f.csv:{line}: .*{message}"):
         parse_intervals_csv(GOOD + tail, "f.csv")
+
+
+def test_covariance_columns_round_trip_and_are_checked():
+    cov = np.array([[[4e-6, 1e-7, 0.0], [1e-7, 1e-6, 2e-9], [0.0, 2e-9, 1e-8]]] * 2)
+    a = parse_intervals_csv(GOOD)
+    iv = Intervals(a.dt_s, a.left_rad, a.right_rad, a.sensor, covariance=cov)
+    text = format_intervals_csv(iv)
+    assert text.splitlines()[0].endswith("cov_dx_dx,cov_dx_dy,cov_dx_dyaw,cov_dy_dy,cov_dy_dyaw,cov_dyaw_dyaw")
+    np.testing.assert_array_equal(parse_intervals_csv(text).covariance, cov)
+    assert parse_intervals_csv(GOOD).covariance is None
+    with pytest.raises(InputError, match="f.csv:1: covariance columns cov_dx_dx without cov_dx_dy"):
+        parse_intervals_csv(
+            GOOD.replace("sensor_dyaw_rad", "sensor_dyaw_rad,cov_dx_dx").replace("\n0", ",1\n0"), "f.csv"
+        )
+    lines = text.splitlines()
+    lines[2] = lines[2].rsplit(",", 6)[0] + ",1,2,0,1,0,1"  # |xy| beyond the variances: not a covariance
+    with pytest.raises(InputError, match="f.csv:3: the covariance is not positive semi-definite"):
+        parse_intervals_csv("\n".join(lines) + "\n", "f.csv")

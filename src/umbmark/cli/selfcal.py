@@ -157,7 +157,9 @@ def _print_report(d: dict, again: str, export: str) -> None:
                     f"{b['path']}: {b['scans_read']} scans on {b['scan_topic']} (frame {b['scan_frame']}) over "
                     f"{b['time_span_s']:.1f} s, wheels from {b['wheel_data']}; keyframes "
                     f"{d['keyframe_rule']['description']}: "
-                    f"{b['pairs_matched']} scan pairs matched, {b['pairs_failed']} failed, "
+                    f"{b['pairs_matched']} scan pairs matched"
+                    + (f" ({b['pairs_chained']} through the scans between them)" if b.get("pairs_chained") else "")
+                    + f", {b['pairs_failed']} failed, "
                     f"{b['intervals_still']} without wheel motion set aside"
                 )
             )
@@ -189,6 +191,10 @@ def _print_report(d: dict, again: str, export: str) -> None:
         ["lidar y [mm]", fmt(sp["y_mm"], 2), _ci(sp["y_mm_ci95"], 2), nom("y_mm", 2)],
         ["lidar yaw [deg]", fmt(sp["yaw_deg"], 3), _ci(sp["yaw_deg_ci95"], 3), nom("yaw_deg", 3)],
     ]
+    for delay in d.get("scan_delay") or []:
+        label = "scans' delay [ms]" if len(bags) == 1 else f"delay of {Path(delay['bag']).name} [ms]"
+        how = "estimated" if delay.get("requested") == "auto" else "given"
+        rows.append([label, fmt(1e3 * delay["applied_s"], 1), how, "0"])
     c.print(
         table(
             f"Self-calibration from {d['intervals_used']} intervals "

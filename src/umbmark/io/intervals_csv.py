@@ -7,6 +7,11 @@ frame at the start of it, e.g. from matching consecutive scans). One row per int
 columns are ignored; blank lines and lines starting with ``#`` are skipped; a UTF-8 byte-order
 mark is dropped. See :mod:`umbmark.model.intervals` for the meaning.
 
+**Covariances** (optional): the six columns ``cov_dx_dx``, ``cov_dx_dy``, ``cov_dx_dyaw``,
+``cov_dy_dy``, ``cov_dy_dyaw``, ``cov_dyaw_dyaw`` [m^2, m rad, rad^2] give each sensor
+displacement's own covariance (a scan matcher's), on the interval's row; a self-calibration
+adds the noise it estimates to it.
+
 **Steps**: an interval may take several rows, its steps in order (e.g. from one scan to the
 next between two keyframes): a row whose three sensor cells are empty is a step of the
 interval that the next complete row ends. Each row holds its own step's ``dt_s``,
@@ -34,9 +39,18 @@ from umbmark.io._text import csv_rows, csv_writer, header_columns, parse_number,
 from umbmark.io.atomic import atomic_write
 from umbmark.model.intervals import Intervals, IntervalSteps
 
-__all__ = ["COLUMNS", "read_intervals_csv", "parse_intervals_csv", "format_intervals_csv", "write_intervals_csv"]
+__all__ = [
+    "COLUMNS",
+    "COVARIANCE_COLUMNS",
+    "read_intervals_csv",
+    "parse_intervals_csv",
+    "format_intervals_csv",
+    "write_intervals_csv",
+]
 
 COLUMNS = ("dt_s", "left_rad", "right_rad", "sensor_dx_m", "sensor_dy_m", "sensor_dyaw_rad")
+COVARIANCE_COLUMNS = ("cov_dx_dx", "cov_dx_dy", "cov_dx_dyaw", "cov_dy_dy", "cov_dy_dyaw", "cov_dyaw_dyaw")
+_COV_INDEX = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
 
 # beyond these a value is read but looks like other units (warned about, not refused)
 _WHEEL_RAD_PER_INTERVAL = 100.0  # 16 wheel turns between two scans: encoder ticks?
@@ -87,6 +101,7 @@ def parse_intervals_csv(text: str, source: str = "<intervals>") -> Intervals:
         all, steps that no complete row ends, no rows (file and line named).
     """
     header: list[str] | None = None
+    with_cov = False
     header_line = 0
     col: dict[str, int] = {}
     values: list[list[float]] = []
@@ -110,6 +125,16 @@ def parse_intervals_csv(text: str, source: str = "<intervals>") -> Intervals:
             if dup:
                 raise InputError(f"column {dup[0]} appears twice in the header", source, line)
             col = {c: header.index(c) for c in COLUMNS}
+            present = [c for c in COVARIANCE_COLUMNS if c in header]
+            if present and len(present) < len(COVARIANCE_COLUMNS):
+                missing_cov = [c for c in COVARIANCE_COLUMNS if c not in header]
+                raise InputError(
+                    f"covariance columns {', '.join(present)} without {', '.join(missing_cov)}: give all six or none",
+                    source,
+                    line,
+                )
+            col.update({c: header.index(c) for c in present})
+            with_cov = bool(present)
             continue
         need = max(col.values()) + 1
         if len(row) < need:
@@ -121,8 +146,9 @@ def parse_intervals_csv(text: str, source: str = "<intervals>") -> Intervals:
                 source,
                 line,
             )
-        names = COLUMNS[:3] if all(blank) else COLUMNS
-        vals = [parse_number(row[col[c]], c, source, line) for c in names] + ([math.nan] * 3 if all(blank) else [])
+        names = COLUMNS[:3] if all(blank) else COLUMNS + (COVARIANCE_COLUMNS if with_cov else ())
+        pad = [math.nan] * (3 + (6 if with_cov else 0)) if all(blank) else []
+        vals = [parse_number(row[col[c]], c, source, line) for c in names] + pad
         if vals[0] < 0:
             raise InputError(f"column dt_s: {row[col['dt_s']].strip()} s is negative", source, line)
         values.append(vals)
@@ -146,7 +172,17 @@ def parse_intervals_csv(text: str, source: str = "<intervals>") -> Intervals:
         steps = IntervalSteps(rows[:, 1], rows[:, 2], start, rows[:, 0])
     a = np.column_stack([np.add.reduceat(rows[:, c], start[:-1]) for c in range(3)] + [rows[ends, 3:6]])
     warnings = _warnings(a, np.asarray(lines)[ends], source)
-    return Intervals(a[:, 0], a[:, 1], a[:, 2], a[:, 3:6], source, tuple(warnings), steps)
+    cov = None
+    if with_cov:
+        cov = np.zeros((len(ends), 3, 3))
+        for j, (u, v) in enumerate(_COV_INDEX):
+            cov[:, u, v] = cov[:, v, u] = rows[ends, 6 + j]
+        bad = np.flatnonzero(np.linalg.eigvalsh(cov)[:, 0] < -1e-12 * np.abs(cov).max(axis=(1, 2)))
+        if bad.size:
+            raise InputError(
+                "the covariance is not positive semi-definite", source, int(np.asarray(lines)[ends][bad[0]])
+            )
+    return Intervals(a[:, 0], a[:, 1], a[:, 2], a[:, 3:6], source, tuple(warnings), steps, cov)
 
 
 def _where(mask: np.ndarray, lines: np.ndarray, source: str) -> str:
@@ -193,18 +229,27 @@ def format_intervals_csv(iv: Intervals) -> str:
     Returns
     -------
     str
-        The header ``dt_s,left_rad,right_rad,sensor_dx_m,sensor_dy_m,sensor_dyaw_rad`` and
-        one line per interval, or per step of the intervals that have steps (the sensor cells
+        The header ``dt_s,left_rad,right_rad,sensor_dx_m,sensor_dy_m,sensor_dyaw_rad`` (and
+        the covariance columns when the intervals have covariances) and one line per
+        interval, or per step of the intervals that have steps (the sensor cells
         on the interval's last step; a step's duration, when the steps do not know it, an
         equal share of the interval's).
     """
     out = io.StringIO()
     w = csv_writer(out, lineterminator="\n")
-    w.writerow(COLUMNS)
+    cov = None if iv.covariance is None else np.column_stack([iv.covariance[:, u, v] for u, v in _COV_INDEX])
+    w.writerow(COLUMNS + (COVARIANCE_COLUMNS if cov is not None else ()))
+    end = (
+        (lambda k: [repr(float(v)) for v in iv.sensor[k]])
+        if cov is None
+        # noqa: E731
+        else (lambda k: [repr(float(v)) for v in iv.sensor[k]] + [repr(float(v)) for v in cov[k]])
+    )
+    blank = [""] * (3 if cov is None else 9)
     st = iv.steps
     if st is None:
-        for row in np.column_stack([iv.dt_s, iv.left_rad, iv.right_rad, iv.sensor]):
-            w.writerow([repr(float(v)) for v in row])
+        for k in range(len(iv)):
+            w.writerow([repr(float(iv.dt_s[k])), repr(float(iv.left_rad[k])), repr(float(iv.right_rad[k]))] + end(k))
         return out.getvalue()
     counts = np.diff(st.start)
     dt = np.repeat(iv.dt_s / counts, counts) if st.dt_s is None else st.dt_s
@@ -212,7 +257,7 @@ def format_intervals_csv(iv: Intervals) -> str:
         for j in range(int(st.start[k]), int(st.start[k + 1])):
             cells = [repr(float(dt[j])), repr(float(st.left_rad[j])), repr(float(st.right_rad[j]))]
             last = j == st.start[k + 1] - 1
-            w.writerow(cells + ([repr(float(v)) for v in iv.sensor[k]] if last else ["", "", ""]))
+            w.writerow(cells + (end(k) if last else blank))
     return out.getvalue()
 
 

@@ -188,13 +188,18 @@ class Intervals:
     steps : IntervalSteps, optional
         The wheel rotations of each interval's steps (their sums are ``left_rad`` and
         ``right_rad``); ``None``: one arc per interval.
+    covariance : array_like, optional
+        ``(K, 3, 3)`` the covariance of each sensor displacement as its measurement gives it
+        (the scan matcher's), symmetric, not negative definite; a self-calibration adds the
+        noise it estimates to it, so a direction a scene leaves unconstrained weighs little.
 
     Raises
     ------
     InputError
         On arrays of different lengths or wrong shapes, a value that is not a finite number,
-        a negative duration, or steps that are not of these intervals (their number, or sums
-        other than the rotations).
+        a negative duration, steps that are not of these intervals (their number, or sums
+        other than the rotations), or covariances of another shape, not finite or not
+        symmetric.
     """
 
     dt_s: NDArray[np.float64]
@@ -204,6 +209,7 @@ class Intervals:
     source: str | None = None
     warnings: tuple[str, ...] = ()
     steps: IntervalSteps | None = None
+    covariance: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
         src = self.source
@@ -245,6 +251,17 @@ class Intervals:
                 dt = np.add.reduceat(st.dt_s, st.start[:-1])
                 if np.any(np.abs(dt - cols["dt_s"]) > 1e-9 * (1.0 + cols["dt_s"])):
                     raise InputError("the steps' durations do not add up to the intervals' durations", src)
+        if self.covariance is not None:
+            try:
+                cov = np.array(self.covariance, dtype=float)
+            except (TypeError, ValueError):
+                raise InputError("`covariance` must be an array of numbers", src) from None
+            if cov.shape != (k, 3, 3) or not np.all(np.isfinite(cov)):
+                raise InputError(f"`covariance` must be ({k}, 3, 3) finite numbers, got shape {cov.shape}", src)
+            if not np.allclose(cov, np.swapaxes(cov, 1, 2), rtol=1e-9, atol=1e-15):
+                raise InputError("`covariance` must be symmetric", src)
+            cov.setflags(write=False)
+            object.__setattr__(self, "covariance", cov)
 
     def __len__(self) -> int:
         return len(self.dt_s)
@@ -274,8 +291,9 @@ class Intervals:
         steps = None
         if self.steps is not None:
             steps = self.steps.subset(np.flatnonzero(m) if m.dtype == bool else m)
+        cov = None if self.covariance is None else self.covariance[m]
         return Intervals(
-            self.dt_s[m], self.left_rad[m], self.right_rad[m], self.sensor[m], self.source, self.warnings, steps
+            self.dt_s[m], self.left_rad[m], self.right_rad[m], self.sensor[m], self.source, self.warnings, steps, cov
         )
 
 

@@ -414,6 +414,12 @@ class IntervalPlan:
     steps : IntervalSteps or None
         The wheels' rotations from scan to scan inside each interval (keyframes more than one
         scan apart; the robot's motion is then those arcs composed), or None (every scan).
+    chained : numpy.ndarray or None
+        ``(K,)`` booleans: ``initial`` is the matches of consecutive scans composed over the
+        whole interval, and stands for its displacement when its two scans do not match; or
+        None.
+    chained_covariance : numpy.ndarray or None
+        ``(K, 3, 3)`` the covariance of those composed matches (their covariances summed).
     dt_s, left_rad, right_rad : numpy.ndarray
         ``(K,)`` durations and wheel rotations of those intervals.
     initial : numpy.ndarray
@@ -442,6 +448,8 @@ class IntervalPlan:
     scan_delay_s: float
     pairs: NDArray[np.int64]
     steps: IntervalSteps | None
+    chained: NDArray[np.bool_] | None
+    chained_covariance: FloatArray | None
     dt_s: FloatArray
     left_rad: FloatArray
     right_rad: FloatArray
@@ -532,6 +540,8 @@ def plan_intervals(
     max_wheel_gap_s: float = 0.5,
     scan_delay_s: float = 0.0,
     motion: ArrayLike | None = None,
+    motion_links: ArrayLike | None = None,
+    motion_covariance: ArrayLike | None = None,
 ) -> IntervalPlan:
     """Wheel angles at the scans, keyframes, and the intervals to match (steps 1-2 of the module docstring).
 
@@ -562,6 +572,12 @@ def plan_intervals(
         motion instead of the nominal odometry's (keyframes chosen where the wheel data's own
         errors reach a threshold would bias the intervals' wheel rotations), and the matching
         of each interval starts from it.
+    motion_links : array_like, optional
+        ``(M - 1,)`` booleans: the step of ``motion`` from each scan to the next is a match (or
+        no motion); an interval whose steps all are may take ``motion`` itself as its
+        displacement when its two scans do not match (:attr:`IntervalPlan.chained`).
+    motion_covariance : array_like, optional
+        ``(M - 1, 3, 3)`` the covariance of each step of ``motion`` (default zero).
 
     Returns
     -------
@@ -635,8 +651,18 @@ def plan_intervals(
     l0 = np.array([pose[0], pose[1], pose[5]])
     q = se2.between(odo[a[moving]], odo[b[moving]])
     initial = se2.compose(se2.inverse(l0), se2.compose(q, l0))
+    chained = chained_cov = None
     if seen is not None:
         initial = se2.between(seen[a[moving]], seen[b[moving]])
+        if motion_links is not None:
+            links = np.asarray(motion_links, dtype=bool).reshape(-1)
+            if links.shape != (len(st) - 1,):
+                raise InputError(f"`motion_links` must hold {len(st) - 1} booleans, got {links.shape}", src)
+            bad = np.concatenate([[0], np.cumsum(~links)])
+            chained = (bad[b] - bad[a] == 0)[moving]
+            c = np.zeros((len(st) - 1, 3, 3)) if motion_covariance is None else np.asarray(motion_covariance, float)
+            cum = np.concatenate([np.zeros((1, 3, 3)), np.cumsum(np.nan_to_num(c), axis=0)])
+            chained_cov = (cum[b] - cum[a])[moving]
     keyframe_count = int(np.unique(pairs).size)
     idx = np.flatnonzero(usable)
     steps = None
@@ -651,6 +677,8 @@ def plan_intervals(
         scan_delay_s=float(scan_delay_s),
         pairs=kept,
         steps=steps,
+        chained=chained,
+        chained_covariance=chained_cov,
         dt_s=(st[b] - st[a])[moving],
         left_rad=phi_l[moving],
         right_rad=phi_r[moving],
@@ -719,15 +747,20 @@ class ScanIntervals:
     plan : IntervalPlan
         The plan they came from.
     pairs_matched, pairs_failed : int
-        Scan pairs that matched, and that failed (dropped).
+        Scan pairs that matched (or were chained), and that failed (dropped).
     failure_reasons : dict
         Why the failed ones failed: reason -> count.
     match_rms_m : float
         Median root-mean-square point-to-line residual of the matched pairs [m].
+    pairs_chained : int
+        Of ``pairs_matched``, the keyframe pairs whose two scans did not match but the
+        consecutive scans between them did: their displacement is those matches composed.
     matched : numpy.ndarray
         ``(K,)`` booleans, one per planned pair: it matched (its interval is in ``intervals``).
     poses : numpy.ndarray
         ``(K, 3)`` the matcher's answer for every planned pair (also those that failed).
+    covariances : numpy.ndarray
+        ``(K, 3, 3)`` its covariance (of the composed matches for a chained pair).
     scan_delay : ScanDelay or None
         The delay estimated from this bag (:func:`estimate_scan_delay`), or None when it was
         given or not looked for.
@@ -741,8 +774,10 @@ class ScanIntervals:
     pairs_failed: int
     failure_reasons: dict[str, int] = field(default_factory=dict)
     match_rms_m: float = math.nan
+    pairs_chained: int = 0
     matched: NDArray[np.bool_] = field(default_factory=lambda: np.zeros(0, dtype=bool))
     poses: FloatArray = field(default_factory=lambda: np.zeros((0, 3)))
+    covariances: FloatArray = field(default_factory=lambda: np.zeros((0, 3, 3)))
     scan_delay: ScanDelay | None = None
     scan_delay_requested: str = "0"
 
@@ -775,7 +810,7 @@ class ScanIntervals:
         dict
             ``path``, ``kind`` (``bag``), ``scan_topic``, ``scan_frame``, ``base_frame``,
             ``wheel_data``, ``scans_read``, ``scans_usable``, ``keyframes``, ``intervals_still``,
-            ``pairs_matched``, ``pairs_failed``, ``failure_reasons``, ``match_rms_mm``,
+            ``pairs_matched``, ``pairs_chained``, ``pairs_failed``, ``failure_reasons``, ``match_rms_mm``,
             ``time_span_s``, ``scan_delay`` (:meth:`delay_dict`), ``nominal_sensor_pose``
             (``x_mm``, ``y_mm``, ``z_mm``, ``roll_deg``, ``pitch_deg``, ``yaw_deg``, ``source``).
         """
@@ -793,6 +828,7 @@ class ScanIntervals:
             "keyframes": p.keyframes,
             "intervals_still": p.intervals_still,
             "pairs_matched": self.pairs_matched,
+            "pairs_chained": self.pairs_chained,
             "pairs_failed": self.pairs_failed,
             "failure_reasons": dict(self.failure_reasons),
             "match_rms_mm": self.match_rms_m * 1e3,
@@ -844,19 +880,29 @@ def match_intervals(
     bag = plan.bag
     n = len(plan)
     poses = np.empty((n, 3))
+    covs = np.full((n, 3, 3), np.nan)
     ok = np.zeros(n, dtype=bool)
     rms = np.full(n, math.nan)
-    reasons: Counter[str] = Counter()
+    why = [""] * n
     for s0 in range(0, n, _CHUNK):
         e = min(s0 + _CHUNK, n)
         a, b = plan.pairs[s0:e, 0], plan.pairs[s0:e, 1]
         m = match_scan_pairs(bag.ranges_m[a], bag.ranges_m[b], bag.angles_rad, plan.initial[s0:e], icp)
         poses[s0:e] = m.poses
+        covs[s0:e] = m.covariances
         ok[s0:e] = m.converged
         rms[s0:e] = m.rms_m
-        reasons.update(r.split(" (")[0] for r, c in zip(m.reasons, m.converged) if not c)
+        why[s0:e] = [r.split(" (")[0] for r in m.reasons]
         if progress is not None:
             progress(e, n)
+    direct = ok.copy()
+    if plan.chained is not None:
+        assert plan.chained_covariance is not None
+        use = ~ok & plan.chained
+        poses[use] = plan.initial[use]
+        covs[use] = plan.chained_covariance[use]
+        ok |= use
+    reasons: Counter[str] = Counter(r for r, c in zip(why, ok) if not c)
     matched = int(ok.sum())
     if matched < min_intervals:
         causes = "; ".join(f"{c} {r}" for r, c in reasons.most_common(3)) or "none failed"
@@ -880,16 +926,19 @@ def match_intervals(
         source=bag.source,
         warnings=tuple(warnings),
         steps=None if plan.steps is None else plan.steps.subset(np.flatnonzero(ok)),
+        covariance=0.5 * (covs[ok] + np.swapaxes(covs[ok], 1, 2)),
     )
     return ScanIntervals(
         intervals=iv,
         plan=plan,
         pairs_matched=matched,
         pairs_failed=n - matched,
+        pairs_chained=int((ok & ~direct).sum()),
         failure_reasons=dict(reasons.most_common()),
         match_rms_m=float(np.median(rms[ok])),
         matched=ok,
         poses=poses,
+        covariances=covs,
     )
 
 
@@ -1084,13 +1133,21 @@ def bag_intervals(
         except InputError as err:
             note = f"the scans' delay is not estimated ({err.message}): stamps as recorded"
             si = replace(si, plan=replace(si.plan, warnings=si.plan.warnings + (note,)))
-    motion = None if rule.every_scan else matched_motion(si)
+    motion, links, link_cov = (None, None, None) if rule.every_scan else matched_motion(si)
     if rule.every_scan and delay == first:
         if len(si.intervals) < min_intervals:
             match_intervals(si.plan, icp=icp, min_intervals=min_intervals)  # raises, naming the failures
         return replace(si, scan_delay=est, scan_delay_requested="auto" if want == "auto" else f"{first:g}")
     plan2 = plan_intervals(
-        bag, wheel_diameter_m, wheelbase_m, keyframes=rule, scan_delay_s=delay, motion=motion, **options
+        bag,
+        wheel_diameter_m,
+        wheelbase_m,
+        keyframes=rule,
+        scan_delay_s=delay,
+        motion=motion,
+        motion_links=links,
+        motion_covariance=link_cov,
+        **options,
     )
     if est is None and want == "auto":
         plan2 = replace(plan2, warnings=si.plan.warnings)
@@ -1100,7 +1157,7 @@ def bag_intervals(
     return replace(out, scan_delay=est, scan_delay_requested="auto" if want == "auto" else f"{first:g}")
 
 
-def matched_motion(matches: ScanIntervals) -> FloatArray:
+def matched_motion(matches: ScanIntervals) -> tuple[FloatArray, NDArray[np.bool_], FloatArray]:
     """The sensor's poses at every scan from matches of consecutive scans, composed.
 
     A pair that did not match moves by the nominal odometry's displacement seen from the sensor
@@ -1115,17 +1172,30 @@ def matched_motion(matches: ScanIntervals) -> FloatArray:
 
     Returns
     -------
-    numpy.ndarray
+    poses : numpy.ndarray
         ``(M, 3)`` poses in the frame of the first scan (heading accumulated).
+    links : numpy.ndarray
+        ``(M - 1,)`` booleans: the step from each scan to the next is a match, or the wheels
+        did not move.
+    covariance : numpy.ndarray
+        ``(M - 1, 3, 3)`` each step's covariance (the match's; zero without one).
     """
     plan = matches.plan
-    step = np.zeros((plan.bag.n_scans - 1, 3))
+    n = plan.bag.n_scans - 1
+    step = np.zeros((n, 3))
     step[plan.pairs[:, 0]] = np.where(matches.matched[:, None], matches.poses, plan.initial)
+    links = np.ones(n, dtype=bool)
+    links[plan.pairs[:, 0]] = matches.matched
+    cov = np.zeros((n, 3, 3))
+    cov[plan.pairs[matches.matched, 0]] = matches.covariances[matches.matched]
+    st = np.asarray(plan.bag.scan_t_s, dtype=float) - plan.scan_delay_s
+    wt = np.asarray(plan.bag.wheel_t_s, dtype=float)
+    links &= (st[1:] >= wt[0]) & (st[:-1] <= wt[-1])  # the wheels' data cover the step
     th = np.concatenate([[0.0], np.cumsum(step[:, 2])])
     c, s = np.cos(th[:-1]), np.sin(th[:-1])
     x = np.concatenate([[0.0], np.cumsum(c * step[:, 0] - s * step[:, 1])])
     y = np.concatenate([[0.0], np.cumsum(s * step[:, 0] + c * step[:, 1])])
-    return np.column_stack([x, y, th])
+    return np.column_stack([x, y, th]), links, cov
 
 
 @dataclass(frozen=True, eq=False)
@@ -1185,7 +1255,7 @@ class SelfcalReport:
             ``warnings``, ...) and: ``method`` (``selfcal``), ``c_left``, ``c_right``,
             ``base_frame``, ``sensor_frame``, ``nominal_sensor_pose`` (of the first bag, or
             null), the totals over the bags ``scans_read``, ``pairs_matched``,
-            ``pairs_failed``, ``intervals_still``, ``time_span_s`` (null without bags),
+            ``pairs_chained``, ``pairs_failed``, ``intervals_still``, ``time_span_s`` (null without bags),
             ``keyframe_rule``, ``scan_delay`` (per bag :meth:`ScanIntervals.delay_dict`: the
             delay of its scans' stamps, ``applied_s``; null without bags) and ``inputs`` (one
             object per input: a bag's
@@ -1204,6 +1274,7 @@ class SelfcalReport:
                 "nominal_sensor_pose": bags[0].to_dict()["nominal_sensor_pose"] if bags else None,
                 "scans_read": sum(b.plan.bag.n_scans for b in bags) if bags else None,
                 "pairs_matched": total("pairs_matched"),
+                "pairs_chained": total("pairs_chained"),
                 "pairs_failed": total("pairs_failed"),
                 "intervals_still": sum(b.plan.intervals_still for b in bags) if bags else None,
                 "time_span_s": sum(b.plan.time_span_s for b in bags) if bags else None,
@@ -1396,6 +1467,7 @@ def selfcal_report(
                 iv.source,
                 tuple(f"{Path(name).name}: {w}" for w in iv.warnings),
                 iv.steps,
+                iv.covariance,
             )
         ivs.append(iv)
         kept.append(p if isinstance(p, ScanIntervals) else str(p[0]))
@@ -1418,6 +1490,9 @@ def selfcal_report(
             " + ".join(str(iv.source) for iv in ivs),
             tuple(w for iv in ivs for w in iv.warnings) + extra,
             steps,
+            None
+            if any(iv.covariance is None for iv in ivs)
+            else np.concatenate([np.asarray(iv.covariance) for iv in ivs]),
         )
     else:
         pooled = ivs[0]

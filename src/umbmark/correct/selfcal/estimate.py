@@ -28,11 +28,12 @@
 5. Uncertainty: the inverse of the Fisher information at the solution (for Student t noise
    ``(nu + 3) / (nu + 5)`` times the whitened Gauss-Newton matrix). Errors shared by
    neighbouring intervals (a stretch of a room the matcher measures a little short, wheels
-   slipping on one floor) are not in it: with at least :data:`MIN_BLOCKS` blocks of time
-   (:func:`time_blocks`, or the pipeline's labels) the covariance is also computed
-   cluster-robustly from the scores summed per block (a sandwich ``A^-1 B A^-1``), and each
-   parameter's standard deviation is the larger of the two; the 95 % intervals then use
-   Student's t on the blocks less one, else on the residual degrees of freedom.
+   slipping on one floor) are not in it, nor errors that cancel between neighbours (a scan's
+   own error enters the two intervals it ends and starts with opposite signs): with at least
+   :data:`MIN_BLOCKS` blocks of time (:func:`time_blocks`, or the pipeline's labels) the
+   covariance is the cluster-robust one, from the scores summed per block (the delete-one-block
+   jackknife's sandwich), and the 95 % intervals use Student's t on the blocks less one; with
+   fewer, the Fisher information's and Student's t on the residual degrees of freedom.
 6. Identifiability and plausibility (:mod:`umbmark.correct.selfcal.identify`): warnings for
    what the driving leaves undetermined and for implausible values; an error when the
    information is singular.
@@ -139,6 +140,8 @@ class _Problem:
         self.steps = iv.steps
         self.all = np.arange(len(iv))
         self.given_w = given_w
+        # the sensor displacements' own covariance, added to the estimated scatter (or None)
+        self.sig = None if given_w is not None or iv.covariance is None else np.asarray(iv.covariance, float)
 
     def res(self, p: FloatArray, idx: NDArray[np.intp]) -> FloatArray:
         if self.steps is None:
@@ -151,11 +154,20 @@ class _Problem:
         return jacobian(p, self.fl, self.fr, self.steps)[idx]
 
     def white(self, r: FloatArray, idx: NDArray[np.intp], w3: FloatArray | None) -> FloatArray:
-        """Whiten residuals ``(n, 3)`` or a Jacobian ``(n, 3, 6)``: by the given covariances, else by ``w3``."""
+        """Whiten residuals ``(n, 3)`` or a Jacobian ``(n, 3, 6)``: by the given covariances, else by
+        ``w3`` (one ``(3, 3)`` whitener, or ``(K, 3, 3)``, one per interval)."""
         if self.given_w is not None:
             return whiten(self.given_w[idx], r)
         assert w3 is not None
+        if w3.ndim == 3:
+            return whiten(w3[idx], r)
         return r @ w3.T if r.ndim == 2 else np.matmul(w3, r)
+
+    def whiteners(self, scatter: FloatArray) -> FloatArray:
+        """``(K, 3, 3)``: the whiteners of ``scatter`` plus each interval's own covariance."""
+        assert self.sig is not None
+        c = self.sig + scatter + np.diag(np.full(3, _SD_FLOOR**2))
+        return np.asarray(np.linalg.inv(np.linalg.cholesky(0.5 * (c + np.swapaxes(c, 1, 2)))), dtype=float)
 
     def fit(
         self,
@@ -263,36 +275,59 @@ def _fit_dof(d2: FloatArray) -> float:
 
 
 def _student_fit(
-    prob: _Problem, p0: FloatArray, idx: NDArray[np.intp]
-) -> tuple[FloatArray, FloatArray | None, float, FloatArray]:
+    prob: _Problem, p0: FloatArray, idx: NDArray[np.intp], student: bool = True
+) -> tuple[FloatArray, FloatArray | None, float, FloatArray, FloatArray | None]:
     """Maximum likelihood for Student t noise on the intervals ``idx`` (expectation maximisation).
 
-    Returns the parameters, the whitener of the scatter matrix (``None`` with given covariances),
-    the degrees of freedom and the weight of each interval, ``(nu + 3) / (nu + d^2)``.
+    The noise of interval k has the scatter matrix ``S`` (estimated), plus the interval's own
+    covariance when the intervals carry one (the scan matcher's: ``S + Sigma_k``; the
+    expectation step then also splits each residual between the two). ``student=False``:
+    Gaussian noise (no weights, ``nu`` infinite).
+
+    Returns the parameters, the whitener (``(3, 3)``; ``(K, 3, 3)`` with the intervals' own
+    covariances; ``None`` with given covariances), the degrees of freedom, the weight of each
+    interval ``(nu + 3) / (nu + d^2)``, and ``S`` (``None`` with given covariances).
     """
     p = p0
     r = prob.res(p, idx)
-    w3 = None if prob.given_w is not None else _diag_whitener(_robust_sd(r))
-    nu = 5.0
+    scatter = None if prob.given_w is not None else np.diag(_robust_sd(r) ** 2)
+    w3 = None
+    if scatter is not None:
+        w3 = _scatter_whitener(scatter) if prob.sig is None else prob.whiteners(scatter)
+    nu = 5.0 if student else math.inf
     for _ in range(_EM_ROUNDS):
         z = prob.white(r, idx, w3)
         d2 = (z * z).sum(axis=1)
-        if prob.given_w is None:
-            wt = (nu + 3) / (nu + d2)
-            w3 = _scatter_whitener((wt[:, None] * r).T @ r / len(idx))
+        if scatter is not None:
+            wt = (nu + 3) / (nu + d2) if student else np.ones(len(idx))
+            if prob.sig is None:
+                scatter = (wt[:, None] * r).T @ r / len(idx)
+                w3 = _scatter_whitener(scatter)
+            else:
+                # E[u u^T | r] of the part u ~ S of each residual, u + e = r, e ~ Sigma_k
+                assert w3 is not None
+                wi = w3[idx]
+                ci = np.swapaxes(wi, 1, 2) @ wi  # C_k^-1
+                sc = scatter @ ci  # S C_k^-1
+                a = (sc @ r[:, :, None])[:, :, 0]
+                scatter = scatter - (sc @ scatter).mean(axis=0) + (wt[:, None] * a).T @ a / len(idx)
+                scatter = 0.5 * (scatter + scatter.T)
+                w3 = prob.whiteners(scatter)
             z = prob.white(r, idx, w3)
             d2 = (z * z).sum(axis=1)
-        nu_new = _fit_dof(d2)
-        wt = (nu_new + 3) / (nu_new + d2)
+        nu_new = _fit_dof(d2) if student else math.inf
+        wt = (nu_new + 3) / (nu_new + d2) if student else np.ones(len(idx))
         q = prob.gauss_newton(p, idx, w3, wt)
-        scale = np.array([p[0], p[1], p[2], p[2], p[2], 1.0])
-        done = bool(np.max(np.abs(q - p) / np.abs(scale)) < 1e-11 and abs(math.log(nu_new / nu)) < 1e-7)
+        step = np.array([p[0], p[1], p[2], p[2], p[2], 1.0])
+        settled = not student or abs(math.log(nu_new / nu)) < 1e-7
+        done = bool(np.max(np.abs(q - p) / np.abs(step)) < 1e-11 and settled)
         p, nu = q, nu_new
         r = prob.res(p, idx)
         if done:
             break
     z = prob.white(r, idx, w3)
-    return p, w3, nu, (nu + 3) / (nu + (z * z).sum(axis=1))
+    wt = (nu + 3) / (nu + (z * z).sum(axis=1)) if student else np.ones(len(idx))
+    return p, w3, nu, wt, scatter
 
 
 def _score(prob: _Problem, p: FloatArray, idx: NDArray[np.intp]) -> float:
@@ -331,15 +366,32 @@ def time_blocks(dt_s: ArrayLike, block_s: float = BLOCK_S, max_blocks: int = MAX
     return np.asarray(lab, dtype=np.intp)
 
 
-def _block_covariance(a_inv: FloatArray, scores: FloatArray, labels: NDArray[np.intp]) -> tuple[FloatArray, int]:
-    """The cluster-robust (sandwich) covariance ``A^-1 B A^-1`` with ``B`` the outer products of
-    the scores summed per block (small-sample factor ``G / (G - 1)``), and the block count ``G``."""
+def _block_covariance(
+    info: FloatArray, hessians: FloatArray, scores: FloatArray, labels: NDArray[np.intp]
+) -> tuple[FloatArray, int]:
+    """The cluster-robust covariance over blocks, and the block count ``G``.
+
+    The delete-one-block jackknife's (the "CR3" sandwich): ``(G - 1) / G sum_g (A - A_g)^-1
+    s_g s_g^T (A - A_g)^-1`` with ``A`` the information, ``A_g`` and ``s_g`` the information and
+    the scores summed over block ``g``: each block's score weighs as much as leaving it out
+    would move the estimate, so a block that alone holds some motion (the only spins) counts
+    fully, and the covariance is not too small with few blocks.
+    """
     uniq, inv = np.unique(labels, return_inverse=True)
-    g = np.zeros((len(uniq), scores.shape[1]))
-    np.add.at(g, inv, scores)
     nb = len(uniq)
-    b = g.T @ g * (nb / max(nb - 1, 1))
-    return np.asarray(a_inv @ b @ a_inv, dtype=float), nb
+    g = np.zeros((nb, scores.shape[1]))
+    np.add.at(g, inv, scores)
+    hg = np.zeros((nb, info.shape[0], info.shape[1]))
+    np.add.at(hg, inv, hessians)
+    out = np.zeros_like(info)
+    for k in range(nb):
+        rest = info - hg[k]
+        try:
+            d = np.linalg.solve(rest, g[k])
+        except np.linalg.LinAlgError:
+            d = np.linalg.lstsq(rest, g[k], rcond=None)[0]
+        out += np.outer(d, d)
+    return np.asarray(out * (nb - 1) / nb, dtype=float), nb
 
 
 def _check_nominal(wheel_diameter_m: float, wheelbase_m: float) -> None:
@@ -473,28 +525,34 @@ def selfcal(
     # 2-3. maximum likelihood and outliers, until the inliers settle
     inl = np.ones(k, dtype=bool)
     w3: FloatArray | None = None
+    scatter: FloatArray | None = None
     nu = math.inf
     from scipy.stats import chi2
     from scipy.stats import f as f_dist
 
-    def fit_on(mask: NDArray[np.bool_], start: FloatArray) -> tuple[FloatArray, FloatArray | None, float]:
+    def fit_on(
+        mask: NDArray[np.bool_], start: FloatArray
+    ) -> tuple[FloatArray, FloatArray | None, float, FloatArray | None]:
         sel = np.flatnonzero(mask)
-        if student:
-            q, w, dof, _ = _student_fit(prob, start, sel)
-            return q, w, dof
+        if student or prob.sig is not None:
+            q, w, dof, _, sc = _student_fit(prob, start, sel, student)
+            return q, w, dof, sc
         q, w = _gaussian_fit(prob, start, sel)
-        return q, w, math.inf
+        return q, w, math.inf, None
 
     fitted = None
     for rnd in range(max_rounds):
-        p, w3, nu = fit_on(inl, p)
+        p, w3, nu, scatter = fit_on(inl, p)
         fitted = inl
         if not reject_outliers:
             break
         e = prob.res(p, np.arange(k))
-        if student:
+        if student or prob.sig is not None:
             z = prob.white(e, np.arange(k), w3)
-            thr = 3.0 * float(f_dist.isf(outlier_tail, 3, max(nu, OUTLIER_DOF_MIN)))
+            if student:
+                thr = 3.0 * float(f_dist.isf(outlier_tail, 3, max(nu, OUTLIER_DOF_MIN)))
+            else:
+                thr = float(chi2.isf(outlier_tail, 3))
             new = (z * z).sum(axis=1) <= thr
         else:
             if given_w is not None:
@@ -508,7 +566,7 @@ def selfcal(
         inl = new
     idx = np.flatnonzero(inl)
     if fitted is not inl:  # the rounds ran out just after the inliers changed
-        p, w3, nu = fit_on(inl, p)
+        p, w3, nu, scatter = fit_on(inl, p)
 
     # 4. the physical one of the mirror pair
     p = _physical(p)
@@ -524,7 +582,8 @@ def selfcal(
 
     if given_w is None:
         assert w3 is not None
-        scatter = np.linalg.inv(w3.T @ w3)
+        if scatter is None:
+            scatter = np.linalg.inv(w3.T @ w3)
         sd_noise = np.sqrt(np.maximum(np.diag(scatter), 0.0))
         noise_sd = (float(sd_noise[0]), float(sd_noise[1]), float(sd_noise[2]))
         tq = float(student_t.ppf(0.975, max(3 * len(idx) - 6, 1)))
@@ -540,12 +599,8 @@ def selfcal(
     n_blocks = 0
     if len(np.unique(labels[idx])) >= MIN_BLOCKS:
         scores = wt[:, None] * (np.swapaxes(jw, 1, 2) @ z[:, :, None])[:, :, 0]
-        cov_b, n_blocks = _block_covariance(cov, scores, labels[idx])
-        sd_m = np.sqrt(np.maximum(np.diag(cov), 0.0))
-        sd_b = np.sqrt(np.maximum(np.diag(cov_b), 0.0))
-        corr = cov_b / np.outer(np.where(sd_b > 0, sd_b, 1.0), np.where(sd_b > 0, sd_b, 1.0))
-        sd_c = np.maximum(sd_m, sd_b)
-        cov = corr * np.outer(sd_c, sd_c)
+        hessians = np.swapaxes(jw, 1, 2) @ jw * ((nu + 3) / (nu + 5) if student else 1.0)
+        cov, n_blocks = _block_covariance(info, hessians, scores, labels[idx])
         tq = float(student_t.ppf(0.975, n_blocks - 1))
         cov, id_warnings, _ = identify.identifiability(p, info, drv, r_nom, b_nom, lim, covariance=cov)
     warnings = list(intervals.warnings)
