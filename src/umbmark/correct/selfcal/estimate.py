@@ -87,13 +87,13 @@ OUTLIER_DOF_MIN = 5.0
 failures (a scan match in the wrong place) would otherwise make the fitted tails so heavy that
 nothing lies beyond them."""
 
-BLOCK_S = 10.0
+BLOCK_S = 20.0
 """The shortest block of time of the covariance of shared errors [s] (:func:`time_blocks`)."""
 
 MAX_BLOCKS = 20
 """The most blocks of time (longer recordings get longer blocks)."""
 
-MIN_BLOCKS = 8
+MIN_BLOCKS = 6
 """With fewer blocks than this the covariance is the Fisher information's alone."""
 _MAD = 1.482602218505602  # standard deviation / median absolute deviation of a Gaussian
 
@@ -280,8 +280,8 @@ def _student_fit(
     """Maximum likelihood for Student t noise on the intervals ``idx`` (expectation maximisation).
 
     The noise of interval k has the scatter matrix ``S`` (estimated), plus the interval's own
-    covariance when the intervals carry one (the scan matcher's: ``S + Sigma_k``; the
-    expectation step then also splits each residual between the two). ``student=False``:
+    covariance when the intervals carry one (the scan matcher's: ``S + Sigma_k``, ``S`` then
+    the residuals' weighted scatter less the intervals' mean covariance). ``student=False``:
     Gaussian noise (no weights, ``nu`` infinite).
 
     Returns the parameters, the whitener (``(3, 3)``; ``(K, 3, 3)`` with the intervals' own
@@ -304,14 +304,13 @@ def _student_fit(
                 scatter = (wt[:, None] * r).T @ r / len(idx)
                 w3 = _scatter_whitener(scatter)
             else:
-                # E[u u^T | r] of the part u ~ S of each residual, u + e = r, e ~ Sigma_k
-                assert w3 is not None
-                wi = w3[idx]
-                ci = np.swapaxes(wi, 1, 2) @ wi  # C_k^-1
-                sc = scatter @ ci  # S C_k^-1
-                a = (sc @ r[:, :, None])[:, :, 0]
-                scatter = scatter - (sc @ scatter).mean(axis=0) + (wt[:, None] * a).T @ a / len(idx)
-                scatter = 0.5 * (scatter + scatter.T)
+                # the residuals' weighted scatter less the intervals' own mean covariance (at
+                # least a thousandth of it: the estimated part never vanishes)
+                own = prob.sig[idx].mean(axis=0)
+                excess = (wt[:, None] * r).T @ r / len(idx) - own
+                val, vec = np.linalg.eigh(0.5 * (excess + excess.T))
+                floor = 1e-3 * np.maximum(np.diag(own), _SD_FLOOR**2)
+                scatter = (vec * np.maximum(val, 0.0)) @ vec.T + np.diag(floor)
                 w3 = prob.whiteners(scatter)
             z = prob.white(r, idx, w3)
             d2 = (z * z).sum(axis=1)
