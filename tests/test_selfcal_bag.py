@@ -470,3 +470,16 @@ def test_wrapped_joint_positions_are_unwrapped(bags, log, tmp_path):
         assert d[key] == pytest.approx(ref[key], rel=1e-9)
     (w,) = d["warnings"]
     assert w.startswith("the wheel positions jump by more than half a turn") and w.endswith("unwrapped")
+
+
+def test_ranges_at_range_max_are_no_return(log, tmp_path):
+    """Many drivers report a beam without a return at exactly range_max: those are no points (a
+    ring of them 'seen' at range_max would move with the lidar and pull every match to zero)."""
+    rng = np.random.default_rng(5)
+    r = log.ranges_m.copy()
+    far = rng.random(r.shape) < 0.1
+    r[far] = log.lidar.max_range_m
+    path = write_drive_bag(dataclasses.replace(log, ranges_m=r), tmp_path / "maxed.bag", storage="ros1")
+    bag = read_selfcal_bag(path, **JOINTS)
+    assert np.all(np.isinf(bag.ranges_m[far]))
+    np.testing.assert_array_equal(bag.ranges_m[~far], r[~far].astype(np.float32))

@@ -22,7 +22,8 @@ sample) or at ``stops`` (both wheels still for ``stop_s`` seconds). Each run is 
 its start frame.
 
 Lidar self-calibration (:func:`read_selfcal_bag`): the ``sensor_msgs/LaserScan`` messages of
-``scan_topic`` (ranges outside ``[range_min, range_max]`` or not finite become ``inf``), the
+``scan_topic`` (ranges that are not finite, below ``range_min``, or at or beyond ``range_max``,
+many drivers' "no return", become ``inf``), the
 wheels from JointState or encoder counts as above, or ``nav_msgs/Odometry`` poses on
 ``odom_topic`` (turned into wheel travel by the self-calibration with the nominal geometry),
 and the transforms of ``/tf_static`` (for the lidar's nominal mounting pose). Nothing is
@@ -889,7 +890,8 @@ class _Scans:
             return
         lo, hi = float(msg.range_min), float(msg.range_max)
         with np.errstate(invalid="ignore"):
-            bad = ~np.isfinite(r) | (r < lo) | (r > hi)
+            # a range at range_max is the driver's "no return" (a far wall would not be at it exactly)
+            bad = ~np.isfinite(r) | (r < lo) | (r >= hi)
         if bad.any():
             r = r.copy()
             r[bad] = np.inf
@@ -1073,7 +1075,7 @@ def read_selfcal_bag(
     if not np.isfinite(ranges).any():
         raise InputError(
             f"every range of the {len(keep)} scans on {scan_topic} is infinite, NaN or outside "
-            "[range_min, range_max]: the lidar saw nothing",
+            "[range_min, range_max): the lidar saw nothing",
             src,
         )
     if not wt:

@@ -1,0 +1,273 @@
+#!/usr/bin/env python3
+"""What the real logs of ``data/slam2d/`` show about their wheel data, measured: the figures
+behind the self-calibration's defaults and the limits of ``docs/research/selfcal-real.md``.
+
+    python benchmarks/real_diagnostics.py                       # into ./umbmark-bench-real-diagnostics/
+    python benchmarks/real_diagnostics.py --out benchmarks/results
+
+1. **Where the noise is.** Consecutive scans matched (the matcher started from the nominal
+   odometry, stamps as recorded) against the nominal odometry's displacement between them:
+   the robust standard deviation of the difference (1.4826 x the median absolute deviation)
+   per component, with the robot at rest and moving, beside the matcher's own predicted
+   standard deviation. At rest the difference is the matcher's noise; moving, the rest is the
+   wheel data's (their stamps against the scans').
+2. **Every scan against the default keyframes.** The self-calibration of each half of each
+   log (nominal wheels 200 mm, wheelbase 400 mm, the scans' delay estimated) with every scan
+   an interval and with the default keyframes: the wheel scale and E_b.
+3. **MIT CSAIL's relations** whose translation is the recorded odometry's (to 0.1 mm): the
+   benchmark's ground truth there took the odometry's translation.
+4. **What MIT CSAIL's rules allow.** For each half of MIT CSAIL tested, a grid of
+   calibrations (wheel scale 0.98 to 1.06, E_d 0.996 to 1.004, turn scale 1.00 to 1.14, the
+   lidar at its estimated pose, the delay of the other half's calibration) checked against the
+   relations with :func:`umbmark.realrobot.validate.validate`: whether any passes every rule
+   with its turn scale within 2 % of 1, and the least short-relation rotation MSE (after over
+   before) among those whose turn scale is within 2 % of 1.
+
+Writes real_diagnostics.json and real_diagnostics.md into --out.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # _common.py, also when this file is loaded by path
+from _common import add_out, command, machine, machine_text, write_results  # noqa: E402
+
+REPO = Path(__file__).resolve().parent.parent
+D_NOM, B_NOM = 0.2, 0.4
+MAD = 1.482602218505602
+
+
+def noise(bag) -> dict:
+    """Matched consecutive scans against the nominal odometry: robust sd at rest and moving."""
+    from umbmark.realrobot.selfcal import KeyframeRule, match_intervals, plan_intervals
+
+    plan = plan_intervals(bag, D_NOM, B_NOM, keyframes=KeyframeRule(), scan_delay_s=0.0)
+    si = match_intervals(plan, min_intervals=1)
+    ok = si.matched
+    diff = si.poses[ok] - plan.initial[ok]
+    diff[:, 2] = np.remainder(diff[:, 2] + math.pi, 2 * math.pi) - math.pi
+    speed = np.hypot(si.poses[ok, 0], si.poses[ok, 1]) / plan.dt_s[ok]
+    turn = np.abs(si.poses[ok, 2]) / plan.dt_s[ok]
+    predicted = np.sqrt(np.median(np.diagonal(si.covariances[ok], axis1=1, axis2=2), axis=0))
+    out = {}
+    for label, sel in (
+        ("at rest (< 0.05 m/s, < 0.05 rad/s)", (speed < 0.05) & (turn < 0.05)),
+        ("moving", speed >= 0.05),
+    ):
+        d = diff[sel]
+        sd = MAD * np.median(np.abs(d - np.median(d, axis=0)), axis=0)
+        out[label] = {
+            "pairs": int(sel.sum()),
+            "dx_mm": sd[0] * 1e3,
+            "dy_mm": sd[1] * 1e3,
+            "dyaw_deg": math.degrees(sd[2]),
+        }
+    out["matcher predicted"] = {
+        "pairs": int(ok.sum()),
+        "dx_mm": predicted[0] * 1e3,
+        "dy_mm": predicted[1] * 1e3,
+        "dyaw_deg": math.degrees(predicted[2]),
+    }
+    return out
+
+
+def halves(bag):
+    from dataclasses import replace
+
+    st = bag.scan_t_s
+    mid = 0.5 * (st[0] + st[-1])
+    out = []
+    for first in (True, False):
+        sm = st < mid if first else st >= mid
+        wm = bag.wheel_t_s < mid if first else bag.wheel_t_s >= mid
+        pick = lambda a, wm=wm: None if a is None else a[wm]  # noqa: E731
+        out.append(
+            replace(
+                bag,
+                scan_t_s=st[sm],
+                ranges_m=bag.ranges_m[sm],
+                wheel_t_s=bag.wheel_t_s[wm],
+                odom_pose=pick(bag.odom_pose),
+                left_rad=pick(bag.left_rad),
+                right_rad=pick(bag.right_rad),
+            )
+        )
+    return mid - st[0], out
+
+
+def keyframes(parts) -> list[dict]:
+    from umbmark.realrobot.selfcal import KeyframeRule, bag_intervals, selfcal_report
+
+    rows = []
+    for label, part in zip(("first half", "second half"), parts):
+        for rule_name, rule in (("every scan", KeyframeRule()), ("the default keyframes", None)):
+            si = bag_intervals(part, D_NOM, B_NOM, keyframes=rule)
+            r = selfcal_report([si], D_NOM, B_NOM).result
+            rows.append(
+                {
+                    "half": label,
+                    "keyframes": rule_name,
+                    "intervals": r.intervals_used,
+                    "c": 0.5 * (r.r_left_m + r.r_right_m) / (D_NOM / 2),
+                    "Eb": r.eb,
+                    "delay_s": si.plan.scan_delay_s,
+                    "sensor_pose": [r.sensor_pose[0], r.sensor_pose[1], r.sensor_pose[2]],
+                }
+            )
+    return rows
+
+
+def copied_translations(bag, rel) -> dict:
+    from umbmark.model import se2
+    from umbmark.realrobot.validate import recorded_odometry_at_scans
+
+    st = bag.scan_t_s
+    i1, i2 = rel.indices(st, 1e-3)
+    p = recorded_odometry_at_scans(bag)
+    q = se2.between(p[i1], p[i2])
+    short = rel.span_s < 10.0
+    same = np.hypot(*(q[:, :2] - rel.pose[:, :2]).T) < 1e-4
+    return {"short": int(short.sum()), "copied": int((same & short).sum())}
+
+
+def feasibility(bag, rel, split_s: float, calibrations: list[dict]) -> list[dict]:
+    """The grid of calibrations of step 4 on each half of MIT CSAIL tested."""
+    from umbmark.model.geometry import WheelGeometry
+    from umbmark.realrobot.validate import CheckedCalibration, validate
+
+    nominal = WheelGeometry(D_NOM, D_NOM, B_NOM)
+    out = []
+    for tested, window in (("second half", (split_s, 1e9)), ("first half", (0.0, split_s))):
+        cal = next(c for c in calibrations if c["half"] != tested and c["keyframes"] == "the default keyframes")
+        pose = tuple(cal["sensor_pose"])
+        best, passing, tried = None, 0, 0
+        for c in np.arange(0.98, 1.0601, 0.02):
+            for ed in (0.996, 1.0, 1.004):
+                for g in np.arange(1.0, 1.1401, 0.01):
+                    dl, dr = D_NOM * c * 2 / (ed + 1), D_NOM * c * 2 * ed / (ed + 1)
+                    cc = CheckedCalibration(
+                        "export",
+                        nominal,
+                        WheelGeometry(dl, dr, B_NOM * c / g),
+                        sensor_pose=pose,
+                        scan_delay_s=cal["delay_s"],
+                        scan_delay_source="calibration",
+                    )
+                    v = validate(bag, cc, rel, window_s=window)
+                    (span,) = v.spans
+                    tried += 1
+                    turn = span.after.turn_scale
+                    if abs(turn - 1) > 0.02:
+                        continue
+                    ratio = span.after.short.mse_rotation_rad2 / span.before.short.mse_rotation_rad2
+                    if best is None or ratio < best["rotation_mse_ratio"]:
+                        best = {
+                            "c": float(c),
+                            "Ed": ed,
+                            "turn_gain": float(g),
+                            "turn_scale": turn,
+                            "rotation_mse_ratio": ratio,
+                        }
+                    passing += int(span.verdict == "pass")
+        out.append({"tested": tested, "tried": tried, "passing_with_turn_within_2_percent": passing, "best": best})
+    return out
+
+
+def page(res: dict) -> str:
+    lines = [
+        "# What the real logs' wheel data show",
+        "",
+        f"Command: `{res['command']}`  ",
+        machine_text(res["machine"]),
+        f"Wall time {res['wall_s']:.0f} s.",
+        "",
+        "## Where the noise is",
+        "",
+        "Matched consecutive scans against the nominal odometry between them (robust standard deviation), "
+        "and the matcher's own predicted standard deviation:",
+        "",
+        "| log | pairs | dx mm | dy mm | dyaw deg |",
+        "|---|---|---|---|---|",
+    ]
+    for log in res["logs"]:
+        for label, n in log["noise"].items():
+            lines.append(
+                f"| {log['log']}: {label} | {n['pairs']} | {n['dx_mm']:.2f} | {n['dy_mm']:.2f} | {n['dyaw_deg']:.3f} |"
+            )
+    lines += [
+        "",
+        "## Every scan against the default keyframes",
+        "",
+        "| log | half | keyframes | intervals | wheel scale | E_b | scans' delay ms |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for log in res["logs"]:
+        for k in log["keyframes"]:
+            lines.append(
+                f"| {log['log']} | {k['half']} | {k['keyframes']} | {k['intervals']} | {k['c']:.4f} | {k['Eb']:.4f} | "
+                f"{1e3 * k['delay_s']:.1f} |"
+            )
+    for log in res["logs"]:
+        c = log["copied_translations"]
+        lines += [
+            "",
+            f"{log['log']}: {c['copied']} of {c['short']} short relations have the recorded odometry's "
+            "translation (to 0.1 mm).",
+        ]
+    lines += ["", "## What MIT CSAIL's rules allow", ""]
+    for f in res["feasibility"]:
+        b = f["best"]
+        best = (
+            "none with the turn scale within 2 %"
+            if b is None
+            else f"least rotation MSE after / before {b['rotation_mse_ratio']:.4f} (turn scale {b['turn_scale']:.4f}, "
+            f"wheel scale {b['c']:.2f}, E_d {b['Ed']:g}, turn gain {b['turn_gain']:.2f})"
+        )
+        lines.append(
+            f"- tested on the {f['tested']}: {f['tried']} calibrations, {f['passing_with_turn_within_2_percent']} pass "
+            f"every rule with the turn scale within 2 % of 1; {best}."
+        )
+    lines.append("")
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    from umbmark.io.relations import read_relations
+    from umbmark.io.rosbag import read_selfcal_bag
+
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    add_out(p, "real-diagnostics")
+    args = p.parse_args(argv)
+    t0 = time.perf_counter()
+    logs, feas = [], []
+    for name in ("aces", "mit-csail"):
+        bag = read_selfcal_bag(REPO / "data" / "slam2d" / f"{name}.bag", odom_topic="/odom")
+        rel = read_relations(REPO / "data" / "slam2d" / f"{name}.relations")
+        split_s, parts = halves(bag)
+        kf = keyframes(parts)
+        logs.append(
+            {"log": name, "noise": noise(bag), "keyframes": kf, "copied_translations": copied_translations(bag, rel)}
+        )
+        if name == "mit-csail":
+            feas = feasibility(bag, rel, split_s, kf)
+    res = {
+        "command": command("real_diagnostics", argv),
+        "machine": machine("scipy", "numba", "rosbags"),
+        "wall_s": time.perf_counter() - t0,
+        "logs": logs,
+        "feasibility": feas,
+    }
+    for path in write_results(Path(args.out), "real_diagnostics", res, page(res)):
+        print(path)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
