@@ -7,10 +7,12 @@ so that the modules can move); the inputs are fixed: seeded simulations, ``data/
 bags written from ``tests/simlogs.py`` (noise free).
 
 Rule (:func:`assert_matches`): every key of the snapshot must be in the new output with an
-equal value (numbers to 1e-9 relative or 1e-12 absolute, strings exactly after the paths are
-normalised, lists element by element and of the same length); new keys are allowed. The keys
-in :data:`NOT_COMPARED` (timestamps, versions, host, timings, memory, the machine) must be
-present but their values are never compared (stored as ``"<not compared>"``).
+equal value (numbers to 1e-6 relative or 1e-6 absolute: the fits are iterative and stop within
+their tolerances, where another release of scipy or numpy may take one step more or less;
+strings exactly after the paths are normalised, lists element by element and of the same
+length); new keys are allowed. The keys in :data:`NOT_COMPARED` (timestamps, versions, host,
+timings, memory, the machine, the solver's evaluation count) must be present but their values
+are never compared (stored as ``"<not compared>"``).
 
 Regenerate (after a deliberate change of the numbers only)::
 
@@ -38,7 +40,7 @@ from umbmark.cli import main
 
 SNAPSHOTS = Path(__file__).resolve().parent / "snapshots"
 UPDATE = os.environ.get("UMBMARK_UPDATE_SNAPSHOTS") == "1"
-REL_TOL, ABS_TOL = 1e-9, 1e-12
+REL_TOL, ABS_TOL = 1e-6, 1e-6
 OPTIODOM = REPO / "data" / "optiodom"
 DISTANCES = REPO / "data" / "examples" / "distances.csv"
 
@@ -67,6 +69,8 @@ NOT_COMPARED = frozenset(
         "machine",
         # bench accuracy: its wall-clock time
         "elapsed_s",
+        # the solver's count of evaluations (another release of scipy may take another step)
+        "fit_nfev",
     }
 )
 PLACEHOLDER = "<not compared>"
@@ -878,11 +882,12 @@ def test_every_snapshot_has_a_case():
 def test_comparison_rule():
     snap = {"a": 1.0, "b": [1, "x", None, True], "t": {"seconds": PLACEHOLDER}, "s": "<tmp>/out.csv"}
     assert_matches(
-        snap, {"a": 1.0 + 1e-12, "b": [1, "x", None, True], "t": {"seconds": 3.2}, "s": "<tmp>/out.csv", "new_key": 5}
+        snap, {"a": 1.0 + 1e-7, "b": [1, "x", None, True], "t": {"seconds": 3.2}, "s": "<tmp>/out.csv", "new_key": 5}
     )
-    assert_matches({"z": 0.0}, {"z": 1e-13})
+    assert_matches({"z": 0.0}, {"z": 1e-7})
+    assert_matches({"fit_nfev": PLACEHOLDER}, {"fit_nfev": 14})
     for bad in (
-        {"a": 1.0 + 1e-8},
+        {"a": 1.0 + 1e-5},
         {"b": [1, "x", None]},
         {"b": [1, "y", None, True]},
         {"b": [1, "x", 0, True]},
