@@ -7,7 +7,7 @@ own seeded generator, so a robot's result does not depend on the batch it is sim
 
 Engines:
 
-* ``"numba"`` (default when numba is installed, ``pip install -e ".[fast]"``): one compiled
+* ``"numba"`` (default when numba is installed, as umbmark's dependencies have it): one compiled
   loop over runs and samples. Noise is drawn with numpy exactly as ``run_program`` draws it
   (into preallocated buffers); the loop composes the heading as a rotation (cosine and sine of
   the per-sample heading change by a short Taylor series: no trig call per sample) and
@@ -292,7 +292,7 @@ def _get_kernel():
     if _kernel is None:
         numba = numba_module()
         if numba is None:
-            raise InputError('engine "numba" needs numba: pip install -e ".[fast]"')
+            raise InputError('engine "numba" needs numba (a dependency of umbmark that is missing here): pip install numba')
         global _arc
         # fastmath only here: the arc accumulates the pose (no stopping decision depends on
         # its rounding); it lets the compiler fuse multiply-adds
