@@ -10,7 +10,7 @@ core; the first call of the process (numba's compiled kernel loaded from its cac
 imported) is made on 100 runs before the timings. Also timed:
 
 * the reference computation (``_reference=True``: central differences, the search on every
-  run, what up to 64 runs use) on 400 runs (200 with --quick), and the largest relative difference of the
+  run) on 400 runs (200 with --quick), and the largest relative difference of the
   answers and intervals from it;
 * ``umbmark analyze FILE --method exact --json`` on a 10,000-run file in a new process
   (imports, reading, the kernel's cache: the user's wait);

@@ -105,8 +105,6 @@ __all__ = [
 
 LOSSES = ("linear", "soft_l1", "huber", "cauchy", "arctan")
 
-# above this many runs: analytic Jacobians, and the global search on pseudo-runs (_Problem.compressed)
-_FAST_RUNS = 64
 
 GlobalSearch = Literal["auto"] | bool
 
@@ -390,17 +388,17 @@ def exact_correction(
     confidence : float
         Confidence level of the intervals, in (0.5, 1).
     _reference : bool
-        The reference computation on any number of runs (tests): central-difference
-        Jacobians and the global search on every run, as on up to 64 runs. Default above 64
-        runs: analytic Jacobians, and the global search on pseudo-runs with the same
-        least-squares cost (:meth:`_Problem.compressed`), its answer refitted on the runs.
+        The reference computation (tests): central-difference Jacobians and the global search
+        on every run. Default: analytic Jacobians and the compiled model, and the global
+        search on pseudo-runs with the same least-squares cost (:meth:`_Problem.compressed`),
+        its answer refitted on the runs.
     _start : tuple of float or None
         ``(E_d,pass, E_b,pass)`` to start from instead of the paper's estimate (the
         bootstrap of a report starts each resample from the answer on all runs).
     _intervals : bool
         Compute the intervals (``False``: the bootstrap's resamples need only the answer).
     _fast : bool
-        Analytic Jacobians and the compiled model on any number of runs (the bootstrap).
+        Kept for callers that ask for the default computation explicitly (the bootstrap).
 
     Returns
     -------
@@ -421,7 +419,7 @@ def exact_correction(
     n_cw, n_ccw = _direction_counts(runs)
     es = _scale_from_straight(straight_m)
     prob = _Problem(runs, side_m, wheelbase_m, es, use_heading, heading_weight_m)
-    prob.fast = not _reference and (prob.n > _FAST_RUNS or _fast)
+    prob.fast = not _reference
     warns = _closure_warnings(runs, prob, side_m)
     f_scale = _robust_scale(prob, loss, f_scale_m, side_m)
     st = umbmark(runs)
