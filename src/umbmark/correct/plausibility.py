@@ -335,9 +335,9 @@ def t_limit(dof: int) -> float:
     -------
     float
     """
-    from scipy.stats import t as student_t
+    from umbmark._stats import t_ppf
 
-    return float(student_t.ppf(1.0 - FALSE_ALARM / 2.0, max(dof, 1)))
+    return t_ppf(1.0 - FALSE_ALARM / 2.0, max(dof, 1))
 
 
 def _score(c: dict[str, float] | None) -> float:

@@ -292,7 +292,9 @@ def _get_kernel():
     if _kernel is None:
         numba = numba_module()
         if numba is None:
-            raise InputError('engine "numba" needs numba (a dependency of umbmark that is missing here): pip install numba')
+            raise InputError(
+                'engine "numba" needs numba (a dependency of umbmark that is missing here): pip install numba'
+            )
         global _arc
         # fastmath only here: the arc accumulates the pose (no stopping decision depends on
         # its rounding); it lets the compiler fuse multiply-adds

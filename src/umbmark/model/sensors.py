@@ -592,7 +592,9 @@ def _get_kernel() -> Any:
     global _kernel
     if _kernel is None:
         if not have_numba():
-            raise InputError('engine "numba" needs numba (a dependency of umbmark that is missing here): pip install numba')
+            raise InputError(
+                'engine "numba" needs numba (a dependency of umbmark that is missing here): pip install numba'
+            )
         numba = numba_module()
         assert numba is not None
         _kernel = numba.njit(cache=True, nogil=True)(_cast_kernel_py)

@@ -314,9 +314,9 @@ def _ratio(y: FloatArray, x: FloatArray) -> tuple[float, float | None]:
 def _ci(value: float, rel_sd: float | None, dof: int) -> tuple[float, float] | None:
     if rel_sd is None or dof < 1:
         return None
-    from scipy.stats import t as student_t
+    from umbmark._stats import t_ppf
 
-    half = float(student_t.ppf(0.975, dof)) * rel_sd * value
+    half = t_ppf(0.975, dof) * rel_sd * value
     return (value - half, value + half)
 
 

@@ -131,7 +131,7 @@ def cg_intervals(runs, level: float = 0.95) -> dict:
         ``{"cw": {"x": (lo, hi), "y": (lo, hi)}, "ccw": {...}}`` in millimetres; ``(None, None)``
         for a direction with fewer than 2 runs.
     """
-    from scipy import stats
+    from umbmark._stats import t_ppf
 
     out = {}
     for d in ("cw", "ccw"):
@@ -143,7 +143,7 @@ def cg_intervals(runs, level: float = 0.95) -> dict:
             if n < 2:
                 out[d][axis] = (None, None)
                 continue
-            half = float(stats.t.ppf(0.5 + level / 2, n - 1) * np.std(eps, ddof=1) / math.sqrt(n)) * 1e3
+            half = t_ppf(0.5 + level / 2, n - 1) * float(np.std(eps, ddof=1)) / math.sqrt(n) * 1e3
             out[d][axis] = (m - half, m + half)
     return out
 

@@ -245,7 +245,7 @@ def interval_figures(
     warnings : list of str
         No intervals, or intervals too wide.
     """
-    from scipy import stats
+    from umbmark._stats import t_ppf
 
     ist = _interval_stats(prob, p, weights)
     if ist is None:
@@ -262,7 +262,7 @@ def interval_figures(
     ed_pass, eb_pass = float(p[0]), float(p[1])
     cov, df, _, _ = ist
     se = np.sqrt(np.maximum(np.diag(cov), 0.0))
-    q = stats.t.ppf(0.5 + confidence / 2.0, df)
+    q = [t_ppf(0.5 + confidence / 2.0, float(d)) for d in np.atleast_1d(df)]
     ed_lo, ed_hi = ed_pass - q[0] * se[0], ed_pass + q[0] * se[0]
     eb_lo, eb_hi = eb_pass - q[1] * se[1], eb_pass + q[1] * se[1]
     syst, meas = _predicted_after(prob, p, cov, sems)

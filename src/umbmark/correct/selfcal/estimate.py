@@ -526,8 +526,7 @@ def selfcal(
     w3: FloatArray | None = None
     scatter: FloatArray | None = None
     nu = math.inf
-    from scipy.stats import chi2
-    from scipy.stats import f as f_dist
+    from umbmark._stats import chi2_isf, f_isf
 
     def fit_on(
         mask: NDArray[np.bool_], start: FloatArray
@@ -549,9 +548,9 @@ def selfcal(
         if student or prob.sig is not None:
             z = prob.white(e, np.arange(k), w3)
             if student:
-                thr = 3.0 * float(f_dist.isf(outlier_tail, 3, max(nu, OUTLIER_DOF_MIN)))
+                thr = 3.0 * f_isf(outlier_tail, 3, max(nu, OUTLIER_DOF_MIN))
             else:
-                thr = float(chi2.isf(outlier_tail, 3))
+                thr = chi2_isf(outlier_tail, 3)
             new = (z * z).sum(axis=1) <= thr
         else:
             if given_w is not None:
@@ -559,7 +558,7 @@ def selfcal(
             # first round robust (the outliers are still in); then the scale of the inliers
             ei = e[inl]
             scale = _robust_sd(ei) if rnd == 0 else np.maximum(np.sqrt((ei * ei).mean(axis=0)), _SD_FLOOR)
-            new = ((e / scale) ** 2).sum(axis=1) <= float(chi2.isf(outlier_tail, 3))
+            new = ((e / scale) ** 2).sum(axis=1) <= chi2_isf(outlier_tail, 3)
         if new.sum() < 3 or np.array_equal(new, inl):
             break
         inl = new
@@ -577,7 +576,7 @@ def selfcal(
     wt = (nu + 3) / (nu + d2) if student else np.ones(len(idx))
     flat = jw.reshape(-1, 6)
     info = (flat.T @ flat) * ((nu + 3) / (nu + 5) if student else 1.0)
-    from scipy.stats import t as student_t
+    from umbmark._stats import t_ppf
 
     if given_w is None:
         assert w3 is not None
@@ -585,7 +584,7 @@ def selfcal(
             scatter = np.linalg.inv(w3.T @ w3)
         sd_noise = np.sqrt(np.maximum(np.diag(scatter), 0.0))
         noise_sd = (float(sd_noise[0]), float(sd_noise[1]), float(sd_noise[2]))
-        tq = float(student_t.ppf(0.975, max(3 * len(idx) - 6, 1)))
+        tq = t_ppf(0.975, max(3 * len(idx) - 6, 1))
     else:
         cov_in = np.linalg.inv(np.einsum("kji,kjl->kil", given_w[idx], given_w[idx]))
         rms = np.sqrt(np.mean(np.diagonal(cov_in, axis1=1, axis2=2), axis=0))
@@ -600,7 +599,7 @@ def selfcal(
         scores = wt[:, None] * (np.swapaxes(jw, 1, 2) @ z[:, :, None])[:, :, 0]
         hessians = np.swapaxes(jw, 1, 2) @ jw * ((nu + 3) / (nu + 5) if student else 1.0)
         cov, n_blocks = _block_covariance(info, hessians, scores, labels[idx])
-        tq = float(student_t.ppf(0.975, n_blocks - 1))
+        tq = t_ppf(0.975, n_blocks - 1)
         cov, id_warnings, _ = identify.identifiability(p, info, drv, r_nom, b_nom, lim, covariance=cov)
     warnings = list(intervals.warnings)
     warnings += identify.plausibility(p, float(wheel_diameter_m), b_nom)
