@@ -7,6 +7,8 @@ import os
 import shutil
 import sqlite3
 import subprocess
+import tempfile
+from pathlib import Path
 
 import pytest
 from hypothesis import HealthCheck, given, settings
@@ -310,13 +312,18 @@ def test_stored_runs_that_are_not_runs(db, capsys):
 def test_any_value_in_any_column_is_read_or_named(pristine, tmp_path, column, value):
     """Whatever a column holds, reading gives records with numbers that are finite or missing,
     or a DamagedRecord naming the record; the other records are always there."""
-    p = tmp_path / "any.sqlite"
+    # a file of its own per example (tmp_path is shared by the examples: an earlier example's
+    # journal beside a fresh copy would read as a damaged file)
+    p = Path(tempfile.mkdtemp(dir=tmp_path)) / "any.sqlite"
     shutil.copy(pristine, p)
-    with sqlite3.connect(p) as c:
-        try:
+    c = sqlite3.connect(p)
+    try:
+        with c:
             c.execute(f"UPDATE calibrations SET {column} = ? WHERE id = 2", (value,))
-        except sqlite3.IntegrityError:
-            return  # a NOT NULL column refuses None: nothing to read
+    except sqlite3.IntegrityError:
+        return  # a NOT NULL column refuses None: nothing to read
+    finally:
+        c.close()
     with History(p, create=False) as h:
         recs = h.records("r1")
         assert {1, 3} <= {r.id for r in recs}
