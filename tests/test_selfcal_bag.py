@@ -483,3 +483,24 @@ def test_ranges_at_range_max_are_no_return(log, tmp_path):
     bag = read_selfcal_bag(path, **JOINTS)
     assert np.all(np.isinf(bag.ranges_m[far]))
     np.testing.assert_array_equal(bag.ranges_m[~far], r[~far].astype(np.float32))
+
+
+def test_scans_outside_the_wheel_data_are_counted_in_seconds_of_the_recording(bags):
+    """Scans after the wheel data's last sample are not used, and the warning gives the spans in
+    seconds after the first stamp (not as epoch seconds)."""
+    bag = read_selfcal_bag(bags["ros1"], **JOINTS)
+    keep = bag.wheel_t_s <= bag.wheel_t_s[0] + 0.8 * (bag.wheel_t_s[-1] - bag.wheel_t_s[0])
+    cut = dataclasses.replace(
+        bag,
+        wheel_t_s=bag.wheel_t_s[keep],
+        left_rad=bag.left_rad[keep],
+        right_rad=bag.right_rad[keep],
+    )
+    plan = plan_intervals(cut, D_NOM, B_NOM)
+    n_out = int(np.sum(bag.scan_t_s > cut.wheel_t_s[-1] + 0.5 * np.median(np.diff(cut.wheel_t_s))))
+    assert n_out > 10
+    t0 = min(bag.scan_t_s[0], cut.wheel_t_s[0])
+    (w,) = [w for w in plan.warnings if "outside the wheel data's time span" in w]
+    assert w.startswith(f"{n_out} of {len(bag.scan_t_s)} scans")
+    assert f"to {cut.wheel_t_s[-1] - t0:.3f} s, the scans from" in w and "after the first stamp" in w
+    assert f"{bag.scan_t_s[-1]:.3f}" not in w

@@ -618,7 +618,12 @@ def plan_intervals(
     usable = inside & ((gaps <= gap) | exact)
     outside, in_gap = int((~inside).sum()), int((inside & ~usable).sum())
     if outside:
-        warnings.append(f"{outside} of {len(st)} scans lie outside the wheel data's time span ({_span(wt)}): not used")
+        t0 = min(float(st[0]), float(wt[0]))
+        warnings.append(
+            f"{outside} of {len(st)} scans lie outside the wheel data's time span (the wheel data from "
+            f"{wt[0] - t0:.3f} to {wt[-1] - t0:.3f} s, the scans from {st[0] - t0:.3f} to {st[-1] - t0:.3f} s "
+            "after the first stamp): not used"
+        )
     if in_gap:
         warnings.append(
             f"{in_gap} scans fall in gaps of the wheel data longer than `max_wheel_gap_s` {gap:g} s: not used"
