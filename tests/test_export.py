@@ -335,3 +335,27 @@ def test_the_json_of_calibrate_is_read(tmp_path, capsys):
     f.write_text(json.dumps({**d, "final_calibration": None}))
     with pytest.raises(InputError, match="no final calibration"):
         calibration_from_json(f)
+
+
+def test_the_calibrations_own_warnings_are_passed_on(tmp_path, capsys):
+    """A warning in the calibration's JSON (here a selfcal result's) reaches the JSON export as
+    input_warnings; an input without warnings gives an empty list."""
+    d = {
+        "method": "selfcal",
+        "wheel_diameter_left_mm": 202.0,
+        "wheel_diameter_right_mm": 202.4,
+        "Eb": 0.95,
+        "nominal_wheel_diameter_mm": 200.0,
+        "nominal_wheelbase_mm": 400.0,
+        "sensor_pose": {"x_mm": -54.0, "y_mm": -4.0, "yaw_deg": 1.2},
+        "warnings": ["the estimated sensor pose differs from /tf_static base_link -> laser by 54 mm"],
+    }
+    src = tmp_path / "selfcal.json"
+    src.write_text(json.dumps(d))
+    assert calibration_from_json(src).input_warnings == tuple(d["warnings"])
+    assert main(["export", str(src), "--format", "json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["input_warnings"] == d["warnings"]
+    src.write_text(json.dumps({**d, "warnings": []}))
+    assert main(["export", str(src), "--format", "json"]) == 0
+    assert json.loads(capsys.readouterr().out)["input_warnings"] == []

@@ -38,7 +38,7 @@ import json
 import math
 import re
 import unicodedata
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from umbmark.errors import InputError
@@ -162,6 +162,9 @@ class ExportCalibration:
         Whether the method measured the wheel scale (the mean diameter): False for ``bf`` and
         for ``exact`` without a straight run (a closed square hides it), True for ``lsq`` with
         the scale fitted and for a lidar self-calibration, None when unknown.
+    input_warnings : tuple of str
+        The warnings the calibration's own JSON carried (``warnings``), passed on by the JSON
+        export as ``input_warnings``.
     wheels_include_prior : bool
         ``c_left`` and ``c_right`` already include the wheel factors the robot ran with (the
         JSON of ``analyze`` given a prior calibration: they are relative to the nominal wheels).
@@ -191,6 +194,7 @@ class ExportCalibration:
     sensor_frame: str = "laser"
     scale_observed: bool | None = None
     wheels_include_prior: bool = False
+    input_warnings: tuple[str, ...] = ()
 
     def __post_init__(self):
         for k in ("c_left", "c_right", "eb"):
@@ -393,6 +397,15 @@ def calibration_from_json(path, dataset: str | None = None) -> ExportCalibration
         if dataset not in names:
             raise InputError(f"no data set {dataset!r} (have {', '.join(map(str, names))})", source=src)
         d = d["datasets"][names.index(dataset)]
+    cal = _calibration_from_dict(d, src)
+    warns = d.get("warnings")
+    if isinstance(warns, list) and warns:
+        cal = replace(cal, input_warnings=tuple(str(w) for w in warns))
+    return cal
+
+
+def _calibration_from_dict(d: dict, src: str) -> ExportCalibration:
+    """:func:`calibration_from_json` on the JSON object of one calibration."""
     if "record_id" in d and ("corrected_wheelbase_mm" in d or "emax_syst_mm_measured" in d):
         return _history_calibration(d, src)  # umbmark history ROBOT --export
     if d.get("method") == "selfcal" or ("sensor_pose" in d and "nominal_wheel_diameter_mm" in d):
@@ -666,6 +679,7 @@ def format_export(
             out["scale_note"] = _PARAM_TICKS.sub(r"\1", scale_note(cal) or "")
         out["method"], out["source"] = cal.method, cal.source
         out["warnings"] = notes
+        out["input_warnings"] = list(cal.input_warnings)
         return json.dumps(out, indent=2) + "\n"
     # firmware
     if mmpp is None:
