@@ -440,3 +440,32 @@ def test_a_scan_topic_without_messages(tmp_path):
     line = run(["selfcal", str(path), *JOINTS, *GEO], code=2)
     assert "topic /scan holds no messages for the laser scans" in line
     assert "(topics: /joint_states (JointState), /scan (LaserScan))" in line
+
+
+def test_lidar_height_from_the_command_line(result, tmp_path):
+    """Without /tf_static the calibration knows no lidar height: urdf and tf warn, and
+    --sensor-z-mm sets it; with /tf_static (this bag) there is no warning."""
+    d, save = result
+    urdf = run(["export", str(save), "--format", "urdf", "--sensor-z-mm", "250"])
+    assert ' 0.25" rpy=' in urdf.splitlines()[1]
+    nom = {**d["nominal_sensor_pose"], "source": "none", "z_mm": 0.0}
+    blind = tmp_path / "no_tf.json"
+    blind.write_text(json.dumps({**d, "nominal_sensor_pose": nom}))
+    import contextlib
+    import io
+
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        assert main(["export", str(blind), "--format", "tf"]) == 0
+    assert "warning: the lidar's height is 0 mm" in err.getvalue() and "--sensor-z-mm" in err.getvalue()
+    assert "--z 0.25 " in run(["export", str(blind), "--format", "tf", "--sensor-z-mm", "250"])
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        assert main(["export", str(save), "--format", "tf"]) == 0
+    assert "height" not in err.getvalue()
+    err = io.StringIO()
+    with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+        assert main(["export", str(save), "--format", "urdf", "--sensor-z-mm", "0.25"]) == 0
+    assert "the option is in millimetres" in err.getvalue()
+    line = run(["export", "--c-left", "1", "--c-right", "1", "--eb", "1", "--format", "json", "--sensor-z-mm", "5"], 2)
+    assert "needs a self-calibration" in line

@@ -843,6 +843,13 @@ def convert(paths, log_format, target, out, **kw):
 @click.option("--wheel-diameter-mm", type=float, default=None, help="Nominal wheel diameter (json, firmware).")
 @click.option("--wheelbase-mm", type=float, default=None, help="Nominal wheelbase (json, firmware).")
 @click.option("--pulses-per-wheel-rev", type=float, default=None, help="Encoder pulses per wheel rev (firmware).")
+@click.option(
+    "--sensor-z-mm",
+    type=float,
+    default=None,
+    help="Height of the lidar above the base frame (urdf, tf, json of a self-calibration): default the "
+    "bag's /tf_static, else 0 with a warning.",
+)
 @click.option("--out", type=click.Path(dir_okay=False), default=None, help="File to write (default: print).")
 @history_options
 def export(
@@ -861,6 +868,7 @@ def export(
     wheel_diameter_mm,
     wheelbase_mm,
     pulses_per_wheel_rev,
+    sensor_z_mm,
     out,
     robot,
     record,
@@ -918,6 +926,23 @@ def export(
         cal = replace(cal, nominal_wheelbase_m=wheelbase_mm * 1e-3)
     if pulses_per_wheel_rev is not None:
         cal = replace(cal, pulses_per_wheel_rev=pulses_per_wheel_rev)
+    notes = []
+    if sensor_z_mm is not None:
+        if cal.sensor_pose is None:
+            raise InputError("--sensor-z-mm is the lidar's height: it needs a self-calibration's JSON")
+        if not math.isfinite(sensor_z_mm):
+            raise InputError(f"--sensor-z-mm must be a number of millimetres, got {sensor_z_mm}")
+        cal = replace(cal, sensor_z_m=sensor_z_mm * 1e-3, sensor_height_known=True)
+        if 0 < abs(sensor_z_mm) < 5 or abs(sensor_z_mm) > 5000:
+            notes.append(
+                f"--sensor-z-mm {sensor_z_mm:g} puts the lidar {sensor_z_mm:g} mm above {cal.base_frame}: "
+                "the option is in millimetres (a height in metres would be 1000 times smaller)"
+            )
+    elif out_format in ("urdf", "tf") and cal.sensor_pose is not None and not cal.sensor_height_known:
+        notes.append(
+            f"the lidar's height is 0 mm: the calibration holds none (its bag had no /tf_static for "
+            f"{cal.sensor_frame}); give --sensor-z-mm, or the pose puts the lidar at the height of {cal.base_frame}"
+        )
     text = format_export(
         cal,
         out_format,
@@ -929,7 +954,7 @@ def export(
         wheel_separation_m,
     )
     rec = _record_selfcal(calibration, robot, record, db) if record else None
-    for w in export_warnings(cal, left_multiplier, right_multiplier, separation_multiplier):
+    for w in notes + export_warnings(cal, left_multiplier, right_multiplier, separation_multiplier):
         click.echo(f"warning: {cli_message(w)}", err=True)
     if out:
         write_export(text, out)

@@ -162,6 +162,9 @@ class ExportCalibration:
         Whether the method measured the wheel scale (the mean diameter): False for ``bf`` and
         for ``exact`` without a straight run (a closed square hides it), True for ``lsq`` with
         the scale fitted and for a lidar self-calibration, None when unknown.
+    sensor_height_known : bool
+        Whether ``sensor_z_m`` (and roll, pitch) came from somewhere (``/tf_static``, the
+        user): False for a self-calibration whose bag had no ``/tf_static`` for the lidar.
     input_warnings : tuple of str
         The warnings the calibration's own JSON carried (``warnings``), passed on by the JSON
         export as ``input_warnings``.
@@ -195,6 +198,7 @@ class ExportCalibration:
     scale_observed: bool | None = None
     wheels_include_prior: bool = False
     input_warnings: tuple[str, ...] = ()
+    sensor_height_known: bool = True
 
     def __post_init__(self):
         for k in ("c_left", "c_right", "eb"):
@@ -269,6 +273,7 @@ def _selfcal_calibration(d: dict, src: str) -> ExportCalibration:
         str(d.get("base_frame") or "base_link"),
         str(d.get("sensor_frame") or "laser"),
         scale_observed=True,
+        sensor_height_known=str(nom.get("source") or "").startswith("/tf_static"),
     )
 
 
