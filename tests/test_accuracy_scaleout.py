@@ -11,8 +11,8 @@ from umbmark.cli import main
 from umbmark.errors import InputError
 from umbmark.studies.accuracy import QUICK, run_accuracy
 
-# --quick-sized: the quick grid's E_d, two E_b values, 2 robots per noisy cell (16 cells)
-SMALL = replace(QUICK, eb_values=(0.9995, 2.5), robots=2)
+# smaller than --quick: one E_d, two E_b values, 2 robots per noisy cell (8 cells)
+SMALL = replace(QUICK, ed_departures=(0.02,), eb_values=(0.9995, 2.5), robots=2)
 
 
 def _numbers(res):
@@ -23,7 +23,7 @@ def test_pool_and_dask_give_the_serial_results():
     distributed = pytest.importorskip("distributed")
     seen = []
     serial = run_accuracy(replace(SMALL, workers=1), progress=lambda d, t: seen.append((d, t)))
-    assert seen == [(i, 16) for i in range(1, 17)]
+    assert seen == [(i, 8) for i in range(1, 9)]
     assert serial["backend"] == "this process"
     ref = _numbers(serial)
     pool = run_accuracy(replace(SMALL, workers=2))
