@@ -23,7 +23,7 @@ from umbmark.correct.selfcal import (
     selfcal,
 )
 from umbmark.errors import InputError
-from umbmark.io.intervals_csv import parse_intervals_csv, read_intervals_csv, write_intervals_csv
+from umbmark.io.intervals_csv import format_intervals_csv, parse_intervals_csv, read_intervals_csv, write_intervals_csv
 from umbmark.jsonutil import dumps
 from umbmark.model import se2
 from umbmark.model.intervals import Intervals, IntervalSteps, intervals_from_motion, step_motion
@@ -592,3 +592,128 @@ def test_heavy_tailed_noise_is_fitted_with_few_degrees_of_freedom():
     assert 1.5 < np.median(dofs) < 5
     assert 0.88 <= np.mean(hits) <= 1.0
     assert np.sqrt(np.mean(np.square(err_t))) < 0.8 * np.sqrt(np.mean(np.square(err_g)))
+
+
+# ---- errors in the wheel data: stamps off by a jitter
+
+
+def _shifted_motion(p, fl, fr, rate_s, rate_e, d_s, d_e):
+    """The sensor displacement of each interval with its start moved ``d_s`` and its end ``d_e``
+    seconds later (the wheels' motion over that time at their rates there removed or added)."""
+    head = se2.arc(-d_s * p[0] * rate_s[:, 0], -d_s * p[1] * rate_s[:, 1], p[2])
+    tail = se2.arc(d_e * p[0] * rate_e[:, 0], d_e * p[1] * rate_e[:, 1], p[2])
+    q = se2.compose(head, se2.compose(se2.arc(p[0] * fl, p[1] * fr, p[2]), tail))
+    return se2.compose(se2.inverse(p[3:6]), se2.compose(q, p[3:6]))
+
+
+@settings(max_examples=40, deadline=None)
+@given(seed=st.integers(0, 10_000))
+def test_time_shift_derivatives_are_those_of_the_shifted_motion(seed):
+    """The analytic derivatives of the prediction by the ends' time shifts, and theirs by the
+    parameters, equal central differences of the shifted motion."""
+    from umbmark.correct.selfcal.model import time_shift_derivatives
+
+    rng = np.random.default_rng(seed)
+    _, _, p = random_truth(rng)
+    fl, fr = rng.normal(0, 3, 20), rng.normal(0, 3, 20)
+    rs, re = rng.normal(0, 5, (20, 2)), rng.normal(0, 5, (20, 2))
+    a_s, a_e, dj_s, dj_e = time_shift_derivatives(p, fl, fr, rs, re)
+
+    def diff(u, v, eps):
+        d = u - v
+        d[:, 2] = np.angle(np.exp(1j * d[:, 2]))
+        return d / (2 * eps)
+
+    eps = 1e-6
+    f = lambda q, s, e: _shifted_motion(q, fl, fr, rs, re, s, e)  # noqa: E731
+    assert np.allclose(a_s, diff(f(p, eps, 0), f(p, -eps, 0), eps), atol=1e-6)
+    assert np.allclose(a_e, diff(f(p, 0, eps), f(p, 0, -eps), eps), atol=1e-6)
+    for j in range(6):
+        e = np.zeros(6)
+        e[j] = 1e-6
+        up, dn = time_shift_derivatives(p + e, fl, fr, rs, re), time_shift_derivatives(p - e, fl, fr, rs, re)
+        assert np.allclose(dj_s[:, :, j], (up[0] - dn[0]) / 2e-6, atol=1e-5)
+        assert np.allclose(dj_e[:, :, j], (up[1] - dn[1]) / 2e-6, atol=1e-5)
+
+
+def _jittered(rng, p, k, jitter_s, dt=0.2):
+    """Intervals of a robot whose wheel data are read at stamps off by ``jitter_s`` (standard
+    deviation, one error per stamp, shared by the two intervals it ends and starts): two steps
+    per interval (to its middle, from it), their durations from the stamps; the wheels turn at
+    a constant rate over each interval, so its rotation gains that rate times the shifts of its
+    ends; the rates at the ends as the bag pipeline reads them (from the wheel data around the
+    stamps)."""
+    fl, fr = mixed(rng, k, p[0], p[2], v=0.5, w=1.5, dt=dt)
+    iv = intervals_from_motion(fl, fr, dt, p[0], p[1], p[2], p[3:])
+    delta = rng.normal(0.0, jitter_s, k + 1)
+    d1, d2 = 0.5 * dt - delta[:-1], 0.5 * dt + delta[1:]  # the steps' durations
+    sl = np.column_stack([fl * d1 / dt, fl * d2 / dt]).ravel()
+    sr = np.column_stack([fr * d1 / dt, fr * d2 / dt]).ravel()
+    steps = IntervalSteps(sl, sr, np.arange(0, 2 * k + 1, 2), np.column_stack([d1, d2]).ravel())
+    sensor = iv.sensor + rng.normal(size=iv.sensor.shape) * SIGMA
+    left, right = steps.totals
+    rates = np.column_stack([fl, fr, fl, fr]) / dt  # the wheels' rates around each stamp, as a wheel sensor has them
+    return Intervals(d1 + d2, left, right, sensor, steps=steps, end_rates=rates)
+
+
+def test_jittered_wheel_stamps_no_longer_make_the_wheels_small():
+    """Wheel data read 20 ms off at random (0.2 s intervals: 10 % of each interval's motion at
+    each end): taken as exact, the wheels and the wheelbase come out percents small; with the
+    jitter modelled (the default) the estimates are within their intervals and the jitter is
+    found."""
+    err_plain, err_eiv, hits, found = [], [], [], []
+    for seed in range(8):
+        rng = np.random.default_rng([31, seed])
+        d, b, p = random_truth(rng)
+        iv = _jittered(rng, p, 600, 0.02)
+        plain = selfcal(iv, d, b, time_jitter=False)
+        eiv = selfcal(iv, d, b)
+        err_plain.append(plain.params[:3] / p[:3] - 1)
+        err_eiv.append(eiv.params[:3] / p[:3] - 1)
+        lo = np.array([eiv.ci95[n][0] for n in PARAMETERS[:3]])
+        hi = np.array([eiv.ci95[n][1] for n in PARAMETERS[:3]])
+        hits.append((lo <= p[:3]) & (p[:3] <= hi))
+        found.append(eiv.wheel_jitter_s)
+        assert math.isnan(plain.wheel_jitter_s)
+    assert np.mean(err_plain) < -0.005  # regression dilution: half a percent small and more
+    assert abs(np.mean(err_eiv)) < 0.2 * abs(np.mean(err_plain))
+    assert np.mean(hits) >= 0.8
+    assert np.median(found) == pytest.approx(0.02, rel=0.25)
+
+
+def test_without_jitter_none_is_found():
+    """Exact wheel data: the jitter estimated is nil and the estimate that of the plain fit."""
+    rng = np.random.default_rng(5)
+    d, b, p = random_truth(rng)
+    iv = _jittered(rng, p, 400, 0.0)
+    res, plain = selfcal(iv, d, b), selfcal(iv, d, b, time_jitter=False)
+    assert res.wheel_jitter_s < 1e-3
+    assert np.allclose(res.params, plain.params, rtol=2e-3, atol=1e-4)
+    assert res.to_dict()["wheel_jitter_ms"] == pytest.approx(res.wheel_jitter_s * 1e3)
+
+
+@settings(max_examples=25, deadline=None)
+@given(seed=st.integers(0, 10_000), with_cov=st.booleans())
+def test_wheel_rates_round_trip_through_the_intervals_file(seed, with_cov):
+    """The wheels' rates at the ends are written on each interval's row and read back exactly,
+    with or without covariances and steps."""
+    rng = np.random.default_rng(seed)
+    _, _, p = random_truth(rng)
+    iv = _jittered(rng, p, 7, 0.01)
+    if with_cov:
+        cov = np.tile(np.diag(SIGMA**2), (len(iv), 1, 1))
+        iv = Intervals(
+            iv.dt_s, iv.left_rad, iv.right_rad, iv.sensor, steps=iv.steps, covariance=cov, end_rates=iv.end_rates
+        )
+    back = parse_intervals_csv(format_intervals_csv(iv))
+    assert np.array_equal(back.end_rates, iv.end_rates)
+    assert np.array_equal(back.sensor, iv.sensor)
+    assert (back.covariance is not None) == with_cov
+
+
+def test_some_wheel_rate_columns_are_refused():
+    text = "dt_s,left_rad,right_rad,sensor_dx_m,sensor_dy_m,sensor_dyaw_rad,rate_left_start_rad_s,rate_left_end_rad_s\n"
+    with pytest.raises(InputError, match="without rate_right_start_rad_s, rate_right_end_rad_s: give all four"):
+        parse_intervals_csv(text + "0.1,1,1,0.1,0,0,10,10\n", "iv.csv")
+    with pytest.raises(InputError, match=r"`end_rates` must be \(2, 4\)"):
+        Intervals(np.ones(2), np.ones(2), np.ones(2), np.zeros((2, 3)), end_rates=np.ones((2, 3)))

@@ -32,6 +32,8 @@ LEGEND = (
     "95 % interval: from the scatter of the intervals about the fit and between stretches of the recording "
     "(errors shared within a stretch, such as a room the scan matching measures a little short, count); it does "
     "not cover errors shared by the whole recording (one floor, one day): calibrate on another to see those.",
+    "wheel data jitter: how far the wheel data's stamps scatter against the scans' (the errors it puts in the "
+    "wheels' rotation at the ends of each interval are part of the fit; --no-wheel-jitter takes them as exact).",
 )
 
 
@@ -195,6 +197,8 @@ def _print_report(d: dict, again: str, export: str) -> None:
         label = "scans' delay [ms]" if len(bags) == 1 else f"delay of {Path(delay['bag']).name} [ms]"
         how = "estimated" if delay.get("requested") == "auto" else "given"
         rows.append([label, fmt(1e3 * delay["applied_s"], 1), how, "0"])
+    if d.get("wheel_jitter_ms") is not None:
+        rows.append(["wheel data jitter [ms]", fmt(d["wheel_jitter_ms"], 1), "estimated", "0"])
     c.print(
         table(
             f"Self-calibration from {d['intervals_used']} intervals "
@@ -294,6 +298,14 @@ def _print_report(d: dict, again: str, export: str) -> None:
 )
 @click.option("--keep-outliers", is_flag=True, help="Fit every interval (no outlier rejection).")
 @click.option(
+    "--wheel-jitter/--no-wheel-jitter",
+    default=True,
+    show_default=True,
+    help="Model errors in the wheel data from their stamps' jitter against the scans' (estimated with the "
+    "noise; bags, and intervals files with steps; JSON key wheel_jitter_ms). Taken as exact, such errors make "
+    "the wheels and turns come out small.",
+)
+@click.option(
     "--save",
     type=click.Path(dir_okay=False),
     default=None,
@@ -315,6 +327,7 @@ def selfcal_cmd(
     wheel_separation_m,
     min_intervals,
     keep_outliers,
+    wheel_jitter,
     save,
     as_json,
     robot=None,
@@ -340,7 +353,7 @@ def selfcal_cmd(
     """
     d_m, b_m = _geometry(wheel_diameter_mm, wheelbase_mm, wheel_radius_m, wheel_separation_m)
     kind = _kind_of(paths)
-    opts = {"reject_outliers": not keep_outliers}
+    opts = {"reject_outliers": not keep_outliers, "time_jitter": wheel_jitter}
     if kind == "intervals":
         from umbmark.realrobot.selfcal import selfcal_from_intervals
 
@@ -375,7 +388,7 @@ def selfcal_cmd(
         return
     if is_quiet():
         return
-    _print_report(d, *_next_command(paths, save, d_m, b_m, flags))
+    _print_report(d, *_next_command(paths, save, d_m, b_m, flags + ([] if wheel_jitter else ["--no-wheel-jitter"])))
     print_recorded(rec)
 
 

@@ -12,6 +12,11 @@ mark is dropped. See :mod:`umbmark.model.intervals` for the meaning.
 displacement's own covariance (a scan matcher's), on the interval's row; a self-calibration
 adds the noise it estimates to it.
 
+**Wheel rates** (optional): the four columns ``rate_left_start_rad_s``,
+``rate_right_start_rad_s``, ``rate_left_end_rad_s``, ``rate_right_end_rad_s`` give the wheels'
+rates at the interval's two stamps (from the wheel data around them), on the interval's row;
+a self-calibration models the errors of the wheel data's stamps with them.
+
 **Steps**: an interval may take several rows, its steps in order (e.g. from one scan to the
 next between two keyframes): a row whose three sensor cells are empty is a step of the
 interval that the next complete row ends. Each row holds its own step's ``dt_s``,
@@ -42,6 +47,7 @@ from umbmark.model.intervals import Intervals, IntervalSteps
 __all__ = [
     "COLUMNS",
     "COVARIANCE_COLUMNS",
+    "RATE_COLUMNS",
     "read_intervals_csv",
     "parse_intervals_csv",
     "format_intervals_csv",
@@ -51,6 +57,7 @@ __all__ = [
 COLUMNS = ("dt_s", "left_rad", "right_rad", "sensor_dx_m", "sensor_dy_m", "sensor_dyaw_rad")
 COVARIANCE_COLUMNS = ("cov_dx_dx", "cov_dx_dy", "cov_dx_dyaw", "cov_dy_dy", "cov_dy_dyaw", "cov_dyaw_dyaw")
 _COV_INDEX = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
+RATE_COLUMNS = ("rate_left_start_rad_s", "rate_right_start_rad_s", "rate_left_end_rad_s", "rate_right_end_rad_s")
 
 # beyond these a value is read but looks like other units (warned about, not refused)
 _WHEEL_RAD_PER_INTERVAL = 100.0  # 16 wheel turns between two scans: encoder ticks?
@@ -102,6 +109,7 @@ def parse_intervals_csv(text: str, source: str = "<intervals>") -> Intervals:
     """
     header: list[str] | None = None
     with_cov = False
+    with_rates = False
     header_line = 0
     col: dict[str, int] = {}
     values: list[list[float]] = []
@@ -135,6 +143,16 @@ def parse_intervals_csv(text: str, source: str = "<intervals>") -> Intervals:
                 )
             col.update({c: header.index(c) for c in present})
             with_cov = bool(present)
+            have = [c for c in RATE_COLUMNS if c in header]
+            if have and len(have) < len(RATE_COLUMNS):
+                lack = [c for c in RATE_COLUMNS if c not in header]
+                raise InputError(
+                    f"wheel-rate columns {', '.join(have)} without {', '.join(lack)}: give all four or none",
+                    source,
+                    line,
+                )
+            col.update({c: header.index(c) for c in have})
+            with_rates = bool(have)
             continue
         need = max(col.values()) + 1
         if len(row) < need:
@@ -146,8 +164,9 @@ def parse_intervals_csv(text: str, source: str = "<intervals>") -> Intervals:
                 source,
                 line,
             )
-        names = COLUMNS[:3] if all(blank) else COLUMNS + (COVARIANCE_COLUMNS if with_cov else ())
-        pad = [math.nan] * (3 + (6 if with_cov else 0)) if all(blank) else []
+        extra = (COVARIANCE_COLUMNS if with_cov else ()) + (RATE_COLUMNS if with_rates else ())
+        names = COLUMNS[:3] if all(blank) else COLUMNS + extra
+        pad = [math.nan] * (3 + len(extra)) if all(blank) else []
         vals = [parse_number(row[col[c]], c, source, line) for c in names] + pad
         if vals[0] < 0:
             raise InputError(f"column dt_s: {row[col['dt_s']].strip()} s is negative", source, line)
@@ -182,7 +201,11 @@ def parse_intervals_csv(text: str, source: str = "<intervals>") -> Intervals:
             raise InputError(
                 "the covariance is not positive semi-definite", source, int(np.asarray(lines)[ends][bad[0]])
             )
-    return Intervals(a[:, 0], a[:, 1], a[:, 2], a[:, 3:6], source, tuple(warnings), steps, cov)
+    rates = None
+    if with_rates:
+        first = 6 + (6 if with_cov else 0)
+        rates = rows[ends, first : first + 4]
+    return Intervals(a[:, 0], a[:, 1], a[:, 2], a[:, 3:6], source, tuple(warnings), steps, cov, rates)
 
 
 def _where(mask: np.ndarray, lines: np.ndarray, source: str) -> str:
@@ -230,7 +253,7 @@ def format_intervals_csv(iv: Intervals) -> str:
     -------
     str
         The header ``dt_s,left_rad,right_rad,sensor_dx_m,sensor_dy_m,sensor_dyaw_rad`` (and
-        the covariance columns when the intervals have covariances) and one line per
+        the covariance and the wheel-rate columns when the intervals have them) and one line per
         interval, or per step of the intervals that have steps (the sensor cells
         on the interval's last step; a step's duration, when the steps do not know it, an
         equal share of the interval's).
@@ -238,14 +261,18 @@ def format_intervals_csv(iv: Intervals) -> str:
     out = io.StringIO()
     w = csv_writer(out, lineterminator="\n")
     cov = None if iv.covariance is None else np.column_stack([iv.covariance[:, u, v] for u, v in _COV_INDEX])
-    w.writerow(COLUMNS + (COVARIANCE_COLUMNS if cov is not None else ()))
-    end = (
-        (lambda k: [repr(float(v)) for v in iv.sensor[k]])
-        if cov is None
-        # noqa: E731
-        else (lambda k: [repr(float(v)) for v in iv.sensor[k]] + [repr(float(v)) for v in cov[k]])
-    )
-    blank = [""] * (3 if cov is None else 9)
+    rates = iv.end_rates
+    w.writerow(COLUMNS + (COVARIANCE_COLUMNS if cov is not None else ()) + (RATE_COLUMNS if rates is not None else ()))
+
+    def end(k: int) -> list[str]:
+        cells = [repr(float(v)) for v in iv.sensor[k]]
+        if cov is not None:
+            cells += [repr(float(v)) for v in cov[k]]
+        if rates is not None:
+            cells += [repr(float(v)) for v in rates[k]]
+        return cells
+
+    blank = [""] * (3 + (0 if cov is None else 6) + (0 if rates is None else 4))
     st = iv.steps
     if st is None:
         for k in range(len(iv)):

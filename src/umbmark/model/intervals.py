@@ -124,7 +124,8 @@ class IntervalSteps:
         take = np.repeat(self.start[idx], counts) + (
             np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts)
         )
-        return IntervalSteps(self.left_rad[take], self.right_rad[take], np.concatenate([[0], np.cumsum(counts)]))
+        dt = None if self.dt_s is None else self.dt_s[take]
+        return IntervalSteps(self.left_rad[take], self.right_rad[take], np.concatenate([[0], np.cumsum(counts)]), dt)
 
     @classmethod
     def concatenate(cls, parts: list[IntervalSteps]) -> IntervalSteps:
@@ -192,6 +193,11 @@ class Intervals:
         ``(K, 3, 3)`` the covariance of each sensor displacement as its measurement gives it
         (the scan matcher's), symmetric, not negative definite; a self-calibration adds the
         noise it estimates to it, so a direction a scene leaves unconstrained weighs little.
+    end_rates : array_like, optional
+        ``(K, 4)`` the wheels' rates at each interval's start and end [rad/s]: ``(left start,
+        right start, left end, right end)``, from the wheel data around the two stamps (not
+        from the interval's own rotation, which carries the stamps' errors); a
+        self-calibration models the errors of the wheel data's stamps with them.
 
     Raises
     ------
@@ -210,6 +216,7 @@ class Intervals:
     warnings: tuple[str, ...] = ()
     steps: IntervalSteps | None = None
     covariance: NDArray[np.float64] | None = None
+    end_rates: NDArray[np.float64] | None = None
 
     def __post_init__(self) -> None:
         src = self.source
@@ -262,6 +269,15 @@ class Intervals:
                 raise InputError("`covariance` must be symmetric", src)
             cov.setflags(write=False)
             object.__setattr__(self, "covariance", cov)
+        if self.end_rates is not None:
+            try:
+                rates = np.array(self.end_rates, dtype=float)
+            except (TypeError, ValueError):
+                raise InputError("`end_rates` must be an array of numbers", src) from None
+            if rates.shape != (k, 4) or not np.all(np.isfinite(rates)):
+                raise InputError(f"`end_rates` must be ({k}, 4) finite numbers [rad/s], got shape {rates.shape}", src)
+            rates.setflags(write=False)
+            object.__setattr__(self, "end_rates", rates)
 
     def __len__(self) -> int:
         return len(self.dt_s)
@@ -292,8 +308,17 @@ class Intervals:
         if self.steps is not None:
             steps = self.steps.subset(np.flatnonzero(m) if m.dtype == bool else m)
         cov = None if self.covariance is None else self.covariance[m]
+        rates = None if self.end_rates is None else self.end_rates[m]
         return Intervals(
-            self.dt_s[m], self.left_rad[m], self.right_rad[m], self.sensor[m], self.source, self.warnings, steps, cov
+            self.dt_s[m],
+            self.left_rad[m],
+            self.right_rad[m],
+            self.sensor[m],
+            self.source,
+            self.warnings,
+            steps,
+            cov,
+            rates,
         )
 
 

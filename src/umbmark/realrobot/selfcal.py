@@ -442,6 +442,9 @@ class IntervalPlan:
         From the first to the last usable scan [s].
     warnings : tuple of str
         What the planning noticed (scans without wheel data, a missing transform).
+    end_rates : numpy.ndarray or None
+        ``(K, 4)`` the wheels' rates at each interval's two stamps [rad/s] (left, right at the
+        start; left, right at the end), from the wheel data a sample period either side.
     """
 
     bag: SelfcalBag
@@ -463,6 +466,7 @@ class IntervalPlan:
     base_frame: str
     time_span_s: float
     warnings: tuple[str, ...] = ()
+    end_rates: FloatArray | None = None
 
     def __len__(self) -> int:
         return len(self.dt_s)
@@ -677,6 +681,15 @@ def plan_intervals(
         j = np.repeat(kept[:, 0], counts) + np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts)
         dl, dr = np.diff(sl), np.diff(sr)
         steps = IntervalSteps(dl[j], dr[j], np.concatenate([[0], np.cumsum(counts)]), np.diff(st)[j])
+    # the wheels' rates at the stamps, a wheel sample period either side: independent of where
+    # in a sample period a stamp falls (a rate from the interval's own rotation would carry the
+    # stamps' errors)
+    h = float(np.median(np.diff(wt))) if len(wt) > 1 else 0.0
+    rates = np.zeros((len(st), 2))
+    if h > 0:
+        for c, ang in enumerate((left, right)):
+            rates[:, c] = (np.interp(st + h, wt, ang) - np.interp(st - h, wt, ang)) / (2.0 * h)
+    end_rates = np.column_stack([rates[kept[:, 0]], rates[kept[:, 1]]])
     return IntervalPlan(
         bag=bag,
         scan_delay_s=float(scan_delay_s),
@@ -697,6 +710,7 @@ def plan_intervals(
         base_frame=base,
         time_span_s=float(st[idx[-1]] - st[idx[0]]),
         warnings=tuple(warnings),
+        end_rates=end_rates,
     )
 
 
@@ -932,6 +946,7 @@ def match_intervals(
         warnings=tuple(warnings),
         steps=None if plan.steps is None else plan.steps.subset(np.flatnonzero(ok)),
         covariance=0.5 * (covs[ok] + np.swapaxes(covs[ok], 1, 2)),
+        end_rates=None if plan.end_rates is None else plan.end_rates[ok],
     )
     return ScanIntervals(
         intervals=iv,
@@ -1473,6 +1488,7 @@ def selfcal_report(
                 tuple(f"{Path(name).name}: {w}" for w in iv.warnings),
                 iv.steps,
                 iv.covariance,
+                iv.end_rates,
             )
         ivs.append(iv)
         kept.append(p if isinstance(p, ScanIntervals) else str(p[0]))
@@ -1498,6 +1514,9 @@ def selfcal_report(
             None
             if any(iv.covariance is None for iv in ivs)
             else np.concatenate([np.asarray(iv.covariance) for iv in ivs]),
+            None
+            if any(iv.end_rates is None for iv in ivs)
+            else np.concatenate([np.asarray(iv.end_rates) for iv in ivs]),
         )
     else:
         pooled = ivs[0]

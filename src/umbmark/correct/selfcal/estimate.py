@@ -16,7 +16,15 @@
    ``nu`` grows large and the fit is least squares. ``loss="gaussian"`` is the plain
    maximum likelihood of Gaussian noise with the standard deviation of each component
    estimated from the residuals; given covariances whiten the residuals instead of an
-   estimated scatter.
+   estimated scatter. **Errors in the wheel data** (``time_jitter``, on by default): the
+   wheels' rotation over an interval is read at two stamps, and a stamp off by ``delta`` adds
+   the motion of ``delta`` at the wheels' rate there. Each interval's noise then also holds
+   ``sigma^2 (a_s a_s^T + a_e a_e^T)`` (``a``: how its displacement moves with each end,
+   :func:`~umbmark.correct.selfcal.model.time_shift_derivatives`), ``sigma`` estimated with
+   the rest, and each step solves the score corrected by its expectation under such errors
+   (the corrected score of errors-in-variables models): a fit that takes the wheel data as
+   exact makes wheels and turns come out small (regression dilution), the more so the
+   shorter the intervals.
 3. Outliers: an interval beyond the ``1 - outlier_tail`` quantile of the fitted noise (the
    F distribution of ``d_k^2 / 3`` for Student t, with at least :data:`OUTLIER_DOF_MIN`
    degrees of freedom; chi-square with 3 degrees of freedom for
@@ -51,7 +59,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from umbmark.correct.selfcal import identify
 from umbmark.correct.selfcal.closed_form import ClosedFormFailed, closed_form, closed_form_fixed_scale
-from umbmark.correct.selfcal.model import jacobian, residuals, whiten, whitener
+from umbmark.correct.selfcal.model import jacobian, residuals, time_shift_derivatives, whiten, whitener
 from umbmark.correct.selfcal.result import SelfcalResult
 from umbmark.errors import InputError
 from umbmark.model.geometry import wrap_angle
@@ -75,6 +83,7 @@ FloatArray = NDArray[np.float64]
 # noise standard deviations are never taken below this (m, m, rad): noise-free data stay finite
 _SD_FLOOR = 1e-10
 _EM_ROUNDS = 500  # expectation-maximisation rounds of the Student t fit at most
+_S_STEPS = 10  # EM steps of the scatter matrix per round when the jitter is modelled
 
 LOSSES = ("student", "gaussian")
 """The noise models of :func:`selfcal`."""
@@ -133,7 +142,7 @@ def _robust_sd(r: FloatArray) -> FloatArray:
 class _Problem:
     """The intervals in use and their whitening: given covariances, or a common scatter matrix."""
 
-    def __init__(self, iv: Intervals, given_w: FloatArray | None):
+    def __init__(self, iv: Intervals, given_w: FloatArray | None, jitter: bool = False):
         self.fl = np.asarray(iv.left_rad, float)
         self.fr = np.asarray(iv.right_rad, float)
         self.s = np.asarray(iv.sensor, float)
@@ -142,6 +151,54 @@ class _Problem:
         self.given_w = given_w
         # the sensor displacements' own covariance, added to the estimated scatter (or None)
         self.sig = None if given_w is not None or iv.covariance is None else np.asarray(iv.covariance, float)
+        # errors in the wheel data: their stamps off by a jitter estimated with the noise
+        # (with the wheels' rates at the ends from the wheel data around the stamps: a rate
+        # from the interval's own rotation would carry the jitter's error, and weigh by it)
+        self.jitter = bool(jitter) and given_w is None and iv.end_rates is not None
+        self.rates = None
+        if self.jitter:
+            assert iv.end_rates is not None
+            self.rates = (np.asarray(iv.end_rates[:, :2], float), np.asarray(iv.end_rates[:, 2:], float))
+        self.last_information = np.eye(6)  # the last Gauss-Newton step's (whitened, weighted)
+
+    def jitter_terms(self, p: FloatArray) -> tuple[FloatArray, tuple[FloatArray, FloatArray, FloatArray, FloatArray]]:
+        """``G_k = a_s a_s^T + a_e a_e^T`` ``(K, 3, 3)`` (the covariance of a unit jitter at both
+        ends) and the derivatives of :func:`time_shift_derivatives`."""
+        assert self.rates is not None
+        with np.errstate(all="ignore"):  # parameters far off (undetermined): no jitter term there
+            raw = time_shift_derivatives(p, self.fl, self.fr, self.rates[0], self.rates[1], self.steps)
+        d = (
+            np.nan_to_num(raw[0], nan=0.0, posinf=0.0, neginf=0.0),
+            np.nan_to_num(raw[1], nan=0.0, posinf=0.0, neginf=0.0),
+            np.nan_to_num(raw[2], nan=0.0, posinf=0.0, neginf=0.0),
+            np.nan_to_num(raw[3], nan=0.0, posinf=0.0, neginf=0.0),
+        )
+        a_s, a_e = d[0], d[1]
+        g = a_s[:, :, None] * a_s[:, None, :] + a_e[:, :, None] * a_e[:, None, :]
+        return g, d
+
+    def own(self, g: FloatArray | None, sig2: float) -> FloatArray | None:
+        """Each interval's own covariance ``(K, 3, 3)``: the matcher's plus the jitter's (or None)."""
+        if self.sig is None and g is None:
+            return None
+        out = np.zeros((len(self.fl), 3, 3)) if self.sig is None else self.sig
+        return out if g is None else out + sig2 * g
+
+    def score_correction(
+        self,
+        d: tuple[FloatArray, FloatArray, FloatArray, FloatArray],
+        idx: NDArray[np.intp],
+        w3: FloatArray | None,
+        sig2: float,
+    ) -> FloatArray:
+        """``(n, 6)``: ``sig2 (dJ/d delta)^T Sigma^-1 a`` of both ends of each interval ``idx``:
+        what errors in the wheel data add to the score on average, taken off."""
+        out = np.zeros((len(idx), 6))
+        for a, dj in ((d[0], d[2]), (d[1], d[3])):
+            u = self.white(a[idx], idx, w3)
+            v = self.white(dj[idx], idx, w3)
+            out += np.einsum("kij,ki->kj", v, u)
+        return sig2 * out
 
     def res(self, p: FloatArray, idx: NDArray[np.intp]) -> FloatArray:
         if self.steps is None:
@@ -163,10 +220,12 @@ class _Problem:
             return whiten(w3[idx], r)
         return r @ w3.T if r.ndim == 2 else np.matmul(w3, r)
 
-    def whiteners(self, scatter: FloatArray) -> FloatArray:
+    def whiteners(self, scatter: FloatArray, own: FloatArray | None = None) -> FloatArray:
         """``(K, 3, 3)``: the whiteners of ``scatter`` plus each interval's own covariance."""
-        assert self.sig is not None
-        c = self.sig + scatter + np.diag(np.full(3, _SD_FLOOR**2))
+        if own is None:
+            assert self.sig is not None
+            own = self.sig
+        c = own + scatter + np.diag(np.full(3, _SD_FLOOR**2))
         return np.asarray(np.linalg.inv(np.linalg.cholesky(0.5 * (c + np.swapaxes(c, 1, 2)))), dtype=float)
 
     def fit(
@@ -196,9 +255,17 @@ class _Problem:
         return self.white(self.jac(p, idx), idx, w3)
 
     def gauss_newton(
-        self, p: FloatArray, idx: NDArray[np.intp], w3: FloatArray | None, weights: FloatArray
+        self,
+        p: FloatArray,
+        idx: NDArray[np.intp],
+        w3: FloatArray | None,
+        weights: FloatArray,
+        correction: FloatArray | None = None,
     ) -> FloatArray:
-        """One Gauss-Newton step on ``sum w_k |W r_k|^2`` (the weights held), halved until it does not rise."""
+        """One Gauss-Newton step on ``sum w_k |W r_k|^2`` (the weights held), halved until it does not rise.
+
+        With a ``correction`` of the score (``(6,)``, the errors-in-variables term) the step
+        solves the corrected score equation instead, whole: its root is not the cost's minimum."""
 
         def cost(q: FloatArray) -> float:
             z = self.white(self.res(q, idx), idx, w3)
@@ -208,11 +275,17 @@ class _Problem:
         sw = np.sqrt(weights)
         jw = (sw[:, None, None] * self.whitened_jacobian(p, idx, w3)).reshape(-1, 6)
         h = jw.T @ jw
+        self.last_information = h
         g = jw.T @ (sw[:, None] * z).reshape(-1)
+        if correction is not None:
+            g = g + correction
         try:
             step = np.linalg.solve(h, g)
         except np.linalg.LinAlgError:
             step = np.linalg.lstsq(h, g, rcond=None)[0]
+        if correction is not None:
+            q = p + step
+            return q if np.all(np.isfinite(q)) else p
         c0 = float((weights[:, None] * z * z).sum())
         for _ in range(10):
             q = p + step
@@ -274,59 +347,138 @@ def _fit_dof(d2: FloatArray) -> float:
     return float(math.exp(sol.x))
 
 
+JITTER_SD_MAX = 0.25
+"""The largest stamp jitter of the wheel data the fit considers [s]."""
+
+
+def _fit_jitter(base: FloatArray, g: FloatArray, r: FloatArray, wt: FloatArray) -> float:
+    """The variance of the wheel data's stamp jitter of most likelihood [s^2], the rest held:
+    the noise of interval k is ``base_k + sigma^2 G_k``, its residual ``r_k``, its weight ``wt_k``."""
+    from scipy.optimize import minimize_scalar
+
+    def nll(sd: float) -> float:
+        c = base + (sd * sd) * g
+        try:
+            chol = np.linalg.cholesky(c)
+        except np.linalg.LinAlgError:
+            return math.inf
+        y = np.linalg.solve(chol, r[:, :, None])[:, :, 0]
+        logdet = 2.0 * np.log(np.diagonal(chol, axis1=1, axis2=2)).sum(axis=1)
+        return float(0.5 * np.sum(logdet + wt * (y * y).sum(axis=1)))
+
+    # on a log scale, from a tenth of a microsecond: noise-free data leave it at nil
+    sol = minimize_scalar(
+        lambda u: nll(10.0**u), bounds=(-7.0, math.log10(JITTER_SD_MAX)), method="bounded", options={"xatol": 1e-4}
+    )
+    sd = float(10.0**sol.x)
+    return 0.0 if nll(0.0) <= nll(sd) else sd * sd
+
+
 def _student_fit(
     prob: _Problem, p0: FloatArray, idx: NDArray[np.intp], student: bool = True
-) -> tuple[FloatArray, FloatArray | None, float, FloatArray, FloatArray | None]:
+) -> tuple[FloatArray, FloatArray | None, float, FloatArray, FloatArray | None, float]:
     """Maximum likelihood for Student t noise on the intervals ``idx`` (expectation maximisation).
 
     The noise of interval k has the scatter matrix ``S`` (estimated), plus the interval's own
     covariance when the intervals carry one (the scan matcher's: ``S + Sigma_k``, ``S`` then
-    the residuals' weighted scatter less the intervals' mean covariance). ``student=False``:
+    the residuals' weighted scatter less the intervals' mean covariance). With the wheel
+    data's jitter (``prob.jitter``) each interval's covariance also holds ``sigma^2 G_k``
+    (``sigma`` estimated, ``G_k`` from :func:`time_shift_derivatives`) and each step solves
+    the score corrected for the errors such jitter puts in the wheel data. ``student=False``:
     Gaussian noise (no weights, ``nu`` infinite).
 
     Returns the parameters, the whitener (``(3, 3)``; ``(K, 3, 3)`` with the intervals' own
     covariances; ``None`` with given covariances), the degrees of freedom, the weight of each
-    interval ``(nu + 3) / (nu + d^2)``, and ``S`` (``None`` with given covariances).
+    interval ``(nu + 3) / (nu + d^2)``, ``S`` (``None`` with given covariances) and the
+    jitter's variance ``sigma^2`` [s^2].
     """
     p = p0
     r = prob.res(p, idx)
     scatter = None if prob.given_w is not None else np.diag(_robust_sd(r) ** 2)
+    sig2 = 0.0
+    g, d = prob.jitter_terms(p) if prob.jitter else (None, None)
+    own = prob.own(g, sig2)
     w3 = None
     if scatter is not None:
-        w3 = _scatter_whitener(scatter) if prob.sig is None else prob.whiteners(scatter)
+        w3 = _scatter_whitener(scatter) if own is None else prob.whiteners(scatter, own)
     nu = 5.0 if student else math.inf
-    for _ in range(_EM_ROUNDS):
+    p_terms = p.copy()  # where the jitter's terms were last computed
+    for rounds in range(_EM_ROUNDS):
         z = prob.white(r, idx, w3)
         d2 = (z * z).sum(axis=1)
+        sig2_old = sig2
         if scatter is not None:
             wt = (nu + 3) / (nu + d2) if student else np.ones(len(idx))
-            if prob.sig is None:
+            if own is None:
                 scatter = (wt[:, None] * r).T @ r / len(idx)
                 w3 = _scatter_whitener(scatter)
+            elif g is not None:
+                # the noise is a ~ N(0, S) plus b_k ~ N(0, own_k): the expectation of a a^T
+                # given the residual, averaged (an EM step for S; own_k varies too much with
+                # the jitter's part for the moments below)
+                for _inner in range(_S_STEPS):
+                    c = scatter[None] + own[idx] + np.diag(np.full(3, _SD_FLOOR**2))
+                    sc = np.linalg.inv(c) @ scatter
+                    y = np.einsum("kij,kj->ki", np.swapaxes(sc, 1, 2), r)  # S C^-1 r
+                    nxt = (scatter[None] - scatter[None] @ sc + wt[:, None, None] * y[:, :, None] * y[:, None, :]).mean(
+                        axis=0
+                    )
+                    scatter = 0.5 * (nxt + nxt.T) + np.diag(np.full(3, _SD_FLOOR**2))
+                rest = prob.own(None, 0.0)
+                base = scatter + (0.0 if rest is None else rest[idx]) + np.diag(np.full(3, _SD_FLOOR**2))
+                # the first round unweighted: heavy tails would otherwise explain the fast
+                # intervals' larger errors before the jitter could
+                sig2 = _fit_jitter(base, g[idx], r, wt if rounds else np.ones(len(idx)))
+                own = prob.own(g, sig2)
+                w3 = prob.whiteners(scatter, own)
             else:
                 # the residuals' weighted scatter less the intervals' own mean covariance (at
                 # least a thousandth of it: the estimated part never vanishes)
-                own = prob.sig[idx].mean(axis=0)
-                excess = (wt[:, None] * r).T @ r / len(idx) - own
+                mean_own = own[idx].mean(axis=0)
+                excess = (wt[:, None] * r).T @ r / len(idx) - mean_own
                 val, vec = np.linalg.eigh(0.5 * (excess + excess.T))
-                floor = 1e-3 * np.maximum(np.diag(own), _SD_FLOOR**2)
+                floor = 1e-3 * np.maximum(np.diag(mean_own), _SD_FLOOR**2)
                 scatter = (vec * np.maximum(val, 0.0)) @ vec.T + np.diag(floor)
-                w3 = prob.whiteners(scatter)
+                w3 = prob.whiteners(scatter, own)
             z = prob.white(r, idx, w3)
             d2 = (z * z).sum(axis=1)
         nu_new = _fit_dof(d2) if student else math.inf
         wt = (nu_new + 3) / (nu_new + d2) if student else np.ones(len(idx))
-        q = prob.gauss_newton(p, idx, w3, wt)
+        corr = None
+        if d is not None and sig2 > 0:
+            corr = (wt[:, None] * prob.score_correction(d, idx, w3, sig2)).sum(axis=0)
+        q = prob.gauss_newton(p, idx, w3, wt, corr)
         step = np.array([p[0], p[1], p[2], p[2], p[2], 1.0])
-        settled = not student or abs(math.log(nu_new / nu)) < 1e-7
-        done = bool(np.max(np.abs(q - p) / np.abs(step)) < 1e-11 and settled)
+        settled = (not student or abs(math.log(nu_new / nu)) < 1e-7) and abs(
+            math.sqrt(sig2) - math.sqrt(sig2_old)
+        ) < 1e-5
+        # with the jitter modelled the EM converges linearly and slowly (the scatter's EM
+        # steps): a step of 1e-9 of the parameters, or of 1e-4 of their standard deviations,
+        # is far below their uncertainty
+        tol = 1e-9 if sig2 > 0 else 1e-11
+        small = bool(np.max(np.abs(q - p) / np.abs(step)) < tol)
+        if prob.jitter and not small:  # or a ten-thousandth of the parameters' standard deviations
+            try:
+                sd = np.sqrt(np.maximum(np.diag(np.linalg.inv(prob.last_information)), 0.0))
+                small = bool(np.all(np.abs(q - p) <= 1e-4 * sd))
+            except np.linalg.LinAlgError:
+                pass
+        done = small and settled
         p, nu = q, nu_new
         r = prob.res(p, idx)
+        # the jitter's terms move with the parameters, slowly: computed again once they moved
+        scale6 = np.array([p[0], p[1], p[2], p[2], p[2], 1.0])
+        if prob.jitter and bool(np.max(np.abs(p - p_terms) / np.abs(scale6)) > 1e-5):
+            g, d = prob.jitter_terms(p)
+            p_terms = p.copy()
+            own = prob.own(g, sig2)
+            if scatter is not None:
+                w3 = prob.whiteners(scatter, own)
         if done:
             break
     z = prob.white(r, idx, w3)
     wt = (nu + 3) / (nu + (z * z).sum(axis=1)) if student else np.ones(len(idx))
-    return p, w3, nu, wt, scatter
+    return p, w3, nu, wt, scatter, sig2
 
 
 def _score(prob: _Problem, p: FloatArray, idx: NDArray[np.intp]) -> float:
@@ -413,6 +565,7 @@ def selfcal(
     blocks: ArrayLike | None = None,
     block_s: float = BLOCK_S,
     max_blocks: int = MAX_BLOCKS,
+    time_jitter: bool = True,
 ) -> SelfcalResult:
     """Estimate the wheel radii, the wheelbase and the sensor pose from intervals.
 
@@ -453,6 +606,11 @@ def selfcal(
         :func:`time_blocks` of the durations.
     block_s, max_blocks : float, int
         The shortest block and the most blocks of the default labels.
+    time_jitter : bool
+        Model errors in the wheel data from their stamps' jitter against the sensor's (step
+        2 of the module docstring): for intervals with the wheels' rates at their ends
+        (:attr:`~umbmark.model.intervals.Intervals.end_rates`, as the bag pipeline makes
+        them), not with ``sensor_covariance``.
 
     Returns
     -------
@@ -496,7 +654,7 @@ def selfcal(
             raise InputError("`sensor_covariance` must be positive definite", src) from None
         except ValueError as err:
             raise InputError(f"`sensor_covariance`: {err}", src) from None
-    prob = _Problem(intervals, given_w)
+    prob = _Problem(intervals, given_w, jitter=time_jitter)
     idx = np.arange(k)
     student = loss == "student"
 
@@ -526,26 +684,29 @@ def selfcal(
     w3: FloatArray | None = None
     scatter: FloatArray | None = None
     nu = math.inf
+    sig2 = 0.0
     from umbmark._stats import chi2_isf, f_isf
+
+    em = student or prob.sig is not None or prob.jitter
 
     def fit_on(
         mask: NDArray[np.bool_], start: FloatArray
-    ) -> tuple[FloatArray, FloatArray | None, float, FloatArray | None]:
+    ) -> tuple[FloatArray, FloatArray | None, float, FloatArray | None, float]:
         sel = np.flatnonzero(mask)
-        if student or prob.sig is not None:
-            q, w, dof, _, sc = _student_fit(prob, start, sel, student)
-            return q, w, dof, sc
+        if em:
+            q, w, dof, _, sc, j2 = _student_fit(prob, start, sel, student)
+            return q, w, dof, sc, j2
         q, w = _gaussian_fit(prob, start, sel)
-        return q, w, math.inf, None
+        return q, w, math.inf, None, 0.0
 
     fitted = None
     for rnd in range(max_rounds):
-        p, w3, nu, scatter = fit_on(inl, p)
+        p, w3, nu, scatter, sig2 = fit_on(inl, p)
         fitted = inl
         if not reject_outliers:
             break
         e = prob.res(p, np.arange(k))
-        if student or prob.sig is not None:
+        if em:
             z = prob.white(e, np.arange(k), w3)
             if student:
                 thr = 3.0 * f_isf(outlier_tail, 3, max(nu, OUTLIER_DOF_MIN))
@@ -564,7 +725,7 @@ def selfcal(
         inl = new
     idx = np.flatnonzero(inl)
     if fitted is not inl:  # the rounds ran out just after the inliers changed
-        p, w3, nu, scatter = fit_on(inl, p)
+        p, w3, nu, scatter, sig2 = fit_on(inl, p)
 
     # 4. the physical one of the mirror pair
     p = _physical(p)
@@ -597,6 +758,8 @@ def selfcal(
     n_blocks = 0
     if len(np.unique(labels[idx])) >= MIN_BLOCKS:
         scores = wt[:, None] * (np.swapaxes(jw, 1, 2) @ z[:, :, None])[:, :, 0]
+        if prob.jitter and sig2 > 0:
+            scores = scores + wt[:, None] * prob.score_correction(prob.jitter_terms(p)[1], idx, w3, sig2)
         hessians = np.swapaxes(jw, 1, 2) @ jw * ((nu + 3) / (nu + 5) if student else 1.0)
         cov, n_blocks = _block_covariance(info, hessians, scores, labels[idx])
         tq = t_ppf(0.975, n_blocks - 1)
@@ -630,4 +793,5 @@ def selfcal(
         cost=float(0.5 * (z * z).sum()),
         noise_dof=float(nu),
         covariance_blocks=n_blocks,
+        wheel_jitter_s=math.sqrt(sig2) if prob.jitter else math.nan,
     )

@@ -30,7 +30,16 @@ from umbmark.model import se2
 from umbmark.model.geometry import wrap_angle
 from umbmark.model.intervals import IntervalSteps, sensor_motion, step_motion
 
-__all__ = ["PARAMETERS", "predict", "residuals", "jacobian", "whitener", "whiten", "fisher_information"]
+__all__ = [
+    "PARAMETERS",
+    "predict",
+    "residuals",
+    "jacobian",
+    "time_shift_derivatives",
+    "whitener",
+    "whiten",
+    "fisher_information",
+]
 
 PARAMETERS = ("r_left_m", "r_right_m", "wheelbase_m", "sensor_x_m", "sensor_y_m", "sensor_yaw_rad")
 
@@ -139,6 +148,98 @@ def jacobian(p: ArrayLike, left_rad: ArrayLike, right_rad: ArrayLike, steps: Int
     out[:, 0, 5] = h_xy[:, 1]
     out[:, 1, 5] = -h_xy[:, 0]
     return out
+
+
+def _twist_seen(p: FloatArray, rate: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The sensor's velocity in its own frame ``(K, 3)`` at wheel rates ``rate`` ``(K, 2)``, and
+    its derivative by the parameters ``(K, 3, 6)``."""
+    rl, rr, b, lx, ly, lyaw = (float(v) for v in p)
+    wl, wr = rate[:, 0], rate[:, 1]
+    v = 0.5 * (rl * wl + rr * wr)
+    w = (rr * wr - rl * wl) / b
+    dv = np.zeros((len(wl), 6))
+    dw = np.zeros((len(wl), 6))
+    dv[:, 0], dv[:, 1] = 0.5 * wl, 0.5 * wr
+    dw[:, 0], dw[:, 1], dw[:, 2] = -wl / b, wr / b, -w / b
+    # the sensor point's velocity in the robot frame, then turned into the sensor's
+    ux, uy = v - w * ly, w * lx
+    dux = dv - dw * ly
+    duy = dw * lx
+    dux[:, 4] -= w
+    duy[:, 3] += w
+    cl, sl = np.cos(lyaw), np.sin(lyaw)
+    ex, ey = cl * ux + sl * uy, -sl * ux + cl * uy
+    eta = np.column_stack([ex, ey, w])
+    deta = np.empty((len(wl), 3, 6))
+    deta[:, 0, :] = cl * dux + sl * duy
+    deta[:, 1, :] = -sl * dux + cl * duy
+    deta[:, 0, 5] += ey
+    deta[:, 1, 5] -= ex
+    deta[:, 2, :] = dw
+    return eta, deta
+
+
+def time_shift_derivatives(
+    p: ArrayLike,
+    left_rad: ArrayLike,
+    right_rad: ArrayLike,
+    rate_start: ArrayLike,
+    rate_end: ArrayLike,
+    steps: IntervalSteps | None = None,
+) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """How each predicted displacement moves when its interval's ends move in time.
+
+    The wheel data of an interval are read at two stamps; a stamp off by ``delta`` seconds
+    adds (at the end) or removes (at the start) the motion of ``delta`` at the wheels' rate
+    there: ``h(delta) = exp(-delta_s eta_s) (+) h (+) exp(delta_e eta_e)`` with ``eta`` the
+    sensor's velocity in its own frame. These derivatives give the errors-in-variables terms
+    of the fit (:func:`umbmark.correct.selfcal.estimate.selfcal`): the covariance
+    ``sigma^2 a a^T`` that a stamp jitter of ``sigma`` adds at each end, and the correction
+    ``sigma^2 (dJ/d delta)^T Sigma^-1 a`` of the fit's score that removes the bias such errors
+    in the wheel data give a fit that takes them as exact (regression dilution: wheels and
+    turns fitted small).
+
+    Parameters
+    ----------
+    p : array_like
+        The six parameters.
+    left_rad, right_rad : array_like
+        Wheel rotations per interval [rad], shape (K,).
+    rate_start, rate_end : array_like
+        ``(K, 2)`` the wheels' rates at the start and the end [rad/s]
+        (:attr:`~umbmark.model.intervals.Intervals.end_rates`).
+    steps : IntervalSteps, optional
+        As :func:`predict`.
+
+    Returns
+    -------
+    a_start, a_end : numpy.ndarray
+        ``(K, 3)``: ``d h_k / d delta`` of each end [m/s, m/s, rad/s].
+    dj_start, dj_end : numpy.ndarray
+        ``(K, 3, 6)``: their derivatives by the parameters.
+    """
+    q = np.asarray(p, dtype=float)
+    h = predict(q, left_rad, right_rad, steps)
+    jac = jacobian(q, left_rad, right_rad, steps)
+    es, des = _twist_seen(q, np.asarray(rate_start, dtype=float))
+    ee, dee = _twist_seen(q, np.asarray(rate_end, dtype=float))
+    th = h[:, 2]
+    ct, st = np.cos(th), np.sin(th)
+    dth = jac[:, 2, :]
+    # end: h (+) delta eta: position R(theta_h) eta_xy, yaw eta_yaw
+    a_e = np.column_stack([ct * ee[:, 0] - st * ee[:, 1], st * ee[:, 0] + ct * ee[:, 1], ee[:, 2]])
+    dj_e = np.empty_like(jac)
+    dj_e[:, 0, :] = ct[:, None] * dee[:, 0, :] - st[:, None] * dee[:, 1, :] - a_e[:, 1:2] * dth
+    dj_e[:, 1, :] = st[:, None] * dee[:, 0, :] + ct[:, None] * dee[:, 1, :] + a_e[:, 0:1] * dth
+    dj_e[:, 2, :] = dee[:, 2, :]
+    # start: (-delta eta) (+) h: position -eta_xy - eta_yaw J h_xy, yaw -eta_yaw
+    hx, hy = h[:, 0], h[:, 1]
+    a_s = np.column_stack([-es[:, 0] + es[:, 2] * hy, -es[:, 1] - es[:, 2] * hx, -es[:, 2]])
+    dj_s = np.empty_like(jac)
+    dj_s[:, 0, :] = -des[:, 0, :] + des[:, 2, :] * hy[:, None] + es[:, 2:3] * jac[:, 1, :]
+    dj_s[:, 1, :] = -des[:, 1, :] - des[:, 2, :] * hx[:, None] - es[:, 2:3] * jac[:, 0, :]
+    dj_s[:, 2, :] = -des[:, 2, :]
+    return a_s, a_e, dj_s, dj_e
 
 
 def _arc_motion(rl: float, rr: float, b: float, fl: FloatArray, fr: FloatArray) -> tuple[FloatArray, FloatArray]:

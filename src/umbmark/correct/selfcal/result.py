@@ -62,6 +62,10 @@ class SelfcalResult:
     covariance_blocks : int
         The blocks of time the covariance of shared errors was computed over (0: the Fisher
         information's alone).
+    wheel_jitter_s : float
+        The standard deviation of the wheel data's stamps against the sensor's, estimated with
+        the noise (errors in the wheel data at each end of an interval, of the size of the
+        motion over that time; 0: none found, nan: not modelled).
     """
 
     r_left_m: float
@@ -80,6 +84,7 @@ class SelfcalResult:
     cost: float = math.nan
     noise_dof: float = math.inf
     covariance_blocks: int = 0
+    wheel_jitter_s: float = math.nan
 
     @property
     def params(self) -> NDArray[np.float64]:
@@ -164,7 +169,8 @@ class SelfcalResult:
             of the sensor displacements (``noise_sd``: the scale of each component;
             ``noise_dof``: its Student t degrees of freedom, null for Gaussian noise),
             ``covariance_blocks`` (the blocks of time of the covariance of shared errors, 0
-            for none), the standard deviations and the covariance (SI, in the order of
+            for none), ``wheel_jitter_ms`` (the wheel data's stamp jitter against the
+            sensor's, null when not modelled), the standard deviations and the covariance (SI, in the order of
             ``parameters``).
         """
         mm = lambda lo_hi: [lo_hi[0] * 1e3, lo_hi[1] * 1e3]  # noqa: E731
@@ -201,6 +207,7 @@ class SelfcalResult:
             },
             "noise_dof": self.noise_dof if math.isfinite(self.noise_dof) else None,
             "covariance_blocks": int(self.covariance_blocks),
+            "wheel_jitter_ms": self.wheel_jitter_s * 1e3 if math.isfinite(self.wheel_jitter_s) else None,
             "parameters": list(PARAMETERS),
             "sd": [float(v) for v in self.sd],
             "covariance": [[float(v) for v in row] for row in self.covariance],
