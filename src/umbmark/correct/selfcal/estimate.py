@@ -449,18 +449,21 @@ def _student_fit(
             corr = (wt[:, None] * prob.score_correction(d, idx, w3, sig2)).sum(axis=0)
         q = prob.gauss_newton(p, idx, w3, wt, corr)
         step = np.array([p[0], p[1], p[2], p[2], p[2], 1.0])
-        settled = (not student or abs(math.log(nu_new / nu)) < 1e-7) and abs(
+        # with the jitter modelled the EM converges linearly and slowly (the scatter's EM
+        # steps, the jitter and the degrees of freedom trade off): it has settled once the
+        # degrees of freedom move by less than 1e-4 of themselves and the jitter by 10 us
+        nu_tol = 1e-4 if prob.jitter else 1e-7
+        settled = (not student or abs(math.log(nu_new / nu)) < nu_tol) and abs(
             math.sqrt(sig2) - math.sqrt(sig2_old)
         ) < 1e-5
-        # with the jitter modelled the EM converges linearly and slowly (the scatter's EM
-        # steps): a step of 1e-9 of the parameters, or of 1e-4 of their standard deviations,
-        # is far below their uncertainty
+        # and the parameters once they move by 1e-9 of themselves, or by 1e-3 of their
+        # standard deviations: far below their uncertainty
         tol = 1e-9 if sig2 > 0 else 1e-11
         small = bool(np.max(np.abs(q - p) / np.abs(step)) < tol)
-        if prob.jitter and not small:  # or a ten-thousandth of the parameters' standard deviations
+        if prob.jitter and not small:
             try:
                 sd = np.sqrt(np.maximum(np.diag(np.linalg.inv(prob.last_information)), 0.0))
-                small = bool(np.all(np.abs(q - p) <= 1e-4 * sd))
+                small = bool(np.all(np.abs(q - p) <= 1e-3 * sd))
             except np.linalg.LinAlgError:
                 pass
         done = small and settled
