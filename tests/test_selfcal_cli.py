@@ -469,3 +469,18 @@ def test_lidar_height_from_the_command_line(result, tmp_path):
     assert "the option is in millimetres" in err.getvalue()
     line = run(["export", "--c-left", "1", "--c-right", "1", "--eb", "1", "--format", "json", "--sensor-z-mm", "5"], 2)
     assert "needs a self-calibration" in line
+
+
+def test_wheel_data_jitter_printed_and_switched_off(bag, result):
+    """The table shows the wheel data jitter the fit estimated (JSON wheel_jitter_ms);
+    --no-wheel-jitter takes the wheel data as exact: null in the JSON, no row, and the command
+    offered to save the result keeps the flag."""
+    d, _ = result
+    assert d["wheel_jitter_ms"] is not None and d["wheel_jitter_ms"] >= 0
+    text = run(["selfcal", str(bag), *JOINTS, *GEO])
+    assert "wheel data jitter [ms]" in text
+    off = json.loads(run(["selfcal", str(bag), *JOINTS, *GEO, "--no-wheel-jitter", "--json"]))
+    assert off["wheel_jitter_ms"] is None
+    text = run(["selfcal", str(bag), *JOINTS, *GEO, "--no-wheel-jitter"])
+    assert "wheel data jitter [ms]" not in text
+    assert "--no-wheel-jitter" in " ".join(text.split())
