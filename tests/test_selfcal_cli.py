@@ -484,3 +484,11 @@ def test_wheel_data_jitter_printed_and_switched_off(bag, result):
     text = run(["selfcal", str(bag), *JOINTS, *GEO, "--no-wheel-jitter"])
     assert "wheel data jitter [ms]" not in text
     assert "--no-wheel-jitter" in " ".join(text.split())
+
+
+def test_no_static_transform_is_said_in_words(log, tmp_path):
+    """A bag without /tf_static: the matching starts from zero, and the table says so plainly."""
+    bare = write_drive_bag(log, tmp_path / "bare", storage="mcap", odom=False, tf_static=False)
+    text = " ".join(run(["selfcal", str(bare), *JOINTS, *GEO]).split())
+    assert "(no transform to the scans' frame: zero)" in text
+    assert "(none" not in text

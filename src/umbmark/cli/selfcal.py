@@ -170,7 +170,7 @@ def _print_report(d: dict, again: str, export: str) -> None:
                 c.print(escape(f"  failed matches: {why}"))
             c.print(escape(f"  scans' delay: {_delay_text(b['scan_delay'])}"))
             n = b["nominal_sensor_pose"]
-            src = "none (zero)" if n["source"] == "none" else n["source"]
+            src = "no transform to the scans' frame: zero" if n["source"] == "none" else n["source"]
             c.print(
                 escape(
                     f"  matching started from the sensor pose x {n['x_mm']:.1f} mm, y {n['y_mm']:.1f} mm, "

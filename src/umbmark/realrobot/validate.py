@@ -1506,7 +1506,7 @@ def validate(
                 f"and {math.degrees(dyaw):.2f} deg: the calibration's is used before it"
             )
     else:
-        nominal_pose, nominal_src = tf_pose, ("none (zero)" if tf_src == "none" else tf_src)
+        nominal_pose, nominal_src = tf_pose, ("no transform to the scans' frame: zero" if tf_src == "none" else tf_src)
         warnings += tf_warn
     if calibration.sensor_pose is not None:
         after_pose, after_src = calibration.sensor_pose, "calibration"
