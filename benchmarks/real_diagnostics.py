@@ -22,6 +22,17 @@ behind the self-calibration's defaults and the limits of ``docs/research/selfcal
    relations with :func:`umbmark.realrobot.validate.validate`: whether any passes every rule
    with its turn scale within 2 % of 1, and the least short-relation rotation MSE (after over
    before) among those whose turn scale is within 2 % of 1.
+5. **Does the matcher follow its start?** The two scans of each short relation longer than
+   0.2 m matched from the nominal odometry, from the relation itself, from the relation's
+   translation 5 % shorter and 5 % longer, and from zero: the distance scale of the matches
+   against the relations (``sum |t_match| |t_rel| / sum |t_rel|^2``) on the relations every
+   start matched, and the odometry's on the same.
+6. **Matched straight motion against the odometry's, by interval length.** Over straight
+   stretches (the odometry turning under 2 deg), scans ``k`` apart matched directly, and the
+   consecutive matches composed: the regression of the matched distance on the odometry's
+   and the inverse of the reverse regression (they bracket the ratio when both carry noise:
+   the first is diluted by the odometry's errors, the second by the matcher's), and the
+   direct matches over the composed ones.
 
 Writes real_diagnostics.json and real_diagnostics.md into --out.
 """
@@ -137,6 +148,84 @@ def copied_translations(bag, rel) -> dict:
     return {"short": int(short.sum()), "copied": int((same & short).sum())}
 
 
+def _scale(p, r) -> float:
+    a, b = np.hypot(p[:, 0], p[:, 1]), np.hypot(r[:, 0], r[:, 1])
+    return float(np.sum(a * b) / np.sum(b * b))
+
+
+def matcher_starts(bag, rel) -> dict:
+    from umbmark.model import se2
+    from umbmark.realrobot.scanmatch import match_scan_pairs
+    from umbmark.realrobot.validate import recorded_odometry_at_scans
+
+    i1, i2 = rel.indices(bag.scan_t_s, 1e-3)
+    ref = rel.pose
+    js = np.flatnonzero((rel.span_s < 10.0) & (np.hypot(ref[:, 0], ref[:, 1]) > 0.2))
+    odo = recorded_odometry_at_scans(bag)
+    q_odo = se2.between(odo[i1[js]], odo[i2[js]])
+    r = ref[js]
+    starts = {
+        "the nominal odometry": q_odo,
+        "the relation": r,
+        "the relation 5 % shorter": r * [0.95, 0.95, 1.0],
+        "the relation 5 % longer": r * [1.05, 1.05, 1.0],
+        "zero": np.zeros_like(r),
+    }
+    got = {}
+    for name, q0 in starts.items():
+        m = match_scan_pairs(bag.ranges_m[i1[js]], bag.ranges_m[i2[js]], bag.angles_rad, q0)
+        got[name] = (np.asarray(m.converged, dtype=bool), np.asarray(m.poses, dtype=float))
+    common = np.logical_and.reduce([ok for ok, _ in got.values()])
+    return {
+        "relations": int(js.size),
+        "matched_from_every_start": int(common.sum()),
+        "matcher": {name: _scale(p[common], r[common]) for name, (_, p) in got.items()},
+        "odometry": _scale(q_odo[common], r[common]),
+    }
+
+
+def straight_ratios(bag, delay_s: float) -> list[dict]:
+    from umbmark.model import se2
+    from umbmark.realrobot.scanmatch import match_scan_pairs
+    from umbmark.realrobot.validate import recorded_odometry_at_scans
+
+    odo = recorded_odometry_at_scans(bag, delay_s)
+    n = len(odo)
+    q1 = se2.between(odo[:-1], odo[1:])
+    m1 = match_scan_pairs(bag.ranges_m[:-1], bag.ranges_m[1:], bag.angles_rad, q1)
+    ok1, p1 = np.asarray(m1.converged, dtype=bool), np.asarray(m1.poses, dtype=float)
+    out = []
+    for k in (1, 2, 3, 5, 8):
+        i = np.arange(n - k)
+        qk = se2.between(odo[i], odo[i + k])
+        keep = (np.abs(qk[:, 2]) < math.radians(2.0)) & (np.hypot(qk[:, 0], qk[:, 1]) > 0.05)
+        i, qk = i[keep], qk[keep]
+        m = match_scan_pairs(bag.ranges_m[i], bag.ranges_m[i + k], bag.angles_rad, qk)
+        good = np.asarray(m.converged, dtype=bool)
+        pk = np.asarray(m.poses, dtype=float)
+        comp = np.zeros((len(i), 3))
+        for row, s0 in enumerate(i):
+            if not ok1[s0 : s0 + k].all():
+                good[row] = False
+                continue
+            c = np.zeros(3)
+            for j in range(s0, s0 + k):
+                c = se2.compose(c, p1[j])
+            comp[row] = c
+        a, b = np.hypot(*pk[good, :2].T), np.hypot(*qk[good, :2].T)
+        out.append(
+            {
+                "scans_apart": k,
+                "pairs": int(good.sum()),
+                "mean_distance_m": float(b.mean()),
+                "match_on_odometry": float(np.sum(a * b) / np.sum(b * b)),
+                "inverse_odometry_on_match": float(np.sum(a * a) / np.sum(a * b)),
+                "direct_over_composed": _scale(pk[good], comp[good]),
+            }
+        )
+    return out
+
+
 def feasibility(bag, rel, split_s: float, calibrations: list[dict]) -> list[dict]:
     """The grid of calibrations of step 4 on each half of MIT CSAIL tested."""
     from umbmark.model.geometry import WheelGeometry
@@ -221,6 +310,46 @@ def page(res: dict) -> str:
             f"{log['log']}: {c['copied']} of {c['short']} short relations have the recorded odometry's "
             "translation (to 0.1 mm).",
         ]
+    lines += [
+        "",
+        "## Does the matcher follow its start?",
+        "",
+        "The scans of each short relation longer than 0.2 m matched from five starts; the distance scale of the "
+        "matches against the relations, on the relations every start matched, and the odometry's (stamps as "
+        "recorded) on the same:",
+        "",
+        "| log | relations | matched from every start | from the odometry | from the relation | 5 % shorter | "
+        "5 % longer | from zero | the odometry |",
+        "|---|---|---|---|---|---|---|---|---|",
+    ]
+    for log in res["logs"]:
+        m = log["matcher_starts"]
+        v = m["matcher"]
+        lines.append(
+            f"| {log['log']} | {m['relations']} | {m['matched_from_every_start']} | {v['the nominal odometry']:.4f} | "
+            f"{v['the relation']:.4f} | {v['the relation 5 % shorter']:.4f} | {v['the relation 5 % longer']:.4f} | "
+            f"{v['zero']:.4f} | {m['odometry']:.4f} |"
+        )
+    lines += [
+        "",
+        "## Matched straight motion against the odometry's",
+        "",
+        "Straight stretches (the odometry turning under 2 deg, moving over 5 cm), scans k apart, the odometry "
+        "at the scans with the calibrations' delay: the regression of the matched distance on the odometry's, "
+        "the inverse of the reverse regression (between them lies the ratio when both carry errors), and the "
+        "direct matches over the consecutive matches composed:",
+        "",
+        "| log | scans apart | pairs | mean distance m | match on odometry | 1 / (odometry on match) | "
+        "direct / composed |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for log in res["logs"]:
+        for r in log["straight"]:
+            lines.append(
+                f"| {log['log']} | {r['scans_apart']} | {r['pairs']} | {r['mean_distance_m']:.3f} | "
+                f"{r['match_on_odometry']:.4f} | {r['inverse_odometry_on_match']:.4f} | "
+                f"{r['direct_over_composed']:.4f} |"
+            )
     lines += ["", "## What MIT CSAIL's rules allow", ""]
     for f in res["feasibility"]:
         b = f["best"]
@@ -252,8 +381,16 @@ def main(argv: list[str] | None = None) -> int:
         rel = read_relations(REPO / "data" / "slam2d" / f"{name}.relations")
         split_s, parts = halves(bag)
         kf = keyframes(parts)
+        delay = float(np.mean([k["delay_s"] for k in kf]))
         logs.append(
-            {"log": name, "noise": noise(bag), "keyframes": kf, "copied_translations": copied_translations(bag, rel)}
+            {
+                "log": name,
+                "noise": noise(bag),
+                "keyframes": kf,
+                "copied_translations": copied_translations(bag, rel),
+                "matcher_starts": matcher_starts(bag, rel),
+                "straight": straight_ratios(bag, delay),
+            }
         )
         if name == "mit-csail":
             feas = feasibility(bag, rel, split_s, kf)
