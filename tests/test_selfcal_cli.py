@@ -492,3 +492,23 @@ def test_no_static_transform_is_said_in_words(log, tmp_path):
     text = " ".join(run(["selfcal", str(bare), *JOINTS, *GEO]).split())
     assert "(no transform to the scans' frame: zero)" in text
     assert "(none" not in text
+
+
+def test_ros_sizes_in_another_unit_are_named(result):
+    """export --wheel-separation-m in millimetres, or a diameter given as --wheel-radius-m: a
+    warning names the likely slip; the nominal sizes give none."""
+    import contextlib
+    import io
+
+    _, save = result
+
+    def warnings(*extra):
+        err = io.StringIO()
+        with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
+            assert main(["export", str(save), "--format", "ros2", *extra]) == 0
+        return err.getvalue()
+
+    assert "the option is in metres (0.34 m if 340 is millimetres)" in warnings("--wheel-separation-m", "340")
+    assert "a diameter given as the radius?" in warnings("--wheel-radius-m", "0.15")
+    quiet = warnings("--wheel-radius-m", "0.075", "--wheel-separation-m", "0.34")
+    assert "--wheel-radius-m" not in quiet and "--wheel-separation-m" not in quiet

@@ -802,6 +802,40 @@ def convert(paths, log_format, target, out, **kw):
         click.echo(f"warning: {cli_message(w)}", err=True)
 
 
+def _ros_size_notes(cal, wheel_radius_m: float | None, wheel_separation_m: float | None) -> list[str]:
+    """Warnings for --wheel-radius-m / --wheel-separation-m that look like another unit or
+    quantity: millimetres given as metres, a diameter as the radius, or far from the
+    calibration's nominal geometry."""
+    out = []
+    nom_d = cal.nominal_diameter_left_m
+    if nom_d is not None and cal.nominal_diameter_right_m is not None:
+        nom_d = 0.5 * (nom_d + cal.nominal_diameter_right_m)
+    checks = (
+        ("--wheel-radius-m", wheel_radius_m, None if nom_d is None else 0.5 * nom_d, "wheel radius", 1.0),
+        ("--wheel-separation-m", wheel_separation_m, cal.nominal_wheelbase_m, "wheel separation", 5.0),
+    )
+    for flag, value, nominal, what, most in checks:
+        if value is None or not math.isfinite(value) or value <= 0:
+            continue
+        if value > most:
+            out.append(
+                f"{flag} {value:g} is a {what} of {value:g} m: the option is in metres "
+                f"({value / 1000:g} m if {value:g} is millimetres)"
+            )
+        elif nominal is not None and not 0.67 <= value / nominal <= 1.5:
+            hint = (
+                " (a diameter given as the radius?)"
+                if flag == "--wheel-radius-m" and 1.8 < value / nominal < 2.2
+                else ""
+            )
+            out.append(
+                f"{flag} {value:g} m is {value / nominal:.2f} times the calibration's nominal {what} "
+                f"({nominal:g} m){hint}: the written {what.replace(' ', '_')} will not match the odometry the "
+                "calibration was made with"
+            )
+    return out
+
+
 @app.command()
 @click.argument("calibration", required=False, metavar="[CAL.json]")
 @click.option(
@@ -943,6 +977,7 @@ def export(
             f"the lidar's height is 0 mm: the calibration holds none (its bag had no /tf_static for "
             f"{cal.sensor_frame}); give --sensor-z-mm, or the pose puts the lidar at the height of {cal.base_frame}"
         )
+    notes += _ros_size_notes(cal, wheel_radius_m, wheel_separation_m)
     text = format_export(
         cal,
         out_format,
