@@ -302,8 +302,8 @@ def _print_report(d: dict, again: str, export: str) -> None:
     default=True,
     show_default=True,
     help="Model errors in the wheel data from their stamps' jitter against the scans' (estimated with the "
-    "noise; bags, and intervals files with steps; JSON key wheel_jitter_ms). Taken as exact, such errors make "
-    "the wheels and turns come out small.",
+    "noise; bags, and intervals files with the wheel-rate columns; JSON key wheel_jitter_ms). Taken as "
+    "exact, such errors make the wheels and turns come out small.",
 )
 @click.option(
     "--save",
