@@ -133,26 +133,8 @@ def parse_intervals_csv(text: str, source: str = "<intervals>") -> Intervals:
             if dup:
                 raise InputError(f"column {dup[0]} appears twice in the header", source, line)
             col = {c: header.index(c) for c in COLUMNS}
-            present = [c for c in COVARIANCE_COLUMNS if c in header]
-            if present and len(present) < len(COVARIANCE_COLUMNS):
-                missing_cov = [c for c in COVARIANCE_COLUMNS if c not in header]
-                raise InputError(
-                    f"covariance columns {', '.join(present)} without {', '.join(missing_cov)}: give all six or none",
-                    source,
-                    line,
-                )
-            col.update({c: header.index(c) for c in present})
-            with_cov = bool(present)
-            have = [c for c in RATE_COLUMNS if c in header]
-            if have and len(have) < len(RATE_COLUMNS):
-                lack = [c for c in RATE_COLUMNS if c not in header]
-                raise InputError(
-                    f"wheel-rate columns {', '.join(have)} without {', '.join(lack)}: give all four or none",
-                    source,
-                    line,
-                )
-            col.update({c: header.index(c) for c in have})
-            with_rates = bool(have)
+            with_cov = _column_group(header, COVARIANCE_COLUMNS, "covariance", "six", col, source, line)
+            with_rates = _column_group(header, RATE_COLUMNS, "wheel-rate", "four", col, source, line)
             continue
         need = max(col.values()) + 1
         if len(row) < need:
@@ -206,6 +188,21 @@ def parse_intervals_csv(text: str, source: str = "<intervals>") -> Intervals:
         first = 6 + (6 if with_cov else 0)
         rates = rows[ends, first : first + 4]
     return Intervals(a[:, 0], a[:, 1], a[:, 2], a[:, 3:6], source, tuple(warnings), steps, cov, rates)
+
+
+def _column_group(
+    header: list[str], names: tuple[str, ...], what: str, count: str, col: dict[str, int], source: str, line: int
+) -> bool:
+    """Whether the header holds the optional columns ``names`` (all of them, or none: else an
+    error naming those missing); their positions go into ``col``."""
+    have = [c for c in names if c in header]
+    if have and len(have) < len(names):
+        lack = [c for c in names if c not in header]
+        raise InputError(
+            f"{what} columns {', '.join(have)} without {', '.join(lack)}: give all {count} or none", source, line
+        )
+    col.update({c: header.index(c) for c in have})
+    return bool(have)
 
 
 def _where(mask: np.ndarray, lines: np.ndarray, source: str) -> str:

@@ -608,7 +608,8 @@ def plan_intervals(
     st = np.asarray(bag.scan_t_s, dtype=float) - float(scan_delay_s)
     warnings: list[str] = list(bag.warnings) + unwrapped
     # a scan within half a wheel sample of the wheel data's ends takes the end's angles
-    edge = 0.5 * float(np.median(np.diff(wt))) if len(wt) > 1 else 0.0
+    period = float(np.median(np.diff(wt))) if len(wt) > 1 else 0.0  # of the wheel data
+    edge = 0.5 * period
     inside = (st >= wt[0] - edge) & (st <= wt[-1] + edge)
     if inside.sum() < 2:
         raise InputError(
@@ -684,11 +685,10 @@ def plan_intervals(
     # the wheels' rates at the stamps, a wheel sample period either side: independent of where
     # in a sample period a stamp falls (a rate from the interval's own rotation would carry the
     # stamps' errors)
-    h = float(np.median(np.diff(wt))) if len(wt) > 1 else 0.0
     rates = np.zeros((len(st), 2))
-    if h > 0:
+    if period > 0:
         for c, ang in enumerate((left, right)):
-            rates[:, c] = (np.interp(st + h, wt, ang) - np.interp(st - h, wt, ang)) / (2.0 * h)
+            rates[:, c] = (np.interp(st + period, wt, ang) - np.interp(st - period, wt, ang)) / (2.0 * period)
     end_rates = np.column_stack([rates[kept[:, 0]], rates[kept[:, 1]]])
     return IntervalPlan(
         bag=bag,

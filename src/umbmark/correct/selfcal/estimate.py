@@ -167,15 +167,9 @@ class _Problem:
         assert self.rates is not None
         with np.errstate(all="ignore"):  # parameters far off (undetermined): no jitter term there
             raw = time_shift_derivatives(p, self.fl, self.fr, self.rates[0], self.rates[1], self.steps)
-        d = (
-            np.nan_to_num(raw[0], nan=0.0, posinf=0.0, neginf=0.0),
-            np.nan_to_num(raw[1], nan=0.0, posinf=0.0, neginf=0.0),
-            np.nan_to_num(raw[2], nan=0.0, posinf=0.0, neginf=0.0),
-            np.nan_to_num(raw[3], nan=0.0, posinf=0.0, neginf=0.0),
-        )
-        a_s, a_e = d[0], d[1]
+        a_s, a_e, dj_s, dj_e = (np.nan_to_num(a, nan=0.0, posinf=0.0, neginf=0.0) for a in raw)
         g = a_s[:, :, None] * a_s[:, None, :] + a_e[:, :, None] * a_e[:, None, :]
-        return g, d
+        return g, (a_s, a_e, dj_s, dj_e)
 
     def own(self, g: FloatArray | None, sig2: float) -> FloatArray | None:
         """Each interval's own covariance ``(K, 3, 3)``: the matcher's plus the jitter's (or None)."""
@@ -347,6 +341,12 @@ def _fit_dof(d2: FloatArray) -> float:
     return float(math.exp(sol.x))
 
 
+def _param_scale(p: FloatArray) -> FloatArray:
+    """The scale of each parameter for relative steps: the radii, the wheelbase (for the
+    sensor position too) and 1 rad."""
+    return np.array([p[0], p[1], p[2], p[2], p[2], 1.0])
+
+
 JITTER_SD_MAX = 0.25
 """The largest stamp jitter of the wheel data the fit considers [s]."""
 
@@ -424,8 +424,7 @@ def _student_fit(
                         axis=0
                     )
                     scatter = 0.5 * (nxt + nxt.T) + np.diag(np.full(3, _SD_FLOOR**2))
-                rest = prob.own(None, 0.0)
-                base = scatter + (0.0 if rest is None else rest[idx]) + np.diag(np.full(3, _SD_FLOOR**2))
+                base = scatter + (0.0 if prob.sig is None else prob.sig[idx]) + np.diag(np.full(3, _SD_FLOOR**2))
                 # the first round unweighted: heavy tails would otherwise explain the fast
                 # intervals' larger errors before the jitter could
                 sig2 = _fit_jitter(base, g[idx], r, wt if rounds else np.ones(len(idx)))
@@ -448,7 +447,7 @@ def _student_fit(
         if d is not None and sig2 > 0:
             corr = (wt[:, None] * prob.score_correction(d, idx, w3, sig2)).sum(axis=0)
         q = prob.gauss_newton(p, idx, w3, wt, corr)
-        step = np.array([p[0], p[1], p[2], p[2], p[2], 1.0])
+        step = _param_scale(p)
         # with the jitter modelled the EM converges linearly and slowly (the scatter's EM
         # steps, the jitter and the degrees of freedom trade off): it has settled once the
         # degrees of freedom move by less than 1e-4 of themselves and the jitter by 10 us
@@ -470,8 +469,7 @@ def _student_fit(
         p, nu = q, nu_new
         r = prob.res(p, idx)
         # the jitter's terms move with the parameters, slowly: computed again once they moved
-        scale6 = np.array([p[0], p[1], p[2], p[2], p[2], 1.0])
-        if prob.jitter and bool(np.max(np.abs(p - p_terms) / np.abs(scale6)) > 1e-5):
+        if prob.jitter and bool(np.max(np.abs(p - p_terms) / np.abs(_param_scale(p))) > 1e-5):
             g, d = prob.jitter_terms(p)
             p_terms = p.copy()
             own = prob.own(g, sig2)
