@@ -46,6 +46,7 @@ from umbmark.io.atomic import atomic_write
 
 __all__ = [
     "ExportCalibration",
+    "calibration_from_dict",
     "ros_multipliers",
     "format_export",
     "write_export",
@@ -402,7 +403,30 @@ def calibration_from_json(path, dataset: str | None = None) -> ExportCalibration
         if dataset not in names:
             raise InputError(f"no data set {dataset!r} (have {', '.join(map(str, names))})", source=src)
         d = d["datasets"][names.index(dataset)]
-    cal = _calibration_from_dict(d, src)
+    return calibration_from_dict(d, src)
+
+
+def calibration_from_dict(d: dict, source: str = "<json>") -> ExportCalibration:
+    """:func:`calibration_from_json` of one calibration's JSON object, already read.
+
+    Parameters
+    ----------
+    d : dict
+        The JSON of one data set or fit.
+    source : str
+        Its name in errors.
+
+    Returns
+    -------
+    ExportCalibration
+        With the JSON's warnings as ``input_warnings``.
+
+    Raises
+    ------
+    InputError
+        Not the JSON of a calibration.
+    """
+    cal = _calibration_from_dict(d, source)
     warns = d.get("warnings")
     if isinstance(warns, list) and warns:
         cal = replace(cal, input_warnings=tuple(str(w) for w in warns))

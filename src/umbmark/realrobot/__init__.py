@@ -3,7 +3,9 @@ out, stream long logs (:mod:`~umbmark.realrobot.replay`, its results in
 :mod:`~umbmark.realrobot.results`); the return pose from a tape measure
 (:mod:`~umbmark.realrobot.measure`); the field procedure (:mod:`~umbmark.realrobot.guide`); 2D scan
 registration (:mod:`~umbmark.realrobot.scanmatch`); the lidar self-calibration from a bag
-(:mod:`~umbmark.realrobot.selfcal`); the lidar as the ground truth of square runs
+(:mod:`~umbmark.realrobot.selfcal`, the wheel angles of a recording in
+:mod:`~umbmark.realrobot.wheels`, its scans placed into a map and its residuals in
+:mod:`~umbmark.realrobot.selfcal_map`); the lidar as the ground truth of square runs
 (:mod:`~umbmark.realrobot.scan_truth`); the gyro as a rotation reference
 (:mod:`~umbmark.realrobot.gyro`); a calibration checked on a real log against SLAM relations or
 a trajectory (:mod:`~umbmark.realrobot.validate`).

@@ -10,10 +10,10 @@ and sensor parameters for mobile robots" (IEEE T-RO 29(2), 2013), estimated by
    they are made first: per increment of the odometry, the pose change gives the arc length
    ``ds`` and the heading change ``dth`` of the exact arc, the wheels rolled
    ``ds -/+ b dth / 2`` (``b`` the NOMINAL wheelbase) and turned that travel over the NOMINAL
-   radius (:func:`wheel_angles_from_odometry`). Joint positions that jump by more than half a
-   turn between samples (wrapped to one turn) are unwrapped, with a warning. Scans outside the
-   wheel data (by more than half a wheel sample), or inside a gap of it longer than
-   ``max_wheel_gap_s``, are not used.
+   radius (:func:`umbmark.realrobot.wheels.wheel_angles_from_odometry`). Joint positions that
+   jump by more than half a turn between samples (wrapped to one turn) are unwrapped, with a
+   warning. Scans outside the wheel data (by more than half a wheel sample), or inside a gap of
+   it longer than ``max_wheel_gap_s``, are not used.
 2. **Keyframes** (:class:`KeyframeRule`): the next keyframe once the nominal odometry has moved
    a distance or turned an angle, or a time has passed (by default :data:`DEFAULT_KEYFRAMES`:
    at least 0.5 s apart and 100 mm, 10 deg or 2 s; or every scan). An
@@ -48,6 +48,7 @@ import math
 from collections import Counter
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -62,6 +63,7 @@ from umbmark.model import se2
 from umbmark.model.drive import integrate_wheels
 from umbmark.model.intervals import Intervals, IntervalSteps
 from umbmark.realrobot.scanmatch import ICPConfig, match_scan_pairs
+from umbmark.realrobot.wheels import recording_wheel_angles, wheel_angles_from_odometry
 
 __all__ = [
     "selfcal_history_fields",
@@ -292,49 +294,6 @@ composed (:class:`umbmark.model.intervals.IntervalSteps`), and the keyframes are
 scan matches, not on the wheel data (:func:`bag_intervals`)."""
 
 
-def wheel_angles_from_odometry(
-    pose: ArrayLike, wheel_radius_m: float, wheelbase_m: float
-) -> tuple[FloatArray, FloatArray]:
-    """Cumulative wheel angles that reproduce an odometry through a nominal geometry.
-
-    Per increment, the pose change ``(dx, dy, dth)`` in the frame of the earlier pose is taken
-    as an exact arc: its length is ``ds = (dx cos(dth/2) + dy sin(dth/2)) / sinc(dth/2)``
-    (signed: negative backwards), the wheels rolled ``ds - b dth / 2`` and ``ds + b dth / 2``
-    and turned that travel over the radius.
-
-    Parameters
-    ----------
-    pose : array_like
-        ``(K, 3)`` odometry poses ``(x_m, y_m, yaw_rad)`` in time order.
-    wheel_radius_m : float
-        The nominal wheel radius [m].
-    wheelbase_m : float
-        The wheelbase the odometry was computed with [m].
-
-    Returns
-    -------
-    tuple of numpy.ndarray
-        ``(left_rad, right_rad)``, each ``(K,)``, 0 at the first pose.
-
-    Raises
-    ------
-    InputError
-        If ``pose`` is not ``(K, 3)`` or the geometry is not positive.
-    """
-    r = _positive("wheel_radius_m", wheel_radius_m)
-    b = _positive("wheelbase_m", wheelbase_m)
-    p = np.asarray(pose, dtype=float)
-    if p.ndim != 2 or p.shape[1] != 3:
-        raise InputError(f"`pose` must have shape (K, 3), got {p.shape}")
-    d = se2.between(p[:-1], p[1:])
-    half = 0.5 * d[:, 2]
-    ds = (d[:, 0] * np.cos(half) + d[:, 1] * np.sin(half)) / se2.sinc(half)
-    zero = np.zeros(1)
-    left = np.concatenate([zero, np.cumsum(ds - 0.5 * b * d[:, 2])]) / r
-    right = np.concatenate([zero, np.cumsum(ds + 0.5 * b * d[:, 2])]) / r
-    return left, right
-
-
 def _matrix(tr: StaticTransform) -> FloatArray:
     x, y, z, w = tr.rotation
     n = math.sqrt(x * x + y * y + z * z + w * w)
@@ -472,26 +431,6 @@ class IntervalPlan:
         return len(self.dt_s)
 
 
-def _wheel_angles(bag: SelfcalBag, r_nom: float, b_nom: float) -> tuple[FloatArray, FloatArray, list[str]]:
-    """Cumulative wheel angles at the wheel stamps; joint positions wrapped to a turn are unwrapped."""
-    if bag.wheel_kind == "odom":
-        assert bag.odom_pose is not None
-        left, right = wheel_angles_from_odometry(bag.odom_pose, r_nom, b_nom)
-        return left, right, []
-    assert bag.left_rad is not None and bag.right_rad is not None
-    left, right = np.asarray(bag.left_rad, dtype=float), np.asarray(bag.right_rad, dtype=float)
-    if bag.wheel_kind != "joints":
-        return left, right, []
-    jumps = int((np.abs(np.diff(left)) > math.pi).sum() + (np.abs(np.diff(right)) > math.pi).sum())
-    if not jumps:
-        return left, right, []
-    warning = (
-        f"the wheel positions jump by more than half a turn {jumps} times between joint states (wrapped to one "
-        "turn?): unwrapped"
-    )
-    return np.unwrap(left), np.unwrap(right), [warning]
-
-
 def _span(t: FloatArray) -> str:
     return f"{t[0]:.3f} to {t[-1]:.3f} s"
 
@@ -601,7 +540,7 @@ def plan_intervals(
         raise InputError(f"`keyframes` must be a KeyframeRule, got {type(rule).__name__}")
     src = bag.source
     r_nom = 0.5 * d_nom
-    left, right, unwrapped = _wheel_angles(bag, r_nom, b_nom)
+    left, right, unwrapped = recording_wheel_angles(bag, r_nom, b_nom)
     wt = np.asarray(bag.wheel_t_s, dtype=float)
     if not (isinstance(scan_delay_s, (int, float, np.floating)) and math.isfinite(scan_delay_s)):
         raise InputError(f"`scan_delay_s` must be a finite number of seconds, got {scan_delay_s!r}")
@@ -1015,7 +954,7 @@ def estimate_scan_delay(
         heading = np.unwrap(np.asarray(bag.odom_pose, dtype=float)[:, 2])
     else:
         assert bag.left_rad is not None and bag.right_rad is not None
-        left, right, _ = _wheel_angles(bag, 0.5 * wheel_diameter_m, wheelbase_m)
+        left, right, _ = recording_wheel_angles(bag, 0.5 * wheel_diameter_m, wheelbase_m)
         heading = 0.5 * wheel_diameter_m * (right - left) / wheelbase_m
     wt = np.asarray(bag.wheel_t_s, dtype=float)
     st = np.asarray(bag.scan_t_s, dtype=float)
@@ -1231,11 +1170,23 @@ class SelfcalReport:
     intervals : Intervals
         The intervals of all inputs, pooled (what the estimate was made from; the indices of
         ``result.intervals_rejected`` refer to them).
+    sizes : tuple of int
+        The number of intervals of each input, in the pooled order (default: one input).
     """
 
     result: SelfcalResult
     parts: tuple[ScanIntervals | str, ...]
     intervals: Intervals
+    sizes: tuple[int, ...] = ()
+
+    @cached_property
+    def figures(self) -> dict[str, Any]:
+        """The data of the report's figures: the residuals over time and a map per bag
+        (:func:`umbmark.realrobot.selfcal_map.selfcal_figures`)."""
+        from umbmark.realrobot.selfcal_map import selfcal_figures
+
+        sizes = self.sizes or (len(self.intervals.dt_s),)
+        return selfcal_figures(self.parts, sizes, self.intervals, self.result)
 
     @property
     def bags(self) -> list[ScanIntervals]:
@@ -1279,7 +1230,8 @@ class SelfcalReport:
             ``keyframe_rule``, ``scan_delay`` (per bag :meth:`ScanIntervals.delay_dict`: the
             delay of its scans' stamps, ``applied_s``; null without bags) and ``inputs`` (one
             object per input: a bag's
-            :meth:`ScanIntervals.to_dict`, or ``path`` and ``kind`` ``intervals``).
+            :meth:`ScanIntervals.to_dict`, or ``path`` and ``kind`` ``intervals``) and ``figures``
+            (:attr:`figures`: what ``umbmark report`` draws).
         """
         bags = self.bags
         out = self.result.to_dict()
@@ -1304,6 +1256,7 @@ class SelfcalReport:
                     p.to_dict() if isinstance(p, ScanIntervals) else {"path": p, "kind": "intervals"}
                     for p in self.parts
                 ],
+                "figures": self.figures,
             }
         )
         return out
@@ -1525,7 +1478,7 @@ def selfcal_report(
     extra_w = _pose_warnings(kept, res)
     if extra_w:
         res = replace(res, warnings=list(res.warnings) + extra_w)
-    return SelfcalReport(res, tuple(kept), pooled)
+    return SelfcalReport(res, tuple(kept), pooled, tuple(len(iv.dt_s) for iv in ivs))
 
 
 def selfcal_from_bags(

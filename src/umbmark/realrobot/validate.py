@@ -17,7 +17,7 @@ The procedure:
    interpolated linearly (heading unwrapped) at ``scan stamp - scan delay``
    (:func:`recorded_odometry_at_scans`) and each increment between consecutive scans is turned
    into wheel travel through the NOMINAL geometry, as an exact arc
-   (:func:`umbmark.realrobot.selfcal.wheel_angles_from_odometry`: the chord gives the arc
+   (:func:`umbmark.realrobot.wheels.wheel_angles_from_odometry`: the chord gives the arc
    length from the heading change; left and right travel ``ds -/+ dth b / 2``, over the
    nominal radius). With joint states or encoder counts the wheel angles are interpolated at
    ``scan stamp - scan delay`` directly. The wheel angles are integrated again as exact arcs
@@ -76,7 +76,8 @@ from umbmark.io.tum import Trajectory, read_tum
 from umbmark.model import se2
 from umbmark.model.drive import integrate_wheels
 from umbmark.model.geometry import WheelGeometry
-from umbmark.realrobot.selfcal import _nominal_sensor_pose, _wheel_angles, wheel_angles_from_odometry
+from umbmark.realrobot.selfcal import _nominal_sensor_pose
+from umbmark.realrobot.wheels import recording_wheel_angles, wheel_angles_from_odometry
 
 __all__ = [
     "SHORT_MAX_S",
@@ -456,7 +457,7 @@ def wheel_angles_at_scans(
             recorded_odometry_at_scans(bag, scan_delay_s), 1.0, nominal.wheelbase_m
         )
         return left_m / r_left, right_m / r_right, []
-    left, right, warnings = _wheel_angles(bag, r_left, nominal.wheelbase_m)
+    left, right, warnings = recording_wheel_angles(bag, r_left, nominal.wheelbase_m)
     wt = np.asarray(bag.wheel_t_s, dtype=float)
     st = np.asarray(bag.scan_t_s, dtype=float) - float(scan_delay_s)
     return np.interp(st, wt, left), np.interp(st, wt, right), warnings

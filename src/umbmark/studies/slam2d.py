@@ -10,7 +10,7 @@ the **other** half:
 * ``recorded``: the robot's own odometry as recorded (poses interpolated to the scan stamps);
 * ``nominal``: the odometry recomputed from the wheel travel with the nominal geometry. The wheel
   travel comes from the odometry's increments through the nominal geometry
-  (:func:`umbmark.realrobot.selfcal.wheel_angles_from_odometry`, interpolated to the scans as
+  (:func:`umbmark.realrobot.wheels.wheel_angles_from_odometry`, interpolated to the scans as
   the pipeline does), so this reproduces the recorded odometry wherever its increments are
   arcs; it is the "before" of the comparison;
 * ``calibrated``: the odometry recomputed from the same wheel travel with the estimated wheel
@@ -111,7 +111,7 @@ def wheel_angles_at_scans(
 ) -> tuple[FloatArray, FloatArray]:
     """Cumulative wheel angles at the scan stamps, as the self-calibration pipeline makes them.
 
-    From ``nav_msgs/Odometry``: :func:`umbmark.realrobot.selfcal.wheel_angles_from_odometry`
+    From ``nav_msgs/Odometry``: :func:`umbmark.realrobot.wheels.wheel_angles_from_odometry`
     through the nominal geometry; from joints or encoders: the recorded angles. Then linear
     interpolation to the scans' stamps.
 
