@@ -407,6 +407,22 @@ def report_cmd(
         if robot is None:
             raise click.UsageError("give a runs file FILE.csv, --robot NAME (history) or --id N (a record)")
         summary = _history_page(robot, db, out_path)
+    elif (sc := _selfcal_input(runs_file, record_id, db)) is not None:
+        given = [
+            flag
+            for flag, v, default in (
+                ("--wheelbase-mm", wheelbase_mm, None),
+                ("--side-mm", side_mm, None),
+                ("--c-left", c_left, 1.0),
+                ("--c-right", c_right, 1.0),
+                ("--after", after_file, None),
+                ("--bootstrap", n_boot, None),
+            )
+            if v != default
+        ]
+        if given:
+            raise click.UsageError(f"a self-calibration holds its geometry and intervals: drop {', '.join(given)}")
+        summary = _selfcal_page(sc, out_path, attach, robot)
     else:
         if record_id is not None:
             if runs_file is not None:
@@ -421,6 +437,98 @@ def report_cmd(
         from rich.markup import escape
 
         console().print(escape(f"report: {out_path}"))
+
+
+def _selfcal_input(runs_file, record_id, db) -> dict | None:
+    """A self-calibration to report (its JSON, where it came from), or None for another kind."""
+    import json
+
+    from umbmark.viz.selfcal_report import is_selfcal_result
+
+    if record_id is not None:
+        from umbmark.history import open_history
+
+        with open_history(db, create=False) as h:
+            rec = h.get(record_id)
+        if rec.method != "selfcal" or not is_selfcal_result(rec.results):
+            return None
+        return {
+            "d": rec.results,
+            "source": None,
+            "sha": rec.input_sha256,
+            "robot": rec.robot,
+            "label": f"record #{rec.id} of {rec.created_utc[:16].replace('T', ' ')} UTC",
+        }
+    if not _is_json(runs_file):
+        return None
+    try:
+        d = json.loads(Path(runs_file).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError):
+        return None  # the replay reader says what is wrong with it
+    if not is_selfcal_result(d):
+        return None
+    from umbmark.history import file_sha256
+
+    return {"d": d, "source": str(runs_file), "sha": file_sha256(runs_file), "robot": None, "label": None}
+
+
+def _selfcal_page(sc: dict, out_path, attach, robot) -> dict:
+    """Write the HTML page of a self-calibration; the JSON summary."""
+    from umbmark.io.atomic import atomic_write
+    from umbmark.viz.selfcal_report import selfcal_page
+
+    robot = robot or sc["robot"]
+    what = sc["label"] or (Path(sc["source"]).name if sc["source"] else "self-calibration")
+    page = selfcal_page(
+        sc["d"],
+        title=f"Self-calibration report: {robot + ', ' if robot else ''}{what}",
+        source=sc["source"],
+        source_sha256=sc["sha"],
+        robot=robot,
+        exported=_attached(attach) or None,
+        load_commands=_load_commands(sc["source"]),
+    )
+    atomic_write(out_path, page)
+    d = sc["d"]
+    figures = d.get("figures") if isinstance(d.get("figures"), dict) else {}
+    return {
+        "out": out_path,
+        "kind": "selfcal",
+        "wheel_diameter_left_mm": d.get("wheel_diameter_left_mm"),
+        "wheel_diameter_right_mm": d.get("wheel_diameter_right_mm"),
+        "wheelbase_mm": d.get("wheelbase_mm"),
+        "sensor_pose": d.get("sensor_pose"),
+        "maps": len(figures.get("maps") or []),
+    }
+
+
+def _load_commands(source: str | None) -> str:
+    """The commands that export a self-calibration for the robot, naming its file."""
+    import shlex
+
+    name = shlex.quote(source) if source else "selfcal.json"
+    text = (
+        f"umbmark export {name} --format ros2 --out params.yaml   # diff_drive_controller\n"
+        f"umbmark export {name} --format urdf                     # the lidar's <origin> in the URDF\n"
+        f"umbmark export {name} --format tf                       # a static_transform_publisher line"
+    )
+    if not source:
+        text = "# selfcal.json: the result as saved by  umbmark selfcal ... --save selfcal.json\n" + text
+    return text
+
+
+def _attached(attach) -> dict[str, str]:
+    """File name -> text of the files given with --attach."""
+    exported = {}
+    for f in attach:
+        p = Path(f)
+        if not p.is_file():
+            raise InputError("file not found", source=f)
+        try:
+            exported[p.name] = p.read_text(encoding="utf-8")
+        except UnicodeDecodeError:
+            raise InputError("not a text file (only text exports can be shown)", source=f) from None
+    return exported
 
 
 def _history_page(robot: str, db, out_path) -> dict:
@@ -581,15 +689,7 @@ def _analysis_page(a: dict, out_path, after_file, attach, n_boot, seed) -> dict:
     wheelbase_m = positive("--wheelbase-mm", a["wheelbase_mm"]) * 1e-3
     analysis = a.get("analysis") or analyze(runs, side_m, wheelbase_m, method, prior)
     after = read_runs_csv(after_file) if after_file else a.get("after_runs")
-    exported = {}
-    for f in attach:
-        p = Path(f)
-        if not p.is_file():
-            raise InputError("file not found", source=f)
-        try:
-            exported[p.name] = p.read_text(encoding="utf-8")
-        except UnicodeDecodeError:
-            raise InputError("not a text file (only text exports can be shown)", source=f) from None
+    exported = _attached(attach)
     boot, note = None, None
     if n_boot is None:
         n_boot, note = default_bootstrap(method, len(runs))

@@ -1,6 +1,7 @@
 """Figures, reports and text: :mod:`~umbmark.viz.plots` (matplotlib figures made without pyplot),
-:mod:`~umbmark.viz.history_plot`, :mod:`~umbmark.viz.report` (self-contained HTML pages) and
-:mod:`~umbmark.viz.text` (the number formatter).
+:mod:`~umbmark.viz.history_plot`, :mod:`~umbmark.viz.report` (self-contained HTML pages),
+:mod:`~umbmark.viz.selfcal_report` (the page of a lidar self-calibration: estimates, map,
+residuals, the lidar on the robot) and :mod:`~umbmark.viz.text` (the number formatter).
 
 The names below are loaded when first used: importing this package imports no matplotlib.
 """
@@ -22,6 +23,8 @@ _LAZY = {
     "figure_data_uri": "umbmark.viz.report",
     "bootstrap_intervals": "umbmark.viz.report",
     "cg_intervals": "umbmark.viz.report",
+    "selfcal_page": "umbmark.viz.selfcal_report",
+    "is_selfcal_result": "umbmark.viz.selfcal_report",
     "fmt": "umbmark.viz.text",
 }
 

@@ -80,8 +80,30 @@ def _date_axis(ax, times: list) -> None:
     ax.set_xlabel("time (UTC)")
 
 
+def _ci(results: dict, *keys: str) -> tuple[float, float] | None:
+    """The first of ``keys`` in a record's results that holds a 95 % interval ``[low, high]``."""
+    for k in keys:
+        v = results.get(k) if isinstance(results, dict) else None
+        if isinstance(v, (list, tuple)) and len(v) == 2 and all(isinstance(x, (int, float)) for x in v):
+            return float(v[0]), float(v[1])
+    return None
+
+
+def _selfcal_value(r: Record, key: str, pose: bool = False) -> tuple[float | None, tuple[float, float] | None]:
+    """A self-calibration record's figure and its interval (None, None for another kind)."""
+    res = r.results if isinstance(r.results, dict) else {}
+    if r.method != "selfcal":
+        return None, None
+    src = res.get("sensor_pose") if pose else res
+    if not isinstance(src, dict) or not isinstance(src.get(key), (int, float)):
+        return None, None
+    return float(src[key]), _ci(src, f"{key}_ci95")
+
+
 def history_figure(records: list[Record], title: str | None = None):
-    """E_max,syst, E_d, E_b and the recommended wheelbase over time (one panel each).
+    """E_max,syst, E_d, E_b and the recommended wheelbase over time (one panel each), with the
+    records' 95 % intervals where they hold them; with self-calibrations also the wheel
+    diameters and the lidar's position. A panel no record has a value for is left out.
 
     Parameters
     ----------
@@ -98,26 +120,58 @@ def history_figure(records: list[Record], title: str | None = None):
     from umbmark.viz.plots import new_figure
 
     s = series(records)
-    fig = new_figure((8, 9))
-    axes = fig.subplots(4, 1, sharex=True)
-    panels = [
-        (s.emax_syst_mm, "E_max,syst [mm]\n(measured, before)"),
-        (s.ed, "E_d = D_R / D_L"),
-        (s.eb, "E_b"),
-        (s.wheelbase_mm, "wheelbase [mm]\n(recommended)"),
+    res = [r.results if isinstance(r.results, dict) else {} for r in records]
+    plain = [None] * len(records)
+    panels: list[tuple[str, list[tuple[str, list, list]]]] = [
+        ("E_max,syst [mm]\n(measured, before)", [("", s.emax_syst_mm, plain)]),
+        ("E_d = D_R / D_L", [("", s.ed, [_ci(x, "Ed_ci95") for x in res])]),
+        ("E_b", [("", s.eb, [_ci(x, "Eb_ci95") for x in res])]),
+        (
+            "wheelbase [mm]\n(recommended)",
+            [("", s.wheelbase_mm, [_ci(x, "wheelbase_mm_ci95", "wheelbase_corrected_mm_ci95") for x in res])],
+        ),
     ]
-    for ax, (vals, label) in zip(axes, panels):
-        pts = [(t, v) for t, v in zip(s.times, vals) if v is not None]
-        if pts:
-            ax.plot([p[0] for p in pts], [p[1] for p in pts], "o-", color="tab:blue", ms=5)
-            for (t, v), rid in zip(pts, [i for i, v in zip(s.ids, vals) if v is not None]):
-                ax.annotate(f"#{rid}", (t, v), textcoords="offset points", xytext=(4, 4), fontsize=7, color="0.35")
+    sc = [[_selfcal_value(r, k) for r in records] for k in ("wheel_diameter_left_mm", "wheel_diameter_right_mm")]
+    pose = [[_selfcal_value(r, k, pose=True) for r in records] for k in ("x_mm", "y_mm")]
+    if any(v is not None for v, _ in sc[0]):
+        panels.append(
+            (
+                "wheel diameters [mm]\n(self-calibration)",
+                [(lab, [v for v, _ in vals], [c for _, c in vals]) for lab, vals in zip(("D_L", "D_R"), sc)],
+            )
+        )
+        panels.append(
+            (
+                "lidar position [mm]\n(self-calibration)",
+                [(lab, [v for v, _ in vals], [c for _, c in vals]) for lab, vals in zip(("x", "y"), pose)],
+            )
+        )
+    panels = [p for p in panels if any(v is not None for _, vals, _ in p[1] for v in vals)]
+    fig = new_figure((8, 2.2 * max(len(panels), 1) + 0.6))
+    axes = fig.subplots(max(len(panels), 1), 1, sharex=True, squeeze=False)[:, 0]
+    for ax, (label, lines) in zip(axes, panels):
+        for j, (name, vals, cis) in enumerate(lines):
+            colour = "tab:blue" if j == 0 else "tab:orange"
+            pts = [(t, v, c, i) for t, v, c, i in zip(s.times, vals, cis, s.ids) if v is not None]
+            if not pts:
+                continue
+            ts, vs = [p[0] for p in pts], [p[1] for p in pts]
+            ax.plot(ts, vs, "o-", color=colour, ms=5, label=name or None)
+            for t, _v, c, _ in pts:
+                if c is not None:
+                    ax.plot([t, t], [c[0], c[1]], "-", color=colour, lw=2.5, alpha=0.45)
+            if j == 0:
+                for t, v, _, rid in pts:
+                    ax.annotate(f"#{rid}", (t, v), textcoords="offset points", xytext=(4, 4), fontsize=7, color="0.35")
+        if any(name for name, _, _ in lines):
+            ax.legend(fontsize=7, loc="best")
         ax.set_ylabel(label, fontsize=8)
         ax.grid(True, lw=0.3)
         ax.ticklabel_format(axis="y", useOffset=False, style="plain")
-    axes[0].set_ylim(bottom=0)
+        if label.startswith("E_max"):
+            ax.set_ylim(bottom=0)
     _date_axis(axes[-1], s.times)
     robot = records[0].robot if records else ""
-    fig.suptitle(title or f"Calibration history of {robot} ({len(records)} records)")
+    fig.suptitle(title or f"Calibration history of {robot} ({len(records)} records; bars: 95 % intervals)")
     fig.tight_layout()
     return fig

@@ -37,7 +37,19 @@ __all__ = [
     "default_bootstrap",
     "exact_resample_options",
     "replay_analysis",
+    "SELFCAL_DEFINITIONS",
 ]
+
+#: What the figures of a self-calibration mean (its page and the history page print it).
+SELFCAL_DEFINITIONS = (
+    "D_L, D_R: the wheel diameters, and the wheelbase: the effective distance between the wheels, that make "
+    "the wheel odometry move as the lidar saw the robot move (Censi et al., IEEE T-RO 2013). E_d = D_R / D_L; "
+    "E_b = wheelbase / nominal wheelbase. c_left = D_L / D_nominal, c_right = D_R / D_nominal: the factors on "
+    "each wheel's travel (the wheel radius multipliers of diff_drive_controller). The lidar's pose: x forward "
+    "and y to the left of the midpoint between the wheels, yaw counter-clockwise from the robot's heading. "
+    "Residual: the lidar's measured displacement over an interval minus the one the estimate predicts from "
+    "the wheels, in the lidar's frame at the interval's start."
+)
 
 _CSS = """
 body{font-family:system-ui,-apple-system,"Segoe UI",Helvetica,Arial,sans-serif;margin:2em auto;max-width:60em;
@@ -623,14 +635,72 @@ def analysis_report(
     return _page(title, "\n".join(body))
 
 
-def _definitions() -> str:
-    return (
-        '<h2>Definitions</h2><p class="meta">Return position error eps = absolute &minus; odometry '
-        "(Eq. 3.1); centre of gravity per direction (Eq. 3.2), r_cg its distance from the origin; "
-        "E<sub>max,syst</sub> = max(r_cg,cw, r_cg,ccw) (Eq. 3.4). std: radial sample standard deviation "
-        "of the return errors about their centre of gravity; SEM = std / sqrt(n). E_d = D_R / D_L, "
-        "E_b = b_actual / b_nominal, c_left = 2 / (E_d + 1), c_right = 2 / (1/E_d + 1) (Borenstein &amp; "
-        "Feng, Eqs. 4.20 &ndash; 4.32).</p>"
+_UMBMARK_DEFINITIONS = (
+    "Return position error eps = absolute &minus; odometry "
+    "(Eq. 3.1); centre of gravity per direction (Eq. 3.2), r_cg its distance from the origin; "
+    "E<sub>max,syst</sub> = max(r_cg,cw, r_cg,ccw) (Eq. 3.4). std: radial sample standard deviation "
+    "of the return errors about their centre of gravity; SEM = std / sqrt(n). E_d = D_R / D_L, "
+    "E_b = b_actual / b_nominal, c_left = 2 / (E_d + 1), c_right = 2 / (1/E_d + 1) (Borenstein &amp; "
+    "Feng, Eqs. 4.20 &ndash; 4.32)."
+)
+
+
+def _definitions(kinds: set[str] | None = None) -> str:
+    """The Definitions section: UMBmark's, and the self-calibration's when ``kinds`` holds it."""
+
+    if kinds is None or kinds == {"umbmark"}:
+        return f'<h2>Definitions</h2><p class="meta">{_UMBMARK_DEFINITIONS}</p>'
+    parts = []
+    if "umbmark" in kinds:
+        parts.append(f'<p class="meta"><b>Square runs (analyze, replay, calibrate):</b> {_UMBMARK_DEFINITIONS}</p>')
+    if "selfcal" in kinds:
+        parts.append(f'<p class="meta"><b>Self-calibrations:</b> {_e(SELFCAL_DEFINITIONS)}</p>')
+    return "<h2>Definitions</h2>" + "".join(parts)
+
+
+def _selfcal_table(records) -> str:
+    """One row per self-calibration record: its diameters, wheelbase and lidar pose with intervals."""
+
+    def cell(d: dict, key: str, digits: int) -> str:
+        v = d.get(key)
+        ci = d.get(f"{key}_ci95")
+        if not isinstance(v, (int, float)):
+            return "-"
+        if isinstance(ci, (list, tuple)) and len(ci) == 2 and None not in ci:
+            return f"{fmt(v, digits)} [{fmt(ci[0], digits)}, {fmt(ci[1], digits)}]"
+        return fmt(v, digits)
+
+    rows = []
+    for r in records:
+        d = r.results if isinstance(r.results, dict) else {}
+        sp = d.get("sensor_pose") if isinstance(d.get("sensor_pose"), dict) else {}
+        delays = [x.get("applied_s") for x in (d.get("scan_delay") or []) if isinstance(x, dict)]
+        delay = ", ".join(fmt(x * 1e3, 1) for x in delays if isinstance(x, (int, float))) or "-"
+        rows.append(
+            [
+                f"#{r.id}",
+                r.created_utc[:19].replace("T", " "),
+                cell(d, "wheel_diameter_left_mm", 3),
+                cell(d, "wheel_diameter_right_mm", 3),
+                cell(d, "wheelbase_mm", 2),
+                f"{fmt(sp.get('x_mm'), 1)}, {fmt(sp.get('y_mm'), 1)}, {fmt(sp.get('yaw_deg'), 2)}",
+                f"{d.get('intervals_used', '-')} / {len(d.get('intervals_rejected') or [])}",
+                delay,
+            ]
+        )
+    return _table(
+        [
+            "id",
+            "time (UTC)",
+            "D_L [mm] [95 %]",
+            "D_R [mm] [95 %]",
+            "wheelbase [mm] [95 %]",
+            "lidar x, y [mm], yaw [deg]",
+            "intervals used / rejected",
+            "scans' delay [ms]",
+        ],
+        rows,
+        cls="records",
     )
 
 
@@ -713,15 +783,32 @@ def history_report(records, *, title: str | None = None, db_path: str | None = N
     body = [f"<h1>{_e(title)}</h1>", f'<p class="meta">{" &middot; ".join(_e(m) for m in meta)}</p>']
     body.append("<h2>Records</h2>")
     body.append(_records_table(records))
+    selfcals = [r for r in records if r.method == "selfcal" and isinstance(r.results, dict)]
+    if selfcals:
+        body.append("<h2>Self-calibrations</h2>")
+        body.append(
+            "<p>The wheel diameters, wheelbase and lidar pose each self-calibration found, with their 95 % "
+            "intervals (each record also has a page of its own, by its id).</p>"
+        )
+        body.append(_selfcal_table(selfcals))
     body.append("<h2>Over time</h2>")
     body.append(_img(figure_data_uri(history_figure(records)), "history plot"))
     latest = records[-1]
     ex = export_parameters(latest)
     body.append("<h2>Latest recommended parameters</h2>")
+    extra = ""
+    if latest.method == "selfcal" and isinstance(latest.results, dict):
+        d = latest.results
+        sp = d.get("sensor_pose") if isinstance(d.get("sensor_pose"), dict) else {}
+        extra = (
+            f"<p>D_L = {fmt(d.get('wheel_diameter_left_mm'), 3)} mm, D_R = {fmt(d.get('wheel_diameter_right_mm'), 3)}"
+            f" mm; the lidar at x = {fmt(sp.get('x_mm'), 1)} mm, y = {fmt(sp.get('y_mm'), 1)} mm, yaw = "
+            f"{fmt(sp.get('yaw_deg'), 2)} deg.</p>"
+        )
     body.append(
         f'<div class="box"><p>Record #{latest.id} ({_e(latest.created_utc)}): '
         f"<b>c_left = {fmt(ex['c_left'], 6)}</b>, <b>c_right = {fmt(ex['c_right'], 6)}</b>, "
-        f"<b>wheelbase = {fmt(ex['corrected_wheelbase_mm'], 2)} mm</b>.</p></div>"
+        f"<b>wheelbase = {fmt(ex['corrected_wheelbase_mm'], 2)} mm</b>.</p>{extra}</div>"
     )
     runs_rows = latest.inputs.get("runs") if isinstance(latest.inputs, dict) else None
     if runs_rows:
@@ -733,5 +820,5 @@ def history_report(records, *, title: str | None = None, db_path: str | None = N
             )
         except Exception:  # noqa: BLE001  a malformed stored input must not stop the report
             body.append('<p class="warn">The latest record\'s runs could not be drawn.</p>')
-    body.append(_definitions())
+    body.append(_definitions({"selfcal" if r.method == "selfcal" else "umbmark" for r in records}))
     return _page(title, "\n".join(body), body_cls="wide")
