@@ -1,14 +1,12 @@
-"""HTML reports: well-formed, self-contained, images that decode; optional headless-browser render."""
+"""HTML reports: well-formed, self-contained, images that decode (rendered in a browser: test_browser.py)."""
 
-import base64
-import io
 import json
-import shutil
 import subprocess
 from html.parser import HTMLParser
 
 import numpy as np
 import pytest
+from pages import PNG, check_page
 
 from umbmark.cli import main
 from umbmark.correct.analysis import analyze
@@ -17,61 +15,6 @@ from umbmark.io.runs_csv import write_runs_csv
 from umbmark.model.geometry import FIG11_ERRORS, ErrorParams
 from umbmark.model.simulate import simulate_umbmark
 from umbmark.viz.report import analysis_report, bootstrap_intervals, cg_intervals, history_report
-
-PNG = b"\x89PNG\r\n\x1a\n"
-VOID = {"meta", "img", "br", "hr", "link", "input", "col", "area", "base", "source", "wbr"}
-
-
-class Checker(HTMLParser):
-    """Collects images and links; checks that every non-void element is closed in order."""
-
-    def __init__(self):
-        super().__init__()
-        self.stack, self.errors, self.images, self.refs, self.text = [], [], [], [], []
-        self.doctype = None
-
-    def handle_decl(self, decl):
-        self.doctype = decl
-
-    def handle_starttag(self, tag, attrs):
-        a = dict(attrs)
-        if tag == "img":
-            self.images.append(a)
-        for k in ("src", "href"):
-            if k in a:
-                self.refs.append(a[k])
-        if tag not in VOID:
-            self.stack.append(tag)
-
-    def handle_endtag(self, tag):
-        if not self.stack or self.stack[-1] != tag:
-            self.errors.append(f"</{tag}> closes {self.stack[-1] if self.stack else 'nothing'}")
-        else:
-            self.stack.pop()
-
-    def handle_data(self, data):
-        self.text.append(data)
-
-
-def check_page(page: str) -> Checker:
-    c = Checker()
-    c.feed(page)
-    c.close()
-    assert c.doctype and c.doctype.lower() == "doctype html"
-    assert c.errors == [] and c.stack == []
-    assert c.images, "no images"
-    for ref in c.refs:  # self-contained: nothing fetched from elsewhere
-        assert ref.startswith("data:image/png;base64,"), ref[:60]
-    import matplotlib.image as mpimg
-
-    for img in c.images:
-        assert img.get("alt")
-        raw = base64.b64decode(img["src"].split(",", 1)[1], validate=True)
-        assert raw[:8] == PNG
-        pixels = mpimg.imread(io.BytesIO(raw), format="png")
-        assert pixels.shape[0] > 200 and pixels.shape[1] > 200
-        assert float(np.std(pixels)) > 0.01  # not a blank image
-    return c
 
 
 @pytest.fixture(scope="module")
@@ -218,44 +161,6 @@ def test_report_cli(tmp_path, capsys, monkeypatch):
     assert "--wheelbase-mm and --side-mm are required" in capsys.readouterr().err
     assert main(["report", "--robot", "ghost", "--out", str(tmp_path / "x.html")]) == 2
     assert not (tmp_path / "x.html").exists()
-
-
-def _browser():
-    for name in ("chromium", "chromium-browser", "google-chrome"):
-        if shutil.which(name):
-            return shutil.which(name)
-    return None
-
-
-@pytest.mark.slow
-@pytest.mark.skipif(_browser() is None, reason="no headless Chromium installed (optional check)")
-def test_report_renders_in_headless_chromium(tmp_path, analysis):
-    page = tmp_path / "r.html"
-    page.write_text(analysis_report(analysis, title="render check"))
-    shot = tmp_path / "shot.png"
-    cmd = [
-        _browser(),
-        "--headless",
-        "--no-sandbox",
-        "--disable-gpu",
-        "--no-first-run",
-        "--disable-background-networking",
-        "--disable-component-update",
-        "--disable-sync",
-        f"--user-data-dir={tmp_path / 'profile'}",
-        "--window-size=1000,2400",
-        f"--screenshot={shot}",
-        page.as_uri(),
-    ]
-    subprocess.run(cmd, capture_output=True, timeout=120)
-    assert shot.read_bytes()[:8] == PNG
-    import matplotlib.image as mpimg
-
-    px = mpimg.imread(shot)
-    assert px.shape[0] == 2400 and px.shape[1] == 1000
-    # the embedded scatter plot drew: a band of rows in the lower part with dark pixels (axes, markers)
-    dark = px[..., :3].mean(axis=-1) < 0.5
-    assert dark[1200:].sum() > 2000
 
 
 BACKEND_PROBE = """
