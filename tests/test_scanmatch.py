@@ -440,3 +440,36 @@ def test_benchmark_script_runs(tmp_path):
     assert ours["pairs"] == 30 and ours["converged"] == 1.0 and ours["position_mm"]["median"] < 1.0
     assert res["sets"]["large, zero guess"]["results"]["umbmark match_scan_pairs, coarse stage"]["failures"] == 0.0
     assert res["machine"]["cpu_model"] and res["command"].startswith("python ")
+
+
+def test_kernel_state_says_whether_the_matcher_is_compiled(monkeypatch):
+    import umbmark.realrobot.scanmatch as sm
+
+    lidar = Lidar(range_noise_m=0.005, n_beams=90)
+    ref, cur, truth = draw_pairs(lidar, 1, seed=16)
+    match_scans(ref[0], cur[0], lidar.angles_rad, truth[0])
+    assert sm.kernel_state() == "ready"  # compiled in this process (or loaded from numba's cache)
+    monkeypatch.setattr(sm, "numba_module", lambda: None)
+    assert sm.kernel_state() == "interpreted"
+
+
+@pytest.mark.parametrize(
+    "state, terminal, said",
+    [
+        ("interpreted", False, "warning: numba is not installed"),
+        ("compile", True, "compiling the scan matcher (once per machine"),
+        ("compile", False, ""),
+        ("ready", True, ""),
+    ],
+)
+def test_selfcal_says_when_the_matching_will_be_slow(monkeypatch, capsys, state, terminal, said):
+    import umbmark.cli.progress as progress
+    import umbmark.realrobot.scanmatch as sm
+    from umbmark.cli.selfcal import _say_kernel_state
+
+    monkeypatch.setattr(sm, "kernel_state", lambda: state)
+    monkeypatch.setattr(progress, "progress_enabled", lambda console=None: terminal)
+    _say_kernel_state()
+    err = capsys.readouterr().err
+    assert (said in err) if said else err == ""
+    assert len(err.splitlines()) <= 1

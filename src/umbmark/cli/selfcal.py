@@ -428,6 +428,25 @@ def _bag_flags(kw) -> list[str]:
     return out
 
 
+def _say_kernel_state() -> None:
+    """One line on stderr when the scan matching will be slow: numba missing (always, but with
+    --quiet), or its kernels not yet compiled on this machine (on a terminal)."""
+    from umbmark.cli.progress import progress_enabled
+    from umbmark.realrobot.scanmatch import kernel_state
+
+    if is_quiet():
+        return
+    state = kernel_state()
+    if state == "interpreted":
+        click.echo(
+            "warning: numba is not installed: the scan matcher runs interpreted, about 100 times slower "
+            "(pip install numba)",
+            err=True,
+        )
+    elif state == "compile" and progress_enabled():
+        click.echo("compiling the scan matcher (once per machine, about 20 s)", err=True)
+
+
 def _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json):
     """Read, plan and match every bag (with progress bars; the scans' delay estimated or applied as
     ``--scan-delay`` says), then self-calibrate the pooled intervals."""
@@ -478,6 +497,7 @@ def _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json):
         raise InputError(
             f"--scan-delay must be auto, off or seconds (positive: the scans are late), got {kw['scan_delay']!r}"
         ) from None
+    _say_kernel_state()
     parts = []
     with _Bars(enabled=not as_json) as bars:
         for p in paths:

@@ -87,6 +87,7 @@ __all__ = [
     "match_scan_pairs",
     "match_consecutive",
     "have_numba",
+    "kernel_state",
     "STATUS_REASONS",
 ]
 
@@ -1300,6 +1301,29 @@ def have_numba() -> bool:
     bool
     """
     return numba_module() is not None
+
+
+def kernel_state() -> str:
+    """Whether the scan matcher's kernels are ready to run fast.
+
+    Returns
+    -------
+    str
+        ``"interpreted"`` without numba (the same results, about a hundred times slower);
+        ``"compile"`` when the next match compiles them (once per machine: numba caches the
+        machine code beside the module, or in ``NUMBA_CACHE_DIR``); ``"ready"`` when they are
+        compiled in this process or in numba's cache.
+    """
+    if not have_numba():
+        return "interpreted"
+    kernel = _kernel()
+    if getattr(kernel, "signatures", None):
+        return "ready"
+    try:
+        cached = bool(kernel._cache._cache_file._load_index())  # numba's own check of the source stamp
+    except Exception:  # another numba's layout: nothing known, nothing said
+        return "ready"
+    return "ready" if cached else "compile"
 
 
 def _kernel() -> Any:
