@@ -413,7 +413,12 @@ def test_report_of_a_replay_result_refuses_what_it_cannot_use(replay_bag, tmp_pa
     d = json.loads(save.read_text())
     for name, broken, said in (
         ("path.json", {**d, "kind": "path"}, "not square runs"),
-        ("other.json", {"Ed": 1.0}, "not a replay result"),
+        ("other.json", {"Ed": 1.0}, "not a result the report can show"),
+        (
+            "analysis.json",
+            {"cw": {}, "ccw": {}, "emax_syst_mm": 1.0, "file": "runs.csv"},
+            "runs file it was made from (runs.csv)",
+        ),
         ("norun.json", {**d, "before": {"runs": [{"run": "a"}]}}, "have no return errors"),
     ):
         (tmp_path / name).write_text(json.dumps(broken))

@@ -397,8 +397,17 @@ def replay_analysis(result: dict, source: str = "<replay>"):
     from umbmark.metrics import umbmark
     from umbmark.model.geometry import Calibration
 
+    if isinstance(result, dict) and {"cw", "ccw", "emax_syst_mm"} <= result.keys():
+        made_from = result.get("file")
+        raise InputError(
+            "an analysis result holds the figures, not the runs: report the runs file it was made from"
+            + (f" ({made_from})" if isinstance(made_from, str) and made_from else ""),
+            source=source,
+        )
     if not isinstance(result, dict) or "before" not in result or "method" not in result:
-        raise InputError("not a replay result (the JSON a replay saves)", source=source)
+        raise InputError(
+            "not a result the report can show (the JSON a replay or a self-calibration saves)", source=source
+        )
     if result.get("kind") != "square":
         raise InputError(
             f"the replay result is of a {result.get('kind', 'general')} path, not square runs: the report needs "
