@@ -3,7 +3,6 @@ page with self-calibrations: the estimates with their intervals, the map before 
 texts to load; a damaged result or flags that belong to UMBmark reports say so."""
 
 import json
-import math
 import re
 
 import numpy as np
@@ -13,21 +12,15 @@ from hypothesis import strategies as st
 from pages import check_page
 
 pytest.importorskip("rosbags")
+from test_selfcal_cli import ROBOT  # noqa: E402  (the simulated robot of the selfcal command tests)
+
 from umbmark.cli import main  # noqa: E402
 from umbmark.io.rosbag_write import write_drive_bag  # noqa: E402
 from umbmark.jsonutil import decode_array, encode_array  # noqa: E402
-from umbmark.model.drive import SimRobot, mixed_program, simulate_drive  # noqa: E402
-from umbmark.model.geometry import LABMATE, ErrorParams  # noqa: E402
-from umbmark.model.sensors import Lidar, SensorPose  # noqa: E402
+from umbmark.model.drive import mixed_program, simulate_drive  # noqa: E402
 from umbmark.realrobot.selfcal_map import decode_map, map_points, map_spread  # noqa: E402
 from umbmark.viz.text import fmt  # noqa: E402
 
-ROBOT = SimRobot(
-    nominal=LABMATE,
-    errors=ErrorParams(ed=1.008, eb=1.02, es=1.0),
-    sensor_pose=SensorPose(0.10, 0.02, math.radians(-3.0)),
-    lidar=Lidar(n_beams=180, range_noise_m=0.003),
-)
 ARGS = ["--joints", "left_wheel_joint,right_wheel_joint", "--wheel-diameter-mm", "150", "--wheelbase-mm", "340"]
 
 

@@ -408,18 +408,8 @@ def report_cmd(
             raise click.UsageError("give a runs file FILE.csv, --robot NAME (history) or --id N (a record)")
         summary = _history_page(robot, db, out_path)
     elif (sc := _selfcal_input(runs_file, record_id, db)) is not None:
-        given = [
-            flag
-            for flag, v, default in (
-                ("--wheelbase-mm", wheelbase_mm, None),
-                ("--side-mm", side_mm, None),
-                ("--c-left", c_left, 1.0),
-                ("--c-right", c_right, 1.0),
-                ("--after", after_file, None),
-                ("--bootstrap", n_boot, None),
-            )
-            if v != default
-        ]
+        given = _geometry_flags(wheelbase_mm, side_mm, c_left, c_right)
+        given += [flag for flag, v in (("--after", after_file), ("--bootstrap", n_boot)) if v is not None]
         if given:
             raise click.UsageError(f"a self-calibration holds its geometry and intervals: drop {', '.join(given)}")
         summary = _selfcal_page(sc, out_path, attach, robot)
@@ -603,14 +593,9 @@ def _is_json(path) -> bool:
     return head.startswith(b"{")
 
 
-def _replay_file_analysis(runs_file, wheelbase_mm, side_mm, method, c_left, c_right, robot) -> dict:
-    """What a report of a replay result (``replay --save``) needs (as :func:`_record_analysis`)."""
-    import json
-
-    from umbmark.history import file_sha256
-    from umbmark.viz.report import replay_analysis
-
-    given = [
+def _geometry_flags(wheelbase_mm, side_mm, c_left, c_right) -> list[str]:
+    """The geometry and calibration flags given (a saved result holds its own)."""
+    return [
         flag
         for flag, v, default in (
             ("--wheelbase-mm", wheelbase_mm, None),
@@ -620,6 +605,16 @@ def _replay_file_analysis(runs_file, wheelbase_mm, side_mm, method, c_left, c_ri
         )
         if v != default
     ]
+
+
+def _replay_file_analysis(runs_file, wheelbase_mm, side_mm, method, c_left, c_right, robot) -> dict:
+    """What a report of a replay result (``replay --save``) needs (as :func:`_record_analysis`)."""
+    import json
+
+    from umbmark.history import file_sha256
+    from umbmark.viz.report import replay_analysis
+
+    given = _geometry_flags(wheelbase_mm, side_mm, c_left, c_right)
     if given:
         raise click.UsageError(f"a replay result holds its geometry and calibration: drop {', '.join(given)}")
     try:

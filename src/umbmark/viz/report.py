@@ -66,6 +66,17 @@ table.records th{white-space:normal}table.records td.src{white-space:normal;over
 """
 
 
+def _header(title: str, when: str | None, robot: str | None, source: str | None, sha256: str | None) -> list[str]:
+    """A page's title and its line of where and when it was made."""
+    when = when or datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
+    meta = [f"generated {when} by umbmark {__version__}"]
+    if robot:
+        meta.insert(0, f"robot {robot}")
+    if source:
+        meta.append(source + (f" (sha256 {sha256[:16]}\u2026)" if sha256 else ""))
+    return [f"<h1>{_e(title)}</h1>", f'<p class="meta">{" &middot; ".join(_e(m) for m in meta)}</p>']
+
+
 def figure_data_uri(fig, dpi: int = 100) -> str:
     """A figure as a ``data:image/png;base64,...`` URI, to embed in a page.
 
@@ -612,13 +623,7 @@ def analysis_report(
     from umbmark.viz.plots import scatter_figure, trajectory_figure
 
     title = title or "UMBmark report"
-    when = when or datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    meta = [f"generated {when} by umbmark {__version__}"]
-    if robot:
-        meta.insert(0, f"robot {robot}")
-    if source:
-        meta.append(f"input {source}" + (f" (sha256 {source_sha256[:16]}\u2026)" if source_sha256 else ""))
-    body = [f"<h1>{_e(title)}</h1>", f'<p class="meta">{" &middot; ".join(_e(m) for m in meta)}</p>']
+    body = _header(title, when, robot, f"input {source}" if source else None, source_sha256)
     body.append(_analysis_sections(analysis, boot, prior, boot_note))
     body.append("<h2>Return position errors: scatter</h2>")
     if after_runs is not None:

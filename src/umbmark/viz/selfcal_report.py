@@ -11,14 +11,12 @@ history record): its ``figures`` carry the map and the residuals
 from __future__ import annotations
 
 import math
-from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from umbmark._version import __version__
-from umbmark.viz.report import SELFCAL_DEFINITIONS, _e, _img, _page, _table, figure_data_uri
+from umbmark.viz.report import SELFCAL_DEFINITIONS, _e, _header, _img, _page, _table, figure_data_uri
 from umbmark.viz.text import fmt
 
 __all__ = [
@@ -369,15 +367,9 @@ def selfcal_page(
     from umbmark.realrobot.selfcal_map import decode_map, decode_residuals
 
     title = title or "Self-calibration report"
-    when = when or datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
-    meta = [f"generated {when} by umbmark {__version__}"]
-    if robot:
-        meta.insert(0, f"robot {robot}")
-    if source:
-        meta.append(f"result {source}" + (f" (sha256 {source_sha256[:16]}\u2026)" if source_sha256 else ""))
+    body = _header(title, when, robot, f"result {source}" if source else None, source_sha256)
     inputs = [i for i in (d.get("inputs") or []) if isinstance(i, dict)]
     names = [Path(str(i.get("path", "?"))).name for i in inputs]
-    body = [f"<h1>{_e(title)}</h1>", f'<p class="meta">{" &middot; ".join(_e(m) for m in meta)}</p>']
     used = d.get("intervals_used")
     rejected = d.get("intervals_rejected") or []
     span = d.get("time_span_s")
