@@ -429,8 +429,8 @@ def _bag_flags(kw) -> list[str]:
 
 
 def _say_kernel_state() -> None:
-    """One line on stderr when the scan matching will be slow: numba missing (always, but with
-    --quiet), or its kernels not yet compiled on this machine (on a terminal)."""
+    """One line on stderr when the scan matching will be slow (nothing with --quiet): numba
+    missing, or its kernels not yet compiled on this machine (only on a terminal)."""
     from umbmark.cli.progress import progress_enabled
     from umbmark.realrobot.scanmatch import kernel_state
 

@@ -63,7 +63,7 @@ from umbmark.model import se2
 from umbmark.model.drive import integrate_wheels
 from umbmark.model.intervals import Intervals, IntervalSteps
 from umbmark.realrobot.scanmatch import ICPConfig, match_scan_pairs
-from umbmark.realrobot.wheels import recording_wheel_angles, wheel_angles_from_odometry
+from umbmark.realrobot.wheels import _positive, recording_wheel_angles, wheel_angles_from_odometry
 
 __all__ = [
     "selfcal_history_fields",
@@ -126,14 +126,6 @@ turn, or 2 s (:data:`DEFAULT_KEYFRAMES`)."""
 
 FloatArray = NDArray[np.float64]
 Progress = Callable[[int, int], None]
-
-
-def _positive(name: str, v: float, allow_zero: bool = False, allow_inf: bool = False) -> float:
-    ok = isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool) and not math.isnan(v)
-    ok = ok and (v >= 0 if allow_zero else v > 0) and (allow_inf or math.isfinite(v))
-    if not ok:
-        raise InputError(f"`{name}` must be a {'non-negative' if allow_zero else 'positive'} number, got {v!r}")
-    return float(v)
 
 
 @dataclass(frozen=True)

@@ -19,10 +19,13 @@ __all__ = ["wheel_angles_from_odometry", "recording_wheel_angles", "scan_wheel_a
 FloatArray = NDArray[np.float64]
 
 
-def _positive(name: str, v: float) -> float:
-    ok = isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
-    if not (ok and math.isfinite(v) and v > 0):
-        raise InputError(f"`{name}` must be a positive number, got {v!r}")
+def _positive(name: str, v: float, allow_zero: bool = False, allow_inf: bool = False) -> float:
+    """``v`` as a float, or an InputError naming ``name`` (positive, or non-negative; finite unless
+    ``allow_inf``)."""
+    ok = isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool) and not math.isnan(v)
+    ok = ok and (v >= 0 if allow_zero else v > 0) and (allow_inf or math.isfinite(v))
+    if not ok:
+        raise InputError(f"`{name}` must be a {'non-negative' if allow_zero else 'positive'} number, got {v!r}")
     return float(v)
 
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from umbmark.history.base import Record
+from umbmark.viz.text import interval95
 
 __all__ = ["series", "history_figure"]
 
@@ -83,9 +84,9 @@ def _date_axis(ax, times: list) -> None:
 def _ci(results: dict, *keys: str) -> tuple[float, float] | None:
     """The first of ``keys`` in a record's results that holds a 95 % interval ``[low, high]``."""
     for k in keys:
-        v = results.get(k) if isinstance(results, dict) else None
-        if isinstance(v, (list, tuple)) and len(v) == 2 and all(isinstance(x, (int, float)) for x in v):
-            return float(v[0]), float(v[1])
+        ci = interval95(results, k)
+        if ci is not None:
+            return ci
     return None
 
 

@@ -26,7 +26,7 @@ import numpy as np
 
 from umbmark._version import __version__
 from umbmark.errors import CorrectionUndefined
-from umbmark.viz.text import fmt
+from umbmark.viz.text import fmt, interval95
 
 __all__ = [
     "analysis_report",
@@ -677,10 +677,10 @@ def _selfcal_table(records) -> str:
 
     def cell(d: dict, key: str, digits: int) -> str:
         v = d.get(key)
-        ci = d.get(f"{key}_ci95")
+        ci = interval95(d, f"{key}_ci95")
         if not isinstance(v, (int, float)):
             return "-"
-        if isinstance(ci, (list, tuple)) and len(ci) == 2 and None not in ci:
+        if ci is not None:
             return f"{fmt(v, digits)} [{fmt(ci[0], digits)}, {fmt(ci[1], digits)}]"
         return fmt(v, digits)
 

@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 
 from umbmark.viz.report import SELFCAL_DEFINITIONS, _e, _header, _img, _page, _table, figure_data_uri
-from umbmark.viz.text import fmt
+from umbmark.viz.text import fmt, interval95
 
 __all__ = [
     "is_selfcal_result",
@@ -51,8 +51,8 @@ def is_selfcal_result(d: Any) -> bool:
 
 
 def _ci(d: dict, key: str, digits: int) -> str:
-    lo_hi = d.get(f"{key}_ci95")
-    if not isinstance(lo_hi, (list, tuple)) or len(lo_hi) != 2 or None in lo_hi:
+    lo_hi = interval95(d, f"{key}_ci95")
+    if lo_hi is None:
         return "-"
     return f"{fmt(lo_hi[0], digits)} to {fmt(lo_hi[1], digits)}"
 
@@ -198,6 +198,7 @@ def mount_figure(d: dict):
     -------
     matplotlib.figure.Figure
     """
+    from umbmark._stats import chi2_isf
     from umbmark.viz.plots import new_figure
 
     fig = new_figure((5.6, 5.0))
@@ -234,7 +235,8 @@ def mount_figure(d: dict):
     try:
         c = np.asarray(cov, dtype=float)[3:5, 3:5] * 1e6  # m^2 -> mm^2
         if c.shape == (2, 2) and np.all(np.isfinite(c)):
-            _ellipse(ax, float(sp["x_mm"]), float(sp["y_mm"]), c, 10 * 2.4477, color="tab:red", lw=0.8, ls="--")
+            k95 = math.sqrt(chi2_isf(0.05, 2))  # the 95 % ellipse of a 2-D Gaussian, in standard deviations
+            _ellipse(ax, float(sp["x_mm"]), float(sp["y_mm"]), c, 10 * k95, color="tab:red", lw=0.8, ls="--")
     except (TypeError, ValueError, IndexError):
         pass
     ax.set_aspect("equal", adjustable="datalim")

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["fmt"]
+__all__ = ["fmt", "interval95"]
 
 
 def fmt(value, digits: int = 1, unit: str = "", *, spec: str = "f", scale: float = 1.0) -> str:
@@ -32,3 +32,24 @@ def fmt(value, digits: int = 1, unit: str = "", *, spec: str = "f", scale: float
     if value is None or not math.isfinite(value):
         return "-"
     return f"{value / scale if scale != 1.0 else value:.{digits}{spec}}{unit}"
+
+
+def interval95(d, key: str) -> tuple[float, float] | None:
+    """The 95 % interval ``d[key]`` of a result's JSON as ``(low, high)``, or None when it holds
+    none (missing, not two numbers).
+
+    Parameters
+    ----------
+    d : dict
+        The JSON object (anything else holds none).
+    key : str
+        The interval's key, e.g. ``"Ed_ci95"``.
+
+    Returns
+    -------
+    tuple of float or None
+    """
+    v = d.get(key) if isinstance(d, dict) else None
+    if isinstance(v, (list, tuple)) and len(v) == 2 and all(isinstance(x, (int, float)) for x in v):
+        return float(v[0]), float(v[1])
+    return None
