@@ -465,11 +465,47 @@ def test_kernel_state_says_whether_the_matcher_is_compiled(monkeypatch):
 def test_selfcal_says_when_the_matching_will_be_slow(monkeypatch, capsys, state, terminal, said):
     import umbmark.cli.progress as progress
     import umbmark.realrobot.scanmatch as sm
-    from umbmark.cli.selfcal import _say_kernel_state
+    from umbmark.cli.selfcal import _start_kernels
 
+    started = []
     monkeypatch.setattr(sm, "kernel_state", lambda: state)
+    monkeypatch.setattr(sm, "start_compiling", lambda: started.append(True))
     monkeypatch.setattr(progress, "progress_enabled", lambda console=None: terminal)
-    _say_kernel_state()
+    _start_kernels()
     err = capsys.readouterr().err
     assert (said in err) if said else err == ""
     assert len(err.splitlines()) <= 1
+    assert started == ([True] if state == "compile" else [])  # the compile starts before the bags are read
+
+
+def test_a_machine_without_the_kernels_compiles_them_in_two_processes(tmp_path):
+    """An empty numba cache: kernel_state says "compile"; start_compiling's second process writes
+    the matching kernels into the cache (the first match waits for them and loads them); the
+    answers are the ones compiled here; afterwards "ready"."""
+    lidar = Lidar(range_noise_m=0.005, n_beams=90)
+    ref, cur, truth = draw_pairs(lidar, 2, seed=16)
+    m = match_scan_pairs(ref, cur, lidar.angles_rad, truth)
+    code = (
+        "import json, sys, numpy as np\n"
+        "from umbmark.realrobot import scanmatch as sm\n"
+        "a = json.loads(sys.stdin.read())\n"
+        "before = sm.kernel_state()\n"
+        "sm.start_compiling()\n"
+        "helper = sm._helper[0]\n"
+        "m = sm.match_scan_pairs(np.array(a['ref']), np.array(a['cur']), np.array(a['angles']), np.array(a['init']))\n"
+        "print(json.dumps([before, helper.returncode, sm.kernel_state(), m.poses.tolist(), m.iterations.tolist()]))\n"
+    )
+    payload = json.dumps(
+        {"ref": ref.tolist(), "cur": cur.tolist(), "angles": lidar.angles_rad.tolist(), "init": truth.tolist()}
+    ).replace("Infinity", "1e999")
+    cache = tmp_path / "numba-cache"
+    env = dict(os.environ, NUMBA_CACHE_DIR=str(cache))
+    out = subprocess.run(
+        [sys.executable, "-c", code], input=payload, capture_output=True, text=True, env=env, check=True, timeout=300
+    )
+    before, helper_rc, after, poses, iterations = json.loads(out.stdout)
+    assert (before, helper_rc, after) == ("compile", 0, "ready")
+    written = {p.name.split("-")[0] for p in cache.rglob("*.nbi")}
+    kernels = ("_icp", "_coarse_peaks", "_prepare_scan", "_match_kernel")
+    assert {f"scanmatch.{k}" for k in kernels} <= written
+    assert np.allclose(poses, m.poses, rtol=0, atol=1e-12) and iterations == m.iterations.tolist()

@@ -428,15 +428,18 @@ def _bag_flags(kw) -> list[str]:
     return out
 
 
-def _say_kernel_state() -> None:
-    """One line on stderr when the scan matching will be slow (nothing with --quiet): numba
-    missing, or its kernels not yet compiled on this machine (only on a terminal)."""
+def _start_kernels() -> None:
+    """Start compiling the scan matcher where it is not yet compiled on this machine (in the
+    background, while the bags are read), and say in one line on stderr when the matching will
+    be slow (nothing with --quiet): numba missing, or the compile (only on a terminal)."""
     from umbmark.cli.progress import progress_enabled
-    from umbmark.realrobot.scanmatch import kernel_state
+    from umbmark.realrobot.scanmatch import kernel_state, start_compiling
 
+    state = kernel_state()
+    if state == "compile":
+        start_compiling()
     if is_quiet():
         return
-    state = kernel_state()
     if state == "interpreted":
         click.echo(
             "warning: numba is not installed: the scan matcher runs interpreted, about 100 times slower "
@@ -444,7 +447,7 @@ def _say_kernel_state() -> None:
             err=True,
         )
     elif state == "compile" and progress_enabled():
-        click.echo("compiling the scan matcher (once per machine, about 20 s)", err=True)
+        click.echo("compiling the scan matcher (once per machine, about 10 s)", err=True)
 
 
 def _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json):
@@ -497,7 +500,7 @@ def _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json):
         raise InputError(
             f"--scan-delay must be auto, off or seconds (positive: the scans are late), got {kw['scan_delay']!r}"
         ) from None
-    _say_kernel_state()
+    _start_kernels()
     parts = []
     with _Bars(enabled=not as_json) as bars:
         for p in paths:

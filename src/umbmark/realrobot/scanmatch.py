@@ -57,8 +57,11 @@ correspondences of the estimate: a corridor without visible ends does not, wheth
 iteration settled); otherwise ``reason`` says why. Bad numbers never raise from the
 compiled code: too few valid points is a result, not an exception.
 
-The kernels are compiled with numba when it is installed (once per machine: numba's cache); without
-numba the same code runs interpreted (the same results, about a hundred times slower). Imports numpy and
+The kernels are compiled with numba when it is installed (once per machine: numba's cache), one
+version each (their argument types are fixed), in two halves at once: a second Python process
+compiles the matching kernels into the cache while the first match compiles the scans' kernels
+(:func:`start_compiling` starts it earlier, e.g. before a bag is read). Without numba the same code
+runs interpreted (the same results, about a hundred times slower). Imports numpy and
 :mod:`umbmark.errors`; numba lazily, on the first match.
 
 The pose convention: the result is the current scan's frame expressed in the reference scan's
@@ -69,6 +72,8 @@ sensor's displacement ``between(pose_ref, pose_cur)`` (:func:`umbmark.model.se2.
 from __future__ import annotations
 
 import math
+import subprocess
+import sys
 import threading
 from dataclasses import asdict, dataclass, field
 from typing import Any
@@ -88,6 +93,7 @@ __all__ = [
     "match_consecutive",
     "have_numba",
     "kernel_state",
+    "start_compiling",
     "STATUS_REASONS",
 ]
 
@@ -1210,36 +1216,26 @@ def _coarse_peaks(rpts, rflags, cpts, cflags, pose0, fp, peaks):
     return found
 
 
-def _match_batch(scans, ref_idx, cur_idx, init, cosa, sina, beams, ip, fp, out):
-    """Match ``scans[cur_idx[k]]`` against ``scans[ref_idx[k]]`` for every k: row k of ``out``."""
+def _match_kernel(scans, ref_idx, cur_idx, init, cosa, sina, beams, ip, fp, out, space):
+    """Match ``scans[cur_idx[k]]`` against ``scans[ref_idx[k]]`` for every k: row k of ``out``,
+    in the work space ``space`` that :func:`_match_batch` makes (the kernel allocates nothing:
+    less to compile)."""
     ns, n = scans.shape
     wrap = beams[2] > 0.0
+    pts, flags, nvalid, nline, work, order, iwork, fits, sin2, wf, wn, wi, peaks, row = space
     # every scan's points and lines, once
-    pts = np.zeros((ns, _P_WIDTH, n))
-    flags = np.zeros((ns, _B_WIDTH, n), dtype=np.bool_)
-    nvalid = np.zeros(ns, dtype=np.int64)
-    nline = np.zeros(ns, dtype=np.int64)
-    work = np.zeros((5, n))
-    order = np.zeros(n, dtype=np.int64)
-    iwork = np.zeros((6, n + 1), dtype=np.int64)
-    fits = np.zeros((7, 2 * n + 2))
     for i in range(ns):
         nvalid[i], nline[i] = _prepare_scan(
             scans[i], cosa, sina, wrap, ip, fp, pts[i], flags[i], work, order, iwork, fits
         )  # fmt: skip
     # the squared sine of the smallest angle between a direction and a beam d steps from its nearest
-    sin2 = np.ones(n + 1)
     for d in range(n + 1):
+        sin2[d] = 1.0
         ang = (d - 0.5) * beams[1]
         if ang <= 0.0:
             sin2[d] = 0.0
         elif ang < 0.5 * math.pi:
             sin2[d] = math.sin(ang) ** 2
-    wf = np.zeros((5, n))
-    wn = np.zeros((2, n), dtype=np.int64)
-    wi = np.zeros(n, dtype=np.bool_)
-    peaks = np.zeros((ip[_I_CANDIDATES], 3))
-    row = np.zeros(out.shape[1])
     min_points = ip[_I_MIN_POINTS]
     for k in range(ref_idx.size):
         ri = ref_idx[k]
@@ -1276,21 +1272,84 @@ def _match_batch(scans, ref_idx, cur_idx, init, cosa, sina, beams, ip, fp, out):
         o[_O_NREF] = nline[ri]
 
 
+def _match_batch(scans, ref_idx, cur_idx, init, cosa, sina, beams, ip, fp, out):
+    """Match ``scans[cur_idx[k]]`` against ``scans[ref_idx[k]]`` for every k: row k of ``out``
+    (:func:`_match_kernel` with its work space)."""
+    ns, n = scans.shape
+    space = (
+        np.zeros((ns, _P_WIDTH, n)),  # every scan's points and lines
+        np.zeros((ns, _B_WIDTH, n), dtype=np.bool_),
+        np.zeros(ns, dtype=np.int64),  # its valid points
+        np.zeros(ns, dtype=np.int64),  # its points with a line
+        np.zeros((5, n)),  # the lines' work space
+        np.zeros(n, dtype=np.int64),
+        np.zeros((6, n + 1), dtype=np.int64),
+        np.zeros((7, 2 * n + 2)),
+        np.ones(n + 1),  # the squared sines of the beams' angles
+        np.zeros((5, n)),  # the matcher's work space
+        np.zeros((2, n), dtype=np.int64),
+        np.zeros(n, dtype=np.bool_),
+        np.zeros((ip[_I_CANDIDATES], 3)),  # the coarse search's starts
+        np.zeros(out.shape[1]),  # one start's result
+    )
+    _match_kernel(scans, ref_idx, cur_idx, init, cosa, sina, beams, ip, fp, out, space)
+
+
 _KERNELS = (
     "_split_pieces",
     "_tls",
     "_fit_pieces",
+    "_kth_smallest",
     "_scan_noise",
     "_fit_lines",
     "_prepare_scan",
-    "_kth_smallest",
     "_sym3_eigen_ratio",
     "_icp",
     "_coarse_peaks",
-    "_match_batch",
+    "_match_kernel",
 )
+_PY_KERNELS = {name: globals()[name] for name in _KERNELS}  # the Python functions, for numba
+# the kernels' argument types (numba's notation): one compiled version each, in the order above
+# (a callee before its callers)
+_F1, _F2 = "float64[::1]", "float64[:, ::1]"
+_I1, _I2 = "int64[::1]", "int64[:, ::1]"
+_B1, _B2 = "boolean[::1]", "boolean[:, ::1]"
+_SIGNATURES = {
+    "_split_pieces": (_F1, _F1, _I1, "int64", "float64", "float64", "float64", _I2),
+    "_tls": (_F1, _F1, _I1, "int64", "int64"),
+    "_fit_pieces": (_F1, _F1, _I1, "int64", _I2, _F2, "int64", "float64", "float64"),
+    "_scan_noise": (_I2, _F2, "int64", _F1),
+    "_fit_lines": (_F2, _B2, "boolean", _I1, _F1, _F2, _I1, _I2, _F2),
+    "_prepare_scan": (_F1, _F1, _F1, "boolean", _I1, _F1, _F2, _B2, _F2, _I1, _I2, _F2),
+    "_kth_smallest": (_F1, "int64", "int64"),
+    "_sym3_eigen_ratio": ("float64",) * 6,
+    "_icp": (_F2, _B2, _F2, _B2, "int64", _F1, _F1, _F1, _I1, _F1, _F2, _I2, _B1, _F1),
+    "_coarse_peaks": (_F2, _B2, _F2, _B2, _F1, _F1, _F2),
+    "_match_kernel": (_F2, _I1, _I1, _F2, _F1, _F1, _F1, _I1, _F1, _F2)
+    + (
+        "Tuple((float64[:, :, ::1], boolean[:, :, ::1], int64[::1], int64[::1], float64[:, ::1], int64[::1], "
+        "int64[:, ::1], float64[:, ::1], float64[::1], float64[:, ::1], int64[:, ::1], boolean[::1], float64[:, ::1], "
+        "float64[::1]))",
+    ),
+}
+# the two halves of the work: the scans' lines (compiled by the first match) and the matching
+# (compiled by a second process at the same time, see start_compiling)
+_FOREGROUND = (
+    "_split_pieces",
+    "_tls",
+    "_fit_pieces",
+    "_kth_smallest",
+    "_scan_noise",
+    "_fit_lines",
+    "_prepare_scan",
+)
+_BACKGROUND = ("_kth_smallest", "_sym3_eigen_ratio", "_icp", "_coarse_peaks")
+_done: set[str] = set()  # the kernels compiled (or loaded) in this process
+_dispatchers: dict[str, Any] = {}
 _compiled = False
 _lock = threading.Lock()
+_helper: list[Any] = []  # the process compiling _BACKGROUND, while it runs
+_HELPER_TIMEOUT_S = 120.0  # the longest wait for it (its compile takes seconds)
 
 
 def have_numba() -> bool:
@@ -1303,27 +1362,94 @@ def have_numba() -> bool:
     return numba_module() is not None
 
 
+def _jit() -> bool:
+    """numba is installed and compiles (``NUMBA_DISABLE_JIT`` unset)."""
+    numba: Any = numba_module()
+    return numba is not None and not numba.config.DISABLE_JIT
+
+
+def _dispatcher(name: str) -> Any:
+    """numba's dispatcher of kernel ``name`` (created on first use; nothing compiled yet)."""
+    if name not in _dispatchers:
+        numba: Any = numba_module()
+        _dispatchers[name] = numba.njit(cache=True, nogil=True)(_PY_KERNELS[name])
+    return _dispatchers[name]
+
+
+def _signature(name: str) -> tuple[Any, ...]:
+    """The argument types of kernel ``name``, as numba's types."""
+    from numba.core import sigutils
+
+    return tuple(sigutils.normalize_signature("(" + ", ".join(_SIGNATURES[name]) + ",)")[0])
+
+
+def _cached(name: str) -> bool:
+    """Whether numba's cache holds kernel ``name`` for this source and machine."""
+    d = _dispatcher(name)
+    try:
+        return d._cache.load_overload(_signature(name), d.targetctx) is not None
+    except Exception:  # another numba's layout: nothing known
+        return True
+
+
 def kernel_state() -> str:
     """Whether the scan matcher's kernels are ready to run fast.
 
     Returns
     -------
     str
-        ``"interpreted"`` without numba (the same results, about a hundred times slower);
+        ``"interpreted"`` without numba, or with ``NUMBA_DISABLE_JIT`` (the same results, about a
+        hundred times slower);
         ``"compile"`` when the next match compiles them (once per machine: numba caches the
         machine code beside the module, or in ``NUMBA_CACHE_DIR``); ``"ready"`` when they are
         compiled in this process or in numba's cache.
     """
-    if not have_numba():
+    if not _jit():
         return "interpreted"
-    kernel = _kernel()
-    if getattr(kernel, "signatures", None):
+    if _compiled or _cached("_match_kernel"):
         return "ready"
+    return "compile"
+
+
+def start_compiling() -> None:
+    """Start compiling the kernels in the background when the next match would compile them.
+
+    A second process compiles the matching kernels into numba's cache while this one goes on
+    (reading a bag, say); the first match compiles the scans' kernels and takes the matching
+    ones from the cache: about half the wait on a machine with two cores. The first match
+    starts it too when it has not been started. Does nothing without numba, when the kernels
+    are ready, or when a compile is already under way.
+    """
+    with _lock:
+        _start_helper()
+
+
+def _start_helper() -> None:
+    if _helper or _compiled or getattr(sys, "frozen", False) or kernel_state() != "compile":
+        return  # (a frozen program's executable is not a Python to run code with)
+    code = "from umbmark.realrobot import scanmatch; scanmatch._compile(scanmatch._BACKGROUND)"
     try:
-        cached = bool(kernel._cache._cache_file._load_index())  # numba's own check of the source stamp
-    except Exception:  # another numba's layout: nothing known, nothing said
-        return "ready"
-    return "ready" if cached else "compile"
+        _helper.append(
+            subprocess.Popen(
+                [sys.executable, "-c", code],
+                stdin=subprocess.DEVNULL,
+                stdout=subprocess.DEVNULL,
+                stderr=subprocess.DEVNULL,
+            )
+        )
+    except OSError:  # no second process: the first match compiles everything
+        pass
+
+
+def _compile(names: tuple[str, ...]) -> None:
+    """Compile (or load from numba's cache) the kernels ``names``, callees first."""
+    for name in _KERNELS:
+        if name in names and name not in _done:
+            d = _dispatcher(name)
+            d.compile(_signature(name))
+            d.disable_compile()  # one version: a call of other types is an error, not a second compile
+            globals()[name] = d
+            _done.add(name)
 
 
 def _kernel() -> Any:
@@ -1331,11 +1457,16 @@ def _kernel() -> Any:
     global _compiled
     with _lock:
         if not _compiled:
-            numba = numba_module()
-            if numba is not None:
-                g = globals()
-                for name in _KERNELS:
-                    g[name] = numba.njit(cache=True, nogil=True)(g[name])
+            if _jit():
+                _start_helper()
+                _compile(_FOREGROUND)
+                if _helper:
+                    try:
+                        _helper[0].wait(timeout=_HELPER_TIMEOUT_S)
+                    except subprocess.TimeoutExpired:  # a helper that hangs: compile here
+                        _helper[0].kill()
+                    _helper.clear()
+                _compile(_KERNELS)
             _compiled = True
     return _match_batch
 
