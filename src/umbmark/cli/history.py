@@ -391,11 +391,13 @@ def report_cmd(
     With FILE.csv: the UMBmark numbers with 95 % intervals, the scatter (before and, with
     --after, after calibration), the recommended parameters and any --attach'ed exported files.
     FILE may also be the JSON of replay --save (square runs): its runs before and after
-    calibration and the calibration it found, no sizes needed. Bootstrap by default: bf
+    calibration and the calibration it found, no sizes needed; or the JSON of selfcal --save,
+    of calibrate --json (its passes and the calibration to load) or of replay --imu-topic
+    --save (the gyro's wheelbase and each turn). Bootstrap by default: bf
     1000 resamples; exact 1000 where they take under 10 s (fewer, or none, on many runs: the
     report says so).
     With --robot NAME and no file: the robot's calibration history (table, plot over time,
-    latest parameters). With --id N: a recorded analysis.
+    latest parameters). With --id N: a recorded analysis, self-calibration or calibration loop.
 
     \b
     Examples:
@@ -413,6 +415,12 @@ def report_cmd(
         if given:
             raise click.UsageError(f"a self-calibration holds its geometry and intervals: drop {', '.join(given)}")
         summary = _selfcal_page(sc, out_path, attach, robot)
+    elif (other := _other_result(runs_file, record_id, db)) is not None:
+        given = _geometry_flags(wheelbase_mm, side_mm, c_left, c_right)
+        given += [flag for flag, v in (("--after", after_file), ("--bootstrap", n_boot)) if v is not None]
+        if given:
+            raise click.UsageError(f"a {other['kind']} result holds its geometry: drop {', '.join(given)}")
+        summary = _other_page(other, out_path, robot)
     else:
         if record_id is not None:
             if runs_file is not None:
@@ -460,6 +468,59 @@ def _selfcal_input(runs_file, record_id, db) -> dict | None:
     from umbmark.history import file_sha256
 
     return {"d": d, "source": str(runs_file), "sha": file_sha256(runs_file), "robot": None, "label": None}
+
+
+def _other_result(runs_file, record_id, db) -> dict | None:
+    """A calibration loop or a gyro result to report (its JSON, kind, where it came from), or None."""
+    import json
+
+    from umbmark.viz.result_pages import is_calibrate_result, is_gyro_result
+
+    if record_id is not None:
+        from umbmark.history import open_history
+
+        with open_history(db, create=False) as h:
+            rec = h.get(record_id)
+        if rec.kind != "calibrate" or not is_calibrate_result(rec.results):
+            return None
+        label = f"record #{rec.id} of {rec.created_utc[:16].replace('T', ' ')} UTC"
+        return {"d": rec.results, "kind": "calibrate", "source": None, "sha": rec.input_sha256, "robot": rec.robot,
+                "label": label}  # fmt: skip
+    if not _is_json(runs_file):
+        return None
+    try:
+        d = json.loads(Path(runs_file).read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError):
+        return None  # the replay reader says what is wrong with it
+    kind = "calibrate" if is_calibrate_result(d) else "gyro" if is_gyro_result(d) else None
+    if kind is None:
+        return None
+    from umbmark.history import file_sha256
+
+    return {"d": d, "kind": kind, "source": str(runs_file), "sha": file_sha256(runs_file), "robot": None, "label": None}
+
+
+def _other_page(r: dict, out_path, robot) -> dict:
+    """Write the HTML page of a calibration loop or a gyro result; the JSON summary."""
+    import shlex
+
+    from umbmark.io.atomic import atomic_write
+    from umbmark.viz.result_pages import calibrate_page, gyro_page
+
+    robot = robot or r["robot"]
+    what = r["label"] or (Path(r["source"]).name if r["source"] else r["kind"])
+    opts = dict(source=r["source"], source_sha256=r["sha"], robot=robot)
+    if r["kind"] == "calibrate":
+        name = shlex.quote(r["source"]) if r["source"] else "calibrate.json"
+        commands = (
+            f"umbmark export {name} --format ros2 --out params.yaml   # diff_drive_controller\n"
+            f"umbmark export {name} --format firmware                 # constants for the firmware"
+        )
+        page = calibrate_page(r["d"], title=f"Calibration loop report: {what}", load_commands=commands, **opts)
+    else:
+        page = gyro_page(r["d"], title=f"Gyro report: {what}", **opts)
+    atomic_write(out_path, page)
+    return {"out": out_path, "kind": r["kind"]}
 
 
 def _selfcal_page(sc: dict, out_path, attach, robot) -> dict:
