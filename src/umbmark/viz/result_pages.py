@@ -19,7 +19,7 @@ __all__ = ["is_calibrate_result", "is_gyro_result", "calibrate_page", "gyro_page
 GYRO_DEFINITIONS = (
     "Each turn runs from the middle of one still period to the middle of the next. Wheels: the turn of the "
     "nominal wheel odometry (travel difference over the nominal wheelbase); gyro: the integrated rate, the bias "
-    "measured at rest removed; true: whole turns (--full-turns) or the lidar, where known. The effective "
+    "measured at rest removed; true: whole turns or the lidar, where known. The effective "
     "wheelbase makes the wheels' turns agree with the gyro's (scaled by the gyro's scale factor when it is "
     "measured); E_b = effective / nominal wheelbase, the wheel_separation_multiplier of diff_drive_controller."
 )
