@@ -1384,10 +1384,12 @@ def _signature(name: str) -> tuple[Any, ...]:
 
 
 def _cached(name: str) -> bool:
-    """Whether numba's cache holds kernel ``name`` for this source and machine."""
+    """Whether numba's cache holds kernel ``name`` for this source and machine (its index is
+    read; the machine code is not loaded)."""
     d = _dispatcher(name)
     try:
-        return d._cache.load_overload(_signature(name), d.targetctx) is not None
+        key = d._cache._index_key(_signature(name), d.targetctx.codegen())
+        return key in d._cache._cache_file._load_index()  # numba's own check (source stamp, CPU)
     except Exception:  # another numba's layout: nothing known
         return True
 
