@@ -409,18 +409,17 @@ def report_cmd(
         if robot is None:
             raise click.UsageError("give a runs file FILE.csv, --robot NAME (history) or --id N (a record)")
         summary = _history_page(robot, db, out_path)
-    elif (sc := _selfcal_input(runs_file, record_id, db)) is not None:
+    elif (r := _result_input(runs_file, record_id, db)) is not None:
         given = _geometry_flags(wheelbase_mm, side_mm, c_left, c_right)
         given += [flag for flag, v in (("--after", after_file), ("--bootstrap", n_boot)) if v is not None]
         if given:
-            raise click.UsageError(f"a self-calibration holds its geometry and intervals: drop {', '.join(given)}")
-        summary = _selfcal_page(sc, out_path, attach, robot)
-    elif (other := _other_result(runs_file, record_id, db)) is not None:
-        given = _geometry_flags(wheelbase_mm, side_mm, c_left, c_right)
-        given += [flag for flag, v in (("--after", after_file), ("--bootstrap", n_boot)) if v is not None]
-        if given:
-            raise click.UsageError(f"a {other['kind']} result holds its geometry: drop {', '.join(given)}")
-        summary = _other_page(other, out_path, robot)
+            holds = "a self-calibration holds its geometry and intervals"
+            if r["kind"] != "selfcal":
+                holds = f"a {r['kind']} result holds its geometry"
+            raise click.UsageError(f"{holds}: drop {', '.join(given)}")
+        summary = (
+            _selfcal_page(r, out_path, attach, robot) if r["kind"] == "selfcal" else _other_page(r, out_path, robot)
+        )
     else:
         if record_id is not None:
             if runs_file is not None:
@@ -437,10 +436,13 @@ def report_cmd(
         console().print(escape(f"report: {out_path}"))
 
 
-def _selfcal_input(runs_file, record_id, db) -> dict | None:
-    """A self-calibration to report (its JSON, where it came from), or None for another kind."""
+def _result_input(runs_file, record_id, db) -> dict | None:
+    """A self-calibration, calibration loop or gyro result to report: its JSON, ``kind``
+    (``selfcal``, ``calibrate`` or ``gyro``) and where it came from; None for another kind (an
+    analysis, a replay: the runs readers take those)."""
     import json
 
+    from umbmark.viz.result_pages import is_calibrate_result, is_gyro_result
     from umbmark.viz.selfcal_report import is_selfcal_result
 
     if record_id is not None:
@@ -448,43 +450,14 @@ def _selfcal_input(runs_file, record_id, db) -> dict | None:
 
         with open_history(db, create=False) as h:
             rec = h.get(record_id)
-        if rec.method != "selfcal" or not is_selfcal_result(rec.results):
-            return None
-        return {
-            "d": rec.results,
-            "source": None,
-            "sha": rec.input_sha256,
-            "robot": rec.robot,
-            "label": f"record #{rec.id} of {rec.created_utc[:16].replace('T', ' ')} UTC",
-        }
-    if not _is_json(runs_file):
-        return None
-    try:
-        d = json.loads(Path(runs_file).read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError):
-        return None  # the replay reader says what is wrong with it
-    if not is_selfcal_result(d):
-        return None
-    from umbmark.history import file_sha256
-
-    return {"d": d, "source": str(runs_file), "sha": file_sha256(runs_file), "robot": None, "label": None}
-
-
-def _other_result(runs_file, record_id, db) -> dict | None:
-    """A calibration loop or a gyro result to report (its JSON, kind, where it came from), or None."""
-    import json
-
-    from umbmark.viz.result_pages import is_calibrate_result, is_gyro_result
-
-    if record_id is not None:
-        from umbmark.history import open_history
-
-        with open_history(db, create=False) as h:
-            rec = h.get(record_id)
-        if rec.kind != "calibrate" or not is_calibrate_result(rec.results):
+        if rec.method == "selfcal" and is_selfcal_result(rec.results):
+            kind = "selfcal"
+        elif rec.kind == "calibrate" and is_calibrate_result(rec.results):
+            kind = "calibrate"
+        else:
             return None
         label = f"record #{rec.id} of {rec.created_utc[:16].replace('T', ' ')} UTC"
-        return {"d": rec.results, "kind": "calibrate", "source": None, "sha": rec.input_sha256, "robot": rec.robot,
+        return {"d": rec.results, "kind": kind, "source": None, "sha": rec.input_sha256, "robot": rec.robot,
                 "label": label}  # fmt: skip
     if not _is_json(runs_file):
         return None
@@ -492,7 +465,8 @@ def _other_result(runs_file, record_id, db) -> dict | None:
         d = json.loads(Path(runs_file).read_text(encoding="utf-8"))
     except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError):
         return None  # the replay reader says what is wrong with it
-    kind = "calibrate" if is_calibrate_result(d) else "gyro" if is_gyro_result(d) else None
+    kinds = (("selfcal", is_selfcal_result), ("calibrate", is_calibrate_result), ("gyro", is_gyro_result))
+    kind = next((k for k, is_kind in kinds if is_kind(d)), None)
     if kind is None:
         return None
     from umbmark.history import file_sha256
