@@ -128,6 +128,32 @@ def _img(uri: str, alt: str) -> str:
     return f'<p><img src="{uri}" alt="{_e(alt)}"></p>'
 
 
+def _warnings_list(items: list[str]) -> str:
+    """A page's warnings as a list ("No warnings." when there are none)."""
+    if not items:
+        return "<p>No warnings.</p>"
+    return "<ul>" + "".join(f'<li class="warn">{_e(w)}</li>' for w in items) + "</ul>"
+
+
+def _load_section(d: dict, source: str | None, commands: str | None, formats: tuple[tuple[str, str], ...]) -> list[str]:
+    """The commands that load a result into the robot, and the texts they write: ``formats``
+    holds (export format, label) pairs (:func:`umbmark.io.export.format_export`)."""
+    from umbmark.errors import InputError
+    from umbmark.io.export import calibration_from_dict, format_export
+
+    out = ["<h2>Load it into the robot</h2>"]
+    if commands:
+        out.append(f"<pre>{_e(commands)}</pre>")
+        out.append('<p class="meta">The texts below are what those commands write for this result.</p>')
+    try:
+        cal = calibration_from_dict(d, source or "<result>")
+        for fmt_name, label in formats:
+            out.append(f"<h3>{_e(label)}</h3><pre>{_e(format_export(cal, fmt_name))}</pre>")
+    except InputError as e:
+        out.append(f'<p class="warn">The export of this result fails: {_e(e)}</p>')
+    return out
+
+
 def _page(title: str, body: str, body_cls: str | None = None) -> str:
     attr = f' class="{body_cls}"' if body_cls else ""
     return (

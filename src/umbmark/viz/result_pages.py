@@ -10,7 +10,17 @@ from typing import Any
 
 import numpy as np
 
-from umbmark.viz.report import _UMBMARK_DEFINITIONS, _e, _header, _img, _page, _table, figure_data_uri
+from umbmark.viz.report import (
+    _UMBMARK_DEFINITIONS,
+    _e,
+    _header,
+    _img,
+    _load_section,
+    _page,
+    _table,
+    _warnings_list,
+    figure_data_uri,
+)
 from umbmark.viz.text import fmt, interval95
 
 __all__ = ["is_calibrate_result", "is_gyro_result", "calibrate_page", "gyro_page", "GYRO_DEFINITIONS"]
@@ -50,30 +60,6 @@ def _ci(d: dict, key: str, digits: int, scale: float = 1.0) -> str:
     if lo_hi is None:
         return "-"
     return f"[{_f(lo_hi[0], digits, scale)}, {_f(lo_hi[1], digits, scale)}]"
-
-
-def _warnings(items: list[str]) -> str:
-    if not items:
-        return "<p>No warnings.</p>"
-    return "<ul>" + "".join(f'<li class="warn">{_e(w)}</li>' for w in items) + "</ul>"
-
-
-def _exports(d: dict, source: str | None, commands: str | None, formats: tuple[tuple[str, str], ...]) -> list[str]:
-    """The commands that load the result, and the texts they write."""
-    from umbmark.errors import InputError
-    from umbmark.io.export import calibration_from_dict, format_export
-
-    out = ["<h2>Load it into the robot</h2>"]
-    if commands:
-        out.append(f"<pre>{_e(commands)}</pre>")
-        out.append('<p class="meta">The texts below are what those commands write for this result.</p>')
-    try:
-        cal = calibration_from_dict(d, source or "<result>")
-        for fmt_name, label in formats:
-            out.append(f"<h3>{_e(label)}</h3><pre>{_e(format_export(cal, fmt_name))}</pre>")
-    except InputError as e:
-        out.append(f'<p class="warn">The export of this result fails: {_e(e)}</p>')
-    return out
 
 
 # ---------------------------------------------------------------- calibrate
@@ -199,8 +185,8 @@ def calibrate_page(
         if isinstance(w, str)
     ]
     body.append("<h2>Warnings</h2>")
-    body.append(_warnings(warnings))
-    body.extend(_exports(d, source, load_commands, (("ros2", "params.yaml (ROS 2)"), ("firmware", "firmware"))))
+    body.append(_warnings_list(warnings))
+    body.extend(_load_section(d, source, load_commands, (("ros2", "params.yaml (ROS 2)"), ("firmware", "firmware"))))
     body.append(f'<h2>Definitions</h2><p class="meta">{_UMBMARK_DEFINITIONS}</p>')
     return _page(title, "\n".join(body))
 
@@ -331,7 +317,7 @@ def gyro_page(
         body.append(_img(figure_data_uri(turns_figure(g)), "the wheelbase factor of each turn"))
     warnings = [w for w in (d.get("warnings") or g.get("warnings") or []) if isinstance(w, str)]
     body.append("<h2>Warnings</h2>")
-    body.append(_warnings(warnings))
+    body.append(_warnings_list(warnings))
     body.append("<h2>Load it into the robot</h2>")
     body.append(
         "<pre>"

@@ -16,7 +16,17 @@ from typing import Any
 
 import numpy as np
 
-from umbmark.viz.report import SELFCAL_DEFINITIONS, _e, _header, _img, _page, _table, figure_data_uri
+from umbmark.viz.report import (
+    SELFCAL_DEFINITIONS,
+    _e,
+    _header,
+    _img,
+    _load_section,
+    _page,
+    _table,
+    _warnings_list,
+    figure_data_uri,
+)
 from umbmark.viz.text import fmt, interval95
 
 __all__ = [
@@ -43,6 +53,7 @@ _ROWS = (
 )
 _POSE_ROWS = (("lidar x [mm]", "x_mm", 2), ("lidar y [mm]", "y_mm", 2), ("lidar yaw [deg]", "yaw_deg", 3))
 _PARAM_NAMES = ("r_L", "r_R", "b", "x", "y", "yaw")
+_SELFCAL_EXPORTS = (("ros2", "params.yaml (ROS 2)"), ("urdf", "URDF origin"))
 
 
 def is_selfcal_result(d: Any) -> bool:
@@ -310,24 +321,6 @@ def residuals_figure(res: dict, names: list[str] | None = None):
     return fig
 
 
-def _load_section(d: dict, source: str | None, commands: str | None) -> list[str]:
-    """The commands that load the result, and the exported texts themselves."""
-    from umbmark.errors import InputError
-    from umbmark.io.export import calibration_from_dict, format_export
-
-    out = ["<h2>Load it into the robot</h2>"]
-    if commands:
-        out.append(f"<pre>{_e(commands)}</pre>")
-        out.append('<p class="meta">The texts below are what those commands write for this result.</p>')
-    try:
-        cal = calibration_from_dict(d, source or "<selfcal>")
-        for fmt_name, label in (("ros2", "params.yaml (ROS 2)"), ("urdf", "URDF origin")):
-            out.append(f"<h3>{_e(label)}</h3><pre>{_e(format_export(cal, fmt_name))}</pre>")
-    except InputError as e:
-        out.append(f'<p class="warn">The export of this result fails: {_e(e)}</p>')
-    return out
-
-
 def selfcal_page(
     d: dict,
     *,
@@ -400,10 +393,7 @@ def selfcal_page(
     body.append(_noise(d, res))
     warnings = [w for w in (d.get("warnings") or []) if isinstance(w, str)]
     body.append("<h2>Warnings and identifiability</h2>")
-    if warnings:
-        body.append("<ul>" + "".join(f'<li class="warn">{_e(w)}</li>' for w in warnings) + "</ul>")
-    else:
-        body.append("<p>No warnings.</p>")
+    body.append(_warnings_list(warnings))
     body.append(_correlations(d))
     body.append("<h2>The map, before and after</h2>")
     maps, broken = [], False
@@ -437,7 +427,7 @@ def selfcal_page(
         body.append(_img(figure_data_uri(residuals_figure(res, names)), "residuals over time"))
     else:
         body.append("<p>No residuals in this result.</p>")
-    body.extend(_load_section(d, source, load_commands))
+    body.extend(_load_section(d, source or "<selfcal>", load_commands, _SELFCAL_EXPORTS))
     if exported:
         body.append("<h2>Attached files</h2>")
         for name, text in exported.items():
