@@ -476,8 +476,6 @@ def _result_input(runs_file, record_id, db) -> dict | None:
 
 def _other_page(r: dict, out_path, robot) -> dict:
     """Write the HTML page of a calibration loop or a gyro result; the JSON summary."""
-    import shlex
-
     from umbmark.io.atomic import atomic_write
     from umbmark.viz.result_pages import calibrate_page, gyro_page
 
@@ -485,11 +483,7 @@ def _other_page(r: dict, out_path, robot) -> dict:
     what = r["label"] or (Path(r["source"]).name if r["source"] else r["kind"])
     opts = dict(source=r["source"], source_sha256=r["sha"], robot=robot)
     if r["kind"] == "calibrate":
-        name = shlex.quote(r["source"]) if r["source"] else "calibrate.json"
-        commands = (
-            f"umbmark export {name} --format ros2 --out params.yaml   # diff_drive_controller\n"
-            f"umbmark export {name} --format firmware                 # constants for the firmware"
-        )
+        commands = _load_commands(r["source"], "calibrate")
         page = calibrate_page(r["d"], title=f"Calibration loop report: {what}", load_commands=commands, **opts)
     else:
         page = gyro_page(r["d"], title=f"Gyro report: {what}", **opts)
@@ -527,18 +521,37 @@ def _selfcal_page(sc: dict, out_path, attach, robot) -> dict:
     }
 
 
-def _load_commands(source: str | None) -> str:
-    """The commands that export a self-calibration for the robot, naming its file."""
+_EXPORT_COMMANDS = {
+    "selfcal": (
+        "selfcal.json",
+        "selfcal ... --save selfcal.json",
+        (
+            ("--format ros2 --out params.yaml", "diff_drive_controller"),
+            ("--format urdf", "the lidar's <origin> in the URDF"),
+            ("--format tf", "a static_transform_publisher line"),
+        ),
+    ),
+    "calibrate": (
+        "calibrate.json",
+        "calibrate ... --json > calibrate.json",
+        (
+            ("--format ros2 --out params.yaml", "diff_drive_controller"),
+            ("--format firmware", "constants for the firmware"),
+        ),
+    ),
+}
+
+
+def _load_commands(source: str | None, kind: str = "selfcal") -> str:
+    """The commands that export a result of ``kind`` for the robot, naming its file."""
     import shlex
 
-    name = shlex.quote(source) if source else "selfcal.json"
-    text = (
-        f"umbmark export {name} --format ros2 --out params.yaml   # diff_drive_controller\n"
-        f"umbmark export {name} --format urdf                     # the lidar's <origin> in the URDF\n"
-        f"umbmark export {name} --format tf                       # a static_transform_publisher line"
-    )
+    default, made_by, commands = _EXPORT_COMMANDS[kind]
+    name = shlex.quote(source) if source else default
+    width = max(len(c) for c, _ in commands)
+    text = "\n".join(f"umbmark export {name} {c.ljust(width)}   # {why}" for c, why in commands)
     if not source:
-        text = "# selfcal.json: the result as saved by  umbmark selfcal ... --save selfcal.json\n" + text
+        text = f"# {default}: the result as saved by  umbmark {made_by}\n" + text
     return text
 
 
