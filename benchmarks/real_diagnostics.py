@@ -33,6 +33,16 @@ behind the self-calibration's defaults and the limits of ``docs/research/selfcal
    and the inverse of the reverse regression (they bracket the ratio when both carry noise:
    the first is diluted by the odometry's errors, the second by the matcher's), and the
    direct matches over the composed ones.
+7. **What the long relations ask of E_d.** For each half tested, the other half's calibration
+   with its E_d replaced on a grid (0.995 to 1.005 by 0.0001; its mean diameter, wheelbase,
+   lidar pose and delay kept): the E_d that keep the long-relation translation MSE at most the
+   nominal odometry's.
+8. **The odometry's turns against the relations'** over the short relations turning more than
+   10 deg (stamps as recorded): ``sum turn_odo turn_rel / sum turn_rel^2`` by the relation's
+   turn rate and by direction. A wheelbase scales every turn alike.
+9. **MIT CSAIL's rules at other delays.** The grid of 4 at E_d 1 (wheel scale 0.98 to 1.06,
+   turn scale 1.00 to 1.14) with the delay 0 to 0.25 s (before and after alike): the least
+   short-relation rotation MSE (after over before) with the turn scale within 2 % of 1.
 
 Writes real_diagnostics.json and real_diagnostics.md into --out.
 """
@@ -128,6 +138,10 @@ def keyframes(parts) -> list[dict]:
                     "intervals": r.intervals_used,
                     "c": 0.5 * (r.r_left_m + r.r_right_m) / (D_NOM / 2),
                     "Eb": r.eb,
+                    "Ed": r.ed,
+                    "Ed_ci95": list(r.interval("ed")),
+                    "diameters_m": [r.diameter_left_m, r.diameter_right_m],
+                    "wheelbase_m": r.wheelbase_m,
                     "delay_s": si.plan.scan_delay_s,
                     "sensor_pose": [r.sensor_pose[0], r.sensor_pose[1], r.sensor_pose[2]],
                 }
@@ -269,6 +283,114 @@ def feasibility(bag, rel, split_s: float, calibrations: list[dict]) -> list[dict
     return out
 
 
+def long_drift(bag, rel, split_s: float, calibrations: list[dict]) -> list[dict]:
+    """What the long relations of each half ask of E_d: the other half's calibration (default
+    keyframes) with its E_d replaced on a grid (its mean diameter, wheelbase, lidar pose and
+    delay kept), the long-relation translation MSE after against before."""
+    from umbmark.model.geometry import WheelGeometry
+    from umbmark.realrobot.validate import CheckedCalibration, validate
+
+    nominal = WheelGeometry(D_NOM, D_NOM, B_NOM)
+    out = []
+    for tested, window in (("second half", (split_s, 1e9)), ("first half", (0.0, split_s))):
+        cal = next(c for c in calibrations if c["half"] != tested and c["keyframes"] == "the default keyframes")
+        mean_d = 0.5 * sum(cal["diameters_m"])
+        grid = np.round(np.arange(0.995, 1.00501, 0.0001), 6)
+        rows = []
+        for ed in grid:
+            cc = CheckedCalibration(
+                "export",
+                nominal,
+                WheelGeometry(mean_d * 2 / (ed + 1), mean_d * 2 * ed / (ed + 1), cal["wheelbase_m"]),
+                sensor_pose=tuple(cal["sensor_pose"]),
+                scan_delay_s=cal["delay_s"],
+                scan_delay_source="calibration",
+            )
+            (span,) = validate(bag, cc, rel, window_s=window).spans
+            rows.append((float(ed), span.after.long.mse_translation_m2, span.before.long.mse_translation_m2))
+        ok = [ed for ed, after, before in rows if after <= before]
+        best = min(rows, key=lambda r: r[1])
+        out.append(
+            {
+                "tested": tested,
+                "long_relations": int(span.before.long.count),
+                "before_m2": rows[0][2],
+                "Ed_estimate": cal["Ed"],
+                "Ed_ci95": cal["Ed_ci95"],
+                "Ed_passing": [min(ok), max(ok)] if ok else None,
+                "Ed_best": best[0],
+                "best_m2": best[1],
+                "grid": [list(r[:2]) for r in rows],
+            }
+        )
+    return out
+
+
+def turns(bag, rel) -> list[dict]:
+    """Step 8: the odometry's turns over the relations', by turn rate and by direction."""
+    from umbmark.realrobot.validate import recorded_odometry_at_scans
+
+    i1, i2 = rel.indices(bag.scan_t_s, 1e-3)
+    odo = recorded_odometry_at_scans(bag)
+    turn = odo[i2, 2] - odo[i1, 2]
+    ref = turn + np.angle(np.exp(1j * (rel.pose[:, 2] - turn)))
+    dt = bag.scan_t_s[i2] - bag.scan_t_s[i1]
+    rate = np.abs(ref) / np.maximum(dt, 1e-9)
+    sel = (rel.span_s < 10.0) & (np.abs(ref) > math.radians(10.0)) & (i1 != i2)
+    groups = [
+        (f"{lo:g} to {hi:g} rad/s", sel & (rate >= lo) & (rate < hi))
+        for lo, hi in ((0.0, 0.4), (0.4, 0.6), (0.6, 1.0), (1.0, math.inf))
+    ]
+    groups += [("left (counter-clockwise)", sel & (ref > 0)), ("right (clockwise)", sel & (ref < 0)), ("all", sel)]
+    return [
+        {
+            "group": name,
+            "relations": int(m.sum()),
+            "odometry_over_relation": float(np.sum(turn[m] * ref[m]) / np.sum(ref[m] ** 2)) if m.sum() >= 3 else None,
+        }
+        for name, m in groups
+    ]
+
+
+def delays(bag, rel, split_s: float, calibrations: list[dict]) -> list[dict]:
+    """Step 9: MIT CSAIL's grid at E_d 1 with other delays."""
+    from umbmark.model.geometry import WheelGeometry
+    from umbmark.realrobot.validate import CheckedCalibration, validate
+
+    nominal = WheelGeometry(D_NOM, D_NOM, B_NOM)
+    out = []
+    for tested, window in (("second half", (split_s, 1e9)), ("first half", (0.0, split_s))):
+        cal = next(c for c in calibrations if c["half"] != tested and c["keyframes"] == "the default keyframes")
+        for delay in (0.0, 0.05, 0.1, 0.15, 0.2, 0.25):
+            best, passing = None, 0
+            for c in np.arange(0.98, 1.0601, 0.02):
+                for g in np.arange(1.0, 1.1401, 0.01):
+                    cc = CheckedCalibration(
+                        "export",
+                        nominal,
+                        WheelGeometry(D_NOM * c, D_NOM * c, B_NOM * c / g),
+                        sensor_pose=tuple(cal["sensor_pose"]),
+                        scan_delay_s=delay,
+                        scan_delay_source="calibration",
+                    )
+                    (span,) = validate(bag, cc, rel, window_s=window).spans
+                    if abs(span.after.turn_scale - 1) > 0.02:
+                        continue
+                    passing += int(span.verdict == "pass")
+                    ratio = span.after.short.mse_rotation_rad2 / span.before.short.mse_rotation_rad2
+                    best = ratio if best is None else min(best, ratio)
+            out.append(
+                {
+                    "tested": tested,
+                    "delay_s": delay,
+                    "before_rotation_mse_deg2": math.degrees(1) ** 2 * span.before.short.mse_rotation_rad2,
+                    "least_rotation_mse_ratio": best,
+                    "passing": passing,
+                }
+            )
+    return out
+
+
 def page(res: dict) -> str:
     lines = [
         "# What the real logs' wheel data show",
@@ -363,6 +485,56 @@ def page(res: dict) -> str:
             f"- tested on the {f['tested']}: {f['tried']} calibrations, {f['passing_with_turn_within_2_percent']} pass "
             f"every rule with the turn scale within 2 % of 1; {best}."
         )
+    lines += [
+        "",
+        "## What the long relations ask of E_d",
+        "",
+        "The other half's calibration with its E_d replaced (its mean diameter, wheelbase, lidar pose and delay kept): "
+        "the long-relation translation MSE against the nominal odometry's, and the E_d that keep it at most that "
+        "(E_d on a grid of 0.0001 from 0.995 to 1.005):",
+        "",
+        "| log | tested on | long relations | MSE before m² | E_d estimated [95 %] | E_d keeping MSE at most before | "
+        "least MSE m² (at E_d) |",
+        "|---|---|---|---|---|---|---|",
+    ]
+    for log in res["logs"]:
+        for d in log.get("long_drift", []):
+            band = "none" if d["Ed_passing"] is None else f"{d['Ed_passing'][0]:.4f} to {d['Ed_passing'][1]:.4f}"
+            lo, hi = d["Ed_ci95"]
+            lines.append(
+                f"| {log['log']} | {d['tested']} | {d['long_relations']} | {d['before_m2']:.4f} | "
+                f"{d['Ed_estimate']:.4f} [{lo:.4f}, {hi:.4f}] | {band} | {d['best_m2']:.4f} ({d['Ed_best']:.4f}) |"
+            )
+    lines += [
+        "",
+        "## The odometry's turns against the relations'",
+        "",
+        "Short relations turning more than 10 deg, the recorded odometry (stamps as recorded): its turn over the "
+        "relation's (`sum turn_odo turn_rel / sum turn_rel^2`), by the relation's turn rate and direction:",
+        "",
+        "| log | relations | turn rate or direction | odometry / relation |",
+        "|---|---|---|---|",
+    ]
+    for log in res["logs"]:
+        for g in log.get("turns", []):
+            v = "-" if g["odometry_over_relation"] is None else f"{g['odometry_over_relation']:.4f}"
+            lines.append(f"| {log['log']} | {g['relations']} | {g['group']} | {v} |")
+    lines += [
+        "",
+        "## MIT CSAIL's rules at other delays",
+        "",
+        "The grid at E_d 1 (wheel scale 0.98 to 1.06, turn scale 1.00 to 1.14) with the delay set (before and after "
+        "alike): the least short-relation rotation MSE after over before with the turn scale within 2 % of 1, and "
+        "how many pass every rule:",
+        "",
+        "| tested on | delay s | rotation MSE before deg² | least after / before | pass |",
+        "|---|---|---|---|---|",
+    ]
+    for d in res.get("feasibility_delays", []):
+        best = "-" if d["least_rotation_mse_ratio"] is None else f"{d['least_rotation_mse_ratio']:.4f}"
+        lines.append(
+            f"| {d['tested']} | {d['delay_s']:g} | {d['before_rotation_mse_deg2']:.2f} | {best} | {d['passing']} |"
+        )
     lines.append("")
     return "\n".join(lines)
 
@@ -375,7 +547,7 @@ def main(argv: list[str] | None = None) -> int:
     add_out(p, "real-diagnostics")
     args = p.parse_args(argv)
     t0 = time.perf_counter()
-    logs, feas = [], []
+    logs, feas, feas_delays = [], [], []
     for name in ("aces", "mit-csail"):
         bag = read_selfcal_bag(REPO / "data" / "slam2d" / f"{name}.bag", odom_topic="/odom")
         rel = read_relations(REPO / "data" / "slam2d" / f"{name}.relations")
@@ -390,16 +562,20 @@ def main(argv: list[str] | None = None) -> int:
                 "copied_translations": copied_translations(bag, rel),
                 "matcher_starts": matcher_starts(bag, rel),
                 "straight": straight_ratios(bag, delay),
+                "long_drift": long_drift(bag, rel, split_s, kf),
+                "turns": turns(bag, rel),
             }
         )
         if name == "mit-csail":
             feas = feasibility(bag, rel, split_s, kf)
+            feas_delays = delays(bag, rel, split_s, kf)
     res = {
         "command": command("real_diagnostics", argv),
         "machine": machine("scipy", "numba", "rosbags"),
         "wall_s": time.perf_counter() - t0,
         "logs": logs,
         "feasibility": feas,
+        "feasibility_delays": feas_delays,
     }
     for path in write_results(Path(args.out), "real_diagnostics", res, page(res)):
         print(path)

@@ -8,8 +8,10 @@ The site is the one ``.ci/run`` built (``UMBMARK_DOCS_SITE``), else built here. 
 ``UMBMARK_SCREENSHOTS=DIR`` the screenshots are kept in DIR to be looked at.
 """
 
+import contextlib
 import functools
 import http.server
+import io
 import json
 import math
 import os
@@ -41,15 +43,16 @@ def _keep(result: dict) -> None:
 
 @pytest.fixture(scope="module")
 def reports(tmp_path_factory):
-    """An analysis report, a self-calibration's page and a history page with both kinds."""
+    """An analysis report, the pages of a self-calibration, a calibration loop and a gyro
+    result, and a history page."""
     pytest.importorskip("rosbags")
     from umbmark.cli import main
     from umbmark.correct.analysis import analyze
     from umbmark.history import record_analysis
     from umbmark.io.rosbag_write import write_drive_bag
-    from umbmark.model.drive import SimRobot, mixed_program, simulate_drive
+    from umbmark.model.drive import Command, Program, SimRobot, mixed_program, simulate_drive, simulate_gyro
     from umbmark.model.geometry import FIG11_ERRORS, LABMATE, ErrorParams
-    from umbmark.model.sensors import Lidar, SensorPose
+    from umbmark.model.sensors import Gyro, Lidar, SensorPose
     from umbmark.model.simulate import simulate_umbmark
     from umbmark.viz.report import analysis_report
 
@@ -73,11 +76,28 @@ def reports(tmp_path_factory):
     assert main(["-q", *args]) == 0
     assert main(["-q", "report", str(save), "--out", str(tmp / "selfcal.html")]) == 0
     assert main(["-q", "report", "--robot", "r1", "--db", str(db), "--out", str(tmp / "history.html")]) == 0
+    # a calibration loop (umbmark calibrate --json) and a gyro result (replay --imu-topic --save)
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        assert main(["-q", "calibrate", "--seed", "1", "--json"]) == 0
+    (tmp / "calibrate.json").write_text(out.getvalue())
+    assert main(["-q", "report", str(tmp / "calibrate.json"), "--out", str(tmp / "calibrate.html")]) == 0
+    spins = [Command(2.0)]
+    for sign in (1, -1, 1, -1):
+        spins += [Command(2 * math.pi / 0.8, 0.0, sign * 0.8), Command(1.5)]
+    log = simulate_drive(Program(tuple(spins)), robot, seed=4)
+    t, w = simulate_gyro(log, Gyro(100.0, 1.0, 0.01, 0.005), seed=5)
+    gbag = write_drive_bag(log, tmp / "gyro", gyro=(t, w), odom=False)
+    gyro = ["replay", str(gbag), "--imu-topic", "/imu", *geo, "--save", str(tmp / "gyro.json")]
+    assert main(["-q", *gyro]) == 0
+    assert main(["-q", "report", str(tmp / "gyro.json"), "--out", str(tmp / "gyro.html")]) == 0
     return tmp
 
 
 @needs_browser
-@pytest.mark.parametrize("name, images", [("analysis", 1), ("selfcal", 3), ("history", 1)])
+@pytest.mark.parametrize(
+    "name, images", [("analysis", 1), ("selfcal", 3), ("calibrate", 1), ("gyro", 1), ("history", 1)]
+)
 def test_reports_render(reports, tmp_path, name, images):
     page = reports / f"{name}.html"
     check_page(page.read_text())

@@ -51,6 +51,8 @@ def test_a_calibration_loop_page_holds_its_passes_and_the_calibration_to_load(tm
     page = page_path.read_text()
     assert f"{d['final_calibration']['c_left']:.6f}" in page and f"{d['final_calibration']['wheelbase_mm']:.2f}" in page
     assert page.count("<tr>") >= len(d["passes"]) + 1 and "data:image/png;base64," in page
+    n, c = len(d["passes"]), d["corrections"]
+    assert f"<p>{n} pass{'' if n == 1 else 'es'}, {c} correction{'' if c == 1 else 's'} (" in page
     assert "wheel_radius_multiplier" in page or "radius" in page  # the ROS 2 parameters it writes
     r = _run("report", f, "--out", tmp_path / "x.html", "--wheelbase-mm", "340")
     assert r.exit_code == 2 and "--wheelbase-mm" in r.output

@@ -60,7 +60,7 @@ th,td{border:1px solid #ccc;padding:.25em .6em;text-align:right}
 th{background:#f3f3f3}td:first-child,th:first-child{text-align:left}
 .meta{color:#555;font-size:.9em}.box{background:#eef6ee;border:1px solid #9c9;padding:.6em 1em;display:inline-block}
 .warn{color:#a40}img{max-width:100%;height:auto;border:1px solid #eee}pre{background:#f7f7f7;padding:.6em;
-     overflow-x:auto;font-size:.85em}.big{font-size:1.3em;font-weight:bold}
+     white-space:pre-wrap;overflow-wrap:anywhere;font-size:.85em}.big{font-size:1.3em;font-weight:bold}
 body.wide{max-width:75em}table.records{font-size:.8em}table.records td{white-space:nowrap}
 table.records th{white-space:normal}table.records td.src{white-space:normal;overflow-wrap:anywhere;max-width:14em}
 """

@@ -86,6 +86,11 @@ def passes_figure(passes: list[dict]):
     return fig
 
 
+def _count(n: object, one: str, many: str | None = None) -> str:
+    """``1 pass``, ``2 passes``, ``? corrections``: a count and its noun, escaped."""
+    return f"{_e(n)} {one if n == 1 else (many or one + 's')}"
+
+
 def calibrate_page(
     d: dict,
     *,
@@ -116,7 +121,8 @@ def calibrate_page(
     final = d["final_calibration"]
     method = d.get("method", "?")
     body.append(
-        f"<p>{_e(len(passes))} passes, {_e(d.get('corrections', '?'))} corrections ({_e(method)}); "
+        f"<p>{_count(len(passes), 'pass', 'passes')}, {_count(d.get('corrections', '?'), 'correction')} "
+        f"({_e(method)}); "
         f"{_e(d.get('stopped', ''))}.</p>"
     )
     body.append(
