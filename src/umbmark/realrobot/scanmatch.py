@@ -1216,26 +1216,18 @@ def _coarse_peaks(rpts, rflags, cpts, cflags, pose0, fp, peaks):
     return found
 
 
-def _match_kernel(scans, ref_idx, cur_idx, init, cosa, sina, beams, ip, fp, out, space):
-    """Match ``scans[cur_idx[k]]`` against ``scans[ref_idx[k]]`` for every k: row k of ``out``,
-    in the work space ``space`` that :func:`_match_batch` makes (the kernel allocates nothing:
-    less to compile)."""
-    ns, n = scans.shape
-    wrap = beams[2] > 0.0
-    pts, flags, nvalid, nline, work, order, iwork, fits, sin2, wf, wn, wi, peaks, row = space
-    # every scan's points and lines, once
-    for i in range(ns):
+def _prepare_kernel(scans, cosa, sina, wrap, ip, fp, pts, flags, nvalid, nline, work, order, iwork, fits):
+    """Every scan's points and lines, once (:func:`_prepare_scan`; the kernel allocates
+    nothing: less to compile)."""
+    for i in range(scans.shape[0]):
         nvalid[i], nline[i] = _prepare_scan(
             scans[i], cosa, sina, wrap, ip, fp, pts[i], flags[i], work, order, iwork, fits
         )  # fmt: skip
-    # the squared sine of the smallest angle between a direction and a beam d steps from its nearest
-    for d in range(n + 1):
-        sin2[d] = 1.0
-        ang = (d - 0.5) * beams[1]
-        if ang <= 0.0:
-            sin2[d] = 0.0
-        elif ang < 0.5 * math.pi:
-            sin2[d] = math.sin(ang) ** 2
+
+
+def _pairs_kernel(ref_idx, cur_idx, init, beams, ip, fp, out, pts, flags, nvalid, nline, sin2, wf, wn, wi, peaks, row):
+    """Match the prepared scan ``cur_idx[k]`` against ``ref_idx[k]`` for every k: row k of
+    ``out``, in the work space :func:`_match_batch` makes."""
     min_points = ip[_I_MIN_POINTS]
     for k in range(ref_idx.size):
         ri = ref_idx[k]
@@ -1274,25 +1266,25 @@ def _match_kernel(scans, ref_idx, cur_idx, init, cosa, sina, beams, ip, fp, out,
 
 def _match_batch(scans, ref_idx, cur_idx, init, cosa, sina, beams, ip, fp, out):
     """Match ``scans[cur_idx[k]]`` against ``scans[ref_idx[k]]`` for every k: row k of ``out``
-    (:func:`_match_kernel` with its work space)."""
+    (the scans prepared by :func:`_prepare_kernel`, matched by :func:`_pairs_kernel`: two
+    kernels, compiled at the same time by two processes, see :func:`start_compiling`)."""
     ns, n = scans.shape
-    space = (
-        np.zeros((ns, _P_WIDTH, n)),  # every scan's points and lines
-        np.zeros((ns, _B_WIDTH, n), dtype=np.bool_),
-        np.zeros(ns, dtype=np.int64),  # its valid points
-        np.zeros(ns, dtype=np.int64),  # its points with a line
-        np.zeros((5, n)),  # the lines' work space
-        np.zeros(n, dtype=np.int64),
-        np.zeros((6, n + 1), dtype=np.int64),
-        np.zeros((7, 2 * n + 2)),
-        np.ones(n + 1),  # the squared sines of the beams' angles
-        np.zeros((5, n)),  # the matcher's work space
-        np.zeros((2, n), dtype=np.int64),
-        np.zeros(n, dtype=np.bool_),
-        np.zeros((ip[_I_CANDIDATES], 3)),  # the coarse search's starts
-        np.zeros(out.shape[1]),  # one start's result
-    )
-    _match_kernel(scans, ref_idx, cur_idx, init, cosa, sina, beams, ip, fp, out, space)
+    pts = np.zeros((ns, _P_WIDTH, n))  # every scan's points and lines
+    flags = np.zeros((ns, _B_WIDTH, n), dtype=np.bool_)
+    nvalid = np.zeros(ns, dtype=np.int64)  # its valid points
+    nline = np.zeros(ns, dtype=np.int64)  # its points with a line
+    _prepare_kernel(
+        scans, cosa, sina, bool(beams[2] > 0.0), ip, fp, pts, flags, nvalid, nline,
+        np.zeros((5, n)), np.zeros(n, dtype=np.int64), np.zeros((6, n + 1), dtype=np.int64), np.zeros((7, 2 * n + 2)),
+    )  # fmt: skip
+    # the squared sine of the smallest angle between a direction and a beam d steps from its nearest
+    ang = (np.arange(n + 1) - 0.5) * beams[1]
+    sin2 = np.where(ang <= 0.0, 0.0, np.where(ang < 0.5 * math.pi, np.sin(np.clip(ang, 0.0, None)) ** 2, 1.0))
+    _pairs_kernel(
+        ref_idx, cur_idx, init, beams, ip, fp, out, pts, flags, nvalid, nline, np.ascontiguousarray(sin2),
+        np.zeros((5, n)), np.zeros((2, n), dtype=np.int64), np.zeros(n, dtype=np.bool_),
+        np.zeros((ip[_I_CANDIDATES], 3)), np.zeros(out.shape[1]),
+    )  # fmt: skip
 
 
 _KERNELS = (
@@ -1306,7 +1298,8 @@ _KERNELS = (
     "_sym3_eigen_ratio",
     "_icp",
     "_coarse_peaks",
-    "_match_kernel",
+    "_prepare_kernel",
+    "_pairs_kernel",
 )
 _PY_KERNELS = {name: globals()[name] for name in _KERNELS}  # the Python functions, for numba
 # the kernels' argument types (numba's notation): one compiled version each, in the order above
@@ -1325,12 +1318,10 @@ _SIGNATURES = {
     "_sym3_eigen_ratio": ("float64",) * 6,
     "_icp": (_F2, _B2, _F2, _B2, "int64", _F1, _F1, _F1, _I1, _F1, _F2, _I2, _B1, _F1),
     "_coarse_peaks": (_F2, _B2, _F2, _B2, _F1, _F1, _F2),
-    "_match_kernel": (_F2, _I1, _I1, _F2, _F1, _F1, _F1, _I1, _F1, _F2)
-    + (
-        "Tuple((float64[:, :, ::1], boolean[:, :, ::1], int64[::1], int64[::1], float64[:, ::1], int64[::1], "
-        "int64[:, ::1], float64[:, ::1], float64[::1], float64[:, ::1], int64[:, ::1], boolean[::1], float64[:, ::1], "
-        "float64[::1]))",
-    ),
+    "_prepare_kernel": (_F2, _F1, _F1, "boolean", _I1, _F1, "float64[:, :, ::1]", "boolean[:, :, ::1]", _I1, _I1)
+    + (_F2, _I1, _I2, _F2),
+    "_pairs_kernel": (_I1, _I1, _F2, _F1, _I1, _F1, _F2, "float64[:, :, ::1]", "boolean[:, :, ::1]", _I1, _I1, _F1)
+    + (_F2, _I2, _B1, _F2, _F1),
 }
 # the two halves of the work: the scans' lines (compiled by the first match) and the matching
 # (compiled by a second process at the same time, see start_compiling)
@@ -1342,8 +1333,9 @@ _FOREGROUND = (
     "_scan_noise",
     "_fit_lines",
     "_prepare_scan",
+    "_prepare_kernel",
 )
-_BACKGROUND = ("_kth_smallest", "_sym3_eigen_ratio", "_icp", "_coarse_peaks")
+_BACKGROUND = ("_kth_smallest", "_sym3_eigen_ratio", "_icp", "_coarse_peaks", "_pairs_kernel")
 _done: set[str] = set()  # the kernels compiled (or loaded) in this process
 _dispatchers: dict[str, Any] = {}
 _compiled = False
@@ -1408,7 +1400,7 @@ def kernel_state() -> str:
     """
     if not _jit():
         return "interpreted"
-    if _compiled or _cached("_match_kernel"):
+    if _compiled or (_cached("_prepare_kernel") and _cached("_pairs_kernel")):
         return "ready"
     return "compile"
 
