@@ -506,6 +506,6 @@ def test_a_machine_without_the_kernels_compiles_them_in_two_processes(tmp_path):
     before, helper_rc, after, poses, iterations = json.loads(out.stdout)
     assert (before, helper_rc, after) == ("compile", 0, "ready")
     written = {p.name.split("-")[0] for p in cache.rglob("*.nbi")}
-    kernels = ("_icp", "_coarse_peaks", "_prepare_scan", "_prepare_kernel", "_pairs_kernel")
+    kernels = ("_icp", "_prepare_scan", "_prepare_kernel", "_pairs_kernel")
     assert {f"scanmatch.{k}" for k in kernels} <= written
     assert np.allclose(poses, m.poses, rtol=0, atol=1e-12) and iterations == m.iterations.tolist()

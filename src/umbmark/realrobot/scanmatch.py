@@ -60,7 +60,8 @@ compiled code: too few valid points is a result, not an exception.
 The kernels are compiled with numba when it is installed (once per machine: numba's cache), one
 version each (their argument types are fixed), in two halves at once: a second Python process
 compiles the matching kernels into the cache while the first match compiles the scans' kernels
-(:func:`start_compiling` starts it earlier, e.g. before a bag is read). Without numba the same code
+(:func:`start_compiling` starts it earlier, e.g. before a bag is read); the wide search's kernels
+(``ICPConfig.coarse``) on its first use. Without numba the same code
 runs interpreted (the same results, about a hundred times slower). Imports numpy and
 :mod:`umbmark.errors`; numba lazily, on the first match.
 
@@ -1225,29 +1226,28 @@ def _prepare_kernel(scans, cosa, sina, wrap, ip, fp, pts, flags, nvalid, nline, 
         )  # fmt: skip
 
 
-def _pairs_kernel(ref_idx, cur_idx, init, beams, ip, fp, out, pts, flags, nvalid, nline, sin2, wf, wn, wi, peaks, row):
-    """Match the prepared scan ``cur_idx[k]`` against ``ref_idx[k]`` for every k: row k of
-    ``out``, in the work space :func:`_match_batch` makes."""
-    min_points = ip[_I_MIN_POINTS]
+def _pairs_kernel(ref_idx, cur_idx, init, beams, ip, fp, out, pts, flags, nvalid, nline, sin2, wf, wn, wi):
+    """Match the prepared scan ``cur_idx[k]`` against ``ref_idx[k]`` from ``init[k]`` for every
+    k: row k of ``out``, in the work space :func:`_match_batch` makes."""
     for k in range(ref_idx.size):
         ri = ref_idx[k]
         ci = cur_idx[k]
         o = out[k]
-        for q in range(o.size):
-            o[q] = math.nan
-        o[_O_NREF] = nline[ri]
-        o[_O_NCUR] = nvalid[ci]
-        o[_O_NCLOSE] = 0.0
-        o[_O_ITER] = 0.0
-        if nline[ri] < min_points:
-            o[_O_STATUS] = _FEW_REF
-            continue
-        if nvalid[ci] < min_points:
-            o[_O_STATUS] = _FEW_CUR
-            continue
-        if ip[_I_COARSE] == 0:
+        if _pair_start(ip, o, nvalid[ci], nline[ri]):
             _icp(pts[ri], flags[ri], pts[ci], flags[ci], nvalid[ci], beams, sin2, init[k], ip, fp, wf, wn, wi, o)
             o[_O_NREF] = nline[ri]
+
+
+def _coarse_pairs_kernel(
+    ref_idx, cur_idx, init, beams, ip, fp, out, pts, flags, nvalid, nline, sin2, wf, wn, wi, peaks, row
+):
+    """:func:`_pairs_kernel` after a wide search (:func:`_coarse_peaks`): from each of its
+    starts, the result that puts most points on their lines (compiled only when asked for)."""
+    for k in range(ref_idx.size):
+        ri = ref_idx[k]
+        ci = cur_idx[k]
+        o = out[k]
+        if not _pair_start(ip, o, nvalid[ci], nline[ri]):
             continue
         npk = _coarse_peaks(pts[ri], flags[ri], pts[ci], flags[ci], init[k], fp, peaks)
         best = -1.0
@@ -1262,6 +1262,23 @@ def _pairs_kernel(ref_idx, cur_idx, init, beams, ip, fp, out, pts, flags, nvalid
         if npk == 0:
             o[_O_STATUS] = _FEW_REF
         o[_O_NREF] = nline[ri]
+
+
+def _pair_start(ip, o, ncur, nref):
+    """Row ``o`` of a pair cleared; False (and its status set) when a scan has too few points."""
+    for q in range(o.size):
+        o[q] = math.nan
+    o[_O_NREF] = nref
+    o[_O_NCUR] = ncur
+    o[_O_NCLOSE] = 0.0
+    o[_O_ITER] = 0.0
+    if nref < ip[_I_MIN_POINTS]:
+        o[_O_STATUS] = _FEW_REF
+        return False
+    if ncur < ip[_I_MIN_POINTS]:
+        o[_O_STATUS] = _FEW_CUR
+        return False
+    return True
 
 
 def _match_batch(scans, ref_idx, cur_idx, init, cosa, sina, beams, ip, fp, out):
@@ -1280,11 +1297,12 @@ def _match_batch(scans, ref_idx, cur_idx, init, cosa, sina, beams, ip, fp, out):
     # the squared sine of the smallest angle between a direction and a beam d steps from its nearest
     ang = (np.arange(n + 1) - 0.5) * beams[1]
     sin2 = np.where(ang <= 0.0, 0.0, np.where(ang < 0.5 * math.pi, np.sin(np.clip(ang, 0.0, None)) ** 2, 1.0))
-    _pairs_kernel(
-        ref_idx, cur_idx, init, beams, ip, fp, out, pts, flags, nvalid, nline, np.ascontiguousarray(sin2),
-        np.zeros((5, n)), np.zeros((2, n), dtype=np.int64), np.zeros(n, dtype=np.bool_),
-        np.zeros((ip[_I_CANDIDATES], 3)), np.zeros(out.shape[1]),
-    )  # fmt: skip
+    args = (ref_idx, cur_idx, init, beams, ip, fp, out, pts, flags, nvalid, nline, np.ascontiguousarray(sin2))
+    work = (np.zeros((5, n)), np.zeros((2, n), dtype=np.int64), np.zeros(n, dtype=np.bool_))
+    if ip[_I_COARSE] == 0:
+        _pairs_kernel(*args, *work)
+    else:
+        _coarse_pairs_kernel(*args, *work, np.zeros((ip[_I_CANDIDATES], 3)), np.zeros(out.shape[1]))
 
 
 _KERNELS = (
@@ -1297,9 +1315,11 @@ _KERNELS = (
     "_prepare_scan",
     "_sym3_eigen_ratio",
     "_icp",
-    "_coarse_peaks",
     "_prepare_kernel",
+    "_pair_start",
     "_pairs_kernel",
+    "_coarse_peaks",
+    "_coarse_pairs_kernel",
 )
 _PY_KERNELS = {name: globals()[name] for name in _KERNELS}  # the Python functions, for numba
 # the kernels' argument types (numba's notation): one compiled version each, in the order above
@@ -1320,8 +1340,11 @@ _SIGNATURES = {
     "_coarse_peaks": (_F2, _B2, _F2, _B2, _F1, _F1, _F2),
     "_prepare_kernel": (_F2, _F1, _F1, "boolean", _I1, _F1, "float64[:, :, ::1]", "boolean[:, :, ::1]", _I1, _I1)
     + (_F2, _I1, _I2, _F2),
+    "_pair_start": (_I1, _F1, "int64", "int64"),
     "_pairs_kernel": (_I1, _I1, _F2, _F1, _I1, _F1, _F2, "float64[:, :, ::1]", "boolean[:, :, ::1]", _I1, _I1, _F1)
-    + (_F2, _I2, _B1, _F2, _F1),
+    + (_F2, _I2, _B1),
+    "_coarse_pairs_kernel": (_I1, _I1, _F2, _F1, _I1, _F1, _F2, "float64[:, :, ::1]", "boolean[:, :, ::1]", _I1)
+    + (_I1, _F1, _F2, _I2, _B1, _F2, _F1),
 }
 # the two halves of the work: the scans' lines (compiled by the first match) and the matching
 # (compiled by a second process at the same time, see start_compiling)
@@ -1335,7 +1358,8 @@ _FOREGROUND = (
     "_prepare_scan",
     "_prepare_kernel",
 )
-_BACKGROUND = ("_kth_smallest", "_sym3_eigen_ratio", "_icp", "_coarse_peaks", "_pairs_kernel")
+_BACKGROUND = ("_kth_smallest", "_sym3_eigen_ratio", "_icp", "_pair_start", "_pairs_kernel")
+_COARSE = ("_coarse_peaks", "_coarse_pairs_kernel")  # compiled when a wide search is first asked for
 _done: set[str] = set()  # the kernels compiled (or loaded) in this process
 _dispatchers: dict[str, Any] = {}
 _compiled = False
@@ -1446,8 +1470,9 @@ def _compile(names: tuple[str, ...]) -> None:
             _done.add(name)
 
 
-def _kernel() -> Any:
-    """The batch kernel, compiled on first use when numba is installed."""
+def _kernel(coarse: bool = False) -> Any:
+    """The batch kernel, compiled on first use when numba is installed (the wide search's
+    kernels on the first use of it)."""
     global _compiled
     with _lock:
         if not _compiled:
@@ -1460,8 +1485,10 @@ def _kernel() -> Any:
                     except subprocess.TimeoutExpired:  # a helper that hangs: compile here
                         _helper[0].kill()
                     _helper.clear()
-                _compile(_KERNELS)
+                _compile(tuple(name for name in _KERNELS if name not in _COARSE))
             _compiled = True
+        if coarse and _jit():
+            _compile(_COARSE)
     return _match_batch
 
 
@@ -1555,7 +1582,7 @@ def _run(
     beams = np.array([a0, inc, 1.0 if wrap else 0.0])
     out = np.zeros((k, _O_WIDTH))
     if k:
-        _kernel()(scans, ref_idx, cur_idx, init, np.cos(a), np.sin(a), beams, ip, fp, out)
+        _kernel(bool(cfg.coarse))(scans, ref_idx, cur_idx, init, np.cos(a), np.sin(a), beams, ip, fp, out)
     status = out[:, _O_STATUS].astype(np.int64)
     return ScanMatches(
         poses=out[:, _O_POSE : _O_POSE + 3].copy(),
