@@ -90,6 +90,27 @@ def test_skid_steer_wheelbase_from_spins_alone(skid_bag):
     assert "wheel_separation_multiplier" in text and f"{g['wheelbase_m'] * 1e3:.2f}" in text
 
 
+def test_a_gyro_result_is_recorded_reported_and_listed(skid_bag, tmp_path):
+    """``--robot NAME --record``: the gyro's wheelbase in the history (wheel factors 1, no E_d),
+    its page by record id, and the robot's history page."""
+    db = str(tmp_path / "h.sqlite")
+    base = ["replay", str(skid_bag), "--imu-topic", "/imu", *JOINTS, *SKID_GEO]
+    d = json.loads(run([*base, "--robot", "r1", "--record", "--db", db, "--json"]))
+    rid = d["history"]["record_id"]
+    h = json.loads(run(["history", "r1", "--db", db, "--json"]))
+    (r,) = h["records"]
+    assert r["kind"] == "gyro" and r["Eb"] == pytest.approx(d["gyro"]["Eb"]) and r["Ed"] is None
+    assert r["wheelbase_mm"] == pytest.approx(1e3 * d["gyro"]["wheelbase_m"])
+    page = tmp_path / "g.html"
+    run(["-q", "report", "--id", str(rid), "--db", db, "--out", str(page)])
+    text = page.read_text()
+    assert f"{1e3 * d['gyro']['wheelbase_m']:.2f}" in text and "The turns" in text
+    run(["-q", "report", "--robot", "r1", "--db", db, "--out", str(tmp_path / "h.html")])
+    assert "gyro" in (tmp_path / "h.html").read_text()
+    # printed, the record is named
+    assert f"recorded as #{rid + 1} in the history of r1" in run([*base, "--robot", "r1", "--record", "--db", db])
+
+
 def test_bias_is_removed_from_still_periods(tmp_path):
     """Spins one way only, so the bias does not cancel between directions: left in, its 0.57 deg/s
     over each 7.9 s spin of 225 deg would put the wheelbase 2 % off."""

@@ -454,6 +454,8 @@ def _result_input(runs_file, record_id, db) -> dict | None:
             kind = "selfcal"
         elif rec.kind == "calibrate" and is_calibrate_result(rec.results):
             kind = "calibrate"
+        elif rec.kind == "gyro" and is_gyro_result(rec.results):
+            kind = "gyro"
         else:
             return None
         label = f"record #{rec.id} of {rec.created_utc[:16].replace('T', ' ')} UTC"

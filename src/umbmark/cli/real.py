@@ -504,7 +504,7 @@ def replay(
     if kw.get("imu_topic") is not None or kw.get("full_turns"):
         gyro = _gyro(paths, log_format, kw)
         if kw.get("gt_topic") is None and (kw.get("gt_scan_topic") is None or kw.get("side_mm") is None):
-            _emit_gyro(gyro, save, as_json)
+            _emit_gyro(gyro, save, as_json, (robot, record, db), list(paths))
             return
     scan_truth = None
     if kw.get("gt_scan_topic") is not None or kw.get("sensor_pose") is not None:
@@ -664,17 +664,24 @@ def _gyro(paths, log_format, kw):
     return gyro_reference(bags, nominal, full_turns=bool(kw.get("full_turns")), scans=scans, sensor_pose=pose)
 
 
-def _emit_gyro(gyro, save, as_json) -> None:
-    """``replay --imu-topic`` without a ground truth: the gyro's block alone."""
+def _emit_gyro(gyro, save, as_json, history, paths) -> None:
+    """``replay --imu-topic`` without a ground truth: the gyro's block alone (recorded with
+    ``--robot NAME --record``)."""
+    from umbmark.history import file_sha256
+    from umbmark.realrobot.gyro import gyro_history_fields
+
     d = {"gyro": gyro.to_dict(), "warnings": list(gyro.warnings)}
     if save:
         from umbmark.io.atomic import write_json
 
         write_json(save, d)
+    robot, record, db = history
+    rec = record_if_requested(robot, record, db, **gyro_history_fields(d, paths, file_sha256)) if record else None
     if as_json:
-        emit_json(d)
+        emit_json(d if rec is None else {**d, "history": rec})
     elif not is_quiet():
         _print_gyro(gyro)
+        print_recorded(rec)
 
 
 def _print_gyro(g) -> None:

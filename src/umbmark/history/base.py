@@ -46,7 +46,7 @@ __all__ = [
 ]
 
 ENV_VAR = "UMBMARK_DB"
-KINDS = ("analyze", "replay", "calibrate", "measure", "selfcal", "other")
+KINDS = ("analyze", "replay", "calibrate", "measure", "selfcal", "gyro", "other")
 
 # Schema migrations: MIGRATIONS[v] upgrades a database at version v - 1 to version v.
 MIGRATIONS: dict[int, list[str]] = {
@@ -1071,7 +1071,7 @@ def _scale_observed(record: Record) -> bool | None:
     res = record.results if isinstance(record.results, dict) else {}
     if record.kind == "selfcal":
         return True
-    if record.kind == "calibrate" or record.method == "bf":
+    if record.kind in ("calibrate", "gyro") or record.method == "bf":
         return False
     if record.method == "lsq":
         return res.get("scale_fitted") if isinstance(res.get("scale_fitted"), bool) else None

@@ -41,7 +41,7 @@ SI units. Imports numpy, scipy, :mod:`umbmark.model`, :mod:`umbmark.io` and the 
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -56,7 +56,7 @@ from umbmark.model.se2 import compose, inverse
 from umbmark.realrobot.scan_truth import SCAN_TRUTH_ICP, robot_displacement
 from umbmark.realrobot.scanmatch import ICPConfig, match_scans
 
-__all__ = ["GyroTurn", "GyroReference", "gyro_reference", "still_periods"]
+__all__ = ["GyroTurn", "GyroReference", "gyro_reference", "gyro_history_fields", "still_periods"]
 
 FloatArray = NDArray[np.float64]
 
@@ -182,6 +182,53 @@ class GyroReference:
             "turns": [t.to_dict() for t in self.turns],
             "warnings": list(self.warnings),
         }
+
+
+def gyro_history_fields(
+    d: dict[str, Any], paths: Sequence[str | Path] = (), file_hash: Callable[[str], str] | None = None
+) -> dict[str, Any]:
+    """The keyword arguments of :func:`umbmark.history.record_result` for a gyro result given
+    as its JSON (``{"gyro": GyroReference.to_dict(), "warnings": [...]}``, the output of
+    ``umbmark replay --imu-topic ... --json``).
+
+    The gyro measures the effective wheelbase only: the record's wheel factors are 1 (the
+    radius multipliers stay as they are) and it holds no E_d.
+
+    Parameters
+    ----------
+    d : dict
+        The gyro result's JSON.
+    paths : sequence of str or Path
+        The bags it was made from (the first is the record's source).
+    file_hash : callable, optional
+        The content hash of the first bag; None: no hash.
+
+    Returns
+    -------
+    dict
+        ``kind`` (``gyro``), ``method``, ``results``, ``parameters`` (``c_left``, ``c_right``,
+        ``wheelbase_mm``, ``Eb``), ``parameters_in_use`` (the nominal ``wheelbase_mm``),
+        ``source``, ``input_sha256``.
+
+    Raises
+    ------
+    InputError
+        If ``d`` is not a gyro result's JSON.
+    """
+    g = d.get("gyro") if isinstance(d, dict) else None
+    need = ("wheelbase_m", "nominal_wheelbase_m", "Eb")
+    if not isinstance(g, dict) or any(not isinstance(g.get(k), (int, float)) for k in need):
+        raise InputError("not the JSON of a gyro result (a `gyro` block with wheelbase_m, nominal_wheelbase_m, Eb)")
+    first = Path(paths[0]) if paths else None
+    return {
+        "kind": "gyro",
+        "method": "gyro",
+        "results": d,
+        "parameters": {"c_left": 1.0, "c_right": 1.0, "wheelbase_mm": g["wheelbase_m"] * 1e3, "Eb": g["Eb"]},
+        "parameters_in_use": {"wheelbase_mm": g["nominal_wheelbase_m"] * 1e3},
+        "source": None if first is None else str(first),
+        "input_sha256": None if first is None or file_hash is None else file_hash(str(first)),
+    }
 
 
 def still_periods(t_s, left_rad, right_rad, still_s: float) -> list[tuple[float, float]]:
