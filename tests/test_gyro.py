@@ -6,6 +6,7 @@ import contextlib
 import io
 import json
 import math
+import re
 
 import numpy as np
 import pytest
@@ -109,6 +110,17 @@ def test_a_gyro_result_is_recorded_reported_and_listed(skid_bag, tmp_path):
     assert "gyro" in (tmp_path / "h.html").read_text()
     # printed, the record is named
     assert f"recorded as #{rid + 1} in the history of r1" in run([*base, "--robot", "r1", "--record", "--db", db])
+
+
+def test_a_turn_is_named_by_its_time_in_its_bag(tmp_path):
+    """Whole turns counted with a gyro reading 5 % high: each turn's warning says where it is in
+    seconds from its bag's start (not a time stamp since 1970)."""
+    log = simulate_drive(spins(2 * math.pi * FACTOR, [1, -1]), SKID, seed=5)
+    bag = bag_of(log, tmp_path / "high", Gyro(100.0, 1.05, BIAS, NOISE), seed=6)
+    d = json.loads(run(["replay", str(bag), "--imu-topic", "/imu", "--full-turns", *JOINTS, *SKID_GEO, "--json"]))
+    found = [re.search(r"in the turn at ([0-9.]+) s in high", w) for w in d["warnings"]]
+    times = [float(m.group(1)) for m in found if m]
+    assert len(times) == 2 and all(0 < t < log.t_s[-1] - log.t_s[0] for t in times), d["warnings"]
 
 
 def test_bias_is_removed_from_still_periods(tmp_path):

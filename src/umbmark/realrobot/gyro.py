@@ -426,6 +426,11 @@ def gyro_reference(
     warnings: list[str] = []
     turns: list[GyroTurn] = []
     stills_of: dict[str, list] = {}
+    starts = {bag.source: float(bag.wheel_t_s[0]) for bag in bags if len(bag.wheel_t_s)}
+
+    def at(turn: GyroTurn) -> str:  # where a turn is, in seconds from its bag's wheel data's start
+        return f"at {turn.t_s[0] - starts.get(turn.source, turn.t_s[0]):.1f} s in {Path(turn.source).name}"
+
     biases, noises, weights, readings, still_total = [], [], [], 0, 0.0
     for bag in bags:
         name = Path(bag.source).name
@@ -472,7 +477,7 @@ def gyro_reference(
             true[i] = 2.0 * math.pi * n
             if abs(g / true[i] - 1.0) > 0.03:
                 warnings.append(
-                    f"the gyro turned {g / (2.0 * math.pi):.2f} revolutions in the turn at {turns[i].t_s[0]:.1f} s "
+                    f"the gyro turned {g / (2.0 * math.pi):.2f} revolutions in the turn {at(turns[i])} "
                     "(given as whole turns): its scale is off by more than 3 %, or the turn was not whole"
                 )
         if not true:
@@ -486,7 +491,7 @@ def gyro_reference(
                 continue
             val, why = _lidar_turn(turns[i], stills_of[turns[i].source], scan_bag, pose, config)
             if val is None:
-                warnings.append(f"the turn at {turns[i].t_s[0]:.1f} s: the scan registration failed ({why})")
+                warnings.append(f"the turn {at(turns[i])}: the scan registration failed ({why})")
             else:
                 true[i] = val
         if not true:
