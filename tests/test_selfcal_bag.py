@@ -199,7 +199,8 @@ def test_intervals_csv_gives_the_bag_result(bags, tmp_path, capsys):
 
 def test_several_bags_are_pooled(bags, log, tmp_path):
     """A second drive of the same robot (another program, other noise) in a ROS 1 bag, pooled with
-    the first: the intervals of both, and the truth still within the narrower intervals."""
+    the first: the intervals of both, the blocks of time of both for the covariance (none spans
+    the two bags), and the truth within the intervals."""
     other = simulate_drive(mixed_program(60.0, seed=21, robot=ROBOT), ROBOT, seed=22)
     second = write_drive_bag(other, tmp_path / "second.bag", storage="ros1", odom=False)
     d = selfcal_from_bags([bags["sqlite3"], second], D_NOM, B_NOM, **JOINTS).to_dict()
@@ -208,8 +209,8 @@ def test_several_bags_are_pooled(bags, log, tmp_path):
     assert d["pairs_matched"] == sum(i["pairs_matched"] for i in d["inputs"]) > one["pairs_matched"]
     assert [i["path"] for i in d["inputs"]] == [str(bags["sqlite3"]), str(second)]
     check_truth(d, log)
-    width = lambda r, k: r[k + "_ci95"][1] - r[k + "_ci95"][0]  # noqa: E731
-    assert width(d, "wheelbase_mm") < width(one, "wheelbase_mm")
+    # 120 s and 60 s of blocks of at least 20 s: 6 and 3
+    assert one["covariance_blocks"] == 6 and d["covariance_blocks"] == 9
 
 
 # -- noise free: exact ---------------------------------------------------------------------------------
