@@ -8,7 +8,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import example, given, settings
 from hypothesis import strategies as st
 
 from umbmark.correct.exact import exact_correction
@@ -40,7 +40,9 @@ def _rel(a, b) -> float:
 
 
 def _assert_same(fast, ref, derived_rtol: float = 1e-7) -> None:
-    assert fast.extra["global_search"] == ref.extra["global_search"]
+    # (whether the global search ran is not compared: where the first fit misses a centre of
+    # gravity by 3 SEM to rounding, one implementation searches and the other does not, and the
+    # search then finds the same answer; everything below must agree)
     assert _rel(fast.ed, ref.ed) < 1e-9 and _rel(fast.eb, ref.eb) < 1e-9
     assert _rel(fast.ed_pass, ref.ed_pass) < 1e-9
     assert _rel(fast.calibration.c_left, ref.calibration.c_left) < 1e-9
@@ -77,11 +79,13 @@ def test_accuracy_cells_with_many_runs_agree_with_the_reference():
         fast = exact_correction(runs, 4.0, b)
         ref = exact_correction(runs, 4.0, b, _reference=True)
         _assert_same(fast, ref)
+        assert fast.extra["global_search"] == ref.extra["global_search"]  # these cells are not on the edge
         searched += bool(ref.extra["global_search"])
     assert searched >= 10  # the cells of E_b 0.5 and 2.5 and more: the search's path is covered
 
 
 @settings(max_examples=4, deadline=None)
+@example(ed=1.1, eb=1.9, side=1.5, b=0.419921875, n=33, heading=True, seed=133)  # a first fit at 3 SEM to rounding
 @given(
     ed=st.floats(0.9, 1.1),
     eb=st.floats(0.4, 3.0),
