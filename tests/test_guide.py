@@ -175,6 +175,22 @@ def test_ros2_script_options_and_errors(capsys):
         assert main(["guide", "--ros2-script", *args]) == 2, args
         err = capsys.readouterr().err
         assert flag in err and len(err.strip().splitlines()) == 1, err
+    # values no calibration run is driven with: the unit slip named, nothing written
+    for args, words in (
+        (["--speed-m-s", "200"], ("--speed-m-s", "metres per second")),
+        (["--turn-rate-deg-s", "3000"], ("--turn-rate-deg-s", "degrees per second")),
+        (["--side-mm", "2"], ("2 mm", "millimetres and metres")),
+        (["--side-mm", "1e6"], ("1e+06 mm", "millimetres and metres")),
+    ):
+        assert main(["guide", "--ros2-script", *args]) == 2, args
+        out = capsys.readouterr()
+        assert out.out == "" and all(w in out.err for w in words) and len(out.err.strip().splitlines()) == 1, out.err
+    assert main(["guide", "--side-mm", "1e308"]) == 2
+    assert "millimetres and metres" in capsys.readouterr().err
+    # the limits themselves are allowed
+    for args in (["--speed-m-s", "3"], ["--turn-rate-deg-s", "360"], ["--side-mm", "250"], ["--side-mm", "50000"]):
+        assert main(["guide", "--ros2-script", *args]) == 0, args
+        capsys.readouterr()
 
 
 class _FakeRos:

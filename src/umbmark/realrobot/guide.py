@@ -9,7 +9,7 @@ import re
 
 from umbmark.errors import InputError
 
-__all__ = ["STEP_TITLES", "guide_text", "ros2_runs_script"]
+__all__ = ["STEP_TITLES", "check_run_plan", "guide_text", "ros2_runs_script"]
 
 STEP_TITLES = (
     "Before you start",
@@ -22,6 +22,54 @@ STEP_TITLES = (
     "Compute the calibration",
     "Load it and check",
 )
+
+
+SIDE_RANGE_M = (0.25, 50.0)
+"""The sides of a square a UMBmark test is driven on (the paper's: 4 m)."""
+MAX_SPEED_M_S = 3.0
+"""The fastest a calibration run is driven (the paper's: 0.2 m/s)."""
+MAX_TURN_RATE_DEG_S = 360.0
+"""The fastest turn on the spot of a calibration run."""
+
+
+def check_run_plan(side_m: float, speed_m_s: float | None = None, turn_rate_deg_s: float | None = None) -> None:
+    """Refuse a plan no calibration run is driven with, naming the likely unit slip.
+
+    Parameters
+    ----------
+    side_m : float
+        Side of the square [m].
+    speed_m_s : float, optional
+        Speed on the legs [m/s].
+    turn_rate_deg_s : float, optional
+        Turn rate on the spot [deg/s].
+
+    Raises
+    ------
+    InputError
+        A value that is not a positive number, or outside :data:`SIDE_RANGE_M`,
+        :data:`MAX_SPEED_M_S` or :data:`MAX_TURN_RATE_DEG_S`.
+    """
+    for name, v in (("side", side_m), ("speed_m_s", speed_m_s), ("turn_rate_deg_s", turn_rate_deg_s)):
+        if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            raise InputError(f"`{name}` must be a positive number, not {v!r}")
+    lo, hi = SIDE_RANGE_M
+    if not lo <= side_m <= hi:
+        raise InputError(
+            f"a square of {side_m:g} m ({side_m * 1e3:g} mm) sides is not a UMBmark test ({lo:g} to {hi:g} m; the "
+            "paper's is 4 m): "
+            "millimetres and metres mixed up?"
+        )
+    if speed_m_s is not None and speed_m_s > MAX_SPEED_M_S:
+        raise InputError(
+            f"`speed_m_s` {speed_m_s:g}: faster than a calibration run is driven (at most {MAX_SPEED_M_S:g} m/s; "
+            "the paper's is 0.2): the speed is in metres per second"
+        )
+    if turn_rate_deg_s is not None and turn_rate_deg_s > MAX_TURN_RATE_DEG_S:
+        raise InputError(
+            f"`turn_rate_deg_s` {turn_rate_deg_s:g}: faster than a robot turns on the spot for a calibration run "
+            f"(at most {MAX_TURN_RATE_DEG_S:g} deg/s; 30 is usual): the rate is in degrees per second"
+        )
 
 
 def guide_text(side_mm: float = 4000.0, runs: int = 5, speed_m_s: float = 0.2) -> str:
@@ -40,7 +88,15 @@ def guide_text(side_mm: float = 4000.0, runs: int = 5, speed_m_s: float = 0.2) -
     -------
     str
         Plain text, at most 100 columns, one numbered step per :data:`STEP_TITLES` entry.
+
+    Raises
+    ------
+    InputError
+        A side or speed no calibration run is driven with (:func:`check_run_plan`).
     """
+    if not (isinstance(side_mm, (int, float)) and math.isfinite(side_mm) and side_mm > 0):
+        raise InputError(f"`side_mm` must be a positive number, not {side_mm!r}")
+    check_run_plan(side_mm / 1000.0, speed_m_s)
     L = f"{side_mm:g}"
     Lm = f"{side_mm / 1000:g}"
     steps = [
@@ -312,6 +368,7 @@ def ros2_runs_script(
     ):
         if not (math.isfinite(v) and v > 0):
             raise InputError(f"`{name}` must be a positive number, not {v!r}")
+    check_run_plan(side_m, speed_m_s, turn_rate_deg_s)
     if runs < 1:
         raise InputError(f"`runs` must be at least 1, not {runs!r}")
     for name, topic in (("cmd_vel_topic", cmd_vel_topic), ("odom_topic", odom_topic)):
