@@ -123,6 +123,29 @@ def test_a_turn_is_named_by_its_time_in_its_bag(tmp_path):
     assert len(times) == 2 and all(0 < t < log.t_s[-1] - log.t_s[0] for t in times), d["warnings"]
 
 
+@pytest.mark.parametrize(
+    "factor, words",
+    [
+        (math.degrees(1.0), ("deg/s published as rad/s",)),
+        (-1.0, ("the other way from the wheels in 4 of 4 turns", "upside down")),
+    ],
+)
+def test_a_gyro_in_deg_per_s_or_upside_down_is_refused_naming_it(tmp_path, factor, words):
+    """The rates of a gyro publishing deg/s, or mounted z down, would give a wheelbase of a few mm
+    or a negative one: refused with the likely cause, exit 2."""
+    log = simulate_drive(spins(2 * math.pi, [1, -1] * 2), SKID, seed=1)
+    t, w = simulate_gyro(log, Gyro(100.0, 1.0, BIAS, NOISE), seed=2)
+    bag = write_drive_bag(log, tmp_path / "imu", gyro=(t, np.asarray(w) * factor), odom=False)
+    err = run(["replay", str(bag), "--imu-topic", "/imu", *JOINTS, *SKID_GEO, "--json"], code=2)
+    assert all(x in err for x in words) and len(err.strip().splitlines()) == 1, err
+
+
+def test_a_nominal_wheelbase_in_the_wrong_unit_is_refused(skid_bag):
+    err = run(["replay", str(skid_bag), "--imu-topic", "/imu", *JOINTS, "--wheel-diameter-mm", "200",
+               "--wheelbase-mm", "40"], code=2)  # fmt: skip
+    assert "E_b" in err and "units" in err, err
+
+
 def test_bias_is_removed_from_still_periods(tmp_path):
     """Spins one way only, so the bias does not cancel between directions: left in, its 0.57 deg/s
     over each 7.9 s spin of 225 deg would put the wheelbase 2 % off."""

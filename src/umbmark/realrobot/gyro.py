@@ -184,6 +184,36 @@ class GyroReference:
         }
 
 
+EB_RANGE = (0.25, 4.0)
+"""The effective wheelbase over the nominal one a robot's turns can imply (skid-steer included)."""
+
+
+def _check_gyro_turns(g: FloatArray, w: FloatArray, k: float, scale: float) -> None:
+    """Refuse gyro turns that cannot be a wheelbase's: turning the other way (an IMU upside
+    down), an E_b outside :data:`EB_RANGE` that deg/s would put inside (deg/s published as
+    rad/s), or any other E_b outside it."""
+    against = int(np.sum(np.sign(g) == -np.sign(w)))
+    if k <= 0 or against > len(g) // 2:
+        raise InputError(
+            f"the gyro turned the other way from the wheels in {against} of {len(g)} turns: an IMU mounted "
+            "upside down (its z axis pointing down), or the left and right wheels swapped; mount it z up or "
+            "turn its frame in its driver"
+        )
+    eb = scale / k
+    lo, hi = EB_RANGE
+    if not lo <= eb <= hi and lo <= eb * math.degrees(1.0) <= hi:
+        raise InputError(
+            f"the gyro turned {1.0 / eb:.1f} times as far as the wheels (E_b {eb:.3g}; read as deg/s, "
+            f"{eb * math.degrees(1.0):.3g}): its rates look like deg/s published as rad/s (sensor_msgs/Imu "
+            "angular_velocity is in rad/s)"
+        )
+    if not lo <= eb <= hi:
+        raise InputError(
+            f"the wheels turned {eb:.3g} times as far as the gyro (E_b {eb:.3g}, outside {lo:g} to {hi:g}): check "
+            "the nominal wheel diameter and wheelbase (units: millimetres or metres) and the Imu topic"
+        )
+
+
 def gyro_history_fields(
     d: dict[str, Any], paths: Sequence[str | Path] = (), file_hash: Callable[[str], str] | None = None
 ) -> dict[str, Any]:
@@ -505,6 +535,7 @@ def gyro_reference(
     g = np.array([turns[i].gyro_rad for i in spots])
     w = np.array([turns[i].wheels_rad for i in spots])
     k, k_sd = _ratio(g, w)
+    _check_gyro_turns(g, w, k, scale)
     eb = scale / k
     rel = None
     if k_sd is not None:
