@@ -5,7 +5,6 @@ Imports only the standard library, :mod:`umbmark.errors` and :mod:`umbmark.jsonu
 
 from __future__ import annotations
 
-import hashlib
 import json
 import math
 import os
@@ -17,6 +16,7 @@ from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
 
+from umbmark._files import file_sha256
 from umbmark._version import __version__
 from umbmark.errors import InputError, UmbmarkError
 from umbmark.jsonutil import dumps, jsonable
@@ -315,34 +315,6 @@ def _num(v):
     except (TypeError, ValueError):
         return None
     return v if math.isfinite(v) else None
-
-
-def file_sha256(path) -> str:
-    """SHA-256 of a file's bytes, or of a folder's files (sorted relative paths and contents).
-
-    Parameters
-    ----------
-    path : str or Path
-        A file or a folder.
-
-    Returns
-    -------
-    str
-        The hexadecimal digest.
-    """
-    p = Path(path)
-    h = hashlib.sha256()
-    if p.is_dir():
-        for f in sorted(q for q in p.rglob("*") if q.is_file()):
-            h.update(str(f.relative_to(p)).encode() + b"\0")
-            with open(f, "rb") as fh:
-                for chunk in iter(lambda: fh.read(1 << 20), b""):
-                    h.update(chunk)
-        return h.hexdigest()
-    with open(p, "rb") as fh:
-        for chunk in iter(lambda: fh.read(1 << 20), b""):
-            h.update(chunk)
-    return h.hexdigest()
 
 
 @dataclass(frozen=True)

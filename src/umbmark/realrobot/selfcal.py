@@ -87,6 +87,7 @@ __all__ = [
     "bag_intervals",
     "interval_blocks",
     "selfcal_report",
+    "check_distinct_inputs",
     "selfcal_from_bags",
     "selfcal_from_intervals",
     "BASE_FRAMES",
@@ -1473,6 +1474,31 @@ def selfcal_report(
     return SelfcalReport(res, tuple(kept), pooled, tuple(len(iv.dt_s) for iv in ivs))
 
 
+def check_distinct_inputs(paths: Sequence[str | Path]) -> None:
+    """Refuse one recording given twice (the same bag by two paths, or two copies): pooled, its
+    intervals would count twice and the 95 % intervals come out too narrow.
+
+    Parameters
+    ----------
+    paths : sequence of str or Path
+        The inputs (files or folders that exist).
+
+    Raises
+    ------
+    InputError
+        Naming the first repeated input and the one it repeats.
+    """
+    from umbmark._files import same_inputs
+
+    same = same_inputs(paths)
+    if same:
+        first, again = same[0]
+        raise InputError(
+            f"{again} is the same recording as {first} (the same content): give each recording once (pooled "
+            "twice, its intervals would count twice and the 95 % intervals come out too narrow)"
+        )
+
+
 def selfcal_from_bags(
     paths: str | Path | Sequence[str | Path],
     wheel_diameter_m: float,
@@ -1518,6 +1544,7 @@ def selfcal_from_bags(
     from umbmark.io.rosbag import read_selfcal_bag
 
     items = [paths] if isinstance(paths, (str, Path)) else list(paths)
+    check_distinct_inputs([p for p in items if Path(p).exists()])
     parts = []
     for p in items:
         bag = read_selfcal_bag(p, **read_options)
