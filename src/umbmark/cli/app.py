@@ -178,11 +178,23 @@ def cli_message(text: str) -> str:
     return _PARAM.sub(flag, text)
 
 
+# the keys whose values are data (names, paths, topics), printed as stored: the messages'
+# wording for the command line (cli_message) is not applied to them
+_DATA_KEYS = frozenset(
+    {"robot", "source", "path", "paths", "bag", "bags", "db", "log", "name", "note", "host", "label", "file",
+     "input_sha256", "software_version", "time_utc", "created_utc"}
+)  # fmt: skip
+
+
+def _is_data_key(key) -> bool:
+    return isinstance(key, str) and (key in _DATA_KEYS or key.endswith(("_topic", "_frame", "_path")))
+
+
 def _cli_strings(obj):
     if isinstance(obj, str):
         return cli_message(obj)
     if isinstance(obj, dict):
-        return {k: _cli_strings(v) for k, v in obj.items()}
+        return {k: (v if _is_data_key(k) else _cli_strings(v)) for k, v in obj.items()}
     if isinstance(obj, (list, tuple)):
         return [_cli_strings(v) for v in obj]
     return obj
@@ -192,7 +204,8 @@ def emit_json(obj) -> None:
     """Print one JSON object on stdout, indented.
 
     NaN and infinities become null (strict JSON); the messages in it name the command's flags
-    (see :func:`cli_message`).
+    (see :func:`cli_message`); data (robot names, paths, topics, frames, notes) are printed as
+    stored.
 
     Parameters
     ----------
