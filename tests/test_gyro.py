@@ -146,6 +146,22 @@ def test_a_nominal_wheelbase_in_the_wrong_unit_is_refused(skid_bag):
     assert "E_b" in err and "units" in err, err
 
 
+def test_a_gyro_result_exports_its_wheelbase_multiplier_only(skid_bag, tmp_path):
+    """``export gyro.json --format ros2``: the gyro's E_b as wheel_separation_multiplier, the wheel
+    radius multipliers left at 1, and a warning that the wheels were not measured."""
+    save = tmp_path / "gyro.json"
+    run(["-q", "replay", str(skid_bag), "--imu-topic", "/imu", *JOINTS, *SKID_GEO, "--save", str(save)])
+    eb = json.loads(save.read_text())["gyro"]["Eb"]
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        assert main(["export", str(save), "--format", "ros2"]) == 0
+    text = out.getvalue()
+    assert f"wheel_separation_multiplier: {eb!r}" in text
+    assert "left_wheel_radius_multiplier: 1.0" in text and "right_wheel_radius_multiplier: 1.0" in text
+    assert "wheels not measured: a gyro sees the turns only" in err.getvalue()
+    assert run(["export", str(save), "--format", "firmware"], code=2).count("nominal wheel diameters") == 1
+
+
 def test_bias_is_removed_from_still_periods(tmp_path):
     """Spins one way only, so the bias does not cancel between directions: left in, its 0.57 deg/s
     over each 7.9 s spin of 225 deg would put the wheelbase 2 % off."""

@@ -441,6 +441,8 @@ def _calibration_from_dict(d: dict, src: str) -> ExportCalibration:
         return _selfcal_calibration(d, src)
     if "final_calibration" in d:
         return _calibrate_calibration(d, src)
+    if isinstance(d.get("gyro"), dict) and "c_left" not in d:
+        return _gyro_calibration(d["gyro"], src)
     for k in ("c_left", "c_right"):
         if k not in d:
             raise InputError(f"no {k!r}: not the JSON of umbmark replay or analyze", source=src)
@@ -470,6 +472,25 @@ def _calibration_from_dict(d: dict, src: str) -> ExportCalibration:
         d.get("method"),
         scale_observed=_scale_observed(d),
         wheels_include_prior=_includes_prior(d),
+    )
+
+
+def _gyro_calibration(g: dict, src: str) -> ExportCalibration:
+    """The gyro's result (``umbmark replay --imu-topic``): its E_b; the wheels as they are (a
+    gyro sees no wheel scale or diameter ratio)."""
+    eb = _pos("gyro Eb", g.get("Eb"), src)
+    b = g.get("nominal_wheelbase_m")
+    return ExportCalibration(
+        1.0,
+        1.0,
+        eb,
+        None,
+        None,
+        None if b is None else _pos("gyro nominal_wheelbase_m", b, src),
+        None,
+        src,
+        "gyro",
+        scale_observed=False,
     )
 
 
@@ -533,6 +554,11 @@ def scale_note(cal: ExportCalibration) -> str | None:
     """
     if cal.scale_observed is not False:
         return None
+    if cal.method == "gyro":
+        return (
+            "wheels not measured: a gyro sees the turns only (the wheelbase), not the mean wheel diameter nor "
+            "E_d, so the wheel factors stay 1; measure them with selfcal (a lidar) or replay with a ground truth"
+        )
     how = _plain(cal.method) if cal.method else "this method"
     return (
         f"wheel scale not measured: {how} cannot see it (a closed square hides the mean wheel diameter), so "
