@@ -467,6 +467,15 @@ def test_encoder_counts_without_tf_static(log, tmp_path, kind):
     assert d["inputs"][0]["wheel_data"] == f"encoder counts vector.x, vector.y on /wheel_ticks ({kind}, 4096 per rev)"
 
 
+def test_running_counters_read_as_counts_per_message_are_named(log, tmp_path):
+    """A running counter read with ``ticks="incremental"``: refused as running counters (not as a
+    counter reset)."""
+    path = _write_ticks_bag(tmp_path / "ticks", log, 4096, incremental=False)
+    opts = dict(ticks_topic="/wheel_ticks", left_field="vector.x", right_field="vector.y", ticks="incremental")
+    with pytest.raises(InputError, match=r'look like running counters \(`ticks="cumulative"`\)'):
+        selfcal_from_bags(path, D_NOM, B_NOM, units_per_rev=4096, **opts)
+
+
 def test_wrapped_joint_positions_are_unwrapped(bags, log, tmp_path):
     """Joint positions published wrapped to (-pi, pi]: unwrapped, said in a warning, same estimate."""
     wrap = lambda a: np.angle(np.exp(1j * a))  # noqa: E731

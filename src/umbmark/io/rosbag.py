@@ -914,6 +914,26 @@ def _ordered(t: np.ndarray, what: str, topic: str, source: str) -> tuple[np.ndar
     return np.flatnonzero(keep), int((~keep).sum())
 
 
+_MAX_WHEEL_RATE_RAD_S = 3000.0  # a 2 cm wheel at 30 m/s (the spikes' bound of model.timing)
+
+
+def _summed_counts(t, left, right, scale: float, topic: str, src: str) -> tuple[np.ndarray, np.ndarray]:
+    """Encoder counts per sample summed into running counts; refused when they already are
+    running counts (read per sample, their median would turn a wheel faster than any turns)."""
+    a1, a2 = np.asarray(left, dtype=float), np.asarray(right, dtype=float)
+    t = np.asarray(t, dtype=float)
+    if len(t) > 2:
+        dt = float(np.median(np.diff(t)))
+        rate = float(np.median(np.maximum(np.abs(a1), np.abs(a2)))) * scale / dt if dt > 0 else 0.0
+        if rate > _MAX_WHEEL_RATE_RAD_S:
+            raise InputError(
+                f"read as counts per sample, the encoder counts on {topic} would turn the wheels at {rate:.3g} "
+                f'rad/s (median): they look like running counters (`ticks="cumulative"`)',
+                src,
+            )
+    return np.cumsum(a1), np.cumsum(a2)
+
+
 def read_selfcal_bag(
     path,
     *,
@@ -1120,7 +1140,7 @@ def read_selfcal_bag(
         else:
             scale = 2.0 * math.pi / float(units_per_rev)  # type: ignore[arg-type]
             if ticks == "incremental":
-                a1, a2 = np.cumsum(a1), np.cumsum(a2)
+                a1, a2 = _summed_counts(t, a1, a2, scale, wtopic, src)
             left, right = a1 * scale, a2 * scale
             desc = f"encoder counts {left_field}, {right_field} on {wtopic} ({ticks}, {float(units_per_rev):g} per rev)"  # type: ignore[arg-type]
         from umbmark.model.timing import wheel_spikes
@@ -1262,9 +1282,10 @@ def read_gyro_bag(
             if units_per_rev is None or not (math.isfinite(units_per_rev) and units_per_rev > 0):
                 raise InputError("encoder ticks need the pulses per wheel revolution (`pulses_per_wheel_rev`)", src)
             t, pl, pr = _read_ticks(reader, ticks_topic, left_field, right_field, src)
-            if ticks == "incremental":
-                pl, pr = list(np.cumsum(pl)), list(np.cumsum(pr))
             scale, desc = 2.0 * math.pi / float(units_per_rev), f"encoder counts on {ticks_topic}"
+            if ticks == "incremental":
+                sl, sr = _summed_counts(np.asarray(t, dtype=float), pl, pr, scale, ticks_topic, src)
+                pl, pr = list(sl), list(sr)
         else:
             t, pl, pr = _read_odom(reader, str(odom_topic), nominal, src)
             scale, desc = 1.0, f"nav_msgs/Odometry on {odom_topic}"
