@@ -69,3 +69,14 @@ def test_selfcal_of_one_bag_twice_is_refused(tmp_path, capsys):
     assert main(["selfcal", str(bag), str(copy), *geo]) == 2
     err = capsys.readouterr().err.strip()
     assert "is the same recording as" in err and "drive_copy" in err and len(err.splitlines()) == 1
+
+
+def test_replay_of_one_recording_twice_is_refused(tmp_path, capsys):
+    from pathlib import Path
+
+    run = Path(__file__).resolve().parents[1] / "data" / "optiodom" / "square" / "230620202144"
+    copy = tmp_path / "copy_of_run"
+    shutil.copytree(run, copy)
+    assert main(["replay", str(run), str(copy), "--method", "exact"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "copy_of_run is the same recording as" in err and len(err.splitlines()) == 1

@@ -1476,7 +1476,7 @@ def selfcal_report(
 
 def check_distinct_inputs(paths: Sequence[str | Path]) -> None:
     """Refuse one recording given twice (the same bag by two paths, or two copies): pooled, its
-    intervals would count twice and the 95 % intervals come out too narrow.
+    data would count twice and the 95 % intervals come out too narrow (``selfcal``, ``replay``).
 
     Parameters
     ----------
@@ -1494,8 +1494,8 @@ def check_distinct_inputs(paths: Sequence[str | Path]) -> None:
     if same:
         first, again = same[0]
         raise InputError(
-            f"{again} is the same recording as {first} (the same content): give each recording once (pooled "
-            "twice, its intervals would count twice and the 95 % intervals come out too narrow)"
+            f"{again} is the same recording as {first} (the same content): give each recording once (given "
+            "twice, its data would count twice and the 95 % intervals come out too narrow)"
         )
 
 
