@@ -69,6 +69,28 @@ def add_out(
     p.add_argument("--out", type=type, default=type(default), help=f"{what} (default ./{default})")
 
 
+def add_repeat(p: argparse.ArgumentParser, default: int, what: str) -> None:
+    """Add ``--repeat`` (at least 1; otherwise argparse's one-line error and exit status 2).
+
+    Parameters
+    ----------
+    p : argparse.ArgumentParser
+        The script's options.
+    default : int
+        The runs by default.
+    what : str
+        What is repeated, as its help says (``timed runs of each case``).
+    """
+
+    def at_least_one(text: str) -> int:
+        n = int(text)
+        if n < 1:
+            raise argparse.ArgumentTypeError("must be at least 1")
+        return n
+
+    p.add_argument("--repeat", type=at_least_one, default=default, help=f"{what} (default {default})")
+
+
 def _version(name: str) -> str | None:
     try:
         return version(name)

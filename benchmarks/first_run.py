@@ -27,7 +27,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # _common.py, also when this file is loaded by path
-from _common import add_out, command, machine, machine_text, write_results  # noqa: E402
+from _common import add_out, add_repeat, command, machine, machine_text, write_results  # noqa: E402
 from startup import umbmark_command  # noqa: E402
 
 DURATION_S = 120.0
@@ -99,7 +99,7 @@ def markdown(res: dict) -> str:
 def parser() -> argparse.ArgumentParser:
     """The command-line options of this script."""
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--repeat", type=int, default=3, help="runs of each kind (default 3)")
+    add_repeat(p, 3, "runs of each kind")
     add_out(p, "first-run")
     return p
 
@@ -107,9 +107,6 @@ def parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     """Measure, write first_run.json and first_run.md, print the medians."""
     a = parser().parse_args(argv)
-    if a.repeat < 1:
-        print("error: --repeat must be at least 1", file=sys.stderr)
-        return 2
     with tempfile.TemporaryDirectory(prefix="umbmark-first-run-") as tmp:
         work = Path(tmp)
         write_bag(work / "drive")

@@ -33,7 +33,7 @@ from umbmark.model.drive import EXAMPLE_ROBOT, WheelNoise, mixed_program, simula
 from umbmark.model.sensors import Lidar, Room, cast_rays, have_numba
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # _common.py, also when this file is loaded by path
-from _common import add_out, command, machine, machine_text, write_results  # noqa: E402
+from _common import add_out, add_repeat, command, machine, machine_text, write_results  # noqa: E402
 
 NOISE = WheelNoise(speed_rel_sd=0.02, slip_m_per_sqrt_m=3.35e-4)
 
@@ -153,7 +153,7 @@ def markdown(res: dict) -> str:
 def parser() -> argparse.ArgumentParser:
     """The command-line options of this script."""
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--repeat", type=int, default=3, help="timed runs of each case (default 3)")
+    add_repeat(p, 3, "timed runs of each case")
     p.add_argument("--quick", action="store_true", help="skip the 20-minute drive")
     add_out(p, "raycast")
     return p
@@ -162,9 +162,6 @@ def parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     """Measure, write raycast.json and raycast.md, print the page."""
     a = parser().parse_args(argv)
-    if a.repeat < 1:
-        print("error: --repeat must be at least 1", file=sys.stderr)
-        return 2
     info = machine("numba")
     results = measure(a.repeat, a.quick)
     res = {"machine": info, "command": command("raycast", argv), "repeat": a.repeat, "results": results}

@@ -240,45 +240,69 @@ def straight_ratios(bag, delay_s: float) -> list[dict]:
     return out
 
 
-def feasibility(bag, rel, split_s: float, calibrations: list[dict]) -> list[dict]:
-    """The grid of calibrations of step 4 on each half of MIT CSAIL tested."""
+HALVES_TESTED = ("second half", "first half")
+
+
+def _tests(split_s: float, calibrations: list[dict]):
+    """Each half tested (its label and window) with the other half's calibration (default keyframes)."""
+    windows = {"second half": (split_s, 1e9), "first half": (0.0, split_s)}
+    for tested in HALVES_TESTED:
+        cal = next(c for c in calibrations if c["half"] != tested and c["keyframes"] == "the default keyframes")
+        yield tested, windows[tested], cal
+
+
+def _check(bag, rel, window, diameters_m, wheelbase_m: float, pose, delay_s: float):
+    """:func:`umbmark.realrobot.validate.validate` of one geometry (left, right diameters and
+    wheelbase) with a lidar pose and a delay, against the nominal one: its one span."""
     from umbmark.model.geometry import WheelGeometry
     from umbmark.realrobot.validate import CheckedCalibration, validate
 
-    nominal = WheelGeometry(D_NOM, D_NOM, B_NOM)
+    cc = CheckedCalibration(
+        "export",
+        WheelGeometry(D_NOM, D_NOM, B_NOM),
+        WheelGeometry(diameters_m[0], diameters_m[1], wheelbase_m),
+        sensor_pose=tuple(pose),
+        scan_delay_s=delay_s,
+        scan_delay_source="calibration",
+    )
+    (span,) = validate(bag, cc, rel, window_s=window).spans
+    return span
+
+
+def _grid(bag, rel, window, pose, delay_s: float, eds) -> tuple[int, int, dict | None, float]:
+    """The grid of step 4 (wheel scale 0.98 to 1.06, E_d in ``eds``, turn gain 1.00 to 1.14):
+    calibrations tried, those passing every rule with the turn scale within 2 % of 1, the one
+    of least short-relation rotation MSE (after over before) among those within 2 %, and the
+    nominal odometry's short-relation rotation MSE [rad^2]."""
+    best, passing, tried, before = None, 0, 0, math.nan
+    for c in np.arange(0.98, 1.0601, 0.02):
+        for ed in eds:
+            for g in np.arange(1.0, 1.1401, 0.01):
+                diameters = (D_NOM * c * 2 / (ed + 1), D_NOM * c * 2 * ed / (ed + 1))
+                span = _check(bag, rel, window, diameters, B_NOM * c / g, pose, delay_s)
+                tried += 1
+                before = span.before.short.mse_rotation_rad2
+                turn = span.after.turn_scale
+                if abs(turn - 1) > 0.02:
+                    continue
+                ratio = span.after.short.mse_rotation_rad2 / before
+                if best is None or ratio < best["rotation_mse_ratio"]:
+                    best = {
+                        "c": float(c),
+                        "Ed": ed,
+                        "turn_gain": float(g),
+                        "turn_scale": turn,
+                        "rotation_mse_ratio": ratio,
+                    }
+                passing += int(span.verdict == "pass")
+    return tried, passing, best, before
+
+
+def feasibility(bag, rel, split_s: float, calibrations: list[dict]) -> list[dict]:
+    """The grid of calibrations of step 4 on each half of MIT CSAIL tested."""
     out = []
-    for tested, window in (("second half", (split_s, 1e9)), ("first half", (0.0, split_s))):
-        cal = next(c for c in calibrations if c["half"] != tested and c["keyframes"] == "the default keyframes")
-        pose = tuple(cal["sensor_pose"])
-        best, passing, tried = None, 0, 0
-        for c in np.arange(0.98, 1.0601, 0.02):
-            for ed in (0.996, 1.0, 1.004):
-                for g in np.arange(1.0, 1.1401, 0.01):
-                    dl, dr = D_NOM * c * 2 / (ed + 1), D_NOM * c * 2 * ed / (ed + 1)
-                    cc = CheckedCalibration(
-                        "export",
-                        nominal,
-                        WheelGeometry(dl, dr, B_NOM * c / g),
-                        sensor_pose=pose,
-                        scan_delay_s=cal["delay_s"],
-                        scan_delay_source="calibration",
-                    )
-                    v = validate(bag, cc, rel, window_s=window)
-                    (span,) = v.spans
-                    tried += 1
-                    turn = span.after.turn_scale
-                    if abs(turn - 1) > 0.02:
-                        continue
-                    ratio = span.after.short.mse_rotation_rad2 / span.before.short.mse_rotation_rad2
-                    if best is None or ratio < best["rotation_mse_ratio"]:
-                        best = {
-                            "c": float(c),
-                            "Ed": ed,
-                            "turn_gain": float(g),
-                            "turn_scale": turn,
-                            "rotation_mse_ratio": ratio,
-                        }
-                    passing += int(span.verdict == "pass")
+    for tested, window, cal in _tests(split_s, calibrations):
+        tried, passing, best, _ = _grid(bag, rel, window, cal["sensor_pose"], cal["delay_s"], (0.996, 1.0, 1.004))
         out.append({"tested": tested, "tried": tried, "passing_with_turn_within_2_percent": passing, "best": best})
     return out
 
@@ -287,26 +311,14 @@ def long_drift(bag, rel, split_s: float, calibrations: list[dict]) -> list[dict]
     """What the long relations of each half ask of E_d: the other half's calibration (default
     keyframes) with its E_d replaced on a grid (its mean diameter, wheelbase, lidar pose and
     delay kept), the long-relation translation MSE after against before."""
-    from umbmark.model.geometry import WheelGeometry
-    from umbmark.realrobot.validate import CheckedCalibration, validate
-
-    nominal = WheelGeometry(D_NOM, D_NOM, B_NOM)
     out = []
-    for tested, window in (("second half", (split_s, 1e9)), ("first half", (0.0, split_s))):
-        cal = next(c for c in calibrations if c["half"] != tested and c["keyframes"] == "the default keyframes")
+    for tested, window, cal in _tests(split_s, calibrations):
         mean_d = 0.5 * sum(cal["diameters_m"])
         grid = np.round(np.arange(0.995, 1.00501, 0.0001), 6)
         rows = []
         for ed in grid:
-            cc = CheckedCalibration(
-                "export",
-                nominal,
-                WheelGeometry(mean_d * 2 / (ed + 1), mean_d * 2 * ed / (ed + 1), cal["wheelbase_m"]),
-                sensor_pose=tuple(cal["sensor_pose"]),
-                scan_delay_s=cal["delay_s"],
-                scan_delay_source="calibration",
-            )
-            (span,) = validate(bag, cc, rel, window_s=window).spans
+            diameters = (mean_d * 2 / (ed + 1), mean_d * 2 * ed / (ed + 1))
+            span = _check(bag, rel, window, diameters, cal["wheelbase_m"], cal["sensor_pose"], cal["delay_s"])
             rows.append((float(ed), span.after.long.mse_translation_m2, span.before.long.mse_translation_m2))
         ok = [ed for ed, after, before in rows if after <= before]
         best = min(rows, key=lambda r: r[1])
@@ -354,37 +366,16 @@ def turns(bag, rel) -> list[dict]:
 
 def delays(bag, rel, split_s: float, calibrations: list[dict]) -> list[dict]:
     """Step 9: MIT CSAIL's grid at E_d 1 with other delays."""
-    from umbmark.model.geometry import WheelGeometry
-    from umbmark.realrobot.validate import CheckedCalibration, validate
-
-    nominal = WheelGeometry(D_NOM, D_NOM, B_NOM)
     out = []
-    for tested, window in (("second half", (split_s, 1e9)), ("first half", (0.0, split_s))):
-        cal = next(c for c in calibrations if c["half"] != tested and c["keyframes"] == "the default keyframes")
+    for tested, window, cal in _tests(split_s, calibrations):
         for delay in (0.0, 0.05, 0.1, 0.15, 0.2, 0.25):
-            best, passing = None, 0
-            for c in np.arange(0.98, 1.0601, 0.02):
-                for g in np.arange(1.0, 1.1401, 0.01):
-                    cc = CheckedCalibration(
-                        "export",
-                        nominal,
-                        WheelGeometry(D_NOM * c, D_NOM * c, B_NOM * c / g),
-                        sensor_pose=tuple(cal["sensor_pose"]),
-                        scan_delay_s=delay,
-                        scan_delay_source="calibration",
-                    )
-                    (span,) = validate(bag, cc, rel, window_s=window).spans
-                    if abs(span.after.turn_scale - 1) > 0.02:
-                        continue
-                    passing += int(span.verdict == "pass")
-                    ratio = span.after.short.mse_rotation_rad2 / span.before.short.mse_rotation_rad2
-                    best = ratio if best is None else min(best, ratio)
+            _, passing, best, before = _grid(bag, rel, window, cal["sensor_pose"], delay, (1.0,))
             out.append(
                 {
                     "tested": tested,
                     "delay_s": delay,
-                    "before_rotation_mse_deg2": math.degrees(1) ** 2 * span.before.short.mse_rotation_rad2,
-                    "least_rotation_mse_ratio": best,
+                    "before_rotation_mse_deg2": math.degrees(1) ** 2 * before,
+                    "least_rotation_mse_ratio": None if best is None else best["rotation_mse_ratio"],
                     "passing": passing,
                 }
             )

@@ -24,7 +24,7 @@ import time
 from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))  # _common.py, also when this file is loaded by path
-from _common import add_out, command, machine, machine_text, write_results  # noqa: E402
+from _common import add_out, add_repeat, command, machine, machine_text, write_results  # noqa: E402
 
 LIMIT = 2.5
 
@@ -100,7 +100,7 @@ def markdown(res: dict) -> str:
 def parser() -> argparse.ArgumentParser:
     """The command-line options of this script."""
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--repeat", type=int, default=15, help="timed runs of each command (default 15)")
+    add_repeat(p, 15, "timed runs of each command")
     p.add_argument("--limit", type=float, default=LIMIT, help="largest --help / numpy ratio that passes")
     add_out(p, "startup")
     return p
@@ -109,9 +109,6 @@ def parser() -> argparse.ArgumentParser:
 def main(argv=None) -> int:
     """Measure, write startup.json and startup.md, print the ratios; 1 when --help is too slow."""
     a = parser().parse_args(argv)
-    if a.repeat < 1:
-        print("error: --repeat must be at least 1", file=sys.stderr)
-        return 2
     cmds = measure(a.repeat)
     numpy_s = cmds["numpy"]["median_s"]
     ratios = {f"{k}_over_numpy": cmds[k]["median_s"] / numpy_s for k in ("help", "version")}
