@@ -7,10 +7,9 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from umbmark._files import file_sha256, same_inputs
+from umbmark._files import check_distinct_inputs, file_sha256, same_inputs
 from umbmark.cli import main
 from umbmark.errors import InputError
-from umbmark.realrobot.selfcal import check_distinct_inputs
 
 
 def test_same_file_by_two_paths_a_copy_and_a_folder(tmp_path):

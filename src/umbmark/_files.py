@@ -1,6 +1,6 @@
 """Inputs by content: a file's or a folder's SHA-256, and inputs given twice.
 
-Imports only the standard library.
+Imports the standard library and :mod:`umbmark.errors`.
 """
 
 from __future__ import annotations
@@ -10,7 +10,9 @@ import os
 from collections.abc import Sequence
 from pathlib import Path
 
-__all__ = ["file_sha256", "same_inputs"]
+from umbmark.errors import InputError
+
+__all__ = ["check_distinct_inputs", "file_sha256", "same_inputs"]
 
 
 def file_sha256(path) -> str:
@@ -80,3 +82,26 @@ def same_inputs(paths: Sequence[str | Path]) -> list[tuple[str, str]]:
         else:
             seen.append((str(raw), p, size))
     return out
+
+
+def check_distinct_inputs(paths: Sequence[str | Path]) -> None:
+    """Refuse one recording given twice (the same bag by two paths, or two copies): pooled, its
+    data would count twice and the 95 % intervals come out too narrow (``selfcal``, ``replay``).
+
+    Parameters
+    ----------
+    paths : sequence of str or Path
+        The inputs (files or folders that exist).
+
+    Raises
+    ------
+    InputError
+        Naming the first repeated input and the one it repeats.
+    """
+    same = same_inputs(paths)
+    if same:
+        first, again = same[0]
+        raise InputError(
+            f"{again} is the same recording as {first} (the same content): give each recording once (given "
+            "twice, its data would count twice and the 95 % intervals come out too narrow)"
+        )

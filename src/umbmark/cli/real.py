@@ -491,7 +491,7 @@ def replay(
     """
     if not (math.isfinite(heading_weight_m) and heading_weight_m >= 0):
         raise InputError(f"--heading-weight-m must be >= 0, got {heading_weight_m!r}")
-    from umbmark.realrobot.selfcal import check_distinct_inputs
+    from umbmark._files import check_distinct_inputs
 
     check_distinct_inputs([p for p in paths if Path(p).exists()])
     if stream or decimate or poses_out:

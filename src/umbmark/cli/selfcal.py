@@ -87,7 +87,7 @@ def _kind_of(paths) -> str:
             )
     if len(kinds) > 1:
         raise InputError("give bags or intervals files, not both")
-    from umbmark.realrobot.selfcal import check_distinct_inputs
+    from umbmark._files import check_distinct_inputs
 
     check_distinct_inputs(paths)
     return kinds.pop()

@@ -32,6 +32,13 @@ MAX_TURN_RATE_DEG_S = 360.0
 """The fastest turn on the spot of a calibration run."""
 
 
+def _check_positive(**values: float | None) -> None:
+    """Refuse a value (given by its parameter's name) that is not a positive number; None passes."""
+    for name, v in values.items():
+        if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
+            raise InputError(f"`{name}` must be a positive number, not {v!r}")
+
+
 def check_run_plan(side_m: float, speed_m_s: float | None = None, turn_rate_deg_s: float | None = None) -> None:
     """Refuse a plan no calibration run is driven with, naming the likely unit slip.
 
@@ -50,9 +57,7 @@ def check_run_plan(side_m: float, speed_m_s: float | None = None, turn_rate_deg_
         A value that is not a positive number, or outside :data:`SIDE_RANGE_M`,
         :data:`MAX_SPEED_M_S` or :data:`MAX_TURN_RATE_DEG_S`.
     """
-    for name, v in (("side", side_m), ("speed_m_s", speed_m_s), ("turn_rate_deg_s", turn_rate_deg_s)):
-        if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-            raise InputError(f"`{name}` must be a positive number, not {v!r}")
+    _check_positive(side_m=side_m, speed_m_s=speed_m_s, turn_rate_deg_s=turn_rate_deg_s)
     lo, hi = SIDE_RANGE_M
     if not lo <= side_m <= hi:
         raise InputError(
@@ -94,8 +99,7 @@ def guide_text(side_mm: float = 4000.0, runs: int = 5, speed_m_s: float = 0.2) -
     InputError
         A side or speed no calibration run is driven with (:func:`check_run_plan`).
     """
-    if not (isinstance(side_mm, (int, float)) and math.isfinite(side_mm) and side_mm > 0):
-        raise InputError(f"`side_mm` must be a positive number, not {side_mm!r}")
+    _check_positive(side_mm=side_mm)
     check_run_plan(side_mm / 1000.0, speed_m_s)
     L = f"{side_mm:g}"
     Lm = f"{side_mm / 1000:g}"
@@ -360,14 +364,7 @@ def ros2_runs_script(
     str
         The script (Python 3, needs ``rclpy``, ``geometry_msgs`` and ``nav_msgs``).
     """
-    for name, v in (
-        ("side_m", side_m),
-        ("speed_m_s", speed_m_s),
-        ("turn_rate_deg_s", turn_rate_deg_s),
-        ("pause_s", pause_s),
-    ):
-        if not (math.isfinite(v) and v > 0):
-            raise InputError(f"`{name}` must be a positive number, not {v!r}")
+    _check_positive(pause_s=pause_s)
     check_run_plan(side_m, speed_m_s, turn_rate_deg_s)
     if runs < 1:
         raise InputError(f"`runs` must be at least 1, not {runs!r}")

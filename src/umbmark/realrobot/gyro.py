@@ -188,10 +188,10 @@ EB_RANGE = (0.25, 4.0)
 """The effective wheelbase over the nominal one a robot's turns can imply (skid-steer included)."""
 
 
-def _check_gyro_turns(g: FloatArray, w: FloatArray, k: float, scale: float) -> None:
-    """Refuse gyro turns that cannot be a wheelbase's: turning the other way (an IMU upside
-    down), an E_b outside :data:`EB_RANGE` that deg/s would put inside (deg/s published as
-    rad/s), or any other E_b outside it."""
+def _checked_eb(g: FloatArray, w: FloatArray, k: float, scale: float) -> float:
+    """``E_b = scale / k``; refused where the gyro turns cannot be a wheelbase's: turning the
+    other way (an IMU upside down), an E_b outside :data:`EB_RANGE` that deg/s would put inside
+    (deg/s published as rad/s), or any other E_b outside it."""
     against = int(np.sum(np.sign(g) == -np.sign(w)))
     if k <= 0 or against > len(g) // 2:
         raise InputError(
@@ -212,6 +212,7 @@ def _check_gyro_turns(g: FloatArray, w: FloatArray, k: float, scale: float) -> N
             f"the wheels turned {eb:.3g} times as far as the gyro (E_b {eb:.3g}, outside {lo:g} to {hi:g}): check "
             "the nominal wheel diameter and wheelbase (units: millimetres or metres) and the Imu topic"
         )
+    return eb
 
 
 def gyro_history_fields(
@@ -535,8 +536,7 @@ def gyro_reference(
     g = np.array([turns[i].gyro_rad for i in spots])
     w = np.array([turns[i].wheels_rad for i in spots])
     k, k_sd = _ratio(g, w)
-    _check_gyro_turns(g, w, k, scale)
-    eb = scale / k
+    eb = _checked_eb(g, w, k, scale)
     rel = None
     if k_sd is not None:
         rel = math.hypot(k_sd / k, 0.0 if scale_ci is None else (scale_ci[1] - scale) / 1.96 / scale)

@@ -1327,6 +1327,8 @@ _PY_KERNELS = {name: globals()[name] for name in _KERNELS}  # the Python functio
 _F1, _F2 = "float64[::1]", "float64[:, ::1]"
 _I1, _I2 = "int64[::1]", "int64[:, ::1]"
 _B1, _B2 = "boolean[::1]", "boolean[:, ::1]"
+# the pairs kernels' arguments: the pairs, the settings, the prepared scans, the work space
+_PAIRS = (_I1, _I1, _F2, _F1, _I1, _F1, _F2, "float64[:, :, ::1]", "boolean[:, :, ::1]", _I1, _I1, _F1, _F2, _I2, _B1)
 _SIGNATURES = {
     "_split_pieces": (_F1, _F1, _I1, "int64", "float64", "float64", "float64", _I2),
     "_tls": (_F1, _F1, _I1, "int64", "int64"),
@@ -1341,10 +1343,8 @@ _SIGNATURES = {
     "_prepare_kernel": (_F2, _F1, _F1, "boolean", _I1, _F1, "float64[:, :, ::1]", "boolean[:, :, ::1]", _I1, _I1)
     + (_F2, _I1, _I2, _F2),
     "_pair_start": (_I1, _F1, "int64", "int64"),
-    "_pairs_kernel": (_I1, _I1, _F2, _F1, _I1, _F1, _F2, "float64[:, :, ::1]", "boolean[:, :, ::1]", _I1, _I1, _F1)
-    + (_F2, _I2, _B1),
-    "_coarse_pairs_kernel": (_I1, _I1, _F2, _F1, _I1, _F1, _F2, "float64[:, :, ::1]", "boolean[:, :, ::1]", _I1)
-    + (_I1, _F1, _F2, _I2, _B1, _F2, _F1),
+    "_pairs_kernel": _PAIRS,
+    "_coarse_pairs_kernel": _PAIRS + (_F2, _F1),  # and the wide search's starts, one start's result
 }
 # the two halves of the work: the scans' lines (compiled by the first match) and the matching
 # (compiled by a second process at the same time, see start_compiling)

@@ -55,6 +55,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from umbmark._files import check_distinct_inputs
 from umbmark.correct.selfcal import SelfcalResult, selfcal
 from umbmark.correct.selfcal.estimate import BLOCK_S, MAX_BLOCKS
 from umbmark.errors import InputError
@@ -87,7 +88,6 @@ __all__ = [
     "bag_intervals",
     "interval_blocks",
     "selfcal_report",
-    "check_distinct_inputs",
     "selfcal_from_bags",
     "selfcal_from_intervals",
     "BASE_FRAMES",
@@ -1472,31 +1472,6 @@ def selfcal_report(
     if extra_w:
         res = replace(res, warnings=list(res.warnings) + extra_w)
     return SelfcalReport(res, tuple(kept), pooled, tuple(len(iv.dt_s) for iv in ivs))
-
-
-def check_distinct_inputs(paths: Sequence[str | Path]) -> None:
-    """Refuse one recording given twice (the same bag by two paths, or two copies): pooled, its
-    data would count twice and the 95 % intervals come out too narrow (``selfcal``, ``replay``).
-
-    Parameters
-    ----------
-    paths : sequence of str or Path
-        The inputs (files or folders that exist).
-
-    Raises
-    ------
-    InputError
-        Naming the first repeated input and the one it repeats.
-    """
-    from umbmark._files import same_inputs
-
-    same = same_inputs(paths)
-    if same:
-        first, again = same[0]
-        raise InputError(
-            f"{again} is the same recording as {first} (the same content): give each recording once (given "
-            "twice, its data would count twice and the 95 % intervals come out too narrow)"
-        )
 
 
 def selfcal_from_bags(

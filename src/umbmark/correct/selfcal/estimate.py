@@ -828,10 +828,9 @@ def selfcal(
         tq = t_ppf(0.975, n_blocks - 1)
         # errors shared over longer stretches: the same over LONG_BLOCKS merged blocks, its
         # Student t quantile folded into the covariance, and in every direction the larger
-        coarse = merge_blocks(labels[idx], LONG_BLOCKS)
-        n_long = len(np.unique(coarse))
+        n_long = min(LONG_BLOCKS, n_blocks)
         if MIN_BLOCKS <= n_long < n_blocks:
-            cov_long, _ = _block_covariance(info, hessians, scores, coarse)
+            cov_long, _ = _block_covariance(info, hessians, scores, merge_blocks(labels[idx], n_long))
             cov = loewner_max(cov, cov_long * (t_ppf(0.975, n_long - 1) / tq) ** 2)
         cov, id_warnings, _ = identify.identifiability(p, info, drv, r_nom, b_nom, lim, covariance=cov)
     warnings = list(intervals.warnings)
