@@ -128,11 +128,13 @@ def write_bag(
     positions=None,
     mocap_topic="/mocap/pose",
     noise=None,
+    late_s=0.0,
 ):
     """A ROS 2 sqlite3 bag: /joint_states and /odom at the wheel samples, /mocap/pose
     (PoseStamped, frame world) at ``mocap_hz`` from ``mocap_delay_s`` after the first wheel
     sample (not aligned with the wheels). ``positions(k, pos)`` may damage JointState message k;
-    ``noise=(position_m, heading_rad, seed)``: Gaussian motion-capture noise."""
+    ``noise=(position_m, heading_rad, seed)``: Gaussian motion-capture noise; ``late_s``: the
+    motion capture's stamps that much after the poses' true times (a late ground truth)."""
     msgs = []
     for k in range(len(t)):
         tk = T0 + t[k]
@@ -167,8 +169,8 @@ def write_bag(
         rng = np.random.default_rng(noise[2])
         mocap = mocap + rng.normal(0.0, [noise[0], noise[0], noise[1]], mocap.shape)
     for tt, p in zip(tm, mocap):
-        ps = T["geometry_msgs/msg/PoseStamped"](header=_header(T0 + tt, "world"), pose=_pose(*p))
-        msgs.append((int(round((T0 + tt) * 1e9)), mocap_topic, "geometry_msgs/msg/PoseStamped", ps))
+        ps = T["geometry_msgs/msg/PoseStamped"](header=_header(T0 + tt + late_s, "world"), pose=_pose(*p))
+        msgs.append((int(round((T0 + tt + late_s) * 1e9)), mocap_topic, "geometry_msgs/msg/PoseStamped", ps))
     msgs.sort(key=lambda m: m[0])
     with Writer(path, version=9, storage_plugin=StoragePlugin.SQLITE3) as w:
         conns = {}

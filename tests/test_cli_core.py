@@ -209,7 +209,7 @@ def test_simulate_bad_values(tmp_path, capsys):
         (["--side-mm", "1e12"], "more than 1 km: check the unit"),
         (["--speed", "1e-12"], "samples (more than 5,000,000)"),
         (["--sample-period-ms", "1e-9"], "samples (more than 5,000,000)"),
-        (["--wheelbase-mm", "1e9"], "is not longer than the wheelbase"),
+        (["--wheelbase-mm", "1e9"], "1e+09 mm is no wheelbase (a robot's is 20 to 10000 mm)"),
     ):
         code, _, err = run(capsys, "simulate", *flags, "--out", str(tmp_path / "x.csv"))
         assert code == 2 and err.count("\n") == 1 and match in err, (flags, err)

@@ -141,3 +141,45 @@ def test_diverging_fit_is_a_clear_error_not_a_silly_geometry(far_m):
     bad = replace(ds.runs[0], gt=None, gt_end=np.array([far_m, 0.0, 0.3]))
     with pytest.raises(InputError, match="did not converge"):
         fit_lsq(ds.with_runs([bad]), mode="end", scale="fit")
+
+
+@pytest.mark.parametrize("factor", [2.0, 0.5, 4.0])
+def test_a_nominal_wheel_in_another_quantity_is_recovered_and_named(factor):
+    """Nominal diameters twice the true ones (a diameter given as the radius), half or four times:
+    the fit starts from the ground truth's own headings and distances, so it reaches the true
+    geometry, and the replay says the nominal size is off."""
+    from dataclasses import replace
+
+    ds = simlogs.dataset([simlogs.general_program()] * 2)
+    true = simlogs.true_geometry()
+    n = ds.nominal
+    bad = replace(ds, nominal=type(n)(factor * n.diameter_left_m, factor * n.diameter_right_m, n.wheelbase_m))
+    res = fit_lsq(bad)
+    assert res.geometry.diameter_left_m == pytest.approx(true.diameter_left_m, rel=1e-9)
+    assert res.geometry.wheelbase_m == pytest.approx(true.wheelbase_m, rel=1e-9)
+    notes = replay_report(bad, "lsq", heldout=False).warnings
+    assert any("nominal size is likely in another unit" in w for w in notes)
+    assert any("a diameter given as the radius?" in w for w in notes) == (factor == 2.0)
+    assert replay_report(ds, "lsq", heldout=False).warnings == ()
+
+
+def test_a_marker_ahead_of_the_axle_is_named_with_its_fix():
+    """Motion capture of a marker 120 mm ahead of the axle, fitted without its offset: E_b comes out
+    wrong, and the warning names the offset the data show and the E_b it gives; a marker on the
+    axle gives no such warning."""
+    errors = ErrorParams(ed=1.004, eb=1.03, es=0.99)
+    ds = simlogs.dataset([simlogs.general_program()] * 3, errors=errors)
+    off = np.array([0.12, 0.0])
+    runs = []
+    for r in ds.runs:
+        g = r.gt
+        c, s = np.cos(g[:, 2]), np.sin(g[:, 2])
+        m = np.column_stack([g[:, 0] + c * off[0] - s * off[1], g[:, 1] + s * off[0] + c * off[1], g[:, 2]])
+        runs.append(type(r)(r.name, r.t, r.d_left, r.d_right, np.column_stack(to_start_frame(*m.T))))
+    rep = replay_report(ds.with_runs(runs), "lsq", heldout=False)
+    assert abs(rep.calibration.eb - 1.03) > 0.01
+    (note,) = [w for w in rep.warnings if "off the axle" in w]
+    assert "120 mm ahead of" in note and "E_b is 1.0300" in note and "(`fit_offset`)" in note
+    assert not [w for w in replay_report(ds, "lsq", heldout=False).warnings if "off the axle" in w]
+    fixed = replay_report(ds.with_runs(runs), "lsq", {"fit_offset": True}, heldout=False)
+    assert fixed.calibration.eb == pytest.approx(1.03, rel=1e-9) and fixed.warnings == ()

@@ -154,7 +154,7 @@ def test_geometry_warnings():
 @pytest.mark.parametrize(
     "args, msg",
     [
-        (["--wheelbase-mm", "0.34", "--side-mm", "4000"], "metres given as millimetres"),
+        (["--wheelbase-mm", "0.34", "--side-mm", "4000"], "given in metres? 0.34 m is 340 mm"),
         (["--wheelbase-mm", "340", "--side-mm", "4e6"], "more than 1 km"),
         (["--wheelbase-mm", "340", "--side-mm", "1e9", "--method", "exact"], "more than 1 km"),
         (["--wheelbase-mm", "340", "--side-mm", "1e308", "--method", "exact"], "more than 1 km"),
@@ -287,7 +287,7 @@ def test_simulate_refuses_and_warns_like_analyze(tmp_path, capsys):
     out = str(tmp_path / "s.csv")
     assert main(["simulate", "--wheelbase-mm", "0.34", "--out", out]) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "metres given as millimetres" in err
+    assert err.count("\n") == 1 and "given in metres? 0.34 m is 340 mm" in err
     assert not (tmp_path / "s.csv").exists()
     assert main(["simulate", "--side-mm", "400", "--out", out, "--json"]) == 0
     cap = capsys.readouterr()
@@ -349,7 +349,7 @@ def _csv_edit(text: str, how: str) -> str:
         ("clean", ["--side-mm", "300"], "one of them is in the wrong unit"),  # shorter than the wheelbase
         ("clean", ["--side-mm", "750"], "side in centimetres"),  # only 1.7 wheelbases
         ("clean", ["--wheelbase-mm", "45"], "outside the 50 to 3000 mm"),
-        ("clean", ["--wheelbase-mm", "0.45"], "metres given as millimetres"),
+        ("clean", ["--wheelbase-mm", "0.45"], "given in metres? 0.45 m is 450 mm"),
     ],
 )
 def test_a_robot_of_its_own_mislabelled_by_hand(tmp_path, capsys, how, options, cause):

@@ -717,3 +717,23 @@ def test_some_wheel_rate_columns_are_refused():
         parse_intervals_csv(text + "0.1,1,1,0.1,0,0,10,10\n", "iv.csv")
     with pytest.raises(InputError, match=r"`end_rates` must be \(2, 4\)"):
         Intervals(np.ones(2), np.ones(2), np.ones(2), np.zeros((2, 3)), end_rates=np.ones((2, 3)))
+
+
+def test_intervals_with_dx_and_dy_exchanged_are_named(tmp_path):
+    """An intervals file whose sensor_dx_m and sensor_dy_m headers are exchanged: the lidar's yaw
+    comes out near -90 deg (or beyond), which a warning names with the columns as the likely
+    cause; the right file gives no warning."""
+    from umbmark.realrobot.selfcal import selfcal_from_intervals
+
+    rng = np.random.default_rng(16)
+    fl, fr = mixed(rng, 250, 0.05, 0.3)
+    path = tmp_path / "iv.csv"
+    write_intervals_csv(simulate(rng, TRUTH, fl, fr), path)
+    head, body = path.read_text().split("\n", 1)
+    head = head.replace("sensor_dx_m", "@").replace("sensor_dy_m", "sensor_dx_m").replace("@", "sensor_dy_m")
+    swapped = tmp_path / "swapped.csv"
+    swapped.write_text(head + "\n" + body)
+    assert selfcal_from_intervals(path, 0.1, 0.3).result.warnings == []
+    res = selfcal_from_intervals(swapped, 0.1, 0.3).result
+    (note,) = [w for w in res.warnings if "the sensor's yaw comes out" in w]
+    assert "`dx` and `dy` exchanged" in note and abs(math.degrees(res.sensor_pose[2])) > 45

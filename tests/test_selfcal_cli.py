@@ -495,20 +495,21 @@ def test_no_static_transform_is_said_in_words(log, tmp_path):
 
 
 def test_ros_sizes_in_another_unit_are_named(result):
-    """export --wheel-separation-m in millimetres, or a diameter given as --wheel-radius-m: a
-    warning names the likely slip; the nominal sizes give none."""
+    """export --wheel-separation-m in millimetres is refused naming the slip; a diameter given as
+    --wheel-radius-m (a size a wheel can have) is warned of; the nominal sizes give neither."""
     import contextlib
     import io
 
     _, save = result
 
-    def warnings(*extra):
+    def warnings(*extra, code=0):
         err = io.StringIO()
         with contextlib.redirect_stderr(err), contextlib.redirect_stdout(io.StringIO()):
-            assert main(["export", str(save), "--format", "ros2", *extra]) == 0
+            assert main(["export", str(save), "--format", "ros2", *extra]) == code
         return err.getvalue()
 
-    assert "the option is in metres (0.34 m if 340 is millimetres)" in warnings("--wheel-separation-m", "340")
+    refused = warnings("--wheel-separation-m", "340", code=2)
+    assert refused.count("\n") == 1 and "given in millimetres? 340 mm is 0.34 m" in refused
     assert "a diameter given as the radius?" in warnings("--wheel-radius-m", "0.15")
     quiet = warnings("--wheel-radius-m", "0.075", "--wheel-separation-m", "0.34")
     assert "--wheel-radius-m" not in quiet and "--wheel-separation-m" not in quiet

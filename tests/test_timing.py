@@ -281,7 +281,18 @@ def test_align_truth_warns_when_it_cuts_moving_samples():
     cut = [w for w in out.meta["warnings"] if "without a ground truth where the robot moves" in w]
     assert [w.split(":")[0] for w in cut] == [r.name for r in late.runs]
     assert all(len(a) == len(b) - 15 for a, b in zip(out.runs, late.runs))  # 0.3 s at 50 Hz
-    assert align_truth(_padded_squares(), 0.3).meta["warnings"] == ()
+    assert align_truth(_late(_padded_squares(), 0.3), 0.3).meta["warnings"] == ()
+
+
+@pytest.mark.parametrize("given", [-0.3, 0.1])
+def test_a_given_time_offset_the_data_contradict_is_warned_about(given):
+    """A ground truth 0.3 s late given as -0.3 s (the sign mixed up) or as 0.1 s: each run's
+    warning names the estimate, and the sign where it is the given offset negated."""
+    out = align_truth(_late(_padded_squares(), 0.3), given).meta["warnings"]
+    notes = [w for w in out if w.startswith(f"`time_offset` {given:g} s was given")]
+    assert len(notes) == len(_padded_squares().runs)
+    assert all("0.300 s late" in w for w in notes)
+    assert all(("the sign mixed up?" in w) == (given < 0) for w in notes)
 
 
 def test_a_ground_truth_that_does_not_match_the_wheels_is_warned_about(drive):

@@ -113,6 +113,7 @@ PARAM_FLAGS = {
     "cmd_vel_topic": "--cmd-vel-topic",
     "dask": "--dask",
     "dataset": "--dataset",
+    "fit_offset": "--fit-marker-offset",
     "fmt": "--format",
     "gt_frame": "--gt-frame",
     "gt_scan_topic": "--gt-scan-topic",

@@ -13,6 +13,10 @@
   commands check against tighter limits. NaN and infinities are left to the commands' own
   checks; a failure such a value causes deep in the numbers that those miss is reported as
   that option, in one line, not a traceback.
+* **Wheels and wheelbases are a robot's.** A wheel diameter or radius, a wheelbase or wheel
+  separation option outside what a robot can have (:func:`umbmark.model.geometry.unit_slip`)
+  is refused in one line naming the likely unit slip (``--wheel-diameter-mm 0.15``: given in
+  metres?) before the command reads any data, so no advice about the driving follows.
 * **A file whose name starts with a dash** (``-x.csv``) is read by click as options: the
   error says to write ``./-x.csv`` or to put ``--`` before it.
 """
@@ -27,6 +31,7 @@ from pathlib import Path
 import click
 
 from umbmark.errors import UmbmarkError
+from umbmark.model.geometry import unit_slip
 
 __all__ = ["MAX_SIZE_M", "PATH_ROLES", "ROLES", "GuardedCommand", "GuardedGroup", "check_paths", "path_roles"]
 
@@ -72,6 +77,8 @@ PATH_ROLES: dict[str, dict[str, str]] = {
 MAX_SIZE_M = 1e6
 # size options the commands check against their own, tighter, limits (with their own messages)
 _OWN_SIZE_CHECKS = ("side_mm", "resolution_mm")
+# the words that make a size option a wheel's size or the wheelbase (checked by unit_slip)
+_GEOMETRY_WORDS = {"diameter": ("diameter",), "radius": ("radius",), "wheelbase": ("wheelbase", "separation")}
 
 
 def path_roles(command_path: str) -> dict[str, str]:
@@ -220,6 +227,16 @@ def _absurd_sizes(command: click.Command, params: dict) -> list[tuple[click.Para
     return out
 
 
+def _slip(p: click.Parameter, v: float) -> str | None:
+    """Why a wheel size or wheelbase option cannot be a robot's (a unit slip), or None."""
+    name = p.name or ""
+    unit = "mm" if name.endswith("_mm") else "m" if name.endswith("_m") else None
+    kind = next((k for k, words in _GEOMETRY_WORDS.items() if any(w in name for w in words)), None)
+    if unit is None or kind is None:
+        return None
+    return unit_slip(kind, v * (1e-3 if unit == "mm" else 1.0), unit)
+
+
 def _size_message(p: click.Parameter, v: float) -> str:
     unit = "mm" if (p.name or "").endswith("_mm") else "m"
     return f"must be a finite size below {MAX_SIZE_M * (1e3 if unit == 'mm' else 1.0):g} {unit}, got {v!r}"
@@ -277,6 +294,12 @@ class GuardedCommand(click.Command):
         for p, v in absurd:
             if math.isfinite(v) and p.name not in _OWN_SIZE_CHECKS:
                 raise click.BadParameter(_size_message(p, v), ctx=ctx, param=p)
+        for p in self.params:
+            if isinstance(p, click.Option) and isinstance(p.type, click.types.FloatParamType) and p.name:
+                for v in _values_num(ctx.params.get(p.name)):
+                    slip = _slip(p, v)
+                    if slip is not None:
+                        raise click.BadParameter(slip, ctx=ctx, param=p)
         if not absurd:
             return super().invoke(ctx)
         # a size no robot has: the command's own checks speak first; what they do not catch

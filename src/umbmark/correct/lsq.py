@@ -55,6 +55,7 @@ from umbmark.model.geometry import OdometryParams, wrap_angle
 __all__ = ["LsqResult", "fit_lsq", "lsq_method", "LSQ_DEFAULTS"]
 
 _LOG_LIMIT = 30.0  # trial log-parameters are clipped to +-this (no overflow on a diverging fit)
+_FAR_START = 1.2  # the linear start is tried where a parameter of it is this factor from nominal
 _MAX_FACTOR = 10.0  # a fitted diameter or wheelbase further than this factor from nominal: no fit
 
 LSQ_DEFAULTS: dict[str, Any] = {
@@ -227,6 +228,64 @@ class _Problem:
         return ex, ey, eth
 
 
+def _heading_start(datasets: Sequence[Dataset]) -> tuple[float, float] | None:
+    """``(D_R / b, D_L / b)`` from the ground truth's headings, linear in the wheel travel.
+
+    Along a run the heading is ``k (D_R R(t) - D_L L(t)) / b`` (``R``, ``L``: the wheels'
+    summed increments, ``k`` = pi / units per revolution), so the two ratios are the linear
+    least squares fit of the unwrapped true headings: no start value, no local minimum, and
+    whatever the nominal sizes (a diameter given as the radius, a size in another unit).
+    None where the runs do not turn enough to tell the two apart.
+    """
+    rows, rhs = [], []
+    for ds in datasets:
+        k = math.pi / ds.units_per_rev
+        for r in ds.runs:
+            if r.gt is None:
+                continue
+            ok = np.flatnonzero(np.all(np.isfinite(r.gt), axis=1))
+            if ok.size < 3 or ok[0] != 0:
+                continue
+            rows.append(np.column_stack([k * np.cumsum(r.d_right)[ok], -k * np.cumsum(r.d_left)[ok]]))
+            rhs.append(np.unwrap(r.gt[ok, 2]) - r.gt[0, 2])
+    if not rows:
+        return None
+    a, y = np.concatenate(rows), np.concatenate(rhs)
+    if not (np.all(np.isfinite(a)) and np.all(np.isfinite(y))):
+        return None
+    sv = np.linalg.svd(a, compute_uv=False)
+    if sv.size < 2 or not sv[-1] > 1e-6 * sv[0]:
+        return None
+    (u, v), *_ = np.linalg.lstsq(a, y, rcond=None)
+    return (float(u), float(v)) if u > 0 and v > 0 else None
+
+
+def _linear_start(problems: Sequence[_Problem], datasets: Sequence[Dataset]) -> tuple[float, float, float] | None:
+    """A start ``(D_L, D_R, b)`` from the ground truth alone (sampled mode).
+
+    The heading fixes ``D_R / b`` and ``D_L / b`` (:func:`_heading_start`); scaling the three
+    together scales the path and keeps the heading, so the positions replayed with
+    ``D_L = 1`` fix ``D_L`` by linear least squares.
+    """
+    ratios = _heading_start(datasets)
+    if ratios is None:
+        return None
+    u, v = ratios
+    q, g = [], []
+    for pr in problems:
+        ex, ey, _ = pr.residuals(1.0, u / v, 1.0 / v, 0.0)
+        q.append(np.concatenate([ex + pr.gt[:, 0], ey + pr.gt[:, 1]]))
+        g.append(np.concatenate([pr.gt[:, 0], pr.gt[:, 1]]))
+    qa, ga = np.concatenate(q), np.concatenate(g)
+    den = float(qa @ qa)
+    if not (math.isfinite(den) and den > 0):
+        return None
+    d_l = float(qa @ ga) / den
+    if not (math.isfinite(d_l) and d_l > 0):
+        return None
+    return d_l, d_l * u / v, d_l / v
+
+
 def _scale_decision(datasets: Sequence[Dataset], mode: str, scale: str) -> tuple[bool, str]:
     """Whether to fit the scale (D_avg), and why (see ``scale`` in the module docstring)."""
     if scale == "fit":
@@ -326,6 +385,7 @@ def fit_lsq(
     w = heading_weight_m
     d_avg0 = nominal.diameter_avg_m
     s0 = start or nominal
+    linear = _linear_start(problems, datasets) if start is None and mode == "sampled" else None
 
     def _exp(v: float) -> float:  # a diverging trial must not overflow (the result is checked below)
         return math.exp(min(max(float(v), -_LOG_LIMIT), _LOG_LIMIT))
@@ -345,9 +405,17 @@ def fit_lsq(
             return d_l, d_l * ed, _exp(p[1])
 
         p0 = np.array([math.log(s0.ed), math.log(s0.wheelbase_m)])
+    starts = [p0]
+    if linear is not None:
+        d_l, d_r, b = linear
+        if fit_scale:
+            starts.append(np.log([d_l, d_r, b]))
+        else:  # D_avg stays nominal: the wheelbase keeps the heading's ratio to the wheels
+            ed = d_r / d_l
+            starts.append(np.array([math.log(ed), math.log(b * 2.0 * d_avg0 / (1.0 + ed) / d_l)]))
     ng = p0.size
     if fit_offset:
-        p0 = np.concatenate([p0, [0.0, 0.0]])
+        starts = [np.concatenate([s_, [0.0, 0.0]]) for s_ in starts]
 
     def offset_of(p: np.ndarray) -> np.ndarray | None:
         return p[ng : ng + 2] if fit_offset else None
@@ -361,6 +429,17 @@ def fit_lsq(
             parts += [ex, ey, w * eth]
         return np.concatenate(parts)
 
+    # the ground truth's linear start where it lies far from the nominal one (a nominal size in
+    # another unit, a diameter given as the radius) and fits better: from there the fit cannot
+    # fall into the minima that a heading wrong by whole turns makes
+    if len(starts) > 1 and np.max(np.abs(starts[1][:ng] - starts[0][:ng])) > math.log(_FAR_START):
+        costs = []
+        for s_ in starts:
+            f0 = fun(s_)
+            costs.append(float(f0 @ f0) if np.all(np.isfinite(f0)) else math.inf)
+        p0 = starts[int(np.argmin(costs))]
+    else:
+        p0 = starts[0]
     sol = least_squares(
         fun, p0, method="lm", x_scale=np.full(p0.size, 1e-3), xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=400 * p0.size
     )

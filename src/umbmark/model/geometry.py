@@ -46,7 +46,52 @@ __all__ = [
     "ErrorParams",
     "LABMATE",
     "wrap_angle",
+    "ROBOT_SIZES_M",
+    "unit_slip",
 ]
+
+# what a wheeled robot's geometry can be (metres): a wheel's diameter (a toy robot's 1 cm to a
+# vehicle's 3 m) and the wheelbase (the distance between the wheels' contact points)
+ROBOT_SIZES_M: dict[str, tuple[float, float]] = {"diameter": (0.01, 3.0), "wheelbase": (0.02, 10.0)}
+
+
+def unit_slip(kind: str, value_m: float, unit: str) -> str | None:
+    """Why a wheel size or wheelbase cannot be a robot's, naming the unit mistake it shows.
+
+    Parameters
+    ----------
+    kind : str
+        ``"diameter"``, ``"radius"`` or ``"wheelbase"``.
+    value_m : float
+        The size as given, converted to metres with its stated unit.
+    unit : str
+        The unit it was given in (``"mm"`` or ``"m"``), to name the likely slip.
+
+    Returns
+    -------
+    str or None
+        None when the size is one a robot can have (see :data:`ROBOT_SIZES_M`, a radius being
+        half a diameter); else a sentence such as ``"0.15 mm is no wheel's diameter (...):
+        given in metres? 0.15 m is 150 mm"``.
+    """
+    if kind not in ("diameter", "radius", "wheelbase"):
+        raise ValueError(f"unknown kind {kind!r}")
+    if not math.isfinite(value_m) or value_m <= 0:
+        return None  # a sign or a NaN is the callers' own check
+    lo, hi = ROBOT_SIZES_M["wheelbase" if kind == "wheelbase" else "diameter"]
+    if kind == "radius":
+        lo, hi = lo / 2, hi / 2
+    if lo <= value_m <= hi:
+        return None
+    scale = 1e-3 if unit == "mm" else 1.0
+    given = value_m / scale
+    what = "wheelbase" if kind == "wheelbase" else f"wheel's {kind}"
+    text = f"{given:g} {unit} is no {what} (a robot's is {lo / scale:g} to {hi / scale:g} {unit})"
+    if unit == "mm" and value_m < lo:
+        return f"{text}: given in metres? {given:g} m is {given * 1000.0:g} mm"
+    if unit == "m" and value_m > hi:
+        return f"{text}: given in millimetres? {given:g} mm is {given / 1000.0:g} m"
+    return text
 
 
 def wrap_angle(a: Any) -> Any:

@@ -46,6 +46,7 @@ __all__ = [
     "TimeOffset",
     "estimate_time_offset",
     "parse_time_offset",
+    "given_offset_note",
     "StreamCheck",
     "check_streams",
     "align_truth",
@@ -392,6 +393,44 @@ def _refine(
     return float(grid[j] + shift * (grid[1] - grid[0])), float(b)
 
 
+def given_offset_note(
+    given_s: float, est_s: float | None, corr: float | None, period_s: float, what: str
+) -> str | None:
+    """A warning when a time offset given in seconds disagrees with the one the data show.
+
+    Parameters
+    ----------
+    given_s : float
+        The offset given (positive: the ground truth is late).
+    est_s, corr : float or None
+        The offset estimated from the turn rates and its correlation (:func:`estimate_time_offset`).
+    period_s : float
+        The ground truth's sample period: a difference within it (or within
+        :data:`LARGE_OFFSET_S`) is no disagreement.
+    what : str
+        What is offset against what, for the message (``"the ground truth on /mocap against /joint_states"``).
+
+    Returns
+    -------
+    str or None
+        None when they agree or nothing was estimated; else the warning, naming a sign mixed up
+        where the estimate is the given offset negated.
+    """
+    if est_s is None or not math.isfinite(given_s):
+        return None
+    tol = max(LARGE_OFFSET_S, period_s)
+    if abs(est_s - given_s) <= tol:
+        return None
+    late = "late" if est_s > 0 else "early"
+    text = (
+        f"`time_offset` {given_s:g} s was given, but {what} is {abs(est_s):.3f} s {late} (cross-correlation of "
+        f"the turn rates, correlation {corr if corr is not None else float('nan'):.2f})"
+    )
+    if given_s != 0 and abs(est_s + given_s) <= tol:
+        return f"{text}: the sign mixed up? (positive: the ground truth is late); give {est_s:.3f} or auto"
+    return f"{text}: the calibration is biased by the difference; give `time_offset=auto` or check the value"
+
+
 def parse_time_offset(value) -> float | str | None:
     """``None``, ``"auto"`` or a number of seconds, from a value or its text.
 
@@ -650,6 +689,11 @@ def check_streams(
                 f"{wheel_topic} (cross-correlation of the turn rates, correlation {corr:.2f}): the calibration "
                 "is biased by it; give `time_offset=auto` to correct it"
             )
+        if isinstance(request, float):
+            pair = f"the ground truth on {truth_topic} against {wheel_topic}"
+            given = given_offset_note(request, est, corr, gp, pair)
+            if given is not None:
+                warnings.append(given)
         if est is None and corr is not None and request is None:
             warnings.append(
                 f"the turn rates of the wheel data on {wheel_topic} and of the ground truth on {truth_topic} do not "
@@ -784,5 +828,9 @@ def align_truth(ds, time_offset, what: str = "log"):
             reason,
         )
         entries.append({"log": r.source or ds.source, "run": r.name, **off.to_dict()})
+        if isinstance(request, float):
+            note = given_offset_note(request, est, corr, period, f"the ground truth of run {r.name}")
+            if note is not None:
+                notes.append(note)
     meta = {**ds.meta, "time_offset": tuple(entries), "warnings": (*(ds.meta.get("warnings") or ()), *notes)}
     return replace(ds, runs=tuple(new_runs), meta=meta)

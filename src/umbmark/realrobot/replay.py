@@ -422,6 +422,75 @@ def _heldout_loo(ds: Dataset, method: str, lsq_options: dict | None, full: Calib
     return HeldOut(scheme, ErrorSummary(**_summary(errors, runs)), held)
 
 
+# a calibrated wheel size or wheelbase beyond this factor from the nominal one is a nominal
+# size in another unit or quantity (a diameter given as the radius), not an odometry error
+_FAR_FROM_NOMINAL = 1.5
+# the tracked point's lever arm is named when fitting it removes this share of the position
+# residual and it is this far from the axle (and beyond three standard deviations)
+_LEVER_GAIN = 0.3
+_LEVER_MIN_M = 0.01
+
+
+def calibration_notes(ds: Dataset, cal: Calibrated, lsq_options: dict | None = None) -> list[str]:
+    """Warnings about what a calibration's numbers say of its inputs.
+
+    * A corrected mean wheel diameter or wheelbase more than :data:`_FAR_FROM_NOMINAL` times
+      from the nominal one: the nominal size was given in another unit or as another quantity.
+    * ``lsq`` along the path without the tracked point's offset: the fit is repeated with it,
+      and an offset that explains much of the residual (a motion-capture marker ahead of the
+      axle biases the wheelbase) is named with how to fit it.
+
+    Parameters
+    ----------
+    ds : Dataset
+        The data set calibrated.
+    cal : Calibrated
+        Its calibration (:func:`calibrate`).
+    lsq_options : dict, optional
+        The options of the ``lsq`` fit.
+
+    Returns
+    -------
+    list of str
+    """
+    notes = []
+    g, n = cal.geometry, cal.nominal
+    d_ratio = g.diameter_avg_m / n.diameter_avg_m
+    b_ratio = g.wheelbase_m / n.wheelbase_m
+    for what, ratio, got, nom in (
+        ("mean wheel diameter", d_ratio, g.diameter_avg_m, n.diameter_avg_m),
+        ("wheelbase", b_ratio, g.wheelbase_m, n.wheelbase_m),
+    ):
+        if not 1 / _FAR_FROM_NOMINAL <= ratio <= _FAR_FROM_NOMINAL:
+            hint = " (a diameter given as the radius?)" if what != "wheelbase" and 0.4 < ratio < 0.6 else ""
+            notes.append(
+                f"the calibrated {what} is {1e3 * got:.1f} mm, {ratio:.2f} times the nominal {1e3 * nom:.1f} mm: "
+                f"the nominal size is likely in another unit or another quantity{hint}; give the robot's "
+                "nominal geometry, or the calibration's correction factors mean little"
+            )
+    res = cal.lsq
+    opts = {**LSQ_DEFAULTS, **(lsq_options or {})}
+    if res is not None and res.mode == "sampled" and not opts.get("fit_offset"):
+        try:
+            with_arm = fit_lsq([ds], **{**opts, "fit_offset": True, "start": g})
+        except InputError:
+            return notes
+        off = np.asarray(with_arm.extra["tracked_point_offset_mm"]) * 1e-3
+        sd = np.asarray(with_arm.extra["tracked_point_offset_std_mm"]) * 1e-3
+        far = float(np.hypot(*off)) >= _LEVER_MIN_M and bool(np.any(np.abs(off) > 3 * sd))
+        if far and with_arm.rms_position_m < (1 - _LEVER_GAIN) * res.rms_position_m:
+            side = "left" if off[1] >= 0 else "right"
+            notes.append(
+                f"the ground truth moves as a point {1e3 * off[0]:.0f} mm {'ahead of' if off[0] >= 0 else 'behind'} "
+                f"and {1e3 * abs(off[1]):.0f} mm {side} of the axle midpoint (a motion-capture marker off the axle?): "
+                f"fitted with that offset the position residual falls from {1e3 * res.rms_position_m:.1f} to "
+                f"{1e3 * with_arm.rms_position_m:.1f} mm and E_b is "
+                f"{with_arm.geometry.wheelbase_m / n.wheelbase_m:.4f} (here {g.wheelbase_m / n.wheelbase_m:.4f}); "
+                "fit the offset (`fit_offset`)"
+            )
+    return notes
+
+
 def _report(ds: Dataset, method: str, cal: Calibrated, turn, warnings, heldout: HeldOut | None) -> ReplayReport:
     runs = tuple(
         RunInfo(r.name, len(r), float(r.t[-1] - r.t[0]), *((ds.directions[i], turn[i]) if ds.is_square else ()))
@@ -482,6 +551,7 @@ def replay_report(
     for ds in datasets:
         ds, warnings, turn = prepare(ds)
         cal = calibrate(ds, method, lsq_options)
+        warnings = [*warnings, *calibration_notes(ds, cal, lsq_options)]
         loo = _heldout_loo(ds, method, lsq_options, cal) if heldout else None
         parts.append((ds, cal, turn, warnings, loo))
     if len(parts) == 1:

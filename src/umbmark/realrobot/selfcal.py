@@ -1330,6 +1330,11 @@ def selfcal_history_fields(
     }
 
 
+# an estimated sensor yaw beyond this, with no transform to compare it with, is named (a sensor
+# mounted sideways, or displacements with their axes exchanged)
+SIDEWAYS_RAD = math.radians(45.0)
+
+
 def _pose_warnings(parts: Sequence[ScanIntervals | str], result: SelfcalResult) -> list[str]:
     """A warning when the estimated sensor pose is further from the one of /tf_static than
     :data:`POSE_WARN_M` or :data:`POSE_WARN_RAD`."""
@@ -1346,6 +1351,20 @@ def _pose_warnings(parts: Sequence[ScanIntervals | str], result: SelfcalResult) 
                 f"the estimated sensor pose differs from {p.plan.sensor_pose_source} of {Path(p.plan.bag.source).name} "
                 f"by {dpos * 1e3:.0f} mm and {math.degrees(dyaw):.1f} deg: check the URDF, or the wheel data"
             )
+    with_tf = any(isinstance(p, ScanIntervals) and p.plan.sensor_pose_source.startswith("/tf_static") for p in parts)
+    yaw = result.sensor_pose[2]
+    if not with_tf and abs(math.remainder(yaw, 2 * math.pi)) > SIDEWAYS_RAD:
+        files = any(isinstance(p, str) for p in parts)
+        cause = (
+            "the intervals' sensor displacements with `dx` and `dy` exchanged or one of them negated (dx is along "
+            "the sensor's forward axis, dy to its left)"
+            if files
+            else "scans in a frame turned against the sensor's"
+        )
+        out.append(
+            f"the sensor's yaw comes out {math.degrees(yaw):.1f} deg against the robot's forward axis: a sensor "
+            f"mounted that far turned, or {cause}; check before using the calibration"
+        )
     return out
 
 
