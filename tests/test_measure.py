@@ -267,7 +267,7 @@ def test_cli_measure_bad_point_and_missing_file(tmp_path, capsys):
     )
     assert "not two numbers" in capsys.readouterr().err
     assert main(["measure", "nope.csv", *MARK_ARGS, "--resolution-mm", "1e308", "--out", str(tmp_path / "r.csv")]) == 2
-    assert "--resolution-mm must be a number from 0 to 1000" in capsys.readouterr().err
+    assert "--resolution-mm must be a number from 0 to 100 " in capsys.readouterr().err
     assert not (tmp_path / "r.csv").exists()
 
 

@@ -301,8 +301,15 @@ def positive(name: str, value: float) -> float:
 
 
 # the true errors a simulated robot may have: wheels differing by up to a factor of 2, an
-# effective wheelbase from 1/20 to 20 times the nominal one, a mean wheel scale 0.5 to 2
-ERROR_RANGES = {"--ed": (0.5, 2.0), "--eb": (0.05, 20.0), "--es": (0.5, 2.0)}
+# effective wheelbase from 1/20 to 20 times the nominal one, a mean wheel scale 0.5 to 2; the
+# correction factors an odometry ran with are factors of that size too
+ERROR_RANGES = {
+    "--ed": (0.5, 2.0),
+    "--eb": (0.05, 20.0),
+    "--es": (0.5, 2.0),
+    "--c-left": (0.5, 2.0),
+    "--c-right": (0.5, 2.0),
+}
 
 
 def error_param(name: str, value: float) -> float:
@@ -326,5 +333,8 @@ def error_param(name: str, value: float) -> float:
     """
     lo, hi = ERROR_RANGES[name]
     if value is None or not (math.isfinite(value) and lo <= value <= hi):
-        raise InputError(f"{name} must be a number from {lo:g} to {hi:g}, got {value!r}")
+        hint = ""
+        if value is not None and math.isfinite(value) and 100 * lo <= value <= 100 * hi:
+            hint = f" (a percentage? {value:g} % is {value / 100:g})"
+        raise InputError(f"{name} must be a number from {lo:g} to {hi:g}, got {value!r}{hint}")
     return float(value)

@@ -172,25 +172,34 @@ def calibrate(
 
     side_m = positive("--side-mm", side_mm) * 1e-3
     wheelbase_m = positive("--wheelbase-mm", wheelbase_mm) * 1e-3
+    from umbmark.correct.plausibility import check_geometry
+
+    for w in check_geometry(side_m, wheelbase_m):
+        click.echo(f"warning: {cli_message(w)}", err=True)
     prior = _prior(c_left, c_right)
+    # the simulated robot's options are checked with runs files too (a bad value is a mistake)
+    wheel_diameter_m = positive("--wheel-diameter-mm", wheel_diameter_mm) * 1e-3
+    true_ed, true_eb = error_param("--ed", ed), error_param("--eb", eb)
+    sample_period_s = positive("--sample-period-ms", sample_period_ms) * 1e-3
+    from umbmark.model.simulate import Motion
+
+    motion = Motion(sample_period_s=sample_period_s)
     if runs_files:
         runs = [read_runs_csv(f) for f in runs_files]
         loop = compose_passes(runs, side_m, wheelbase_m, method, prior, sources=runs_files)
         title = f"Successive calibrations of {len(runs)} runs files ({method})"
     else:
         from umbmark.model.geometry import LABMATE, ErrorParams, Geometry
-        from umbmark.model.simulate import Motion
 
         if save_runs is not None and not Path(save_runs).is_dir():
             raise InputError(f"output folder {save_runs} does not exist")
         geom = Geometry(
-            positive("--wheel-diameter-mm", wheel_diameter_mm) * 1e-3,
+            wheel_diameter_m,
             wheelbase_m,
             LABMATE.pulses_per_rev,
             LABMATE.gear_ratio,
         )
-        errors = ErrorParams(error_param("--ed", ed), error_param("--eb", eb))
-        motion = Motion(sample_period_s=positive("--sample-period-ms", sample_period_ms) * 1e-3)
+        errors = ErrorParams(true_ed, true_eb)
         with progress(f"simulating up to {max_passes + 1} tests", total=max_passes + 1) as advance:
             loop = calibrate_loop(
                 errors,

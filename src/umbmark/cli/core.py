@@ -66,11 +66,28 @@ def geometry_options(f):
     return f
 
 
+# a robot driving the square faster than this is not a test robot (metres per second)
+MAX_SPEED_M_S = 10.0
+
+
+def _speed(speed_m_s) -> float:
+    """``--speed`` in m/s: positive and at most :data:`MAX_SPEED_M_S` (mm/s named as such)."""
+    from umbmark.errors import InputError
+
+    v = positive("--speed", speed_m_s)
+    if v > MAX_SPEED_M_S:
+        raise InputError(
+            f"--speed {v:g} m/s is faster than a robot drives a test square (at most {MAX_SPEED_M_S:g} m/s): "
+            f"given in mm/s? {v:g} mm/s is {v / 1000:g} m/s"
+        )
+    return v
+
+
 def _prior(c_left, c_right, wheelbase_mm=None) -> Calibration | None:
     from umbmark.model.geometry import Calibration
 
     for name, v in (("--c-left", c_left), ("--c-right", c_right)):
-        positive(name, v)
+        error_param(name, v)
     if c_left == 1.0 and c_right == 1.0 and wheelbase_mm is None:
         return None
     return Calibration(c_left, c_right, None if wheelbase_mm is None else wheelbase_mm * 1e-3)
@@ -336,7 +353,7 @@ def simulate(
         positive("--model-wheelbase-mm", model_wheelbase_mm)
     errors = ErrorParams(error_param("--ed", ed), error_param("--eb", eb), error_param("--es", es))
     motion = Motion(
-        speed_m_s=positive("--speed", speed_m_s),
+        speed_m_s=_speed(speed_m_s),
         sample_period_s=positive("--sample-period-ms", sample_period_ms) * 1e-3,
     )
     with progress(f"simulating {n_runs} runs each way"):

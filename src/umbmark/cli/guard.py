@@ -260,6 +260,32 @@ def _flag_names(command: click.Command) -> dict[str, str]:
     return out
 
 
+def _refuse_underscored_numbers(command: click.Command, args: list[str], ctx: click.Context) -> None:
+    """Refuse ``--speed 1_0``: Python reads it as 10, a user meant something else (a typo, a
+    thousands separator)."""
+    numeric = {}
+    for p in command.params:
+        if isinstance(p, click.Option) and isinstance(p.type, (click.types.FloatParamType, click.types.IntParamType)):
+            for o in p.opts:
+                numeric[o] = p
+    for i, a in enumerate(args):
+        if a == "--":
+            return
+        opt, eq, value = a.partition("=")
+        p = numeric.get(opt)
+        if p is None:
+            continue
+        n = max(p.nargs, 1)
+        values = [value] if eq else args[i + 1 : i + 1 + n]
+        for v in values:
+            if "_" in v:
+                raise click.BadParameter(
+                    f"{v!r} is not a number: '_' is not a digit (write the number without it)",
+                    ctx=ctx,
+                    param=p,
+                )
+
+
 class GuardedCommand(click.Command):
     """A command that runs :func:`check_paths` before its callback, reports a failure an absurd
     size option causes as that option (see the module docstring), and names
@@ -267,6 +293,7 @@ class GuardedCommand(click.Command):
 
     def parse_args(self, ctx: click.Context, args: list[str]) -> list[str]:
         given = list(args)  # the parser consumes ``args``
+        _refuse_underscored_numbers(self, given, ctx)
         try:
             return super().parse_args(ctx, args)
         except click.NoSuchOption as e:
@@ -290,6 +317,11 @@ class GuardedCommand(click.Command):
         except click.UsageError as e:
             e.ctx = ctx
             raise
+        for k, role in path_roles(path).items():
+            if role == "db" and ctx.params.get(k):
+                from umbmark.history.base import check_db_address
+
+                check_db_address(ctx.params[k])
         absurd = _absurd_sizes(self, ctx.params)
         for p, v in absurd:
             if math.isfinite(v) and p.name not in _OWN_SIZE_CHECKS:

@@ -32,7 +32,18 @@ from pathlib import Path
 
 import click
 
-from umbmark.cli.app import app, cli_message, console, emit_json, fmt, is_quiet, positive, prior_options, table
+from umbmark.cli.app import (
+    app,
+    cli_message,
+    console,
+    emit_json,
+    error_param,
+    fmt,
+    is_quiet,
+    positive,
+    prior_options,
+    table,
+)
 from umbmark.errors import InputError
 
 __all__ = ["history_options", "record_if_requested", "record_report_if_requested", "print_recorded"]
@@ -706,7 +717,7 @@ def _file_analysis(runs_file, wheelbase_mm, side_mm, method, c_left, c_right, ro
     runs = read_runs_csv(runs_file)
     sha = file_sha256(runs_file)
     for name, v in (("--c-left", c_left), ("--c-right", c_right)):
-        positive(name, v)
+        error_param(name, v)
     prior = Calibration(c_left, c_right, None) if c_left != 1.0 or c_right != 1.0 else None
     return {
         "runs": runs,
@@ -805,9 +816,10 @@ def guide_cmd(side_mm, runs, ros2_script, speed_m_s, turn_rate_deg_s, cmd_vel_to
       umbmark guide --side-mm 2000 > procedure.txt
       umbmark guide --ros2-script --side-mm 2000 --odom-topic /diff_drive_controller/odom > umbmark_runs.py
     """
-    from umbmark.realrobot.guide import guide_text, ros2_runs_script
+    from umbmark.realrobot.guide import check_run_plan, guide_text, ros2_runs_script
 
     positive("--side-mm", side_mm)
+    check_run_plan(side_mm / 1000.0, speed_m_s, turn_rate_deg_s, pause_s)  # with or without a script
     if ros2_script:
         text = ros2_runs_script(
             side_mm / 1000.0, runs, speed_m_s, turn_rate_deg_s, cmd_vel_topic, odom_topic, stamped, pause_s
@@ -892,9 +904,9 @@ def measure_cmd(distances_file, front, rear, back, side_wall, resolution_mm, out
     from umbmark.io.distances_csv import read_distances_csv
     from umbmark.realrobot.measure import RobotMarks, measure_runs
 
-    if resolution_mm is None or not (math.isfinite(resolution_mm) and 0 <= resolution_mm <= 1000):
+    if resolution_mm is None or not (math.isfinite(resolution_mm) and 0 <= resolution_mm <= 100):
         raise InputError(
-            f"--resolution-mm must be a number from 0 to 1000 (a tape's resolution), got {resolution_mm!r}"
+            f"--resolution-mm must be a number from 0 to 100 (a tape's resolution in mm), got {resolution_mm!r}"
         )
     marks = RobotMarks(tuple(v * 1e-3 for v in front), tuple(v * 1e-3 for v in rear), tuple(v * 1e-3 for v in back))
     resolution_m = resolution_mm * 1e-3

@@ -582,7 +582,7 @@ def _json_warnings(d) -> list[str]:
 def _scan_truth(paths, log_format, kw):
     """``replay --gt-scan-topic``: the data sets with each run's end pose measured by the lidar."""
     from umbmark.io.load import wheel_source
-    from umbmark.realrobot.scan_truth import attach_scan_truth, parse_sensor_pose
+    from umbmark.realrobot.scan_truth import attach_scan_truth, check_sensor_pose, parse_sensor_pose
 
     topic = kw.get("gt_scan_topic")
     if topic is None:
@@ -592,6 +592,9 @@ def _scan_truth(paths, log_format, kw):
     if log_format not in ("auto", "bag"):
         raise InputError("--gt-scan-topic reads the scans of ROS bags (--format bag)")
     pose, pose_src = (None, "given") if kw.get("sensor_pose") is None else parse_sensor_pose(kw["sensor_pose"])
+    if pose is not None and pose_src == "given":
+        for w in check_sensor_pose(pose):
+            click.echo(f"warning: {cli_message(w)}", err=True)
     sets = _datasets(paths, log_format, kw)
     with progress("registering each run's scans"):
         return attach_scan_truth(sets, topic, sensor_pose=pose, sensor_pose_source=pose_src, **wheel_source(kw))

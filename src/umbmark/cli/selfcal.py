@@ -482,8 +482,12 @@ def _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json):
     )
     pose = None
     if kw["sensor_pose"] is not None:
+        from umbmark.realrobot.scan_truth import check_sensor_pose
+
         x, y, yaw = _float_list(kw["sensor_pose"], 3, "--sensor-pose", "X_MM,Y_MM,YAW_DEG")
         pose = (x * 1e-3, y * 1e-3, math.radians(yaw))
+        for w in check_sensor_pose(pose):
+            click.echo(f"warning: {cli_message(w)}", err=True)
     read = {
         "scan_topic": kw["scan_topic"],
         "joints": None if kw["joints"] is None else parse_joints(kw["joints"]),

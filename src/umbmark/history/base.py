@@ -121,6 +121,38 @@ def is_url(db) -> bool:
     return isinstance(db, str) and "://" in db
 
 
+# a libpq connection string (``host=... user=... password=...``): not a file name, not a URL
+_KEY_VALUE = re.compile(
+    r"(^|\s)(host|hostaddr|port|dbname|user|password|passfile|sslmode|service|connect_timeout)\s*=", re.IGNORECASE
+)
+
+
+def check_db_address(db) -> None:
+    """Refuse a history address that is neither a file nor a URL, without repeating it.
+
+    Parameters
+    ----------
+    db : str or Path
+        The ``db`` given.
+
+    Raises
+    ------
+    InputError
+        A libpq key=value connection string (``host=h user=u password=p``), or a file name that
+        holds ``password=``: taken as a file name it would create that file and print the
+        password in every message.
+    """
+    s = str(db)
+    if is_url(s):
+        return
+    if _KEY_VALUE.search(s) or "password=" in s.lower():
+        raise InputError(
+            "the history database is a file or a URL (postgresql+psycopg://USER@HOST/DB, the password in "
+            "$PGPASSWORD or ~/.pgpass), not a key=value connection string; nothing was created (the value "
+            "is not repeated here: it holds a password or connection settings)"
+        )
+
+
 def resolve_db(db=None):
     """Where the history is: ``db`` if given, else ``$UMBMARK_DB``, else :func:`default_db_path`.
 
@@ -137,6 +169,7 @@ def resolve_db(db=None):
     db = db or os.environ.get(ENV_VAR) or None
     if db is None:
         return default_db_path()
+    check_db_address(db)
     if is_url(str(db)):
         return str(db)
     return Path(db).expanduser()

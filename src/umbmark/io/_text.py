@@ -188,6 +188,8 @@ def parse_number(cell: str, col: str, source: str, line: int, allow_empty: bool 
             return math.nan
         raise InputError(f"column {col} is empty", source, line)
     try:
+        if "_" in s:  # Python reads 1_0 as 10: in a data file it is a typo or a separator
+            raise ValueError(s)
         v = float(s)
     except ValueError:
         raise InputError(f"column {col}: {s!r} is not a number", source, line) from None

@@ -50,6 +50,8 @@ __all__ = [
 ]
 
 REQUIRED = ("time_s", "left_ticks", "right_ticks")
+# wheel samples further apart than this (seconds, the median) are a time column in another unit
+_MAX_PERIOD_S = 2.0
 OPTIONAL = ("x_m", "y_m", "theta_rad", "theta_deg", "run")
 
 
@@ -305,6 +307,14 @@ def read_generic_csv(
     if name is None:
         name = Path(paths[0]).stem if len(paths) == 1 else Path(paths[0]).parent.name or "logs"
     warnings = []
+    for run in runs:  # samples seconds apart: a time column in milliseconds
+        period = float(np.median(np.diff(run.t)))
+        if period > _MAX_PERIOD_S:
+            warnings.append(
+                f"{run.source or src} (run {run.name}): the samples are {period:g} s apart (median of `time_s`): "
+                f"a wheel log samples many times a second; time_s in milliseconds? (the durations and speeds "
+                "then read 1000 times too long and too slow)"
+            )
     for run in runs:  # the wheels against the ground truth: units, swapped wheels, nothing tracked
         warnings += wheels_against_truth(
             run,

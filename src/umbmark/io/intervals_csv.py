@@ -62,6 +62,7 @@ RATE_COLUMNS = ("rate_left_start_rad_s", "rate_right_start_rad_s", "rate_left_en
 # beyond these a value is read but looks like other units (warned about, not refused)
 _WHEEL_RAD_PER_INTERVAL = 100.0  # 16 wheel turns between two scans: encoder ticks?
 _SENSOR_M_PER_INTERVAL = 5.0  # 5 m between two scans: millimetres?
+_DT_S_PER_INTERVAL = 60.0  # a minute between two matched scans: milliseconds?
 
 
 def read_intervals_csv(path) -> Intervals:
@@ -234,6 +235,12 @@ def _warnings(a: np.ndarray, lines: np.ndarray, source: str) -> list[str]:
         out.append(
             _where(far, lines, source) + f" where the sensor moves more than {_SENSOR_M_PER_INTERVAL:g} m: "
             "millimetres instead of metres?"
+        )
+    slow = a[:, 0] > _DT_S_PER_INTERVAL
+    if slow.any():
+        out.append(
+            _where(slow, lines, source) + f" longer than {_DT_S_PER_INTERVAL:g} s (`dt_s`): milliseconds instead "
+            "of seconds?"
         )
     return out
 

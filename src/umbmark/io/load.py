@@ -11,7 +11,7 @@ import math
 from pathlib import Path
 
 from umbmark.errors import InputError
-from umbmark.model.dataset import Dataset, WheelGeometry
+from umbmark.model.dataset import MAX_STOP_S, Dataset, WheelGeometry
 
 __all__ = [
     "LOG_FORMATS",
@@ -150,6 +150,7 @@ def load_logs(paths, fmt: str = "auto", **opts) -> Dataset:
         fmt = detect_format(paths[0])
     side = opts.get("side_mm")
     side_m = None if side is None else side * 1e-3
+    _check_log_numbers(opts)
     if fmt in ("optiodom", "csv"):
         ds = _load_optiodom(paths, side_m) if fmt == "optiodom" else _load_csv(paths, side_m, opts)
         if opts.get("time_offset") is None:
@@ -158,6 +159,26 @@ def load_logs(paths, fmt: str = "auto", **opts) -> Dataset:
 
         return align_truth(ds, opts["time_offset"], "optiodom folder" if fmt == "optiodom" else "CSV log")
     return _load_bag(paths, side_m, opts)
+
+
+# the largest square side (m) and encoder resolution (pulses per wheel revolution) a log of a
+# robot can have (the longest pause between runs: MAX_STOP_S)
+_MAX_SIDE_M = 1000.0
+_MAX_UNITS_PER_REV = 1e9
+
+
+def _check_log_numbers(opts: dict) -> None:
+    """Refuse a side, an encoder resolution or a pause no robot's log has (before reading)."""
+    for key, most, unit in (
+        ("side_mm", _MAX_SIDE_M * 1e3, "mm (a square of more than 1 km)"),
+        ("pulses_per_wheel_rev", _MAX_UNITS_PER_REV, "pulses per wheel revolution"),
+        ("stop_s", MAX_STOP_S, "s (a pause between runs, in seconds)"),
+    ):
+        v = opts.get(key)
+        if v is None:
+            continue
+        if not (isinstance(v, (int, float)) and math.isfinite(v) and 0 < v <= most):
+            raise InputError(f"`{key}` must be a positive number of at most {most:g} {unit}, got {v!r}")
 
 
 def _load_optiodom(paths: list, side_m: float | None) -> Dataset:

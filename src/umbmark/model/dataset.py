@@ -300,6 +300,10 @@ def wheel_travel_from_poses(
     return du - half, du + half
 
 
+# a pause between runs longer than this (seconds) is not a pause between runs
+MAX_STOP_S = 600.0
+
+
 def split_at_stops(
     run: Run, units_per_rev: float, stop_s: float = 1.0, min_samples: int = 5, still_units: float = 0.0
 ) -> list[Run]:
@@ -324,6 +328,12 @@ def split_at_stops(
         The moving stretches, each with the still samples just before it (so it starts at
         rest), named ``name#1``, ``name#2``, ...
     """
+    if not (math.isfinite(stop_s) and 0 < stop_s <= MAX_STOP_S):
+        hint = f" (given in milliseconds? {stop_s:g} ms is {stop_s / 1000:g} s)" if stop_s > MAX_STOP_S else ""
+        raise InputError(
+            f"`stop_s` must be a pause between runs of more than 0 and at most {MAX_STOP_S:g} s, got {stop_s!r}{hint}",
+            run.source,
+        )
     moving = (np.abs(run.d_left) > still_units) | (np.abs(run.d_right) > still_units)
     t = run.t
     pieces = []

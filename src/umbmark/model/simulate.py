@@ -176,6 +176,10 @@ def noise_preset(name: str) -> NoiseModel:
         raise InputError(f"unknown noise preset {name!r} (choose from {', '.join(NOISE_PRESETS)})") from None
 
 
+# an odometry sampling its wheels less often than this (seconds) is not simulated
+MAX_SAMPLE_PERIOD_S = 1.0
+
+
 @dataclass(frozen=True)
 class Motion:
     """Speeds and sampling of the controller.
@@ -209,6 +213,11 @@ class Motion:
                 raise InputError(f"{k} must be positive, got {v!r}")
         if self.sample_period_s is not None and not (math.isfinite(self.sample_period_s) and self.sample_period_s > 0):
             raise InputError(f"sample_period_s must be positive, got {self.sample_period_s!r}")
+        if self.sample_period_s is not None and self.sample_period_s > MAX_SAMPLE_PERIOD_S:
+            raise InputError(
+                f"a sample period of {self.sample_period_s:g} s: an odometry samples its wheels at least once a "
+                f"second (at most {MAX_SAMPLE_PERIOD_S:g} s): milliseconds and seconds mixed up?"
+            )
 
 
 @dataclass(frozen=True)

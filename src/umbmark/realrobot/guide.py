@@ -39,7 +39,13 @@ def _check_positive(**values: float | None) -> None:
             raise InputError(f"`{name}` must be a positive number, not {v!r}")
 
 
-def check_run_plan(side_m: float, speed_m_s: float | None = None, turn_rate_deg_s: float | None = None) -> None:
+# a rest between runs longer than this (seconds) is no rest between runs
+MAX_PAUSE_S = 600.0
+
+
+def check_run_plan(
+    side_m: float, speed_m_s: float | None = None, turn_rate_deg_s: float | None = None, pause_s: float | None = None
+) -> None:
     """Refuse a plan no calibration run is driven with, naming the likely unit slip.
 
     Parameters
@@ -50,14 +56,20 @@ def check_run_plan(side_m: float, speed_m_s: float | None = None, turn_rate_deg_
         Speed on the legs [m/s].
     turn_rate_deg_s : float, optional
         Turn rate on the spot [deg/s].
+    pause_s : float, optional
+        Rest between runs [s].
 
     Raises
     ------
     InputError
         A value that is not a positive number, or outside :data:`SIDE_RANGE_M`,
-        :data:`MAX_SPEED_M_S` or :data:`MAX_TURN_RATE_DEG_S`.
+        :data:`MAX_SPEED_M_S`, :data:`MAX_TURN_RATE_DEG_S` or :data:`MAX_PAUSE_S`.
     """
-    _check_positive(side_m=side_m, speed_m_s=speed_m_s, turn_rate_deg_s=turn_rate_deg_s)
+    _check_positive(side_m=side_m, speed_m_s=speed_m_s, turn_rate_deg_s=turn_rate_deg_s, pause_s=pause_s)
+    if pause_s is not None and pause_s > MAX_PAUSE_S:
+        raise InputError(
+            f"`pause_s` {pause_s:g}: a rest between runs of more than {MAX_PAUSE_S:g} s (the pause is in seconds)"
+        )
     lo, hi = SIDE_RANGE_M
     if not lo <= side_m <= hi:
         raise InputError(
@@ -364,8 +376,7 @@ def ros2_runs_script(
     str
         The script (Python 3, needs ``rclpy``, ``geometry_msgs`` and ``nav_msgs``).
     """
-    _check_positive(pause_s=pause_s)
-    check_run_plan(side_m, speed_m_s, turn_rate_deg_s)
+    check_run_plan(side_m, speed_m_s, turn_rate_deg_s, pause_s)
     if runs < 1:
         raise InputError(f"`runs` must be at least 1, not {runs!r}")
     for name, topic in (("cmd_vel_topic", cmd_vel_topic), ("odom_topic", odom_topic)):

@@ -359,6 +359,10 @@ class Measurement:
     covariance: np.ndarray  # (..., 3, 3): x, y, theta
 
 
+# every distance under this (metres): the distances were written in another unit
+_MIN_WALL_M = 0.01
+
+
 def measure(marks: RobotMarks, distances, resolution_m: float = 1e-3, source=None, line=None) -> Measurement:
     """Return poses in the start frame from the six distances, with the tape's resolution
     propagated (see the module docstring).
@@ -392,6 +396,12 @@ def measure(marks: RobotMarks, distances, resolution_m: float = 1e-3, source=Non
         raise InputError("need six distances per run (start front, rear, back; end front, rear, back)")
     if np.any(d6 < 0):
         raise InputError("a distance is negative")
+    if d6.size and float(np.max(d6)) < _MIN_WALL_M:
+        raise InputError(
+            f"every distance is under {_MIN_WALL_M * 1e3:g} mm (the largest {float(np.max(d6)) * 1e3:g} mm): the "
+            "marks cannot all touch the walls; distances in metres? (the file is in millimetres)",
+            source,
+        )
     pose = _return_pose(marks, d6, source, line)
     # Jacobian by central differences (the computation is smooth away from the inconsistent case)
     h = 1e-7

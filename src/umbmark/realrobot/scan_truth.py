@@ -56,6 +56,8 @@ __all__ = [
     "RunScanTruth",
     "ScanTruth",
     "parse_sensor_pose",
+    "check_sensor_pose",
+    "MAX_SENSOR_OFFSET_M",
     "read_sensor_pose",
     "robot_displacement",
     "attach_scan_truth",
@@ -248,7 +250,55 @@ def parse_sensor_pose(text: str) -> tuple[tuple[float, float, float], str]:
         ) from None
     if not all(math.isfinite(v) for v in (x, y, yaw)):
         raise InputError(f"`sensor_pose` needs three finite numbers, got {text!r}")
-    return (x * 1e-3, y * 1e-3, math.radians(yaw)), "given"
+    pose = (x * 1e-3, y * 1e-3, math.radians(yaw))
+    check_sensor_pose(pose)
+    return pose, "given"
+
+
+# a sensor on the robot is within this of the axle midpoint (metres)
+MAX_SENSOR_OFFSET_M = 10.0
+
+
+def check_sensor_pose(pose: tuple[float, float, float]) -> list[str]:
+    """Refuse a given mounting pose no robot has; name one whose numbers look like other units.
+
+    Parameters
+    ----------
+    pose : tuple of float
+        ``(x_m, y_m, yaw_rad)`` as given (in millimetres and degrees, converted).
+
+    Returns
+    -------
+    list of str
+        Warnings: an offset under a millimetre (metres given as millimetres?), a yaw of pi or
+        pi/2 degrees (radians given as degrees?).
+
+    Raises
+    ------
+    InputError
+        An offset beyond :data:`MAX_SENSOR_OFFSET_M` from the axle midpoint.
+    """
+    x, y, yaw = (float(v) for v in pose)
+    far = math.hypot(x, y)
+    if far > MAX_SENSOR_OFFSET_M:
+        raise InputError(
+            f"`sensor_pose` puts the sensor {1e3 * far:g} mm from the axle midpoint: a sensor on the robot is "
+            f"within {1e3 * MAX_SENSOR_OFFSET_M:g} mm of it (X and Y are in millimetres, the yaw in degrees)"
+        )
+    notes = []
+    if 0 < max(abs(x), abs(y)) < 1e-3:
+        notes.append(
+            f"`sensor_pose` puts the sensor {1e3 * x:g} mm ahead of and {1e3 * y:g} mm left of the axle midpoint: "
+            f"metres given as millimetres? ({1e6 * x:g},{1e6 * y:g} if they are metres)"
+        )
+    deg = math.degrees(yaw)
+    for rad in (math.pi, math.pi / 2):
+        if abs(abs(deg) - rad) < 2e-3:
+            notes.append(
+                f"`sensor_pose` turns the sensor {deg:g} deg: radians given as degrees? "
+                f"({math.degrees(math.copysign(rad, deg)):g} if they are radians; the yaw is in degrees)"
+            )
+    return notes
 
 
 def robot_displacement(sensor_displacement, sensor_pose) -> FloatArray:

@@ -441,6 +441,19 @@ def replay_analysis(result: dict, source: str = "<replay>"):
             + (f" ({made_from})" if isinstance(made_from, str) and made_from else ""),
             source=source,
         )
+    if isinstance(result, dict) and result.get("pooled") and isinstance(result.get("datasets"), list):
+        raise InputError(
+            f"a pooled replay (one lsq fit of {len(result['datasets'])} data sets together) holds no runs of one "
+            "test to show: replay one data set of square runs without pooling, save it and report that (its "
+            "calibration exports as it is)",
+            source=source,
+        )
+    if isinstance(result, dict) and isinstance(result.get("datasets"), list) and "method" in result:
+        raise InputError(
+            f"a replay of {len(result['datasets'])} data sets: replay the one to show on its own, save it and "
+            "report that",
+            source=source,
+        )
     if not isinstance(result, dict) or "before" not in result or "method" not in result:
         raise InputError(
             "not a result the report can show (the JSON a replay or a self-calibration saves)", source=source

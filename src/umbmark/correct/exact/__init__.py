@@ -138,6 +138,10 @@ def _direction_counts(runs: RunsTable) -> tuple[int, int]:
     return n_cw, n_ccw
 
 
+# a straight-line run shorter than this does not measure the wheel scale (metres)
+_MIN_STRAIGHT_M = 0.1
+
+
 def _scale_from_straight(straight_m: tuple[float, float] | None) -> float:
     """``E_s,pass`` from a straight-line measurement ``(odometry, measured)``; 1 without one."""
     if straight_m is None:
@@ -145,6 +149,11 @@ def _scale_from_straight(straight_m: tuple[float, float] | None) -> float:
     odo_d, meas_d = (float(v) for v in straight_m)
     if not (math.isfinite(odo_d) and math.isfinite(meas_d) and odo_d > 0 and meas_d > 0):
         raise InputError(f"straight-line measurement must be two positive distances, got {straight_m!r}")
+    if max(odo_d, meas_d) < _MIN_STRAIGHT_M:
+        raise InputError(
+            f"the straight-line run is {odo_d * 1e3:g} mm by odometry and {meas_d * 1e3:g} mm measured: a "
+            f"straight-line test drives metres (at least {_MIN_STRAIGHT_M * 1e3:g} mm); given in metres?"
+        )
     es = meas_d / odo_d
     if abs(es - 1.0) > 0.2:
         raise InputError(f"straight-line measurement gives E_s = {es:.4f} (more than 20 % off): check the units")
