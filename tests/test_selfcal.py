@@ -737,3 +737,19 @@ def test_intervals_with_dx_and_dy_exchanged_are_named(tmp_path):
     res = selfcal_from_intervals(swapped, 0.1, 0.3).result
     (note,) = [w for w in res.warnings if "the sensor's yaw comes out" in w]
     assert "`dx` and `dy` exchanged" in note and abs(math.degrees(res.sensor_pose[2])) > 45
+
+
+def test_intervals_with_the_sensor_turning_the_other_way_are_named(tmp_path):
+    """sensor_dyaw_rad negated (the sensor's turns counted clockwise): the fit needs a negative
+    wheelbase, and the warning names that column among the causes."""
+    from umbmark.realrobot.selfcal import selfcal_from_intervals
+
+    rng = np.random.default_rng(16)
+    fl, fr = mixed(rng, 250, 0.05, 0.3)
+    iv = simulate(rng, TRUTH, fl, fr)
+    flipped = Intervals(iv.dt_s, iv.left_rad, iv.right_rad, iv.sensor * np.array([1.0, 1.0, -1.0]), "neg.csv")
+    path = tmp_path / "neg.csv"
+    write_intervals_csv(flipped, path)
+    res = selfcal_from_intervals(path, 0.1, 0.3).result
+    assert res.wheelbase_m < 0
+    assert any("`sensor_dyaw_rad` negated" in w for w in res.warnings)

@@ -841,6 +841,8 @@ class PointType(click.ParamType):
             return value
         parts = str(value).replace(";", ",").split(",")
         try:
+            if "_" in str(value):  # Python reads 1_50 as 150
+                raise ValueError(value)
             x, y = (float(p) for p in parts)
         except ValueError:
             self.fail(f"{value!r} is not two numbers X,Y in millimetres (e.g. 150,-120)", param, ctx)

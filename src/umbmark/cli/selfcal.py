@@ -40,7 +40,7 @@ LEGEND = (
 def _float_list(text: str, n: int, flag: str, meta: str) -> list[float]:
     parts = [p.strip() for p in text.split(",")]
     try:
-        vals = [float(p) for p in parts]
+        vals = [] if "_" in text else [float(p) for p in parts]  # Python reads 3_5 as 35
     except ValueError:
         vals = []
     if len(vals) != n or not all(math.isfinite(v) for v in vals):

@@ -144,7 +144,21 @@ def check_db_address(db) -> None:
     """
     s = str(db)
     if is_url(s):
+        scheme, rest = s.split("://", 1)
+        if scheme.lower().startswith("sqlite") and re.search(
+            r"(^|&)(password|passwd|pwd)=", rest.partition("?")[2], re.I
+        ):
+            raise InputError(
+                "an SQLite history has no password (the file is not encrypted): give the URL without it, and "
+                "keep the file where only its users can read it; nothing was created"
+            )
         return
+    if re.match(r"^[^/@\s]*:[^/@\s]*@", s):
+        raise InputError(
+            "the history database looks like a URL without its scheme (USER:PASSWORD@HOST/DB): write "
+            "postgresql+psycopg://USER@HOST/DB, the password in $PGPASSWORD or ~/.pgpass; nothing was created "
+            "(the value is not repeated here: it holds a password)"
+        )
     if _KEY_VALUE.search(s) or "password=" in s.lower():
         raise InputError(
             "the history database is a file or a URL (postgresql+psycopg://USER@HOST/DB, the password in "

@@ -119,17 +119,27 @@ def atomic_path(path):
     if not parent.is_dir():
         raise InputError(f"cannot write {path}: folder {parent} does not exist")
     remove_stale_temporaries(path)
-    fd, tmp = tempfile.mkstemp(prefix=_temp_prefix(path) + f"{os.getpid()}.", suffix=path.suffix or ".tmp", dir=parent)
+    try:
+        fd, tmp = tempfile.mkstemp(
+            prefix=_temp_prefix(path) + f"{os.getpid()}.", suffix=path.suffix or ".tmp", dir=parent
+        )
+    except OSError as e:  # the user's file, not the temporary one beside it
+        raise InputError(f"cannot write {path}: {e.strerror or e} (folder {parent})") from None
     os.close(fd)
     os.chmod(tmp, 0o666 & ~_umask())  # mkstemp makes 0600; give the file ordinary permissions
     try:
         yield Path(tmp)
-        os.replace(tmp, path)
-    except BaseException:
+        try:
+            os.replace(tmp, path)
+        except OSError as e:
+            raise InputError(f"cannot write {path}: {e.strerror or e}") from None
+    except BaseException as e:
         try:
             os.unlink(tmp)
         except FileNotFoundError:
             pass
+        if isinstance(e, OSError) and not isinstance(e, InputError) and str(e.filename) == str(tmp):
+            raise InputError(f"cannot write {path}: {e.strerror or e}") from None  # not the temporary's name
         raise
 
 

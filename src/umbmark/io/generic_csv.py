@@ -208,6 +208,15 @@ def _ground_truth(g3: np.ndarray, lines: np.ndarray, degrees: bool, src: str):
     if partial.any():
         k = int(np.flatnonzero(partial)[0])
         raise InputError("ground truth x_m, y_m, theta must be all given or all empty", src, int(lines[k]))
+    far = np.abs(np.nan_to_num(g3[:, :2])) > _MAX_POSITION_M
+    if far.any():
+        k = int(np.flatnonzero(far.any(axis=1))[0])
+        raise InputError(
+            f"ground truth {'x_m' if far[k, 0] else 'y_m'} {g3[k, 0 if far[k, 0] else 1]:g} m is beyond any test "
+            f"track ({_MAX_POSITION_M:g} m): millimetres instead of metres, or a broken value?",
+            src,
+            int(lines[k]),
+        )
     ok = np.isfinite(g3[:, 0])
     if ok.sum() == 1 and ok[-1]:
         return None, g3[-1]
@@ -224,6 +233,7 @@ def _ground_truth(g3: np.ndarray, lines: np.ndarray, degrees: bool, src: str):
 
 
 _MAX_TICKS = 2.0**63  # beyond any encoder counter
+_MAX_POSITION_M = 1e5  # a ground-truth position beyond this (m) is not of a test track
 
 
 def _check_tick_values(ticks_lr: np.ndarray, lines: np.ndarray, src: str, ticks: str) -> None:

@@ -62,6 +62,7 @@ RATE_COLUMNS = ("rate_left_start_rad_s", "rate_right_start_rad_s", "rate_left_en
 # beyond these a value is read but looks like other units (warned about, not refused)
 _WHEEL_RAD_PER_INTERVAL = 100.0  # 16 wheel turns between two scans: encoder ticks?
 _SENSOR_M_PER_INTERVAL = 5.0  # 5 m between two scans: millimetres?
+_MAX_CELL = 1e6  # a duration, wheel rotation or displacement beyond this is no interval's
 _DT_S_PER_INTERVAL = 60.0  # a minute between two matched scans: milliseconds?
 
 
@@ -153,6 +154,11 @@ def parse_intervals_csv(text: str, source: str = "<intervals>") -> Intervals:
         vals = [parse_number(row[col[c]], c, source, line) for c in names] + pad
         if vals[0] < 0:
             raise InputError(f"column dt_s: {row[col['dt_s']].strip()} s is negative", source, line)
+        for c, v in zip(COLUMNS, vals[:6]):
+            if abs(v) > _MAX_CELL:  # no interval between two scans holds a million seconds, radians or metres
+                raise InputError(
+                    f"column {c}: {row[col[c]].strip()} is beyond any interval (at most {_MAX_CELL:g})", source, line
+                )
         values.append(vals)
         lines.append(line)
     if header is None:

@@ -456,6 +456,8 @@ def parse_time_offset(value) -> float | str | None:
         if v == "auto":
             return "auto"
         try:
+            if "_" in v:  # Python reads 0_3 as 3
+                raise ValueError(v)
             num = float(v.removesuffix("s"))
         except ValueError:
             raise InputError(

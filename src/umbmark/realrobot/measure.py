@@ -361,6 +361,8 @@ class Measurement:
 
 # every distance under this (metres): the distances were written in another unit
 _MIN_WALL_M = 0.01
+# a distance beyond this (metres) is no tape's reading
+_MAX_WALL_M = 1000.0
 
 
 def measure(marks: RobotMarks, distances, resolution_m: float = 1e-3, source=None, line=None) -> Measurement:
@@ -396,6 +398,12 @@ def measure(marks: RobotMarks, distances, resolution_m: float = 1e-3, source=Non
         raise InputError("need six distances per run (start front, rear, back; end front, rear, back)")
     if np.any(d6 < 0):
         raise InputError("a distance is negative")
+    if d6.size and not float(np.max(d6)) <= _MAX_WALL_M:
+        raise InputError(
+            f"a distance of {float(np.max(d6)) * 1e3:g} mm to a wall: a tape measures at most "
+            f"{_MAX_WALL_M * 1e3:g} mm (the file is in millimetres)",
+            source,
+        )
     if d6.size and float(np.max(d6)) < _MIN_WALL_M:
         raise InputError(
             f"every distance is under {_MIN_WALL_M * 1e3:g} mm (the largest {float(np.max(d6)) * 1e3:g} mm): the "

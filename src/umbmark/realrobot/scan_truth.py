@@ -243,6 +243,8 @@ def parse_sensor_pose(text: str) -> tuple[tuple[float, float, float], str]:
         return read_sensor_pose(p), str(p)
     parts = [s.strip() for s in text.split(",")]
     try:
+        if "_" in text:  # Python reads 3_5 as 35
+            raise ValueError(text)
         x, y, yaw = (float(s) for s in parts)
     except ValueError:
         raise InputError(

@@ -1000,6 +1000,8 @@ def parse_scan_delay(value: float | str | None) -> float | str:
         if v in ("off", "none"):
             return 0.0
         try:
+            if "_" in v:  # Python reads 0_1 as 1
+                raise ValueError(v)
             value = float(v)
         except ValueError:
             raise InputError(f"`scan_delay` must be auto, off or seconds, got {value!r}") from None

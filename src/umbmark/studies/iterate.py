@@ -23,6 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
+from umbmark._files import same_inputs
 from umbmark.correct import CorrectionResult, correct_runs
 from umbmark.errors import InputError
 from umbmark.metrics import UMBmarkResult, umbmark
@@ -329,6 +330,14 @@ def compose_passes(
     if not (isinstance(wheelbase_m, (int, float)) and math.isfinite(wheelbase_m) and wheelbase_m > 0):
         raise InputError(f"wheelbase must be a positive length, got {wheelbase_m!r}")
     sources = list(sources) if sources is not None else [None] * len(runs_list)
+    files = [s_ for s_ in sources if s_ is not None and Path(s_).exists()]
+    same = same_inputs(files)
+    if same:
+        first, again = same[0]
+        raise InputError(
+            f"{again} is the same runs file as {first}: each pass is driven with the correction of the passes "
+            "before it, so one test given twice would apply its correction twice; give each pass's file once"
+        )
     cal = prior
     passes = []
     for k, runs in enumerate(runs_list):

@@ -295,8 +295,9 @@ def plausibility(p: ArrayLike, wheel_diameter_m: float, wheelbase_m: float) -> l
     if rl > 0 and rr > 0 and b < 0:
         out.append(
             f"the intervals fit only with the wheels exchanged (positive radii need a negative wheelbase, "
-            f"{1e3 * b:.1f} mm): `left_rad` and `right_rad` are swapped (or both counted backwards); exchange "
-            "them and calibrate again (the diameters reported here are then the other wheel's)"
+            f"{1e3 * b:.1f} mm): `left_rad` and `right_rad` are swapped (or both counted backwards, or the "
+            "sensor's turns counted clockwise, `sensor_dyaw_rad` negated); exchange them and calibrate again (the "
+            "diameters reported here are then the other wheel's)"
         )
     elif rl * rr < 0:
         which = "left" if rl < 0 else "right"
