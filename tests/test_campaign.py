@@ -377,3 +377,31 @@ def test_a_pooled_replay_given_to_report_says_what_it_is_and_what_to_do(tmp_path
     assert "a pooled replay (one lsq fit of 2 data sets together)" in err and "without pooling" in err
     assert not (tmp_path / "r.html").exists()
     assert run("export", str(save), "--format", "ros2")[0] == 0
+
+
+@pytest.mark.parametrize("text", ["[]", "null", '"x"', "3"])
+def test_report_of_json_that_is_no_result_says_so(files, tmp_path, text):
+    """report of a JSON file that is not a result: one line saying what it is not, not a demand for
+    the runs file's geometry options."""
+    bad = tmp_path / "w.json"
+    bad.write_text(text)
+    code, out, err = run("report", str(bad), "--out", str(tmp_path / "r.html"))
+    _one_line_refusal(code, out, err)
+    assert "JSON, but not a result umbmark saves" in err and "w.json" in err
+
+
+def test_export_of_a_data_set_the_file_does_not_hold_is_refused(files):
+    """export --dataset NAME of a one-calibration JSON that is not NAME: refused, not ignored."""
+    code, out, err = run("export", str(files["cal"]), "--format", "ros2", "--dataset", "other")
+    _one_line_refusal(code, out, err)
+    assert "not a data set 'other'" in err
+
+
+@pytest.mark.parametrize("name", ["two\nlines", "tab\there", "esc\x1b[31m", ""])
+def test_a_refused_robot_name_creates_no_history(files, tmp_path, name):
+    """A robot name the history refuses (control characters, empty): one line, and no database file
+    is left behind."""
+    db = tmp_path / "h.sqlite"
+    code, out, err = run(*base_commands(files)["analyze"], "--robot", name, "--record", "--db", str(db))
+    _one_line_refusal(code, out, err)
+    assert not db.exists()

@@ -654,6 +654,20 @@ def _is_json(path) -> bool:
     return head.startswith(b"{")
 
 
+def _any_json(path) -> bool:
+    """Whether a file (of at most a megabyte) is JSON of any shape (``[]``, ``null``, ``"x"``)."""
+    import json
+
+    try:
+        p = Path(path)
+        if p.stat().st_size > 1 << 20:
+            return False
+        json.loads(p.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, ValueError, RecursionError):
+        return False
+    return True
+
+
 def _geometry_flags(wheelbase_mm, side_mm, c_left, c_right) -> list[str]:
     """The geometry and calibration flags given (a saved result holds its own)."""
     return [
@@ -713,6 +727,12 @@ def _file_analysis(runs_file, wheelbase_mm, side_mm, method, c_left, c_right, ro
     if _is_json(runs_file):
         return _replay_file_analysis(runs_file, wheelbase_mm, side_mm, method, c_left, c_right, robot)
     if wheelbase_mm is None or side_mm is None:
+        if _any_json(runs_file):
+            raise InputError(
+                "JSON, but not a result umbmark saves (a replay, self-calibration, calibration loop or gyro "
+                "result): report one of those, or a runs file (CSV)",
+                source=str(runs_file),
+            )
         raise click.UsageError("with FILE.csv, --wheelbase-mm and --side-mm are required")
     runs = read_runs_csv(runs_file)
     sha = file_sha256(runs_file)

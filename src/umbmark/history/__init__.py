@@ -33,6 +33,7 @@ from umbmark.history.base import (
     SCHEMA_VERSION,
     HistoryError,
     Record,
+    check_robot,
     default_db_path,
     display_db,
     export_parameters,
@@ -162,6 +163,7 @@ def record_result(
     HistoryError
         If the database cannot be used.
     """
+    robot = check_robot(robot)  # before the database is opened: a refused name creates no file
     with open_history(db) as h:
         return h.add(
             robot,

@@ -23,6 +23,7 @@ from umbmark.jsonutil import dumps, jsonable
 
 __all__ = [
     "ENV_VAR",
+    "check_robot",
     "KINDS",
     "MIGRATIONS",
     "SCHEMA_VERSION",
@@ -875,7 +876,7 @@ def make_row(
     InputError
         For a missing or unprintable robot name, an unknown kind or a bad time.
     """
-    robot = _check_robot(robot)
+    robot = check_robot(robot)
     if kind not in KINDS:
         raise InputError(f"unknown record kind {kind!r} (one of {', '.join(KINDS)})")
     # a database URL anywhere in a record is stored with its password masked
@@ -909,7 +910,23 @@ def make_row(
     }
 
 
-def _check_robot(robot) -> str:
+def check_robot(robot) -> str:
+    """A robot's name as recorded (surrounding spaces dropped).
+
+    Parameters
+    ----------
+    robot : str
+        The name given.
+
+    Returns
+    -------
+    str
+
+    Raises
+    ------
+    InputError
+        No name, one of more than 200 characters, or one with control characters.
+    """
     if robot is None or not str(robot).strip():
         raise InputError("a robot name is needed to record a calibration (`robot`)")
     robot = str(robot).strip()

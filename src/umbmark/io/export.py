@@ -403,6 +403,13 @@ def calibration_from_json(path, dataset: str | None = None) -> ExportCalibration
         if dataset not in names:
             raise InputError(f"no data set {dataset!r} (have {', '.join(map(str, names))})", source=src)
         d = d["datasets"][names.index(dataset)]
+    elif dataset is not None and dataset != d.get("dataset"):
+        name = d.get("dataset")
+        raise InputError(
+            f"holds one calibration{f' (of data set {name!r})' if isinstance(name, str) else ''}, not a data set "
+            f"{dataset!r}: `dataset` chooses among the data sets of a replay of several; leave it out",
+            source=src,
+        )
     return calibration_from_dict(d, src)
 
 
