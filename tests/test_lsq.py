@@ -33,16 +33,21 @@ def test_general_path_noise_free_is_exact():
     assert d["fitted_parameters"] == "D_L, D_R, b" and d["Es"] == pytest.approx(0.99, rel=1e-9)
 
 
-def test_tracked_point_offset_is_recovered():
-    ds = simlogs.dataset([simlogs.general_program()])
-    off = np.array([0.03, -0.02])  # a marker 30 mm ahead of and 20 mm right of the axle midpoint
+def _tracked_at(ds, off):
+    """The data set with its ground truth that of a point at ``off`` (x, y) [m] in the robot frame."""
     runs = []
     for r in ds.runs:
         g = r.gt
         c, s = np.cos(g[:, 2]), np.sin(g[:, 2])
         m = np.column_stack([g[:, 0] + c * off[0] - s * off[1], g[:, 1] + s * off[0] + c * off[1], g[:, 2]])
         runs.append(type(r)(r.name, r.t, r.d_left, r.d_right, np.column_stack(to_start_frame(*m.T))))
-    ds = ds.with_runs(runs)
+    return ds.with_runs(runs)
+
+
+def test_tracked_point_offset_is_recovered():
+    ds = simlogs.dataset([simlogs.general_program()])
+    off = np.array([0.03, -0.02])  # a marker 30 mm ahead of and 20 mm right of the axle midpoint
+    ds = _tracked_at(ds, off)
     true = simlogs.true_geometry()
     plain = fit_lsq(ds)
     assert abs(plain.geometry.wheelbase_m / true.wheelbase_m - 1) > 1e-4  # the offset biases a plain fit
@@ -170,16 +175,11 @@ def test_a_marker_ahead_of_the_axle_is_named_with_its_fix():
     errors = ErrorParams(ed=1.004, eb=1.03, es=0.99)
     ds = simlogs.dataset([simlogs.general_program()] * 3, errors=errors)
     off = np.array([0.12, 0.0])
-    runs = []
-    for r in ds.runs:
-        g = r.gt
-        c, s = np.cos(g[:, 2]), np.sin(g[:, 2])
-        m = np.column_stack([g[:, 0] + c * off[0] - s * off[1], g[:, 1] + s * off[0] + c * off[1], g[:, 2]])
-        runs.append(type(r)(r.name, r.t, r.d_left, r.d_right, np.column_stack(to_start_frame(*m.T))))
-    rep = replay_report(ds.with_runs(runs), "lsq", heldout=False)
+    marker = _tracked_at(ds, off)
+    rep = replay_report(marker, "lsq", heldout=False)
     assert abs(rep.calibration.eb - 1.03) > 0.01
     (note,) = [w for w in rep.warnings if "off the axle" in w]
     assert "120 mm ahead of" in note and "E_b is 1.0300" in note and "(`fit_offset`)" in note
     assert not [w for w in replay_report(ds, "lsq", heldout=False).warnings if "off the axle" in w]
-    fixed = replay_report(ds.with_runs(runs), "lsq", {"fit_offset": True}, heldout=False)
+    fixed = replay_report(marker, "lsq", {"fit_offset": True}, heldout=False)
     assert fixed.calibration.eb == pytest.approx(1.03, rel=1e-9) and fixed.warnings == ()

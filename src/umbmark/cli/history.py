@@ -32,6 +32,7 @@ from pathlib import Path
 
 import click
 
+from umbmark._numbers import strict_float
 from umbmark.cli.app import (
     app,
     cli_message,
@@ -861,9 +862,7 @@ class PointType(click.ParamType):
             return value
         parts = str(value).replace(";", ",").split(",")
         try:
-            if "_" in str(value):  # Python reads 1_50 as 150
-                raise ValueError(value)
-            x, y = (float(p) for p in parts)
+            x, y = (strict_float(p) for p in parts)
         except ValueError:
             self.fail(f"{value!r} is not two numbers X,Y in millimetres (e.g. 150,-120)", param, ctx)
         if not (math.isfinite(x) and math.isfinite(y)):

@@ -16,6 +16,7 @@ from pathlib import Path
 
 import click
 
+from umbmark._numbers import strict_float
 from umbmark.cli.app import app, cli_message, console, emit_json, fmt, is_quiet, table
 from umbmark.cli.history import history_options, print_recorded, record_if_requested
 from umbmark.cli.progress import progress
@@ -40,7 +41,7 @@ LEGEND = (
 def _float_list(text: str, n: int, flag: str, meta: str) -> list[float]:
     parts = [p.strip() for p in text.split(",")]
     try:
-        vals = [] if "_" in text else [float(p) for p in parts]  # Python reads 3_5 as 35
+        vals = [strict_float(p) for p in parts]
     except ValueError:
         vals = []
     if len(vals) != n or not all(math.isfinite(v) for v in vals):

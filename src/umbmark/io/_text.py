@@ -9,6 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
+from umbmark._numbers import strict_float
 from umbmark.errors import InputError
 
 __all__ = [
@@ -188,9 +189,7 @@ def parse_number(cell: str, col: str, source: str, line: int, allow_empty: bool 
             return math.nan
         raise InputError(f"column {col} is empty", source, line)
     try:
-        if "_" in s:  # Python reads 1_0 as 10: in a data file it is a typo or a separator
-            raise ValueError(s)
-        v = float(s)
+        v = strict_float(s)
     except ValueError:
         raise InputError(f"column {col}: {s!r} is not a number", source, line) from None
     if not math.isfinite(v):

@@ -11,7 +11,7 @@ import math
 from pathlib import Path
 
 from umbmark.errors import InputError
-from umbmark.model.dataset import MAX_STOP_S, Dataset, WheelGeometry
+from umbmark.model.dataset import Dataset, WheelGeometry, check_stop_s
 
 __all__ = [
     "LOG_FORMATS",
@@ -162,17 +162,18 @@ def load_logs(paths, fmt: str = "auto", **opts) -> Dataset:
 
 
 # the largest square side (m) and encoder resolution (pulses per wheel revolution) a log of a
-# robot can have (the longest pause between runs: MAX_STOP_S)
+# robot can have
 _MAX_SIDE_M = 1000.0
 _MAX_UNITS_PER_REV = 1e9
 
 
 def _check_log_numbers(opts: dict) -> None:
     """Refuse a side, an encoder resolution or a pause no robot's log has (before reading)."""
+    if opts.get("stop_s") is not None:
+        check_stop_s(opts["stop_s"])
     for key, most, unit in (
         ("side_mm", _MAX_SIDE_M * 1e3, "mm (a square of more than 1 km)"),
         ("pulses_per_wheel_rev", _MAX_UNITS_PER_REV, "pulses per wheel revolution"),
-        ("stop_s", MAX_STOP_S, "s (a pause between runs, in seconds)"),
     ):
         v = opts.get(key)
         if v is None:

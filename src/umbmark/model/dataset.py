@@ -39,6 +39,8 @@ __all__ = [
     "to_start_frame",
     "wheel_travel_from_poses",
     "split_at_stops",
+    "check_stop_s",
+    "MAX_STOP_S",
     "replay_increments",
     "FAST_MIN_SAMPLES",
 ]
@@ -304,6 +306,36 @@ def wheel_travel_from_poses(
 MAX_STOP_S = 600.0
 
 
+def check_stop_s(stop_s, source: str | None = None) -> float:
+    """Refuse a pause between runs that is not more than 0 and at most :data:`MAX_STOP_S` seconds.
+
+    Parameters
+    ----------
+    stop_s : float
+        The stillness that ends a run [s].
+    source : str, optional
+        Where it applies (for the message).
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    InputError
+        Not a number in that range (milliseconds named where it is beyond it).
+    """
+    if not (isinstance(stop_s, (int, float)) and math.isfinite(stop_s) and 0 < stop_s <= MAX_STOP_S):
+        hint = ""
+        if isinstance(stop_s, (int, float)) and stop_s > MAX_STOP_S:
+            hint = f" (given in milliseconds? {stop_s:g} ms is {stop_s / 1000:g} s)"
+        raise InputError(
+            f"`stop_s` must be a pause between runs of more than 0 and at most {MAX_STOP_S:g} s, got {stop_s!r}{hint}",
+            source,
+        )
+    return float(stop_s)
+
+
 def split_at_stops(
     run: Run, units_per_rev: float, stop_s: float = 1.0, min_samples: int = 5, still_units: float = 0.0
 ) -> list[Run]:
@@ -328,12 +360,7 @@ def split_at_stops(
         The moving stretches, each with the still samples just before it (so it starts at
         rest), named ``name#1``, ``name#2``, ...
     """
-    if not (math.isfinite(stop_s) and 0 < stop_s <= MAX_STOP_S):
-        hint = f" (given in milliseconds? {stop_s:g} ms is {stop_s / 1000:g} s)" if stop_s > MAX_STOP_S else ""
-        raise InputError(
-            f"`stop_s` must be a pause between runs of more than 0 and at most {MAX_STOP_S:g} s, got {stop_s!r}{hint}",
-            run.source,
-        )
+    check_stop_s(stop_s, run.source)
     moving = (np.abs(run.d_left) > still_units) | (np.abs(run.d_right) > still_units)
     t = run.t
     pieces = []

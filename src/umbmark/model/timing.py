@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from umbmark._numbers import strict_float
 from umbmark.errors import InputError
 
 __all__ = [
@@ -456,9 +457,7 @@ def parse_time_offset(value) -> float | str | None:
         if v == "auto":
             return "auto"
         try:
-            if "_" in v:  # Python reads 0_3 as 3
-                raise ValueError(v)
-            num = float(v.removesuffix("s"))
+            num = strict_float(v.removesuffix("s"))
         except ValueError:
             raise InputError(
                 f"`time_offset` must be 'auto' or seconds (positive: the ground truth is late), got {value!r}"

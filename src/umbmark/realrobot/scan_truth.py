@@ -42,6 +42,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from umbmark._numbers import strict_float
 from umbmark.errors import InputError
 from umbmark.io.rosbag import SelfcalBag, read_selfcal_bag
 from umbmark.model.dataset import Dataset, Run
@@ -243,9 +244,7 @@ def parse_sensor_pose(text: str) -> tuple[tuple[float, float, float], str]:
         return read_sensor_pose(p), str(p)
     parts = [s.strip() for s in text.split(",")]
     try:
-        if "_" in text:  # Python reads 3_5 as 35
-            raise ValueError(text)
-        x, y, yaw = (float(s) for s in parts)
+        x, y, yaw = (strict_float(s) for s in parts)
     except ValueError:
         raise InputError(
             f"`sensor_pose` needs X_MM,Y_MM,YAW_DEG (three numbers) or a selfcal JSON file, got {text!r}"

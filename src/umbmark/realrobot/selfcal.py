@@ -56,6 +56,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from umbmark._files import check_distinct_inputs
+from umbmark._numbers import strict_float
 from umbmark.correct.selfcal import SelfcalResult, selfcal
 from umbmark.correct.selfcal.estimate import BLOCK_S, MAX_BLOCKS
 from umbmark.errors import InputError
@@ -1000,9 +1001,7 @@ def parse_scan_delay(value: float | str | None) -> float | str:
         if v in ("off", "none"):
             return 0.0
         try:
-            if "_" in v:  # Python reads 0_1 as 1
-                raise ValueError(v)
-            value = float(v)
+            value = strict_float(v)
         except ValueError:
             raise InputError(f"`scan_delay` must be auto, off or seconds, got {value!r}") from None
     if not (isinstance(value, (int, float, np.floating)) and math.isfinite(value)):
