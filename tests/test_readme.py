@@ -6,18 +6,24 @@ repository's data folder and a history database of its own. The files run concur
 worker per core). Blocks whose info string is ``console`` are not run: they hold commands that
 take minutes, or that need a robot or a ROS installation. Pages that use the example ROS bags
 (`calibration_bag`, `check_bag`, the lidar drive `selfcal_bag`) get simulated bags of that name in
-their folder first.
+their folder first. Each command runs in a process of its own, forked from a server that has
+imported umbmark once (tests/cli_server.py).
 """
 
+import contextlib
 import math
 import os
 import re
+import shutil
 import stat
 import subprocess
 import sys
+import tempfile
 import time
 from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
 
+import cli_server
 import numpy as np
 import pytest
 from conftest import REPO
@@ -281,14 +287,29 @@ def write_example_bags(folder, text):
 # --- running the pages -------------------------------------------------------------------------------
 
 
+@contextlib.contextmanager
 def _wrapper_bin(tmp_path):
-    """A folder with an `umbmark` that runs this interpreter's umbmark (python -m umbmark)."""
+    """A folder with an `umbmark` that runs this interpreter's umbmark, one process per command,
+    forked from a server that has imported it once (tests/cli_server.py)."""
     b = tmp_path / "bin"
     b.mkdir()
-    exe = b / "umbmark"
-    exe.write_text(f'#!/bin/sh\nexec "{sys.executable}" -m umbmark "$@"\n')
-    exe.chmod(exe.stat().st_mode | stat.S_IXUSR | stat.S_IXGRP | stat.S_IXOTH)
-    return b
+    sock_dir = tempfile.mkdtemp(prefix="umbmark-cli-")  # (a Unix socket's path is short)
+    sock = os.path.join(sock_dir, "cli.sock")
+    env = dict(os.environ, MPLBACKEND="Agg")
+    env.pop("_UMBMARK_COMPLETE", None)
+    server = subprocess.Popen(
+        [sys.executable, str(Path(__file__).with_name("cli_server.py")), sock], stdout=subprocess.PIPE, env=env
+    )
+    try:
+        assert server.stdout is not None and server.stdout.readline() == cli_server.READY, "the server did not start"
+        exe = b / "umbmark"
+        exe.write_text(cli_server.client_script(sock))
+        exe.chmod(exe.stat().st_mode | stat.S_IXUSR | stat.S_IXGRP | stat.S_IXOTH)
+        yield b
+    finally:
+        server.kill()
+        server.wait()
+        shutil.rmtree(sock_dir, ignore_errors=True)
 
 
 def doc_files():
@@ -332,9 +353,11 @@ def run_file(md, root, bin_dir):
 def runs(tmp_path_factory):
     """Every file's commands, run once for the tests below: {relative path: (cmds, failures, timings)}."""
     root = tmp_path_factory.mktemp("docs_commands")
-    bin_dir = _wrapper_bin(root)
     files = doc_files()
-    with ThreadPoolExecutor(max_workers=max(1, min(len(files), os.cpu_count() or 1))) as pool:
+    with (
+        _wrapper_bin(root) as bin_dir,
+        ThreadPoolExecutor(max_workers=max(1, min(len(files), os.cpu_count() or 1))) as pool,
+    ):
         results = pool.map(lambda md: run_file(md, root, bin_dir), files)
         return {md.relative_to(REPO).as_posix(): res for md, res in zip(files, results)}
 
