@@ -533,6 +533,7 @@ def page(res: dict) -> str:
 def main(argv: list[str] | None = None) -> int:
     from umbmark.io.relations import read_relations
     from umbmark.io.rosbag import read_selfcal_bag
+    from umbmark.io.wheels import WheelSource
 
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     add_out(p, "real-diagnostics")
@@ -540,7 +541,7 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     logs, feas, feas_delays = [], [], []
     for name in ("aces", "mit-csail"):
-        bag = read_selfcal_bag(REPO / "data" / "slam2d" / f"{name}.bag", odom_topic="/odom")
+        bag = read_selfcal_bag(REPO / "data" / "slam2d" / f"{name}.bag", wheels=WheelSource(odom_topic="/odom"))
         rel = read_relations(REPO / "data" / "slam2d" / f"{name}.relations")
         split_s, parts = halves(bag)
         kf = keyframes(parts)

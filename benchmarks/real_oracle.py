@@ -80,10 +80,12 @@ class RelationFit:
     """The odometry at the scans of a log and its relations, for fitting a geometry to them."""
 
     def __init__(self, bag, rel, delay_s: float):
+        from umbmark.model.dataset import wheel_angles_from_poses
+        from umbmark.model.geometry import WheelGeometry
         from umbmark.realrobot.validate import recorded_odometry_at_scans
-        from umbmark.realrobot.wheels import wheel_angles_from_odometry
 
-        self.left, self.right = wheel_angles_from_odometry(recorded_odometry_at_scans(bag, delay_s), D_NOM / 2, B_NOM)
+        nominal = WheelGeometry(D_NOM, D_NOM, B_NOM)
+        self.left, self.right = wheel_angles_from_poses(recorded_odometry_at_scans(bag, delay_s), nominal)
         self.i1, self.i2 = rel.indices(bag.scan_t_s, 1e-3)
         self.t = bag.scan_t_s - bag.scan_t_s[0]
         self.rel = rel
@@ -162,8 +164,9 @@ def geometry(p: np.ndarray) -> dict:
 def run_log(name: str) -> dict:
     from umbmark.io.relations import read_relations
     from umbmark.io.rosbag import read_selfcal_bag
+    from umbmark.io.wheels import WheelSource
 
-    bag = read_selfcal_bag(REPO / "data" / "slam2d" / f"{name}.bag", odom_topic="/odom")
+    bag = read_selfcal_bag(REPO / "data" / "slam2d" / f"{name}.bag", wheels=WheelSource(odom_topic="/odom"))
     rel = read_relations(REPO / "data" / "slam2d" / f"{name}.relations")
     split_s, parts = halves(bag)
     windows = {"first half": (0.0, split_s), "second half": (split_s, 1e9)}

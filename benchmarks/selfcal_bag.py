@@ -75,10 +75,11 @@ def make_bag(folder: Path, minutes: float, storage: str, seed: int) -> tuple[dic
 def run_stages(path: Path) -> tuple[dict, dict]:
     """One calibration of the bag through the library, stage by stage: (timings, its JSON)."""
     from umbmark.io.rosbag import read_selfcal_bag
+    from umbmark.io.wheels import WheelSource
     from umbmark.realrobot.selfcal import match_intervals, plan_intervals, selfcal_report
 
     t = [time.perf_counter()]
-    bag = read_selfcal_bag(path, joints=("left_wheel_joint", "right_wheel_joint"))
+    bag = read_selfcal_bag(path, wheels=WheelSource(joints=("left_wheel_joint", "right_wheel_joint")))
     t.append(time.perf_counter())
     plan = plan_intervals(bag, 0.15, 0.34)
     t.append(time.perf_counter())

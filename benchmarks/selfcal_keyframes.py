@@ -60,6 +60,7 @@ def one_drive(seed: int) -> list[dict]:
     """Every rule on every jitter of one drive."""
     from umbmark.io.rosbag import read_selfcal_bag
     from umbmark.io.rosbag_write import JOINT_NAMES, write_drive_bag
+    from umbmark.io.wheels import WheelSource
     from umbmark.model.drive import SimRobot, mixed_program, simulate_drive
     from umbmark.model.geometry import LABMATE, ErrorParams
     from umbmark.model.sensors import Lidar, SensorPose
@@ -84,7 +85,7 @@ def one_drive(seed: int) -> list[dict]:
         folder = Path(tempfile.mkdtemp(prefix="umbmark-keyframes-"))
         try:
             path = write_drive_bag(log.stamped(DELAY_S, jitter, seed=seed), folder / "drive.bag", storage="ros1")
-            bag = read_selfcal_bag(path, joints=JOINT_NAMES)
+            bag = read_selfcal_bag(path, wheels=WheelSource(joints=JOINT_NAMES))
             for name, (rule, modelled) in rules().items():
                 t0 = time.perf_counter()
                 si = bag_intervals(bag, d_nom, b_nom, keyframes=rule)

@@ -61,10 +61,11 @@ LOGS = ("aces", "mit-csail")
 def run_stages(bag_path: Path, d_m: float, b_m: float) -> dict:
     """One self-calibration of a full log through the library, stage by stage [s]."""
     from umbmark.io.rosbag import read_selfcal_bag
+    from umbmark.io.wheels import WheelSource
     from umbmark.realrobot.selfcal import match_intervals, plan_intervals, selfcal_report
 
     t = [time.perf_counter()]
-    bag = read_selfcal_bag(bag_path, scan_topic="/scan", odom_topic="/odom")
+    bag = read_selfcal_bag(bag_path, scan_topic="/scan", wheels=WheelSource(odom_topic="/odom"))
     t.append(time.perf_counter())
     plan = plan_intervals(bag, d_m, b_m)
     t.append(time.perf_counter())
@@ -125,11 +126,12 @@ def log_facts(data: Path) -> dict:
     """Path, turns, stamps and the odometry increments' sideways part of each log."""
     from umbmark.io.relations import read_relations
     from umbmark.io.rosbag import read_selfcal_bag
+    from umbmark.io.wheels import WheelSource
     from umbmark.model import se2
 
     out = {}
     for name in LOGS:
-        bag = read_selfcal_bag(data / f"{name}.bag", scan_topic="/scan", odom_topic="/odom")
+        bag = read_selfcal_bag(data / f"{name}.bag", scan_topic="/scan", wheels=WheelSource(odom_topic="/odom"))
         rel = read_relations(data / f"{name}.relations")
         d = se2.between(bag.odom_pose[:-1], bag.odom_pose[1:])
         half = 0.5 * d[:, 2]
@@ -199,24 +201,26 @@ def matcher_cross_check(data: Path, nominal: tuple[float, float]) -> dict:
     """umbmark's matcher and a plain point-to-line ICP on the scan pairs of the short relations."""
     from umbmark.io.relations import read_relations
     from umbmark.io.rosbag import read_selfcal_bag
+    from umbmark.io.wheels import WheelSource
     from umbmark.model import se2
+    from umbmark.model.geometry import WheelGeometry
     from umbmark.realrobot.scanmatch import match_scan_pairs
+    from umbmark.realrobot.wheels import scan_wheel_angles
     from umbmark.studies.slam2d import (
         ErrorStats,
         SystematicErrors,
         odometry_from_wheels,
         relation_errors,
-        wheel_angles_at_scans,
     )
 
     out = {}
     for name in LOGS:
         print(f"{name}: matchers", file=sys.stderr, flush=True)
-        bag = read_selfcal_bag(data / f"{name}.bag", scan_topic="/scan", odom_topic="/odom")
+        bag = read_selfcal_bag(data / f"{name}.bag", scan_topic="/scan", wheels=WheelSource(odom_topic="/odom"))
         rel = read_relations(data / f"{name}.relations")
         i1, i2 = rel.indices(bag.scan_t_s)
         short = np.flatnonzero(rel.span_s < 10.0)
-        left, right = wheel_angles_at_scans(bag, *nominal)
+        left, right = scan_wheel_angles(bag, WheelGeometry(nominal[0], nominal[0], nominal[1]))
         odo = odometry_from_wheels(left, right, nominal[0] / 2, nominal[0] / 2, nominal[1])
         q0 = se2.between(odo[i1[short]], odo[i2[short]])  # the laser at the origin (/tf_static)
         m = match_scan_pairs(bag.ranges_m[i1[short]], bag.ranges_m[i2[short]], bag.angles_rad, q0)
@@ -247,12 +251,13 @@ def matcher_cross_check(data: Path, nominal: tuple[float, float]) -> dict:
 def keyframe_runs(data: Path, nominal: tuple[float, float]) -> dict:
     """Full-log calibrations with keyframes every 300 mm or 10 deg or 3 s (stamps as recorded)."""
     from umbmark.io.rosbag import read_selfcal_bag
+    from umbmark.io.wheels import WheelSource
     from umbmark.realrobot.selfcal import KeyframeRule, bag_intervals, selfcal_report
 
     rule = KeyframeRule(min_distance_m=0.3, min_rotation_rad=math.radians(10.0), max_interval_s=3.0)
     out = {"rule": rule.describe()}
     for name in LOGS:
-        bag = read_selfcal_bag(data / f"{name}.bag", scan_topic="/scan", odom_topic="/odom")
+        bag = read_selfcal_bag(data / f"{name}.bag", scan_topic="/scan", wheels=WheelSource(odom_topic="/odom"))
         d = selfcal_report([bag_intervals(bag, *nominal, keyframes=rule)], *nominal).to_dict()
         out[name] = {k: d[k] for k in ("c_left", "c_right", "Ed", "Ed_ci95", "Eb", "Eb_ci95", "sensor_pose")}
         out[name]["pairs_matched"], out[name]["pairs_failed"] = d["pairs_matched"], d["pairs_failed"]

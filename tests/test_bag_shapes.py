@@ -26,11 +26,19 @@ from test_bag_shapes_sim import (  # noqa: E402
 
 from umbmark.cli import main  # noqa: E402
 from umbmark.errors import InputError  # noqa: E402
-from umbmark.io.load import load_logs  # noqa: E402
+from umbmark.io.load import LogOptions, TruthSource, load_logs  # noqa: E402
 from umbmark.io.rosbag import bag_info, read_bag  # noqa: E402
+from umbmark.io.wheels import WheelSource  # noqa: E402
 from umbmark.realrobot.replay import end_poses, replay_report  # noqa: E402
 
 # -- six one-run bags with the robot's own odometry: one test of six runs ----------------------------
+
+JOINT_WHEELS = WheelSource(joints=("left_wheel_joint", "right_wheel_joint"))
+
+
+def options(wheels, **kw):
+    """The log options of these bags: 100 mm wheels, a 300 mm wheelbase, motion capture on /mocap/pose."""
+    return LogOptions(0.1, 0.1, 0.3, wheels=wheels, truth=TruthSource("/mocap/pose"), **kw)
 
 
 @pytest.fixture(scope="module")
@@ -68,9 +76,7 @@ def test_six_one_run_bags_with_odometry_are_one_test(six_bags, capsys):
 
 def test_odometry_replayed_with_the_nominal_geometry_is_the_recorded_odometry(six_bags):
     bags, truth = six_bags
-    ds = load_logs(
-        bags, "bag", odom_topic="/odom", gt_topic="/mocap/pose", wheel_diameter_mm=100, wheelbase_mm=300, side_mm=2000
-    )
+    ds = load_logs(bags, "bag", options(WheelSource(odom_topic="/odom"), side_m=2.0))
     assert len(ds.runs) == 6 and all(r.source == str(b) for r, b in zip(ds.runs, bags))
     odo = end_poses(ds, ds.nominal)
     # each run from its own start, though the odom frame ran on over the six bags
@@ -121,16 +127,7 @@ def session_bag(tmp_path_factory):
 
 
 def _replay(bag, *extra, method="exact"):
-    ds = load_logs(
-        [bag],
-        "bag",
-        joints="left_wheel_joint,right_wheel_joint",
-        gt_topic="/mocap/pose",
-        wheel_diameter_mm=100,
-        wheelbase_mm=300,
-        side_mm=2000,
-        **dict(extra),
-    )
+    ds = load_logs([bag], "bag", options(JOINT_WHEELS, side_m=2.0, **dict(extra)))
     return replay_report(ds, method).to_dict()
 
 
@@ -148,16 +145,7 @@ def test_several_bags_each_split_into_runs_are_one_test(session_bag, tmp_path):
     bag, truth = session_bag
     t, pl, pr, world, odom, truth2 = session(["ccw", "cw"], pause_s=3.0, errors=NO_SCALE)
     second = write_bag(tmp_path / "second", t, pl, pr, world, odom, mocap_hz=7.0, mocap_delay_s=0.05)
-    ds = load_logs(
-        [bag, second],
-        "bag",
-        joints="left_wheel_joint,right_wheel_joint",
-        gt_topic="/mocap/pose",
-        wheel_diameter_mm=100,
-        wheelbase_mm=300,
-        side_mm=2000,
-        split_stops=True,
-    )
+    ds = load_logs([bag, second], "bag", options(JOINT_WHEELS, side_m=2.0, split_stops=True))
     assert [r.name for r in ds.runs] == ["slow#1", "slow#2", "slow#3", "slow#4", "second#1", "second#2"]
     assert [r.source for r in ds.runs] == [str(bag)] * 4 + [str(second)] * 2
     rep = replay_report(ds, "exact").to_dict()
@@ -267,7 +255,9 @@ def test_replay_help_shows_a_bag_example(capsys):
 
 
 @pytest.mark.parametrize("damage", ["short", "empty"])
-def test_jointstate_without_positions_is_one_line(tmp_path, capsys, damage):
+def test_a_jointstate_without_positions_is_dropped_with_a_warning(tmp_path, capsys, damage):
+    """One JointState message that names the joints but lacks their positions is left out, and
+    said (every reader of wheel data does so); a bag whose messages all lack them is refused."""
     t, pl, pr, world, odom, _ = session(["cw"], pause_s=0.5)
 
     def positions(k, pos):
@@ -276,13 +266,26 @@ def test_jointstate_without_positions_is_one_line(tmp_path, capsys, damage):
         return pos[:1] if damage == "short" else np.array([], float)
 
     bag = write_bag(tmp_path / "b", t, pl, pr, world, odom, positions=positions)
-    with pytest.raises(InputError, match=r"JointState message 8 on /joint_states names 2 joints but carries") as e:
-        read_bag(bag, nominal=NOMINAL, joints=tuple(JOINTS), gt_topic="/mocap/pose")
+    whole = write_bag(tmp_path / "whole", t, pl, pr, world, odom)
+    read = dict(nominal=NOMINAL, wheels=WheelSource(joints=tuple(JOINTS)), gt_topic="/mocap/pose")
+    ds, ref = read_bag(bag, **read), read_bag(whole, **read)
+    assert any("1 JointState messages on /joint_states without positions: dropped" in w for w in ds.meta["warnings"])
+    assert sum(len(r) for r in ds.runs) == sum(len(r) for r in ref.runs) - 1
+    args = ["replay", str(bag), "--joints", ",".join(JOINTS), "--gt-topic", "/mocap/pose", "--method", "lsq"]
+    assert main([*args, "--json", "--wheel-diameter-mm", "100", "--wheelbase-mm", "300"]) == 0
+    assert "without positions: dropped" in capsys.readouterr().out
+
+
+def test_joint_states_that_all_lack_positions_are_one_line(tmp_path, capsys):
+    t, pl, pr, world, odom, _ = session(["cw"], pause_s=0.5)
+    bag = write_bag(tmp_path / "b", t, pl, pr, world, odom, positions=lambda k, pos: np.array([], float))
+    with pytest.raises(InputError, match=r"name the joints .* but carry no positions") as e:
+        read_bag(bag, nominal=NOMINAL, wheels=WheelSource(joints=tuple(JOINTS)), gt_topic="/mocap/pose")
     assert e.value.source == str(bag)
     args = ["replay", str(bag), "--joints", ",".join(JOINTS), "--gt-topic", "/mocap/pose", *GEOMETRY]
     assert main(args) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and str(bag) in err and "message 8" in err and "Traceback" not in err
+    assert err.count("\n") == 1 and str(bag) in err and "--odom-topic" in err and "Traceback" not in err
 
 
 def test_db3_without_its_metadata(session_bag, tmp_path, capsys):

@@ -25,6 +25,7 @@ from umbmark.cli import main  # noqa: E402
 from umbmark.errors import InputError  # noqa: E402
 from umbmark.io.rosbag import read_bag  # noqa: E402
 from umbmark.io.rosbag_write import JOINT_NAMES, write_drive_bag  # noqa: E402
+from umbmark.io.wheels import WheelSource  # noqa: E402
 from umbmark.model.drive import EXAMPLE_ROBOT, Command, simulate_drive  # noqa: E402
 from umbmark.model.geometry import ErrorParams  # noqa: E402
 from umbmark.model.sensors import Lidar  # noqa: E402
@@ -36,7 +37,9 @@ ROBOT = dataclasses.replace(
     EXAMPLE_ROBOT, errors=ErrorParams(ed=1.004, eb=1.02, es=0.99), lidar=Lidar(n_beams=4, range_noise_m=0.0)
 )
 NOMINAL = ROBOT.nominal_wheels
-READ = dict(nominal=NOMINAL, joints=JOINT_NAMES, gt_topic="/ground_truth", stops=True, side_m=SIDE_M)
+READ = dict(
+    nominal=NOMINAL, wheels=WheelSource(joints=JOINT_NAMES), gt_topic="/ground_truth", stops=True, side_m=SIDE_M
+)
 CLI = [
     "--joints",
     ",".join(JOINT_NAMES),
@@ -178,7 +181,7 @@ def test_ground_truth_covering_a_fifth_of_the_log_is_warned_about(clean, tmp_pat
         return msgs[: len(msgs) // 5]
 
     bag = edit_bag(clean, tmp_path / "short", ground_truth=first_fifth)
-    ds = read_bag(bag, nominal=NOMINAL, joints=JOINT_NAMES, gt_topic="/ground_truth")
+    ds = read_bag(bag, nominal=NOMINAL, gt_topic="/ground_truth", wheels=WheelSource(joints=JOINT_NAMES))
     (w,) = [w for w in ds.meta["warnings"] if "covers only" in w]
     assert w.startswith(f"{ds.source}: ")  # the bag is named
     assert "/ground_truth" in w and "covers only 20 %" in w
@@ -295,7 +298,7 @@ def test_cli_time_offset_auto_and_seconds(clean, clean_cal, tmp_path, capsys):
 def test_auto_without_turns_is_an_error(tmp_path):
     log = simulate_drive([Command(1.0), Command(5.0, 0.3), Command(1.0)], ROBOT, start_pose=(3.0, 4.0, 0.0))
     bag = write_drive_bag(log, tmp_path / "straight", truth=True, odom=False)
-    kw = dict(nominal=NOMINAL, joints=JOINT_NAMES, gt_topic="/ground_truth")
+    kw = dict(nominal=NOMINAL, wheels=WheelSource(joints=JOINT_NAMES), gt_topic="/ground_truth")
     ds = read_bag(bag, **kw)
     assert ds.meta["time_offset"][0]["estimated_s"] is None
     assert "hardly turns" in ds.meta["time_offset"][0]["reason"]
@@ -330,14 +333,16 @@ def test_selfcal_bag_spike_is_dropped_and_a_jump_is_an_error(clean, tmp_path):
     with a warning naming topic and time; a jump that stays is an error."""
     from umbmark.io.rosbag import read_selfcal_bag
 
-    ref = read_selfcal_bag(clean, joints=JOINT_NAMES)
+    ref = read_selfcal_bag(clean, wheels=WheelSource(joints=JOINT_NAMES))
     assert not any("spike" in w for w in ref.warnings)
 
     def spike(msgs):
         k = len(msgs) // 3
         return [(ns, _with_position(m, 1e300) if i == k else m) for i, (ns, m) in enumerate(msgs)]
 
-    got = read_selfcal_bag(edit_bag(clean, tmp_path / "spike", joint_states=spike), joints=JOINT_NAMES)
+    got = read_selfcal_bag(
+        edit_bag(clean, tmp_path / "spike", joint_states=spike), wheels=WheelSource(joints=JOINT_NAMES)
+    )
     (w,) = [w for w in got.warnings if "spike" in w]
     assert "/joint_states" in w and "at t=" in w
     assert len(got.wheel_t_s) == len(ref.wheel_t_s) - 1
@@ -347,8 +352,8 @@ def test_selfcal_bag_spike_is_dropped_and_a_jump_is_an_error(clean, tmp_path):
         k = len(msgs) // 3
         return [(ns, _with_position(m, m.position[0] + 1e6) if i >= k else m) for i, (ns, m) in enumerate(msgs)]
 
-    with pytest.raises(InputError, match="/joint_states jump at t=.*do not come back"):
-        read_selfcal_bag(edit_bag(clean, tmp_path / "jump", joint_states=jump), joints=JOINT_NAMES)
+    with pytest.raises(InputError, match="/joint_states jump by 1e\\+06 at t=.*do not come back"):
+        read_selfcal_bag(edit_bag(clean, tmp_path / "jump", joint_states=jump), wheels=WheelSource(joints=JOINT_NAMES))
 
 
 def test_selfcal_scan_delay_auto_and_seconds(tmp_path, capsys):

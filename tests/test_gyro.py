@@ -18,6 +18,7 @@ from umbmark.cli import main  # noqa: E402
 from umbmark.errors import InputError  # noqa: E402
 from umbmark.io.rosbag import read_gyro_bag  # noqa: E402
 from umbmark.io.rosbag_write import write_drive_bag  # noqa: E402
+from umbmark.io.wheels import WheelSource  # noqa: E402
 from umbmark.model.drive import (  # noqa: E402
     Command,
     Program,
@@ -167,7 +168,9 @@ def test_bias_is_removed_from_still_periods(tmp_path):
     over each 7.9 s spin of 225 deg would put the wheelbase 2 % off."""
     log = simulate_drive(spins(2 * math.pi, [1] * 4), SKID, seed=3)
     bag = bag_of(log, tmp_path / "oneway", Gyro(100.0, 1.0, BIAS, NOISE), seed=4)
-    gb = read_gyro_bag(bag, imu_topic="/imu", nominal=SKID.nominal_wheels, joints=JOINTS[1].split(","))
+    gb = read_gyro_bag(
+        bag, imu_topic="/imu", nominal=SKID.nominal_wheels, wheels=WheelSource(joints=JOINTS[1].split(","))
+    )
     r = gyro_reference([gb], SKID.nominal_wheels)
     assert abs(r.wheelbase_m / (FACTOR * TRACK) - 1) < 0.005
     assert any("one way" in w for w in r.warnings)

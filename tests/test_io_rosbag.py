@@ -17,6 +17,7 @@ from umbmark.cli import main  # noqa: E402
 from umbmark.correct.lsq import fit_lsq  # noqa: E402
 from umbmark.errors import InputError  # noqa: E402
 from umbmark.io.rosbag import bag_info, read_bag  # noqa: E402
+from umbmark.io.wheels import WheelSource  # noqa: E402
 from umbmark.model.dataset import WheelGeometry  # noqa: E402
 
 T0 = 1_700_000_000
@@ -142,7 +143,9 @@ def _check_true(ds):
 @pytest.mark.parametrize("storage", ["sqlite3", "mcap"])
 def test_ros2_jointstate_posestamped_gives_true_parameters(tmp_path, sim, storage):
     bag = write_ros2(tmp_path / f"bag_{storage}", storage, *sim, "pose")
-    ds = read_bag(bag, nominal=NOMINAL, joints=("wheel_left", "wheel_right"), gt_topic="/mocap/pose")
+    ds = read_bag(
+        bag, nominal=NOMINAL, gt_topic="/mocap/pose", wheels=WheelSource(joints=("wheel_left", "wheel_right"))
+    )
     assert ds.units_per_rev == pytest.approx(2 * math.pi)
     run = ds.runs[0]
     assert np.allclose(run.gt[0], 0.0, atol=1e-12)  # world frame -> start frame
@@ -152,7 +155,9 @@ def test_ros2_jointstate_posestamped_gives_true_parameters(tmp_path, sim, storag
 
 def test_ros1_bag_with_odometry_ground_truth(tmp_path, sim):
     bag = write_ros1(tmp_path / "run.bag", *sim, "odom")
-    ds = read_bag(bag, nominal=NOMINAL, joints=("wheel_left", "wheel_right"), gt_topic="/ground_truth")
+    ds = read_bag(
+        bag, nominal=NOMINAL, gt_topic="/ground_truth", wheels=WheelSource(joints=("wheel_left", "wheel_right"))
+    )
     _check_true(ds)
 
 
@@ -164,12 +169,11 @@ def test_tf_ground_truth_and_tick_topic(tmp_path, sim):
     ds = read_bag(
         bag,
         nominal=NOMINAL,
-        ticks_topic="/encoders",
-        left_field="data[0]",
-        right_field="data[1]",
-        units_per_rev=ppr,
         gt_topic="/tf",
         gt_frame="robot_mocap",
+        wheels=WheelSource(
+            ticks_topic="/encoders", left_field="data[0]", right_field="data[1]", pulses_per_wheel_rev=ppr
+        ),
     )
     assert ds.units_per_rev == ppr
     res = fit_lsq(ds)
@@ -178,7 +182,7 @@ def test_tf_ground_truth_and_tick_topic(tmp_path, sim):
     assert abs(res.geometry.ed - true.ed) < 5e-4
     assert res.geometry.wheelbase_m == pytest.approx(true.wheelbase_m, rel=3e-3)
     # a frame /tf does not hold: the transforms it does hold are listed
-    joints = dict(nominal=NOMINAL, joints=("wheel_left", "wheel_right"))
+    joints = dict(nominal=NOMINAL, wheels=WheelSource(joints=("wheel_left", "wheel_right")))
     with pytest.raises(InputError, match="for frame 'robot'.*transforms there: world -> decoy, world -> robot_mocap"):
         read_bag(bag, **joints, gt_topic="/tf", gt_frame="robot")
     # a ground-truth topic of another type: the topics and their types are listed
@@ -202,7 +206,12 @@ def test_ranges_and_stops_split_runs(tmp_path, sim):
     )
     bag = write_ros2(tmp_path / "two", "mcap", pl, pr, g, "pose")
     ds = read_bag(
-        bag, nominal=NOMINAL, joints=("wheel_left", "wheel_right"), gt_topic="/mocap/pose", stops=True, stop_s=1.0
+        bag,
+        nominal=NOMINAL,
+        gt_topic="/mocap/pose",
+        stops=True,
+        stop_s=1.0,
+        wheels=WheelSource(joints=("wheel_left", "wheel_right")),
     )
     assert len(ds.runs) == 2
     for r in ds.runs:
@@ -212,9 +221,9 @@ def test_ranges_and_stops_split_runs(tmp_path, sim):
     ds2 = read_bag(
         bag,
         nominal=NOMINAL,
-        joints=("wheel_left", "wheel_right"),
         gt_topic="/mocap/pose",
         ranges=[(0.0, t_end), (t_end + 2.0, 1e9)],
+        wheels=WheelSource(joints=("wheel_left", "wheel_right")),
     )
     assert len(ds2.runs) == 2
 
@@ -224,13 +233,13 @@ def test_bag_errors(tmp_path, sim):
     with pytest.raises(
         InputError, match=r"no topic '/nope'.*topics: /joint_states \(JointState\), /mocap/pose \(PoseStamped\)"
     ):
-        read_bag(bag, nominal=NOMINAL, joints=("wheel_left", "wheel_right"), gt_topic="/nope")
+        read_bag(bag, nominal=NOMINAL, gt_topic="/nope", wheels=WheelSource(joints=("wheel_left", "wheel_right")))
     with pytest.raises(InputError, match="names both joints"):
-        read_bag(bag, nominal=NOMINAL, joints=("wheel_left", "nope"))
+        read_bag(bag, nominal=NOMINAL, wheels=WheelSource(joints=("wheel_left", "nope")))
     junk = tmp_path / "junk.bag"
     junk.write_bytes(b"not a bag at all")
     with pytest.raises(InputError, match="cannot read as a ROS bag") as e:
-        read_bag(junk, nominal=NOMINAL, joints=("a", "b"))
+        read_bag(junk, nominal=NOMINAL, wheels=WheelSource(joints=("a", "b")))
     assert e.value.source == str(junk)
 
 

@@ -18,6 +18,7 @@ from umbmark.io.relations import (
     read_relations,
     write_relations,
 )
+from umbmark.io.wheels import WheelSource  # noqa: E402
 
 DATA = REPO / "data" / "slam2d"
 
@@ -192,7 +193,7 @@ def test_every_relation_joins_two_scans_of_its_bag(name):
     pytest.importorskip("rosbags")
     from umbmark.io.rosbag import read_selfcal_bag
 
-    bag = read_selfcal_bag(DATA / f"{name}.bag", odom_topic="/odom")
+    bag = read_selfcal_bag(DATA / f"{name}.bag", wheels=WheelSource(odom_topic="/odom"))
     rel = read_relations(DATA / f"{name}.relations")
     i1, i2 = rel.indices(bag.scan_t_s, tolerance_s=1e-5)
     assert np.all(i2 > i1)

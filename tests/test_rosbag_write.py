@@ -15,6 +15,7 @@ from umbmark.correct.lsq import fit_lsq  # noqa: E402
 from umbmark.errors import InputError  # noqa: E402
 from umbmark.io.rosbag import read_bag  # noqa: E402
 from umbmark.io.rosbag_write import EPOCH_S, JOINT_NAMES, storage_of, write_drive_bag  # noqa: E402
+from umbmark.io.wheels import WheelSource  # noqa: E402
 from umbmark.model.drive import EXAMPLE_ROBOT, Command, WheelNoise, mixed_program, simulate_drive  # noqa: E402
 from umbmark.model.geometry import wrap_angle  # noqa: E402
 from umbmark.model.sensors import Lidar  # noqa: E402
@@ -121,7 +122,7 @@ def test_round_trip(bag, log):
 
 def test_read_bag_reads_the_joint_states(bag, log):
     _, path = bag
-    ds = read_bag(path, nominal=log.nominal_geometry, joints=JOINT_NAMES)
+    ds = read_bag(path, nominal=log.nominal_geometry, wheels=WheelSource(joints=JOINT_NAMES))
     (run,) = ds.runs
     assert ds.units_per_rev == pytest.approx(2 * math.pi)
     np.testing.assert_allclose(run.t, log.t_s, atol=1e-6)
@@ -134,7 +135,9 @@ def test_the_ground_truth_gives_back_the_true_geometry(tmp_path):
     robot = dataclasses.replace(EXAMPLE_ROBOT, lidar=Lidar(n_beams=8, range_noise_m=0.0))
     drive = simulate_drive(mixed_program(40.0, seed=1, robot=robot), robot)
     path = write_drive_bag(drive, tmp_path / "truth", storage="mcap", odom=False, truth=True)
-    ds = read_bag(path, nominal=drive.nominal_geometry, joints=JOINT_NAMES, gt_topic="/ground_truth")
+    ds = read_bag(
+        path, nominal=drive.nominal_geometry, gt_topic="/ground_truth", wheels=WheelSource(joints=JOINT_NAMES)
+    )
     res = fit_lsq(ds)
     true = drive.true_geometry
     assert res.geometry.ed == pytest.approx(true.ed, abs=1e-6)
@@ -194,7 +197,7 @@ def test_scans_stamped_late_and_with_jitter(log, tmp_path):
     from umbmark.io.rosbag import read_selfcal_bag
 
     path = write_drive_bag(late, tmp_path / "late.bag", storage="ros1")
-    bag = read_selfcal_bag(path, joints=JOINT_NAMES)
+    bag = read_selfcal_bag(path, wheels=WheelSource(joints=JOINT_NAMES))
     np.testing.assert_allclose(bag.scan_t_s - EPOCH_S, late.scan_stamps_s, atol=1e-6)  # seconds since 1970
     with pytest.raises(InputError, match="`jitter_s` >= 0"):
         log.stamped(jitter_s=-1.0)

@@ -16,6 +16,7 @@ pytest.importorskip("rosbags")
 from umbmark.cli import main  # noqa: E402
 from umbmark.errors import InputError  # noqa: E402
 from umbmark.io.rosbag_write import write_drive_bag  # noqa: E402
+from umbmark.io.wheels import WheelSource  # noqa: E402
 from umbmark.metrics import umbmark  # noqa: E402
 from umbmark.model.drive import (  # noqa: E402
     SimRobot,
@@ -288,7 +289,7 @@ def test_sensor_to_robot_displacement(a, b, mount):
 @pytest.mark.parametrize("ed, eb", [(1.01, 1.08), (0.99, 0.93)])
 def test_return_errors_of_a_metre_and_forty_degrees(tmp_path, ed, eb):
     """Large return errors (up to 1 m and 40 deg) are found by the coarse stage."""
-    from umbmark.io.load import load_logs
+    from umbmark.io.load import LogOptions, load_logs
     from umbmark.realrobot.scan_truth import attach_scan_truth
 
     robot = SimRobot(ROBOT.nominal, ErrorParams(ed=ed, eb=eb), ROBOT.sensor_pose, ROBOT.lidar)
@@ -296,9 +297,12 @@ def test_return_errors_of_a_metre_and_forty_degrees(tmp_path, ed, eb):
         simulate_drive(square_program(d), robot, start_pose=START, seed=1 + i) for i, d in enumerate(("cw", "ccw"))
     ]
     bag = write_drive_bag(concatenate_drives(drives), tmp_path / "big", odom=False, tf_static=False)
-    opts = dict(split_stops=True, side_mm=2000, wheel_diameter_mm=150, wheelbase_mm=340)
-    ds = load_logs([bag], "bag", joints="left_wheel_joint,right_wheel_joint", **opts)
-    sets, truth = attach_scan_truth([ds], "/scan", sensor_pose=(0.035, 0, 0), joints=JOINTS[1].split(","))
+    wheels = WheelSource(joints=("left_wheel_joint", "right_wheel_joint"))
+    opts = LogOptions(0.15, 0.15, 0.34, wheels=wheels, split_stops=True, side_m=2.0)
+    ds = load_logs([bag], "bag", opts)
+    sets, truth = attach_scan_truth(
+        [ds], "/scan", sensor_pose=(0.035, 0, 0), wheels=WheelSource(joints=JOINTS[1].split(","))
+    )
     true, odo = truth_of(drives)
     assert (
         np.max(np.hypot(*true[:, :2].T)) > 0.5

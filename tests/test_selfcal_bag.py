@@ -20,9 +20,11 @@ from umbmark.errors import InputError  # noqa: E402
 from umbmark.io.intervals_csv import read_intervals_csv  # noqa: E402
 from umbmark.io.rosbag import StaticTransform, read_selfcal_bag  # noqa: E402
 from umbmark.io.rosbag_write import JOINT_NAMES, write_drive_bag  # noqa: E402
+from umbmark.io.wheels import WheelSource  # noqa: E402
 from umbmark.model import se2  # noqa: E402
+from umbmark.model.dataset import wheel_angles_from_poses  # noqa: E402
 from umbmark.model.drive import SimRobot, integrate_wheels, mixed_program, simulate_drive  # noqa: E402
-from umbmark.model.geometry import LABMATE, ErrorParams  # noqa: E402
+from umbmark.model.geometry import LABMATE, ErrorParams, WheelGeometry  # noqa: E402
 from umbmark.model.intervals import sensor_motion  # noqa: E402
 from umbmark.model.sensors import Lidar, SensorPose  # noqa: E402
 from umbmark.realrobot.selfcal import (  # noqa: E402
@@ -31,7 +33,6 @@ from umbmark.realrobot.selfcal import (  # noqa: E402
     plan_intervals,
     selfcal_from_bags,
     sensor_pose_from_tf,
-    wheel_angles_from_odometry,
 )
 
 ROBOT = SimRobot(
@@ -41,7 +42,7 @@ ROBOT = SimRobot(
     lidar=Lidar(n_beams=360, range_noise_m=0.005),
 )
 D_NOM, B_NOM = LABMATE.wheel_diameter_m, LABMATE.wheelbase_m
-JOINTS = dict(joints=JOINT_NAMES)
+JOINTS = dict(wheels=WheelSource(joints=JOINT_NAMES))
 
 
 @pytest.fixture(scope="module")
@@ -113,7 +114,7 @@ def test_joint_states_and_scans_give_the_true_geometry(bags, log, storage):
 def test_odometry_instead_of_joints_gives_the_same(bags, log):
     """/odom (the nominal odometry of the wheel angles) turned back into wheel travel through the
     nominal geometry: the same intervals as the joint states, to rounding."""
-    d = selfcal_from_bags(bags["mcap"], D_NOM, B_NOM, odom_topic="/odom").to_dict()
+    d = selfcal_from_bags(bags["mcap"], D_NOM, B_NOM, wheels=WheelSource(odom_topic="/odom")).to_dict()
     check_truth(d, log)
     j = selfcal_from_bags(bags["mcap"], D_NOM, B_NOM, **JOINTS).to_dict()
     for key in ("wheel_diameter_left_mm", "wheel_diameter_right_mm", "wheelbase_mm"):
@@ -288,7 +289,7 @@ def test_odometry_back_to_wheel_angles(steps, radius, wheelbase):
         return
     pose = integrate_wheels(travel[:, 0], travel[:, 1], wheelbase, (0.3, -1.0, 2.5))
     pose[:, 2] = np.angle(np.exp(1j * pose[:, 2]))  # as an Odometry message has it
-    left, right = wheel_angles_from_odometry(pose, radius, wheelbase)
+    left, right = wheel_angles_from_poses(pose, WheelGeometry(2 * radius, 2 * radius, wheelbase))
     np.testing.assert_allclose(left, np.concatenate([[0], np.cumsum(travel[:, 0])]) / radius, atol=1e-9)
     np.testing.assert_allclose(right, np.concatenate([[0], np.cumsum(travel[:, 1])]) / radius, atol=1e-9)
 
@@ -454,11 +455,13 @@ def test_encoder_counts_without_tf_static(log, tmp_path, kind):
         path,
         D_NOM,
         B_NOM,
-        ticks_topic="/wheel_ticks",
-        left_field="vector.x",
-        right_field="vector.y",
-        ticks=kind,
-        units_per_rev=4096,
+        wheels=WheelSource(
+            ticks_topic="/wheel_ticks",
+            left_field="vector.x",
+            right_field="vector.y",
+            ticks=kind,
+            pulses_per_wheel_rev=4096,
+        ),
     )
     d = rep.to_dict()
     check_truth(d, log)
@@ -471,9 +474,9 @@ def test_running_counters_read_as_counts_per_message_are_named(log, tmp_path):
     """A running counter read with ``ticks="incremental"``: refused as running counters (not as a
     counter reset)."""
     path = _write_ticks_bag(tmp_path / "ticks", log, 4096, incremental=False)
-    opts = dict(ticks_topic="/wheel_ticks", left_field="vector.x", right_field="vector.y", ticks="incremental")
+    wheels = WheelSource.encoder_counts("/wheel_ticks", "vector.x", "vector.y", 4096, ticks="incremental")
     with pytest.raises(InputError, match=r'look like running counters \(`ticks="cumulative"`\)'):
-        selfcal_from_bags(path, D_NOM, B_NOM, units_per_rev=4096, **opts)
+        selfcal_from_bags(path, D_NOM, B_NOM, wheels=wheels)
 
 
 def test_wrapped_joint_positions_are_unwrapped(bags, log, tmp_path):
@@ -486,7 +489,7 @@ def test_wrapped_joint_positions_are_unwrapped(bags, log, tmp_path):
     for key in ("wheel_diameter_left_mm", "wheel_diameter_right_mm", "wheelbase_mm"):
         assert d[key] == pytest.approx(ref[key], rel=1e-9)
     (w,) = d["warnings"]
-    assert w.startswith("the wheel positions jump by more than half a turn") and w.endswith("unwrapped")
+    assert w.startswith("the joint states on /joint_states jump by more than half a turn") and w.endswith("unwrapped")
 
 
 def test_ranges_at_range_max_are_no_return(log, tmp_path):

@@ -211,7 +211,7 @@ def test_topic_errors_list_the_bags_topics(bag):
     line = run(["selfcal", str(bag), "--odom-topic", "/odometry/filtered", *GEO], code=2)
     assert "no topic '/odometry/filtered' for the wheel odometry" in line and topics in line
     line = run(["selfcal", str(bag), "--joints", "wheel_l,wheel_r", *GEO], code=2)
-    assert "names both joints 'wheel_l' and 'wheel_r' (joints there: left_wheel_joint, right_wheel_joint)" in line
+    assert "names both joints 'wheel_l' and 'wheel_r' (joints there: left_wheel_joint, right_wheel_joint;" in line
     line = run(["selfcal", str(bag), *JOINTS, "--odom-topic", "/odom", *GEO], code=2)
     assert "not several" in line
 

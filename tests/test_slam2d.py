@@ -22,12 +22,18 @@ from umbmark.errors import InputError  # noqa: E402
 from umbmark.io.relations import Relations, read_relations, write_relations  # noqa: E402
 from umbmark.io.rosbag import read_selfcal_bag  # noqa: E402
 from umbmark.io.rosbag_write import EPOCH_S, write_drive_bag  # noqa: E402
+from umbmark.io.wheels import WheelSource  # noqa: E402
 from umbmark.jsonutil import dumps  # noqa: E402
 from umbmark.model import se2  # noqa: E402
 from umbmark.model.drive import SimRobot, mixed_program, simulate_drive  # noqa: E402
-from umbmark.model.geometry import LABMATE, ErrorParams  # noqa: E402
+from umbmark.model.geometry import (  # noqa: E402
+    LABMATE,
+    ErrorParams,
+    WheelGeometry,  # noqa: E402
+)
 from umbmark.model.sensors import Lidar, SensorPose  # noqa: E402
 from umbmark.realrobot.selfcal import KeyframeRule, estimate_scan_delay, match_intervals, plan_intervals  # noqa: E402
+from umbmark.realrobot.wheels import scan_wheel_angles  # noqa: E402
 from umbmark.studies.slam2d import (  # noqa: E402
     ErrorStats,
     SystematicErrors,
@@ -36,7 +42,6 @@ from umbmark.studies.slam2d import (  # noqa: E402
     recorded_odometry_at_scans,
     relation_errors,
     study_log,
-    wheel_angles_at_scans,
 )
 
 DATA = REPO / "data" / "slam2d"
@@ -205,7 +210,7 @@ def test_simulated_after_matches_the_truth_and_before_has_the_predicted_errors(s
 
 
 def test_simulated_late_scans_are_found_and_corrected(sim):
-    bag = read_selfcal_bag(sim["late"][0], odom_topic="/odom")
+    bag = read_selfcal_bag(sim["late"][0], wheels=WheelSource(odom_topic="/odom"))
     d = estimate_scan_delay(match_intervals(plan_intervals(bag, D_NOM, B_NOM, keyframes=KeyframeRule())), D_NOM, B_NOM)
     assert d.delay_s == pytest.approx(DELAY_S, abs=2e-3)
     assert d.correlation > 0.9999 > d.correlation_at_zero
@@ -269,10 +274,10 @@ def mit():
 def test_recomputed_odometry_keeps_the_recorded_heading():
     """The wheel travel made from /odom through any nominal geometry gives back its heading
     exactly (the positions up to the increments' sideways parts, which no arc has)."""
-    bag = read_selfcal_bag(MIT[0], odom_topic="/odom")
+    bag = read_selfcal_bag(MIT[0], wheels=WheelSource(odom_topic="/odom"))
     rec = recorded_odometry_at_scans(bag)
     for d, b in ((0.2, 0.4), (0.15, 0.3)):
-        left, right = wheel_angles_at_scans(bag, d, b)
+        left, right = scan_wheel_angles(bag, WheelGeometry(d, d, b))
         odo = odometry_from_wheels(left, right, d / 2, d / 2, b)
         dyaw = np.diff(odo[:, 2]) - np.diff(rec[:, 2])
         assert np.abs(dyaw).max() < 1e-9

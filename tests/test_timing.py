@@ -135,7 +135,8 @@ def test_incremental_counts_at_a_repeated_stamp_are_added():
         cumulative=False,
         wheel_topic="/ticks",
     )
-    assert list(chk.t) == [0.0, 0.01, 0.02, 0.03] and list(chk.left) == [0.0, 3.0, 3.0, 4.0]
+    # the kept counts summed into positions: 0, 1 + 2, 3, 4 (once)
+    assert list(chk.t) == [0.0, 0.01, 0.02, 0.03] and list(chk.left) == [0.0, 3.0, 6.0, 10.0]
     assert "2 of the 6 wheel positions on /ticks repeat the stamp" in chk.warnings[0]
 
 

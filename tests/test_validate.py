@@ -25,6 +25,7 @@ from umbmark.io.relations import Relations, read_relations, write_relations  # n
 from umbmark.io.rosbag import read_selfcal_bag  # noqa: E402
 from umbmark.io.rosbag_write import EPOCH_S, JOINT_NAMES, write_drive_bag  # noqa: E402
 from umbmark.io.tum import Trajectory, format_tum, write_tum  # noqa: E402
+from umbmark.io.wheels import WheelSource  # noqa: E402
 from umbmark.jsonutil import dumps  # noqa: E402
 from umbmark.model import se2  # noqa: E402
 from umbmark.model.drive import SimRobot, mixed_program, simulate_drive  # noqa: E402
@@ -147,9 +148,11 @@ def check_truth(f, tol_scale=2e-5, tol_mse=1e-8):
 # -- the truth --------------------------------------------------------------------------------------
 
 
-@pytest.mark.parametrize("wheels", [{"joints": JOINT_NAMES}, {"odom_topic": "/odom"}], ids=["joints", "odom"])
+@pytest.mark.parametrize(
+    "wheels", [WheelSource(joints=JOINT_NAMES), WheelSource(odom_topic="/odom")], ids=["joints", "odom"]
+)
 def test_the_true_geometry_scores_scales_of_one_and_no_error(sim, wheels):
-    v = validate_log(sim / "drive.bag", sim / "true.json", relations_path=sim / "drive.relations", **wheels)
+    v = validate_log(sim / "drive.bag", sim / "true.json", relations_path=sim / "drive.relations", wheels=wheels)
     (span,) = v.spans
     assert span.label == "whole log" and span.scans == 900
     n = len(read_relations(sim / "drive.relations"))
@@ -167,26 +170,39 @@ def test_the_true_geometry_scores_scales_of_one_and_no_error(sim, wheels):
 
 
 def test_a_wrong_geometry_scores_its_known_scale(sim):
-    v = validate_log(sim / "drive.bag", sim / "scaled.json", relations_path=sim / "drive.relations", joints=JOINT_NAMES)
+    v = validate_log(
+        sim / "drive.bag",
+        sim / "scaled.json",
+        relations_path=sim / "drive.relations",
+        wheels=WheelSource(joints=JOINT_NAMES),
+    )
     assert after(v).distance_scale == pytest.approx(1.03, rel=2e-5)
     assert after(v).turn_scale == pytest.approx(1.0, abs=2e-6)
     rules = {r.key: r.passed for r in v.spans[0].rules}
     assert rules["distance_scale"] is False and rules["turn_scale"] is True
     assert v.verdict == "fail"
     v = validate_log(
-        sim / "drive.bag", sim / "turning.json", relations_path=sim / "drive.relations", joints=JOINT_NAMES
+        sim / "drive.bag",
+        sim / "turning.json",
+        relations_path=sim / "drive.relations",
+        wheels=WheelSource(joints=JOINT_NAMES),
     )
     assert after(v).turn_scale == pytest.approx(1.04, rel=2e-6)
     # the nominal geometry against itself: the before figures, twice
     v = validate_log(
-        sim / "drive.bag", sim / "nominal.json", relations_path=sim / "drive.relations", joints=JOINT_NAMES
+        sim / "drive.bag",
+        sim / "nominal.json",
+        relations_path=sim / "drive.relations",
+        wheels=WheelSource(joints=JOINT_NAMES),
     )
     assert after(v) == before(v)
     assert v.verdict == "pass"  # nothing worse (the scales are no farther from 1 than before)
 
 
 def test_a_trajectory_of_the_base_frame_at_the_scans_and_of_the_lidar_at_its_own_stamps(sim):
-    v = validate_log(sim / "drive.bag", sim / "true.json", reference_path=sim / "base.tum", joints=JOINT_NAMES)
+    v = validate_log(
+        sim / "drive.bag", sim / "true.json", reference_path=sim / "base.tum", wheels=WheelSource(joints=JOINT_NAMES)
+    )
     ref = v.reference
     assert (ref.kind, ref.frame, ref.mode, ref.poses, ref.scans_with_pose) == (
         "trajectory",
@@ -204,18 +220,24 @@ def test_a_trajectory_of_the_base_frame_at_the_scans_and_of_the_lidar_at_its_own
         sim / "true.json",
         reference_path=sim / "lidar.tum",
         reference_frame="sensor",
-        joints=JOINT_NAMES,
+        wheels=WheelSource(joints=JOINT_NAMES),
     )
     assert (v.reference.mode, v.reference.frame) == ("interpolated", "sensor")
     check_truth(after(v), tol_mse=1e-7)
     # the same trajectory read as the base frame's is not the truth
-    v = validate_log(sim / "drive.bag", sim / "true.json", reference_path=sim / "lidar.tum", joints=JOINT_NAMES)
+    v = validate_log(
+        sim / "drive.bag", sim / "true.json", reference_path=sim / "lidar.tum", wheels=WheelSource(joints=JOINT_NAMES)
+    )
     assert after(v).short.mse_translation_m2 > 1e-6
 
 
 def test_halves_and_a_window(sim):
     v = validate_log(
-        sim / "drive.bag", sim / "true.json", relations_path=sim / "drive.relations", joints=JOINT_NAMES, halves=True
+        sim / "drive.bag",
+        sim / "true.json",
+        relations_path=sim / "drive.relations",
+        halves=True,
+        wheels=WheelSource(joints=JOINT_NAMES),
     )
     first, second = v.spans
     assert (first.label, second.label) == ("first half", "second half")
@@ -230,8 +252,8 @@ def test_halves_and_a_window(sim):
         sim / "drive.bag",
         sim / "true.json",
         relations_path=sim / "drive.relations",
-        joints=JOINT_NAMES,
         window_s=(10.0, 40.0),
+        wheels=WheelSource(joints=JOINT_NAMES),
     )
     (span,) = v.spans
     assert span.label == "window" and (span.t_start_s, span.t_end_s) == (10.0, 40.0)
@@ -242,14 +264,20 @@ def test_halves_and_a_window(sim):
 
 def test_the_calibrations_scan_delay_is_applied_to_both(sim):
     rel = sim / "late.relations"
-    v = validate_log(sim / "late.bag", sim / "late.json", relations_path=rel, joints=JOINT_NAMES)
+    v = validate_log(sim / "late.bag", sim / "late.json", relations_path=rel, wheels=WheelSource(joints=JOINT_NAMES))
     assert (v.scan_delay_s, v.scan_delay_source) == (DELAY_S, "calibration")
     check_truth(after(v), tol_mse=1e-7)
     assert v.reference.without_wheel_data == v.reference.unmatched == 0
-    v0 = validate_log(sim / "late.bag", sim / "late.json", relations_path=rel, joints=JOINT_NAMES, scan_delay_s=0.0)
+    v0 = validate_log(
+        sim / "late.bag",
+        sim / "late.json",
+        relations_path=rel,
+        scan_delay_s=0.0,
+        wheels=WheelSource(joints=JOINT_NAMES),
+    )
     assert (v0.scan_delay_s, v0.scan_delay_source) == (0.0, "given")
     assert after(v0).short.mse_rotation_rad2 > 1e3 * after(v).short.mse_rotation_rad2
-    vt = validate_log(sim / "late.bag", sim / "true.json", relations_path=rel, joints=JOINT_NAMES)
+    vt = validate_log(sim / "late.bag", sim / "true.json", relations_path=rel, wheels=WheelSource(joints=JOINT_NAMES))
     assert (vt.scan_delay_s, vt.scan_delay_source) == (0.0, "none")
 
 
@@ -270,7 +298,11 @@ def test_json_round_trip_through_the_command_line(sim, capsys):
     assert code == 0, err
     d = json.loads(out)
     v = validate_log(
-        sim / "drive.bag", sim / "true.json", relations_path=sim / "drive.relations", joints=JOINT_NAMES, halves=True
+        sim / "drive.bag",
+        sim / "true.json",
+        relations_path=sim / "drive.relations",
+        halves=True,
+        wheels=WheelSource(joints=JOINT_NAMES),
     )
     assert d == json.loads(dumps(v.to_dict()))
     assert d["verdict"] == "pass" and [s["label"] for s in d["spans"]] == ["first half", "second half"]
@@ -343,7 +375,10 @@ def test_other_calibrations_map_to_geometries(sim, tmp_path, capsys):
     c = read_calibration(tmp_path / "e2.json")
     assert c.sensor_pose == pytest.approx(tuple(ROBOT.sensor_pose.as_array()))
     v = validate_log(
-        sim / "drive.bag", tmp_path / "e2.json", relations_path=sim / "drive.relations", joints=JOINT_NAMES
+        sim / "drive.bag",
+        tmp_path / "e2.json",
+        relations_path=sim / "drive.relations",
+        wheels=WheelSource(joints=JOINT_NAMES),
     )
     assert v.nominal_sensor_pose_source.startswith("/tf_static")  # the export has no nominal pose: the log's
     check_truth(after(v))
@@ -614,7 +649,7 @@ def test_the_mit_csail_log_with_its_nominal_geometry(tmp_path, capsys):
     got = span["before"]
     assert span["after"] == got  # the calibration is the nominal geometry
 
-    bag = read_selfcal_bag(MIT / "mit-csail.bag", odom_topic="/odom")
+    bag = read_selfcal_bag(MIT / "mit-csail.bag", wheels=WheelSource(odom_topic="/odom"))
     rel = read_relations(MIT / "mit-csail.relations")
     s, w, p = bag.scan_t_s, bag.wheel_t_s, bag.odom_pose
     at = np.column_stack([np.interp(s, w, p[:, 0]), np.interp(s, w, p[:, 1]), np.interp(s, w, np.unwrap(p[:, 2]))])

@@ -126,51 +126,11 @@ def log_options(f):
     return f
 
 
-_LOG_KEYS = (
-    "side_mm",
-    "wheel_diameter_mm",
-    "wheel_radius_m",
-    "left_diameter_mm",
-    "right_diameter_mm",
-    "wheelbase_mm",
-    "wheel_separation_m",
-    "pulses_per_wheel_rev",
-    "ticks",
-    "joints",
-    "odom_topic",
-    "joint_topic",
-    "ticks_topic",
-    "left_field",
-    "right_field",
-    "gt_topic",
-    "gt_frame",
-    "gt_parent",
-    "ranges",
-    "split_stops",
-    "stop_s",
-    "time_offset",
-)
-
-
 def _load(paths, log_format, kw):
+    from umbmark.cli.options import read_options
     from umbmark.io.load import load_logs
 
-    opts = {k: kw[k] for k in _LOG_KEYS if k in kw}
-    for k in (
-        "side_mm",
-        "wheel_diameter_mm",
-        "wheel_radius_m",
-        "left_diameter_mm",
-        "right_diameter_mm",
-        "wheelbase_mm",
-        "wheel_separation_m",
-        "pulses_per_wheel_rev",
-        "stop_s",
-    ):
-        v = opts.get(k)
-        if v is not None and not (math.isfinite(v) and v > 0):
-            raise InputError(f"--{k.replace('_', '-')} must be a positive number, got {v!r}")
-    return load_logs(paths, log_format, **opts)
+    return load_logs(paths, log_format, read_options(kw))
 
 
 def _datasets(paths, log_format, kw):
@@ -581,7 +541,7 @@ def _json_warnings(d) -> list[str]:
 
 def _scan_truth(paths, log_format, kw):
     """``replay --gt-scan-topic``: the data sets with each run's end pose measured by the lidar."""
-    from umbmark.io.load import wheel_source
+    from umbmark.cli.options import wheel_source
     from umbmark.realrobot.scan_truth import attach_scan_truth, check_sensor_pose, parse_sensor_pose
 
     topic = kw.get("gt_scan_topic")
@@ -597,7 +557,7 @@ def _scan_truth(paths, log_format, kw):
             click.echo(f"warning: {cli_message(w)}", err=True)
     sets = _datasets(paths, log_format, kw)
     with progress("registering each run's scans"):
-        return attach_scan_truth(sets, topic, sensor_pose=pose, sensor_pose_source=pose_src, **wheel_source(kw))
+        return attach_scan_truth(sets, topic, sensor_pose=pose, sensor_pose_source=pose_src, wheels=wheel_source(kw))
 
 
 def _with_warnings(rep, warnings):
@@ -645,7 +605,8 @@ def _print_scan_truth(st) -> None:
 
 def _gyro(paths, log_format, kw):
     """``replay --imu-topic``: the gyro's effective wheelbase (and scale) from the bags' turns."""
-    from umbmark.io.load import nominal_geometry, wheel_source
+    from umbmark.cli.options import read_options
+    from umbmark.io.load import nominal_geometry
     from umbmark.io.rosbag import read_gyro_bag, read_selfcal_bag
     from umbmark.realrobot.gyro import gyro_reference
     from umbmark.realrobot.scan_truth import parse_sensor_pose
@@ -657,14 +618,15 @@ def _gyro(paths, log_format, kw):
         raise InputError("--imu-topic reads the gyro of ROS bags")
     if kw.get("full_turns") and kw.get("gt_scan_topic"):
         raise InputError("the gyro's scale comes from --full-turns or from the lidar (--gt-scan-topic), not both")
-    wheel = wheel_source(kw)
-    nominal = nominal_geometry(kw, str(paths[0]))
+    opts = read_options(kw)
+    wheel = opts.wheels
+    nominal = nominal_geometry(opts, str(paths[0]))
     with progress("reading the gyro"):
-        bags = [read_gyro_bag(p, imu_topic=topic, nominal=nominal, **wheel) for p in paths]
+        bags = [read_gyro_bag(p, imu_topic=topic, nominal=nominal, wheels=wheel) for p in paths]
     scans, pose = None, (0.0, 0.0, 0.0)
     if kw.get("gt_scan_topic"):
         with progress("reading the scans"):
-            scans = {b.source: read_selfcal_bag(b.source, scan_topic=kw["gt_scan_topic"], **wheel) for b in bags}
+            scans = {b.source: read_selfcal_bag(b.source, scan_topic=kw["gt_scan_topic"], wheels=wheel) for b in bags}
         if kw.get("sensor_pose") is not None:
             pose = parse_sensor_pose(kw["sensor_pose"])[0]
     return gyro_reference(bags, nominal, full_turns=bool(kw.get("full_turns")), scans=scans, sensor_pose=pose)
@@ -724,9 +686,11 @@ def _print_gyro(g) -> None:
 
 def _stream(paths, log_format, decimate, poses_out, as_json, kw) -> None:
     """``replay --stream``: one long CSV log in bounded memory (no calibration)."""
+    from umbmark.cli.options import read_options
     from umbmark.realrobot.replay import stream_log
 
-    rep = stream_log(list(paths), decimate=decimate, fmt=log_format or "auto", poses_out=poses_out, **kw)
+    opts = read_options(kw)
+    rep = stream_log(list(paths), decimate=decimate, fmt=log_format or "auto", poses_out=poses_out, options=opts)
     if as_json:
         emit_json(rep.to_dict())
     elif not is_quiet():

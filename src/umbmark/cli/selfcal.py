@@ -95,11 +95,14 @@ def _kind_of(paths) -> str:
 
 
 class _Bars:
-    """Progress bars opened when the library first reports a total (none with --json or --quiet)."""
+    """Progress bars of the library's stages (:data:`umbmark.realrobot.selfcal.StageProgress`), each
+    opened when the library first reports it (a spinner for a stage without steps); none with
+    --json or --quiet."""
 
     def __init__(self, enabled: bool):
         self.enabled = enabled
         self.stack = ExitStack()
+        self.bars: dict[str, tuple] = {}
 
     def __enter__(self):
         return self
@@ -107,19 +110,16 @@ class _Bars:
     def __exit__(self, *exc):
         self.stack.close()
 
-    def bar(self, description: str):
+    def __call__(self, stage: str, done: int, total: int) -> None:
         if not self.enabled:
-            return None
-        state: dict = {}
-
-        def report(done: int, total: int) -> None:
-            if "advance" not in state:
-                state["advance"] = self.stack.enter_context(progress(description, total=total))
-                state["done"] = 0
-            state["advance"](done - state["done"])
-            state["done"] = done
-
-        return report
+            return
+        if stage not in self.bars:
+            advance = self.stack.enter_context(progress(stage, total=total or None))
+            self.bars[stage] = (advance, [0])
+        advance, seen = self.bars[stage]
+        if total:
+            advance(done - seen[0])
+            seen[0] = done
 
 
 def _next_command(paths, save, d_m, b_m, flags: list[str]) -> tuple[str, str]:
@@ -455,12 +455,11 @@ def _start_kernels() -> None:
 
 
 def _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json):
-    """Read, plan and match every bag (with progress bars; the scans' delay estimated or applied as
-    ``--scan-delay`` says), then self-calibrate the pooled intervals."""
-    from umbmark.io.load import parse_joints
-    from umbmark.io.rosbag import read_selfcal_bag
+    """The self-calibration of the bags (:func:`umbmark.realrobot.selfcal.selfcal_from_bags`), with
+    progress bars; the matched intervals written when ``--intervals-out`` asks."""
+    from umbmark.cli.options import wheel_source
     from umbmark.realrobot.scanmatch import ICPConfig
-    from umbmark.realrobot.selfcal import KeyframeRule, bag_intervals, parse_scan_delay, selfcal_report
+    from umbmark.realrobot.selfcal import KeyframeRule, parse_scan_delay, selfcal_from_bags
 
     for flag in ("keyframe_mm", "keyframe_deg", "keyframe_s", "keyframe_min_s"):
         v = kw[flag]
@@ -471,10 +470,6 @@ def _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json):
         raise InputError(f"--max-wheel-gap-s must be a positive number, got {v!r}")
     if kw["keyframe_s"] > 0 and kw["keyframe_s"] < kw["keyframe_min_s"]:
         raise InputError(f"--keyframe-s {kw['keyframe_s']:g} is below --keyframe-min-s {kw['keyframe_min_s']:g}")
-    if kw["pulses_per_wheel_rev"] is not None and not (
-        math.isfinite(kw["pulses_per_wheel_rev"]) and kw["pulses_per_wheel_rev"] > 0
-    ):
-        raise InputError(f"--pulses-per-wheel-rev must be a positive number, got {kw['pulses_per_wheel_rev']!r}")
     rule = KeyframeRule(
         min_distance_m=kw["keyframe_mm"] * 1e-3,
         min_rotation_rad=math.radians(kw["keyframe_deg"]),
@@ -489,51 +484,34 @@ def _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json):
         pose = (x * 1e-3, y * 1e-3, math.radians(yaw))
         for w in check_sensor_pose(pose):
             click.echo(f"warning: {cli_message(w)}", err=True)
-    read = {
-        "scan_topic": kw["scan_topic"],
-        "joints": None if kw["joints"] is None else parse_joints(kw["joints"]),
-        "joint_topic": kw["joint_topic"],
-        "ticks_topic": kw["ticks_topic"],
-        "left_field": kw["left_field"],
-        "right_field": kw["right_field"],
-        "ticks": kw["ticks"],
-        "units_per_rev": kw["pulses_per_wheel_rev"],
-        "odom_topic": kw["odom_topic"],
-        "scan_frame": kw["scan_frame"],
-    }
-    icp = ICPConfig(coarse=True) if kw["coarse"] else None
     try:
         scan_delay = parse_scan_delay(kw["scan_delay"])
     except InputError:
         raise InputError(
             f"--scan-delay must be auto, off or seconds (positive: the scans are late), got {kw['scan_delay']!r}"
         ) from None
+    wheels = wheel_source(kw)
+    if wheels.given:
+        wheels.check()  # before anything is compiled or read
     _start_kernels()
-    parts = []
     with _Bars(enabled=not as_json) as bars:
-        for p in paths:
-            name = Path(p).name
-            bag = read_selfcal_bag(p, progress=bars.bar(f"reading {name}"), **read)
-            parts.append(
-                bag_intervals(
-                    bag,
-                    d_m,
-                    b_m,
-                    keyframes=rule,
-                    sensor_pose=pose,
-                    base_frame=kw["base_frame"],
-                    max_wheel_gap_s=kw["max_wheel_gap_s"],
-                    icp=icp,
-                    min_intervals=min_intervals,
-                    scan_delay=scan_delay,
-                    progress=bars.bar(f"matching scans of {name}"),
-                )
-            )
-        if not as_json:
-            with progress("self-calibrating"):
-                rep = selfcal_report(parts, d_m, b_m, **opts)
-        else:
-            rep = selfcal_report(parts, d_m, b_m, **opts)
+        rep = selfcal_from_bags(
+            list(paths),
+            d_m,
+            b_m,
+            wheels=wheels,
+            scan_topic=kw["scan_topic"],
+            scan_frame=kw["scan_frame"],
+            keyframes=rule,
+            sensor_pose=pose,
+            base_frame=kw["base_frame"],
+            max_wheel_gap_s=kw["max_wheel_gap_s"],
+            icp=ICPConfig(coarse=True) if kw["coarse"] else None,
+            min_intervals=min_intervals,
+            scan_delay=scan_delay,
+            selfcal_options=opts,
+            progress=bars,
+        )
     if kw["intervals_out"]:
         from umbmark.io.intervals_csv import write_intervals_csv
 

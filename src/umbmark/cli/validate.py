@@ -4,7 +4,7 @@ a TUM trajectory), before and after, as the calibrations of this project are jud
 The library does the work (:func:`umbmark.realrobot.validate.validate_log`); this module parses
 the options, calls it, and prints its result's ``to_dict()`` or a table made from it. The options
 that read the bag's wheel data and give the nominal geometry are ``umbmark selfcal``'s own (the
-same click options, copied), read with :func:`umbmark.io.load.wheel_source` as the bag readers
+same click options, copied), read with :func:`umbmark.cli.options.wheel_source` as the bag readers
 take them. No numerical module is imported before the command runs.
 """
 
@@ -276,7 +276,7 @@ def validate_cmd(
       umbmark validate robot_bag selfcal.json --joints left_wheel_joint,right_wheel_joint --reference slam.tum --halves
       umbmark validate robot_bag cal.json --odom-topic /odom --reference slam.tum --window 0:120 --json
     """
-    from umbmark.io.load import wheel_source
+    from umbmark.cli.options import wheel_source
     from umbmark.realrobot.validate import validate_log
 
     if reference_frame is not None and reference is None:
@@ -303,7 +303,7 @@ def validate_cmd(
             base_frame=kw["base_frame"],
             tolerance_s=stamp_tolerance_s,
             scan_topic=kw["scan_topic"],
-            **wheel_source(kw),
+            wheels=wheel_source(kw),
         )
     except InputError as e:
         raise InputError(_flags(e.message), e.source, e.line) from None

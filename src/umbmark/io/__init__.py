@@ -3,9 +3,10 @@ CSV, ROS bags), the intervals file of a lidar self-calibration, the relations fi
 benchmark (ground-truth relative poses), trajectories in the TUM format, poses files, parameter exports,
 simulated drives written as ROS bags, atomic file writes.
 
-Nothing here computes: the readers return the data structures of :mod:`umbmark.model` (SI
-units), the writers take them. Reading a bag needs the optional ``rosbags`` package, writing a
-ROS parameter file ``PyYAML``; both are imported when used.
+The readers return the data structures of :mod:`umbmark.model` (SI units) and check what they
+read with its checks (the wheel data's stamps and values: :func:`umbmark.model.timing.check_wheel_stream`,
+once, whatever reads them); the writers take them. Nothing here estimates anything. ``rosbags``
+(bags) and ``PyYAML`` (ROS parameter files) are imported when used.
 """
 
 from umbmark.io.atomic import atomic_path, atomic_write, write_json
@@ -22,14 +23,24 @@ from umbmark.io.export import (
 )
 from umbmark.io.generic_csv import CsvChunk, format_generic_csv, iter_generic_csv, read_generic_csv
 from umbmark.io.intervals_csv import format_intervals_csv, parse_intervals_csv, read_intervals_csv, write_intervals_csv
-from umbmark.io.load import LOG_FORMATS, detect_format, load_logs, nominal_geometry
+from umbmark.io.load import LOG_FORMATS, LogOptions, TruthSource, detect_format, load_logs, nominal_geometry
 from umbmark.io.optiodom import read_optiodom
 from umbmark.io.poses_csv import write_poses_csv
 from umbmark.io.relations import Relations, format_relations, parse_relations, read_relations, write_relations
-from umbmark.io.rosbag import BagInfo, SelfcalBag, StaticTransform, bag_info, read_bag, read_selfcal_bag
+from umbmark.io.rosbag import (
+    BagInfo,
+    GyroBag,
+    SelfcalBag,
+    StaticTransform,
+    bag_info,
+    read_bag,
+    read_gyro_bag,
+    read_selfcal_bag,
+)
 from umbmark.io.rosbag_write import write_drive_bag
 from umbmark.io.runs_csv import format_runs_csv, parse_runs_csv, read_runs_csv, write_runs_csv
 from umbmark.io.tum import Trajectory, format_tum, parse_tum, read_tum, write_tum
+from umbmark.io.wheels import WheelData, WheelSource
 
 __all__ = [
     "atomic_path",
@@ -57,6 +68,8 @@ __all__ = [
     "LOG_FORMATS",
     "detect_format",
     "load_logs",
+    "LogOptions",
+    "TruthSource",
     "nominal_geometry",
     "read_optiodom",
     "write_poses_csv",
@@ -70,6 +83,10 @@ __all__ = [
     "write_relations",
     "read_selfcal_bag",
     "SelfcalBag",
+    "read_gyro_bag",
+    "GyroBag",
+    "WheelSource",
+    "WheelData",
     "StaticTransform",
     "urdf_origin",
     "static_transform_command",

@@ -1,26 +1,30 @@
 """Open a real-robot log in any supported format (optiodom folder, generic CSV, ROS bag).
 
-The reader options are named as the command line's (``wheel_diameter_mm``, ``wheelbase_mm``,
-``pulses_per_wheel_rev``, ``side_mm``, the bag topics, ...): :func:`load_logs` takes them as
-keyword arguments and passes each format's reader what it needs.
+:class:`LogOptions` says how (SI units): the nominal geometry for formats that do not hold it,
+the encoder resolution of CSV logs, the wheel data (:class:`~umbmark.io.wheels.WheelSource`) and
+ground truth (:class:`TruthSource`) of bags, how to cut runs, the ground truth's delay.
+:func:`load_logs` passes each format's reader what it needs.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from umbmark.errors import InputError
+from umbmark.io.wheels import TICK_MODES, WheelSource
 from umbmark.model.dataset import Dataset, WheelGeometry, check_stop_s
 
 __all__ = [
     "LOG_FORMATS",
+    "TruthSource",
+    "LogOptions",
     "detect_format",
     "nominal_geometry",
     "csv_recorded_geometry",
     "load_logs",
     "parse_ranges",
-    "parse_joints",
 ]
 
 LOG_FORMATS = ("auto", "optiodom", "csv", "bag")
@@ -61,26 +65,73 @@ def detect_format(path) -> str:
     )
 
 
-def _either(opts: dict, mm_key: str, m_key: str, factor: float) -> float | None:
-    """An option given in mm or in the ROS form in metres (``factor``: mm per unit of ``m_key``);
-    both given: they must agree."""
-    mm, m = opts.get(mm_key), opts.get(m_key)
-    if m is None:
-        return mm
-    if mm is not None and not math.isclose(mm, m * factor, rel_tol=1e-6):
-        raise InputError(f"`{mm_key}` {mm:g} and `{m_key}` {m:g} disagree ({m * factor:g} mm): give one of them")
-    return m * factor
+@dataclass(frozen=True)
+class TruthSource:
+    """Where a bag's ground truth is.
+
+    Parameters
+    ----------
+    topic : str, optional
+        The topic: ``geometry_msgs/PoseStamped``, ``nav_msgs/Odometry`` or ``/tf`` (None: none).
+    frame, parent : str, optional
+        For ``/tf``: the tracked child frame and (optionally) its parent.
+    """
+
+    topic: str | None = None
+    frame: str | None = None
+    parent: str | None = None
 
 
-def nominal_geometry(opts: dict, source: str, fallback: WheelGeometry | None = None) -> WheelGeometry:
+@dataclass(frozen=True)
+class LogOptions:
+    """How to read a real-robot log (:func:`load_logs`), in SI units.
+
+    Parameters
+    ----------
+    diameter_left_m, diameter_right_m, wheelbase_m : float, optional
+        The nominal geometry, for the formats that do not hold it (CSV logs: what is not given
+        comes from the geometry the log records in its header).
+    pulses_per_wheel_rev : float, optional
+        The encoder resolution of CSV logs (else the one the log records).
+    ticks : str
+        CSV logs: ``cumulative`` or ``incremental`` counts (:data:`~umbmark.io.wheels.TICK_MODES`).
+    wheels : WheelSource
+        Bags: the wheel data.
+    truth : TruthSource
+        Bags: the ground truth.
+    side_m : float, optional
+        The square's side: the runs are UMBmark squares (optiodom folders: their metadata's).
+    ranges_s : tuple of (float, float), optional
+        Bags: cut runs at these time ranges (seconds from the first wheel sample).
+    split_stops : bool
+        Bags: cut runs where both wheels stand still for ``stop_s`` seconds.
+    stop_s : float
+        The stillness that ends a run [s].
+    time_offset : None, "auto" or float
+        The ground truth's delay against the wheels (:mod:`umbmark.model.timing`).
+    """
+
+    diameter_left_m: float | None = None
+    diameter_right_m: float | None = None
+    wheelbase_m: float | None = None
+    pulses_per_wheel_rev: float | None = None
+    ticks: str = "cumulative"
+    wheels: WheelSource = field(default_factory=WheelSource)
+    truth: TruthSource = field(default_factory=TruthSource)
+    side_m: float | None = None
+    ranges_s: tuple[tuple[float, float], ...] | None = None
+    split_stops: bool = False
+    stop_s: float = 1.0
+    time_offset: float | str | None = None
+
+
+def nominal_geometry(opts: LogOptions, source: str, fallback: WheelGeometry | None = None) -> WheelGeometry:
     """The nominal geometry of a log format that does not hold it, from the reader options.
 
     Parameters
     ----------
-    opts : dict
-        ``wheel_diameter_mm`` or ``wheel_radius_m`` (or ``left_diameter_mm`` /
-        ``right_diameter_mm``), and ``wheelbase_mm`` or ``wheel_separation_m`` (ROS's
-        ``wheel_radius`` and ``wheel_separation``, in metres).
+    opts : LogOptions
+        Its ``diameter_left_m``, ``diameter_right_m`` and ``wheelbase_m``.
     source : str
         The log, for the error message.
     fallback : WheelGeometry, optional
@@ -94,27 +145,24 @@ def nominal_geometry(opts: dict, source: str, fallback: WheelGeometry | None = N
     Raises
     ------
     InputError
-        A diameter or the wheelbase is missing; the mm and metre forms of one disagree.
+        A diameter or the wheelbase is missing.
     """
-    d = _either(opts, "wheel_diameter_mm", "wheel_radius_m", 2000.0)
-    dl = opts.get("left_diameter_mm") or d
-    dr = opts.get("right_diameter_mm") or d
-    b = _either(opts, "wheelbase_mm", "wheel_separation_m", 1000.0)
+    dl, dr, b = opts.diameter_left_m, opts.diameter_right_m, opts.wheelbase_m
     if fallback is not None:
-        dl = fallback.diameter_left_m * 1e3 if dl is None else dl
-        dr = fallback.diameter_right_m * 1e3 if dr is None else dr
-        b = fallback.wheelbase_m * 1e3 if b is None else b
+        dl = fallback.diameter_left_m if dl is None else dl
+        dr = fallback.diameter_right_m if dr is None else dr
+        b = fallback.wheelbase_m if b is None else b
     if dl is None or dr is None or b is None:
         raise InputError(
-            "this log format does not hold the nominal geometry: give `wheel_diameter_mm` (or "
-            "`wheel_radius_m`, or `left_diameter_mm`/`right_diameter_mm`) and `wheelbase_mm` (or "
-            "`wheel_separation_m`)",
+            "this log format does not hold the nominal geometry: give the wheel diameter (`wheel_diameter_mm` "
+            "or `wheel_radius_m`, or `left_diameter_mm`/`right_diameter_mm`) and the wheelbase (`wheelbase_mm` "
+            "or `wheel_separation_m`)",
             source=source,
         )
-    return WheelGeometry(dl * 1e-3, dr * 1e-3, b * 1e-3)
+    return WheelGeometry(dl, dr, b)
 
 
-def load_logs(paths, fmt: str = "auto", **opts) -> Dataset:
+def load_logs(paths, fmt: str = "auto", options: LogOptions | None = None) -> Dataset:
     """One data set from log files.
 
     Parameters
@@ -123,14 +171,9 @@ def load_logs(paths, fmt: str = "auto", **opts) -> Dataset:
         An optiodom folder (one path), bags or CSV logs (one or more).
     fmt : str
         One of :data:`LOG_FORMATS` (``auto``: :func:`detect_format` of the first path).
-    **opts
-        Reader options: ``side_mm`` (square runs), the nominal geometry
-        (:func:`nominal_geometry`; a CSV log's recorded geometry fills what is not given),
-        ``pulses_per_wheel_rev``, ``ticks``; for bags ``joints``, ``joint_topic``,
-        ``ticks_topic``, ``left_field``, ``right_field``, ``odom_topic``, ``gt_topic``,
-        ``gt_frame``, ``gt_parent``, ``ranges``, ``split_stops``, ``stop_s``; for every
-        format ``time_offset`` (the ground truth's delay, :mod:`umbmark.model.timing`). Several bags are
-        the runs of one test (one data set; a run's name starts with its bag's).
+    options : LogOptions, optional
+        How to read them (default: as the formats say; bags need at least the wheels). Several
+        bags are the runs of one test (one data set; a run's name starts with its bag's).
 
     Returns
     -------
@@ -144,21 +187,22 @@ def load_logs(paths, fmt: str = "auto", **opts) -> Dataset:
     if isinstance(paths, (str, Path)):
         paths = [paths]
     paths = list(paths)
+    opts = LogOptions() if options is None else options
+    if not isinstance(opts, LogOptions):
+        raise InputError(f"`options` must be LogOptions, got {type(opts).__name__}")
     if fmt not in LOG_FORMATS:
         raise InputError(f"unknown log format {fmt!r} (choose from {', '.join(LOG_FORMATS)})")
     if fmt == "auto":
         fmt = detect_format(paths[0])
-    side = opts.get("side_mm")
-    side_m = None if side is None else side * 1e-3
     _check_log_numbers(opts)
     if fmt in ("optiodom", "csv"):
-        ds = _load_optiodom(paths, side_m) if fmt == "optiodom" else _load_csv(paths, side_m, opts)
-        if opts.get("time_offset") is None:
+        ds = _load_optiodom(paths, opts.side_m) if fmt == "optiodom" else _load_csv(paths, opts)
+        if opts.time_offset is None:
             return ds
         from umbmark.model.timing import align_truth
 
-        return align_truth(ds, opts["time_offset"], "optiodom folder" if fmt == "optiodom" else "CSV log")
-    return _load_bag(paths, side_m, opts)
+        return align_truth(ds, opts.time_offset, "optiodom folder" if fmt == "optiodom" else "CSV log")
+    return _load_bag(paths, opts)
 
 
 # the largest square side (m) and encoder resolution (pulses per wheel revolution) a log of a
@@ -167,24 +211,27 @@ _MAX_SIDE_M = 1000.0
 _MAX_UNITS_PER_REV = 1e9
 
 
-def _check_log_numbers(opts: dict) -> None:
-    """Refuse a side, an encoder resolution or a pause no robot's log has (before reading)."""
-    if opts.get("stop_s") is not None:
-        check_stop_s(opts["stop_s"])
-    for key, most, unit in (
-        ("side_mm", _MAX_SIDE_M * 1e3, "mm (a square of more than 1 km)"),
-        ("pulses_per_wheel_rev", _MAX_UNITS_PER_REV, "pulses per wheel revolution"),
+def _check_log_numbers(opts: LogOptions) -> None:
+    """Refuse a side, an encoder resolution, a tick mode or a pause no robot's log has (before reading)."""
+    check_stop_s(opts.stop_s)
+    for key, v, most, unit in (
+        (
+            "side_mm",
+            None if opts.side_m is None else opts.side_m * 1e3,
+            _MAX_SIDE_M * 1e3,
+            "mm (a square of more than 1 km)",
+        ),
+        ("pulses_per_wheel_rev", opts.pulses_per_wheel_rev, _MAX_UNITS_PER_REV, "pulses per wheel revolution"),
     ):
-        v = opts.get(key)
         if v is None:
             continue
         if not (isinstance(v, (int, float)) and math.isfinite(v) and 0 < v <= most):
             raise InputError(f"`{key}` must be a positive number of at most {most:g} {unit}, got {v!r}")
+    if opts.ticks not in TICK_MODES:
+        raise InputError(f"ticks must be 'cumulative' or 'incremental', got {opts.ticks!r}")
 
 
 def _load_optiodom(paths: list, side_m: float | None) -> Dataset:
-    from dataclasses import replace
-
     from umbmark.io.optiodom import read_optiodom
 
     if len(paths) != 1:
@@ -226,26 +273,24 @@ def csv_recorded_geometry(paths: list) -> tuple[WheelGeometry | None, float | No
     return geom, g0["pulses_per_wheel_rev"]
 
 
-def _load_csv(paths: list, side_m: float | None, opts: dict) -> Dataset:
+def _load_csv(paths: list, opts: LogOptions) -> Dataset:
     from umbmark.io.generic_csv import read_generic_csv
 
     recorded, recorded_ppr = csv_recorded_geometry(paths)
-    ppr = opts.get("pulses_per_wheel_rev") or recorded_ppr
+    ppr = opts.pulses_per_wheel_rev or recorded_ppr
     if ppr is None:
         raise InputError(
             "the CSV log needs `pulses_per_wheel_rev` (encoder pulses per wheel revolution)", source=str(paths[0])
         )
     nominal = nominal_geometry(opts, str(paths[0]), recorded)
-    return read_generic_csv(paths, nominal, ppr, opts.get("ticks") or "cumulative", side_m)
+    return read_generic_csv(paths, nominal, ppr, opts.ticks, opts.side_m)
 
 
-def _load_bag(paths: list, side_m: float | None, opts: dict) -> Dataset:
+def _load_bag(paths: list, opts: LogOptions) -> Dataset:
     """One bag, or several bags as the runs of one test (each bag one run, or cut into runs)."""
     if len(paths) == 1:
-        return _read_one_bag(paths[0], side_m, opts)
-    from dataclasses import replace
-
-    sets = [_read_one_bag(p, side_m, opts) for p in paths]
+        return _read_one_bag(paths[0], opts)
+    sets = [_read_one_bag(p, opts) for p in paths]
     runs, names, warnings = [], set(), []
     for ds in sets:
         warnings += ds.meta.get("warnings") or ()
@@ -267,7 +312,7 @@ def _load_bag(paths: list, side_m: float | None, opts: dict) -> Dataset:
         first.nominal,
         first.units_per_rev,
         tuple(runs),
-        side_m,
+        opts.side_m,
         first.source,
         meta={
             "format": "bag",
@@ -278,85 +323,29 @@ def _load_bag(paths: list, side_m: float | None, opts: dict) -> Dataset:
     )
 
 
-def _read_one_bag(path, side_m: float | None, opts: dict) -> Dataset:
+def _read_one_bag(path, opts: LogOptions) -> Dataset:
     from umbmark.io.rosbag import read_bag, wheel_source_hint
 
     try:
         nominal = nominal_geometry(opts, str(path))
     except InputError as e:
-        if any(opts.get(k) for k in ("joints", "ticks_topic", "odom_topic")):
+        if opts.wheels.given:
             raise
         hint = wheel_source_hint(path)  # no wheel source either: say which the bag offers
         raise InputError(e.message + (f"; and the wheel data{hint}" if hint else ""), source=e.source) from None
-
-    ranges = opts.get("ranges")
-    if isinstance(ranges, str):
-        ranges = parse_ranges(ranges)
     return read_bag(
         path,
         nominal=nominal,
-        **wheel_source(opts),
-        gt_topic=opts.get("gt_topic"),
-        gt_frame=opts.get("gt_frame"),
-        gt_parent=opts.get("gt_parent"),
-        ranges=ranges,
-        stops=bool(opts.get("split_stops")),
-        stop_s=opts.get("stop_s") or 1.0,
-        side_m=side_m,
-        time_offset=opts.get("time_offset"),
+        wheels=opts.wheels,
+        gt_topic=opts.truth.topic,
+        gt_frame=opts.truth.frame,
+        gt_parent=opts.truth.parent,
+        ranges=None if opts.ranges_s is None else list(opts.ranges_s),
+        stops=opts.split_stops,
+        stop_s=opts.stop_s,
+        side_m=opts.side_m,
+        time_offset=opts.time_offset,
     )
-
-
-def wheel_source(opts: dict) -> dict:
-    """The wheel-data keywords of the bag readers (:func:`umbmark.io.rosbag.read_bag`,
-    ``read_selfcal_bag``, ``read_gyro_bag``, :func:`umbmark.realrobot.scan_truth.attach_scan_truth`)
-    from the log options of :func:`load_logs`: ``joints`` (``"L,R"`` parsed), ``joint_topic``,
-    ``ticks_topic``, ``left_field``, ``right_field``, ``ticks``, ``units_per_rev`` (from
-    ``pulses_per_wheel_rev``) and ``odom_topic``, with the readers' defaults where not given.
-
-    Parameters
-    ----------
-    opts : dict
-        The log options.
-
-    Returns
-    -------
-    dict
-    """
-    joints = opts.get("joints")
-    return dict(
-        joints=parse_joints(joints) if isinstance(joints, str) else joints,
-        joint_topic=opts.get("joint_topic") or "/joint_states",
-        ticks_topic=opts.get("ticks_topic"),
-        left_field=opts.get("left_field"),
-        right_field=opts.get("right_field"),
-        ticks=opts.get("ticks") or "cumulative",
-        units_per_rev=opts.get("pulses_per_wheel_rev"),
-        odom_topic=opts.get("odom_topic"),
-    )
-
-
-def parse_joints(text: str) -> tuple[str, str]:
-    """``"left_wheel,right_wheel"`` -> ``("left_wheel", "right_wheel")``.
-
-    Parameters
-    ----------
-    text : str
-        Two joint names separated by a comma.
-
-    Returns
-    -------
-    tuple of str
-
-    Raises
-    ------
-    InputError
-        Not two non-empty names.
-    """
-    parts = [j.strip() for j in text.split(",")]
-    if len(parts) != 2 or not all(parts):
-        raise InputError(f"`joints` needs two names LEFT,RIGHT, got {text!r}")
-    return parts[0], parts[1]
 
 
 def parse_ranges(text: str) -> list[tuple[float, float]]:

@@ -1,33 +1,32 @@
 """ROS 1 and ROS 2 bags (sqlite3 and mcap storage) through the ``rosbags`` package (no ROS
 install needed).
 
-Wheels (one of):
+Wheels: a :class:`~umbmark.io.wheels.WheelSource` says where they are (the wheel joints of
+``sensor_msgs/JointState``, encoder counts in the fields of a topic's messages, or a
+``nav_msgs/Odometry``). Every reader here decodes them the same way and checks them once with
+:func:`umbmark.model.timing.check_wheel_stream` (stamp order, repeated stamps, values that are
+not finite, joint angles wrapped to one turn, spikes, running counters read as counts per
+message) into a :class:`~umbmark.io.wheels.WheelData`.
 
-* ``sensor_msgs/JointState`` on ``joint_topic`` (default ``/joint_states``): the positions
-  [rad] of the joints named ``joints=(left, right)``; log units are radians (2 pi per wheel
-  revolution);
-* encoder counts: fields ``left_field``/``right_field`` of the messages on ``ticks_topic``
-  (attribute paths such as ``left_ticks`` or ``data[0]``), ``cumulative`` (default) or
-  ``incremental``; ``units_per_rev`` pulses per wheel revolution.
-
-Ground truth (optional), on ``gt_topic``: ``geometry_msgs/PoseStamped``,
+Ground truth (optional, :func:`read_bag`), on ``gt_topic``: ``geometry_msgs/PoseStamped``,
 ``nav_msgs/Odometry`` (its pose) or ``tf2_msgs/TFMessage`` (``/tf``: the transform whose
-``child_frame_id`` is ``gt_frame``, optionally with parent ``gt_parent``). It is linearly
-interpolated to the wheel sample times (the heading unwrapped first) and the run is limited
-to the time span it covers. Times: message header stamps (the bag's receive time for
+``child_frame_id`` is ``gt_frame``, optionally with parent ``gt_parent``), checked against the
+wheels with :func:`umbmark.model.timing.check_truth_stream` (and its delay estimated). It is
+linearly interpolated to the wheel sample times (the heading unwrapped first) and the run is
+limited to the time span it covers. Times: message header stamps (the bag's receive time for
 messages without a header).
 
-Runs: the whole bag is one run, or it is cut by ``ranges`` (seconds from the first wheel
-sample) or at ``stops`` (both wheels still for ``stop_s`` seconds). Each run is brought into
-its start frame.
+Runs (:func:`read_bag`): the whole bag is one run, or it is cut by ``ranges`` (seconds from the
+first wheel sample) or at ``stops`` (both wheels still for ``stop_s`` seconds). Each run is
+brought into its start frame.
 
 Lidar self-calibration (:func:`read_selfcal_bag`): the ``sensor_msgs/LaserScan`` messages of
 ``scan_topic`` (ranges that are not finite, below ``range_min``, or at or beyond ``range_max``,
-many drivers' "no return", become ``inf``), the
-wheels from JointState or encoder counts as above, or ``nav_msgs/Odometry`` poses on
-``odom_topic`` (turned into wheel travel by the self-calibration with the nominal geometry),
-and the transforms of ``/tf_static`` (for the lidar's nominal mounting pose). Nothing is
-computed here: :class:`SelfcalBag` holds the streams as recorded, in time order.
+many drivers' "no return", become ``inf``), the wheels, and the transforms of ``/tf_static``
+(for the lidar's nominal mounting pose). :class:`SelfcalBag` holds the streams as recorded and
+checked, in time order; an odometry stays poses (the self-calibration turns it into wheel
+travel with the nominal geometry). Gyro (:func:`read_gyro_bag`): an IMU's turn rates beside the
+wheels.
 """
 
 from __future__ import annotations
@@ -41,14 +40,8 @@ from pathlib import Path
 import numpy as np
 
 from umbmark.errors import InputError
-from umbmark.model.dataset import (
-    Dataset,
-    Run,
-    WheelGeometry,
-    replay_increments,
-    split_at_stops,
-    wheel_travel_from_poses,
-)
+from umbmark.io.wheels import ONE_WHEEL_SOURCE, WheelData, WheelSource
+from umbmark.model.dataset import Dataset, Run, WheelGeometry, replay_increments, split_at_stops
 
 __all__ = [
     "read_bag",
@@ -334,50 +327,6 @@ def _topic_conns(reader, topic, source, what):
     return conns
 
 
-def _read_joints(reader, joints, joint_topic: str, src: str):
-    """Times and positions [rad] of the two wheel joints in JointState messages."""
-    left, right = joints
-    conns = _typed_conns(reader, joint_topic, ("JointState",), src, "wheel joints")
-    t, pl, pr = [], [], []
-    seen: set[str] = set()
-    for n, (c, ns, raw) in enumerate(reader.messages(connections=conns), 1):
-        msg = reader.deserialize(raw, c.msgtype)
-        names = list(getattr(msg, "name", []))
-        if left in names and right in names:
-            pos = msg.position
-            i, j = names.index(left), names.index(right)
-            if len(pos) <= max(i, j):
-                raise InputError(
-                    f"JointState message {n} on {joint_topic} names {len(names)} joints but carries "
-                    f"{len(pos)} positions: no position for {names[max(i, j)]!r}",
-                    src,
-                )
-            t.append(_stamp(msg, ns))
-            pl.append(float(pos[i]))
-            pr.append(float(pos[j]))
-        elif len(seen) < 50:
-            seen.update(names)
-    if not t:
-        raise InputError(
-            f"no JointState message on {joint_topic} names both joints {left!r} and {right!r} "
-            f"(joints there: {', '.join(sorted(seen)) or 'none'}; `joints` takes LEFT,RIGHT)",
-            src,
-        )
-    return t, pl, pr
-
-
-def _read_ticks(reader, ticks_topic: str, left_field, right_field, src: str):
-    """Times and counts of the two wheels' encoders in the messages of ``ticks_topic``."""
-    conns = _topic_conns(reader, ticks_topic, src, "encoder ticks")
-    t, pl, pr = [], [], []
-    for c, ns, raw in reader.messages(connections=conns):
-        msg = reader.deserialize(raw, c.msgtype)
-        t.append(_stamp(msg, ns))
-        pl.append(_field(msg, left_field, src))
-        pr.append(_field(msg, right_field, src))
-    return t, pl, pr
-
-
 def _read_truth(reader, gt_topic: str, gt_frame, gt_parent, src: str) -> list[tuple[float, float, float, float]]:
     """``(time, x, y, yaw)`` of every ground-truth pose on ``gt_topic``."""
     gconns = _topic_conns(reader, gt_topic, src, "ground truth")
@@ -416,29 +365,134 @@ def _read_truth(reader, gt_topic: str, gt_frame, gt_parent, src: str) -> list[tu
     return gt
 
 
-def _read_odom(reader, odom_topic: str, nominal: WheelGeometry, src: str):
-    """Times and cumulative wheel angles [rad] of the wheel travel that the odometry on
-    ``odom_topic`` integrated: its pose increments turned back into left and right wheel travel
-    through the nominal wheelbase (exact arcs, :func:`wheel_travel_from_poses`) and into wheel
-    angles through the nominal diameters. Replayed with the nominal geometry they give back the
-    recorded odometry, whatever the odom frame's origin (each run is measured from its start)."""
-    conns = _typed_conns(reader, odom_topic, ("Odometry",), src, "wheel odometry")
-    rows = []
-    for c, ns, raw in reader.messages(connections=conns):
-        msg = reader.deserialize(raw, c.msgtype)
-        p = msg.pose.pose
-        rows.append((_stamp(msg, ns), p.position.x, p.position.y, _yaw(p.orientation)))
-    a = np.asarray(rows, dtype=float)
-    a = a[np.argsort(a[:, 0], kind="stable")]
-    a = a[np.concatenate([[True], np.diff(a[:, 0]) > 0])]
-    if len(a) < 2:
-        raise InputError(f"fewer than two odometry poses on {odom_topic}", src)
-    if not np.all(np.isfinite(a)):
-        raise InputError(f"the odometry poses on {odom_topic} contain NaN or infinite values", src)
-    dl, dr = wheel_travel_from_poses(a[:, 1], a[:, 2], np.unwrap(a[:, 3]), nominal.wheelbase_m)
-    pl = np.cumsum(dl) / (0.5 * nominal.diameter_left_m)
-    pr = np.cumsum(dr) / (0.5 * nominal.diameter_right_m)
-    return a[:, 0], pl, pr
+class _WheelMessages:
+    """The wheel messages of a bag (a :class:`WheelSource`), decoded as they come and checked once
+    (:func:`umbmark.model.timing.check_wheel_stream`) into a :class:`WheelData`.
+
+    Its connections go into the reader's loop beside the others' (scans, transforms, a gyro):
+    :meth:`add` takes each of their messages.
+    """
+
+    def __init__(self, reader, wheels: WheelSource, source: str):
+        if not wheels.given:
+            raise InputError(
+                f"give the wheel data: {ONE_WHEEL_SOURCE}{_wheel_hint(reader)} (topics: {_topics_hint(reader)})",
+                source,
+            )
+        wheels.check(source)
+        self.wheels, self.src = wheels, source
+        kind = wheels.kind
+        if kind == "joints":
+            self.conns = _typed_conns(reader, wheels.joint_topic, ("JointState",), source, "wheel joints")
+        elif kind == "ticks":
+            self.conns = _topic_conns(reader, str(wheels.ticks_topic), source, "encoder ticks")
+        else:
+            self.conns = _typed_conns(reader, str(wheels.odom_topic), ("Odometry",), source, "wheel odometry")
+        self.ids = {id(c) for c in self.conns}
+        self.t: list[float] = []
+        self.a: list[float] = []
+        self.b: list[float] = []
+        self.yaw: list[float] = []
+        self.names_seen: set[str] = set()
+        self.no_position = 0
+        self.child_frames: set[str] = set()
+
+    def add(self, msg, ns: int) -> None:
+        """Take one message of :attr:`conns`."""
+        w = self.wheels
+        if w.kind == "joints":
+            assert w.joints is not None
+            names = list(getattr(msg, "name", []))
+            if w.joints[0] in names and w.joints[1] in names:
+                pos = msg.position
+                i, j = names.index(w.joints[0]), names.index(w.joints[1])
+                if len(pos) <= max(i, j):
+                    self.no_position += 1
+                    return
+                self.t.append(_stamp(msg, ns))
+                self.a.append(float(pos[i]))
+                self.b.append(float(pos[j]))
+            elif len(self.names_seen) < 50:
+                self.names_seen.update(names)
+        elif w.kind == "ticks":
+            self.t.append(_stamp(msg, ns))
+            self.a.append(_field(msg, str(w.left_field), self.src))
+            self.b.append(_field(msg, str(w.right_field), self.src))
+        else:
+            p = msg.pose.pose
+            self.t.append(_stamp(msg, ns))
+            self.a.append(p.position.x)
+            self.b.append(p.position.y)
+            self.yaw.append(_yaw(p.orientation))
+            self.child_frames.add(msg.child_frame_id.lstrip("/"))
+
+    def read(self, reader) -> WheelData:
+        """Read the wheel messages alone, then :meth:`finish`."""
+        for c, ns, raw in reader.messages(connections=self.conns):
+            self.add(reader.deserialize(raw, c.msgtype), ns)
+        return self.finish()
+
+    def _refuse_empty(self) -> None:
+        w, src = self.wheels, self.src
+        if self.t:
+            return
+        if w.kind == "joints":
+            assert w.joints is not None
+            if self.no_position:
+                raise InputError(
+                    f"the JointState messages on {w.joint_topic} name the joints {w.joints[0]!r} and "
+                    f"{w.joints[1]!r} but carry no positions: record the wheel positions, or use the odometry "
+                    "(`odom_topic`)",
+                    src,
+                )
+            raise InputError(
+                f"no JointState message on {w.joint_topic} names both joints {w.joints[0]!r} and {w.joints[1]!r} "
+                f"(joints there: {', '.join(sorted(self.names_seen)) or 'none'}; `joints` takes LEFT,RIGHT)",
+                src,
+            )
+        raise InputError(f"no messages on {w.topic} for the wheel data", src)
+
+    def finish(self) -> WheelData:
+        """The wheel data read, checked: in stamp order, repeats and spikes dropped (with
+        warnings), incremental counts summed, joint angles wrapped to one turn unwrapped.
+
+        Raises
+        ------
+        InputError
+            No message with the wheel data, fewer than two samples kept, or what
+            :func:`umbmark.model.timing.check_wheel_stream` refuses.
+        """
+        from umbmark.model.timing import check_wheel_stream
+
+        w, src = self.wheels, self.src
+        self._refuse_empty()
+        odom = w.kind == "odom"
+        chk = check_wheel_stream(
+            self.t,
+            self.a,
+            self.b,
+            # a joint turns 2 pi per revolution: its rim goes 30 m/s at 3000 rad/s on a 2 cm wheel
+            metres_per_unit=1.0 if odom else 0.01 * 2.0 * math.pi / w.units_per_rev,
+            cumulative=w.cumulative,
+            wrapped_turn=2.0 * math.pi if w.kind == "joints" else None,
+            poses=odom,
+            what=w.what,
+            topic=w.topic,
+            source=src,
+        )
+        warnings = list(chk.warnings)
+        if self.no_position:
+            warnings.append(f"{self.no_position} JointState messages on {w.topic} without positions: dropped")
+        if chk.t.size < 2:
+            raise InputError(f"fewer than two {w.what} on {w.topic}", src)
+        if not odom:
+            return WheelData(w, chk.t, chk.left, chk.right, warnings=tuple(warnings))
+        assert chk.kept is not None
+        pose = np.column_stack([chk.left, chk.right, np.asarray(self.yaw, dtype=float)[chk.kept]])
+        if not np.all(np.isfinite(pose)):
+            raise InputError(f"the odometry poses on {w.topic} contain NaN or infinite values", src)
+        child = sorted(self.child_frames)[0] if len(self.child_frames) == 1 else None
+        return WheelData(w, chk.t, None, None, pose, child, tuple(warnings))
 
 
 def _wheel_hint(reader) -> str:
@@ -477,24 +531,12 @@ def wheel_source_hint(path) -> str:
         reader.close()
 
 
-def _whole_run(t, pl, pr, cumulative: bool, gt, src: str) -> Run:
-    """The bag as one run: wheel samples in time order (repeated times dropped), increments,
+def _whole_run(t, pl, pr, gt, src: str) -> Run:
+    """The bag as one run: the checked wheel samples (cumulative, in time order) as increments,
     and the ground truth interpolated to the wheel samples (the run limited to its span)."""
-    t = np.asarray(t)
-    order = np.argsort(t, kind="stable")
-    t, pl, pr = t[order], np.asarray(pl)[order], np.asarray(pr)[order]
-    keep = np.concatenate([[True], np.diff(t) > 0])
-    t, pl, pr = t[keep], pl[keep], pr[keep]
-    if len(t) < 2:
-        raise InputError("fewer than two wheel samples", src)
-    if not (np.all(np.isfinite(pl)) and np.all(np.isfinite(pr))):
-        raise InputError("wheel positions/ticks contain NaN or infinite values", src)
-    if cumulative:
-        dl = np.diff(pl, prepend=pl[0])
-        dr = np.diff(pr, prepend=pr[0])
-    else:
-        dl, dr = pl.copy(), pr.copy()
-        dl[0] = dr[0] = 0.0
+    t, pl, pr = np.asarray(t, dtype=float), np.asarray(pl, dtype=float), np.asarray(pr, dtype=float)
+    dl = np.diff(pl, prepend=pl[0])
+    dr = np.diff(pr, prepend=pr[0])
     gtk = None
     if gt is not None:
         g = np.asarray(sorted(gt), dtype=float)
@@ -599,13 +641,7 @@ def read_bag(
     path,
     *,
     nominal: WheelGeometry,
-    joints=None,
-    joint_topic: str = "/joint_states",
-    ticks_topic: str | None = None,
-    left_field: str | None = None,
-    right_field: str | None = None,
-    ticks: str = "cumulative",
-    units_per_rev: float | None = None,
+    wheels: WheelSource,
     gt_topic: str | None = None,
     gt_frame: str | None = None,
     gt_parent: str | None = None,
@@ -614,7 +650,6 @@ def read_bag(
     stop_s: float = 1.0,
     side_m: float | None = None,
     name: str | None = None,
-    odom_topic: str | None = None,
     time_offset: float | str | None = None,
 ) -> Dataset:
     """Read one bag into a data set (see the module docstring).
@@ -625,21 +660,10 @@ def read_bag(
         A ROS 1 ``.bag``, a ROS 2 bag folder, or its ``.db3`` / ``.mcap`` file.
     nominal : WheelGeometry
         The nominal geometry the robot ran with.
-    joints : (str, str), optional
-        The left and right wheel joints of ``sensor_msgs/JointState`` messages; or:
-    ticks_topic, left_field, right_field : str, optional
-        A topic of encoder counts and the fields of the left and right count; or:
-    odom_topic : str, optional
-        A ``nav_msgs/Odometry`` topic (the odometry the robot computed, e.g. diff_drive_controller's
-        ``/odom``): its pose increments are turned back into left and right wheel angles through
-        the nominal wheelbase and diameters (log units radians), so that the replay with the
-        nominal geometry is the recorded odometry.
-    joint_topic : str
-        The JointState topic.
-    ticks : str
-        ``cumulative`` or ``incremental`` counts.
-    units_per_rev : float, optional
-        Encoder pulses per wheel revolution (needed with ``ticks_topic``).
+    wheels : WheelSource
+        The wheel data (:mod:`umbmark.io.wheels`): joint states and odometries in radians (an
+        odometry's pose increments turned back into wheel angles through the nominal geometry,
+        so that the replay with it is the recorded odometry), encoder counts in pulses.
     gt_topic : str, optional
         The ground-truth topic (PoseStamped, Odometry or /tf).
     gt_frame, gt_parent : str, optional
@@ -672,62 +696,32 @@ def read_bag(
         Unreadable bags, missing topics, joints or fields, and bad content.
     """
     src = str(path)
-    n_sources = sum(v is not None for v in (joints, ticks_topic, odom_topic))
-    if n_sources > 1:
-        raise InputError(
-            "give one source of wheel data, not several: the wheel joints (`joints`), a ticks topic "
-            "(`ticks_topic`) or an odometry topic (`odom_topic`)",
-            src,
-        )
-    if ticks not in ("cumulative", "incremental"):
-        raise InputError(f"ticks must be 'cumulative' or 'incremental', got {ticks!r}", src)
+    if wheels.given:
+        wheels.check(src)  # before the bag is opened
     reader = _open(path)
     try:
-        if not n_sources:
-            raise InputError(
-                "give the wheel data: the wheel joints (`joints`) of a JointState topic, a ticks topic with "
-                f"its fields (`ticks_topic`) or an odometry topic (`odom_topic`){_wheel_hint(reader)} "
-                f"(topics: {_topics_hint(reader)})",
-                src,
-            )
-        if odom_topic is not None:
-            t, pl, pr = _read_odom(reader, odom_topic, nominal, src)
-            cumulative, upr = True, 2.0 * math.pi
-        elif joints is not None:
-            t, pl, pr = _read_joints(reader, joints, joint_topic, src)
-            cumulative, upr = True, 2.0 * math.pi
-        else:
-            if not left_field or not right_field:
-                raise InputError("a ticks topic needs `left_field` and `right_field`", src)
-            if units_per_rev is None:
-                raise InputError("encoder ticks need the pulses per wheel revolution", src)
-            t, pl, pr = _read_ticks(reader, ticks_topic, left_field, right_field, src)
-            cumulative, upr = ticks == "cumulative", float(units_per_rev)
+        wd = _WheelMessages(reader, wheels, src).read(reader)
         gt = None if gt_topic is None else _read_truth(reader, gt_topic, gt_frame, gt_parent, src)
     finally:
         reader.close()
-    from umbmark.model.timing import check_streams
+    from umbmark.model.timing import WheelStream, check_truth_stream
 
-    kind = "odometry poses" if odom_topic else "joint states" if joints is not None else "encoder counts"
-    chk = check_streams(
-        t,
-        pl,
-        pr,
+    upr = wheels.units_per_rev
+    left, right = wd.positions(nominal)
+    chk = check_truth_stream(
+        WheelStream(wd.t_s, left, right, wd.warnings),
         None if gt is None else np.asarray(gt, dtype=float),
         metres_per_unit_left=math.pi * nominal.diameter_left_m / upr,
         metres_per_unit_right=math.pi * nominal.diameter_right_m / upr,
         wheelbase_m=nominal.wheelbase_m,
-        cumulative=cumulative,
         time_offset=time_offset,
-        wheel_what=kind,
-        wheel_topic=str(odom_topic or (joint_topic if joints is not None else ticks_topic)),
+        wheel_topic=wheels.topic,
         truth_topic=str(gt_topic),
         source=src,
     )
-    t, pl, pr = chk.t, chk.left, chk.right
     gt = None if chk.truth is None else [tuple(row) for row in chk.truth.tolist()]
-    whole = _whole_run(t, pl, pr, cumulative, gt, src)
-    warnings: list[str] = [f"{src}: {w}" for w in chk.warnings]
+    whole = _whole_run(chk.t, chk.left, chk.right, gt, src)
+    warnings: list[str] = [f"{src}: {w}" for w in wd.warnings + chk.warnings]
     square = None if side_m is None else (nominal, warnings)
     runs = _cut_runs(whole, ranges, stops, stop_s, upr, src, square)
     meta = {"format": "bag", "warnings": tuple(warnings)}
@@ -898,6 +892,30 @@ class _Scans:
         self.t.append(_stamp(msg, ns))
         self.ranges.append(r)
 
+    def checked(self, topics: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray, list[str]]:
+        """The scans read: stamps, ranges ``(M, n_beams)`` and warnings (other layouts dropped,
+        repeated stamps dropped); an error for stamps that go backwards, fewer than two scans or
+        no valid range."""
+        warnings: list[str] = []
+        if self.other_layout:
+            warnings.append(
+                f"{self.other_layout} scans on {self.topic} with another beam layout than the first were dropped"
+            )
+        if len(self.t) < 2:
+            raise InputError(f"fewer than two usable scans on {self.topic} (topics: {', '.join(topics)})", self.src)
+        st = np.asarray(self.t, dtype=float)
+        keep, repeated = _ordered(st, "scans", self.topic, self.src)
+        if repeated:
+            warnings.append(f"{repeated} scans on {self.topic} repeat the stamp of the scan before: dropped")
+        ranges = np.stack(self.ranges)[keep]
+        if not np.isfinite(ranges).any():
+            raise InputError(
+                f"every range of the {len(keep)} scans on {self.topic} is infinite, NaN or outside "
+                "[range_min, range_max): the lidar saw nothing",
+                self.src,
+            )
+        return st[keep], ranges, warnings
+
 
 def _ordered(t: np.ndarray, what: str, topic: str, source: str) -> tuple[np.ndarray, int]:
     """Refuse stamps that go backwards; the indices of the samples kept (repeated stamps dropped)."""
@@ -914,38 +932,11 @@ def _ordered(t: np.ndarray, what: str, topic: str, source: str) -> tuple[np.ndar
     return np.flatnonzero(keep), int((~keep).sum())
 
 
-_MAX_WHEEL_RATE_RAD_S = 3000.0  # a 2 cm wheel at 30 m/s (the spikes' bound of model.timing)
-
-
-def _summed_counts(t, left, right, scale: float, topic: str, src: str) -> tuple[np.ndarray, np.ndarray]:
-    """Encoder counts per sample summed into running counts; refused when they already are
-    running counts (read per sample, their median would turn a wheel faster than any turns)."""
-    a1, a2 = np.asarray(left, dtype=float), np.asarray(right, dtype=float)
-    t = np.asarray(t, dtype=float)
-    if len(t) > 2:
-        dt = float(np.median(np.diff(t)))
-        rate = float(np.median(np.maximum(np.abs(a1), np.abs(a2)))) * scale / dt if dt > 0 else 0.0
-        if rate > _MAX_WHEEL_RATE_RAD_S:
-            raise InputError(
-                f"read as counts per sample, the encoder counts on {topic} would turn the wheels at {rate:.3g} "
-                f'rad/s (median): they look like running counters (`ticks="cumulative"`)',
-                src,
-            )
-    return np.cumsum(a1), np.cumsum(a2)
-
-
 def read_selfcal_bag(
     path,
     *,
+    wheels: WheelSource,
     scan_topic: str = "/scan",
-    joints=None,
-    joint_topic: str = "/joint_states",
-    ticks_topic: str | None = None,
-    left_field: str | None = None,
-    right_field: str | None = None,
-    ticks: str = "cumulative",
-    units_per_rev: float | None = None,
-    odom_topic: str | None = None,
     scan_frame: str | None = None,
     tf_topic: str = "/tf_static",
     progress: Callable[[int, int], None] | None = None,
@@ -956,22 +947,10 @@ def read_selfcal_bag(
     ----------
     path : str or Path
         A ROS 1 ``.bag``, a ROS 2 bag folder, or its ``.db3`` / ``.mcap`` file.
+    wheels : WheelSource
+        The wheel data (:mod:`umbmark.io.wheels`).
     scan_topic : str
         The ``sensor_msgs/LaserScan`` topic.
-    joints : (str, str), optional
-        The left and right wheel joints of ``sensor_msgs/JointState`` messages on
-        ``joint_topic``; or:
-    ticks_topic, left_field, right_field : str, optional
-        A topic of encoder counts and the fields of the left and right count (with
-        ``ticks`` and ``units_per_rev``, as :func:`read_bag`); or:
-    odom_topic : str, optional
-        A ``nav_msgs/Odometry`` topic (the wheel odometry the robot computed).
-    joint_topic : str
-        The JointState topic.
-    ticks : str
-        ``cumulative`` or ``incremental`` counts.
-    units_per_rev : float, optional
-        Encoder pulses per wheel revolution (needed with ``ticks_topic``).
     scan_frame : str, optional
         The frame the scans must be in (default: whatever the first scan says).
     tf_topic : str
@@ -993,83 +972,26 @@ def read_selfcal_bag(
         non-finite wheel data.
     """
     src = str(path)
-    sources = [s for s in (joints is not None, ticks_topic is not None, odom_topic is not None) if s]
-    if len(sources) > 1:
-        raise InputError(
-            "give one source of wheel data, not several: the wheel joints (`joints`), a ticks topic "
-            "(`ticks_topic`) or an odometry topic (`odom_topic`)",
-            src,
-        )
-    if ticks not in ("cumulative", "incremental"):
-        raise InputError(f"ticks must be 'cumulative' or 'incremental', got {ticks!r}", src)
-    if ticks_topic is not None:
-        if not left_field or not right_field:
-            raise InputError("a ticks topic needs `left_field` and `right_field`", src)
-        if units_per_rev is None or not (math.isfinite(units_per_rev) and units_per_rev > 0):
-            raise InputError("encoder ticks need the pulses per wheel revolution (`pulses_per_wheel_rev`)", src)
+    if wheels.given:
+        wheels.check(src)  # before the bag is opened
     reader = _open(path)
     try:
         topics = tuple(sorted({c.topic for c in reader.connections}))
-        if not sources:
-            raise InputError(
-                "give the wheel data: the wheel joints (`joints`) of a JointState topic, a ticks topic "
-                f"(`ticks_topic`) or an odometry topic (`odom_topic`) (topics: {_topics_hint(reader)})",
-                src,
-            )
         scan_conns = _typed_conns(reader, scan_topic, ("LaserScan",), src, "laser scans")
-        if joints is not None:
-            kind, wtopic = "joints", joint_topic
-            wconns = _typed_conns(reader, joint_topic, ("JointState",), src, "wheel joints")
-        elif ticks_topic is not None:
-            kind, wtopic = "ticks", ticks_topic
-            wconns = _topic_conns(reader, ticks_topic, src, "encoder ticks")
-        else:
-            kind, wtopic = "odom", str(odom_topic)
-            wconns = _typed_conns(reader, wtopic, ("Odometry",), src, "wheel odometry")
+        wheel_msgs = _WheelMessages(reader, wheels, src)
         tf_conns = [c for c in reader.connections if c.topic == tf_topic and c.msgtype.endswith("TFMessage")]
-        conns = scan_conns + wconns + tf_conns
+        conns = scan_conns + wheel_msgs.conns + tf_conns
         total = sum(c.msgcount for c in conns)
         scans = _Scans(scan_topic, scan_frame, src)
-        wt: list[float] = []
-        w1: list[float] = []
-        w2: list[float] = []
-        w3: list[float] = []
-        names_seen: set[str] = set()
-        no_position = 0
-        child_frames: set[str] = set()
         tfs: dict[tuple[str, str], StaticTransform] = {}
         scan_ids = {id(c) for c in scan_conns}
-        w_ids = {id(c) for c in wconns}
         done = 0
         for c, ns, raw in reader.messages(connections=conns):
             msg = reader.deserialize(raw, c.msgtype)
             if id(c) in scan_ids:
                 scans.add(msg, ns)
-            elif id(c) in w_ids:
-                if kind == "joints":
-                    names = list(getattr(msg, "name", []))
-                    if joints[0] in names and joints[1] in names:
-                        pos = msg.position
-                        i, j = names.index(joints[0]), names.index(joints[1])
-                        if len(pos) <= max(i, j):
-                            no_position += 1
-                            continue
-                        wt.append(_stamp(msg, ns))
-                        w1.append(float(pos[i]))
-                        w2.append(float(pos[j]))
-                    elif len(names_seen) < 50:
-                        names_seen.update(names)
-                elif kind == "ticks":
-                    wt.append(_stamp(msg, ns))
-                    w1.append(_field(msg, str(left_field), src))
-                    w2.append(_field(msg, str(right_field), src))
-                else:
-                    p = msg.pose.pose
-                    wt.append(_stamp(msg, ns))
-                    w1.append(p.position.x)
-                    w2.append(p.position.y)
-                    w3.append(_yaw(p.orientation))
-                    child_frames.add(msg.child_frame_id.lstrip("/"))
+            elif id(c) in wheel_msgs.ids:
+                wheel_msgs.add(msg, ns)
             else:
                 for tr in msg.transforms:
                     t, q = tr.transform.translation, tr.transform.rotation
@@ -1080,104 +1002,28 @@ def read_selfcal_bag(
                 progress(done, total)
     finally:
         reader.close()
-    warnings: list[str] = []
-    if scans.other_layout:
-        warnings.append(
-            f"{scans.other_layout} scans on {scan_topic} with another beam layout than the first were dropped"
-        )
-    if len(scans.t) < 2:
-        raise InputError(f"fewer than two usable scans on {scan_topic} (topics: {', '.join(topics)})", src)
-    st = np.asarray(scans.t, dtype=float)
-    keep, repeated = _ordered(st, "scans", scan_topic, src)
-    if repeated:
-        warnings.append(f"{repeated} scans on {scan_topic} repeat the stamp of the scan before: dropped")
-    ranges = np.stack(scans.ranges)[keep]
-    if not np.isfinite(ranges).any():
-        raise InputError(
-            f"every range of the {len(keep)} scans on {scan_topic} is infinite, NaN or outside "
-            "[range_min, range_max): the lidar saw nothing",
-            src,
-        )
-    if not wt:
-        if kind == "joints" and no_position:
-            raise InputError(
-                f"the JointState messages on {joint_topic} name the joints {joints[0]!r} and {joints[1]!r} but "
-                "carry no positions: record the wheel positions, or use the odometry (`odom_topic`)",
-                src,
-            )
-        if kind == "joints":
-            seen = ", ".join(sorted(names_seen)) or "none"
-            raise InputError(
-                f"no JointState message on {joint_topic} names both joints {joints[0]!r} and {joints[1]!r} "
-                f"(joints there: {seen})",
-                src,
-            )
-        raise InputError(f"no messages on {wtopic} for the wheel data (topics: {', '.join(topics)})", src)
-    what = {"joints": "joint states", "ticks": "encoder counts", "odom": "odometry poses"}[kind]
-    t = np.asarray(wt, dtype=float)
-    wkeep, wrep = _ordered(t, what, wtopic, src)
-    if wrep:
-        warnings.append(f"{wrep} {what} on {wtopic} repeat the stamp of the one before: dropped")
-    if no_position:
-        warnings.append(f"{no_position} JointState messages on {wtopic} without positions: dropped")
-    a1 = np.asarray(w1, dtype=float)[wkeep]
-    a2 = np.asarray(w2, dtype=float)[wkeep]
-    t = t[wkeep]
-    if len(t) < 2:
-        raise InputError(f"fewer than two {what} on {wtopic}", src)
-    left = right = pose = None
-    if kind == "odom":
-        pose = np.column_stack([a1, a2, np.asarray(w3, dtype=float)[wkeep]])
-        if not np.all(np.isfinite(pose)):
-            raise InputError(f"the odometry poses on {wtopic} contain NaN or infinite values", src)
-        desc = f"nav_msgs/Odometry on {wtopic}"
-    else:
-        if not (np.all(np.isfinite(a1)) and np.all(np.isfinite(a2))):
-            raise InputError(f"the {what} on {wtopic} contain NaN or infinite values", src)
-        if kind == "joints":
-            left, right = a1, a2
-            desc = f"JointState {joints[0]}, {joints[1]} on {wtopic}"
-        else:
-            scale = 2.0 * math.pi / float(units_per_rev)  # type: ignore[arg-type]
-            if ticks == "incremental":
-                a1, a2 = _summed_counts(t, a1, a2, scale, wtopic, src)
-            left, right = a1 * scale, a2 * scale
-            desc = f"encoder counts {left_field}, {right_field} on {wtopic} ({ticks}, {float(units_per_rev):g} per rev)"  # type: ignore[arg-type]
-        from umbmark.model.timing import wheel_spikes
-
-        bad, isolated = wheel_spikes(t, left, right, 0.01)  # a 2 cm wheel at 30 m/s: 3000 rad/s
-        if bad.size:
-            k = int(bad[0])
-            where = f"at t={t[k] - t[0]:.3f} s (sample {k + 1})"
-            if not isolated:
-                raise InputError(
-                    f"the {what} on {wtopic} jump {where} faster than any wheel turns, and do not come back: "
-                    "a counter reset or a corrupt message; cut the bag there",
-                    src,
-                )
-            warnings.append(f"{bad.size} spike(s) in the {what} on {wtopic}, the first {where}: dropped")
-            ok = np.ones(len(t), dtype=bool)
-            ok[bad] = False
-            t, left, right = t[ok], left[ok], right[ok]
+    st, ranges, warnings = scans.checked(topics)
+    wd = wheel_msgs.finish()
     first, inc = scans.layout[1], scans.layout[2]  # type: ignore[index]
+    k = 2.0 * math.pi / wheels.units_per_rev  # counts to radians (1 for joint angles)
     return SelfcalBag(
         source=src,
         scan_topic=scan_topic,
         scan_frame=str(scans.frame),
-        scan_t_s=st[keep],
+        scan_t_s=st,
         ranges_m=ranges,
         angles_rad=first + inc * np.arange(ranges.shape[1]),
-        wheel_kind=kind,
-        wheel_topic=wtopic,
-        wheel_description=desc,
-        wheel_t_s=t,
-        left_rad=left,
-        right_rad=right,
-        odom_pose=pose,
-        odom_child_frame=(sorted(child_frames)[0] if len(child_frames) == 1 else None) if kind == "odom" else None,
+        wheel_kind=wheels.kind,
+        wheel_topic=wheels.topic,
+        wheel_description=wheels.description,
+        wheel_t_s=wd.t_s,
+        left_rad=None if wd.left is None else wd.left * k,
+        right_rad=None if wd.right is None else wd.right * k,
+        odom_pose=wd.odom_pose,
+        odom_child_frame=wd.odom_child_frame,
         static_transforms=tuple(tfs.values()),
         topics=topics,
-        warnings=tuple(warnings),
+        warnings=tuple(warnings) + wd.warnings,
     )
 
 
@@ -1206,6 +1052,8 @@ class GyroBag:
         ``(K,)`` cumulative wheel angles [rad] (odometry: through the nominal geometry).
     wheel_description : str
         Where the wheel data come from, in words.
+    warnings : tuple of str
+        What the reading of the wheel data found and did.
     """
 
     source: str
@@ -1217,22 +1065,10 @@ class GyroBag:
     left_rad: np.ndarray
     right_rad: np.ndarray
     wheel_description: str
+    warnings: tuple[str, ...] = ()
 
 
-def read_gyro_bag(
-    path,
-    *,
-    imu_topic: str,
-    nominal: WheelGeometry,
-    joints=None,
-    joint_topic: str = "/joint_states",
-    ticks_topic: str | None = None,
-    left_field: str | None = None,
-    right_field: str | None = None,
-    ticks: str = "cumulative",
-    units_per_rev: float | None = None,
-    odom_topic: str | None = None,
-) -> GyroBag:
+def read_gyro_bag(path, *, imu_topic: str, nominal: WheelGeometry, wheels: WheelSource) -> GyroBag:
     """Read the turn rates of an IMU and the wheel data of a bag (for the gyro as a rotation reference).
 
     Parameters
@@ -1243,8 +1079,8 @@ def read_gyro_bag(
         The ``sensor_msgs/Imu`` topic (its ``angular_velocity.z``).
     nominal : WheelGeometry
         The nominal geometry (turns odometry poses back into wheel angles).
-    joints, joint_topic, ticks_topic, left_field, right_field, ticks, units_per_rev, odom_topic
-        The wheel data, as :func:`read_bag`.
+    wheels : WheelSource
+        The wheel data (:mod:`umbmark.io.wheels`).
 
     Returns
     -------
@@ -1258,12 +1094,8 @@ def read_gyro_bag(
         that go backwards; values that are not finite.
     """
     src = str(path)
-    if sum(x is not None for x in (joints, ticks_topic, odom_topic)) != 1:
-        raise InputError(
-            "give one source of wheel data: the wheel joints (`joints`), a ticks topic (`ticks_topic`) or an "
-            "odometry topic (`odom_topic`)",
-            src,
-        )
+    if wheels.given:
+        wheels.check(src)  # before the bag is opened
     reader = _open(path)
     try:
         iconns = _typed_conns(reader, imu_topic, ("Imu",), src, "gyro")
@@ -1273,43 +1105,26 @@ def read_gyro_bag(
             it.append(_stamp(msg, ns))
             iw.append(float(msg.angular_velocity.z))
             frames.add(msg.header.frame_id.lstrip("/"))
-        if joints is not None:
-            t, pl, pr = _read_joints(reader, joints, joint_topic, src)
-            scale, desc = 1.0, f"JointState {joints[0]}, {joints[1]} on {joint_topic}"
-        elif ticks_topic is not None:
-            if not left_field or not right_field:
-                raise InputError("a ticks topic needs `left_field` and `right_field`", src)
-            if units_per_rev is None or not (math.isfinite(units_per_rev) and units_per_rev > 0):
-                raise InputError("encoder ticks need the pulses per wheel revolution (`pulses_per_wheel_rev`)", src)
-            t, pl, pr = _read_ticks(reader, ticks_topic, left_field, right_field, src)
-            scale, desc = 2.0 * math.pi / float(units_per_rev), f"encoder counts on {ticks_topic}"
-            if ticks == "incremental":
-                sl, sr = _summed_counts(np.asarray(t, dtype=float), pl, pr, scale, ticks_topic, src)
-                pl, pr = list(sl), list(sr)
-        else:
-            t, pl, pr = _read_odom(reader, str(odom_topic), nominal, src)
-            scale, desc = 1.0, f"nav_msgs/Odometry on {odom_topic}"
+        wd = _WheelMessages(reader, wheels, src).read(reader)
     finally:
         reader.close()
     g_t = np.asarray(it, dtype=float)
     keep, _ = _ordered(g_t, "gyro readings", imu_topic, src)
     g_t, g_w = g_t[keep], np.asarray(iw, dtype=float)[keep]
-    w_t = np.asarray(t, dtype=float)
-    wkeep, _ = _ordered(w_t, "wheel data", joint_topic if joints is not None else str(ticks_topic or odom_topic), src)
-    left = np.asarray(pl, dtype=float)[wkeep] * scale
-    right = np.asarray(pr, dtype=float)[wkeep] * scale
-    if len(g_t) < 2 or len(wkeep) < 2:
-        raise InputError(f"fewer than two gyro readings on {imu_topic} or wheel samples", src)
-    if not (np.all(np.isfinite(g_w)) and np.all(np.isfinite(left)) and np.all(np.isfinite(right))):
-        raise InputError(f"the gyro readings on {imu_topic} or the wheel data contain NaN or infinite values", src)
+    if len(g_t) < 2:
+        raise InputError(f"fewer than two gyro readings on {imu_topic}", src)
+    if not np.all(np.isfinite(g_w)):
+        raise InputError(f"the gyro readings on {imu_topic} contain NaN or infinite values", src)
+    left, right = wd.angles(nominal)
     return GyroBag(
         source=src,
         imu_topic=imu_topic,
         imu_frame=sorted(frames)[0] if frames else "",
         imu_t_s=g_t,
         rate_z_radps=g_w,
-        wheel_t_s=w_t[wkeep],
+        wheel_t_s=wd.t_s,
         left_rad=left,
         right_rad=right,
-        wheel_description=desc,
+        wheel_description=wheels.description,
+        warnings=wd.warnings,
     )

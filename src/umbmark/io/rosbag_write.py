@@ -21,7 +21,10 @@ stamp :attr:`umbmark.model.drive.DriveLog.scan_stamps_s`, late or jittered when 
 * ``/ground_truth`` (``geometry_msgs/PoseStamped``, frame ``map``, optional) at the wheel rate:
   the true robot pose in the room;
 * ``/imu`` (``sensor_msgs/Imu``, frame ``base_link``, optional): the turn rates of a gyro
-  (``angular_velocity.z`` [rad/s]; orientation unknown: ``orientation_covariance[0]`` is -1).
+  (``angular_velocity.z`` [rad/s]; orientation unknown: ``orientation_covariance[0]`` is -1);
+* ``/wheel_ticks`` (``geometry_msgs/Vector3Stamped``, optional) at the wheel rate: the wheel
+  encoders' running counters, ``vector.x`` left and ``vector.y`` right (whole pulses,
+  ``ticks_per_rev`` a revolution).
 
 A bag is written into a temporary name beside its destination and moved there when complete:
 a failed write leaves nothing behind, and an existing bag is never overwritten.
@@ -68,6 +71,7 @@ _T = {
     "tf_static": ("/tf_static", "tf2_msgs/msg/TFMessage"),
     "truth": ("/ground_truth", "geometry_msgs/msg/PoseStamped"),
     "imu": ("/imu", "sensor_msgs/msg/Imu"),
+    "ticks": ("/wheel_ticks", "geometry_msgs/msg/Vector3Stamped"),
 }
 
 
@@ -124,8 +128,13 @@ class _Messages:
         epoch_s: float,
         joints: tuple[str, str],
         gyro: tuple[np.ndarray, np.ndarray] | None = None,
+        ticks_per_rev: float | None = None,
     ) -> None:
         self.log, self.T, self.ros1, self.joints = log, ts.types, ros1, list(joints)
+        self.counts = None
+        if ticks_per_rev is not None:
+            pulse = 2.0 * math.pi / ticks_per_rev
+            self.counts = np.floor(np.column_stack([log.left_rad, log.right_rad]) / pulse + 1e-9)
         self.wheel_ns = _stamp_ns(epoch_s, log.t_s)
         self.scan_ns = _stamp_ns(epoch_s, log.scan_stamps_s)
         dt = np.diff(log.t_s)
@@ -153,6 +162,15 @@ class _Messages:
             position=np.array([log.left_rad[k], log.right_rad[k]]),
             velocity=np.array([self.vel_l[k], self.vel_r[k]]),
             effort=np.array([], dtype=float),
+        )
+
+    def ticks(self, k: int) -> Any:
+        T = self.T
+        assert self.counts is not None
+        left, right = self.counts[k]
+        return T["geometry_msgs/msg/Vector3Stamped"](
+            header=self.header(int(self.wheel_ns[k]), "", "ticks"),
+            vector=T["geometry_msgs/msg/Vector3"](x=float(left), y=float(right), z=0.0),
         )
 
     def scan(self, m: int) -> Any:
@@ -238,6 +256,7 @@ class _Messages:
             [("joint", self.joint)]
             + ([("odom", self.odom)] if odom else [])
             + ([("truth", self.truth)] if truth else [])
+            + ([("ticks", self.ticks)] if self.counts is not None else [])
         )
         streams = [[(int(self.wheel_ns[0]), 0, "tf_static", -1)]] if tf_static else []
         for order, (key, _) in enumerate(wheel, start=1):
@@ -283,6 +302,7 @@ def _write(
     truth: bool,
     tf_static: bool = True,
     gyro: tuple[np.ndarray, np.ndarray] | None = None,
+    ticks_per_rev: float | None = None,
 ) -> None:
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
@@ -290,7 +310,7 @@ def _write(
     ts = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
     if _T["tf_static"][1] not in ts.types:  # the ROS 1 store has no tf2_msgs: its definition
         ts.register(get_types_from_msg("geometry_msgs/TransformStamped[] transforms", _T["tf_static"][1]))
-    msgs = _Messages(log, ts, ros1, epoch_s, joints, gyro)
+    msgs = _Messages(log, ts, ros1, epoch_s, joints, gyro, ticks_per_rev)
     if ros1:
         from rosbags.rosbag1 import Writer as Writer1
 
@@ -305,8 +325,10 @@ def _write(
         serialize = ts.serialize_cdr
     with writer:
         conns = {}
-        for key in ("tf_static", "joint", "odom", "truth", "scan", "imu"):
+        for key in ("tf_static", "joint", "odom", "truth", "ticks", "scan", "imu"):
             if (key == "odom" and not odom) or (key == "truth" and not truth):
+                continue
+            if key == "ticks" and ticks_per_rev is None:
                 continue
             if (key == "tf_static" and not tf_static) or (key == "imu" and gyro is None):
                 continue
@@ -331,6 +353,7 @@ def write_drive_bag(
     joints: tuple[str, str] = JOINT_NAMES,
     tf_static: bool = True,
     gyro: tuple[ArrayLike, ArrayLike] | None = None,
+    ticks_per_rev: float | None = None,
 ) -> Path:
     """Write ``log`` as a ROS bag (see the module docstring for the topics).
 
@@ -355,6 +378,8 @@ def write_drive_bag(
     gyro : (array_like, array_like), optional
         Write ``/imu``: the times [s, from the drive's start] and turn rates [rad/s] of a gyro
         (e.g. :meth:`umbmark.model.sensors.Gyro.measure`).
+    ticks_per_rev : float, optional
+        Write ``/wheel_ticks``: encoder counters of this many pulses per wheel revolution.
 
     Returns
     -------
@@ -373,6 +398,8 @@ def write_drive_bag(
         if g_t.shape != g_w.shape or not (np.all(np.isfinite(g_t)) and np.all(np.isfinite(g_w))):
             raise InputError("`gyro` must be two finite arrays of one length (times, turn rates)")
         rates = (g_t, g_w)
+    if ticks_per_rev is not None and not (math.isfinite(ticks_per_rev) and ticks_per_rev > 0):
+        raise InputError(f"`ticks_per_rev` must be a positive number, got {ticks_per_rev!r}")
     dest = Path(path)
     fmt = storage_of(dest, storage)
     if not (math.isfinite(epoch_s) and epoch_s >= 0):
@@ -389,7 +416,7 @@ def write_drive_bag(
     work = Path(tempfile.mkdtemp(prefix=f".{dest.name}.", dir=parent))
     try:
         target = work / dest.name
-        _write(log, target, fmt, epoch_s, tuple(joints), odom, truth, tf_static, rates)
+        _write(log, target, fmt, epoch_s, tuple(joints), odom, truth, tf_static, rates, ticks_per_rev)
         if dest.exists() or dest.is_symlink():
             raise InputError("appeared while the bag was written: not overwriting it", str(dest))
         os.rename(target, dest)

@@ -43,6 +43,7 @@ _LAZY = {
             "Dataset",
             "to_start_frame",
             "wheel_travel_from_poses",
+            "wheel_angles_from_poses",
             "split_at_stops",
             "replay_increments",
             "FAST_MIN_SAMPLES",

@@ -38,6 +38,7 @@ __all__ = [
     "Dataset",
     "to_start_frame",
     "wheel_travel_from_poses",
+    "wheel_angles_from_poses",
     "split_at_stops",
     "check_stop_s",
     "MAX_STOP_S",
@@ -272,11 +273,16 @@ def to_start_frame(x: ArrayLike, y: ArrayLike, theta: ArrayLike) -> tuple[np.nda
 def wheel_travel_from_poses(
     x: ArrayLike, y: ArrayLike, theta: ArrayLike, wheelbase_m: ArrayLike
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Per-sample wheel travel that an odometry with this wheelbase turned into these poses.
+    """Per-sample wheel travel that an odometry with this wheelbase turned into these poses: the
+    one inversion of an odometry into wheel travel that every reader uses.
 
-    The exact-arc model: the inverse of :func:`umbmark.model.odometry.integrate`. Useful for
-    logs that hold only the robot's own odometry poses (e.g. ``nav_msgs/Odometry``) and for
-    producing wheel logs from simulated trajectories.
+    The exact-arc model, the inverse of :func:`umbmark.model.odometry.integrate`: each step's
+    heading change ``dth`` is wrapped to (-pi, pi] (wrapped headings need no unwrapping), and
+    its arc length is the least-squares one, the displacement projected on the heading halfway
+    through the step over ``sinc(dth / 2)`` (negative backwards). A step that is an exact arc
+    gives its arc length back; sideways motion, which no arc has, is left out. The wheels rolled
+    ``ds -/+ b dth / 2``. Useful for logs that hold only the robot's own odometry poses (e.g.
+    ``nav_msgs/Odometry``) and for producing wheel logs from simulated trajectories.
 
     Parameters
     ----------
@@ -292,14 +298,42 @@ def wheel_travel_from_poses(
     """
     x, y, th = (np.asarray(a, dtype=float) for a in (x, y, theta))
     dth = np.diff(th, prepend=th[..., :1], axis=-1)
+    dth = np.remainder(dth + np.pi, 2.0 * np.pi) - np.pi
     dx = np.diff(x, prepend=x[..., :1], axis=-1)
     dy = np.diff(y, prepend=y[..., :1], axis=-1)
-    chord = np.hypot(dx, dy)
-    heading_mid = th - 0.5 * dth
-    sign = np.sign(dx * np.cos(heading_mid) + dy * np.sin(heading_mid))
-    du = sign * chord / np.sinc(dth / (2.0 * np.pi))
+    before = np.concatenate([th[..., :1], th[..., :-1]], axis=-1)
+    mid = before + 0.5 * dth
+    du = (dx * np.cos(mid) + dy * np.sin(mid)) / np.sinc(dth / (2.0 * np.pi))
     half = 0.5 * np.asarray(wheelbase_m, dtype=float) * dth
     return du - half, du + half
+
+
+def wheel_angles_from_poses(pose: ArrayLike, geometry: WheelGeometry) -> tuple[np.ndarray, np.ndarray]:
+    """The cumulative wheel angles [rad] that an odometry with this geometry turned into these
+    poses (0 at the first pose): :func:`wheel_travel_from_poses` over the wheels' radii.
+
+    Parameters
+    ----------
+    pose : array_like
+        ``(K, 3)`` poses ``(x_m, y_m, yaw_rad)`` in time order (yaw wrapped or not).
+    geometry : WheelGeometry
+        The odometry's geometry (its diameters and wheelbase).
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        ``(left_rad, right_rad)``, each ``(K,)``.
+
+    Raises
+    ------
+    InputError
+        If ``pose`` is not ``(K, 3)``.
+    """
+    p = np.asarray(pose, dtype=float)
+    if p.ndim != 2 or p.shape[1] != 3:
+        raise InputError(f"`pose` must have shape (K, 3), got {p.shape}")
+    dl, dr = wheel_travel_from_poses(p[:, 0], p[:, 1], p[:, 2], geometry.wheelbase_m)
+    return np.cumsum(dl) / (0.5 * geometry.diameter_left_m), np.cumsum(dr) / (0.5 * geometry.diameter_right_m)
 
 
 # a pause between runs longer than this (seconds) is not a pause between runs

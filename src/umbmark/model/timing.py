@@ -11,8 +11,11 @@ the wheel data and the ground truth.
 * :func:`estimate_time_offset`: how late the ground truth's stamps are against the wheels',
   from the cross-correlation of the turn rates both give (refined between samples by
   parabolic interpolation of the correlation's peak).
-* :func:`check_streams`: all of it for the wheel and ground-truth streams of one log, with the
-  offset applied when asked (``time_offset``: ``None``, ``"auto"`` or seconds).
+* :func:`check_wheel_stream`: the order, repeats, values and spikes of a log's wheel data (what
+  every reader of wheel data runs on them, once).
+* :func:`check_truth_stream`: the same for its ground truth, and the offset between the two,
+  applied when asked (``time_offset``: ``None``, ``"auto"`` or seconds);
+  :func:`check_streams`: both.
 * :func:`align_truth`: the offset applied to a data set whose runs hold the wheels and the
   ground truth in the same rows (CSV logs, optiodom folders).
 
@@ -48,8 +51,11 @@ __all__ = [
     "estimate_time_offset",
     "parse_time_offset",
     "given_offset_note",
+    "WheelStream",
+    "check_wheel_stream",
     "StreamCheck",
     "check_streams",
+    "check_truth_stream",
     "align_truth",
 ]
 
@@ -470,13 +476,190 @@ def parse_time_offset(value) -> float | str | None:
 
 
 @dataclass(frozen=True)
+class WheelStream:
+    """A log's wheel data, checked (see :func:`check_wheel_stream`).
+
+    Attributes
+    ----------
+    t : numpy.ndarray
+        ``(K,)`` the stamps kept, in time order [s].
+    left, right : numpy.ndarray
+        ``(K,)`` the cumulative positions kept (log units; incremental counts summed).
+    warnings : tuple of str
+        What was found and done (messages put in order, repeated stamps, wrapped positions
+        unwrapped, spikes dropped).
+    kept : numpy.ndarray or None
+        ``(K,)`` the index of each sample kept in the stream as given (of incremental counts
+        added up at one stamp, the last).
+    """
+
+    t: np.ndarray
+    left: np.ndarray
+    right: np.ndarray
+    warnings: tuple[str, ...] = ()
+    kept: np.ndarray | None = None
+
+
+def _in_stamp_order(t: np.ndarray, values: list[np.ndarray], what: str, topic: str, source: str | None, warnings):
+    """The stream put in stamp order (a little out of order: sorted, with a warning; a clock that
+    jumped back: an error) and the indices of the last message of each stamp."""
+    keep, rep, first, (moved, back_s) = ordered_stamps(t, what, topic, source)
+    if moved:
+        warnings.append(
+            f"{moved} of the {t.size} {what} on {topic} arrive out of stamp order (by up to "
+            f"{back_s * 1e3:.1f} ms): put in stamp order"
+        )
+        order = np.argsort(t, kind="stable")
+        t, values = t[order], [v[order] for v in values]
+        keep, rep, first, _ = ordered_stamps(t, what, topic, source)
+    return t, values, keep, rep, first
+
+
+def check_wheel_stream(
+    t,
+    left,
+    right,
+    *,
+    metres_per_unit: float,
+    cumulative: bool = True,
+    wrapped_turn: float | None = None,
+    poses: bool = False,
+    what: str = "wheel positions",
+    topic: str = "the wheel topic",
+    source: str | None = None,
+) -> WheelStream:
+    """Check the stamps and values of a log's wheel data (every reader's one check of them).
+
+    * Stamps that go backwards: messages a little out of order are put in stamp order with a
+      warning; a longer step back is an error naming the message (:func:`ordered_stamps`).
+    * Repeated stamps: the last message of each stamp is kept, with a warning (incremental
+      counts: identical copies count once, different counts of one stamp are added up, so no
+      travel is lost).
+    * Incremental counts that are running counters (read per message, their median would turn
+      a wheel rim faster than :data:`MAX_WHEEL_SPEED_MPS`): an error; else they are summed.
+    * Values that are not finite: an error naming the message.
+    * Positions that jump faster than any wheel turns (:func:`wheel_spikes`): an isolated spike
+      of cumulative positions is dropped with a warning naming its time; a jump that stays, or
+      one in incremental counts, is an error.
+    * Positions wrapped to one turn (``wrapped_turn``, e.g. ``2 pi`` for joint angles): jumps of
+      more than half a turn between samples are unwrapped, with a warning.
+
+    Parameters
+    ----------
+    t, left, right : array_like
+        Wheel stamps [s] as recorded and the positions (cumulative, or incremental counts, in
+        log units).
+    metres_per_unit : float
+        Rim travel per log unit [m] (the larger wheel's, nominal geometry).
+    cumulative : bool
+        The positions are cumulative (else per-message increments).
+    wrapped_turn : float, optional
+        One turn in log units, where the positions may be wrapped to one turn.
+    poses : bool
+        ``left`` and ``right`` are the x and y [m] of an odometry's poses (its spikes: the
+        robot faster than :data:`MAX_WHEEL_SPEED_MPS`; ``metres_per_unit`` 1).
+    what, topic : str
+        Names for messages.
+    source : str, optional
+        The log, for messages.
+
+    Returns
+    -------
+    WheelStream
+
+    Raises
+    ------
+    InputError
+        Stamps that go backwards, running counters read as increments, non-finite values, a
+        jump that stays.
+    """
+    warnings: list[str] = []
+    t = np.asarray(t, dtype=float)
+    pl = np.asarray(left, dtype=float)
+    pr = np.asarray(right, dtype=float)
+    kept = np.arange(t.size)
+    t, (pl, pr, kept), keep, rep, first = _in_stamp_order(t, [pl, pr, kept], what, topic, source, warnings)
+    if rep:
+        if cumulative:
+            note = "the last of each stamp is kept"
+        else:  # incremental: identical copies count once, different counts of one stamp add up
+            groups = np.concatenate([[0], keep[:-1] + 1])
+            same = (np.maximum.reduceat(pl, groups) == np.minimum.reduceat(pl, groups)) & (
+                np.maximum.reduceat(pr, groups) == np.minimum.reduceat(pr, groups)
+            )
+            pl = np.where(same, pl[keep], np.add.reduceat(pl, groups))
+            pr = np.where(same, pr[keep], np.add.reduceat(pr, groups))
+            note = "identical copies are counted once, different counts of one stamp are added up"
+        warnings.append(
+            f"{rep} of the {t.size} {what} on {topic} repeat the stamp of the message before "
+            f"(first at message {first}): {note}; check the publisher's stamps"
+        )
+        t, kept = t[keep], kept[keep]
+        if cumulative:
+            pl, pr = pl[keep], pr[keep]
+    if not (np.all(np.isfinite(pl)) and np.all(np.isfinite(pr))):
+        k = int(np.flatnonzero(~(np.isfinite(pl) & np.isfinite(pr)))[0])
+        raise InputError(
+            f"the {what} on {topic} are not finite at t={t[k] - t[0]:.3f} s (message {k + 1} kept)",
+            source,
+        )
+    if not cumulative:
+        _refuse_running_counters(t, pl, pr, metres_per_unit, what, topic, source)
+        pl, pr = np.cumsum(pl), np.cumsum(pr)
+    bad, isolated = wheel_spikes(t, pl, pr, metres_per_unit)
+    if bad.size:
+        k = int(bad[0])
+        jump = max(abs(pl[k] - pl[k - 1]), abs(pr[k] - pr[k - 1]))
+        where = f"at t={t[k] - t[0]:.3f} s (sample {k + 1})"
+        if not (isolated and cumulative):
+            at = "" if poses else " at the wheel rim"
+            raise InputError(
+                f"the {what} on {topic} jump by {jump:.3g}{' m' if poses else ''} {where}: faster than "
+                f"{MAX_WHEEL_SPEED_MPS:g} m/s{at}, and they do not come back: a counter reset or a "
+                "corrupt message; cut the log there",
+                source,
+            )
+        warnings.append(
+            f"{bad.size} spike(s) in the {what} on {topic}, the first {where} (a jump of {jump:.3g} and back): dropped"
+        )
+        ok = np.ones(t.size, dtype=bool)
+        ok[bad] = False
+        t, pl, pr, kept = t[ok], pl[ok], pr[ok], kept[ok]
+    if wrapped_turn is not None and t.size > 1:
+        jumps = int((np.abs(np.diff(pl)) > 0.5 * wrapped_turn).sum() + (np.abs(np.diff(pr)) > 0.5 * wrapped_turn).sum())
+        if jumps:
+            warnings.append(
+                f"the {what} on {topic} jump by more than half a turn {jumps} times between messages (wrapped to "
+                "one turn?): unwrapped"
+            )
+            pl = np.unwrap(pl, period=wrapped_turn)
+            pr = np.unwrap(pr, period=wrapped_turn)
+    return WheelStream(t, pl, pr, tuple(warnings), kept)
+
+
+def _refuse_running_counters(t, pl, pr, metres_per_unit: float, what: str, topic: str, source: str | None) -> None:
+    """Refuse incremental counts whose median would turn a wheel rim faster than any wheel: they
+    are running counters read per message."""
+    if t.size <= 2:
+        return
+    dt = float(np.median(np.diff(t)))
+    speed = float(np.median(np.maximum(np.abs(pl), np.abs(pr)))) * metres_per_unit / dt if dt > 0 else 0.0
+    if speed > MAX_WHEEL_SPEED_MPS:
+        raise InputError(
+            f"read as counts per message, the {what} on {topic} would turn the wheel rims at {speed:.3g} m/s "
+            f'(median): they look like running counters (`ticks="cumulative"`)',
+            source,
+        )
+
+
+@dataclass(frozen=True)
 class StreamCheck:
     """The wheel and ground-truth streams of one log, checked (see :func:`check_streams`).
 
     Attributes
     ----------
     t, left, right : numpy.ndarray
-        The wheel stamps and positions kept, in time order.
+        The wheel stamps and cumulative positions kept, in time order.
     truth : numpy.ndarray or None
         ``(M, 4)`` ground truth ``(t, x, y, heading)`` kept, its stamps corrected by the applied
         offset.
@@ -510,23 +693,8 @@ def check_streams(
     truth_topic: str = "the ground-truth topic",
     source: str | None = None,
 ) -> StreamCheck:
-    """Check the stamps and values of a log's wheel data and ground truth, and align them.
-
-    * Stamps that go backwards: an error naming the message (the log cannot be trusted to be
-      in order: a second clock, a bag of several recordings).
-    * Repeated stamps: the last message of each stamp is kept, with a warning (incremental
-      counts: identical copies count once, different counts of one stamp are added up, so no
-      travel is lost).
-    * Wheel positions that jump faster than any wheel turns (:data:`MAX_WHEEL_SPEED_MPS`): an
-      isolated spike is dropped with a warning naming its time; a jump that stays is an error.
-    * The time offset between the wheels and the ground truth (:func:`estimate_time_offset`):
-      estimated whenever there is a ground truth, applied when ``time_offset`` asks, warned
-      about when it is larger than :data:`LARGE_OFFSET_S` and one ground-truth sample period
-      and not corrected.
-    * The ground truth's coverage of the wheel data (after the offset): a warning below
-      :data:`MIN_COVERAGE` or with a gap longer than a second and 20 sample periods.
-    * Ground-truth positions that jump faster than :data:`MAX_WHEEL_SPEED_MPS`: an isolated
-      spike is dropped, a jump that stays is warned about (the tracker lost the robot).
+    """Check the stamps and values of a log's wheel data and ground truth, and align them:
+    :func:`check_wheel_stream`, then :func:`check_truth_stream`.
 
     Parameters
     ----------
@@ -553,84 +721,100 @@ def check_streams(
     Returns
     -------
     StreamCheck
+        The wheel positions cumulative.
 
     Raises
     ------
     InputError
-        Stamps that go backwards, a jump that stays, non-finite values, ``time_offset`` auto
-        without an estimate, or a ground truth that does not overlap the wheels.
+        As :func:`check_wheel_stream` and :func:`check_truth_stream`.
+    """
+    wheels = check_wheel_stream(
+        t,
+        left,
+        right,
+        metres_per_unit=max(metres_per_unit_left, metres_per_unit_right),
+        cumulative=cumulative,
+        what=wheel_what,
+        topic=wheel_topic,
+        source=source,
+    )
+    chk = check_truth_stream(
+        wheels,
+        truth,
+        metres_per_unit_left=metres_per_unit_left,
+        metres_per_unit_right=metres_per_unit_right,
+        wheelbase_m=wheelbase_m,
+        time_offset=time_offset,
+        wheel_topic=wheel_topic,
+        truth_topic=truth_topic,
+        source=source,
+    )
+    return StreamCheck(chk.t, chk.left, chk.right, chk.truth, wheels.warnings + chk.warnings, chk.time_offset)
+
+
+def check_truth_stream(
+    wheels: WheelStream,
+    truth=None,
+    *,
+    metres_per_unit_left: float,
+    metres_per_unit_right: float,
+    wheelbase_m: float,
+    time_offset=None,
+    wheel_topic: str = "the wheel topic",
+    truth_topic: str = "the ground-truth topic",
+    source: str | None = None,
+) -> StreamCheck:
+    """Check a log's ground truth against its checked wheel data, and align them.
+
+    * Ground-truth stamps as the wheels' (:func:`ordered_stamps`), values finite.
+    * Ground-truth positions that jump faster than :data:`MAX_WHEEL_SPEED_MPS`: an isolated
+      spike is dropped, a jump that stays is warned about (the tracker lost the robot).
+    * The time offset between the wheels and the ground truth (:func:`estimate_time_offset`):
+      estimated whenever there is a ground truth, applied when ``time_offset`` asks, warned
+      about when it is larger than :data:`LARGE_OFFSET_S` and one ground-truth sample period
+      and not corrected.
+    * The ground truth's coverage of the wheel data (after the offset): a warning below
+      :data:`MIN_COVERAGE` or with a gap longer than a second and 20 sample periods.
+
+    Parameters
+    ----------
+    wheels : WheelStream
+        The wheel data (:func:`check_wheel_stream`), cumulative.
+    truth : array_like, optional
+        ``(M, 4)`` ground truth ``(t, x, y, heading)`` as recorded (heading in radians, wrapped
+        or not); None: the wheels alone.
+    metres_per_unit_left, metres_per_unit_right : float
+        Rim travel per log unit of each wheel [m] (nominal geometry).
+    wheelbase_m : float
+        The nominal wheelbase (for the wheels' turn rate).
+    time_offset : None, "auto" or float
+        None: estimate and report; ``"auto"``: estimate and subtract it from the ground truth's
+        stamps; seconds: subtract these (see :func:`parse_time_offset`).
+    wheel_topic, truth_topic : str
+        Names for messages.
+    source : str, optional
+        The log, for messages.
+
+    Returns
+    -------
+    StreamCheck
+        The wheels as given, the ground truth kept and aligned, this check's warnings.
+
+    Raises
+    ------
+    InputError
+        Ground-truth stamps that go backwards, non-finite values, ``time_offset`` auto without
+        an estimate, or a ground truth that does not overlap the wheels.
     """
     request = parse_time_offset(time_offset)
     warnings: list[str] = []
-    t = np.asarray(t, dtype=float)
-    pl = np.asarray(left, dtype=float)
-    pr = np.asarray(right, dtype=float)
-    keep, rep, first, (moved, back_s) = ordered_stamps(t, wheel_what, wheel_topic, source)
-    if moved:
-        warnings.append(
-            f"{moved} of the {t.size} {wheel_what} on {wheel_topic} arrive out of stamp order (by up to "
-            f"{back_s * 1e3:.1f} ms): put in stamp order"
-        )
-        order = np.argsort(t, kind="stable")
-        t, pl, pr = t[order], pl[order], pr[order]
-        keep, rep, first, _ = ordered_stamps(t, wheel_what, wheel_topic, source)
-    if rep:
-        if cumulative:
-            note = "the last of each stamp is kept"
-        else:  # incremental: identical copies count once, different counts of one stamp add up
-            groups = np.concatenate([[0], keep[:-1] + 1])
-            same = (np.maximum.reduceat(pl, groups) == np.minimum.reduceat(pl, groups)) & (
-                np.maximum.reduceat(pr, groups) == np.minimum.reduceat(pr, groups)
-            )
-            pl = np.where(same, pl[keep], np.add.reduceat(pl, groups))
-            pr = np.where(same, pr[keep], np.add.reduceat(pr, groups))
-            note = "identical copies are counted once, different counts of one stamp are added up"
-        warnings.append(
-            f"{rep} of the {t.size} {wheel_what} on {wheel_topic} repeat the stamp of the message before "
-            f"(first at message {first}): {note}; check the publisher's stamps"
-        )
-        t = t[keep]
-        if cumulative:
-            pl, pr = pl[keep], pr[keep]
-    if not (np.all(np.isfinite(pl)) and np.all(np.isfinite(pr))):
-        k = int(np.flatnonzero(~(np.isfinite(pl) & np.isfinite(pr)))[0])
-        raise InputError(
-            f"the {wheel_what} on {wheel_topic} are not finite at t={t[k] - t[0]:.3f} s (message {k + 1} kept)",
-            source,
-        )
-    cl = pl if cumulative else np.cumsum(pl)
-    cr = pr if cumulative else np.cumsum(pr)
-    mpu = max(metres_per_unit_left, metres_per_unit_right)
-    bad, isolated = wheel_spikes(t, cl, cr, mpu)
-    if bad.size:
-        k = int(bad[0])
-        jump = max(abs(cl[k] - cl[k - 1]), abs(cr[k] - cr[k - 1]))
-        where = f"at t={t[k] - t[0]:.3f} s (sample {k + 1})"
-        if not (isolated and cumulative):
-            raise InputError(
-                f"the {wheel_what} on {wheel_topic} jump by {jump:.3g} {where}: faster than "
-                f"{MAX_WHEEL_SPEED_MPS:g} m/s at the wheel rim, and they do not come back: a counter reset or a "
-                "corrupt message; cut the log there",
-                source,
-            )
-        warnings.append(
-            f"{bad.size} spike(s) in the {wheel_what} on {wheel_topic}, the first {where} (a jump of {jump:.3g} "
-            "and back): dropped"
-        )
-        ok = np.ones(t.size, dtype=bool)
-        ok[bad] = False
-        t, pl, pr = t[ok], pl[ok], pr[ok]
-        cl, cr = cl[ok], cr[ok]
+    t, cl, cr = wheels.t, wheels.left, wheels.right
     g = None
     offset = None
     if truth is not None:
         g = np.asarray(truth, dtype=float).reshape(-1, 4)
-        gkeep, grep, gfirst, (gmoved, gback) = ordered_stamps(g[:, 0], "ground-truth poses", truth_topic, source)
-        if gmoved:
-            warnings.append(
-                f"{gmoved} of the {len(g)} ground-truth poses on {truth_topic} arrive out of stamp order (by up to "
-                f"{gback * 1e3:.1f} ms): put in stamp order"
-            )
+        what = "ground-truth poses"
+        _, (g,), gkeep, grep, gfirst = _in_stamp_order(g[:, 0], [g], what, truth_topic, source, warnings)
         if grep:
             warnings.append(
                 f"{grep} of the {len(g)} ground-truth poses on {truth_topic} repeat the stamp of the pose before "
@@ -724,7 +908,7 @@ def check_streams(
                 f"the ground truth on {truth_topic} has a gap of {gap:.2f} s at t={gap_at - t[0]:.2f} s: the poses "
                 "are interpolated across it"
             )
-    return StreamCheck(t, pl, pr, g, tuple(warnings), offset)
+    return StreamCheck(t, cl, cr, g, tuple(warnings), offset)
 
 
 def align_truth(ds, time_offset, what: str = "log"):

@@ -454,7 +454,7 @@ def gyro_reference(
         raise InputError("no bags with gyro readings")
     if not (math.isfinite(still_s) and still_s > 2 * margin_s >= 0):
         raise InputError(f"`still_s` must exceed twice the margin {margin_s:g} s, got {still_s!r}")
-    warnings: list[str] = []
+    warnings: list[str] = [f"{Path(bag.source).name}: {w}" for bag in bags for w in bag.warnings]
     turns: list[GyroTurn] = []
     stills_of: dict[str, list] = {}
     starts = {bag.source: float(bag.wheel_t_s[0]) for bag in bags if len(bag.wheel_t_s)}

@@ -37,6 +37,7 @@ import numpy as np
 from umbmark.correct import METHODS, correct_runs
 from umbmark.correct.lsq import LSQ_DEFAULTS, fit_lsq
 from umbmark.errors import InputError
+from umbmark.io.load import LogOptions
 from umbmark.metrics import umbmark
 from umbmark.model.dataset import Dataset, WheelGeometry, replay_increments
 from umbmark.model.geometry import wrap_angle
@@ -737,7 +738,7 @@ def stream_log(
     chunk_rows: int = 1 << 16,
     fmt: str = "auto",
     poses_out=None,
-    **opts,
+    options: LogOptions | None = None,
 ) -> StreamReport:
     """Replay ONE long generic CSV log with its nominal geometry in bounded memory.
 
@@ -754,10 +755,9 @@ def stream_log(
     poses_out : str or Path, optional
         Write the kept poses to this CSV file (needs ``decimate``;
         :func:`umbmark.io.poses_csv.write_poses_csv`).
-    **opts
-        The reader options of :func:`umbmark.io.load.load_logs`: ``wheel_diameter_mm`` (or
-        ``left_diameter_mm``/``right_diameter_mm``), ``wheelbase_mm``,
-        ``pulses_per_wheel_rev``, ``ticks``.
+    options : LogOptions, optional
+        The reader options of :func:`umbmark.io.load.load_logs`: the nominal geometry, the
+        encoder resolution and the tick mode (else the log's own header lines).
 
     Returns
     -------
@@ -774,6 +774,7 @@ def stream_log(
     from umbmark.io.load import csv_recorded_geometry, detect_format, nominal_geometry
     from umbmark.io.poses_csv import write_poses_csv
 
+    opts = LogOptions() if options is None else options
     if isinstance(path, (list, tuple)):
         if len(path) != 1:
             raise InputError("streaming replays one log file at a time")
@@ -784,25 +785,23 @@ def stream_log(
         raise InputError(
             f"streaming reads the generic CSV log only (this is {fmt}; use `umbmark convert` first)", source=str(path)
         )
-    if opts.get("side_mm") is not None:
+    if opts.side_m is not None:
         raise InputError(
             "streaming replays one run with the given geometry; UMBmark squares (`side_mm`) need "
             "the whole data set (replay it without `stream`)"
         )
-    if opts.get("time_offset") is not None:
+    if opts.time_offset is not None:
         raise InputError(
             "streaming does not move the ground truth in time (`time_offset`): replay the log without `stream`"
         )
     recorded, recorded_ppr = csv_recorded_geometry([path])
-    ppr = opts.get("pulses_per_wheel_rev") or recorded_ppr
+    ppr = opts.pulses_per_wheel_rev or recorded_ppr
     if ppr is None:
         raise InputError(
             "the CSV log needs `pulses_per_wheel_rev` (encoder pulses per wheel revolution)", source=str(path)
         )
     nominal = nominal_geometry(opts, str(path), recorded)
-    rep = stream_replay(
-        iter_generic_csv(path, opts.get("ticks") or "cumulative", chunk_rows), nominal, ppr, decimate=decimate
-    )
+    rep = stream_replay(iter_generic_csv(path, opts.ticks, chunk_rows), nominal, ppr, decimate=decimate)
     rep = replace(rep, dataset=Path(path).stem, source=str(path), format="csv")
     if poses_out is not None:
         if rep.kept is None:

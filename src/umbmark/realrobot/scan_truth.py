@@ -45,6 +45,7 @@ from numpy.typing import NDArray
 from umbmark._numbers import strict_float
 from umbmark.errors import InputError
 from umbmark.io.rosbag import SelfcalBag, read_selfcal_bag
+from umbmark.io.wheels import WheelSource
 from umbmark.model.dataset import Dataset, Run
 from umbmark.model.se2 import compose, inverse
 from umbmark.realrobot.scanmatch import ICPConfig, match_scans
@@ -480,14 +481,7 @@ def attach_scan_truth(
     *,
     sensor_pose=None,
     sensor_pose_source: str = "given",
-    joints=None,
-    joint_topic: str = "/joint_states",
-    ticks_topic: str | None = None,
-    left_field: str | None = None,
-    right_field: str | None = None,
-    ticks: str = "cumulative",
-    units_per_rev: float | None = None,
-    odom_topic: str | None = None,
+    wheels: WheelSource,
     config: ICPConfig = SCAN_TRUTH_ICP,
     max_rms_m: float = MAX_RMS_M,
     min_inlier_fraction: float = MIN_INLIER_FRACTION,
@@ -505,8 +499,8 @@ def attach_scan_truth(
         ``/tf_static``, else the robot centre with a warning).
     sensor_pose_source : str
         Where a given ``sensor_pose`` came from (for the report).
-    joints, joint_topic, ticks_topic, left_field, right_field, ticks, units_per_rev, odom_topic
-        The wheel data, as the data sets were read (:func:`umbmark.io.rosbag.read_selfcal_bag`).
+    wheels : WheelSource
+        The wheel data, as the data sets were read (:mod:`umbmark.io.wheels`).
     config : ICPConfig
         The registration's settings.
     max_rms_m, min_inlier_fraction : float
@@ -545,18 +539,7 @@ def attach_scan_truth(
             if src is None:
                 raise InputError(f"run {run.name}: the lidar ground truth needs the bag it was read from")
             if src not in bags:
-                bag = read_selfcal_bag(
-                    src,
-                    scan_topic=scan_topic,
-                    joints=joints,
-                    joint_topic=joint_topic,
-                    ticks_topic=ticks_topic,
-                    left_field=left_field,
-                    right_field=right_field,
-                    ticks=ticks,
-                    units_per_rev=units_per_rev,
-                    odom_topic=odom_topic,
-                )
+                bag = read_selfcal_bag(src, wheels=wheels, scan_topic=scan_topic)
                 bags[src] = bag
                 motion[src] = _bag_motion(bag)
                 next_sample[src] = 0

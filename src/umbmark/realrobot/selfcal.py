@@ -10,10 +10,9 @@ and sensor parameters for mobile robots" (IEEE T-RO 29(2), 2013), estimated by
    they are made first: per increment of the odometry, the pose change gives the arc length
    ``ds`` and the heading change ``dth`` of the exact arc, the wheels rolled
    ``ds -/+ b dth / 2`` (``b`` the NOMINAL wheelbase) and turned that travel over the NOMINAL
-   radius (:func:`umbmark.realrobot.wheels.wheel_angles_from_odometry`). Joint positions that
-   jump by more than half a turn between samples (wrapped to one turn) are unwrapped, with a
-   warning. Scans outside the wheel data (by more than half a wheel sample), or inside a gap of
-   it longer than ``max_wheel_gap_s``, are not used.
+   radius (:func:`umbmark.realrobot.wheels.recording_wheel_angles`). Joint positions wrapped to
+   one turn were unwrapped by the reader. Scans outside the wheel data (by more than half a
+   wheel sample), or inside a gap of it longer than ``max_wheel_gap_s``, are not used.
 2. **Keyframes** (:class:`KeyframeRule`): the next keyframe once the nominal odometry has moved
    a distance or turned an angle, or a time has passed (by default :data:`DEFAULT_KEYFRAMES`:
    at least 0.5 s apart and 100 mm, 10 deg or 2 s; or every scan). An
@@ -61,11 +60,13 @@ from umbmark.correct.selfcal import SelfcalResult, selfcal
 from umbmark.correct.selfcal.estimate import BLOCK_S, MAX_BLOCKS
 from umbmark.errors import InputError
 from umbmark.io.rosbag import SelfcalBag, StaticTransform
+from umbmark.io.wheels import WheelSource
 from umbmark.model import se2
 from umbmark.model.drive import integrate_wheels
+from umbmark.model.geometry import WheelGeometry
 from umbmark.model.intervals import Intervals, IntervalSteps
 from umbmark.realrobot.scanmatch import ICPConfig, match_scan_pairs
-from umbmark.realrobot.wheels import _positive, recording_wheel_angles, wheel_angles_from_odometry
+from umbmark.realrobot.wheels import _positive, recording_wheel_angles
 
 __all__ = [
     "selfcal_history_fields",
@@ -82,7 +83,6 @@ __all__ = [
     "parse_scan_delay",
     "matched_motion",
     "SelfcalReport",
-    "wheel_angles_from_odometry",
     "sensor_pose_from_tf",
     "plan_intervals",
     "match_intervals",
@@ -90,6 +90,7 @@ __all__ = [
     "interval_blocks",
     "selfcal_report",
     "selfcal_from_bags",
+    "StageProgress",
     "selfcal_from_intervals",
     "BASE_FRAMES",
     "STILL_M",
@@ -534,12 +535,12 @@ def plan_intervals(
         raise InputError(f"`keyframes` must be a KeyframeRule, got {type(rule).__name__}")
     src = bag.source
     r_nom = 0.5 * d_nom
-    left, right, unwrapped = recording_wheel_angles(bag, r_nom, b_nom)
+    left, right = recording_wheel_angles(bag, WheelGeometry(d_nom, d_nom, b_nom))
     wt = np.asarray(bag.wheel_t_s, dtype=float)
     if not (isinstance(scan_delay_s, (int, float, np.floating)) and math.isfinite(scan_delay_s)):
         raise InputError(f"`scan_delay_s` must be a finite number of seconds, got {scan_delay_s!r}")
     st = np.asarray(bag.scan_t_s, dtype=float) - float(scan_delay_s)
-    warnings: list[str] = list(bag.warnings) + unwrapped
+    warnings: list[str] = list(bag.warnings)
     # a scan within half a wheel sample of the wheel data's ends takes the end's angles
     period = float(np.median(np.diff(wt))) if len(wt) > 1 else 0.0  # of the wheel data
     edge = 0.5 * period
@@ -948,7 +949,7 @@ def estimate_scan_delay(
         heading = np.unwrap(np.asarray(bag.odom_pose, dtype=float)[:, 2])
     else:
         assert bag.left_rad is not None and bag.right_rad is not None
-        left, right, _ = recording_wheel_angles(bag, 0.5 * wheel_diameter_m, wheelbase_m)
+        left, right = recording_wheel_angles(bag, WheelGeometry(wheel_diameter_m, wheel_diameter_m, wheelbase_m))
         heading = 0.5 * wheel_diameter_m * (right - left) / wheelbase_m
     wt = np.asarray(bag.wheel_t_s, dtype=float)
     st = np.asarray(bag.scan_t_s, dtype=float)
@@ -1494,11 +1495,24 @@ def selfcal_report(
     return SelfcalReport(res, tuple(kept), pooled, tuple(len(iv.dt_s) for iv in ivs))
 
 
+StageProgress = Callable[[str, int, int], None]
+"""``progress(stage, done, total)``: a stage of a pipeline (``reading NAME``, ``matching scans of
+NAME``, ``self-calibrating``) moved to ``done`` of ``total`` steps (``total`` 0: a stage without
+steps has started)."""
+
+
+def _stage(progress: StageProgress | None, stage: str) -> Progress | None:
+    return None if progress is None else (lambda done, total: progress(stage, done, total))
+
+
 def selfcal_from_bags(
     paths: str | Path | Sequence[str | Path],
     wheel_diameter_m: float,
     wheelbase_m: float,
     *,
+    wheels: WheelSource,
+    scan_topic: str = "/scan",
+    scan_frame: str | None = None,
     keyframes: KeyframeRule | None = None,
     sensor_pose: ArrayLike | None = None,
     base_frame: str | None = None,
@@ -1507,9 +1521,11 @@ def selfcal_from_bags(
     min_intervals: int = 10,
     scan_delay: float | str | None = "auto",
     selfcal_options: dict[str, Any] | None = None,
-    **read_options: Any,
+    progress: StageProgress | None = None,
 ) -> SelfcalReport:
-    """Self-calibrate from one or several bags (their intervals pooled).
+    """Self-calibrate from one or several bags (their intervals pooled): for each bag, read it
+    (:func:`umbmark.io.rosbag.read_selfcal_bag`) and make its intervals (:func:`bag_intervals`),
+    then estimate from all of them (:func:`selfcal_report`).
 
     Parameters
     ----------
@@ -1517,15 +1533,18 @@ def selfcal_from_bags(
         The bags.
     wheel_diameter_m, wheelbase_m : float
         Nominal geometry [m].
+    wheels : WheelSource
+        The bags' wheel data (:mod:`umbmark.io.wheels`).
+    scan_topic, scan_frame
+        As :func:`umbmark.io.rosbag.read_selfcal_bag`.
     keyframes, sensor_pose, base_frame, max_wheel_gap_s
         As :func:`plan_intervals`.
     icp, min_intervals, scan_delay
         As :func:`bag_intervals` (the delay estimated per bag by default).
     selfcal_options : dict, optional
         Keyword arguments of :func:`umbmark.correct.selfcal.selfcal`.
-    **read_options
-        Keyword arguments of :func:`umbmark.io.rosbag.read_selfcal_bag` (``scan_topic``,
-        ``joints``, ``ticks_topic``, ``odom_topic`` ...).
+    progress : callable, optional
+        Told each stage's progress (:data:`StageProgress`).
 
     Returns
     -------
@@ -1534,7 +1553,7 @@ def selfcal_from_bags(
     Raises
     ------
     InputError
-        As the reader and the steps.
+        One recording given twice; as the reader and the steps.
     """
     from umbmark.io.rosbag import read_selfcal_bag
 
@@ -1542,7 +1561,10 @@ def selfcal_from_bags(
     check_distinct_inputs([p for p in items if Path(p).exists()])
     parts = []
     for p in items:
-        bag = read_selfcal_bag(p, **read_options)
+        name = Path(p).name
+        bag = read_selfcal_bag(
+            p, wheels=wheels, scan_topic=scan_topic, scan_frame=scan_frame, progress=_stage(progress, f"reading {name}")
+        )
         parts.append(
             bag_intervals(
                 bag,
@@ -1555,8 +1577,11 @@ def selfcal_from_bags(
                 icp=icp,
                 min_intervals=min_intervals,
                 scan_delay=scan_delay,
+                progress=_stage(progress, f"matching scans of {name}"),
             )
         )
+    if progress is not None:
+        progress("self-calibrating", 0, 0)
     return selfcal_report(parts, wheel_diameter_m, wheelbase_m, **(selfcal_options or {}))
 
 

@@ -30,6 +30,7 @@ from umbmark.correct.selfcal.model import residuals
 from umbmark.jsonutil import decode_array, encode_array
 from umbmark.model import se2
 from umbmark.model.drive import integrate_wheels
+from umbmark.model.geometry import WheelGeometry
 from umbmark.model.intervals import Intervals
 from umbmark.realrobot.wheels import scan_wheel_angles
 
@@ -102,7 +103,8 @@ def scan_map(
     if keys.size > max_scans:
         keys = keys[np.linspace(0, keys.size - 1, max_scans).round().astype(np.intp)]
     r_nom = 0.5 * result.nominal_wheel_diameter_m
-    sl, sr = scan_wheel_angles(bag, result.nominal_wheel_diameter_m, result.nominal_wheelbase_m, plan.scan_delay_s)
+    d_nom = result.nominal_wheel_diameter_m
+    sl, sr = scan_wheel_angles(bag, WheelGeometry(d_nom, d_nom, result.nominal_wheelbase_m), plan.scan_delay_s)
     first, last = int(keys[0]), int(keys[-1])
     dl, dr = np.diff(sl[first : last + 1]), np.diff(sr[first : last + 1])
     nominal = integrate_wheels(r_nom * dl, r_nom * dr, result.nominal_wheelbase_m)[keys - first]

@@ -17,9 +17,9 @@ The procedure:
    interpolated linearly (heading unwrapped) at ``scan stamp - scan delay``
    (:func:`recorded_odometry_at_scans`) and each increment between consecutive scans is turned
    into wheel travel through the NOMINAL geometry, as an exact arc
-   (:func:`umbmark.realrobot.wheels.wheel_angles_from_odometry`: the chord gives the arc
-   length from the heading change; left and right travel ``ds -/+ dth b / 2``, over the
-   nominal radius). With joint states or encoder counts the wheel angles are interpolated at
+   (:func:`umbmark.model.dataset.wheel_angles_from_poses`: the arc length from the chord and
+   the heading change; left and right travel ``ds -/+ dth b / 2``, over the nominal radius).
+   With joint states or encoder counts the wheel angles are interpolated at
    ``scan stamp - scan delay`` directly. The wheel angles are integrated again as exact arcs
    (:func:`odometry_from_wheels`): *before* with the nominal geometry, *after* with the
    calibration's diameters and wheelbase. The delay is the calibration's (a
@@ -73,11 +73,13 @@ from umbmark.io._text import read_text
 from umbmark.io.relations import Relations, read_relations
 from umbmark.io.rosbag import SelfcalBag
 from umbmark.io.tum import Trajectory, read_tum
+from umbmark.io.wheels import WheelSource
 from umbmark.model import se2
+from umbmark.model.dataset import wheel_angles_from_poses
 from umbmark.model.drive import integrate_wheels
 from umbmark.model.geometry import WheelGeometry
 from umbmark.realrobot.selfcal import _nominal_sensor_pose
-from umbmark.realrobot.wheels import recording_wheel_angles, wheel_angles_from_odometry
+from umbmark.realrobot.wheels import scan_wheel_angles
 
 __all__ = [
     "SHORT_MAX_S",
@@ -426,14 +428,13 @@ def wheel_angles_at_scans(
     bag: SelfcalBag,
     nominal: WheelGeometry,
     scan_delay_s: float = 0.0,
-) -> tuple[FloatArray, FloatArray, list[str]]:
+) -> tuple[FloatArray, FloatArray]:
     """Cumulative wheel angles at ``scan stamp - scan_delay_s`` (step 1 of the module docstring).
 
     From ``nav_msgs/Odometry``: the recorded poses interpolated at the scans
     (:func:`recorded_odometry_at_scans`), each increment turned into wheel travel through the
     nominal geometry (exact arcs) and over each nominal radius. From joints or encoders: the
-    recorded angles (joint positions wrapped to one turn unwrapped, as the self-calibration
-    does) interpolated at the scans.
+    recorded angles interpolated at the scans.
 
     Parameters
     ----------
@@ -446,21 +447,12 @@ def wheel_angles_at_scans(
 
     Returns
     -------
-    tuple
-        ``(left_rad, right_rad, warnings)``: ``(M,)`` angles for the ``M`` scans, and what was
-        noticed (joint positions unwrapped).
+    tuple of numpy.ndarray
+        ``(left_rad, right_rad)``: ``(M,)`` angles for the ``M`` scans.
     """
-    r_left, r_right = 0.5 * nominal.diameter_left_m, 0.5 * nominal.diameter_right_m
     if bag.wheel_kind == "odom":
-        # the travel [m] of each wheel: wheel angles over a unit radius
-        left_m, right_m = wheel_angles_from_odometry(
-            recorded_odometry_at_scans(bag, scan_delay_s), 1.0, nominal.wheelbase_m
-        )
-        return left_m / r_left, right_m / r_right, []
-    left, right, warnings = recording_wheel_angles(bag, r_left, nominal.wheelbase_m)
-    wt = np.asarray(bag.wheel_t_s, dtype=float)
-    st = np.asarray(bag.scan_t_s, dtype=float) - float(scan_delay_s)
-    return np.interp(st, wt, left), np.interp(st, wt, right), warnings
+        return wheel_angles_from_poses(recorded_odometry_at_scans(bag, scan_delay_s), nominal)
+    return scan_wheel_angles(bag, nominal, scan_delay_s)
 
 
 def magnitude_scale(predicted: ArrayLike, reference: ArrayLike) -> float:
@@ -1567,8 +1559,7 @@ def validate(
             src,
         )
     # the odometries (step 1)
-    left, right, w = wheel_angles_at_scans(bag, calibration.nominal, delay)
-    warnings += w
+    left, right = wheel_angles_at_scans(bag, calibration.nominal, delay)
     nom, cal = calibration.nominal, calibration.calibrated
     before_odo = odometry_from_wheels(
         left, right, 0.5 * nom.diameter_left_m, 0.5 * nom.diameter_right_m, nom.wheelbase_m
@@ -1667,7 +1658,8 @@ def validate_log(
     base_frame: str | None = None,
     tolerance_s: float = STAMP_TOLERANCE_S,
     progress: Progress | None = None,
-    **read_options: Any,
+    wheels: WheelSource,
+    scan_topic: str = "/scan",
 ) -> Validation:
     """Read a log, a calibration and a reference, and :func:`validate`.
 
@@ -1688,9 +1680,10 @@ def validate_log(
         As :func:`validate`.
     progress : callable, optional
         Called with the name of each stage as it starts.
-    **read_options
-        Keyword arguments of :func:`umbmark.io.rosbag.read_selfcal_bag` (``scan_topic``,
-        ``joints``, ``ticks_topic``, ``odom_topic`` ...: :func:`umbmark.io.load.wheel_source`).
+    wheels : WheelSource
+        The log's wheel data (:mod:`umbmark.io.wheels`).
+    scan_topic : str
+        The ``sensor_msgs/LaserScan`` topic.
 
     Returns
     -------
@@ -1715,7 +1708,7 @@ def validate_log(
     say("read log")
     from umbmark.io.rosbag import read_selfcal_bag
 
-    bag = read_selfcal_bag(bag_path, **read_options)
+    bag = read_selfcal_bag(bag_path, wheels=wheels, scan_topic=scan_topic)
     say("validate")
     return validate(
         bag,

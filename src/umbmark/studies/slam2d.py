@@ -10,8 +10,8 @@ the **other** half:
 * ``recorded``: the robot's own odometry as recorded (poses interpolated to the scan stamps);
 * ``nominal``: the odometry recomputed from the wheel travel with the nominal geometry. The wheel
   travel comes from the odometry's increments through the nominal geometry
-  (:func:`umbmark.realrobot.wheels.wheel_angles_from_odometry`, interpolated to the scans as
-  the pipeline does), so this reproduces the recorded odometry wherever its increments are
+  (:func:`umbmark.realrobot.wheels.scan_wheel_angles`, interpolated to the scans as the pipeline
+  does), so this reproduces the recorded odometry wherever its increments are
   arcs; it is the "before" of the comparison;
 * ``calibrated``: the odometry recomputed from the same wheel travel with the estimated wheel
   radii and wheelbase (the "after").
@@ -63,7 +63,9 @@ from numpy.typing import NDArray
 from umbmark.errors import InputError
 from umbmark.io.relations import read_relations
 from umbmark.io.rosbag import SelfcalBag, read_selfcal_bag
+from umbmark.io.wheels import WheelSource
 from umbmark.model import se2
+from umbmark.model.geometry import WheelGeometry
 from umbmark.realrobot.scanmatch import ICPConfig, match_scan_pairs
 from umbmark.realrobot.selfcal import (
     KeyframeRule,
@@ -72,7 +74,6 @@ from umbmark.realrobot.selfcal import (
     bag_intervals,
     selfcal_report,
     sensor_pose_from_tf,
-    wheel_angles_from_odometry,
 )
 from umbmark.realrobot.validate import (
     SHORT_MAX_S,
@@ -83,11 +84,11 @@ from umbmark.realrobot.validate import (
     recorded_odometry_at_scans,
     relation_errors,
 )
+from umbmark.realrobot.wheels import scan_wheel_angles
 
 __all__ = [
     "SHORT_MAX_S",
     "relation_errors",
-    "wheel_angles_at_scans",
     "odometry_from_wheels",
     "recorded_odometry_at_scans",
     "in_sensor_frame",
@@ -104,38 +105,6 @@ __all__ = [
 FloatArray = NDArray[np.float64]
 Pose = tuple[float, float, float]
 Progress = Callable[[str], None]
-
-
-def wheel_angles_at_scans(
-    bag: SelfcalBag, wheel_diameter_m: float, wheelbase_m: float
-) -> tuple[FloatArray, FloatArray]:
-    """Cumulative wheel angles at the scan stamps, as the self-calibration pipeline makes them.
-
-    From ``nav_msgs/Odometry``: :func:`umbmark.realrobot.wheels.wheel_angles_from_odometry`
-    through the nominal geometry; from joints or encoders: the recorded angles. Then linear
-    interpolation to the scans' stamps.
-
-    Parameters
-    ----------
-    bag : SelfcalBag
-        The recording.
-    wheel_diameter_m, wheelbase_m : float
-        The nominal geometry [m].
-
-    Returns
-    -------
-    tuple of numpy.ndarray
-        ``(left_rad, right_rad)``, each ``(M,)`` for the ``M`` scans.
-    """
-    if bag.wheel_kind == "odom":
-        assert bag.odom_pose is not None
-        left, right = wheel_angles_from_odometry(bag.odom_pose, 0.5 * wheel_diameter_m, wheelbase_m)
-    else:
-        assert bag.left_rad is not None and bag.right_rad is not None
-        left, right = np.asarray(bag.left_rad, dtype=float), np.asarray(bag.right_rad, dtype=float)
-    wt = np.asarray(bag.wheel_t_s, dtype=float)
-    st = np.asarray(bag.scan_t_s, dtype=float)
-    return np.interp(st, wt, left), np.interp(st, wt, right)
 
 
 @dataclass(frozen=True)
@@ -690,7 +659,7 @@ def study_log(
     timings: dict[str, float] = {}
     say("read bag")
     t0 = time.perf_counter()
-    full_bag = read_selfcal_bag(bag_path, scan_topic=scan_topic, odom_topic=odom_topic)
+    full_bag = read_selfcal_bag(bag_path, scan_topic=scan_topic, wheels=WheelSource(odom_topic=odom_topic))
     timings["read_bag"] = time.perf_counter() - t0
     say("read relations")
     t0 = time.perf_counter()
@@ -758,7 +727,7 @@ def study_log(
     def odometries(d_s: float) -> dict[str, FloatArray]:
         if d_s not in cache:
             b = _delayed(bag, d_s)
-            left, right = wheel_angles_at_scans(b, wheel_diameter_m, wheelbase_m)
+            left, right = scan_wheel_angles(b, WheelGeometry(wheel_diameter_m, wheel_diameter_m, wheelbase_m))
             odo = {
                 "recorded": recorded_odometry_at_scans(b),
                 "nominal": odometry_from_wheels(left, right, r_nom, r_nom, wheelbase_m),

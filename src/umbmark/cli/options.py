@@ -1,0 +1,106 @@
+"""Flag values into the library's configuration types (SI units): the wheel data of a bag
+(:class:`umbmark.io.wheels.WheelSource`), the options of a log (:class:`umbmark.io.load.LogOptions`)
+and the nominal geometry given in millimetres or in ROS's metres.
+
+Only the command line knows flags; the library takes these types.
+"""
+
+from __future__ import annotations
+
+import math
+
+from umbmark.errors import InputError
+
+__all__ = ["wheel_source", "read_options", "length_m", "parse_joints"]
+
+
+def parse_joints(text: str) -> tuple[str, str]:
+    """``"left_wheel,right_wheel"`` -> ``("left_wheel", "right_wheel")``.
+
+    Raises
+    ------
+    InputError
+        Not two non-empty names.
+    """
+    parts = [j.strip() for j in text.split(",")]
+    if len(parts) != 2 or not all(parts):
+        raise InputError(f"--joints needs two names LEFT,RIGHT, got {text!r}")
+    return parts[0], parts[1]
+
+
+def wheel_source(kw: dict):
+    """The :class:`~umbmark.io.wheels.WheelSource` of the bag flags (``--joints``, ``--joint-topic``,
+    ``--ticks-topic``, ``--left-field``, ``--right-field``, ``--ticks``,
+    ``--pulses-per-wheel-rev``, ``--odom-topic``), the readers' defaults where not given."""
+    from umbmark.io.wheels import WheelSource
+
+    joints = kw.get("joints")
+    return WheelSource(
+        joints=parse_joints(joints) if isinstance(joints, str) else joints,
+        joint_topic=kw.get("joint_topic") or "/joint_states",
+        ticks_topic=kw.get("ticks_topic"),
+        left_field=kw.get("left_field"),
+        right_field=kw.get("right_field"),
+        ticks=kw.get("ticks") or "cumulative",
+        pulses_per_wheel_rev=kw.get("pulses_per_wheel_rev"),
+        odom_topic=kw.get("odom_topic"),
+    )
+
+
+def _positive(flag: str, v) -> None:
+    if v is not None and not (math.isfinite(v) and v > 0):
+        raise InputError(f"{flag} must be a positive number, got {v!r}")
+
+
+def length_m(kw: dict, mm_key: str, m_key: str, m_factor: float = 1.0) -> float | None:
+    """A length given in millimetres (``mm_key``) or in ROS's metres (``m_key``, times
+    ``m_factor``: 2 for a radius given for a diameter) [m]; both given, they must agree.
+
+    Raises
+    ------
+    InputError
+        A value that is not a positive number; the two forms disagree.
+    """
+    mm, m = kw.get(mm_key), kw.get(m_key)
+    _positive("--" + mm_key.replace("_", "-"), mm)
+    _positive("--" + m_key.replace("_", "-"), m)
+    if m is None:
+        return None if mm is None else mm * 1e-3
+    if mm is not None and not math.isclose(mm * 1e-3, m * m_factor, rel_tol=1e-6):
+        raise InputError(
+            f"--{mm_key.replace('_', '-')} {mm:g} and --{m_key.replace('_', '-')} {m:g} disagree "
+            f"({m * m_factor * 1e3:g} mm): give one of them"
+        )
+    return m * m_factor
+
+
+def read_options(kw: dict):
+    """The :class:`~umbmark.io.load.LogOptions` of the log flags of ``replay`` and ``convert``.
+
+    Raises
+    ------
+    InputError
+        A number that is not positive, the mm and metre forms of one length disagree, a bad
+        ``--ranges`` or ``--joints``.
+    """
+    from umbmark.io.load import LogOptions, TruthSource, parse_ranges
+
+    for k in ("side_mm", "left_diameter_mm", "right_diameter_mm", "pulses_per_wheel_rev", "stop_s"):
+        _positive("--" + k.replace("_", "-"), kw.get(k))
+    d = length_m(kw, "wheel_diameter_mm", "wheel_radius_m", 2.0)
+    mm = lambda k: None if kw.get(k) is None else kw[k] * 1e-3  # noqa: E731
+    ranges = kw.get("ranges")
+    return LogOptions(
+        diameter_left_m=mm("left_diameter_mm") or d,
+        diameter_right_m=mm("right_diameter_mm") or d,
+        wheelbase_m=length_m(kw, "wheelbase_mm", "wheel_separation_m"),
+        pulses_per_wheel_rev=kw.get("pulses_per_wheel_rev"),
+        ticks=kw.get("ticks") or "cumulative",
+        wheels=wheel_source(kw),
+        truth=TruthSource(kw.get("gt_topic"), kw.get("gt_frame"), kw.get("gt_parent")),
+        side_m=mm("side_mm"),
+        ranges_s=None if ranges is None else tuple(parse_ranges(ranges) if isinstance(ranges, str) else ranges),
+        split_stops=bool(kw.get("split_stops")),
+        stop_s=kw.get("stop_s") or 1.0,
+        time_offset=kw.get("time_offset"),
+    )
