@@ -117,7 +117,8 @@ def test_one_check_of_the_wheel_source_for_every_reader(tmp_path, source, messag
 
 def test_the_source_in_words():
     assert SOURCES["joints"].description == f"JointState {JOINT_NAMES[0]}, {JOINT_NAMES[1]} on /joint_states"
-    assert SOURCES["ticks"].description == "encoder counts vector.x, vector.y on /wheel_ticks (cumulative, 4096 per rev)"
+    ticks = "encoder counts vector.x, vector.y on /wheel_ticks (cumulative, 4096 per rev)"
+    assert SOURCES["ticks"].description == ticks
     assert SOURCES["odom"].description == "nav_msgs/Odometry on /odom"
     assert [s.kind for s in SOURCES.values()] == ["joints", "ticks", "odom"]
     assert SOURCES["ticks"].units_per_rev == PPR and SOURCES["odom"].units_per_rev == pytest.approx(2 * math.pi)
