@@ -67,9 +67,9 @@ MAD = 1.482602218505602
 
 def noise(bag) -> dict:
     """Matched consecutive scans against the nominal odometry: robust sd at rest and moving."""
-    from umbmark.realrobot.selfcal import KeyframeRule, match_intervals, plan_intervals
+    from umbmark.realrobot.selfcal import IntervalOptions, KeyframeRule, match_intervals, plan_intervals
 
-    plan = plan_intervals(bag, D_NOM, B_NOM, keyframes=KeyframeRule(), scan_delay_s=0.0)
+    plan = plan_intervals(bag, D_NOM, B_NOM, IntervalOptions(keyframes=KeyframeRule()), scan_delay_s=0.0)
     si = match_intervals(plan, min_intervals=1)
     ok = si.matched
     diff = si.poses[ok] - plan.initial[ok]
@@ -124,12 +124,12 @@ def halves(bag):
 
 
 def keyframes(parts) -> list[dict]:
-    from umbmark.realrobot.selfcal import KeyframeRule, bag_intervals, selfcal_report
+    from umbmark.realrobot.selfcal import IntervalOptions, KeyframeRule, bag_intervals, selfcal_report
 
     rows = []
     for label, part in zip(("first half", "second half"), parts):
         for rule_name, rule in (("every scan", KeyframeRule()), ("the default keyframes", None)):
-            si = bag_intervals(part, D_NOM, B_NOM, keyframes=rule)
+            si = bag_intervals(part, D_NOM, B_NOM, IntervalOptions(keyframes=rule))
             r = selfcal_report([si], D_NOM, B_NOM).result
             rows.append(
                 {

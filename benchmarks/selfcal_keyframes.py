@@ -64,7 +64,7 @@ def one_drive(seed: int) -> list[dict]:
     from umbmark.model.drive import SimRobot, mixed_program, simulate_drive
     from umbmark.model.geometry import LABMATE, ErrorParams
     from umbmark.model.sensors import Lidar, SensorPose
-    from umbmark.realrobot.selfcal import bag_intervals, selfcal_report
+    from umbmark.realrobot.selfcal import IntervalOptions, bag_intervals, selfcal_report
 
     robot = SimRobot(
         nominal=LABMATE,
@@ -88,7 +88,7 @@ def one_drive(seed: int) -> list[dict]:
             bag = read_selfcal_bag(path, wheels=WheelSource(joints=JOINT_NAMES))
             for name, (rule, modelled) in rules().items():
                 t0 = time.perf_counter()
-                si = bag_intervals(bag, d_nom, b_nom, keyframes=rule)
+                si = bag_intervals(bag, d_nom, b_nom, IntervalOptions(keyframes=rule))
                 res = selfcal_report([si], d_nom, b_nom, time_jitter=modelled).result
                 row = {"drive": seed, "jitter_s": jitter, "rule": name, "seconds": time.perf_counter() - t0}
                 row["wheel_jitter_s"] = res.wheel_jitter_s if modelled else None

@@ -252,13 +252,13 @@ def keyframe_runs(data: Path, nominal: tuple[float, float]) -> dict:
     """Full-log calibrations with keyframes every 300 mm or 10 deg or 3 s (stamps as recorded)."""
     from umbmark.io.rosbag import read_selfcal_bag
     from umbmark.io.wheels import WheelSource
-    from umbmark.realrobot.selfcal import KeyframeRule, bag_intervals, selfcal_report
+    from umbmark.realrobot.selfcal import IntervalOptions, KeyframeRule, bag_intervals, selfcal_report
 
     rule = KeyframeRule(min_distance_m=0.3, min_rotation_rad=math.radians(10.0), max_interval_s=3.0)
     out = {"rule": rule.describe()}
     for name in LOGS:
         bag = read_selfcal_bag(data / f"{name}.bag", scan_topic="/scan", wheels=WheelSource(odom_topic="/odom"))
-        d = selfcal_report([bag_intervals(bag, *nominal, keyframes=rule)], *nominal).to_dict()
+        d = selfcal_report([bag_intervals(bag, *nominal, IntervalOptions(keyframes=rule))], *nominal).to_dict()
         out[name] = {k: d[k] for k in ("c_left", "c_right", "Ed", "Ed_ci95", "Eb", "Eb_ci95", "sensor_pose")}
         out[name]["pairs_matched"], out[name]["pairs_failed"] = d["pairs_matched"], d["pairs_failed"]
     return out

@@ -27,7 +27,8 @@ from umbmark.model.drive import SimRobot, integrate_wheels, mixed_program, simul
 from umbmark.model.geometry import LABMATE, ErrorParams, WheelGeometry  # noqa: E402
 from umbmark.model.intervals import sensor_motion  # noqa: E402
 from umbmark.model.sensors import Lidar, SensorPose  # noqa: E402
-from umbmark.realrobot.selfcal import (  # noqa: E402
+from umbmark.realrobot.selfcal import (
+    IntervalOptions,  # noqa: E402
     KeyframeRule,
     bag_intervals,
     plan_intervals,
@@ -125,7 +126,7 @@ def test_odometry_instead_of_joints_gives_the_same(bags, log):
 
 def test_keyframes_every_few_cm_or_degrees(bags, log):
     rule = KeyframeRule(min_distance_m=0.05, min_rotation_rad=math.radians(5.0), max_interval_s=1.0)
-    rep = selfcal_from_bags(bags["sqlite3"], D_NOM, B_NOM, keyframes=rule, **JOINTS)
+    rep = selfcal_from_bags(bags["sqlite3"], D_NOM, B_NOM, options=IntervalOptions(keyframes=rule), **JOINTS)
     d = rep.to_dict()
     check_truth(d, log)
     si = rep.bags[0]
@@ -157,10 +158,15 @@ def test_scans_stamped_on_arrival_late_and_with_jitter(log, tmp_path):
     ):
         assert abs(default[key] / value - 1) < 0.003, (key, default[key], value)
     assert 7.0 < default["wheel_jitter_ms"] < 13.0
-    every = selfcal_from_bags(late, D_NOM, B_NOM, keyframes=KeyframeRule(), **JOINTS).to_dict()
+    every = selfcal_from_bags(late, D_NOM, B_NOM, options=IntervalOptions(keyframes=KeyframeRule()), **JOINTS).to_dict()
     assert abs(every["wheel_diameter_left_mm"] / (true.diameter_left_m * 1e3) - 1) < 0.004
     exact = selfcal_from_bags(
-        late, D_NOM, B_NOM, keyframes=KeyframeRule(), selfcal_options={"time_jitter": False}, **JOINTS
+        late,
+        D_NOM,
+        B_NOM,
+        options=IntervalOptions(keyframes=KeyframeRule()),
+        selfcal_options={"time_jitter": False},
+        **JOINTS,
     ).to_dict()
     assert exact["wheel_diameter_left_mm"] / (true.diameter_left_m * 1e3) - 1 < -0.012
     assert exact["wheel_jitter_ms"] is None
@@ -242,7 +248,7 @@ def test_intervals_are_the_simulated_ones(exact):
     log, path = exact
     bag = read_selfcal_bag(path, **JOINTS)
     assert np.array_equal(bag.ranges_m, log.ranges_m.astype(np.float32))
-    plan = plan_intervals(bag, D_NOM, B_NOM, keyframes=KeyframeRule())
+    plan = plan_intervals(bag, D_NOM, B_NOM, IntervalOptions(keyframes=KeyframeRule()))
     dt, left, right, motion = log.scan_intervals()
     a = plan.pairs[:, 0]
     assert np.array_equal(plan.pairs[:, 1], a + 1)
@@ -253,12 +259,12 @@ def test_intervals_are_the_simulated_ones(exact):
     np.testing.assert_allclose(plan.right_rad, right[a], atol=1e-9)
     nominal = sensor_motion(left[a], right[a], D_NOM / 2, D_NOM / 2, B_NOM, log.sensor_pose.as_array())
     np.testing.assert_allclose(plan.initial, nominal, atol=1e-9)
-    si = bag_intervals(bag, D_NOM, B_NOM, keyframes=KeyframeRule(), scan_delay=0.0)
+    si = bag_intervals(bag, D_NOM, B_NOM, IntervalOptions(keyframes=KeyframeRule(), scan_delay=0.0))
     assert si.pairs_failed == 0
     np.testing.assert_allclose(si.intervals.sensor, motion[a], atol=2e-6)
     # keyframes (the default): each interval's steps are the scan-to-scan rotations inside it, and
     # the matches the true motion between its keyframes
-    kf = bag_intervals(bag, D_NOM, B_NOM, scan_delay=0.0)
+    kf = bag_intervals(bag, D_NOM, B_NOM, IntervalOptions(scan_delay=0.0))
     pairs = kf.plan.pairs[kf.matched]
     assert kf.intervals.steps is not None and np.all(np.diff(kf.intervals.steps.start) == pairs[:, 1] - pairs[:, 0])
     l_all, r_all = log.wheel_angles_at(log.scan_t_s)
@@ -384,7 +390,10 @@ def test_tilted_lidar_is_refused(exact, tmp_path):
     with pytest.raises(InputError, match="roll 180.0 deg.*level lidar"):
         plan_intervals(flipped, D_NOM, B_NOM)
     # a given pose replaces /tf_static
-    assert plan_intervals(flipped, D_NOM, B_NOM, sensor_pose=(0.1, 0.0, 0.0)).sensor_pose_source == "given"
+    assert (
+        plan_intervals(flipped, D_NOM, B_NOM, IntervalOptions(sensor_pose=(0.1, 0.0, 0.0))).sensor_pose_source
+        == "given"
+    )
 
 
 def _write_ticks_bag(path, log, pulses_per_rev, incremental=False):

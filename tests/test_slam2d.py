@@ -32,7 +32,13 @@ from umbmark.model.geometry import (  # noqa: E402
     WheelGeometry,  # noqa: E402
 )
 from umbmark.model.sensors import Lidar, SensorPose  # noqa: E402
-from umbmark.realrobot.selfcal import KeyframeRule, estimate_scan_delay, match_intervals, plan_intervals  # noqa: E402
+from umbmark.realrobot.selfcal import (  # noqa: E402
+    IntervalOptions,
+    KeyframeRule,
+    estimate_scan_delay,
+    match_intervals,
+    plan_intervals,
+)
 from umbmark.realrobot.wheels import scan_wheel_angles  # noqa: E402
 from umbmark.studies.slam2d import (  # noqa: E402
     ErrorStats,
@@ -211,7 +217,9 @@ def test_simulated_after_matches_the_truth_and_before_has_the_predicted_errors(s
 
 def test_simulated_late_scans_are_found_and_corrected(sim):
     bag = read_selfcal_bag(sim["late"][0], wheels=WheelSource(odom_topic="/odom"))
-    d = estimate_scan_delay(match_intervals(plan_intervals(bag, D_NOM, B_NOM, keyframes=KeyframeRule())), D_NOM, B_NOM)
+    d = estimate_scan_delay(
+        match_intervals(plan_intervals(bag, D_NOM, B_NOM, IntervalOptions(keyframes=KeyframeRule()))), D_NOM, B_NOM
+    )
     assert d.delay_s == pytest.approx(DELAY_S, abs=2e-3)
     assert d.correlation > 0.9999 > d.correlation_at_zero
     fixed = study_log(*sim["late"], D_NOM, B_NOM, scan_delay_s="estimate")

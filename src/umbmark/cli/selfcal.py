@@ -459,7 +459,7 @@ def _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json):
     progress bars; the matched intervals written when ``--intervals-out`` asks."""
     from umbmark.cli.options import wheel_source
     from umbmark.realrobot.scanmatch import ICPConfig
-    from umbmark.realrobot.selfcal import KeyframeRule, parse_scan_delay, selfcal_from_bags
+    from umbmark.realrobot.selfcal import IntervalOptions, KeyframeRule, parse_scan_delay, selfcal_from_bags
 
     for flag in ("keyframe_mm", "keyframe_deg", "keyframe_s", "keyframe_min_s"):
         v = kw[flag]
@@ -502,13 +502,15 @@ def _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json):
             wheels=wheels,
             scan_topic=kw["scan_topic"],
             scan_frame=kw["scan_frame"],
-            keyframes=rule,
-            sensor_pose=pose,
-            base_frame=kw["base_frame"],
-            max_wheel_gap_s=kw["max_wheel_gap_s"],
-            icp=ICPConfig(coarse=True) if kw["coarse"] else None,
-            min_intervals=min_intervals,
-            scan_delay=scan_delay,
+            options=IntervalOptions(
+                keyframes=rule,
+                sensor_pose=pose,
+                base_frame=kw["base_frame"],
+                max_wheel_gap_s=kw["max_wheel_gap_s"],
+                icp=ICPConfig(coarse=True) if kw["coarse"] else None,
+                min_intervals=min_intervals,
+                scan_delay=scan_delay,
+            ),
             selfcal_options=opts,
             progress=bars,
         )

@@ -71,6 +71,7 @@ from umbmark.realrobot.wheels import _positive, recording_wheel_angles
 __all__ = [
     "selfcal_history_fields",
     "KeyframeRule",
+    "IntervalOptions",
     "DEFAULT_KEYFRAMES",
     "DEFAULT_KEYFRAMES_M",
     "DEFAULT_KEYFRAMES_RAD",
@@ -289,6 +290,65 @@ composed (:class:`umbmark.model.intervals.IntervalSteps`), and the keyframes are
 scan matches, not on the wheel data (:func:`bag_intervals`)."""
 
 
+@dataclass(frozen=True)
+class IntervalOptions:
+    """How a recording's scans and wheel data become matched intervals (steps 1-4 of the module
+    docstring): :func:`plan_intervals`, :func:`bag_intervals`, :func:`selfcal_from_bags`.
+
+    Parameters
+    ----------
+    keyframes : KeyframeRule
+        When a scan becomes the next keyframe (default :data:`DEFAULT_KEYFRAMES`;
+        ``KeyframeRule()``: every scan).
+    sensor_pose : (float, float, float), optional
+        The nominal sensor pose ``(x_m, y_m, yaw_rad)`` the matching starts from; default the
+        ``/tf_static`` chain from the base frame to the scan frame, else zero.
+    base_frame : str, optional
+        The robot frame of ``/tf_static``; default the odometry's child frame, then
+        :data:`BASE_FRAMES`.
+    max_wheel_gap_s : float
+        A scan between two wheel samples further apart than this has no wheel data [s].
+    icp : ICPConfig, optional
+        The scan matcher's settings (default :class:`~umbmark.realrobot.scanmatch.ICPConfig`).
+    min_intervals : int
+        The fewest matched intervals (at least 3).
+    scan_delay : float or str
+        How late the scans are stamped against the wheel data: ``"auto"`` (estimated,
+        :func:`estimate_scan_delay`), ``"off"`` or a number of seconds (:func:`parse_scan_delay`).
+
+    Raises
+    ------
+    InputError
+        A keyframe rule that is not a :class:`KeyframeRule`, a gap that is not positive, fewer
+        than 3 intervals, a bad sensor pose or delay.
+    """
+
+    keyframes: KeyframeRule = DEFAULT_KEYFRAMES
+    sensor_pose: tuple[float, float, float] | None = None
+    base_frame: str | None = None
+    max_wheel_gap_s: float = 0.5
+    icp: ICPConfig | None = None
+    min_intervals: int = 10
+    scan_delay: float | str = "auto"
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.keyframes, KeyframeRule):
+            raise InputError(f"`keyframes` must be a KeyframeRule, got {type(self.keyframes).__name__}")
+        _positive("max_wheel_gap_s", self.max_wheel_gap_s)
+        if not isinstance(self.min_intervals, (int, np.integer)) or isinstance(self.min_intervals, bool):
+            raise InputError(f"`min_intervals` must be a whole number, got {self.min_intervals!r}")
+        if self.min_intervals < 3:
+            raise InputError(f"`min_intervals` must be at least 3, got {self.min_intervals}")
+        if self.icp is not None and not isinstance(self.icp, ICPConfig):
+            raise InputError(f"`icp` must be an ICPConfig, got {type(self.icp).__name__}")
+        if self.sensor_pose is not None:
+            p = np.asarray(self.sensor_pose, dtype=float).reshape(-1)
+            if p.shape != (3,) or not np.all(np.isfinite(p)):
+                raise InputError("`sensor_pose` must be three finite numbers (x_m, y_m, yaw_rad)")
+            object.__setattr__(self, "sensor_pose", (float(p[0]), float(p[1]), float(p[2])))
+        object.__setattr__(self, "scan_delay", parse_scan_delay(self.scan_delay))
+
+
 def _matrix(tr: StaticTransform) -> FloatArray:
     x, y, z, w = tr.rotation
     n = math.sqrt(x * x + y * y + z * z + w * w)
@@ -467,15 +527,20 @@ def _nominal_sensor_pose(
     return (0.0, 0.0, 0.0, 0.0, 0.0, 0.0), "none", frames[0], warnings
 
 
+def _options(options: IntervalOptions | None) -> IntervalOptions:
+    if options is None:
+        return IntervalOptions()
+    if not isinstance(options, IntervalOptions):
+        raise InputError(f"`options` must be IntervalOptions, got {type(options).__name__}")
+    return options
+
+
 def plan_intervals(
     bag: SelfcalBag,
     wheel_diameter_m: float,
     wheelbase_m: float,
+    options: IntervalOptions | None = None,
     *,
-    keyframes: KeyframeRule | None = None,
-    sensor_pose: ArrayLike | None = None,
-    base_frame: str | None = None,
-    max_wheel_gap_s: float = 0.5,
     scan_delay_s: float = 0.0,
     motion: ArrayLike | None = None,
     motion_links: ArrayLike | None = None,
@@ -491,16 +556,8 @@ def plan_intervals(
         Nominal wheel diameter [m] (the odometry's, for ``nav_msgs/Odometry`` wheel data).
     wheelbase_m : float
         Nominal wheelbase [m] (the odometry's, for ``nav_msgs/Odometry`` wheel data).
-    keyframes : KeyframeRule, optional
-        Default :data:`DEFAULT_KEYFRAMES`; ``KeyframeRule()``: every scan.
-    sensor_pose : array_like, optional
-        The nominal sensor pose ``(x_m, y_m, yaw_rad)`` the matching starts from; default the
-        ``/tf_static`` chain from the base frame to the scan frame, else zero.
-    base_frame : str, optional
-        The robot frame of ``/tf_static``; default the odometry's child frame, then
-        :data:`BASE_FRAMES`.
-    max_wheel_gap_s : float
-        A scan between two wheel samples further apart than this has no wheel data.
+    options : IntervalOptions, optional
+        Its keyframes, sensor pose, base frame and wheel gap (default :class:`IntervalOptions`).
     scan_delay_s : float
         How late the scans are stamped against the wheel data [s]: a scan stamped ``t`` takes
         the wheel angles at ``t - scan_delay_s``.
@@ -529,10 +586,8 @@ def plan_intervals(
     """
     d_nom = _positive("wheel_diameter_m", wheel_diameter_m)
     b_nom = _positive("wheelbase_m", wheelbase_m)
-    gap = _positive("max_wheel_gap_s", max_wheel_gap_s)
-    rule = DEFAULT_KEYFRAMES if keyframes is None else keyframes
-    if not isinstance(rule, KeyframeRule):
-        raise InputError(f"`keyframes` must be a KeyframeRule, got {type(rule).__name__}")
+    opts = _options(options)
+    gap, rule = opts.max_wheel_gap_s, opts.keyframes
     src = bag.source
     r_nom = 0.5 * d_nom
     left, right = recording_wheel_angles(bag, WheelGeometry(d_nom, d_nom, b_nom))
@@ -590,7 +645,7 @@ def plan_intervals(
             "record while the robot drives straights, arcs and spins",
             src,
         )
-    pose, pose_src, base, pose_warn = _nominal_sensor_pose(bag, sensor_pose, base_frame)
+    pose, pose_src, base, pose_warn = _nominal_sensor_pose(bag, opts.sensor_pose, opts.base_frame)
     warnings += pose_warn
     l0 = np.array([pose[0], pose[1], pose[5]])
     q = se2.between(odo[a[moving]], odo[b[moving]])
@@ -1019,21 +1074,15 @@ def bag_intervals(
     bag: SelfcalBag,
     wheel_diameter_m: float,
     wheelbase_m: float,
+    options: IntervalOptions | None = None,
     *,
-    keyframes: KeyframeRule | None = None,
-    sensor_pose: ArrayLike | None = None,
-    base_frame: str | None = None,
-    max_wheel_gap_s: float = 0.5,
-    icp: ICPConfig | None = None,
-    min_intervals: int = 10,
-    scan_delay: float | str | None = "auto",
     progress: Progress | None = None,
 ) -> ScanIntervals:
     """The intervals of a bag, matched: steps 1-4 of the module docstring.
 
     1. Every pair of consecutive scans is planned (:func:`plan_intervals`, the stamps as
        recorded, or the delay given) and matched (:func:`match_intervals`).
-    2. With ``scan_delay="auto"`` the scans' delay is estimated from those matches
+    2. With ``options.scan_delay`` ``"auto"`` the scans' delay is estimated from those matches
        (:func:`estimate_scan_delay`).
     3. The keyframes are chosen on the matches composed (:func:`matched_motion`), not on the
        wheel data, whose errors would choose them; each interval's wheel rotations are read at
@@ -1049,13 +1098,9 @@ def bag_intervals(
         The recording.
     wheel_diameter_m, wheelbase_m : float
         Nominal geometry [m].
-    keyframes, sensor_pose, base_frame, max_wheel_gap_s
-        As :func:`plan_intervals` (the keyframes by default :data:`DEFAULT_KEYFRAMES`).
-    icp, min_intervals
-        As :func:`match_intervals`.
-    scan_delay : float or str
-        ``"auto"`` (the default): estimated; a number: that delay [s] (0: the stamps as
-        recorded); see :func:`parse_scan_delay`.
+    options : IntervalOptions, optional
+        The keyframes, sensor pose, base frame, wheel gap, matcher, fewest intervals and the
+        scans' delay (default :class:`IntervalOptions`: the delay estimated).
     progress : callable, optional
         As :func:`match_intervals`.
 
@@ -1069,12 +1114,12 @@ def bag_intervals(
     InputError
         As the two steps and :func:`estimate_scan_delay`.
     """
-    want = parse_scan_delay(scan_delay)
-    options = dict(sensor_pose=sensor_pose, base_frame=base_frame, max_wheel_gap_s=max_wheel_gap_s)
-    rule = DEFAULT_KEYFRAMES if keyframes is None else keyframes
+    opts = _options(options)
+    want, rule, icp, min_intervals = opts.scan_delay, opts.keyframes, opts.icp, opts.min_intervals
     first = 0.0 if want == "auto" else float(want)
     # every pair of consecutive scans matched: the scans' delay and the motion the keyframes are chosen on
-    plan = plan_intervals(bag, wheel_diameter_m, wheelbase_m, keyframes=KeyframeRule(), scan_delay_s=first, **options)
+    every = replace(opts, keyframes=KeyframeRule())
+    plan = plan_intervals(bag, wheel_diameter_m, wheelbase_m, every, scan_delay_s=first)
     n0 = len(plan)
     pass1 = None if progress is None else (lambda done, total: progress(done, 2 * n0))  # noqa: E731
     si = match_intervals(plan, icp=icp, min_intervals=1 if not rule.every_scan else min_intervals, progress=pass1)
@@ -1096,12 +1141,11 @@ def bag_intervals(
         bag,
         wheel_diameter_m,
         wheelbase_m,
-        keyframes=rule,
+        opts,
         scan_delay_s=delay,
         motion=motion,
         motion_links=links,
         motion_covariance=link_cov,
-        **options,
     )
     if est is None and want == "auto":
         plan2 = replace(plan2, warnings=si.plan.warnings)
@@ -1513,13 +1557,7 @@ def selfcal_from_bags(
     wheels: WheelSource,
     scan_topic: str = "/scan",
     scan_frame: str | None = None,
-    keyframes: KeyframeRule | None = None,
-    sensor_pose: ArrayLike | None = None,
-    base_frame: str | None = None,
-    max_wheel_gap_s: float = 0.5,
-    icp: ICPConfig | None = None,
-    min_intervals: int = 10,
-    scan_delay: float | str | None = "auto",
+    options: IntervalOptions | None = None,
     selfcal_options: dict[str, Any] | None = None,
     progress: StageProgress | None = None,
 ) -> SelfcalReport:
@@ -1537,10 +1575,9 @@ def selfcal_from_bags(
         The bags' wheel data (:mod:`umbmark.io.wheels`).
     scan_topic, scan_frame
         As :func:`umbmark.io.rosbag.read_selfcal_bag`.
-    keyframes, sensor_pose, base_frame, max_wheel_gap_s
-        As :func:`plan_intervals`.
-    icp, min_intervals, scan_delay
-        As :func:`bag_intervals` (the delay estimated per bag by default).
+    options : IntervalOptions, optional
+        How each bag becomes intervals (:func:`bag_intervals`; the delay estimated per bag by
+        default).
     selfcal_options : dict, optional
         Keyword arguments of :func:`umbmark.correct.selfcal.selfcal`.
     progress : callable, optional
@@ -1565,21 +1602,8 @@ def selfcal_from_bags(
         bag = read_selfcal_bag(
             p, wheels=wheels, scan_topic=scan_topic, scan_frame=scan_frame, progress=_stage(progress, f"reading {name}")
         )
-        parts.append(
-            bag_intervals(
-                bag,
-                wheel_diameter_m,
-                wheelbase_m,
-                keyframes=keyframes,
-                sensor_pose=sensor_pose,
-                base_frame=base_frame,
-                max_wheel_gap_s=max_wheel_gap_s,
-                icp=icp,
-                min_intervals=min_intervals,
-                scan_delay=scan_delay,
-                progress=_stage(progress, f"matching scans of {name}"),
-            )
-        )
+        progress_of = _stage(progress, f"matching scans of {name}")
+        parts.append(bag_intervals(bag, wheel_diameter_m, wheelbase_m, options, progress=progress_of))
     if progress is not None:
         progress("self-calibrating", 0, 0)
     return selfcal_report(parts, wheel_diameter_m, wheelbase_m, **(selfcal_options or {}))

@@ -68,6 +68,8 @@ from umbmark.model import se2
 from umbmark.model.geometry import WheelGeometry
 from umbmark.realrobot.scanmatch import ICPConfig, match_scan_pairs
 from umbmark.realrobot.selfcal import (
+    DEFAULT_KEYFRAMES,
+    IntervalOptions,
     KeyframeRule,
     ScanDelay,
     SelfcalReport,
@@ -700,15 +702,14 @@ def study_log(
         t0 = time.perf_counter()
         part = _slice_bag(bag, mask) if not mask.all() else bag
         say(f"calibrate: {label}")
-        si = bag_intervals(
-            part,
-            wheel_diameter_m,
-            wheelbase_m,
-            keyframes=keyframes,
+        delay_given = "auto" if mode == "estimated" else (float(scan_delay_s) if mode == "given" else 0.0)
+        opts = IntervalOptions(
+            keyframes=DEFAULT_KEYFRAMES if keyframes is None else keyframes,
             base_frame=base_frame,
             icp=icp,
-            scan_delay="auto" if mode == "estimated" else (float(scan_delay_s) if mode == "given" else 0.0),
+            scan_delay=delay_given,
         )
+        si = bag_intervals(part, wheel_diameter_m, wheelbase_m, opts)
         delay, d_s = si.scan_delay, si.plan.scan_delay_s
         report = selfcal_report([si], wheel_diameter_m, wheelbase_m, **(selfcal_options or {}))
         elapsed = time.perf_counter() - t0
