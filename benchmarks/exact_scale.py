@@ -66,9 +66,10 @@ def _rel(a, b) -> float:
 
 def _differences(fast, ref) -> dict:
     d = {"Ed": _rel(fast.ed, ref.ed), "Eb": _rel(fast.eb, ref.eb)}
+    fd, rd = fast.to_dict(), ref.to_dict()
     for k in KEYS:
-        if ref.extra.get(k) is not None:
-            d[k] = _rel(fast.extra[k], ref.extra[k])
+        if rd.get(k) is not None:
+            d[k] = _rel(fd[k], rd[k])
     return d
 
 
@@ -99,7 +100,7 @@ def main(argv=None) -> int:
                     "runs": n,
                     "seconds": dt,
                     "ms_per_run": dt / n * 1e3,
-                    "global_search": r.extra["global_search"],
+                    "global_search": r.details.global_search,
                     "Ed": r.ed,
                     "Eb": r.eb,
                 }

@@ -75,9 +75,9 @@ def recovered(case: dict) -> tuple[bool, list]:
     if not case["heading"]:
         runs = dataclasses.replace(runs, theta_abs=None, theta_odo=None)
     c = correct_runs("exact", runs, case["side_m"], case["wheelbase_m"])
-    answers = [(c.ed, c.eb)] + [(a["Ed_pass"], a["Eb_pass"]) for a in c.extra["alternatives"]]
+    answers = [(c.ed, c.eb)] + list(c.details.alternatives)
     ok = any(abs(e - case["ed"]) < 1e-5 and abs(f - case["eb"]) < 1e-4 for e, f in answers)
-    if len(answers) > 1 and not any("ambiguous" in w for w in c.extra["warnings"]):
+    if len(answers) > 1 and not any("ambiguous" in w for w in c.warnings):
         ok = False
     return ok, answers
 

@@ -4,6 +4,9 @@ including those inside functions):
 * a layer imports only the layers listed for it in ``ALLOWED`` (lower ones);
 * only ``umbmark.cli`` imports click or names command-line flags;
 * no import cycle between modules;
+* the real-robot commands (replay, selfcal, validate, export, bag-info) import nothing from
+  ``umbmark.studies``, lazily or not, directly or through another module;
+* no module reads a key of a result's ``extra`` dict (results are typed);
 * the top-level ``umbmark`` package loads its public names lazily (importing it imports no layer).
 """
 
@@ -180,6 +183,62 @@ def test_no_import_cycles():
         if m not in state:
             visit(m, [])
     assert not cycles, "\n".join(cycles)
+
+
+REAL_ROBOT_COMMANDS = ("umbmark.cli.real", "umbmark.cli.selfcal", "umbmark.cli.validate")
+
+
+def _closure(start: str) -> dict[str, str]:
+    """Every umbmark module ``start`` imports, directly or not (lazy imports included), but for the
+    CLI's registry of commands (the ``umbmark.cli`` package, which imports every command's module
+    to register it: their bodies run only when their command does): module -> the module that
+    imports it first."""
+    g = _graph()
+    seen = {start: ""}
+    todo = [start]
+    while todo:
+        m = todo.pop()
+        for t in sorted(g.get(m, ())):
+            if t not in seen and t != "umbmark.cli":
+                seen[t] = m
+                todo.append(t)
+    return seen
+
+
+@pytest.mark.parametrize("command", REAL_ROBOT_COMMANDS)
+def test_the_real_robot_commands_import_nothing_from_the_studies(command):
+    reached = _closure(command)
+    studies = {m: by for m, by in reached.items() if layer_of(m) == "studies"}
+    assert not studies, f"{command} reaches {', '.join(f'{m} (from {by})' for m, by in sorted(studies.items()))}"
+
+
+def test_the_closure_sees_a_study():
+    """``calibrate`` runs the calibration loop of the studies: the reading above finds it."""
+    assert "umbmark.studies.iterate" in _closure("umbmark.cli.calibrate")
+
+
+def _extra_reads(source: str) -> list[int]:
+    """Lines reading a key of an ``extra`` attribute: ``x.extra[...]``, ``x.extra.get(...)``, ``x.extra.items()``."""
+    lines = []
+    for node in ast.walk(ast.parse(source)):
+        target = None
+        if isinstance(node, ast.Subscript):
+            target = node.value
+        elif isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute):
+            if node.func.attr in ("get", "items", "keys", "values", "pop", "setdefault"):
+                target = node.func.value
+        if isinstance(target, ast.Attribute) and target.attr == "extra":
+            lines.append(node.lineno)
+    return lines
+
+
+def test_no_module_reads_a_key_of_extra():
+    found = [f"{m}:{line}" for m, p in MODULES.items() for line in _extra_reads(p.read_text())]
+    assert not found, f"typed results, not extra keys: {found}"
+
+
+def test_the_extra_rule_sees_a_violation():
+    assert _extra_reads("a = r.extra['Ed_ci95']\nb = r.extra.get('x')\nc = r.details.intervals\n") == [1, 2]
 
 
 def test_the_contract_sees_a_violation():

@@ -129,11 +129,11 @@ def test_warns_far_beyond_small_angles():
 
     head = "direction,x_abs,y_abs,x_odo,y_odo\n"
     ok = parse_runs_csv(head + "cw,-60,-60,0,0\ncw,-50,-70,0,0\nccw,60,-60,0,0\nccw,70,-50,0,0\n")
-    assert bf_correction(umbmark(ok), 4.0, 0.34).extra["warnings"] == []
+    assert bf_correction(umbmark(ok), 4.0, 0.34).warnings == ()
     bad = parse_runs_csv(head + "cw,-60,-60,0,0\ncw,1000000,-70,0,0\nccw,60,-60,0,0\nccw,70,-50,0,0\n")
     c = bf_correction(umbmark(bad), 4.0, 0.34)
     assert math.degrees(c.alpha) < -90
-    assert len(c.extra["warnings"]) == 1 and 'try `method="exact"`' in c.extra["warnings"][0]
+    assert len(c.warnings) == 1 and 'try `method="exact"`' in c.warnings[0]
     from umbmark.cli.app import cli_message
 
-    assert "try --method exact)" in cli_message(c.extra["warnings"][0])
+    assert "try --method exact)" in cli_message(c.warnings[0])

@@ -83,9 +83,9 @@ def test_noise_free_recovery(ed, eb, side, u, n, heading, sampled):
     c = correct_runs("exact", runs, side, b)
     # the square test is blind where E_d = 1 and E_b = 0.5 exactly (the robot turns 180 deg and
     # ends where a perfect one does): then the answer must say so and list the truth
-    answers = [(c.ed, c.eb)] + [(a["Ed_pass"], a["Eb_pass"]) for a in c.extra["alternatives"]]
+    answers = [(c.ed, c.eb)] + list(c.details.alternatives)
     if len(answers) > 1:
-        assert any("ambiguous" in w for w in c.extra["warnings"])
+        assert any("ambiguous" in w for w in c.warnings)
     assert any(abs(e - ed) < 1e-5 and abs(f - eb) < 1e-4 for e, f in answers)
     if len(answers) == 1:
         assert c.calibration.wheelbase_m == pytest.approx(eb * b, rel=1e-4)
@@ -101,7 +101,7 @@ def test_recovery_with_legs_that_curve_a_full_turn():
     c = correct_runs("exact", runs, side, b)
     assert c.ed == pytest.approx(ed, abs=1e-7)
     assert c.eb == pytest.approx(eb, abs=1e-6)
-    assert c.extra["global_search"] is True
+    assert c.details.global_search is True
 
 
 def test_recovery_next_to_a_near_twin():
@@ -146,7 +146,7 @@ def test_recovery_where_the_lowest_grid_sample_of_the_true_basin_predicts_no_gai
     c = correct_runs("exact", runs, side, b)
     assert c.ed == pytest.approx(ed, abs=1e-7)
     assert c.eb == pytest.approx(eb, abs=1e-7)
-    assert c.extra["alternatives"] == [] and c.extra["fit_cost"] < 1e-15
+    assert c.details.alternatives == () and c.details.cost < 1e-15
 
 
 def test_valley_starts_reach_a_basin_the_grid_holds_no_minimum_of():
@@ -183,7 +183,7 @@ def test_recovery_where_bf_fails(ed, eb):
     c = correct_runs("exact", runs, 4.0, 0.34)
     assert c.ed == pytest.approx(ed, abs=1e-9)
     assert c.eb == pytest.approx(eb, abs=1e-8)
-    assert c.extra["warnings"] == []
+    assert c.warnings == ()
     # the corrected robot then drives a perfect square
     after = simulate_umbmark(ErrorParams(ed, eb), n_runs=1, calibration=c.calibration, motion=EXACT_ARC)
     assert np.max(np.hypot(after.eps_x, after.eps_y)) < 1e-6
@@ -197,11 +197,11 @@ def test_blind_spot_is_reported(heading):
         runs = _no_heading(runs)
     c = correct_runs("exact", runs, 4.0, 0.34)
     assert c.eb == pytest.approx(1.0, abs=1e-9)
-    assert any("ambiguous" in w for w in c.extra["warnings"])
-    assert any(abs(a["Eb_pass"] - 0.5) < 1e-6 for a in c.extra["alternatives"])
+    assert any("ambiguous" in w for w in c.warnings)
+    assert any(abs(eb_pass - 0.5) < 1e-6 for _, eb_pass in c.details.alternatives)
     # away from the exact blind spot, no false alarm
     c2 = correct_runs("exact", simulate_umbmark(ErrorParams(1.001, 0.5), n_runs=2, motion=EXACT_ARC), 4.0, 0.34)
-    assert c2.eb == pytest.approx(0.5, abs=1e-9) and c2.extra["alternatives"] == []
+    assert c2.eb == pytest.approx(0.5, abs=1e-9) and c2.details.alternatives == ()
 
 
 @pytest.mark.parametrize(
@@ -303,8 +303,8 @@ def test_intervals_contain_truth_and_are_reported():
 def test_one_run_per_direction_has_no_interval_and_says_so():
     runs = simulate_umbmark(ErrorParams(1.01, 1.1), n_runs=1, motion=EXACT_ARC)
     c = correct_runs("exact", runs, 4.0, 0.34)
-    assert c.extra["Ed_ci95"] is None
-    assert any("confidence intervals" in w for w in c.extra["warnings"])
+    assert c.intervals is None
+    assert any("confidence intervals" in w for w in c.warnings)
 
 
 def test_one_direction_only_is_an_error():
@@ -344,7 +344,7 @@ def test_wrong_units_give_a_clear_error_or_warning():
     except InputError as e:
         assert "does not close" in str(e) or "bound" in str(e) or "converge" in str(e)
     else:
-        assert c.extra["warnings"], "a fit that cannot explain the runs must say so"
+        assert c.warnings, "a fit that cannot explain the runs must say so"
 
 
 def test_bad_options():
@@ -368,11 +368,11 @@ def test_robust_loss_resists_an_outlier_run():
     robust = correct_runs("exact", bad, 4.0, 0.34, loss="cauchy")
 
     def z(c):  # distance from the clean fit, in the clean fit's standard errors
-        return math.hypot((c.ed - clean.ed) / clean.extra["Ed_se"], (c.eb - clean.eb) / clean.extra["Eb_se"])
+        return math.hypot((c.ed - clean.ed) / clean.intervals.ed_se, (c.eb - clean.eb) / clean.intervals.eb_se)
 
     assert z(plain) > 2.0  # the outlier pulls the plain fit by more than 2 standard errors
     assert z(robust) < 0.5
-    assert any("outlier" in w for w in plain.extra["warnings"])
+    assert any("outlier" in w for w in plain.warnings)
 
 
 def test_analyze_cli_exact_json(tmp_path, capsys):
@@ -397,15 +397,15 @@ def test_implausible_geometry_and_wide_intervals_warn():
     )
     # the wheelbase given in the wrong unit (10 x): the square still fits, E_d does not look right
     c = correct_runs("exact", runs, 4.0, 3.4)
-    assert any("E_d = " in w and "unusual" in w for w in c.extra["warnings"])
+    assert any("E_d = " in w and "unusual" in w for w in c.warnings)
     # runs that are pure scatter: a poorly determined calibration is said to be so
     rng = np.random.default_rng(0)
     junk = RunsTable.from_columns(runs.direction, rng.normal(0, 1, 10), rng.normal(0, 1, 10), runs.x_odo, runs.y_odo)
     c = correct_runs("exact", junk, 4.0, 0.34)
-    assert any("poorly" in w for w in c.extra["warnings"])
+    assert any("poorly" in w for w in c.warnings)
     # a good run set gives none of these
     c = correct_runs("exact", runs, 4.0, 0.34)
-    assert c.extra["warnings"] == []
+    assert c.warnings == ()
 
 
 def test_analyze_cli_exact_options(tmp_path, capsys):

@@ -33,8 +33,8 @@ def test_bad_headings_do_not_pull_the_fit(seed):
     side = exact_correction(runs, 4.0, 0.34, heading_weight_m=4.0)  # a fixed weight of one side
     auto = exact_correction(runs, 4.0, 0.34)
     pos = exact_correction(runs, 4.0, 0.34, use_heading=False)
-    assert auto.extra["heading_weight_m"] < 0.5 * 4.0
-    assert side.extra["heading_weight_m"] == 4.0
+    assert auto.details.heading_weight_m < 0.5 * 4.0
+    assert side.details.heading_weight_m == 4.0
     # the fixed weight is pulled by the biased headings; the weighed fit stays with the positions
     assert abs(side.eb - TRUE.eb) > 2.0 * abs(auto.eb - TRUE.eb)
     assert abs(auto.eb - pos.eb) < 0.2 * abs(side.eb - pos.eb)
@@ -43,14 +43,14 @@ def test_bad_headings_do_not_pull_the_fit(seed):
 def test_noise_free_headings_keep_the_default_weight():
     runs = simulate_umbmark(ErrorParams(1.02, 0.95), n_runs=3, motion=Motion(sample_period_s=None))
     c = exact_correction(runs, 4.0, 0.34)
-    assert c.extra["heading_weight_m"] == 4.0
+    assert c.details.heading_weight_m == 4.0
     assert c.ed == pytest.approx(1.02, abs=1e-9) and c.eb == pytest.approx(0.95, abs=1e-9)
 
 
 def test_no_headings_no_weight():
     runs = simulate_umbmark(TRUE, n_runs=3, noise="paper", seed=4)
     runs = RunsTable(runs.direction, runs.x_abs, runs.y_abs, runs.x_odo, runs.y_odo, None, None, runs.run)
-    assert exact_correction(runs, 4.0, 0.34).extra["heading_weight_m"] is None
+    assert exact_correction(runs, 4.0, 0.34).details.heading_weight_m is None
 
 
 @pytest.mark.parametrize("name", ["231220200029", "231220200040"])

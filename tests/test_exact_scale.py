@@ -48,15 +48,17 @@ def _assert_same(fast, ref, derived_rtol: float = 1e-7) -> None:
     assert _rel(fast.calibration.c_left, ref.calibration.c_left) < 1e-9
     assert _rel(fast.calibration.c_right, ref.calibration.c_right) < 1e-9
     assert _rel(fast.calibration.wheelbase_m, ref.calibration.wheelbase_m) < 1e-9
+    fd, rd = fast.to_dict(), ref.to_dict()
     for k in EXACT_KEYS:
-        assert (fast.extra[k] is None) == (ref.extra[k] is None), k
-        if ref.extra[k] is not None:
-            assert _rel(fast.extra[k], ref.extra[k]) < 1e-9, k
+        assert (fd[k] is None) == (rd[k] is None), k
+        if rd[k] is not None:
+            assert _rel(fd[k], rd[k]) < 1e-9, k
     for k in DERIVED_KEYS:
-        if ref.extra[k] is not None:
-            assert _rel(fast.extra[k], ref.extra[k]) < derived_rtol, k
-    assert fast.extra["warnings"] == ref.extra["warnings"]
-    assert fast.extra["alternatives"] == pytest.approx(ref.extra["alternatives"], rel=1e-9)
+        if rd[k] is not None:
+            assert _rel(fd[k], rd[k]) < derived_rtol, k
+    assert fast.warnings == ref.warnings
+    alternatives = [np.array(c.details.alternatives, dtype=float).reshape(-1, 2) for c in (fast, ref)]
+    np.testing.assert_allclose(*alternatives, rtol=1e-9)
 
 
 def test_accuracy_cells_as_the_benchmark_runs_them_agree_with_the_reference():
@@ -79,8 +81,8 @@ def test_accuracy_cells_with_many_runs_agree_with_the_reference():
         fast = exact_correction(runs, 4.0, b)
         ref = exact_correction(runs, 4.0, b, _reference=True)
         _assert_same(fast, ref)
-        assert fast.extra["global_search"] == ref.extra["global_search"]  # these cells are not on the edge
-        searched += bool(ref.extra["global_search"])
+        assert fast.details.global_search == ref.details.global_search  # these cells are not on the edge
+        searched += bool(ref.details.global_search)
     assert searched >= 10  # the cells of E_b 0.5 and 2.5 and more: the search's path is covered
 
 

@@ -28,7 +28,7 @@ def test_general_path_noise_free_is_exact():
     assert res.geometry.ed == pytest.approx(true.ed, abs=1e-9)
     assert res.geometry.wheelbase_m == pytest.approx(true.wheelbase_m, rel=1e-9)
     assert res.geometry.diameter_left_m == pytest.approx(true.diameter_left_m, rel=1e-9)
-    assert res.std["Ed"] < 1e-9
+    assert res.std.ed < 1e-9
     d = res.to_dict()
     assert d["fitted_parameters"] == "D_L, D_R, b" and d["Es"] == pytest.approx(0.99, rel=1e-9)
 
@@ -52,7 +52,7 @@ def test_tracked_point_offset_is_recovered():
     plain = fit_lsq(ds)
     assert abs(plain.geometry.wheelbase_m / true.wheelbase_m - 1) > 1e-4  # the offset biases a plain fit
     res = fit_lsq(ds, fit_offset=True)
-    assert np.allclose(res.extra["tracked_point_offset_mm"], off * 1e3, atol=1e-6)
+    assert np.allclose(res.marker_offset_m, off, atol=1e-9)
     assert res.geometry.ed == pytest.approx(true.ed, abs=1e-9)
     assert res.geometry.wheelbase_m == pytest.approx(true.wheelbase_m, rel=1e-9)
     with pytest.raises(InputError, match="sampled"):

@@ -258,7 +258,7 @@ def test_property_mislabelled_runs_are_flagged(ed, eb, seed, how):
         return
     a0, a1 = alpha_beta(umbmark(runs), 4.0), alpha_beta(umbmark(bad), 4.0)
     assert how == "x_y"
-    assert abs(a1["alpha"] - a0["alpha"]) < math.radians(0.1) and abs(a1["beta"] - a0["beta"]) < math.radians(0.1)
+    assert abs(a1.alpha - a0.alpha) < math.radians(0.1) and abs(a1.beta - a0.beta) < math.radians(0.1)
 
 
 @CHECKED

@@ -36,9 +36,9 @@ def _pass_rows(loop):
         used = "nominal" if cal is None else f"{cal.c_left:.5f}/{cal.c_right:.5f}"
         c = p.correction
         ci = "-"
-        if c is not None and c.extra.get("Eb_ci95"):
-            lo, hi = c.extra["wheelbase_corrected_mm_ci95"]
-            ci = f"[{lo:.2f}, {hi:.2f}]"
+        if c is not None and c.intervals is not None:
+            lo, hi = c.intervals.wheelbase_m
+            ci = f"[{lo * 1e3:.2f}, {hi * 1e3:.2f}]"
         rule = p.result.sem_rule
         rows.append(
             [
@@ -78,7 +78,7 @@ def _print_loop(loop, title):
     for p in loop.passes:
         c.print(f"pass {p.index}: {p.decision}")
         if p.correction is not None:
-            for w in p.correction.extra.get("warnings", []):
+            for w in p.correction.warnings:
                 c.print(f"[yellow]warning:[/yellow] pass {p.index}: {escape(cli_message(w))}")
     cal = loop.final_calibration
     if cal is not None:

@@ -216,8 +216,9 @@ def _print_report(rep) -> None:
     c.print(table("Calibration", ["", "nominal", "corrected"], cal_rows))
     if lsq is not None:
         c.print(f"scale: {lsq.scale_reason}")
-        if lsq.extra.get("tracked_point_offset_mm"):
-            o, e = lsq.extra["tracked_point_offset_mm"], lsq.extra["tracked_point_offset_std_mm"]
+        if lsq.marker_offset_m is not None and lsq.marker_offset_std_m is not None:
+            o = [v * 1e3 for v in lsq.marker_offset_m]
+            e = [v * 1e3 for v in lsq.marker_offset_std_m]
             c.print(
                 f"tracked point offset from the axle midpoint: x {o[0]:.1f} +- {e[0]:.1f} mm, "
                 f"y {o[1]:.1f} +- {e[1]:.1f} mm (robot frame)"

@@ -63,7 +63,7 @@ class Analysis:
         d.update(self.correction.to_dict())
         d["side_mm"] = self.side_m * 1e3
         d["wheelbase_mm"] = self.wheelbase_m * 1e3
-        warnings = [*self.checks, *self.result.warnings, *self.correction.extra.get("warnings", [])]
+        warnings = [*self.checks, *self.result.warnings, *self.correction.warnings]
         d["warnings"] = list(dict.fromkeys(warnings))
         return d
 

@@ -16,11 +16,12 @@ alpha > 0: the robot turns less than commanded; beta > 0: the legs curve to the 
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 from typing import Any
 
 from umbmark.correct.plausibility import check_units
 from umbmark.correct.registry import register
-from umbmark.correct.result import CorrectionResult, compose
+from umbmark.correct.result import CorrectionResult, LinearEstimates, compose
 from umbmark.errors import CorrectionUndefined, InputError
 from umbmark.metrics import UMBmarkResult, umbmark
 from umbmark.model.geometry import Calibration
@@ -39,7 +40,7 @@ def _check_geometry(side_m: float, wheelbase_m: float) -> None:
     check_units(side_m, wheelbase_m)
 
 
-def alpha_beta(result: UMBmarkResult, side_m: float) -> dict[str, float]:
+def alpha_beta(result: UMBmarkResult, side_m: float) -> LinearEstimates:
     """alpha and beta from the centres of gravity (Eqs. 4.20, 4.24).
 
     Parameters
@@ -51,9 +52,9 @@ def alpha_beta(result: UMBmarkResult, side_m: float) -> dict[str, float]:
 
     Returns
     -------
-    dict
+    LinearEstimates
         ``alpha_x``, ``alpha_y``, ``beta_x``, ``beta_y`` (from x and from y) and their averages
-        ``alpha``, ``beta`` [rad].
+        ``alpha``, ``beta`` [rad]; no E_d, E_b yet.
     """
     cw, ccw = result.cw, result.ccw
     k = -4.0 * side_m
@@ -61,14 +62,7 @@ def alpha_beta(result: UMBmarkResult, side_m: float) -> dict[str, float]:
     alpha_x = (cw.x_cg + ccw.x_cg) / k
     beta_y = (cw.y_cg + ccw.y_cg) / k
     alpha_y = (cw.y_cg - ccw.y_cg) / k
-    return {
-        "alpha_x": alpha_x,
-        "alpha_y": alpha_y,
-        "alpha": 0.5 * (alpha_x + alpha_y),
-        "beta_x": beta_x,
-        "beta_y": beta_y,
-        "beta": 0.5 * (beta_x + beta_y),
-    }
+    return LinearEstimates(alpha_x, alpha_y, beta_x, beta_y)
 
 
 def ed_from_beta(beta: float, side_m: float, wheelbase_m: float) -> tuple[float, float]:
@@ -148,7 +142,8 @@ def bf_correction(
     Returns
     -------
     CorrectionResult
-        Method ``bf``; ``extra`` holds the x- and y-based estimates and warnings.
+        Method ``bf``; its ``details`` (:class:`~umbmark.correct.result.LinearEstimates`) hold
+        the x- and y-based estimates.
 
     Raises
     ------
@@ -159,36 +154,32 @@ def bf_correction(
     """
     _check_geometry(side_m, wheelbase_m)
     ab = alpha_beta(result, side_m)
-    ed_pass, radius = ed_from_beta(ab["beta"], side_m, wheelbase_m)
-    eb = eb_from_alpha(ab["alpha"])
+    ed_pass, radius = ed_from_beta(ab.beta, side_m, wheelbase_m)
+    eb = eb_from_alpha(ab.alpha)
     ed_total, cal = compose(ed_pass, eb, wheelbase_m, prior)
-    deg = math.degrees
-    extra: dict[str, Any] = {
-        "alpha_x_deg": deg(ab["alpha_x"]),
-        "alpha_y_deg": deg(ab["alpha_y"]),
-        "beta_x_deg": deg(ab["beta_x"]),
-        "beta_y_deg": deg(ab["beta_y"]),
-    }
-    for axis in ("x", "y"):  # the paper's footnote 2: both estimates, for comparison
+    def ed_of(beta_: float) -> float | None:
         try:
-            e, _ = ed_from_beta(ab[f"beta_{axis}"], side_m, wheelbase_m)
-            extra[f"Ed_{axis}"] = e
+            return ed_from_beta(beta_, side_m, wheelbase_m)[0]
         except CorrectionUndefined:
-            extra[f"Ed_{axis}"] = None
+            return None
+
+    def eb_of(alpha_: float) -> float | None:
         try:
-            extra[f"Eb_{axis}"] = eb_from_alpha(ab[f"alpha_{axis}"])
+            return eb_from_alpha(alpha_)
         except CorrectionUndefined:
-            extra[f"Eb_{axis}"] = None
+            return None
+
+    # the paper's footnote 2: both estimates, for comparison
+    linear = replace(ab, ed_x=ed_of(ab.beta_x), ed_y=ed_of(ab.beta_y), eb_x=eb_of(ab.alpha_x), eb_y=eb_of(ab.alpha_y))
     warns = []
-    a_deg, b_deg = deg(ab["alpha"]), deg(ab["beta"])
+    a_deg, b_deg = math.degrees(ab.alpha), math.degrees(ab.beta)
     if a_deg <= -90.0 or abs(b_deg) >= 180.0:
         warns.append(
             f"alpha = {a_deg:.1f} deg, beta = {b_deg:.1f} deg: far beyond the small angles the paper's "
             "formulas assume, so this correction means little (an outlier run, wrong units, or a very "
             'large error: try `method="exact"`)'
         )
-    extra["warnings"] = warns
-    return CorrectionResult("bf", ed_total, ed_pass, eb, cal, ab["alpha"], ab["beta"], radius, extra)
+    return CorrectionResult("bf", ed_total, ed_pass, eb, cal, ab.alpha, ab.beta, radius, tuple(warns), linear)
 
 
 @register("bf")

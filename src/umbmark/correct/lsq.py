@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -52,7 +52,7 @@ from umbmark.errors import InputError
 from umbmark.model.dataset import FAST_MIN_SAMPLES, Dataset, WheelGeometry, replay_increments
 from umbmark.model.geometry import OdometryParams, wrap_angle
 
-__all__ = ["LsqResult", "fit_lsq", "lsq_method", "LSQ_DEFAULTS"]
+__all__ = ["LsqStd", "LsqResult", "fit_lsq", "lsq_method", "LSQ_DEFAULTS"]
 
 _LOG_LIMIT = 30.0  # trial log-parameters are clipped to +-this (no overflow on a diverging fit)
 _FAR_START = 1.2  # the linear start is tried where a parameter of it is this factor from nominal
@@ -65,6 +65,35 @@ LSQ_DEFAULTS: dict[str, Any] = {
     "points_per_run": 100,
     "fit_offset": False,
 }
+
+
+@dataclass(frozen=True)
+class LsqStd:
+    """The Gauss-Newton standard deviations of a least-squares fit (SI).
+
+    Parameters
+    ----------
+    diameter_left_m, diameter_right_m, wheelbase_m : float
+        Of the fitted diameters and wheelbase [m].
+    ed, es : float
+        Of E_d and of the wheel scale E_s (0 when the scale was kept at nominal).
+    """
+
+    diameter_left_m: float
+    diameter_right_m: float
+    wheelbase_m: float
+    ed: float
+    es: float
+
+    def to_dict(self) -> dict[str, float]:
+        """``diameter_left_mm``, ``diameter_right_mm``, ``wheelbase_mm``, ``Ed``, ``Es``."""
+        return {
+            "diameter_left_mm": self.diameter_left_m * 1e3,
+            "diameter_right_mm": self.diameter_right_m * 1e3,
+            "wheelbase_mm": self.wheelbase_m * 1e3,
+            "Ed": self.ed,
+            "Es": self.es,
+        }
 
 
 @dataclass(frozen=True)
@@ -83,9 +112,8 @@ class LsqResult:
         Whether D_avg was fitted (``fit``) or kept at nominal (``fixed``).
     scale_reason : str
         Why.
-    std : dict
-        Gauss-Newton standard deviations: ``diameter_left_mm``, ``diameter_right_mm``,
-        ``wheelbase_mm``, ``Ed``, ``Es``.
+    std : LsqStd
+        Gauss-Newton standard deviations.
     n_runs, n_residuals : int
         Runs and residuals fitted.
     rms_position_m, rms_heading_rad : float
@@ -96,9 +124,13 @@ class LsqResult:
         Whether the optimiser converged.
     message : str
         The optimiser's message.
-    extra : dict
-        ``heading_weight_m``, ``points_per_run`` and, with ``fit_offset``, the tracked
-        point's offset and its standard deviation.
+    heading_weight_m : float
+        Metres of position residual worth one radian of heading residual.
+    points_per_run : int
+        Poses compared per run (1 in ``end`` mode).
+    marker_offset_m, marker_offset_std_m : (float, float) or None
+        With ``fit_offset``: where the tracked point sits in the robot frame (x forward, y
+        left of the axle's midpoint) and its standard deviations [m].
     """
 
     geometry: WheelGeometry
@@ -106,7 +138,7 @@ class LsqResult:
     mode: str
     scale_fitted: bool
     scale_reason: str
-    std: dict[str, float]
+    std: LsqStd
     n_runs: int
     n_residuals: int
     rms_position_m: float
@@ -114,7 +146,10 @@ class LsqResult:
     cost: float
     success: bool
     message: str
-    extra: dict[str, Any] = field(default_factory=dict)
+    heading_weight_m: float = 0.5
+    points_per_run: int = 1
+    marker_offset_m: tuple[float, float] | None = None
+    marker_offset_std_m: tuple[float, float] | None = None
 
     @property
     def fitted_parameters(self) -> str:
@@ -128,7 +163,9 @@ class LsqResult:
         -------
         dict
             ``method`` (``lsq``), the mode and scale decision, the geometry relative to the
-            nominal one, ``std_model``, the residual figures and the ``extra`` keys.
+            nominal one, ``std_model``, the residual figures, ``heading_weight_m``,
+            ``points_per_run`` and, with a fitted tracked point, ``tracked_point_offset_mm`` and
+            ``tracked_point_offset_std_mm``.
         """
         g, n = self.geometry, self.nominal
         return {
@@ -138,13 +175,22 @@ class LsqResult:
             "scale_reason": self.scale_reason,
             "fitted_parameters": self.fitted_parameters,
             **g.relative_to(n),
-            "std_model": dict(self.std),
+            "std_model": self.std.to_dict(),
             "n_runs": self.n_runs,
             "n_residuals": self.n_residuals,
             "rms_position_residual_mm": self.rms_position_m * 1e3,
             "rms_heading_residual_deg": math.degrees(self.rms_heading_rad),
             "converged": self.success,
-            **self.extra,
+            "heading_weight_m": self.heading_weight_m,
+            "points_per_run": self.points_per_run,
+            **(
+                {}
+                if self.marker_offset_m is None or self.marker_offset_std_m is None
+                else {
+                    "tracked_point_offset_mm": [v * 1e3 for v in self.marker_offset_m],
+                    "tracked_point_offset_std_mm": [v * 1e3 for v in self.marker_offset_std_m],
+                }
+            ),
         }
 
 
@@ -483,17 +529,11 @@ def fit_lsq(
         G[:, j] = (derived(pp) - g0) / h
     cov_g = G @ cov_p @ G.T
     sd = np.sqrt(np.clip(np.diag(cov_g), 0, None))
-    std = {
-        "diameter_left_mm": sd[0] * 1e3,
-        "diameter_right_mm": sd[1] * 1e3,
-        "wheelbase_mm": sd[2] * 1e3,
-        "Ed": sd[3],
-        "Es": sd[4] if fit_scale else 0.0,
-    }
-    extra: dict[str, Any] = {"heading_weight_m": w, "points_per_run": points_per_run if mode == "sampled" else 1}
+    std = LsqStd(float(sd[0]), float(sd[1]), float(sd[2]), float(sd[3]), float(sd[4]) if fit_scale else 0.0)
+    offset = offset_sd = None
     if fit_offset:
-        extra["tracked_point_offset_mm"] = [float(v) * 1e3 for v in sol.x[ng : ng + 2]]
-        extra["tracked_point_offset_std_mm"] = [float(math.sqrt(max(cov_p[i, i], 0.0))) * 1e3 for i in (ng, ng + 1)]
+        offset = (float(sol.x[ng]), float(sol.x[ng + 1]))
+        offset_sd = (float(math.sqrt(max(cov_p[ng, ng], 0.0))), float(math.sqrt(max(cov_p[ng + 1, ng + 1], 0.0))))
     # position / heading parts of the residuals
     pos_parts, head_parts = [], []
     for pr in problems:
@@ -516,7 +556,10 @@ def fit_lsq(
         cost=float(sol.cost),
         success=bool(sol.success),
         message=str(sol.message),
-        extra=extra,
+        heading_weight_m=w,
+        points_per_run=points_per_run if mode == "sampled" else 1,
+        marker_offset_m=offset,
+        marker_offset_std_m=offset_sd,
     )
 
 

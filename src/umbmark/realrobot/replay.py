@@ -476,8 +476,9 @@ def calibration_notes(ds: Dataset, cal: Calibrated, lsq_options: dict | None = N
             with_arm = fit_lsq([ds], **{**opts, "fit_offset": True, "start": g})
         except InputError:
             return notes
-        off = np.asarray(with_arm.extra["tracked_point_offset_mm"]) * 1e-3
-        sd = np.asarray(with_arm.extra["tracked_point_offset_std_mm"]) * 1e-3
+        assert with_arm.marker_offset_m is not None and with_arm.marker_offset_std_m is not None
+        off = np.asarray(with_arm.marker_offset_m)
+        sd = np.asarray(with_arm.marker_offset_std_m)
         far = float(np.hypot(*off)) >= _LEVER_MIN_M and bool(np.any(np.abs(off) > 3 * sd))
         if far and with_arm.rms_position_m < (1 - _LEVER_GAIN) * res.rms_position_m:
             side = "left" if off[1] >= 0 else "right"

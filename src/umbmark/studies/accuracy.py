@@ -280,16 +280,17 @@ def robot_trial(cfg: AccuracyConfig, ed: float, eb: float, noise: str, robot: in
     for name, c in (("bf1", bf1), ("bf2", bf2), ("exact", ex), ("exact2", ex2)):
         out[f"ed_err_{name}"] = abs(c.ed - ed) if c else math.nan
         out[f"eb_err_{name}"] = abs(c.calibration.wheelbase_m / b0 - eb) if c else math.nan
-    if noise != "none" and ex is not None and ex.extra.get("Ed_ci95"):
-        lo, hi = ex.extra["Ed_ci95"]
+    ci = None if ex is None else ex.intervals
+    if noise != "none" and ci is not None:
+        lo, hi = ci.ed
         out["ed_covered"] = bool(lo <= ed <= hi)
-        lo, hi = ex.extra["wheelbase_corrected_mm_ci95"]
-        out["eb_covered"] = bool(lo <= true_b * 1e3 <= hi)
-        out["exact_pred_after_mm"] = ex.extra["emax_syst_after_pred_measured_mm"]
+        lo, hi = ci.wheelbase_m
+        out["eb_covered"] = bool(lo <= true_b <= hi)
+        out["exact_pred_after_mm"] = ci.emax_syst_after_pred_measured_m * 1e3
     else:
         out["ed_covered"] = out["eb_covered"] = None
         out["exact_pred_after_mm"] = math.nan
-    out["exact_warned"] = bool(ex.extra.get("warnings")) if ex else False
+    out["exact_warned"] = bool(ex.warnings) if ex else False
     return out
 
 
@@ -499,14 +500,13 @@ def coverage_trial(
             seed=np.random.SeedSequence([seed, i]),
         )
         c = correct_runs("exact", runs, side_m, LABMATE.wheelbase_m)
-        if not c.extra.get("Ed_ci95"):
+        ci = c.intervals
+        if ci is None:
             continue
         n += 1
-        lo, hi = c.extra["Ed_ci95"]
-        hit_d += lo <= ed <= hi
-        lo, hi = c.extra["Eb_ci95"]
-        hit_b += lo <= eb <= hi
-        z.append(((c.ed - ed) / c.extra["Ed_se"], (c.eb - eb) / c.extra["Eb_se"]))
+        hit_d += ci.ed[0] <= ed <= ci.ed[1]
+        hit_b += ci.eb[0] <= eb <= ci.eb[1]
+        z.append(((c.ed - ed) / ci.ed_se, (c.eb - eb) / ci.eb_se))
     zz = np.array(z) if z else np.zeros((0, 2))
     return {
         "robots": n,

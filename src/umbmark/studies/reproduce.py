@@ -673,8 +673,6 @@ class Study:
         The uni-directional pitfall, if it was run.
     second_pass_examples : list of Experiment
         The first experiments (in seed order) where the 3 x SEM rule called for a second pass.
-    extra : dict
-        Further entries of :meth:`to_dict`.
     """
 
     config: StudyConfig
@@ -682,7 +680,6 @@ class Study:
     distribution: Distribution
     pitfall: Pitfall | None = None
     second_pass_examples: list[Experiment] = field(default_factory=list)
-    extra: dict = field(default_factory=dict)
 
     def to_dict(self) -> dict:
         """The study as JSON-able values, floats rounded to 12 significant digits (stable bytes)."""
@@ -699,7 +696,6 @@ class Study:
         }
         if self.pitfall is not None:
             d["pitfall"] = self.pitfall.to_dict()
-        d.update(self.extra)
         return _rounded(d)
 
 

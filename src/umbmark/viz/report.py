@@ -222,9 +222,11 @@ def exact_resample_options(full) -> dict:
     dict
         Keyword options of :func:`umbmark.correct.exact.exact_correction`.
     """
+    from umbmark.correct.result import ExactFit
+
     options = {"_start": (full.ed_pass, full.eb), "global_search": False, "_intervals": False, "_fast": True}
-    if full.extra.get("heading_weight_m") is not None:
-        options["heading_weight_m"] = full.extra["heading_weight_m"]
+    if isinstance(full.details, ExactFit) and full.details.heading_weight_m is not None:
+        options["heading_weight_m"] = full.details.heading_weight_m
     return options
 
 
@@ -362,20 +364,6 @@ def bootstrap_intervals(
     return out
 
 
-_CORRECTION_KEYS = (
-    "method",
-    "alpha_deg",
-    "beta_deg",
-    "radius_mm",
-    "Ed",
-    "Ed_pass",
-    "Eb",
-    "c_left",
-    "c_right",
-    "wheelbase_corrected_mm",
-)
-
-
 def _replay_runs(block: dict, what: str, source: str):
     """The runs table of a replay result's ``before`` or ``after`` block: its return errors
     (truth minus odometry) as the absolute end poses of an odometry that closed."""
@@ -432,7 +420,6 @@ def replay_analysis(result: dict, source: str = "<replay>"):
     from umbmark.correct.result import CorrectionResult
     from umbmark.errors import InputError
     from umbmark.metrics import umbmark
-    from umbmark.model.geometry import Calibration
 
     if isinstance(result, dict) and {"cw", "ccw", "emax_syst_mm"} <= result.keys():
         made_from = result.get("file")
@@ -467,11 +454,11 @@ def replay_analysis(result: dict, source: str = "<replay>"):
     try:
         side_m = float(result["side_mm"]) * 1e-3
         wheelbase_m = float(result["nominal"]["wheelbase_mm"]) * 1e-3
-        corr = dict(result.get("correction") or {})
-        cal = Calibration(
-            float(result["c_left"]), float(result["c_right"]), float(result["wheelbase_corrected_mm"]) * 1e-3
+        # the calibration's keys of the result, the method's own of its correction block
+        calibration = {k: result[k] for k in ("method", "Ed", "Eb", "c_left", "c_right", "wheelbase_corrected_mm")}
+        correction = CorrectionResult.from_dict(
+            {**dict(result.get("correction") or {}), **calibration}, warnings=result.get("warnings") or ()
         )
-        ed, eb = float(result["Ed"]), float(result["Eb"])
     except (KeyError, TypeError, ValueError):
         raise InputError(
             "the replay result has no calibration (Ed, Eb, c_left, c_right, wheelbase_corrected_mm, side_mm, "
@@ -480,25 +467,6 @@ def replay_analysis(result: dict, source: str = "<replay>"):
         ) from None
     runs = _replay_runs(result["before"], "before", source)
     after = _replay_runs(result["after"], "after", source) if isinstance(result.get("after"), dict) else None
-
-    def rad(key: str):
-        v = corr.get(key)
-        return None if v is None else math.radians(float(v))
-
-    radius = corr.get("radius_mm")
-    extra = {k: v for k, v in corr.items() if k not in _CORRECTION_KEYS}
-    extra["warnings"] = [str(w) for w in result.get("warnings", [])]
-    correction = CorrectionResult(
-        str(result["method"]),
-        ed,
-        float(corr.get("Ed_pass", ed)),
-        eb,
-        cal,
-        rad("alpha_deg"),
-        rad("beta_deg"),
-        None if radius is None else float(radius) * 1e-3,
-        extra,
-    )
     return Analysis(runs, umbmark(runs), correction, side_m, wheelbase_m), after
 
 

@@ -88,7 +88,7 @@ from umbmark.correct.exact.search import (
 )
 from umbmark.correct.exact.uncertainty import _loss_rho1, _reweigh_heading, interval_figures
 from umbmark.correct.registry import register
-from umbmark.correct.result import CorrectionResult, compose
+from umbmark.correct.result import CorrectionResult, ExactFit, compose
 from umbmark.errors import InputError
 from umbmark.metrics import umbmark
 from umbmark.model.geometry import Calibration, wrap_angle
@@ -412,8 +412,9 @@ def exact_correction(
     Returns
     -------
     CorrectionResult
-        Method ``exact``; ``extra`` holds the fit's figures, intervals, warnings and the
-        alternatives the runs cannot tell apart from the answer.
+        Method ``exact``; its ``details`` (:class:`~umbmark.correct.result.ExactFit`) hold the
+        fit's figures, the intervals and the alternatives the runs cannot tell apart from the
+        answer.
 
     Raises
     ------
@@ -446,33 +447,32 @@ def exact_correction(
     r = prob.residuals_matrix([ed_pass], [eb_pass])[0]
     warns += _residual_warnings(prob, runs, r, sems, loss)
     weights = None if loss == "linear" else _loss_rho1(loss, (r / f_scale) ** 2)
-    extra: dict[str, Any] = {
-        "Es_pass": es,
-        "fit_cost": float(sol.cost),
-        "fit_rms_mm": float(np.sqrt(np.mean(r[:, :2] ** 2)) * 1e3),
-        "fit_nfev": int(sol.nfev),
-        "global_search": searched,
-        "loss": loss,
-        "heading_used": bool(prob.heading),
-        "heading_weight_m": float(prob.w) if prob.heading else None,
-        "runs_cw": n_cw,
-        "runs_ccw": n_ccw,
-    }
     warns += _plausibility_warnings(ed_pass, eb_pass, wheelbase_m)
     ed_total, cal = compose(ed_pass, eb_pass, wheelbase_m, prior)
     if es != 1.0:
         cal = Calibration(cal.c_left * es, cal.c_right * es, cal.wheelbase_m)
-    figures: dict[str, Any] = {}
-    ci_warns: list[str] = []
+    intervals = None
     if _intervals:
         prior_ed = (prior or Calibration()).ed
-        figures, ci_warns = interval_figures(prob, p, weights, sems, prior_ed, wheelbase_m, confidence)
-    extra.update(figures)
-    warns += ci_warns
+        intervals, ci_warns = interval_figures(prob, p, weights, sems, prior_ed, wheelbase_m, confidence)
+        warns += ci_warns
     alpha, beta, radius = _paper_angles(es, ed_pass, eb_pass, side_m, wheelbase_m)
-    extra["warnings"] = warns
-    extra["alternatives"] = [{"Ed_pass": a[0], "Eb_pass": a[1]} for a in alternatives]
-    return CorrectionResult("exact", ed_total, ed_pass, eb_pass, cal, alpha, beta, radius, extra)
+    fit = ExactFit(
+        es_pass=es,
+        cost=float(sol.cost),
+        rms_m=float(np.sqrt(np.mean(r[:, :2] ** 2))),
+        nfev=int(sol.nfev),
+        global_search=searched,
+        loss=loss,
+        heading_used=bool(prob.heading),
+        heading_weight_m=float(prob.w) if prob.heading else None,
+        runs_cw=n_cw,
+        runs_ccw=n_ccw,
+        alternatives=tuple((float(a[0]), float(a[1])) for a in alternatives),
+        intervals=intervals,
+        intervals_asked=_intervals,
+    )
+    return CorrectionResult("exact", ed_total, ed_pass, eb_pass, cal, alpha, beta, radius, tuple(warns), fit)
 
 
 @register("exact")

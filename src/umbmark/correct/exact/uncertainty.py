@@ -12,13 +12,13 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from umbmark.correct.exact.model import FloatArray, _Problem, square_errors
 from umbmark.correct.exact.search import _fit, _Solution
+from umbmark.correct.result import CorrectionIntervals
 
 __all__ = ["interval_figures"]
 
@@ -214,7 +214,7 @@ def interval_figures(
     prior_ed: float,
     wheelbase_m: float,
     confidence: float,
-) -> tuple[dict[str, Any], list[str]]:
+) -> tuple[CorrectionIntervals | None, list[str]]:
     """Standard errors, confidence intervals and the predicted E_max,syst after correction.
 
     Parameters
@@ -237,11 +237,8 @@ def interval_figures(
 
     Returns
     -------
-    figures : dict
-        ``Ed_se``, ``Eb_se``, ``Ed_ci95``, ``Ed_pass_ci95``, ``Eb_ci95``,
-        ``wheelbase_corrected_mm_ci95``, ``emax_syst_after_pred_mm``,
-        ``emax_syst_after_pred_measured_mm`` (all ``None`` without intervals) and, with
-        intervals, ``ci_dof``, ``Ed_Eb_corr`` and ``confidence`` (when not 0.95).
+    intervals : CorrectionIntervals or None
+        None where the runs give no intervals.
     warnings : list of str
         No intervals, or intervals too wide.
     """
@@ -249,16 +246,7 @@ def interval_figures(
 
     ist = _interval_stats(prob, p, weights)
     if ist is None:
-        return {
-            "Ed_ci95": None,
-            "Eb_ci95": None,
-            "wheelbase_corrected_mm_ci95": None,
-            "Ed_se": None,
-            "Eb_se": None,
-            "Ed_pass_ci95": None,
-            "emax_syst_after_pred_mm": None,
-            "emax_syst_after_pred_measured_mm": None,
-        }, ["no confidence intervals: they need at least 2 runs in each direction and a well-conditioned fit"]
+        return None, ["no confidence intervals: they need at least 2 runs in each direction and a well-conditioned fit"]
     ed_pass, eb_pass = float(p[0]), float(p[1])
     cov, df, _, _ = ist
     se = np.sqrt(np.maximum(np.diag(cov), 0.0))
@@ -266,20 +254,19 @@ def interval_figures(
     ed_lo, ed_hi = ed_pass - q[0] * se[0], ed_pass + q[0] * se[0]
     eb_lo, eb_hi = eb_pass - q[1] * se[1], eb_pass + q[1] * se[1]
     syst, meas = _predicted_after(prob, p, cov, sems)
-    figures: dict[str, Any] = {
-        "Ed_se": float(se[0] * prior_ed),
-        "Eb_se": float(se[1]),
-        "Ed_ci95": [float(ed_lo * prior_ed), float(ed_hi * prior_ed)],
-        "Ed_pass_ci95": [float(ed_lo), float(ed_hi)],
-        "Eb_ci95": [float(eb_lo), float(eb_hi)],
-        "wheelbase_corrected_mm_ci95": [float(eb_lo * wheelbase_m * 1e3), float(eb_hi * wheelbase_m * 1e3)],
-        "ci_dof": [float(df[0]), float(df[1])],
-        "Ed_Eb_corr": float(cov[0, 1] / (se[0] * se[1])) if se[0] > 0 and se[1] > 0 else None,
-        "emax_syst_after_pred_mm": syst * 1e3,
-        "emax_syst_after_pred_measured_mm": meas * 1e3,
-    }
-    if confidence != 0.95:
-        figures["confidence"] = confidence
+    figures = CorrectionIntervals(
+        ed_se=float(se[0] * prior_ed),
+        eb_se=float(se[1]),
+        ed=(float(ed_lo * prior_ed), float(ed_hi * prior_ed)),
+        ed_pass=(float(ed_lo), float(ed_hi)),
+        eb=(float(eb_lo), float(eb_hi)),
+        wheelbase_m=(float(eb_lo * wheelbase_m), float(eb_hi * wheelbase_m)),
+        dof=(float(df[0]), float(df[1])),
+        ed_eb_corr=float(cov[0, 1] / (se[0] * se[1])) if se[0] > 0 and se[1] > 0 else None,
+        emax_syst_after_pred_m=syst,
+        emax_syst_after_pred_measured_m=meas,
+        confidence=confidence,
+    )
     warns = []
     if (eb_hi - eb_lo) > 0.05 * eb_pass or (ed_hi - ed_lo) > 0.01:
         warns.append(
