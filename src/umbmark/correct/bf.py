@@ -157,6 +157,7 @@ def bf_correction(
     ed_pass, radius = ed_from_beta(ab.beta, side_m, wheelbase_m)
     eb = eb_from_alpha(ab.alpha)
     ed_total, cal = compose(ed_pass, eb, wheelbase_m, prior)
+
     def ed_of(beta_: float) -> float | None:
         try:
             return ed_from_beta(beta_, side_m, wheelbase_m)[0]
