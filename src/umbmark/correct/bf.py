@@ -180,7 +180,18 @@ def bf_correction(
             "formulas assume, so this correction means little (an outlier run, wrong units, or a very "
             'large error: try `method="exact"`)'
         )
-    return CorrectionResult("bf", ed_total, ed_pass, eb, cal, ab.alpha, ab.beta, radius, tuple(warns), linear)
+    return CorrectionResult(
+        "bf",
+        ed=ed_total,
+        ed_pass=ed_pass,
+        eb=eb,
+        calibration=cal,
+        alpha=ab.alpha,
+        beta=ab.beta,
+        radius_m=radius,
+        warnings=tuple(warns),
+        details=linear,
+    )
 
 
 @register("bf")

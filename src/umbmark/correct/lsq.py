@@ -401,9 +401,61 @@ def fit_lsq(
         No data, unknown options, runs without the ground truth the mode needs, or no valid
         geometry (the fit diverged).
     """
-    from scipy.optimize import least_squares
-
     datasets = [datasets] if isinstance(datasets, Dataset) else list(datasets)
+    mode = _checked_mode(datasets, mode, scale, heading_weight_m, points_per_run, fit_offset)
+    fit_scale, reason = _scale_decision(datasets, mode, scale)
+    nominal = datasets[0].nominal
+    problems = [_Problem(ds, mode, points_per_run) for ds in datasets]
+    par = _Parameters(fit_scale, fit_offset, nominal.diameter_avg_m)
+    linear = _linear_start(problems, datasets) if start is None and mode == "sampled" else None
+    w = heading_weight_m
+
+    def fun(p: np.ndarray) -> np.ndarray:
+        d_l, d_r, b = par.unpack(p)
+        parts = []
+        for pr in problems:
+            ex, ey, eth = pr.residuals(d_l, d_r, b, w, par.offset_of(p))
+            parts += [ex, ey, w * eth]
+        return np.concatenate(parts)
+
+    sol = _solve(fun, par.starts(start or nominal, linear))
+    d_l, d_r, b = par.unpack(sol.x)
+    geom = _checked_geometry(d_l, d_r, b, nominal, finite=bool(np.all(np.isfinite(sol.x))))
+    std, offset, offset_sd = par.uncertainty(sol, nominal)
+    # position / heading parts of the residuals
+    pos_parts, head_parts = [], []
+    for pr in problems:
+        ex, ey, eth = pr.residuals(d_l, d_r, b, w, par.offset_of(sol.x))
+        pos_parts.append(np.hypot(ex, ey))
+        head_parts.append(eth)
+    pos = np.concatenate(pos_parts)
+    head = np.concatenate(head_parts)
+    return LsqResult(
+        geometry=geom,
+        nominal=nominal,
+        mode=mode,
+        scale_fitted=fit_scale,
+        scale_reason=reason,
+        std=std,
+        n_runs=sum(len(ds.runs) for ds in datasets),
+        n_residuals=int(sol.fun.size),
+        rms_position_m=float(np.sqrt(np.mean(pos**2))),
+        rms_heading_rad=float(np.sqrt(np.mean(head**2))),
+        cost=float(sol.cost),
+        success=bool(sol.success),
+        message=str(sol.message),
+        heading_weight_m=w,
+        points_per_run=points_per_run if mode == "sampled" else 1,
+        marker_offset_m=offset,
+        marker_offset_std_m=offset_sd,
+    )
+
+
+def _checked_mode(
+    datasets: list[Dataset], mode: str, scale: str, heading_weight_m: float, points_per_run: int, fit_offset: bool
+) -> str:
+    """The options checked, and the mode (``auto``: sampled where every run has a ground truth
+    along its path); an error for a run without the ground truth the mode needs."""
     if not datasets:
         raise InputError("lsq: no data")
     if mode not in ("auto", "sampled", "end"):
@@ -425,77 +477,115 @@ def fit_lsq(
             raise InputError("lsq needs a ground-truth end pose; this run has none", where)
     if fit_offset and mode != "sampled":
         raise InputError("fitting the tracked point's offset needs ground truth along the path (sampled mode)")
-    fit_scale, reason = _scale_decision(datasets, mode, scale)
-    nominal = datasets[0].nominal
-    problems = [_Problem(ds, mode, points_per_run) for ds in datasets]
-    w = heading_weight_m
-    d_avg0 = nominal.diameter_avg_m
-    s0 = start or nominal
-    linear = _linear_start(problems, datasets) if start is None and mode == "sampled" else None
+    return mode
 
-    def _exp(v: float) -> float:  # a diverging trial must not overflow (the result is checked below)
-        return math.exp(min(max(float(v), -_LOG_LIMIT), _LOG_LIMIT))
 
-    unpack: Callable[[np.ndarray], tuple[float, float, float]]
-    if fit_scale:
+def _exp(v: float) -> float:
+    """``exp(v)``, ``v`` clipped: a diverging trial must not overflow (the result is checked after)."""
+    return math.exp(min(max(float(v), -_LOG_LIMIT), _LOG_LIMIT))
 
-        def unpack(p: np.ndarray) -> tuple[float, float, float]:
+
+@dataclass(frozen=True)
+class _Parameters:
+    """The fit's parameter vector: ``log D_L, log D_R, log b`` (the scale fitted) or ``log E_d,
+    log b`` (D_avg kept at nominal), then the tracked point's offset ``(x, y)`` [m] when fitted."""
+
+    fit_scale: bool
+    fit_offset: bool
+    d_avg0: float
+
+    @property
+    def n_geometry(self) -> int:
+        """How many of the parameters are the geometry's."""
+        return 3 if self.fit_scale else 2
+
+    def unpack(self, p: np.ndarray) -> tuple[float, float, float]:
+        """``(D_L, D_R, b)`` [m] of a parameter vector."""
+        if self.fit_scale:
             return _exp(p[0]), _exp(p[1]), _exp(p[2])
+        ed = _exp(p[0])
+        d_l = 2.0 * self.d_avg0 / (1.0 + ed)
+        return d_l, d_l * ed, _exp(p[1])
 
-        p0 = np.log([s0.diameter_left_m, s0.diameter_right_m, s0.wheelbase_m])
-    else:
+    def offset_of(self, p: np.ndarray) -> np.ndarray | None:
+        """The tracked point's offset of a parameter vector (None when it is not fitted)."""
+        ng = self.n_geometry
+        return p[ng : ng + 2] if self.fit_offset else None
 
-        def unpack(p: np.ndarray) -> tuple[float, float, float]:
-            ed = _exp(p[0])
-            d_l = 2.0 * d_avg0 / (1.0 + ed)
-            return d_l, d_l * ed, _exp(p[1])
+    def starts(self, s0: WheelGeometry, linear: tuple[float, float, float] | None) -> list[np.ndarray]:
+        """The start from ``s0``, and from the ground truth's linear start when there is one."""
+        if self.fit_scale:
+            starts = [np.log([s0.diameter_left_m, s0.diameter_right_m, s0.wheelbase_m])]
+        else:
+            starts = [np.array([math.log(s0.ed), math.log(s0.wheelbase_m)])]
+        if linear is not None:
+            d_l, d_r, b = linear
+            if self.fit_scale:
+                starts.append(np.log([d_l, d_r, b]))
+            else:  # D_avg stays nominal: the wheelbase keeps the heading's ratio to the wheels
+                ed = d_r / d_l
+                starts.append(np.array([math.log(ed), math.log(b * 2.0 * self.d_avg0 / (1.0 + ed) / d_l)]))
+        if self.fit_offset:
+            starts = [np.concatenate([s_, [0.0, 0.0]]) for s_ in starts]
+        return starts
 
-        p0 = np.array([math.log(s0.ed), math.log(s0.wheelbase_m)])
-    starts = [p0]
-    if linear is not None:
-        d_l, d_r, b = linear
-        if fit_scale:
-            starts.append(np.log([d_l, d_r, b]))
-        else:  # D_avg stays nominal: the wheelbase keeps the heading's ratio to the wheels
-            ed = d_r / d_l
-            starts.append(np.array([math.log(ed), math.log(b * 2.0 * d_avg0 / (1.0 + ed) / d_l)]))
-    ng = p0.size
-    if fit_offset:
-        starts = [np.concatenate([s_, [0.0, 0.0]]) for s_ in starts]
+    def uncertainty(
+        self, sol: Any, nominal: WheelGeometry
+    ) -> tuple[LsqStd, tuple[float, float] | None, tuple[float, float] | None]:
+        """The Gauss-Newton standard deviations of the geometry, and the offset with its own."""
+        r, n = sol.fun, sol.x.size
+        s2 = float(r @ r) / max(r.size - n, 1)
+        try:
+            cov_p = s2 * np.linalg.inv(sol.jac.T @ sol.jac)
+        except np.linalg.LinAlgError:
+            cov_p = np.full((n, n), np.nan)
 
-    def offset_of(p: np.ndarray) -> np.ndarray | None:
-        return p[ng : ng + 2] if fit_offset else None
+        def derived(p: np.ndarray) -> np.ndarray:
+            dl_, dr_, b_ = self.unpack(p)
+            return np.array([dl_, dr_, b_, dr_ / dl_, 0.5 * (dl_ + dr_) / nominal.diameter_avg_m])
 
-    def fun(p: np.ndarray) -> np.ndarray:
-        d_l, d_r, b = unpack(p)
-        off = offset_of(p)
-        parts = []
-        for pr in problems:
-            ex, ey, eth = pr.residuals(d_l, d_r, b, w, off)
-            parts += [ex, ey, w * eth]
-        return np.concatenate(parts)
+        g0 = derived(sol.x)
+        G = np.empty((5, n))
+        for j in range(n):
+            h = 1e-6
+            pp = sol.x.copy()
+            pp[j] += h
+            G[:, j] = (derived(pp) - g0) / h
+        sd = np.sqrt(np.clip(np.diag(G @ cov_p @ G.T), 0, None))
+        std = LsqStd(float(sd[0]), float(sd[1]), float(sd[2]), float(sd[3]), float(sd[4]) if self.fit_scale else 0.0)
+        if not self.fit_offset:
+            return std, None, None
+        ng = self.n_geometry
+        offset = (float(sol.x[ng]), float(sol.x[ng + 1]))
+        offset_sd = (float(math.sqrt(max(cov_p[ng, ng], 0.0))), float(math.sqrt(max(cov_p[ng + 1, ng + 1], 0.0))))
+        return std, offset, offset_sd
 
-    # the ground truth's linear start where it lies far from the nominal one (a nominal size in
-    # another unit, a diameter given as the radius) and fits better: from there the fit cannot
-    # fall into the minima that a heading wrong by whole turns makes
-    if len(starts) > 1 and np.max(np.abs(starts[1][:ng] - starts[0][:ng])) > math.log(_FAR_START):
+
+def _solve(fun: Callable[[np.ndarray], np.ndarray], starts: list[np.ndarray]) -> Any:
+    """Levenberg-Marquardt from the start of least cost where the ground truth's linear start
+    lies far from the nominal one (a nominal size in another unit, a diameter given as the
+    radius): from there the fit cannot fall into the minima that a heading wrong by whole turns
+    makes; from the first start otherwise."""
+    from scipy.optimize import least_squares
+
+    p0 = starts[0]
+    if len(starts) > 1 and np.max(np.abs(starts[1] - starts[0])) > math.log(_FAR_START):
         costs = []
         for s_ in starts:
             f0 = fun(s_)
             costs.append(float(f0 @ f0) if np.all(np.isfinite(f0)) else math.inf)
         p0 = starts[int(np.argmin(costs))]
-    else:
-        p0 = starts[0]
-    sol = least_squares(
+    return least_squares(
         fun, p0, method="lm", x_scale=np.full(p0.size, 1e-3), xtol=1e-12, ftol=1e-12, gtol=1e-12, max_nfev=400 * p0.size
     )
-    d_l, d_r, b = unpack(sol.x)
+
+
+def _checked_geometry(d_l: float, d_r: float, b: float, nominal: WheelGeometry, finite: bool) -> WheelGeometry:
+    """The fitted geometry, or an error where the fit diverged (parameters not ``finite``, or
+    beyond :data:`_MAX_FACTOR` of nominal)."""
     ratios = np.array([d_l / nominal.diameter_left_m, d_r / nominal.diameter_right_m, b / nominal.wheelbase_m])
     if not (
-        np.all(np.isfinite(sol.x))
-        and np.all(np.isfinite(ratios))
-        and np.all(ratios > 1.0 / _MAX_FACTOR)
-        and np.all(ratios < _MAX_FACTOR)
+        finite and np.all(np.isfinite(ratios)) and np.all(ratios > 1.0 / _MAX_FACTOR) and np.all(ratios < _MAX_FACTOR)
     ):
         raise InputError(
             "lsq did not converge to a valid geometry (diameters or wheelbase more than "
@@ -503,64 +593,9 @@ def fit_lsq(
             "units and the ground truth, or use `scale='fixed'`)"
         )
     try:
-        geom = WheelGeometry(d_l, d_r, b)
+        return WheelGeometry(d_l, d_r, b)
     except InputError:
         raise InputError("lsq did not converge to a valid geometry (check the units and the ground truth)") from None
-    r = sol.fun
-    n_res = r.size
-    dof = max(n_res - p0.size, 1)
-    s2 = float(r @ r) / dof
-    J = sol.jac
-    try:
-        cov_p = s2 * np.linalg.inv(J.T @ J)
-    except np.linalg.LinAlgError:
-        cov_p = np.full((p0.size, p0.size), np.nan)
-
-    def derived(p: np.ndarray) -> np.ndarray:
-        dl_, dr_, b_ = unpack(p)
-        return np.array([dl_, dr_, b_, dr_ / dl_, 0.5 * (dl_ + dr_) / nominal.diameter_avg_m])
-
-    g0 = derived(sol.x)
-    G = np.empty((5, p0.size))
-    for j in range(p0.size):
-        h = 1e-6
-        pp = sol.x.copy()
-        pp[j] += h
-        G[:, j] = (derived(pp) - g0) / h
-    cov_g = G @ cov_p @ G.T
-    sd = np.sqrt(np.clip(np.diag(cov_g), 0, None))
-    std = LsqStd(float(sd[0]), float(sd[1]), float(sd[2]), float(sd[3]), float(sd[4]) if fit_scale else 0.0)
-    offset = offset_sd = None
-    if fit_offset:
-        offset = (float(sol.x[ng]), float(sol.x[ng + 1]))
-        offset_sd = (float(math.sqrt(max(cov_p[ng, ng], 0.0))), float(math.sqrt(max(cov_p[ng + 1, ng + 1], 0.0))))
-    # position / heading parts of the residuals
-    pos_parts, head_parts = [], []
-    for pr in problems:
-        ex, ey, eth = pr.residuals(d_l, d_r, b, w, offset_of(sol.x))
-        pos_parts.append(np.hypot(ex, ey))
-        head_parts.append(eth)
-    pos = np.concatenate(pos_parts)
-    head = np.concatenate(head_parts)
-    return LsqResult(
-        geometry=geom,
-        nominal=nominal,
-        mode=mode,
-        scale_fitted=fit_scale,
-        scale_reason=reason,
-        std=std,
-        n_runs=len(all_runs),
-        n_residuals=n_res,
-        rms_position_m=float(np.sqrt(np.mean(pos**2))),
-        rms_heading_rad=float(np.sqrt(np.mean(head**2))),
-        cost=float(sol.cost),
-        success=bool(sol.success),
-        message=str(sol.message),
-        heading_weight_m=w,
-        points_per_run=points_per_run if mode == "sampled" else 1,
-        marker_offset_m=offset,
-        marker_offset_std_m=offset_sd,
-    )
 
 
 @register_path("lsq")

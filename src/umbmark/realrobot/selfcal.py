@@ -535,6 +535,81 @@ def _options(options: IntervalOptions | None) -> IntervalOptions:
     return options
 
 
+def _usable_scans(
+    st: FloatArray, wt: FloatArray, period: float, gap: float, src: str, warnings: list[str]
+) -> NDArray[np.bool_]:
+    """The scans with wheel data around them: within half a wheel sample of the wheel data's span
+    (a scan there takes the end's angles) and not in a gap of it longer than ``gap``; a warning
+    for those left out, an error when fewer than two are left."""
+    edge = 0.5 * period
+    inside = (st >= wt[0] - edge) & (st <= wt[-1] + edge)
+    if inside.sum() < 2:
+        raise InputError(
+            f"the scans ({_span(st)}) and the wheel data ({_span(wt)}) do not overlap in time: "
+            "record both in one bag, stamped by one clock",
+            src,
+        )
+    k = np.clip(np.searchsorted(wt, st, side="right"), 1, len(wt) - 1)
+    gaps = wt[k] - wt[k - 1]
+    exact = np.isin(st, wt)
+    usable = inside & ((gaps <= gap) | exact)
+    outside, in_gap = int((~inside).sum()), int((inside & ~usable).sum())
+    if outside:
+        t0 = min(float(st[0]), float(wt[0]))
+        warnings.append(
+            f"{outside} of {len(st)} scans lie outside the wheel data's time span (the wheel data from "
+            f"{wt[0] - t0:.3f} to {wt[-1] - t0:.3f} s, the scans from {st[0] - t0:.3f} to {st[-1] - t0:.3f} s "
+            "after the first stamp): not used"
+        )
+    if in_gap:
+        warnings.append(
+            f"{in_gap} scans fall in gaps of the wheel data longer than `max_wheel_gap_s` {gap:g} s: not used"
+        )
+    if usable.sum() < 2:
+        raise InputError(f"fewer than two scans have wheel data around them (gaps over {gap:g} s)", src)
+    return np.asarray(usable)
+
+
+def _chained(
+    kept: NDArray[np.int64], motion_links: ArrayLike, motion_covariance: ArrayLike | None, n_scans: int, src: str
+) -> tuple[NDArray[np.bool_], FloatArray]:
+    """For each interval ``kept`` (its two scans): whether every step of the motion between them is
+    a match, and the summed covariance of those steps."""
+    links = np.asarray(motion_links, dtype=bool).reshape(-1)
+    if links.shape != (n_scans - 1,):
+        raise InputError(f"`motion_links` must hold {n_scans - 1} booleans, got {links.shape}", src)
+    a, b = kept[:, 0], kept[:, 1]
+    bad = np.concatenate([[0], np.cumsum(~links)])
+    c = np.zeros((n_scans - 1, 3, 3)) if motion_covariance is None else np.asarray(motion_covariance, float)
+    cum = np.concatenate([np.zeros((1, 3, 3)), np.cumsum(np.nan_to_num(c), axis=0)])
+    return bad[b] - bad[a] == 0, cum[b] - cum[a]
+
+
+def _end_rates(
+    kept: NDArray[np.int64], st: FloatArray, wt: FloatArray, period: float, angles: tuple[FloatArray, FloatArray]
+) -> FloatArray:
+    """``(K, 4)``: the wheels' rates at the two stamps of each interval (left, right at its start,
+    then at its end), from the wheel data a wheel sample period either side: independent of where
+    in a sample period a stamp falls (a rate from the interval's own rotation would carry the
+    stamps' errors)."""
+    rates = np.zeros((len(st), 2))
+    if period > 0:
+        for c, ang in enumerate(angles):
+            rates[:, c] = (np.interp(st + period, wt, ang) - np.interp(st - period, wt, ang)) / (2.0 * period)
+    return np.column_stack([rates[kept[:, 0]], rates[kept[:, 1]]])
+
+
+def _interval_steps(kept: NDArray[np.int64], sl: FloatArray, sr: FloatArray, st: FloatArray) -> IntervalSteps | None:
+    """The wheels' rotations from scan to scan inside each interval (None when every interval is
+    one step)."""
+    counts = kept[:, 1] - kept[:, 0]
+    if not np.any(counts > 1):
+        return None
+    j = np.repeat(kept[:, 0], counts) + np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts)
+    dl, dr = np.diff(sl), np.diff(sr)
+    return IntervalSteps(dl[j], dr[j], np.concatenate([[0], np.cumsum(counts)]), np.diff(st)[j])
+
+
 def plan_intervals(
     bag: SelfcalBag,
     wheel_diameter_m: float,
@@ -596,46 +671,15 @@ def plan_intervals(
         raise InputError(f"`scan_delay_s` must be a finite number of seconds, got {scan_delay_s!r}")
     st = np.asarray(bag.scan_t_s, dtype=float) - float(scan_delay_s)
     warnings: list[str] = list(bag.warnings)
-    # a scan within half a wheel sample of the wheel data's ends takes the end's angles
     period = float(np.median(np.diff(wt))) if len(wt) > 1 else 0.0  # of the wheel data
-    edge = 0.5 * period
-    inside = (st >= wt[0] - edge) & (st <= wt[-1] + edge)
-    if inside.sum() < 2:
-        raise InputError(
-            f"the scans ({_span(st)}) and the wheel data ({_span(wt)}) do not overlap in time: "
-            "record both in one bag, stamped by one clock",
-            src,
-        )
-    k = np.clip(np.searchsorted(wt, st, side="right"), 1, len(wt) - 1)
-    gaps = wt[k] - wt[k - 1]
-    exact = np.isin(st, wt)
-    usable = inside & ((gaps <= gap) | exact)
-    outside, in_gap = int((~inside).sum()), int((inside & ~usable).sum())
-    if outside:
-        t0 = min(float(st[0]), float(wt[0]))
-        warnings.append(
-            f"{outside} of {len(st)} scans lie outside the wheel data's time span (the wheel data from "
-            f"{wt[0] - t0:.3f} to {wt[-1] - t0:.3f} s, the scans from {st[0] - t0:.3f} to {st[-1] - t0:.3f} s "
-            "after the first stamp): not used"
-        )
-    if in_gap:
-        warnings.append(
-            f"{in_gap} scans fall in gaps of the wheel data longer than `max_wheel_gap_s` {gap:g} s: not used"
-        )
-    if usable.sum() < 2:
-        raise InputError(f"fewer than two scans have wheel data around them (gaps over {gap:g} s)", src)
+    usable = _usable_scans(st, wt, period, gap, src, warnings)
     sl = np.interp(st, wt, left)
     sr = np.interp(st, wt, right)
     odo = integrate_wheels(r_nom * np.diff(sl), r_nom * np.diff(sr), b_nom)
-    seen = None
-    if motion is not None:
-        seen = np.asarray(motion, dtype=float)
-        if seen.shape != (len(st), 3):
-            raise InputError(f"`motion` must be ({len(st)}, 3), one pose per scan; got {seen.shape}", src)
-    pairs = np.array(
-        rule.select(st, odo if seen is None else seen, usable),
-        dtype=np.int64,
-    ).reshape(-1, 2)
+    seen = None if motion is None else np.asarray(motion, dtype=float)
+    if seen is not None and seen.shape != (len(st), 3):
+        raise InputError(f"`motion` must be ({len(st)}, 3), one pose per scan; got {seen.shape}", src)
+    pairs = np.array(rule.select(st, odo if seen is None else seen, usable), dtype=np.int64).reshape(-1, 2)
     a, b = pairs[:, 0], pairs[:, 1]
     phi_l, phi_r = sl[b] - sl[a], sr[b] - sr[a]
     moving = (np.abs(phi_l) * r_nom > STILL_M) | (np.abs(phi_r) * r_nom > STILL_M)
@@ -651,39 +695,18 @@ def plan_intervals(
     q = se2.between(odo[a[moving]], odo[b[moving]])
     initial = se2.compose(se2.inverse(l0), se2.compose(q, l0))
     chained = chained_cov = None
+    kept = pairs[moving]
     if seen is not None:
-        initial = se2.between(seen[a[moving]], seen[b[moving]])
+        initial = se2.between(seen[kept[:, 0]], seen[kept[:, 1]])
         if motion_links is not None:
-            links = np.asarray(motion_links, dtype=bool).reshape(-1)
-            if links.shape != (len(st) - 1,):
-                raise InputError(f"`motion_links` must hold {len(st) - 1} booleans, got {links.shape}", src)
-            bad = np.concatenate([[0], np.cumsum(~links)])
-            chained = (bad[b] - bad[a] == 0)[moving]
-            c = np.zeros((len(st) - 1, 3, 3)) if motion_covariance is None else np.asarray(motion_covariance, float)
-            cum = np.concatenate([np.zeros((1, 3, 3)), np.cumsum(np.nan_to_num(c), axis=0)])
-            chained_cov = (cum[b] - cum[a])[moving]
+            chained, chained_cov = _chained(kept, motion_links, motion_covariance, len(st), src)
     keyframe_count = int(np.unique(pairs).size)
     idx = np.flatnonzero(usable)
-    steps = None
-    kept = pairs[moving]
-    if np.any(kept[:, 1] - kept[:, 0] > 1):  # the wheels' rotations from scan to scan inside each interval
-        counts = kept[:, 1] - kept[:, 0]
-        j = np.repeat(kept[:, 0], counts) + np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts)
-        dl, dr = np.diff(sl), np.diff(sr)
-        steps = IntervalSteps(dl[j], dr[j], np.concatenate([[0], np.cumsum(counts)]), np.diff(st)[j])
-    # the wheels' rates at the stamps, a wheel sample period either side: independent of where
-    # in a sample period a stamp falls (a rate from the interval's own rotation would carry the
-    # stamps' errors)
-    rates = np.zeros((len(st), 2))
-    if period > 0:
-        for c, ang in enumerate((left, right)):
-            rates[:, c] = (np.interp(st + period, wt, ang) - np.interp(st - period, wt, ang)) / (2.0 * period)
-    end_rates = np.column_stack([rates[kept[:, 0]], rates[kept[:, 1]]])
     return IntervalPlan(
         bag=bag,
         scan_delay_s=float(scan_delay_s),
         pairs=kept,
-        steps=steps,
+        steps=_interval_steps(kept, sl, sr, st),
         chained=chained,
         chained_covariance=chained_cov,
         dt_s=(st[b] - st[a])[moving],
@@ -699,7 +722,7 @@ def plan_intervals(
         base_frame=base,
         time_span_s=float(st[idx[-1]] - st[idx[0]]),
         warnings=tuple(warnings),
-        end_rates=end_rates,
+        end_rates=_end_rates(kept, st, wt, period, (left, right)),
     )
 
 

@@ -88,7 +88,7 @@ from umbmark.correct.exact.search import (
 )
 from umbmark.correct.exact.uncertainty import _loss_rho1, _reweigh_heading, interval_figures
 from umbmark.correct.registry import register
-from umbmark.correct.result import CorrectionResult, ExactFit, compose
+from umbmark.correct.result import CorrectionIntervals, CorrectionResult, ExactFit, compose
 from umbmark.errors import InputError
 from umbmark.metrics import umbmark
 from umbmark.model.geometry import Calibration, wrap_angle
@@ -457,8 +457,35 @@ def exact_correction(
         intervals, ci_warns = interval_figures(prob, p, weights, sems, prior_ed, wheelbase_m, confidence)
         warns += ci_warns
     alpha, beta, radius = _paper_angles(es, ed_pass, eb_pass, side_m, wheelbase_m)
-    fit = ExactFit(
-        es_pass=es,
+    fit = _fit_figures(prob, sol, r, searched, loss, (n_cw, n_ccw), alternatives, intervals, _intervals)
+    return CorrectionResult(
+        "exact",
+        ed=ed_total,
+        ed_pass=ed_pass,
+        eb=eb_pass,
+        calibration=cal,
+        alpha=alpha,
+        beta=beta,
+        radius_m=radius,
+        warnings=tuple(warns),
+        details=fit,
+    )
+
+
+def _fit_figures(
+    prob: _Problem,
+    sol: Any,
+    r: FloatArray,
+    searched: bool,
+    loss: str,
+    counts: tuple[int, int],
+    alternatives: list[tuple[float, float]],
+    intervals: CorrectionIntervals | None,
+    asked: bool,
+) -> ExactFit:
+    """How the fit went (residuals ``r`` at the answer of ``sol``), with its intervals."""
+    return ExactFit(
+        es_pass=prob.es,
         cost=float(sol.cost),
         rms_m=float(np.sqrt(np.mean(r[:, :2] ** 2))),
         nfev=int(sol.nfev),
@@ -466,13 +493,12 @@ def exact_correction(
         loss=loss,
         heading_used=bool(prob.heading),
         heading_weight_m=float(prob.w) if prob.heading else None,
-        runs_cw=n_cw,
-        runs_ccw=n_ccw,
+        runs_cw=counts[0],
+        runs_ccw=counts[1],
         alternatives=tuple((float(a[0]), float(a[1])) for a in alternatives),
         intervals=intervals,
-        intervals_asked=_intervals,
+        intervals_asked=asked,
     )
-    return CorrectionResult("exact", ed_total, ed_pass, eb_pass, cal, alpha, beta, radius, tuple(warns), fit)
 
 
 @register("exact")

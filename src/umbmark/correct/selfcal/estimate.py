@@ -60,6 +60,8 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
+from dataclasses import dataclass, replace
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -156,6 +158,7 @@ class _Problem:
     """The intervals in use and their whitening: given covariances, or a common scatter matrix."""
 
     def __init__(self, iv: Intervals, given_w: FloatArray | None, jitter: bool = False):
+        self.source = iv.source
         self.fl = np.asarray(iv.left_rad, float)
         self.fr = np.asarray(iv.right_rad, float)
         self.s = np.asarray(iv.sensor, float)
@@ -690,13 +693,78 @@ def selfcal(
         information matrix; the message names the parameters, the cause and what to drive).
     """
     _check_nominal(wheel_diameter_m, wheelbase_m)
-    if not isinstance(intervals, Intervals):
-        raise InputError(f"`intervals` must be an Intervals, got {type(intervals).__name__}")
     if loss not in LOSSES:
         raise InputError(f"`loss` must be one of {', '.join(LOSSES)}, got {loss!r}")
-    lim = limits or identify.Limits()
     if not 0 < outlier_tail < 1:
         raise InputError(f"`outlier_tail` must be a probability between 0 and 1, got {outlier_tail!r}")
+    prob, labels = _problem(intervals, sensor_covariance, blocks, block_s, max_blocks, time_jitter)
+    lim = limits or identify.Limits()
+    r_nom = 0.5 * float(wheel_diameter_m)
+    b_nom = float(wheelbase_m)
+    student = loss == "student"
+    # 1. the better start, refined robustly when outliers are rejected or the loss is robust
+    p0 = _start(prob, r_nom, b_nom, robust=reject_outliers or student)
+    # 2-3. maximum likelihood and outliers, until the inliers settle
+    fit = _fit_and_reject(prob, p0, student, reject_outliers, outlier_tail, max_rounds)
+    # 4. the physical one of the mirror pair
+    fit = replace(fit, p=_physical(fit.p))
+    # 5-6. uncertainty, identifiability, plausibility
+    unc = _uncertainty(prob, fit, student, labels, r_nom, b_nom, lim)
+    return _result(intervals, fit, unc, float(wheel_diameter_m), b_nom, prob.jitter)
+
+
+def _result(
+    intervals: Intervals, fit: _Fit, unc: _Uncertainty, wheel_diameter_m: float, b_nom: float, jitter: bool
+) -> SelfcalResult:
+    """The estimate with its 95 % intervals and every warning (the reader's, plausibility,
+    identifiability, many outliers)."""
+    p, idx, k = fit.p, np.flatnonzero(fit.inliers), len(intervals)
+    warnings = list(intervals.warnings)
+    warnings += identify.plausibility(p, wheel_diameter_m, b_nom)
+    warnings += unc.warnings
+    rejected = np.flatnonzero(~fit.inliers)
+    if rejected.size > 0.2 * k:
+        warnings.append(
+            f"{rejected.size} of {k} intervals ({100 * rejected.size / k:.0f} %) rejected as outliers: "
+            "check the scan matching (and the wheel data) of those intervals"
+        )
+    sdp = np.sqrt(np.maximum(np.diag(unc.covariance), 0.0))
+    names = ("r_left_m", "r_right_m", "wheelbase_m", "sensor_x_m", "sensor_y_m", "sensor_yaw_rad")
+    tq = unc.t_quantile
+    ci = {n: (float(p[i] - tq * sdp[i]), float(p[i] + tq * sdp[i])) for i, n in enumerate(names)}
+    return SelfcalResult(
+        r_left_m=float(p[0]),
+        r_right_m=float(p[1]),
+        wheelbase_m=float(p[2]),
+        sensor_pose=(float(p[3]), float(p[4]), float(p[5])),
+        covariance=unc.covariance,
+        ci95=ci,
+        intervals_used=len(idx),
+        intervals_rejected=tuple(int(i) for i in rejected),
+        warnings=warnings,
+        nominal_wheel_diameter_m=wheel_diameter_m,
+        nominal_wheelbase_m=b_nom,
+        noise_sd=unc.noise_sd,
+        t_quantile=tq,
+        cost=unc.cost,
+        noise_dof=float(fit.nu),
+        covariance_blocks=unc.blocks,
+        wheel_jitter_s=math.sqrt(fit.sig2) if jitter else math.nan,
+    )
+
+
+def _problem(
+    intervals: Intervals,
+    sensor_covariance: ArrayLike | None,
+    blocks: ArrayLike | None,
+    block_s: float,
+    max_blocks: int,
+    time_jitter: bool,
+) -> tuple[_Problem, NDArray[Any]]:
+    """The intervals checked (at least 3, wheels that turn, a positive definite covariance, a block
+    label each) as a :class:`_Problem`, and the labels of their blocks of time."""
+    if not isinstance(intervals, Intervals):
+        raise InputError(f"`intervals` must be an Intervals, got {type(intervals).__name__}")
     src = intervals.source
     k = len(intervals)
     if k < 3:
@@ -704,10 +772,7 @@ def selfcal(
     labels = time_blocks(intervals.dt_s, block_s, max_blocks) if blocks is None else np.asarray(blocks)
     if labels.shape != (k,):
         raise InputError(f"`blocks` must hold one label per interval ({k}), got shape {labels.shape}", src)
-    r_nom = 0.5 * float(wheel_diameter_m)
-    b_nom = float(wheelbase_m)
-    fl, fr, s = intervals.left_rad, intervals.right_rad, intervals.sensor
-    if not (np.any(fl != 0) or np.any(fr != 0)):
+    if not (np.any(intervals.left_rad != 0) or np.any(intervals.right_rad != 0)):
         raise InputError("the wheels do not turn in any interval: record intervals while the robot drives", src)
     given_w = None
     if sensor_covariance is not None:
@@ -717,11 +782,14 @@ def selfcal(
             raise InputError("`sensor_covariance` must be positive definite", src) from None
         except ValueError as err:
             raise InputError(f"`sensor_covariance`: {err}", src) from None
-    prob = _Problem(intervals, given_w, jitter=time_jitter)
-    idx = np.arange(k)
-    student = loss == "student"
+    return _Problem(intervals, given_w, jitter=time_jitter), labels
 
-    # 1. the better start, refined robustly when outliers are rejected or the loss is robust
+
+def _start(prob: _Problem, r_nom: float, b_nom: float, robust: bool) -> FloatArray:
+    """Step 1: of the closed form and the fixed-scale closed form (the nominal geometry where both
+    fail), the start with the smaller robust residuals, refined with a Cauchy loss when ``robust``."""
+    idx = prob.all
+    fl, fr, s = prob.fl, prob.fr, prob.s
     starts = []
     for make in (
         lambda: closed_form(fl, fr, s),
@@ -734,95 +802,127 @@ def selfcal(
     if not starts:
         starts.append(np.array([r_nom, r_nom, b_nom, 0.0, 0.0, 0.0]))
     p0 = min(starts, key=lambda q: _score(prob, q, idx))
-    if reject_outliers or student:
-        w0 = _diag_whitener(_robust_sd(prob.res(p0, idx))) if given_w is None else None
+    p = p0
+    if robust:
+        w0 = _diag_whitener(_robust_sd(prob.res(p0, idx))) if prob.given_w is None else None
         p = prob.fit(p0, idx, w0, loss="cauchy")
-    else:
-        p = p0
     if not np.all(np.isfinite(p)):
-        raise InputError("the fit did not converge to finite values: check the units and the wheel order", src)
+        raise InputError("the fit did not converge to finite values: check the units and the wheel order", prob.source)
+    return p
 
-    # 2-3. maximum likelihood and outliers, until the inliers settle
-    inl = np.ones(k, dtype=bool)
-    w3: FloatArray | None = None
-    scatter: FloatArray | None = None
-    nu = math.inf
-    sig2 = 0.0
+
+@dataclass(frozen=True)
+class _Fit:
+    """The maximum-likelihood fit on the inliers: the parameters, the inliers, the whitener, the
+    Student t degrees of freedom, the scatter matrix and the wheel data's jitter variance [s^2]."""
+
+    p: FloatArray
+    inliers: NDArray[np.bool_]
+    w3: FloatArray | None
+    nu: float
+    scatter: FloatArray | None
+    sig2: float
+
+
+def _fit_on(prob: _Problem, mask: NDArray[np.bool_], start: FloatArray, student: bool) -> _Fit:
+    """The maximum-likelihood fit on the intervals of ``mask`` from ``start``."""
+    sel = np.flatnonzero(mask)
+    if student or prob.sig is not None or prob.jitter:
+        q, w, dof, _, sc, j2 = _student_fit(prob, start, sel, student)
+        return _Fit(q, mask, w, dof, sc, j2)
+    q, w = _gaussian_fit(prob, start, sel)
+    return _Fit(q, mask, w, math.inf, None, 0.0)
+
+
+def _outside(prob: _Problem, fit: _Fit, student: bool, tail: float, first_round: bool) -> NDArray[np.bool_]:
+    """Step 3: the intervals within the ``1 - tail`` quantile of the fitted noise (the inliers)."""
     from umbmark._stats import chi2_isf, f_isf
 
-    em = student or prob.sig is not None or prob.jitter
+    every = prob.all
+    e = prob.res(fit.p, every)
+    if student or prob.sig is not None or prob.jitter:
+        z = prob.white(e, every, fit.w3)
+        thr = 3.0 * f_isf(tail, 3, max(fit.nu, OUTLIER_DOF_MIN)) if student else chi2_isf(tail, 3)
+        return np.asarray((z * z).sum(axis=1) <= thr)
+    if prob.given_w is not None:
+        e = whiten(prob.given_w, e)
+    # first round robust (the outliers are still in); then the scale of the inliers
+    ei = e[fit.inliers]
+    scale = _robust_sd(ei) if first_round else np.maximum(np.sqrt((ei * ei).mean(axis=0)), _SD_FLOOR)
+    return np.asarray(((e / scale) ** 2).sum(axis=1) <= chi2_isf(tail, 3))
 
-    def fit_on(
-        mask: NDArray[np.bool_], start: FloatArray
-    ) -> tuple[FloatArray, FloatArray | None, float, FloatArray | None, float]:
-        sel = np.flatnonzero(mask)
-        if em:
-            q, w, dof, _, sc, j2 = _student_fit(prob, start, sel, student)
-            return q, w, dof, sc, j2
-        q, w = _gaussian_fit(prob, start, sel)
-        return q, w, math.inf, None, 0.0
 
-    fitted = None
+def _fit_and_reject(prob: _Problem, p: FloatArray, student: bool, reject: bool, tail: float, max_rounds: int) -> _Fit:
+    """Steps 2-3: the fit on the inliers and the outliers set aside, until the inliers settle (a
+    set-aside interval is judged again every round)."""
+    inl = np.ones(len(prob.all), dtype=bool)
+    fit: _Fit | None = None
     for rnd in range(max_rounds):
-        p, w3, nu, scatter, sig2 = fit_on(inl, p)
-        fitted = inl
-        if not reject_outliers:
-            break
-        e = prob.res(p, np.arange(k))
-        if em:
-            z = prob.white(e, np.arange(k), w3)
-            if student:
-                thr = 3.0 * f_isf(outlier_tail, 3, max(nu, OUTLIER_DOF_MIN))
-            else:
-                thr = chi2_isf(outlier_tail, 3)
-            new = (z * z).sum(axis=1) <= thr
-        else:
-            if given_w is not None:
-                e = whiten(given_w, e)
-            # first round robust (the outliers are still in); then the scale of the inliers
-            ei = e[inl]
-            scale = _robust_sd(ei) if rnd == 0 else np.maximum(np.sqrt((ei * ei).mean(axis=0)), _SD_FLOOR)
-            new = ((e / scale) ** 2).sum(axis=1) <= chi2_isf(outlier_tail, 3)
+        fit = _fit_on(prob, inl, p if fit is None else fit.p, student)
+        if not reject:
+            return fit
+        new = _outside(prob, fit, student, tail, first_round=rnd == 0)
         if new.sum() < 3 or np.array_equal(new, inl):
-            break
+            return fit
         inl = new
-    idx = np.flatnonzero(inl)
-    if fitted is not inl:  # the rounds ran out just after the inliers changed
-        p, w3, nu, scatter, sig2 = fit_on(inl, p)
+    # the rounds ran out just after the inliers changed
+    return _fit_on(prob, inl, p if fit is None else fit.p, student)
 
-    # 4. the physical one of the mirror pair
-    p = _physical(p)
 
-    # 5-6. uncertainty, identifiability, plausibility
+@dataclass(frozen=True)
+class _Uncertainty:
+    """Steps 5-6: the covariance (cluster-robust where there are blocks), the quantile of its 95 %
+    intervals, the noise's standard deviations, the identifiability warnings, the blocks used and
+    the cost at the answer."""
+
+    covariance: FloatArray
+    t_quantile: float
+    noise_sd: tuple[float, float, float]
+    warnings: list[str]
+    blocks: int
+    cost: float
+
+
+def _uncertainty(
+    prob: _Problem,
+    fit: _Fit,
+    student: bool,
+    labels: NDArray[Any],
+    r_nom: float,
+    b_nom: float,
+    lim: identify.Limits,
+) -> _Uncertainty:
+    """Steps 5-6 of the module docstring at the fit's answer."""
+    from umbmark._stats import t_ppf
+
+    p, w3, nu, idx = fit.p, fit.w3, fit.nu, np.flatnonzero(fit.inliers)
     jw = prob.whitened_jacobian(p, idx, w3)
     z = prob.white(prob.res(p, idx), idx, w3)
     d2 = (z * z).sum(axis=1)
     wt = (nu + 3) / (nu + d2) if student else np.ones(len(idx))
     flat = jw.reshape(-1, 6)
     info = (flat.T @ flat) * ((nu + 3) / (nu + 5) if student else 1.0)
-    from umbmark._stats import t_ppf
-
-    if given_w is None:
+    if prob.given_w is None:
         assert w3 is not None
-        if scatter is None:
-            scatter = np.linalg.inv(w3.T @ w3)
+        scatter = np.linalg.inv(w3.T @ w3) if fit.scatter is None else fit.scatter
         sd_noise = np.sqrt(np.maximum(np.diag(scatter), 0.0))
         noise_sd = (float(sd_noise[0]), float(sd_noise[1]), float(sd_noise[2]))
         tq = t_ppf(0.975, max(3 * len(idx) - 6, 1))
     else:
-        cov_in = np.linalg.inv(np.einsum("kji,kjl->kil", given_w[idx], given_w[idx]))
+        given = prob.given_w[idx]
+        cov_in = np.linalg.inv(np.einsum("kji,kjl->kil", given, given))
         rms = np.sqrt(np.mean(np.diagonal(cov_in, axis1=1, axis2=2), axis=0))
         noise_sd = (float(rms[0]), float(rms[1]), float(rms[2]))
         tq = 1.959963984540054
-    drv = identify.driving_summary(fl[idx], fr[idx], r_nom, b_nom)
+    drv = identify.driving_summary(prob.fl[idx], prob.fr[idx], r_nom, b_nom)
     cov, id_warnings, singular = identify.identifiability(p, info, drv, r_nom, b_nom, lim)
     if singular is not None:
-        raise InputError(singular, src)
+        raise InputError(singular, prob.source)
     n_blocks = 0
     if len(np.unique(labels[idx])) >= MIN_BLOCKS:
         scores = wt[:, None] * (np.swapaxes(jw, 1, 2) @ z[:, :, None])[:, :, 0]
-        if prob.jitter and sig2 > 0:
-            scores = scores + wt[:, None] * prob.score_correction(prob.jitter_terms(p)[1], idx, w3, sig2)
+        if prob.jitter and fit.sig2 > 0:
+            scores = scores + wt[:, None] * prob.score_correction(prob.jitter_terms(p)[1], idx, w3, fit.sig2)
         hessians = np.swapaxes(jw, 1, 2) @ jw * ((nu + 3) / (nu + 5) if student else 1.0)
         cov, n_blocks = _block_covariance(info, hessians, scores, labels[idx])
         tq = t_ppf(0.975, n_blocks - 1)
@@ -833,34 +933,4 @@ def selfcal(
             cov_long, _ = _block_covariance(info, hessians, scores, merge_blocks(labels[idx], n_long))
             cov = loewner_max(cov, cov_long * (t_ppf(0.975, n_long - 1) / tq) ** 2)
         cov, id_warnings, _ = identify.identifiability(p, info, drv, r_nom, b_nom, lim, covariance=cov)
-    warnings = list(intervals.warnings)
-    warnings += identify.plausibility(p, float(wheel_diameter_m), b_nom)
-    warnings += id_warnings
-    rejected = np.flatnonzero(~inl)
-    if rejected.size > 0.2 * k:
-        warnings.append(
-            f"{rejected.size} of {k} intervals ({100 * rejected.size / k:.0f} %) rejected as outliers: "
-            "check the scan matching (and the wheel data) of those intervals"
-        )
-    sdp = np.sqrt(np.maximum(np.diag(cov), 0.0))
-    names = ("r_left_m", "r_right_m", "wheelbase_m", "sensor_x_m", "sensor_y_m", "sensor_yaw_rad")
-    ci = {n: (float(p[i] - tq * sdp[i]), float(p[i] + tq * sdp[i])) for i, n in enumerate(names)}
-    return SelfcalResult(
-        r_left_m=float(p[0]),
-        r_right_m=float(p[1]),
-        wheelbase_m=float(p[2]),
-        sensor_pose=(float(p[3]), float(p[4]), float(p[5])),
-        covariance=cov,
-        ci95=ci,
-        intervals_used=len(idx),
-        intervals_rejected=tuple(int(i) for i in rejected),
-        warnings=warnings,
-        nominal_wheel_diameter_m=float(wheel_diameter_m),
-        nominal_wheelbase_m=b_nom,
-        noise_sd=noise_sd,
-        t_quantile=tq,
-        cost=float(0.5 * (z * z).sum()),
-        noise_dof=float(nu),
-        covariance_blocks=n_blocks,
-        wheel_jitter_s=math.sqrt(sig2) if prob.jitter else math.nan,
-    )
+    return _Uncertainty(cov, tq, noise_sd, list(id_warnings), n_blocks, float(0.5 * (z * z).sum()))
