@@ -107,6 +107,8 @@ def files(tmp_path_factory):
             == 0
         )
         shutil.copy(REPO / "data" / "slam2d" / "mit-csail.bag", "robot.bag")
+        shutil.copy(REPO / "data" / "slam2d" / "mit-csail.relations", "robot.relations")
+        Path("robot.yaml").write_text("replay:\n  method: bf\nselfcal:\n  keyframe-mm: 100\n")
     finally:
         os.chdir(cwd)
     return d
@@ -130,7 +132,7 @@ BASE = {
         "--back",
         "-200,0",
     ],
-    "replay": ["replay", "{paths}", "--sensor-pose", "{sensor_pose}", "--db", "{db}"],
+    "replay": ["replay", "{paths}", "--sensor-pose", "{sensor_pose}", "--db", "{db}", "--config", "{config}"],
     "report": ["report", "{runs_file}", "--after", "{after_file}", "--attach", "{attach}", "--db", "{db}"],
     "selfcal": [
         "selfcal",
@@ -143,6 +145,21 @@ BASE = {
         "400",
         "--db",
         "{db}",
+        "--config",
+        "{config}",
+    ],
+    "validate": [
+        "validate",
+        "{log}",
+        "{calibration}",
+        "--odom-topic",
+        "/odom",
+        "--relations",
+        "{relations}",
+        "--reference",
+        "{reference}",
+        "--config",
+        "{config}",
     ],
 }
 # the input file of each input parameter
@@ -159,6 +176,13 @@ INPUT_FILE = {
     ("report", "after_file"): "after.csv",
     ("report", "attach"): "cal.json",
     ("selfcal", "paths"): "robot.bag",
+    ("replay", "config"): "robot.yaml",
+    ("selfcal", "config"): "robot.yaml",
+    ("validate", "log"): "robot.bag",
+    ("validate", "calibration"): "cal.json",
+    ("validate", "relations"): "robot.relations",
+    ("validate", "reference"): "runs.csv",
+    ("validate", "config"): "robot.yaml",
 }
 # options an output needs besides the base command line
 NEEDS = {("replay", "poses_out"): ["--stream", "--decimate", "10"]}

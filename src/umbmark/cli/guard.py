@@ -57,6 +57,8 @@ PATH_ROLES: dict[str, dict[str, str]] = {
         "db": "db",
         "time_offset": "name",
         "imu_topic": "name",
+        "config": "input",
+        "write_config": "output",
     },
     "report": {
         "runs_file": "input",
@@ -69,8 +71,24 @@ PATH_ROLES: dict[str, dict[str, str]] = {
     },
     "reproduce": {"report_dir": "output_dir"},
     "simulate": {"out": "output"},
-    "selfcal": {"paths": "input", "save": "output", "intervals_out": "output", "db": "db", "scan_delay": "name"},
-    "validate": {"log": "input", "calibration": "input", "relations": "input", "reference": "input", "dataset": "name"},
+    "selfcal": {
+        "paths": "input",
+        "save": "output",
+        "intervals_out": "output",
+        "db": "db",
+        "scan_delay": "name",
+        "config": "input",
+        "write_config": "output",
+    },
+    "validate": {
+        "log": "input",
+        "calibration": "input",
+        "relations": "input",
+        "reference": "input",
+        "dataset": "name",
+        "config": "input",
+        "write_config": "output",
+    },
 }
 
 # a size option beyond this (a thousand kilometres) is not the size of a robot, a wheel or a test track

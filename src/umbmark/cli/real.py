@@ -13,6 +13,7 @@ from pathlib import Path
 import click
 
 from umbmark.cli.app import LOG_FORMAT_CHOICES, app, cli_message, console, emit_json, fmt, is_quiet, table
+from umbmark.cli.config import config_options
 from umbmark.cli.history import history_options, print_recorded, record_if_requested, record_report_if_requested
 from umbmark.cli.progress import progress, track
 from umbmark.errors import InputError
@@ -404,6 +405,7 @@ def _print_stream(rep) -> None:
 )
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @history_options
+@config_options
 def replay(
     paths,
     method,
@@ -767,6 +769,7 @@ def convert(paths, log_format, target, out, **kw):
         if not ds.is_square:
             raise InputError("a runs file needs square runs (give --side-mm)", source=ds.source)
         ds, warnings, _ = prepare(ds)
+        assert ds.directions is not None  # prepare gives square runs their directions
         write_runs_csv(square_runs(ds, ds.nominal, ds.directions), out)
     if not is_quiet():
         c = console()

@@ -18,6 +18,7 @@ import click
 
 from umbmark._numbers import strict_float
 from umbmark.cli.app import app, cli_message, console, emit_json, fmt, is_quiet, table
+from umbmark.cli.config import config_options
 from umbmark.cli.history import history_options, print_recorded, record_if_requested
 from umbmark.cli.progress import progress
 from umbmark.errors import InputError
@@ -323,6 +324,7 @@ def _print_report(d: dict, again: str, export: str) -> None:
 )
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @history_options
+@config_options
 def selfcal_cmd(
     paths,
     wheel_diameter_mm,

@@ -17,6 +17,7 @@ import re
 import click
 
 from umbmark.cli.app import app, cli_message, console, emit_json, fmt, is_quiet, table
+from umbmark.cli.config import config_options
 from umbmark.cli.selfcal import selfcal_cmd
 from umbmark.errors import InputError
 
@@ -237,6 +238,7 @@ def _print_report(d: dict) -> None:
     help=f"Exit with status {FAIL_EXIT_STATUS} when a rule fails (default: 0 whatever the verdict).",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+@config_options
 def validate_cmd(
     log,
     calibration,

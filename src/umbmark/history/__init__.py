@@ -24,13 +24,16 @@ for a fleet sharing one PostgreSQL server.
 
 from __future__ import annotations
 
+from datetime import datetime
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 from umbmark.history.base import (
     ENV_VAR,
     KINDS,
     MIGRATIONS,
     SCHEMA_VERSION,
+    AnalysisLike,
     HistoryError,
     Record,
     check_robot,
@@ -48,6 +51,10 @@ from umbmark.history.base import (
     runs_to_rows,
 )
 from umbmark.history.sqlite_backend import History
+
+if TYPE_CHECKING:
+    from umbmark.history.sqlalchemy_backend import SQLAlchemyHistory
+    from umbmark.model.geometry import Calibration
 
 __all__ = [
     "SCHEMA_VERSION",
@@ -75,7 +82,7 @@ __all__ = [
 ]
 
 
-def open_history(db=None, create: bool = True):
+def open_history(db: str | Path | None = None, create: bool = True) -> History | SQLAlchemyHistory:
     """Open the history: :class:`History` (SQLite file, standard library) or, for a database URL,
     :class:`umbmark.history.sqlalchemy_backend.SQLAlchemyHistory` (needs the ``db`` or ``postgres``
     extra). Both have the same methods.
@@ -110,15 +117,15 @@ def record_result(
     *,
     kind: str,
     method: str,
-    results: dict,
-    parameters: dict,
-    db=None,
-    inputs: dict | None = None,
+    results: dict[str, Any],
+    parameters: dict[str, Any],
+    db: str | Path | None = None,
+    inputs: dict[str, Any] | None = None,
     input_sha256: str | None = None,
-    source=None,
-    parameters_in_use: dict | None = None,
+    source: str | Path | None = None,
+    parameters_in_use: dict[str, Any] | None = None,
     note: str | None = None,
-    when=None,
+    when: str | datetime | None = None,
 ) -> int:
     """Open the history database (``db``, ``$UMBMARK_DB`` or the default), store one
     calibration in one transaction, close it; returns the record id.
@@ -182,15 +189,15 @@ def record_result(
 
 def record_analysis(
     robot: str,
-    analysis,
+    analysis: AnalysisLike,
     *,
     kind: str = "analyze",
-    source=None,
-    db=None,
-    prior=None,
+    source: str | Path | None = None,
+    db: str | Path | None = None,
+    prior: Calibration | None = None,
     note: str | None = None,
-    when=None,
-    extra_inputs: dict | None = None,
+    when: str | datetime | None = None,
+    extra_inputs: dict[str, Any] | None = None,
 ) -> int:
     """Record an analysis: its figures, the recommended parameters, the runs themselves, and the
     hash of the source file if given and readable.
@@ -231,7 +238,7 @@ def record_analysis(
     sha = None
     if source is not None and Path(source).exists():
         sha = file_sha256(source)
-    inputs = {
+    inputs: dict[str, Any] = {
         "runs": runs_to_rows(analysis.runs),
         "side_mm": analysis.side_m * 1e3,
         "wheelbase_mm": analysis.wheelbase_m * 1e3,

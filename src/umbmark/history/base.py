@@ -1,7 +1,8 @@
 """What every history backend shares: where the database is, the schema, the record type,
 the rows, the base class of the backends, and the parameter export of a record.
 
-Imports only the standard library, :mod:`umbmark.errors` and :mod:`umbmark.jsonutil`."""
+Imports only the standard library, :mod:`umbmark.errors` and :mod:`umbmark.jsonutil` (and, for the
+type checker only, :mod:`umbmark.model`)."""
 
 from __future__ import annotations
 
@@ -12,17 +13,25 @@ import re
 import socket
 import sys
 import time
+from collections.abc import Callable, Sequence
+from contextlib import AbstractContextManager
 from dataclasses import dataclass
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, NoReturn, Protocol, TypeVar
 
 from umbmark._files import file_sha256
 from umbmark._version import __version__
 from umbmark.errors import InputError, UmbmarkError
 from umbmark.jsonutil import dumps, jsonable
 
+if TYPE_CHECKING:
+    from umbmark.model.geometry import Calibration
+    from umbmark.model.runs import RunsTable
+
 __all__ = [
     "ENV_VAR",
+    "AnalysisLike",
     "check_robot",
     "KINDS",
     "MIGRATIONS",
@@ -82,6 +91,37 @@ MIGRATIONS: dict[int, list[str]] = {
 }
 SCHEMA_VERSION = max(MIGRATIONS)
 
+_T = TypeVar("_T")
+_B = TypeVar("_B", bound="_Backend")
+
+
+class _CorrectionLike(Protocol):
+    """What the history reads of a correction (:class:`umbmark.correct.result.CorrectionResult`)."""
+
+    @property
+    def method(self) -> str: ...
+    @property
+    def ed(self) -> float: ...
+    @property
+    def eb(self) -> float: ...
+    @property
+    def calibration(self) -> Calibration: ...
+
+
+class AnalysisLike(Protocol):
+    """What the history reads of an analysis: :class:`umbmark.correct.analysis.Analysis` (a layer
+    above the history, which does not import it)."""
+
+    @property
+    def runs(self) -> RunsTable: ...
+    @property
+    def side_m(self) -> float: ...
+    @property
+    def wheelbase_m(self) -> float: ...
+    @property
+    def correction(self) -> _CorrectionLike: ...
+    def to_dict(self) -> dict[str, Any]: ...
+
 
 class HistoryError(UmbmarkError):
     """The history database cannot be used (locked for too long, newer schema, not a database)."""
@@ -107,7 +147,7 @@ def default_db_path() -> Path:
     return base / "umbmark" / "history.sqlite"
 
 
-def is_url(db) -> bool:
+def is_url(db: object) -> bool:
     """True for an SQLAlchemy database URL (``postgresql+psycopg://...``, ``sqlite:///...``).
 
     Parameters
@@ -128,7 +168,7 @@ _KEY_VALUE = re.compile(
 )
 
 
-def check_db_address(db) -> None:
+def check_db_address(db: str | Path) -> None:
     """Refuse a history address that is neither a file nor a URL, without repeating it.
 
     Parameters
@@ -168,7 +208,7 @@ def check_db_address(db) -> None:
         )
 
 
-def resolve_db(db=None):
+def resolve_db(db: str | Path | None = None) -> str | Path:
     """Where the history is: ``db`` if given, else ``$UMBMARK_DB``, else :func:`default_db_path`.
 
     Parameters
@@ -236,7 +276,7 @@ def _mask_query(query: str) -> str:
     return "&".join(parts)
 
 
-def display_db(db) -> str:
+def display_db(db: str | Path) -> str:
     """A database file or URL for messages and records: a URL's password and any query
     parameter named like one (``password``, ``passwd``, ``pwd``, ``secret``, ``token``, ...)
     are masked as ``***``.
@@ -294,7 +334,7 @@ def mask_secrets(text: str) -> str:
     if "://" not in s:
         return s
 
-    def one(m: re.Match) -> str:
+    def one(m: re.Match[str]) -> str:
         url = m.group(0)
         core = url.rstrip(".,:;)]}")
         return display_db(core) + url[len(core) :]
@@ -302,7 +342,7 @@ def mask_secrets(text: str) -> str:
     return _URL_IN_TEXT.sub(one, s)
 
 
-def _mask_obj(o):
+def _mask_obj(o: Any) -> Any:
     """``o`` with :func:`mask_secrets` applied to every string in it (dicts, lists)."""
     if isinstance(o, str):
         return mask_secrets(o) if "://" in o else o
@@ -313,7 +353,7 @@ def _mask_obj(o):
     return o
 
 
-def resolve_db_path(db=None) -> Path:
+def resolve_db_path(db: str | Path | None = None) -> Path:
     """Like :func:`resolve_db`, for a database file (not a URL).
 
     Parameters
@@ -340,7 +380,7 @@ def _now_utc() -> str:
     return datetime.now(timezone.utc).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
 
 
-def _utc_string(when) -> str:
+def _utc_string(when: str | datetime | None) -> str:
     if when is None:
         return _now_utc()
     if isinstance(when, str):
@@ -353,16 +393,16 @@ def _utc_string(when) -> str:
     return when.astimezone(timezone.utc).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
 
 
-def _dumps(o) -> str:
+def _dumps(o: Any) -> str:
     return dumps(o, sort_keys=True)
 
 
-def _num(v):
+def _num(v: Any) -> float | None:
     try:
-        v = float(v)
+        x = float(v)
     except (TypeError, ValueError):
         return None
-    return v if math.isfinite(v) else None
+    return x if math.isfinite(x) else None
 
 
 @dataclass(frozen=True)
@@ -375,12 +415,12 @@ class Record:
     kind: str
     method: str
     software_version: str
-    inputs: dict
+    inputs: dict[str, Any]
     input_sha256: str | None
     source: str | None
-    results: dict
-    parameters: dict
-    parameters_in_use: dict
+    results: dict[str, Any]
+    parameters: dict[str, Any]
+    parameters_in_use: dict[str, Any]
     emax_syst_mm: float | None
     ed: float | None
     eb: float | None
@@ -393,7 +433,7 @@ class Record:
         """The record's time as an aware datetime (UTC)."""
         return datetime.fromisoformat(self.created_utc.replace("Z", "+00:00"))
 
-    def to_dict(self, full: bool = True) -> dict:
+    def to_dict(self, full: bool = True) -> dict[str, Any]:
         """The record as JSON-able values.
 
         Parameters
@@ -405,7 +445,7 @@ class Record:
         -------
         dict
         """
-        d = {
+        d: dict[str, Any] = {
             "id": self.id,
             "robot": self.robot,
             "time_utc": self.created_utc,
@@ -475,18 +515,18 @@ class DamagedRecord(HistoryError):
         What is wrong with it.
     """
 
-    def __init__(self, record_id, problem: str, db) -> None:
+    def __init__(self, record_id: int, problem: str, db: object) -> None:
         self.record_id = record_id
         self.problem = problem
         super().__init__(f"record #{record_id} in the history database {db} is damaged: {problem}")
 
 
-def _short(v) -> str:
+def _short(v: object) -> str:
     r = repr(v)
     return r if len(r) <= 40 else r[:37] + "..."
 
 
-def _record(row, db) -> Record:
+def _record(row: Sequence[Any], db: object) -> Record:
     """A record from the columns of :data:`_SELECT`.
 
     Raises
@@ -498,20 +538,21 @@ def _record(row, db) -> Record:
     """
     rid = row[0]
 
-    def bad(problem: str):
+    def bad(problem: str) -> NoReturn:
         raise DamagedRecord(rid, problem, db)
 
-    def text(i: int, col: str, optional: bool = False):
+    def text(i: int, col: str) -> str:
         v = row[i]
-        if v is None and optional:
-            return None
         if isinstance(v, (int, float)) and not isinstance(v, bool):
             return str(v)
         if not isinstance(v, str):
             bad(f"column {col} holds {_short(v)}, not text")
         return v
 
-    def obj(i: int, col: str) -> dict:
+    def opt_text(i: int, col: str) -> str | None:
+        return None if row[i] is None else text(i, col)
+
+    def obj(i: int, col: str) -> dict[str, Any]:
         v = row[i]
         if isinstance(v, (bytes, bytearray, memoryview)):
             try:
@@ -528,7 +569,7 @@ def _record(row, db) -> Record:
             bad(f"column {col} holds {_short(d)}, not a JSON object")
         return d
 
-    def number(i: int, col: str):
+    def number(i: int, col: str) -> float | None:
         v = row[i]
         if v is None:
             return None
@@ -536,7 +577,7 @@ def _record(row, db) -> Record:
             bad(f"column {col} holds {_short(v)}, not a number")
         return float(v)
 
-    def numbers_in(d: dict, col: str) -> dict:
+    def numbers_in(d: dict[str, Any], col: str) -> dict[str, Any]:
         # the numbers every reader of a record uses (tables, plots, reports, the export)
         for k in ("c_left", "c_right", "wheelbase_mm", "wheelbase_m", "Ed", "Eb"):
             v = d.get(k)
@@ -558,8 +599,8 @@ def _record(row, db) -> Record:
         text(4, "method"),
         text(5, "software_version"),
         obj(6, "inputs_json"),
-        text(7, "input_sha256", True),
-        text(8, "source", True),
+        opt_text(7, "input_sha256"),
+        opt_text(8, "source"),
         obj(9, "results_json"),
         numbers_in(obj(10, "parameters_json"), "parameters_json"),
         numbers_in(obj(11, "parameters_in_use_json"), "parameters_in_use_json"),
@@ -567,13 +608,15 @@ def _record(row, db) -> Record:
         number(13, "ed"),
         number(14, "eb"),
         number(15, "wheelbase_mm"),
-        text(16, "note", True),
-        text(17, "host", True),
+        opt_text(16, "note"),
+        opt_text(17, "host"),
     )
     return rec
 
 
-def retry_while_locked(fn, timeout_s: float, errors):
+def retry_while_locked(
+    fn: Callable[[], _T], timeout_s: float, errors: type[BaseException] | tuple[type[BaseException], ...]
+) -> _T:
     """Call ``fn`` until it does not raise a "database is locked" error (one of ``errors``) or
     ``timeout_s`` has passed. SQLite answers "locked" at once, without waiting for its busy
     timeout, in a few cases: two processes switching a new file to WAL at the same moment, or a
@@ -615,13 +658,38 @@ class _Backend:
     a time, text where a number belongs) and says so in :attr:`warnings`; :meth:`get` of a
     damaged record raises :class:`DamagedRecord`."""
 
-    path: object
+    path: str | Path
+    journal_mode: str | None
 
-    def __enter__(self):
+    def __enter__(self: _B) -> _B:
         return self
 
-    def __exit__(self, *exc):
+    def __exit__(self, *exc: object) -> None:
         self.close()
+
+    # -- what each backend provides ----------------------------------------------------------
+    def close(self) -> None:
+        """Close the database (release its connections)."""
+        raise NotImplementedError
+
+    def transaction(self) -> AbstractContextManager[Any]:
+        """One write transaction, rolled back on any exception; yields the connection to pass to
+        ``_insert``."""
+        raise NotImplementedError
+
+    def _insert(self, conn: Any, row: dict[str, Any]) -> int:
+        """Store the row of :func:`make_row` inside :meth:`transaction`; returns the record's id."""
+        raise NotImplementedError
+
+    def _fetch(
+        self, robot: str | None = None, limit: int | None = None, record_id: int | None = None
+    ) -> Sequence[Sequence[Any]]:
+        """The rows of :data:`_SELECT`, newest first (the robot's name and the id matched exactly)."""
+        raise NotImplementedError
+
+    def _robot_counts(self) -> Sequence[Sequence[Any]]:
+        """Name, number of records, first and last time of each robot, by name."""
+        raise NotImplementedError
 
     @property
     def warnings(self) -> list[str]:
@@ -634,7 +702,7 @@ class _Backend:
         if msg not in w:
             w.append(msg)
 
-    def _decode(self, row, strict: bool = False) -> Record | None:
+    def _decode(self, row: Sequence[Any], strict: bool = False) -> Record | None:
         """The record of one row; a damaged one is a warning and None (``strict``: raised)."""
         try:
             return _record(row, self.path)
@@ -650,14 +718,14 @@ class _Backend:
         *,
         kind: str,
         method: str,
-        results: dict,
-        parameters: dict,
-        inputs: dict | None = None,
+        results: dict[str, Any],
+        parameters: dict[str, Any],
+        inputs: dict[str, Any] | None = None,
         input_sha256: str | None = None,
-        source: str | None = None,
-        parameters_in_use: dict | None = None,
+        source: str | Path | None = None,
+        parameters_in_use: dict[str, Any] | None = None,
         note: str | None = None,
-        when=None,
+        when: str | datetime | None = None,
         software_version: str | None = None,
     ) -> int:
         """Store one calibration in one transaction.
@@ -699,7 +767,7 @@ class _Backend:
             return self._insert(c, row)
 
     @staticmethod
-    def _row(*args) -> dict:
+    def _row(*args: Any) -> dict[str, Any]:
         return make_row(*args)
 
     def records(self, robot: str | None = None, limit: int | None = None) -> list[Record]:
@@ -796,7 +864,7 @@ class _Backend:
             raise AssertionError  # pragma: no cover
         return rec
 
-    def robots(self) -> list[dict]:
+    def robots(self) -> list[dict[str, Any]]:
         """One summary per robot, by name.
 
         Returns
@@ -811,12 +879,12 @@ class _Backend:
         DamagedRecord
             If the database holds records and not one of them is readable.
         """
-        out = []
+        out: list[dict[str, Any]] = []
         damaged: DamagedRecord | None = None
         for name, n, first, last in self._robot_counts():
             name = str(name)
             first, last = (t if t is None or isinstance(t, str) else _short(t) for t in (first, last))
-            d = {"robot": name, "records": n, "first_utc": first, "last_utc": last}
+            d: dict[str, Any] = {"robot": name, "records": n, "first_utc": first, "last_utc": last}
             if n:
                 try:
                     rec = self.latest(name)
@@ -844,19 +912,19 @@ class _Backend:
 
 
 def make_row(
-    robot,
-    kind,
-    method,
-    results,
-    parameters,
-    inputs,
-    input_sha256,
-    source,
-    parameters_in_use,
-    note,
-    when,
-    software_version,
-) -> dict:
+    robot: str,
+    kind: str,
+    method: str,
+    results: dict[str, Any] | None,
+    parameters: dict[str, Any] | None,
+    inputs: dict[str, Any] | None,
+    input_sha256: str | None,
+    source: str | Path | None,
+    parameters_in_use: dict[str, Any] | None,
+    note: str | None,
+    when: str | datetime | None,
+    software_version: str | None,
+) -> dict[str, Any]:
     """The column values of one ``calibrations`` row (plus ``robot``), for any backend.
 
     Parameters
@@ -887,8 +955,9 @@ def make_row(
     source = None if source is None else mask_secrets(str(source))
     note = None if note is None else mask_secrets(str(note))
     wb = _num(parameters.get("wheelbase_mm"))
-    if wb is None and _num(parameters.get("wheelbase_m")) is not None:
-        wb = _num(parameters.get("wheelbase_m")) * 1e3
+    wb_m = _num(parameters.get("wheelbase_m"))
+    if wb is None and wb_m is not None:
+        wb = wb_m * 1e3
     return {
         "robot": robot,
         "created_utc": _utc_string(when),
@@ -910,7 +979,7 @@ def make_row(
     }
 
 
-def check_robot(robot) -> str:
+def check_robot(robot: str | None) -> str:
     """A robot's name as recorded (surrounding spaces dropped).
 
     Parameters
@@ -935,7 +1004,7 @@ def check_robot(robot) -> str:
     return robot
 
 
-def parameters_from_analysis(analysis) -> tuple[dict, dict]:
+def parameters_from_analysis(analysis: AnalysisLike) -> tuple[dict[str, Any], dict[str, Any]]:
     """The parameters an analysis recommends, and those the robot ran with.
 
     Parameters
@@ -952,18 +1021,19 @@ def parameters_from_analysis(analysis) -> tuple[dict, dict]:
     """
     corr = analysis.correction
     cal = corr.calibration
-    recommended = {
+    assert cal.wheelbase_m is not None, "a correction's calibration holds the corrected wheelbase"
+    recommended: dict[str, Any] = {
         "c_left": cal.c_left,
         "c_right": cal.c_right,
         "wheelbase_mm": cal.wheelbase_m * 1e3,
         "Ed": corr.ed,
         "Eb": corr.eb,
     }
-    in_use = {"wheelbase_mm": analysis.wheelbase_m * 1e3}
+    in_use: dict[str, Any] = {"wheelbase_mm": analysis.wheelbase_m * 1e3}
     return recommended, in_use
 
 
-def runs_to_rows(runs) -> list[dict]:
+def runs_to_rows(runs: RunsTable) -> list[dict[str, Any]]:
     """A runs table as JSON-able rows in millimetres and degrees.
 
     Parameters
@@ -979,7 +1049,7 @@ def runs_to_rows(runs) -> list[dict]:
     """
     rows = []
     for i in range(len(runs)):
-        r = {
+        r: dict[str, Any] = {
             "run": str(runs.run[i]) if runs.run is not None else str(i + 1),
             "direction": str(runs.direction[i]),
             "x_abs": float(runs.x_abs[i]) * 1e3,
@@ -995,7 +1065,7 @@ def runs_to_rows(runs) -> list[dict]:
     return rows
 
 
-def runs_from_rows(rows: list[dict]):
+def runs_from_rows(rows: list[dict[str, Any]]) -> RunsTable:
     """Inverse of :func:`runs_to_rows` (for reports of recorded analyses).
 
     Parameters
@@ -1032,7 +1102,7 @@ def runs_from_rows(rows: list[dict]):
         raise InputError(f"the stored runs hold a value that is not a number (a damaged record): {e}") from None
 
 
-def export_parameters(record: Record) -> dict:
+def export_parameters(record: Record) -> dict[str, Any]:
     """The parameters to load into the robot's odometry, from one record, saying what each
     holds: the wheel factors and E_b relative to the odometry the record's data were made
     with, the wheelbase that odometry used (``nominal_wheelbase_mm``) and the corrected one
@@ -1060,14 +1130,15 @@ def export_parameters(record: Record) -> dict:
     """
     p = record.parameters
     wb_mm = _num(p.get("wheelbase_mm"))
-    if wb_mm is None and _num(p.get("wheelbase_m")) is not None:
-        wb_mm = _num(p.get("wheelbase_m")) * 1e3
+    wb_m = _num(p.get("wheelbase_m"))
+    if wb_mm is None and wb_m is not None:
+        wb_mm = wb_m * 1e3
     piu = record.parameters_in_use if isinstance(record.parameters_in_use, dict) else {}
     nominal_wb = _num(piu.get("wheelbase_mm"))
     eb = record.eb if record.eb is not None else _num(p.get("Eb"))
     if nominal_wb is None and wb_mm is not None and eb:
         nominal_wb = wb_mm / eb  # the record holds the corrected wheelbase and E_b only
-    d = {
+    d: dict[str, Any] = {
         "robot": record.robot,
         "record_id": record.id,
         "time_utc": record.created_utc,
@@ -1117,7 +1188,7 @@ def _scale_observed(record: Record) -> bool | None:
     return None
 
 
-def format_export(record: Record, fmt: str = "json", db=None) -> str:
+def format_export(record: Record, fmt: str = "json", db: str | Path | None = None) -> str:
     """:func:`export_parameters` as JSON or YAML text.
 
     Parameters

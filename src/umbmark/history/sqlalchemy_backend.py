@@ -11,8 +11,11 @@ winner's row).
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
 from pathlib import Path
+from types import ModuleType
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from umbmark._version import __version__
 from umbmark.errors import InputError
@@ -27,13 +30,18 @@ from umbmark.history.base import (
     retry_while_locked,
 )
 
+if TYPE_CHECKING:  # SQLAlchemy is an optional dependency: imported at run time by _import only
+    from sqlalchemy import URL, Connection, Engine, MetaData, Select, Table
+
 __all__ = ["SQLAlchemyHistory"]
 
 # the columns of a record row: the calibration's, with the robot's name in place of its id
 _COLS = ("id", "name", *TABLE_COLUMNS["calibrations"][2:])
 
+_T = TypeVar("_T")
 
-def _import():
+
+def _import() -> ModuleType:
     try:
         import sqlalchemy as sa
     except ImportError:
@@ -43,7 +51,7 @@ def _import():
     return sa
 
 
-def _parse_url(sa, url: str):
+def _parse_url(sa: ModuleType, url: str) -> URL:
     """The SQLAlchemy URL, with the credentials split off at the last ``@`` before the host (as
     :func:`umbmark.history.base.display_db` does): SQLAlchemy's parser ends the password at its
     first ``@`` and would take the rest of it for the host."""
@@ -56,7 +64,7 @@ def _parse_url(sa, url: str):
     return sa.engine.make_url(f"{scheme}://{user}@{tail}").set(password=unquote(pw))
 
 
-def _tables(sa):
+def _tables(sa: ModuleType) -> tuple[MetaData, Table, Table, Table]:
     md = sa.MetaData()
     schema = sa.Table("umbmark_schema", md, sa.Column("version", sa.Integer, nullable=False))
     robots = sa.Table(
@@ -120,14 +128,17 @@ class SQLAlchemyHistory(_Backend):
         tables of the same names, or has a newer schema.
     """
 
-    def __init__(self, url: str, timeout_s: float = 60.0, create: bool = True):
+    path: str
+    _engine: Engine
+
+    def __init__(self, url: str, timeout_s: float = 60.0, create: bool = True) -> None:
         sa = self._sa = _import()
         try:
             u = _parse_url(sa, url)
         except Exception:  # noqa: BLE001  sqlalchemy.exc.ArgumentError (its message holds the URL)
             raise InputError(f"not a database URL: {display_db(url)!r}") from None
         self._shown = self.path = display_db(url)
-        kwargs = {}
+        kwargs: dict[str, Any] = {}
         if u.get_backend_name() == "sqlite":
             kwargs["connect_args"] = {"timeout": timeout_s}
             f = u.database
@@ -151,7 +162,7 @@ class SQLAlchemyHistory(_Backend):
             # pysqlite's implicit transactions start too late for concurrent writers: take the
             # write lock at BEGIN, as the standard-library backend does
             @sa.event.listens_for(self._engine, "connect")
-            def _connect(dbapi_conn, record):
+            def _connect(dbapi_conn: Any, record: Any) -> None:
                 dbapi_conn.isolation_level = None
                 # WAL (a setting kept in the file) only for a new file or an umbmark history:
                 # another application's database, refused below, is left as it was
@@ -162,7 +173,7 @@ class SQLAlchemyHistory(_Backend):
                         dbapi_conn.execute(f"PRAGMA {pragma}")
 
             @sa.event.listens_for(self._engine, "begin")
-            def _begin(conn):
+            def _begin(conn: Connection) -> None:
                 conn.exec_driver_sql("BEGIN IMMEDIATE" if conn.info.get("umbmark_write") else "BEGIN")
 
         self._md, self._schema, self._robots, self._cal = _tables(sa)
@@ -179,18 +190,18 @@ class SQLAlchemyHistory(_Backend):
             raise self._error(e) from None
 
     @staticmethod
-    def _message(e) -> str:
+    def _message(e: BaseException) -> str:
         """The first line of an error, any URL in it masked."""
         lines = str(e).strip().splitlines()
         return mask_secrets(lines[0] if lines else e.__class__.__name__)
 
-    def _error(self, e) -> HistoryError:
+    def _error(self, e: BaseException) -> HistoryError:
         """The :class:`HistoryError` for a database error ``e``."""
         return HistoryError(
             f"cannot use the history database {self._shown}: {e.__class__.__name__}: {self._message(e)}"
         )
 
-    def _run(self, fn):
+    def _run(self, fn: Callable[[Connection], _T]) -> _T:
         """``fn(conn)`` on a connection; a database error becomes a :class:`HistoryError`."""
         try:
             with self._engine.connect() as conn:
@@ -203,7 +214,7 @@ class SQLAlchemyHistory(_Backend):
         self._engine.dispose()
 
     @contextmanager
-    def transaction(self):
+    def transaction(self) -> Iterator[Connection]:
         """One write transaction (on SQLite: ``BEGIN IMMEDIATE``; on PostgreSQL: holding the write
         advisory lock, so writers take turns); rolled back on any exception."""
         try:
@@ -221,13 +232,13 @@ class SQLAlchemyHistory(_Backend):
                 raise  # the schema creation retries these (locked; two creators at once)
             raise self._error(e) from None
 
-    def _version(self, conn):
+    def _version(self, conn: Connection) -> int | None:
         sa = self._sa
         if not sa.inspect(conn).has_table("umbmark_schema"):
             return None
         return conn.execute(sa.select(self._schema.c.version)).scalar()
 
-    def _migrate(self, create: bool):
+    def _migrate(self, create: bool) -> None:
         sa = self._sa
         with self._engine.connect() as conn:
             if self._version(conn) == SCHEMA_VERSION:
@@ -301,7 +312,7 @@ class SQLAlchemyHistory(_Backend):
             ).scalar()
         return res if not orphans else f"{res}; records without a robot: {orphans}"
 
-    def _insert(self, conn, row: dict) -> int:
+    def _insert(self, conn: Connection, row: dict[str, Any]) -> int:
         sa = self._sa
         name = row["robot"]
         rid = conn.execute(sa.select(self._robots.c.id).where(self._robots.c.name == name)).scalar()
@@ -314,15 +325,19 @@ class SQLAlchemyHistory(_Backend):
             rid = conn.execute(sa.select(self._robots.c.id).where(self._robots.c.name == name)).scalar_one()
         values = {k: v for k, v in row.items() if k != "robot"}
         res = conn.execute(self._cal.insert().values(robot_id=rid, **values))
-        return int(res.inserted_primary_key[0])
+        pk = res.inserted_primary_key
+        assert pk is not None  # set by the single-row INSERT just made
+        return int(pk[0])
 
-    def _select(self):
+    def _select(self) -> Select:
         sa = self._sa
         c, r = self._cal.c, self._robots.c
         cols = [c.id, r.name] + [getattr(c, k) for k in _COLS[2:]]
         return sa.select(*cols).select_from(self._cal.join(self._robots))
 
-    def _fetch(self, robot: str | None = None, limit: int | None = None, record_id: int | None = None) -> list:
+    def _fetch(
+        self, robot: str | None = None, limit: int | None = None, record_id: int | None = None
+    ) -> list[tuple[Any, ...]]:
         """The rows of the record query, newest first (the robot's name and the id matched exactly)."""
         q = self._select()
         if record_id is not None:
@@ -334,7 +349,7 @@ class SQLAlchemyHistory(_Backend):
             q = q.limit(int(limit))
         return self._run(lambda conn: [tuple(x) for x in conn.execute(q).all()])
 
-    def _robot_counts(self):
+    def _robot_counts(self) -> Sequence[Sequence[Any]]:
         sa = self._sa
         c, r = self._cal.c, self._robots.c
         q = (
@@ -348,4 +363,6 @@ class SQLAlchemyHistory(_Backend):
     def count(self) -> int:
         """Number of records of all robots."""
         sa = self._sa
-        return self._run(lambda conn: conn.execute(sa.select(sa.func.count()).select_from(self._cal)).scalar())
+        n = self._run(lambda conn: conn.execute(sa.select(sa.func.count()).select_from(self._cal)).scalar())
+        assert n is not None  # count() answers one row
+        return n

@@ -4,7 +4,10 @@
 from __future__ import annotations
 
 import sqlite3
+from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
+from pathlib import Path
+from typing import Any
 from urllib.parse import quote
 
 from umbmark._version import __version__
@@ -41,7 +44,12 @@ class History(_Backend):
         schema, or cannot be opened.
     """
 
-    def __init__(self, path=None, timeout_s: float = 60.0, create: bool = True):
+    path: Path
+    journal_mode: str
+    read_only: bool
+    _conn: sqlite3.Connection
+
+    def __init__(self, path: str | Path | None = None, timeout_s: float = 60.0, create: bool = True) -> None:
         self.path = resolve_db_path(path)
         self.read_only = False
         if not create and not self.path.exists():
@@ -67,7 +75,7 @@ class History(_Backend):
         except sqlite3.Error as e:
             raise HistoryError(f"cannot open the history database {self.path}: {e}") from None
 
-        def setup():
+        def setup() -> None:
             self._conn.execute("PRAGMA foreign_keys = ON")
             self._conn.execute(f"PRAGMA busy_timeout = {int(timeout_s * 1000)}")
             self._refuse_foreign()  # before anything is written: another application's file stays as it is
@@ -121,7 +129,7 @@ class History(_Backend):
             return
         raise self._damaged(last) from None
 
-    def _damaged(self, e) -> HistoryError:
+    def _damaged(self, e: sqlite3.Error | None) -> HistoryError:
         """The error for an SQLite error ``e`` while reading or opening the file."""
         msg = str(e)
         if _unwritable(e):
@@ -138,7 +146,7 @@ class History(_Backend):
             f"umbmark ({__version__}, schema {SCHEMA_VERSION}): upgrade umbmark"
         )
 
-    def _query(self, sql: str, args=()) -> list:
+    def _query(self, sql: str, args: Sequence[Any] = ()) -> list[Any]:
         """``sql`` and all its rows; an SQLite error becomes a :class:`HistoryError`."""
         try:
             return self._conn.execute(sql, args).fetchall()
@@ -151,7 +159,7 @@ class History(_Backend):
         self._conn.close()
 
     @contextmanager
-    def transaction(self):
+    def transaction(self) -> Iterator[sqlite3.Connection]:
         """``BEGIN IMMEDIATE`` (takes the write lock, waiting up to the busy timeout) ... ``COMMIT``;
         ``ROLLBACK`` on any exception. An SQLite error in it becomes a :class:`HistoryError`."""
         if self.read_only:
@@ -184,7 +192,7 @@ class History(_Backend):
                     pass
                 raise self._write_error(e) from None
 
-    def _write_error(self, e) -> HistoryError:
+    def _write_error(self, e: sqlite3.Error) -> HistoryError:
         if _unwritable(e):
             return HistoryError(
                 f"cannot write to the history database {self.path}: {e} (the file or its folder is read-only)"
@@ -210,7 +218,7 @@ class History(_Backend):
         else:
             self._check_schema(self._conn, v)
 
-    def _migrate(self):
+    def _migrate(self) -> None:
         v = self.schema_version
         if v == SCHEMA_VERSION:
             self._check_schema(self._conn, v)
@@ -230,7 +238,7 @@ class History(_Backend):
                     c.execute(stmt)
                 c.execute(f"PRAGMA user_version = {target}")
 
-    def _check_schema(self, conn, version: int) -> None:
+    def _check_schema(self, conn: sqlite3.Connection, version: int) -> None:
         """The tables and columns of schema ``version`` are there (another application's
         database may have the same ``user_version``; a table may have been dropped)."""
         found = {
@@ -273,7 +281,7 @@ class History(_Backend):
         return text if not fk else f"{text}; foreign key violations: {len(fk)}"
 
     # -- writing -------------------------------------------------------------------------------
-    def _insert(self, c, row: dict) -> int:
+    def _insert(self, c: sqlite3.Connection, row: dict[str, Any]) -> int:
         """The statements of one record; call inside :meth:`transaction`."""
         c.execute("INSERT OR IGNORE INTO robots (name, created_utc) VALUES (?, ?)", (row["robot"], row["created_utc"]))
         robot_id = c.execute("SELECT id FROM robots WHERE name = ?", (row["robot"],)).fetchone()[0]
@@ -282,13 +290,14 @@ class History(_Backend):
             f"INSERT INTO calibrations (robot_id, {', '.join(cols)}) VALUES (?, {', '.join('?' for _ in cols)})",
             [robot_id] + [row[k] for k in cols],
         )
+        assert cur.lastrowid is not None  # set by the INSERT just made
         return int(cur.lastrowid)
 
     # -- reading -------------------------------------------------------------------------------
-    def _fetch(self, robot: str | None = None, limit: int | None = None, record_id: int | None = None) -> list:
+    def _fetch(self, robot: str | None = None, limit: int | None = None, record_id: int | None = None) -> list[Any]:
         """The rows of ``_SELECT``, newest first (the robot's name and the id matched exactly)."""
         q = _SELECT
-        args: list = []
+        args: list[Any] = []
         if record_id is not None:
             q += " WHERE c.id = ?"
             args.append(int(record_id))
@@ -301,7 +310,7 @@ class History(_Backend):
             args.append(int(limit))
         return self._query(q, args)
 
-    def _robot_counts(self):
+    def _robot_counts(self) -> list[Any]:
         return self._query(
             """SELECT r.name, count(c.id), min(c.created_utc), max(c.created_utc)
                FROM robots r LEFT JOIN calibrations c ON c.robot_id = r.id
@@ -313,7 +322,7 @@ class History(_Backend):
         return self._query("SELECT count(*) FROM calibrations")[0][0]
 
 
-def _unwritable(e) -> bool:
+def _unwritable(e: object) -> bool:
     """An SQLite error that says the file or its folder cannot be written (or opened as such)."""
     m = str(e)
     return "readonly" in m or "read-only" in m or "unable to open database file" in m

@@ -5,9 +5,12 @@ from __future__ import annotations
 import csv
 import io
 import math
+from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
+from typing import TextIO
 
 import numpy as np
+from numpy.typing import NDArray
 
 from umbmark._numbers import strict_float
 from umbmark.errors import InputError
@@ -23,7 +26,7 @@ __all__ = [
 ]
 
 
-def read_text(path) -> str:
+def read_text(path: str | Path) -> str:
     """The text of a UTF-8 file (a byte-order mark dropped).
 
     Parameters
@@ -53,7 +56,7 @@ def read_text(path) -> str:
         raise InputError(f"cannot read: {e.strerror}", source=str(path)) from None
 
 
-def csv_rows(text: str, source: str):
+def csv_rows(text: str, source: str) -> Iterator[tuple[int, list[str]]]:
     """The CSV rows of a text that carry data.
 
     Blank lines and comment lines (a line that starts with ``#`` outside a quoted field) are
@@ -92,7 +95,7 @@ def csv_rows(text: str, source: str):
         yield reader.line_num, row
 
 
-def _without_comments(text: str):
+def _without_comments(text: str) -> Iterator[str]:
     """The lines of a CSV text, each comment line replaced by an empty one (line numbers kept).
 
     A line is a comment when it starts (after blanks) with ``#`` and no quoted field is open
@@ -116,32 +119,32 @@ class _CommentSafeWriter:
     terminator is ``\\n``), and a first cell when it starts with ``#`` (it would read as a comment).
     """
 
-    def __init__(self, out, lineterminator: str = "\n"):
+    def __init__(self, out: TextIO, lineterminator: str = "\n") -> None:
         self._out = out
         self._end = lineterminator
 
     @staticmethod
-    def _cell(v, first: bool) -> str:
+    def _cell(v: object, first: bool) -> str:
         c = repr(v) if isinstance(v, float) else str(v)
         if any(ch in c for ch in ',"\r\n') or (first and c.lstrip().startswith("#")):
             return '"' + c.replace('"', '""') + '"'
         return c
 
-    def writerow(self, row) -> None:
+    def writerow(self, row: Iterable[object]) -> None:
         self._out.write(",".join(self._cell(v, i == 0) for i, v in enumerate(row)) + self._end)
 
-    def writerows(self, rows) -> None:
+    def writerows(self, rows: Iterable[Iterable[object]]) -> None:
         for row in rows:
             self.writerow(row)
 
 
-def csv_writer(out, lineterminator: str = "\n") -> _CommentSafeWriter:
+def csv_writer(out: TextIO, lineterminator: str = "\n") -> _CommentSafeWriter:
     """A CSV writer on ``out`` whose rows :func:`csv_rows` reads back as the same cells, never as
     comments (see :class:`_CommentSafeWriter`)."""
     return _CommentSafeWriter(out, lineterminator)
 
 
-def header_columns(row) -> list[str]:
+def header_columns(row: Iterable[str]) -> list[str]:
     """A header row's column names: stripped, lower case.
 
     Parameters
@@ -197,7 +200,14 @@ def parse_number(cell: str, col: str, source: str, line: int, allow_empty: bool 
     return v
 
 
-def numeric_rows(text: str, source: str, ncols: int | None = None, names=None, skip=(), delimiter=","):
+def numeric_rows(
+    text: str,
+    source: str,
+    ncols: int | None = None,
+    names: Sequence[str] | None = None,
+    skip: Iterable[int] = (),
+    delimiter: str | None = ",",
+) -> tuple[NDArray[np.float64], NDArray[np.int_]]:
     """Parse lines of numbers into an array.
 
     Blank lines and lines starting with ``#`` are skipped, as are the 1-based line numbers in
@@ -215,8 +225,8 @@ def numeric_rows(text: str, source: str, ncols: int | None = None, names=None, s
         Column names, for error messages.
     skip : iterable of int
         Line numbers to skip.
-    delimiter : str
-        The cell separator.
+    delimiter : str or None
+        The cell separator (None: runs of white space).
 
     Returns
     -------
@@ -231,10 +241,11 @@ def numeric_rows(text: str, source: str, ncols: int | None = None, names=None, s
         A wrong number of fields, a cell that is not a finite number, no data rows (file and
         line named).
     """
-    rows, lines = [], []
-    skip = set(skip)
+    rows: list[list[float]] = []
+    lines: list[int] = []
+    skipped = set(skip)
     for i, raw in enumerate(text.splitlines(), 1):
-        if i in skip:
+        if i in skipped:
             continue
         s = raw.strip()
         if not s or s.startswith("#"):
@@ -255,7 +266,7 @@ def numeric_rows(text: str, source: str, ncols: int | None = None, names=None, s
     return np.asarray(rows, dtype=float), np.asarray(lines)
 
 
-def check_increasing_time(t, lines, source: str) -> None:
+def check_increasing_time(t: NDArray[np.float64], lines: NDArray[np.int_], source: str) -> None:
     """Check that sample times increase.
 
     Parameters

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import tempfile
+from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -39,7 +40,7 @@ def _alive(pid: int) -> bool:
     return True
 
 
-def remove_stale_temporaries(path) -> list[Path]:
+def remove_stale_temporaries(path: str | Path) -> list[Path]:
     """Remove the temporary files that writers of ``path`` killed on this machine left beside it.
 
     A write makes ``.NAME.umbmark-tmp.PID.RANDOM.SUFFIX`` beside ``NAME`` and renames it over
@@ -60,7 +61,7 @@ def remove_stale_temporaries(path) -> list[Path]:
     path = Path(path)
     parent = path.parent if str(path.parent) else Path(".")
     prefix = _temp_prefix(path)
-    removed = []
+    removed: list[Path] = []
     try:
         entries = list(os.scandir(parent))
     except OSError:
@@ -81,7 +82,7 @@ def remove_stale_temporaries(path) -> list[Path]:
 
 
 @contextmanager
-def atomic_path(path):
+def atomic_path(path: str | Path) -> Iterator[Path]:
     """A temporary path beside ``path`` that replaces ``path`` only if the block succeeds.
 
     A symbolic link is written through (its target is replaced, the link stays); a special
@@ -110,8 +111,8 @@ def atomic_path(path):
     if path.is_dir():
         raise InputError(f"cannot write {path}: it is a folder")
     if path.exists() and not path.is_file():
-        with _special(path) as tmp:
-            yield tmp
+        with _special(path) as scratch:
+            yield scratch
         return
     if path.is_symlink():
         path = Path(os.path.realpath(path))
@@ -144,7 +145,7 @@ def atomic_path(path):
 
 
 @contextmanager
-def _special(path: Path):
+def _special(path: Path) -> Iterator[Path]:
     """The content is made in a temporary file, then written into ``path`` (a device or pipe:
     it cannot be renamed over, and a failed write, e.g. /dev/full, is an OSError)."""
     scratch = Path(tempfile.gettempdir()) / path.name
@@ -163,7 +164,7 @@ def _special(path: Path):
         os.unlink(tmp)
 
 
-def atomic_write(path, text: str | bytes) -> None:
+def atomic_write(path: str | Path, text: str | bytes) -> None:
     """Write a file whole or not at all (a temporary file beside it, then renamed over it).
 
     Parameters
@@ -185,7 +186,7 @@ def atomic_write(path, text: str | bytes) -> None:
             tmp.write_text(text, encoding="utf-8")
 
 
-def write_json(path, obj) -> None:
+def write_json(path: str | Path, obj: object) -> None:
     """Write a JSON document (indented by two spaces, one final newline), atomically.
 
     Parameters

@@ -63,7 +63,7 @@ class MeasuredRun:
     line: int | None = None
 
 
-def read_distances_csv(path) -> list[MeasuredRun]:
+def read_distances_csv(path: str | Path) -> list[MeasuredRun]:
     """Read a distances file (see :func:`parse_distances_csv`).
 
     Parameters

@@ -78,7 +78,7 @@ _SIZE_LIMITS = (1e-9, 1e12)
 PLAUSIBLE_FACTORS = {"c": (0.8, 1.25), "Ed": (0.8, 1.25), "Eb": (0.5, 2.0)}
 
 
-def _plain(text) -> str:
+def _plain(text: object) -> str:
     """A string as one line of plain text: control characters, line and paragraph separators
     (a newline, NUL, U+2028 ...) and format characters written as escapes (``\\x0a``)."""
     out = []
@@ -101,19 +101,19 @@ def _xml_comment(text: str) -> str:
     return t + " " if t.endswith("-") else t
 
 
-def _finite(name, v, source=None) -> float:
+def _finite(name: str, v: object, source: str | None = None) -> float:
     if not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)):
         raise InputError(f"{name} must be a finite number, got {v!r}", source=source)
     return float(v)
 
 
-def _pos(name, v, source=None):
+def _pos(name: str, v: object, source: str | None = None) -> float:
     if v is None or not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0):
         raise InputError(f"{name} must be a positive number, got {v!r}", source=source)
     return float(v)
 
 
-def _factor(name, v, source=None) -> float:
+def _factor(name: str, v: object, source: str | None = None) -> float:
     """A correction factor: positive, finite, within :data:`FACTOR_LIMITS`."""
     v = _pos(name, v, source)
     lo, hi = FACTOR_LIMITS
@@ -126,7 +126,7 @@ def _factor(name, v, source=None) -> float:
     return v
 
 
-def _size(name, v, source=None) -> float:
+def _size(name: str, v: object, source: str | None = None) -> float:
     """A size or count to write: positive, finite, within :data:`_SIZE_LIMITS`."""
     v = _pos(name, v, source)
     lo, hi = _SIZE_LIMITS
@@ -201,7 +201,7 @@ class ExportCalibration:
     input_warnings: tuple[str, ...] = ()
     sensor_height_known: bool = True
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         for k in ("c_left", "c_right", "eb"):
             object.__setattr__(self, k, _factor(k, getattr(self, k), self.source))
         for k in ("nominal_diameter_left_m", "nominal_diameter_right_m", "nominal_wheelbase_m"):
@@ -296,6 +296,7 @@ def _includes_prior(d: dict) -> bool:
     ed, ed_pass = d.get("Ed"), d.get("Ed_pass")
     if not all(isinstance(v, (int, float)) and not isinstance(v, bool) and v > 0 for v in (ed, ed_pass)):
         return False
+    assert ed is not None and ed_pass is not None  # positive numbers, just checked
     return abs(ed / ed_pass - 1.0) > 1e-12
 
 
@@ -311,8 +312,8 @@ def _calibrate_calibration(d: dict, src: str) -> ExportCalibration:
     b0 = _pos("wheelbase_mm of the first pass", first.get("wheelbase_mm"), src)
     b = _pos("final wheelbase_mm", final.get("wheelbase_mm"), src)
     return ExportCalibration(
-        final.get("c_left"),
-        final.get("c_right"),
+        _factor("c_left", final.get("c_left"), src),
+        _factor("c_right", final.get("c_right"), src),
         b / b0,
         nominal_wheelbase_m=b0 * 1e-3,
         source=src,
@@ -339,15 +340,17 @@ def _history_calibration(d: dict, src: str) -> ExportCalibration:
         x, y, yaw = (_finite(f"sensor_pose {k}", sp.get(k), src) for k in ("x_mm", "y_mm", "yaw_deg"))
         pose = (x * 1e-3, y * 1e-3, math.radians(yaw))
     scale = d.get("scale_observed")
-    piu = d.get("parameters_in_use") if isinstance(d.get("parameters_in_use"), dict) else {}
+    in_use = d.get("parameters_in_use")
+    piu = in_use if isinstance(in_use, dict) else {}
     prior = [piu.get(k) for k in ("c_left", "c_right")]  # the wheel factors the robot ran with
     with_prior = any(isinstance(v, (int, float)) and not isinstance(v, bool) and v != 1.0 for v in prior)
+    dl0, dr0 = mm("nominal_diameter_left_mm"), mm("nominal_diameter_right_mm")
     return ExportCalibration(
-        d.get("c_left"),
-        d.get("c_right"),
+        _factor("c_left", d.get("c_left"), src),
+        _factor("c_right", d.get("c_right"), src),
         eb,
-        mm("nominal_diameter_left_mm"),
-        mm("nominal_diameter_right_mm"),
+        dl0,
+        dr0,
         b0,
         d.get("units_per_wheel_rev"),
         src,
@@ -358,7 +361,7 @@ def _history_calibration(d: dict, src: str) -> ExportCalibration:
     )
 
 
-def calibration_from_json(path, dataset: str | None = None) -> ExportCalibration:
+def calibration_from_json(path: str | Path, dataset: str | None = None) -> ExportCalibration:
     """Read a calibration from the JSON of ``umbmark replay --json``, ``umbmark analyze --json``,
     ``umbmark calibrate --json`` or ``umbmark selfcal --json``.
 
@@ -673,44 +676,70 @@ def format_export(
         raise InputError(f"unknown export format {fmt!r} (choose from {', '.join(FORMATS)})")
     notes = [_PARAM_TICKS.sub(r"\1", w) for w in export_warnings(cal, left0, right0, separation0)]
     if fmt in _SENSOR_FORMATS:
-        if cal.sensor_pose is None:
-            raise InputError(
-                f"the {fmt} export is the lidar's mounting pose: it needs the JSON of a self-calibration "
-                "(umbmark selfcal)"
-            )
-        if fmt == "urdf":
-            comments = "".join(f"<!-- warning: {_xml_comment(w)} -->\n" for w in notes)
-            return f"<!-- {_xml_comment(_header(cal, '').strip())} -->\n{comments}{urdf_origin(cal)}\n"
-        return (
-            _hash_comment(_header(cal, "").strip())
-            + "".join(_hash_comment("warning: " + w) for w in notes)
-            + f"# the pose of {cal.sensor_frame} in {cal.base_frame}; ROS 1: {static_transform_command(cal, ros=1)}\n"
-            + static_transform_command(cal)
-            + "\n"
-        )
+        return _sensor_export(cal, fmt, notes)
     if fmt in ("ros2", "ros1"):
-        if not isinstance(controller, str) or not _CONTROLLER.fullmatch(controller):
-            raise InputError(f"bad controller name {controller!r} (letters, digits, _ / ~ . -)")
-        params = ros_multipliers(cal, left0, right0, separation0)
-        if wheel_radius_m is not None:
-            params = {"wheel_radius": _size("wheel radius", wheel_radius_m * 1e3) * 1e-3, **params}
-        if wheel_separation_m is not None:
-            params = {"wheel_separation": _size("wheel separation", wheel_separation_m * 1e3) * 1e-3, **params}
-        body = {controller: {"ros__parameters": params}} if fmt == "ros2" else {controller: params}
-        note = (
-            f"# composed with the multipliers in use: left {left0:.6g}, right {right0:.6g}, "
-            f"separation {separation0:.6g}\n"
-        )
-        import yaml
+        return _ros_export(cal, fmt, notes, controller, left0, right0, separation0, wheel_radius_m, wheel_separation_m)
+    out, mmpp = _corrected_values(cal)
+    if fmt == "json":
+        return _json_export(cal, out, notes)
+    return _firmware_export(cal, out, mmpp, notes)
 
-        text = (
-            _hash_comment(_header(cal, "").strip())
-            + "".join(_hash_comment("warning: " + w) for w in notes)
-            + note
-            + yaml.safe_dump(body, sort_keys=False, default_flow_style=False)
+
+def _sensor_export(cal: ExportCalibration, fmt: str, notes: list[str]) -> str:
+    """The ``urdf`` or ``tf`` export: the lidar's mounting pose."""
+    if cal.sensor_pose is None:
+        raise InputError(
+            f"the {fmt} export is the lidar's mounting pose: it needs the JSON of a self-calibration (umbmark selfcal)"
         )
-        return text + _sensor_comment(cal, 2 if fmt == "ros2" else 1)
-    out: dict = {"Ed": cal.ed, "Eb": cal.eb, "c_left": cal.c_left, "c_right": cal.c_right}
+    if fmt == "urdf":
+        comments = "".join(f"<!-- warning: {_xml_comment(w)} -->\n" for w in notes)
+        return f"<!-- {_xml_comment(_header(cal, '').strip())} -->\n{comments}{urdf_origin(cal)}\n"
+    return (
+        _hash_comment(_header(cal, "").strip())
+        + "".join(_hash_comment("warning: " + w) for w in notes)
+        + f"# the pose of {cal.sensor_frame} in {cal.base_frame}; ROS 1: {static_transform_command(cal, ros=1)}\n"
+        + static_transform_command(cal)
+        + "\n"
+    )
+
+
+def _ros_export(
+    cal: ExportCalibration,
+    fmt: str,
+    notes: list[str],
+    controller: str,
+    left0: float,
+    right0: float,
+    separation0: float,
+    wheel_radius_m: float | None,
+    wheel_separation_m: float | None,
+) -> str:
+    """The ``ros2`` or ``ros1`` export: a diff_drive_controller parameter file."""
+    if not isinstance(controller, str) or not _CONTROLLER.fullmatch(controller):
+        raise InputError(f"bad controller name {controller!r} (letters, digits, _ / ~ . -)")
+    params = ros_multipliers(cal, left0, right0, separation0)
+    if wheel_radius_m is not None:
+        params = {"wheel_radius": _size("wheel radius", wheel_radius_m * 1e3) * 1e-3, **params}
+    if wheel_separation_m is not None:
+        params = {"wheel_separation": _size("wheel separation", wheel_separation_m * 1e3) * 1e-3, **params}
+    body = {controller: {"ros__parameters": params}} if fmt == "ros2" else {controller: params}
+    note = (
+        f"# composed with the multipliers in use: left {left0:.6g}, right {right0:.6g}, separation {separation0:.6g}\n"
+    )
+    import yaml
+
+    text = (
+        _hash_comment(_header(cal, "").strip())
+        + "".join(_hash_comment("warning: " + w) for w in notes)
+        + note
+        + yaml.safe_dump(body, sort_keys=False, default_flow_style=False)
+    )
+    return text + _sensor_comment(cal, 2 if fmt == "ros2" else 1)
+
+
+def _corrected_values(cal: ExportCalibration) -> tuple[dict[str, object], tuple[float, float] | None]:
+    """The corrected figures of the ``json`` and ``firmware`` exports, and the millimetres per pulse when known."""
+    out: dict[str, object] = {"Ed": cal.ed, "Eb": cal.eb, "c_left": cal.c_left, "c_right": cal.c_right}
     if cal.nominal_diameter_left_m and cal.nominal_diameter_right_m:
         out["diameter_left_mm"] = _size("diameter_left_mm", cal.c_left * cal.nominal_diameter_left_m * 1e3)
         out["diameter_right_mm"] = _size("diameter_right_mm", cal.c_right * cal.nominal_diameter_right_m * 1e3)
@@ -735,15 +764,24 @@ def format_export(
             "yaw_deg": math.degrees(yaw),
         }
         out["base_frame"], out["sensor_frame"] = cal.base_frame, cal.sensor_frame
-    if fmt == "json":
-        out["scale_observed"] = cal.scale_observed
-        if scale_note(cal):
-            out["scale_note"] = _PARAM_TICKS.sub(r"\1", scale_note(cal) or "")
-        out["method"], out["source"] = cal.method, cal.source
-        out["warnings"] = notes
-        out["input_warnings"] = list(cal.input_warnings)
-        return json.dumps(out, indent=2) + "\n"
-    # firmware
+    return out, mmpp
+
+
+def _json_export(cal: ExportCalibration, out: dict[str, object], notes: list[str]) -> str:
+    """The ``json`` export: the corrected figures, the scale note, the method, the source and the warnings."""
+    out["scale_observed"] = cal.scale_observed
+    if scale_note(cal):
+        out["scale_note"] = _PARAM_TICKS.sub(r"\1", scale_note(cal) or "")
+    out["method"], out["source"] = cal.method, cal.source
+    out["warnings"] = notes
+    out["input_warnings"] = list(cal.input_warnings)
+    return json.dumps(out, indent=2) + "\n"
+
+
+def _firmware_export(
+    cal: ExportCalibration, out: dict[str, object], mmpp: tuple[float, float] | None, notes: list[str]
+) -> str:
+    """The ``firmware`` export: a C header with the millimetres per pulse and the wheelbase."""
     if mmpp is None:
         raise InputError(
             "the firmware export needs the nominal wheel diameters and encoder pulses per wheel "
@@ -849,7 +887,7 @@ def _sensor_comment(cal: ExportCalibration, ros: int) -> str:
     )
 
 
-def write_export(text: str, path) -> None:
+def write_export(text: str, path: str | Path) -> None:
     """Write an export's text to a file, atomically.
 
     Parameters

@@ -28,6 +28,7 @@ from __future__ import annotations
 import csv
 import io
 import math
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -60,11 +61,11 @@ _GEOMETRY_LINE = "# umbmark nominal geometry:"
 _OLD_GEOMETRY_LINE = "# umbmark generic log; nominal diameters left/right [mm], wheelbase [mm], pulses per wheel rev:"
 
 
-def _geometry_values(line: str, src: str, n: int) -> dict | None:
+def _geometry_values(line: str, src: str, n: int) -> dict[str, float] | None:
     """The geometry of one comment line (None: not a geometry line)."""
     s = line.strip()
     if s.startswith(_GEOMETRY_LINE):
-        out = {}
+        out: dict[str, str] = {}
         for item in s[len(_GEOMETRY_LINE) :].split():
             key, eq, val = item.partition("=")
             if not eq or key not in GEOMETRY_KEYS:
@@ -89,7 +90,7 @@ def _geometry_values(line: str, src: str, n: int) -> dict | None:
     return vals
 
 
-def read_csv_geometry(path) -> dict | None:
+def read_csv_geometry(path: str | Path) -> dict[str, float] | None:
     """The nominal geometry written into a generic CSV log's comment lines (before its header).
 
     Parameters
@@ -140,7 +141,7 @@ def _check_header(header: list[str], src: str, line: int | None) -> list[str]:
         )
     if "theta_rad" in header and "theta_deg" in header:
         raise InputError("give theta_rad or theta_deg, not both", src, line)
-    gt_cols = [c for c in ("x_m", "y_m", "theta_rad", "theta_deg") if c in header]
+    gt_cols: list[str] = [c for c in ("x_m", "y_m", "theta_rad", "theta_deg") if c in header]
     if gt_cols and len(gt_cols) != 3:
         raise InputError("ground truth needs x_m, y_m and theta_rad (or theta_deg)", src, line)
     return gt_cols
@@ -265,7 +266,7 @@ def _batch_run(label: str, rows: list, src: str, where: str, ticks: str, degrees
 
 
 def read_generic_csv(
-    paths,
+    paths: str | Path | Sequence[str | Path],
     nominal: WheelGeometry,
     pulses_per_wheel_rev: float,
     ticks: str = "cumulative",
@@ -356,8 +357,8 @@ def format_generic_csv(ds: Dataset) -> str:
         The file's text.
     """
     out = io.StringIO()
-    g = ds.nominal
-    values = (g.diameter_left_m * 1e3, g.diameter_right_m * 1e3, g.wheelbase_m * 1e3, ds.units_per_rev)
+    nom = ds.nominal
+    values = (nom.diameter_left_m * 1e3, nom.diameter_right_m * 1e3, nom.wheelbase_m * 1e3, ds.units_per_rev)
     out.write(_GEOMETRY_LINE + "".join(f" {k}={float(v)!r}" for k, v in zip(GEOMETRY_KEYS, values)) + "\n")
     w = csv_writer(out, lineterminator="\n")
     w.writerow(["run", "time_s", "left_ticks", "right_ticks", "x_m", "y_m", "theta_rad"])
@@ -436,13 +437,17 @@ class _StreamedRun:
         self.idx = [header.index(c) for c in self.use]
         self.run_col = header.index("run") if "run" in header else None
         self.need = max(self.idx + ([self.run_col] if self.run_col is not None else [])) + 1
-        self.label = None  # the run column's label
+        self.label: str | None = None  # the run column's label
         self.rows = 0
-        self.t0 = self.t = self.left = self.right = None  # first time; last time and counters
-        self.origin = None  # x, y, cos, sin, theta of the first ground-truth pose
-        self.theta = None  # the last unwrapped ground-truth heading
-        self.end_only = None  # only the last row may hold a (start-frame) end pose
-        self.pending = None  # the line of such an end pose seen in an earlier chunk
+        self.t0: float | None = None  # first time
+        self.t: float | None = None  # last time and counters
+        self.left: float | None = None
+        self.right: float | None = None
+        # x, y, cos, sin, theta of the first ground-truth pose
+        self.origin: tuple[float, float, float, float, float] | None = None
+        self.theta: float | None = None  # the last unwrapped ground-truth heading
+        self.end_only: bool | None = None  # only the last row may hold a (start-frame) end pose
+        self.pending: int | None = None  # the line of such an end pose seen in an earlier chunk
 
     def parse(self, block) -> np.ndarray:
         """The used columns of ``(line, text)`` rows as numbers (empty ground truth: NaN)."""
@@ -493,8 +498,10 @@ class _StreamedRun:
         if first:
             self.t0 = t[0]
         if self.ticks == "cumulative":
-            dl = np.diff(cl, prepend=cl[0] if first else self.left)
-            dr = np.diff(cr, prepend=cr[0] if first else self.right)
+            prev_l, prev_r = (cl[0], cr[0]) if first else (self.left, self.right)
+            assert prev_l is not None and prev_r is not None  # the counters of the chunk before
+            dl = np.diff(cl, prepend=prev_l)
+            dr = np.diff(cr, prepend=prev_r)
         else:
             dl, dr = cl.copy(), cr.copy()
             if first:
@@ -531,6 +538,7 @@ class _StreamedRun:
                 )
             self.pending = int(ln[hits[0]]) if hits.size else None
             return g
+        assert self.origin is not None  # a run whose first row holds a pose (else end_only)
         x0, y0, c, s, th0 = self.origin
         th = g[:, 2].copy()
         if ok.any():  # unwrap across chunks, from the last heading seen
@@ -548,6 +556,7 @@ class _StreamedRun:
         t, dl, dr = self._wheels(a, ln, first)
         gt = self._truth(a, ln, first) if self.has_gt else None
         self.rows += len(block)
+        assert self.t0 is not None  # set by the first chunk
         return CsvChunk(t - self.t0, dl, dr, gt, ln)
 
     def finish(self) -> None:
@@ -571,7 +580,7 @@ def _open_text(path):
         raise InputError(f"cannot read: {e.strerror}", source=src) from None
 
 
-def iter_generic_csv(path, ticks: str = "cumulative", chunk_rows: int = 1 << 16):
+def iter_generic_csv(path: str | Path, ticks: str = "cumulative", chunk_rows: int = 1 << 16) -> Iterator[CsvChunk]:
     """Read ONE run of a generic CSV log in chunks (bounded memory: only the current chunk is held).
 
     The same checks and conventions as :func:`read_generic_csv`. A ``run`` column may be

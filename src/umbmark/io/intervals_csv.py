@@ -36,6 +36,7 @@ from __future__ import annotations
 
 import io
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -66,7 +67,7 @@ _MAX_CELL = 1e6  # a duration, wheel rotation or displacement beyond this is no 
 _DT_S_PER_INTERVAL = 60.0  # a minute between two matched scans: milliseconds?
 
 
-def read_intervals_csv(path) -> Intervals:
+def read_intervals_csv(path: str | Path) -> Intervals:
     """Read an intervals file.
 
     Parameters
@@ -298,7 +299,7 @@ def format_intervals_csv(iv: Intervals) -> str:
     return out.getvalue()
 
 
-def write_intervals_csv(iv: Intervals, path) -> None:
+def write_intervals_csv(iv: Intervals, path: str | Path) -> None:
     """Write an intervals file, atomically (whole or not at all).
 
     Parameters

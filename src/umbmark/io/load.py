@@ -9,12 +9,13 @@ ground truth (:class:`TruthSource`) of bags, how to cut runs, the ground truth's
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 from umbmark.errors import InputError
 from umbmark.io.wheels import TICK_MODES, WheelSource
-from umbmark.model.dataset import Dataset, WheelGeometry, check_stop_s
+from umbmark.model.dataset import Dataset, Run, WheelGeometry, check_stop_s
 
 __all__ = [
     "LOG_FORMATS",
@@ -30,7 +31,7 @@ __all__ = [
 LOG_FORMATS = ("auto", "optiodom", "csv", "bag")
 
 
-def detect_format(path) -> str:
+def detect_format(path: str | Path) -> str:
     """The format of a log from what is at ``path``.
 
     Parameters
@@ -162,7 +163,9 @@ def nominal_geometry(opts: LogOptions, source: str, fallback: WheelGeometry | No
     return WheelGeometry(dl, dr, b)
 
 
-def load_logs(paths, fmt: str = "auto", options: LogOptions | None = None) -> Dataset:
+def load_logs(
+    paths: str | Path | Sequence[str | Path], fmt: str = "auto", options: LogOptions | None = None
+) -> Dataset:
     """One data set from log files.
 
     Parameters
@@ -261,8 +264,8 @@ def csv_recorded_geometry(paths: list) -> tuple[WheelGeometry | None, float | No
     """
     from umbmark.io.generic_csv import read_csv_geometry
 
-    found = [(p, read_csv_geometry(p)) for p in paths]
-    found = [(p, g) for p, g in found if g is not None]
+    read = [(p, read_csv_geometry(p)) for p in paths]
+    found = [(p, g) for p, g in read if g is not None]
     if not found:
         return None, None
     p0, g0 = found[0]
@@ -291,7 +294,9 @@ def _load_bag(paths: list, opts: LogOptions) -> Dataset:
     if len(paths) == 1:
         return _read_one_bag(paths[0], opts)
     sets = [_read_one_bag(p, opts) for p in paths]
-    runs, names, warnings = [], set(), []
+    runs: list[Run] = []
+    names: set[str] = set()
+    warnings: list[str] = []
     for ds in sets:
         warnings += ds.meta.get("warnings") or ()
         for r in ds.runs:
@@ -323,7 +328,7 @@ def _load_bag(paths: list, opts: LogOptions) -> Dataset:
     )
 
 
-def _read_one_bag(path, opts: LogOptions) -> Dataset:
+def _read_one_bag(path: str | Path, opts: LogOptions) -> Dataset:
     from umbmark.io.rosbag import read_bag, wheel_source_hint
 
     try:

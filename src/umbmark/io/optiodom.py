@@ -32,7 +32,7 @@ __all__ = ["read_optiodom", "read_metadata", "read_run_file", "is_optiodom", "CO
 COLUMNS = ("time", "x_gt", "y_gt", "theta_gt", "ticks_right", "ticks_left")
 
 
-def is_optiodom(path) -> bool:
+def is_optiodom(path: str | Path) -> bool:
     """Whether ``path`` is an optiodom data-set folder (it holds a ``*_metadata.csv`` file).
 
     Parameters
@@ -59,7 +59,7 @@ def _metadata_file(folder: Path) -> Path:
     raise InputError(f"{len(found)} metadata files; expected one", source=str(folder))
 
 
-def read_metadata(path) -> dict:
+def read_metadata(path: str | Path) -> dict:
     """Read the metadata file of a data set.
 
     Parameters
@@ -127,7 +127,7 @@ def _num(meta: dict, key: str, source: str, count: int = 1, required: bool = Tru
     return out if count > 1 else out[0]
 
 
-def read_optiodom(folder) -> Dataset:
+def read_optiodom(folder: str | Path) -> Dataset:
     """Read one optiodom data-set folder (see the module docstring).
 
     Parameters
@@ -229,7 +229,7 @@ def read_optiodom(folder) -> Dataset:
     )
 
 
-def read_run_file(path) -> Run:
+def read_run_file(path: str | Path) -> Run:
     """Read one run file of a data set.
 
     Parameters

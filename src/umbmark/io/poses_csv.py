@@ -7,7 +7,10 @@ in the run's start frame.
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
+from numpy.typing import ArrayLike
 
 from umbmark.io.atomic import atomic_path
 
@@ -16,7 +19,9 @@ __all__ = ["POSE_COLUMNS", "write_poses_csv"]
 POSE_COLUMNS = ("sample", "time_s", "x_m", "y_m", "theta_rad")
 
 
-def write_poses_csv(path, sample, t_s, x_m, y_m, theta_rad) -> None:
+def write_poses_csv(
+    path: str | Path, sample: ArrayLike, t_s: ArrayLike, x_m: ArrayLike, y_m: ArrayLike, theta_rad: ArrayLike
+) -> None:
     """Write poses to a CSV file, atomically.
 
     Parameters

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -184,7 +185,7 @@ class Relations:
         return out[0], out[1]
 
 
-def read_relations(path) -> Relations:
+def read_relations(path: str | Path) -> Relations:
     """Read a relations file.
 
     Parameters
@@ -280,7 +281,7 @@ def format_relations(relations: Relations) -> str:
     )
 
 
-def write_relations(relations: Relations, path) -> None:
+def write_relations(relations: Relations, path: str | Path) -> None:
     """Write a relations file, atomically.
 
     Parameters

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import math
 import re
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -60,7 +60,7 @@ __all__ = [
 _GT_TYPES = ("PoseStamped", "Odometry", "TFMessage", "PoseWithCovarianceStamped")
 
 
-def is_bag(path) -> bool:
+def is_bag(path: str | Path) -> bool:
     """Whether ``path`` is a bag: a ``.bag``, ``.mcap`` or ``.db3`` file, or a folder with a
     ROS 2 ``metadata.yaml``.
 
@@ -199,7 +199,7 @@ class BagInfo:
         }
 
 
-def bag_info(path) -> BagInfo:
+def bag_info(path: str | Path) -> BagInfo:
     """The topics, types, message counts and duration of a bag.
 
     Parameters
@@ -508,7 +508,7 @@ def _wheel_hint(reader) -> str:
     return (": this bag offers " + " or ".join(hints)) if hints else ""
 
 
-def wheel_source_hint(path) -> str:
+def wheel_source_hint(path: str | Path) -> str:
     """The wheel sources a bag offers (its Odometry and JointState topics), as the end of a
     message that asks for one; empty when it offers none or cannot be read.
 
@@ -610,7 +610,7 @@ def _square_runs(whole: Run, nominal: WheelGeometry, units_per_rev: float, stop_
 
 def _cut_runs(
     whole: Run,
-    ranges,
+    ranges: Sequence[tuple[float, float]] | None,
     stops: bool,
     stop_s: float,
     units_per_rev: float,
@@ -638,14 +638,14 @@ def _cut_runs(
 
 
 def read_bag(
-    path,
+    path: str | Path,
     *,
     nominal: WheelGeometry,
     wheels: WheelSource,
     gt_topic: str | None = None,
     gt_frame: str | None = None,
     gt_parent: str | None = None,
-    ranges=None,
+    ranges: Sequence[tuple[float, float]] | None = None,
     stops: bool = False,
     stop_s: float = 1.0,
     side_m: float | None = None,
@@ -724,7 +724,7 @@ def read_bag(
     warnings: list[str] = [f"{src}: {w}" for w in wd.warnings + chk.warnings]
     square = None if side_m is None else (nominal, warnings)
     runs = _cut_runs(whole, ranges, stops, stop_s, upr, src, square)
-    meta = {"format": "bag", "warnings": tuple(warnings)}
+    meta: dict[str, object] = {"format": "bag", "warnings": tuple(warnings)}
     if chk.time_offset is not None:
         meta["time_offset"] = ({"bag": src, **chk.time_offset.to_dict()},)
     return Dataset(name or Path(path).stem, nominal, upr, tuple(runs), side_m, src, meta=meta)
@@ -933,7 +933,7 @@ def _ordered(t: np.ndarray, what: str, topic: str, source: str) -> tuple[np.ndar
 
 
 def read_selfcal_bag(
-    path,
+    path: str | Path,
     *,
     wheels: WheelSource,
     scan_topic: str = "/scan",
@@ -1004,7 +1004,8 @@ def read_selfcal_bag(
         reader.close()
     st, ranges, warnings = scans.checked(topics)
     wd = wheel_msgs.finish()
-    first, inc = scans.layout[1], scans.layout[2]  # type: ignore[index]
+    assert scans.layout is not None  # set by the first of the scans checked() kept
+    first, inc = scans.layout[1], scans.layout[2]
     k = 2.0 * math.pi / wheels.units_per_rev  # counts to radians (1 for joint angles)
     return SelfcalBag(
         source=src,
@@ -1068,7 +1069,7 @@ class GyroBag:
     warnings: tuple[str, ...] = ()
 
 
-def read_gyro_bag(path, *, imu_topic: str, nominal: WheelGeometry, wheels: WheelSource) -> GyroBag:
+def read_gyro_bag(path: str | Path, *, imu_topic: str, nominal: WheelGeometry, wheels: WheelSource) -> GyroBag:
     """Read the turn rates of an IMU and the wheel data of a bag (for the gyro as a rotation reference).
 
     Parameters

@@ -236,7 +236,8 @@ class _Messages:
 
     def imu(self, k: int) -> Any:
         T = self.T
-        t_s, rate = self.gyro  # type: ignore[misc]
+        assert self.gyro is not None and self.gyro_ns is not None  # imu messages are made only with a gyro
+        t_s, rate = self.gyro
         vec = T["geometry_msgs/msg/Vector3"]
         cov = np.zeros(9)
         return T["sensor_msgs/msg/Imu"](
@@ -264,6 +265,7 @@ class _Messages:
         streams.append([(int(self.scan_ns[m]), len(wheel) + 1, "scan", m) for m in range(len(self.log.scan_t_s))])
         make = dict(wheel, scan=self.scan)
         if self.gyro is not None:
+            assert self.gyro_ns is not None  # the gyro's stamps
             streams.append([(int(ns), len(wheel) + 2, "imu", k) for k, ns in enumerate(self.gyro_ns)])
             make["imu"] = self.imu
         for ns, _, key, i in heapq.merge(*streams):

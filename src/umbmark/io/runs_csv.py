@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import io
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -26,7 +27,7 @@ OPTIONAL = ("run", "theta_abs", "theta_odo")
 _NUMERIC = ("x_abs", "y_abs", "x_odo", "y_odo", "theta_abs", "theta_odo")
 
 
-def read_runs_csv(path) -> RunsTable:
+def read_runs_csv(path: str | Path) -> RunsTable:
     """Read a runs file.
 
     Parameters
@@ -188,7 +189,7 @@ def format_runs_csv(runs: RunsTable) -> str:
     return out.getvalue()
 
 
-def write_runs_csv(runs: RunsTable, path) -> None:
+def write_runs_csv(runs: RunsTable, path: str | Path) -> None:
     """Write a runs file (mm, deg), atomically.
 
     Parameters

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 from numpy.typing import NDArray
@@ -96,7 +97,7 @@ class Trajectory:
         return len(self.t_s)
 
 
-def read_tum(path) -> Trajectory:
+def read_tum(path: str | Path) -> Trajectory:
     """Read a TUM trajectory file.
 
     Parameters
@@ -209,7 +210,7 @@ def format_tum(trajectory: Trajectory) -> str:
     return "".join(out)
 
 
-def write_tum(trajectory: Trajectory, path) -> None:
+def write_tum(trajectory: Trajectory, path: str | Path) -> None:
     """Write a TUM trajectory file, atomically.
 
     Parameters

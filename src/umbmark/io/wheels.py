@@ -142,7 +142,10 @@ class WheelSource:
     @property
     def units_per_rev(self) -> float:
         """Log units per wheel revolution: ``2 pi`` for joint angles and odometry, the pulses for encoders."""
-        return float(self.pulses_per_wheel_rev) if self.kind == "ticks" else 2.0 * math.pi  # type: ignore[arg-type]
+        if self.kind != "ticks":
+            return 2.0 * math.pi
+        assert self.pulses_per_wheel_rev is not None  # check() requires it with a ticks topic
+        return float(self.pulses_per_wheel_rev)
 
     @property
     def cumulative(self) -> bool:

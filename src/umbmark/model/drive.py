@@ -651,38 +651,12 @@ def simulate_drive(
     if p0.shape != (3,) or not np.all(np.isfinite(p0)):
         raise InputError("`start_pose` must be three finite numbers (x_m, y_m, yaw_rad)")
 
-    n = _sample_counts(commands, rate)
-    K = int(n.sum())
-    dt = 1.0 / rate
-    v = np.repeat([c.v_mps for c in commands], n)
-    w = np.repeat([c.omega_radps for c in commands], n)
-    wl, wr = robot.wheel_rates(v, w)
     wheel_seed, lidar_seed = child_seeds(0 if seed is None else seed, 2)
-    if noise.draws:
-        z = np.random.default_rng(wheel_seed).standard_normal((4, K))
-        wl = wl * (1.0 + noise.speed_rel_sd * z[0])
-        wr = wr * (1.0 + noise.speed_rel_sd * z[1])
-    dphi_l, dphi_r = wl * dt, wr * dt
+    t, left, right, travel_l, travel_r, pose = _drive_wheels(commands, robot, rate, noise, wheel_seed, p0)
+    scan_t, scan_pose, ranges = _drive_scans(
+        robot, room, t, pose, travel_l, travel_r, rate, scan_rate, scan_offset_s, lidar_seed, engine
+    )
     true = robot.true_wheels
-    travel_l = 0.5 * true.diameter_left_m * dphi_l
-    travel_r = 0.5 * true.diameter_right_m * dphi_r
-    if noise.slip_m_per_sqrt_m > 0:
-        travel_l = travel_l + noise.slip_m_per_sqrt_m * np.sqrt(np.abs(travel_l)) * z[2]
-        travel_r = travel_r + noise.slip_m_per_sqrt_m * np.sqrt(np.abs(travel_r)) * z[3]
-    left = np.concatenate([[0.0], np.cumsum(dphi_l)])
-    right = np.concatenate([[0.0], np.cumsum(dphi_r)])
-    if noise.quantise:
-        step = 2.0 * math.pi / robot.nominal.pulses_per_wheel_rev
-        left, right = np.floor(left / step + 1e-9) * step, np.floor(right / step + 1e-9) * step
-    pose = integrate_wheels(travel_l, travel_r, true.wheelbase_m, p0)
-    t = np.arange(K + 1) * dt
-
-    n_scans = int(math.floor((t[-1] - scan_offset_s) * scan_rate + 1e-9)) + 1
-    scan_t = scan_offset_s + np.arange(max(n_scans, 0)) / scan_rate
-    k, f = _sample_of(scan_t, rate, K + 1)
-    scan_pose = _pose_along(pose[k], f * travel_l[k], f * travel_r[k], true.wheelbase_m)
-    sensor_world = compose(scan_pose, robot.sensor_pose.as_array())
-    ranges = robot.lidar.scan(room, sensor_world, np.random.default_rng(lidar_seed), engine=engine)
     return DriveLog(
         t_s=t,
         left_rad=left,
@@ -704,6 +678,67 @@ def simulate_drive(
         commands=commands,
         seed=seed,
     )
+
+
+def _drive_wheels(
+    commands: tuple[Command, ...],
+    robot: SimRobot,
+    rate: float,
+    noise: WheelNoise,
+    wheel_seed: np.random.SeedSequence,
+    p0: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """The wheel samples of a drive: stamps, encoder angles, true ground travel and true poses."""
+    n = _sample_counts(commands, rate)
+    K = int(n.sum())
+    dt = 1.0 / rate
+    v = np.repeat([c.v_mps for c in commands], n)
+    w = np.repeat([c.omega_radps for c in commands], n)
+    wl, wr = robot.wheel_rates(v, w)
+    if noise.draws:
+        z = np.random.default_rng(wheel_seed).standard_normal((4, K))
+        wl = wl * (1.0 + noise.speed_rel_sd * z[0])
+        wr = wr * (1.0 + noise.speed_rel_sd * z[1])
+    dphi_l, dphi_r = wl * dt, wr * dt
+    true = robot.true_wheels
+    travel_l = 0.5 * true.diameter_left_m * dphi_l
+    travel_r = 0.5 * true.diameter_right_m * dphi_r
+    if noise.slip_m_per_sqrt_m > 0:
+        travel_l = travel_l + noise.slip_m_per_sqrt_m * np.sqrt(np.abs(travel_l)) * z[2]
+        travel_r = travel_r + noise.slip_m_per_sqrt_m * np.sqrt(np.abs(travel_r)) * z[3]
+    left = np.concatenate([[0.0], np.cumsum(dphi_l)])
+    right = np.concatenate([[0.0], np.cumsum(dphi_r)])
+    if noise.quantise:
+        step = 2.0 * math.pi / robot.nominal.pulses_per_wheel_rev
+        left, right = np.floor(left / step + 1e-9) * step, np.floor(right / step + 1e-9) * step
+    pose = integrate_wheels(travel_l, travel_r, true.wheelbase_m, p0)
+    t = np.arange(K + 1) * dt
+    return t, left, right, travel_l, travel_r, pose
+
+
+def _drive_scans(
+    robot: SimRobot,
+    room: Room,
+    t: np.ndarray,
+    pose: np.ndarray,
+    travel_l: np.ndarray,
+    travel_r: np.ndarray,
+    rate: float,
+    scan_rate: float,
+    scan_offset_s: float,
+    lidar_seed: np.random.SeedSequence,
+    engine: str,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The lidar scans of a drive: their stamps, the exact true poses at them and their ranges."""
+    K = t.size - 1
+    true = robot.true_wheels
+    n_scans = int(math.floor((t[-1] - scan_offset_s) * scan_rate + 1e-9)) + 1
+    scan_t = scan_offset_s + np.arange(max(n_scans, 0)) / scan_rate
+    k, f = _sample_of(scan_t, rate, K + 1)
+    scan_pose = _pose_along(pose[k], f * travel_l[k], f * travel_r[k], true.wheelbase_m)
+    sensor_world = compose(scan_pose, robot.sensor_pose.as_array())
+    ranges = robot.lidar.scan(room, sensor_world, np.random.default_rng(lidar_seed), engine=engine)
+    return scan_t, scan_pose, ranges
 
 
 # ---------------------------------------------------------------- programs

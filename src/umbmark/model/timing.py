@@ -812,103 +812,138 @@ def check_truth_stream(
     g = None
     offset = None
     if truth is not None:
-        g = np.asarray(truth, dtype=float).reshape(-1, 4)
-        what = "ground-truth poses"
-        _, (g,), gkeep, grep, gfirst = _in_stamp_order(g[:, 0], [g], what, truth_topic, source, warnings)
-        if grep:
-            warnings.append(
-                f"{grep} of the {len(g)} ground-truth poses on {truth_topic} repeat the stamp of the pose before "
-                f"(first at message {gfirst}): the last of each stamp is kept; check the publisher's stamps"
-            )
-        g = g[gkeep]
-        if not np.all(np.isfinite(g)):
-            raise InputError(f"the ground-truth poses on {truth_topic} contain NaN or infinite values", source)
-        gbad, gisolated = wheel_spikes(g[:, 0], g[:, 1], g[:, 2], 1.0)  # the robot faster than 30 m/s
-        if gbad.size:
-            k = int(gbad[0])
-            jump = float(np.hypot(*(g[k, 1:3] - g[k - 1, 1:3])))
-            where = f"at t={g[k, 0] - g[0, 0]:.3f} s (pose {k + 1})"
-            if gisolated:
-                warnings.append(
-                    f"{gbad.size} spike(s) in the ground-truth poses on {truth_topic}, the first {where} (a jump of "
-                    f"{jump:.3g} m and back): dropped"
-                )
-                ok = np.ones(len(g), dtype=bool)
-                ok[gbad] = False
-                g = g[ok]
-            else:
-                warnings.append(
-                    f"the ground-truth poses on {truth_topic} jump by {jump:.3g} m {where}, faster than "
-                    f"{MAX_WHEEL_SPEED_MPS:g} m/s, and stay there: the tracker lost or re-initialised the robot; "
-                    "check the runs around it"
-                )
-        g[:, 3] = np.unwrap(g[:, 3])
+        g = _checked_truth(truth, truth_topic, source, warnings)
         heading_w = (cr * metres_per_unit_right - cl * metres_per_unit_left) / wheelbase_m
-        est, corr, max_lag, reason = estimate_time_offset(t, heading_w, g[:, 0], g[:, 3])
-        applied = 0.0
-        if request == "auto":
-            if est is None:
-                raise InputError(
-                    f"`time_offset` auto: cannot estimate the offset between {wheel_topic} and {truth_topic}: "
-                    f"{reason}; give it in seconds",
-                    source,
-                )
-            applied = est
-        elif request is not None:
-            applied = float(request)
-        gp, wp = _median_period(g[:, 0]), _median_period(t)
-        offset = TimeOffset(
-            None if est is None else round(est, 6) + 0.0,
-            None if corr is None else round(corr, 4),
-            applied,
-            None if request is None else (request if isinstance(request, str) else f"{request:g}"),
-            round(gp, 9),
-            round(wp, 9),
-            max_lag,
-            reason,
-        )
-        if est is not None and request is None and abs(est) > max(LARGE_OFFSET_S, gp):
-            late = "late" if est > 0 else "early"
-            warnings.append(
-                f"the ground truth on {truth_topic} is {abs(est):.3f} s {late} against the wheel data on "
-                f"{wheel_topic} (cross-correlation of the turn rates, correlation {corr:.2f}): the calibration "
-                "is biased by it; give `time_offset=auto` to correct it"
-            )
-        if isinstance(request, float):
-            pair = f"the ground truth on {truth_topic} against {wheel_topic}"
-            given = given_offset_note(request, est, corr, gp, pair)
-            if given is not None:
-                warnings.append(given)
-        if est is None and corr is not None and request is None:
-            warnings.append(
-                f"the turn rates of the wheel data on {wheel_topic} and of the ground truth on {truth_topic} do not "
-                f"line up: {reason}; a ground truth of another robot or frame, or an offset beyond the search? "
-                "Check the topics, or give `time_offset` in seconds"
-            )
-        if applied:
+        offset, gp = _truth_offset(t, heading_w, g, request, wheel_topic, truth_topic, source, warnings)
+        if offset.applied_s:
             g = g.copy()
-            g[:, 0] -= applied
-        frac, gap, gap_at = coverage(t, g[:, 0])
-        if frac <= 0:
+            g[:, 0] -= offset.applied_s
+        _check_truth_coverage(t, g, gp, wheel_topic, truth_topic, source, warnings)
+    return StreamCheck(t, cl, cr, g, tuple(warnings), offset)
+
+
+def _checked_truth(truth: ArrayLike, truth_topic: str, source: str | None, warnings: list[str]) -> np.ndarray:
+    """The ground truth in stamp order, finite, its isolated spikes dropped and its heading unwrapped."""
+    g = np.asarray(truth, dtype=float).reshape(-1, 4)
+    what = "ground-truth poses"
+    _, (g,), gkeep, grep, gfirst = _in_stamp_order(g[:, 0], [g], what, truth_topic, source, warnings)
+    if grep:
+        warnings.append(
+            f"{grep} of the {len(g)} ground-truth poses on {truth_topic} repeat the stamp of the pose before "
+            f"(first at message {gfirst}): the last of each stamp is kept; check the publisher's stamps"
+        )
+    g = g[gkeep]
+    if not np.all(np.isfinite(g)):
+        raise InputError(f"the ground-truth poses on {truth_topic} contain NaN or infinite values", source)
+    gbad, gisolated = wheel_spikes(g[:, 0], g[:, 1], g[:, 2], 1.0)  # the robot faster than 30 m/s
+    if gbad.size:
+        k = int(gbad[0])
+        jump = float(np.hypot(*(g[k, 1:3] - g[k - 1, 1:3])))
+        where = f"at t={g[k, 0] - g[0, 0]:.3f} s (pose {k + 1})"
+        if gisolated:
+            warnings.append(
+                f"{gbad.size} spike(s) in the ground-truth poses on {truth_topic}, the first {where} (a jump of "
+                f"{jump:.3g} m and back): dropped"
+            )
+            ok = np.ones(len(g), dtype=bool)
+            ok[gbad] = False
+            g = g[ok]
+        else:
+            warnings.append(
+                f"the ground-truth poses on {truth_topic} jump by {jump:.3g} m {where}, faster than "
+                f"{MAX_WHEEL_SPEED_MPS:g} m/s, and stay there: the tracker lost or re-initialised the robot; "
+                "check the runs around it"
+            )
+    g[:, 3] = np.unwrap(g[:, 3])
+    return g
+
+
+def _truth_offset(
+    t: np.ndarray,
+    heading_w: np.ndarray,
+    g: np.ndarray,
+    request: float | str | None,
+    wheel_topic: str,
+    truth_topic: str,
+    source: str | None,
+    warnings: list[str],
+) -> tuple[TimeOffset, float]:
+    """The time offset of the ground truth against the wheels, estimated and chosen as requested, with the ground
+    truth's median sample period."""
+    est, corr, max_lag, reason = estimate_time_offset(t, heading_w, g[:, 0], g[:, 3])
+    applied = 0.0
+    if request == "auto":
+        if est is None:
             raise InputError(
-                f"the ground truth on {truth_topic} does not overlap the wheel data on {wheel_topic} in time "
-                f"(wheels {t[0]:.3f}-{t[-1]:.3f} s, ground truth {g[0, 0]:.3f}-{g[-1, 0]:.3f} s)",
+                f"`time_offset` auto: cannot estimate the offset between {wheel_topic} and {truth_topic}: "
+                f"{reason}; give it in seconds",
                 source,
             )
-        span = float(t[-1] - t[0])
-        if frac < MIN_COVERAGE:
-            a, b = max(0.0, g[0, 0] - t[0]), min(span, g[-1, 0] - t[0])
-            warnings.append(
-                f"the ground truth on {truth_topic} covers only {100 * frac:.0f} % of the wheel data on {wheel_topic} "
-                f"({a:.1f}-{b:.1f} s of {span:.1f} s): the runs are cut to it; record the ground truth for the "
-                "whole drive"
-            )
-        if gap > max(1.0, 20 * gp):
-            warnings.append(
-                f"the ground truth on {truth_topic} has a gap of {gap:.2f} s at t={gap_at - t[0]:.2f} s: the poses "
-                "are interpolated across it"
-            )
-    return StreamCheck(t, cl, cr, g, tuple(warnings), offset)
+        applied = est
+    elif request is not None:
+        applied = float(request)
+    gp, wp = _median_period(g[:, 0]), _median_period(t)
+    offset = TimeOffset(
+        None if est is None else round(est, 6) + 0.0,
+        None if corr is None else round(corr, 4),
+        applied,
+        None if request is None else (request if isinstance(request, str) else f"{request:g}"),
+        round(gp, 9),
+        round(wp, 9),
+        max_lag,
+        reason,
+    )
+    if est is not None and request is None and abs(est) > max(LARGE_OFFSET_S, gp):
+        late = "late" if est > 0 else "early"
+        warnings.append(
+            f"the ground truth on {truth_topic} is {abs(est):.3f} s {late} against the wheel data on "
+            f"{wheel_topic} (cross-correlation of the turn rates, correlation {corr:.2f}): the calibration "
+            "is biased by it; give `time_offset=auto` to correct it"
+        )
+    if isinstance(request, float):
+        pair = f"the ground truth on {truth_topic} against {wheel_topic}"
+        given = given_offset_note(request, est, corr, gp, pair)
+        if given is not None:
+            warnings.append(given)
+    if est is None and corr is not None and request is None:
+        warnings.append(
+            f"the turn rates of the wheel data on {wheel_topic} and of the ground truth on {truth_topic} do not "
+            f"line up: {reason}; a ground truth of another robot or frame, or an offset beyond the search? "
+            "Check the topics, or give `time_offset` in seconds"
+        )
+    return offset, gp
+
+
+def _check_truth_coverage(
+    t: np.ndarray,
+    g: np.ndarray,
+    gp: float,
+    wheel_topic: str,
+    truth_topic: str,
+    source: str | None,
+    warnings: list[str],
+) -> None:
+    """Refuse a ground truth that does not overlap the wheels; warn about a low coverage or a long gap."""
+    frac, gap, gap_at = coverage(t, g[:, 0])
+    if frac <= 0:
+        raise InputError(
+            f"the ground truth on {truth_topic} does not overlap the wheel data on {wheel_topic} in time "
+            f"(wheels {t[0]:.3f}-{t[-1]:.3f} s, ground truth {g[0, 0]:.3f}-{g[-1, 0]:.3f} s)",
+            source,
+        )
+    span = float(t[-1] - t[0])
+    if frac < MIN_COVERAGE:
+        a, b = max(0.0, g[0, 0] - t[0]), min(span, g[-1, 0] - t[0])
+        warnings.append(
+            f"the ground truth on {truth_topic} covers only {100 * frac:.0f} % of the wheel data on {wheel_topic} "
+            f"({a:.1f}-{b:.1f} s of {span:.1f} s): the runs are cut to it; record the ground truth for the "
+            "whole drive"
+        )
+    if gap > max(1.0, 20 * gp):
+        warnings.append(
+            f"the ground truth on {truth_topic} has a gap of {gap:.2f} s at t={gap_at - t[0]:.2f} s: the poses "
+            "are interpolated across it"
+        )
 
 
 def align_truth(ds, time_offset, what: str = "log"):

@@ -42,12 +42,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from umbmark.errors import InputError
 from umbmark.io.rosbag import GyroBag, SelfcalBag
@@ -160,7 +160,7 @@ class GyroReference:
     def to_dict(self) -> dict[str, Any]:
         """The ``gyro`` block of ``umbmark replay --imu-topic ... --json``."""
 
-        def pair(p):
+        def pair(p: tuple[float, float] | None) -> list[float] | None:
             return None if p is None else [float(p[0]), float(p[1])]
 
         return {
@@ -262,7 +262,9 @@ def gyro_history_fields(
     }
 
 
-def still_periods(t_s, left_rad, right_rad, still_s: float) -> list[tuple[float, float]]:
+def still_periods(
+    t_s: ArrayLike, left_rad: ArrayLike, right_rad: ArrayLike, still_s: float
+) -> list[tuple[float, float]]:
     """The stretches in which neither wheel turns, at least ``still_s`` long.
 
     Parameters
@@ -294,7 +296,7 @@ def still_periods(t_s, left_rad, right_rad, still_s: float) -> list[tuple[float,
     return out
 
 
-def _bias(bag: GyroBag, stills, margin_s: float) -> tuple[FloatArray, float, float, float]:
+def _bias(bag: GyroBag, stills: list[tuple[float, float]], margin_s: float) -> tuple[FloatArray, float, float, float]:
     """The bias at every reading (interpolated between still periods), the mean bias, noise, still time."""
     t, w = bag.imu_t_s, bag.rate_z_radps
     dt = float(np.median(np.diff(t)))
@@ -319,7 +321,7 @@ def _bias(bag: GyroBag, stills, margin_s: float) -> tuple[FloatArray, float, flo
     return bias, float(np.average(levels, weights=counts)), noise, total
 
 
-def _heading(bag: GyroBag, bias: FloatArray):
+def _heading(bag: GyroBag, bias: FloatArray) -> Callable[[float], float]:
     """The gyro's integrated heading as a function of time (each reading over the period before it)."""
     t = bag.imu_t_s
     dt = np.diff(t, prepend=t[0] - float(np.median(np.diff(t))))
@@ -332,7 +334,14 @@ def _heading(bag: GyroBag, bias: FloatArray):
     return at
 
 
-def _turns(bag: GyroBag, nominal: WheelGeometry, stills, heading, spin_travel: float, guard_s: float) -> list[GyroTurn]:
+def _turns(
+    bag: GyroBag,
+    nominal: WheelGeometry,
+    stills: list[tuple[float, float]],
+    heading: Callable[[float], float],
+    spin_travel: float,
+    guard_s: float,
+) -> list[GyroTurn]:
     t = bag.wheel_t_s
     sl = np.concatenate([[0.0], np.cumsum(np.diff(bag.left_rad))]) * 0.5 * nominal.diameter_left_m
     sr = np.concatenate([[0.0], np.cumsum(np.diff(bag.right_rad))]) * 0.5 * nominal.diameter_right_m
@@ -361,7 +370,7 @@ def _turns(bag: GyroBag, nominal: WheelGeometry, stills, heading, spin_travel: f
 
 
 def _lidar_turn(
-    turn: GyroTurn, stills, scans: SelfcalBag, sensor_pose: FloatArray, config: ICPConfig
+    turn: GyroTurn, stills: list[tuple[float, float]], scans: SelfcalBag, sensor_pose: FloatArray, config: ICPConfig
 ) -> tuple[float | None, str]:
     """The true turn from the scans at rest before and after it (None and why when it fails)."""
     st = scans.scan_t_s
@@ -398,13 +407,179 @@ def _ci(value: float, rel_sd: float | None, dof: int) -> tuple[float, float] | N
     return (value - half, value + half)
 
 
+@dataclass
+class _Pooled:
+    """What the bags give together: every turn, each bag's still periods and wheel start, the gyro at rest."""
+
+    turns: list[GyroTurn] = field(default_factory=list)
+    stills_of: dict[str, list[tuple[float, float]]] = field(default_factory=dict)
+    starts: dict[str, float] = field(default_factory=dict)
+    biases: list[float] = field(default_factory=list)
+    noises: list[float] = field(default_factory=list)
+    weights: list[float] = field(default_factory=list)
+    readings: int = 0
+    still_total: float = 0.0
+
+
+def _pool_bags(
+    bags: Sequence[GyroBag],
+    nominal: WheelGeometry,
+    still_s: float,
+    margin_s: float,
+    guard_s: float,
+    spin_travel: float,
+) -> tuple[_Pooled, list[str]]:
+    """Each bag's still periods, gyro bias and turns, pooled; a warning for a bag without a still period."""
+    pooled = _Pooled(starts={bag.source: float(bag.wheel_t_s[0]) for bag in bags if len(bag.wheel_t_s)})
+    warnings: list[str] = []
+    for bag in bags:
+        name = Path(bag.source).name
+        stills = still_periods(bag.wheel_t_s, bag.left_rad, bag.right_rad, still_s)
+        pooled.stills_of[bag.source] = stills
+        bias, mean, noise, total = _bias(bag, stills, margin_s)
+        pooled.readings += len(bag.imu_t_s)
+        if total == 0.0:
+            warnings.append(
+                f"{name}: no still period of {still_s:g} s with gyro readings: the gyro's bias is not removed "
+                "(rest the robot a few seconds before and after each turn)"
+            )
+        else:
+            pooled.biases.append(mean)
+            pooled.noises.append(noise)
+            pooled.weights.append(total)
+            pooled.still_total += total
+        pooled.turns += _turns(bag, nominal, stills, _heading(bag, bias), spin_travel, guard_s)
+    return pooled, warnings
+
+
+def _where(turn: GyroTurn, starts: dict[str, float]) -> str:
+    """Where a turn is, in seconds from its bag's wheel data's start."""
+    return f"at {turn.t_s[0] - starts.get(turn.source, turn.t_s[0]):.1f} s in {Path(turn.source).name}"
+
+
+def _turns_used(turns: list[GyroTurn], min_turn_rad: float, still_s: float) -> tuple[list[int], list[str]]:
+    """The turns fitted: those of ``min_turn_rad`` or more on the spot, else all of them (warned)."""
+    big = [i for i, tr in enumerate(turns) if abs(tr.wheels_rad) >= min_turn_rad]
+    spots = [i for i in big if turns[i].on_the_spot]
+    if not big:
+        raise InputError(
+            f"no turn of {math.degrees(min_turn_rad):.0f} deg or more between two still periods of {still_s:g} s: "
+            "spin the robot on the spot both ways, resting before and after each spin"
+        )
+    warnings: list[str] = []
+    if not spots:
+        warnings.append(
+            "no turn on the spot: the wheelbase comes from turns while driving, where the wheel diameter "
+            "ratio E_d turns the robot too (spin on the spot for the wheelbase)"
+        )
+        spots = big
+    directions = {np.sign(turns[i].wheels_rad) for i in spots}
+    if len(directions) < 2:
+        warnings.append("every turn used goes one way: spin both ways, so that a gyro bias left over cancels")
+    return spots, warnings
+
+
+def _full_turns(
+    turns: list[GyroTurn], spots: list[int], starts: dict[str, float]
+) -> tuple[dict[int, float], list[str]]:
+    """The true turns counted as whole revolutions (the gyro's, rounded), warning of a turn far from whole."""
+    true: dict[int, float] = {}
+    warnings: list[str] = []
+    for i in spots:
+        g = turns[i].gyro_rad
+        n = round(g / (2.0 * math.pi))
+        if n == 0:
+            continue
+        true[i] = 2.0 * math.pi * n
+        if abs(g / true[i] - 1.0) > 0.03:
+            warnings.append(
+                f"the gyro turned {g / (2.0 * math.pi):.2f} revolutions in the turn {_where(turns[i], starts)} "
+                "(given as whole turns): its scale is off by more than 3 %, or the turn was not whole"
+            )
+    if not true:
+        raise InputError("counted full turns: no turn on the spot of a revolution or more")
+    return true, warnings
+
+
+def _lidar_turns(
+    turns: list[GyroTurn],
+    spots: list[int],
+    pooled: _Pooled,
+    scans: dict[str, SelfcalBag],
+    sensor_pose: ArrayLike,
+    config: ICPConfig,
+) -> tuple[dict[int, float], list[str]]:
+    """The true turns the lidar registered, warning of each registration that failed."""
+    true: dict[int, float] = {}
+    warnings: list[str] = []
+    pose = np.asarray(sensor_pose, dtype=float)
+    for i in spots:
+        scan_bag = scans.get(turns[i].source)
+        if scan_bag is None:
+            continue
+        val, why = _lidar_turn(turns[i], pooled.stills_of[turns[i].source], scan_bag, pose, config)
+        if val is None:
+            warnings.append(f"the turn {_where(turns[i], pooled.starts)}: the scan registration failed ({why})")
+        else:
+            true[i] = val
+    return true, warnings
+
+
+def _true_turns(
+    turns: list[GyroTurn],
+    spots: list[int],
+    pooled: _Pooled,
+    full_turns: bool,
+    scans: dict[str, SelfcalBag] | None,
+    sensor_pose: ArrayLike,
+    config: ICPConfig,
+) -> tuple[dict[int, float], str, list[str]]:
+    """The true turns where known (counted full turns, or the lidar), where they came from, warnings."""
+    if full_turns:
+        true, warnings = _full_turns(turns, spots, pooled.starts)
+        return true, "full turns", warnings
+    if scans:
+        true, warnings = _lidar_turns(turns, spots, pooled, scans, sensor_pose, config)
+        if not true:
+            warnings.append("no turn measured by the lidar: the gyro's scale is assumed 1")
+            return true, "assumed", warnings
+        return true, "lidar", warnings
+    return {}, "assumed", []
+
+
+def _gyro_scale(turns: list[GyroTurn], true: dict[int, float]) -> tuple[float, tuple[float, float] | None]:
+    """The gyro's scale, the least-squares ratio of its turns to the true ones, and its interval (1 without any)."""
+    if not true:
+        return 1.0, None
+    idx = sorted(true)
+    scale, sd = _ratio(np.array([turns[i].gyro_rad for i in idx]), np.array([true[i] for i in idx]))
+    return scale, _ci(scale, None if sd is None else sd / scale, len(idx) - 1)
+
+
+def _wheelbase_factor(
+    turns: list[GyroTurn], spots: list[int], scale: float, scale_ci: tuple[float, float] | None
+) -> tuple[float, tuple[float, float] | None, list[str]]:
+    """``E_b = scale / k`` of the turns fitted and its interval (none, warned, with one turn)."""
+    g = np.array([turns[i].gyro_rad for i in spots])
+    w = np.array([turns[i].wheels_rad for i in spots])
+    k, k_sd = _ratio(g, w)
+    eb = _checked_eb(g, w, k, scale)
+    rel = None
+    warnings: list[str] = []
+    if k_sd is not None:
+        rel = math.hypot(k_sd / k, 0.0 if scale_ci is None else (scale_ci[1] - scale) / 1.96 / scale)
+    else:
+        warnings.append("one turn used: no interval (spin several times both ways)")
+    return eb, _ci(eb, rel, len(spots) - 1), warnings
+
+
 def gyro_reference(
     bags: Sequence[GyroBag],
     nominal: WheelGeometry,
     *,
     full_turns: bool = False,
     scans: dict[str, SelfcalBag] | None = None,
-    sensor_pose=(0.0, 0.0, 0.0),
+    sensor_pose: ArrayLike = (0.0, 0.0, 0.0),
     still_s: float = 0.3,
     margin_s: float = 0.1,
     guard_s: float = 0.5,
@@ -455,100 +630,23 @@ def gyro_reference(
     if not (math.isfinite(still_s) and still_s > 2 * margin_s >= 0):
         raise InputError(f"`still_s` must exceed twice the margin {margin_s:g} s, got {still_s!r}")
     warnings: list[str] = [f"{Path(bag.source).name}: {w}" for bag in bags for w in bag.warnings]
-    turns: list[GyroTurn] = []
-    stills_of: dict[str, list] = {}
-    starts = {bag.source: float(bag.wheel_t_s[0]) for bag in bags if len(bag.wheel_t_s)}
-
-    def at(turn: GyroTurn) -> str:  # where a turn is, in seconds from its bag's wheel data's start
-        return f"at {turn.t_s[0] - starts.get(turn.source, turn.t_s[0]):.1f} s in {Path(turn.source).name}"
-
-    biases, noises, weights, readings, still_total = [], [], [], 0, 0.0
-    for bag in bags:
-        name = Path(bag.source).name
-        stills = still_periods(bag.wheel_t_s, bag.left_rad, bag.right_rad, still_s)
-        stills_of[bag.source] = stills
-        bias, mean, noise, total = _bias(bag, stills, margin_s)
-        readings += len(bag.imu_t_s)
-        if total == 0.0:
-            warnings.append(
-                f"{name}: no still period of {still_s:g} s with gyro readings: the gyro's bias is not removed "
-                "(rest the robot a few seconds before and after each turn)"
-            )
-        else:
-            biases.append(mean)
-            noises.append(noise)
-            weights.append(total)
-            still_total += total
-        turns += _turns(bag, nominal, stills, _heading(bag, bias), spin_travel, guard_s)
-    big = [i for i, tr in enumerate(turns) if abs(tr.wheels_rad) >= min_turn_rad]
-    spots = [i for i in big if turns[i].on_the_spot]
-    if not big:
-        raise InputError(
-            f"no turn of {math.degrees(min_turn_rad):.0f} deg or more between two still periods of {still_s:g} s: "
-            "spin the robot on the spot both ways, resting before and after each spin"
-        )
-    if not spots:
-        warnings.append(
-            "no turn on the spot: the wheelbase comes from turns while driving, where the wheel diameter "
-            "ratio E_d turns the robot too (spin on the spot for the wheelbase)"
-        )
-        spots = big
-    directions = {np.sign(turns[i].wheels_rad) for i in spots}
-    if len(directions) < 2:
-        warnings.append("every turn used goes one way: spin both ways, so that a gyro bias left over cancels")
-    true: dict[int, float] = {}
-    source = "assumed"
-    if full_turns:
-        source = "full turns"
-        for i in spots:
-            g = turns[i].gyro_rad
-            n = round(g / (2.0 * math.pi))
-            if n == 0:
-                continue
-            true[i] = 2.0 * math.pi * n
-            if abs(g / true[i] - 1.0) > 0.03:
-                warnings.append(
-                    f"the gyro turned {g / (2.0 * math.pi):.2f} revolutions in the turn {at(turns[i])} "
-                    "(given as whole turns): its scale is off by more than 3 %, or the turn was not whole"
-                )
-        if not true:
-            raise InputError("counted full turns: no turn on the spot of a revolution or more")
-    elif scans:
-        source = "lidar"
-        pose = np.asarray(sensor_pose, dtype=float)
-        for i in spots:
-            scan_bag = scans.get(turns[i].source)
-            if scan_bag is None:
-                continue
-            val, why = _lidar_turn(turns[i], stills_of[turns[i].source], scan_bag, pose, config)
-            if val is None:
-                warnings.append(f"the turn {at(turns[i])}: the scan registration failed ({why})")
-            else:
-                true[i] = val
-        if not true:
-            warnings.append("no turn measured by the lidar: the gyro's scale is assumed 1")
-            source = "assumed"
-    scale, scale_ci = 1.0, None
-    if true:
-        idx = sorted(true)
-        scale, sd = _ratio(np.array([turns[i].gyro_rad for i in idx]), np.array([true[i] for i in idx]))
-        scale_ci = _ci(scale, None if sd is None else sd / scale, len(idx) - 1)
-    g = np.array([turns[i].gyro_rad for i in spots])
-    w = np.array([turns[i].wheels_rad for i in spots])
-    k, k_sd = _ratio(g, w)
-    eb = _checked_eb(g, w, k, scale)
-    rel = None
-    if k_sd is not None:
-        rel = math.hypot(k_sd / k, 0.0 if scale_ci is None else (scale_ci[1] - scale) / 1.96 / scale)
-    else:
-        warnings.append("one turn used: no interval (spin several times both ways)")
-    eb_ci = _ci(eb, rel, len(spots) - 1)
+    pooled, w = _pool_bags(bags, nominal, still_s, margin_s, guard_s, spin_travel)
+    warnings += w
+    turns = pooled.turns
+    spots, w = _turns_used(turns, min_turn_rad, still_s)
+    warnings += w
+    true, source, w = _true_turns(turns, spots, pooled, full_turns, scans, sensor_pose, config)
+    warnings += w
+    scale, scale_ci = _gyro_scale(turns, true)
+    eb, eb_ci, w = _wheelbase_factor(turns, spots, scale, scale_ci)
+    warnings += w
     used = set(spots)
     turns = [
         GyroTurn(t.source, t.t_s, t.wheels_rad, t.gyro_rad, t.travel_m, t.on_the_spot, true.get(i), i in used)
         for i, t in enumerate(turns)
     ]
     b = nominal.wheelbase_m
+    weights = pooled.weights
     return GyroReference(
         imu_topic=bags[0].imu_topic,
         nominal_wheelbase_m=b,
@@ -559,10 +657,10 @@ def gyro_reference(
         gyro_scale=scale,
         gyro_scale_ci95=scale_ci,
         gyro_scale_source=source,
-        bias_radps=float(np.average(biases, weights=weights)) if weights else 0.0,
-        noise_radps=float(np.average(noises, weights=weights)) if weights else float("nan"),
-        still_s=still_total,
-        readings=readings,
+        bias_radps=float(np.average(pooled.biases, weights=weights)) if weights else 0.0,
+        noise_radps=float(np.average(pooled.noises, weights=weights)) if weights else float("nan"),
+        still_s=pooled.still_total,
+        readings=pooled.readings,
         turns=tuple(turns),
         warnings=tuple(dict.fromkeys(warnings)),
     )

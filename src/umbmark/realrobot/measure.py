@@ -38,8 +38,10 @@ from __future__ import annotations
 import io
 import math
 from dataclasses import dataclass, replace
+from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from umbmark.errors import InputError
 from umbmark.io._text import csv_writer
@@ -62,6 +64,8 @@ __all__ = [
     "measure_runs",
     "format_measured_csv",
 ]
+
+FloatArray = NDArray[np.float64]
 
 
 @dataclass(frozen=True)
@@ -89,7 +93,7 @@ class RobotMarks:
     back: tuple[float, float]
     side_wall: str = "right"
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if self.side_wall not in ("right", "left"):
             raise InputError(f"side wall must be 'right' or 'left', got {self.side_wall!r}")
         for name in ("front", "rear", "back"):
@@ -169,7 +173,7 @@ class WallPose:
     theta: np.ndarray
 
 
-def distances_from_pose(marks: RobotMarks, pose: WallPose):
+def distances_from_pose(marks: RobotMarks, pose: WallPose) -> tuple[FloatArray, FloatArray, FloatArray]:
     """The three distances a person would measure from a pose.
 
     Parameters
@@ -192,7 +196,7 @@ def distances_from_pose(marks: RobotMarks, pose: WallPose):
     x, y, th = (np.asarray(v, dtype=float) for v in (pose.x, pose.y, pose.theta))
     c, s = np.cos(th), np.sin(th)
 
-    def world(p):
+    def world(p: tuple[float, float]) -> tuple[FloatArray, FloatArray]:
         return x + p[0] * c - p[1] * s, y + p[0] * s + p[1] * c
 
     d_front = marks.sign * world(marks.front)[1]
@@ -203,7 +207,9 @@ def distances_from_pose(marks: RobotMarks, pose: WallPose):
     return d_front, d_rear, d_back
 
 
-def distances_for_runs(marks: RobotMarks, runs: RunsTable, start: WallPose, side_wall: str | None = "auto"):
+def distances_for_runs(
+    marks: RobotMarks, runs: RunsTable, start: WallPose, side_wall: str | None = "auto"
+) -> FloatArray:
     """The six distances a person would measure for each run: the forward model of
     :func:`measure`, for tests and examples.
 
@@ -252,7 +258,14 @@ def distances_for_runs(marks: RobotMarks, runs: RunsTable, start: WallPose, side
     return out
 
 
-def pose_from_distances(marks: RobotMarks, d_front, d_rear, d_back, source: str | None = None, line=None) -> WallPose:
+def pose_from_distances(
+    marks: RobotMarks,
+    d_front: ArrayLike,
+    d_rear: ArrayLike,
+    d_back: ArrayLike,
+    source: str | None = None,
+    line: ArrayLike | None = None,
+) -> WallPose:
     """The pose in the wall frame from the three distances.
 
     Parameters
@@ -304,7 +317,7 @@ def pose_from_distances(marks: RobotMarks, d_front, d_rear, d_back, source: str 
     return WallPose(x, y, theta)
 
 
-def relative_pose(start: WallPose, end: WallPose):
+def relative_pose(start: WallPose, end: WallPose) -> tuple[FloatArray, FloatArray, FloatArray]:
     """An end pose expressed in the frame of a start pose.
 
     Parameters
@@ -323,7 +336,9 @@ def relative_pose(start: WallPose, end: WallPose):
     return c * dx + s * dy, -s * dx + c * dy, wrap_angle(np.asarray(end.theta) - np.asarray(start.theta))
 
 
-def _return_pose(marks: RobotMarks, d6: np.ndarray, source=None, line=None) -> np.ndarray:
+def _return_pose(
+    marks: RobotMarks, d6: FloatArray, source: str | None = None, line: ArrayLike | None = None
+) -> FloatArray:
     """``d6``: (..., 6) distances start_front, start_rear, start_back, end_front, end_rear,
     end_back (metres) -> (..., 3) return pose x, y, theta in the start frame."""
     start = pose_from_distances(marks, d6[..., 0], d6[..., 1], d6[..., 2], source, line)
@@ -365,7 +380,13 @@ _MIN_WALL_M = 0.01
 _MAX_WALL_M = 1000.0
 
 
-def measure(marks: RobotMarks, distances, resolution_m: float = 1e-3, source=None, line=None) -> Measurement:
+def measure(
+    marks: RobotMarks,
+    distances: ArrayLike,
+    resolution_m: float = 1e-3,
+    source: str | None = None,
+    line: ArrayLike | None = None,
+) -> Measurement:
     """Return poses in the start frame from the six distances, with the tape's resolution
     propagated (see the module docstring).
 
@@ -441,7 +462,9 @@ def measure(marks: RobotMarks, distances, resolution_m: float = 1e-3, source=Non
     )
 
 
-def measure_run(marks: RobotMarks, row: MeasuredRun, resolution_m: float = 1e-3, source=None) -> Measurement:
+def measure_run(
+    marks: RobotMarks, row: MeasuredRun, resolution_m: float = 1e-3, source: str | None = None
+) -> Measurement:
     """The return pose of one row of a distances file.
 
     Parameters
@@ -487,7 +510,7 @@ class MeasuredRuns:
     side_wall: str | None = None
     out: str | None = None
 
-    def write(self, path) -> MeasuredRuns:
+    def write(self, path: str | Path) -> MeasuredRuns:
         """Write the runs file with the standard deviations (:func:`format_measured_csv`), atomically.
 
         Parameters
@@ -509,6 +532,7 @@ class MeasuredRuns:
         """The JSON of ``umbmark measure --json``: the file written, the tape resolution and
         every run's measured return pose with its standard deviation and worst-case bound (mm, deg)."""
         runs, m = self.runs, self.measurement
+        assert runs.run is not None and runs.theta_abs is not None  # measured runs: named, with their headings
         return {
             "out": self.out,
             "resolution_mm": self.resolution_m * 1e3,
@@ -533,7 +557,11 @@ class MeasuredRuns:
 
 
 def measure_runs(
-    marks: RobotMarks, rows: list[MeasuredRun], resolution_m: float = 1e-3, source=None, side_wall: str | None = None
+    marks: RobotMarks,
+    rows: list[MeasuredRun],
+    resolution_m: float = 1e-3,
+    source: str | None = None,
+    side_wall: str | None = None,
 ) -> MeasuredRuns:
     """The return poses of every row of a distances file, at once.
 
@@ -582,7 +610,8 @@ def measure_runs(
     for sel, mm in parts.values():
         cov[sel] = mm.covariance
     m = Measurement(**fields, covariance=cov)
-    has_theta = all(r.theta_odo_deg is not None for r in rows)
+    theta_odo_deg = [r.theta_odo_deg for r in rows if r.theta_odo_deg is not None]
+    has_theta = len(theta_odo_deg) == len(rows)
     runs = RunsTable.from_columns(
         [r.direction for r in rows],
         m.x,
@@ -590,7 +619,7 @@ def measure_runs(
         [r.x_odo_mm * 1e-3 for r in rows],
         [r.y_odo_mm * 1e-3 for r in rows],
         m.theta,
-        np.radians([r.theta_odo_deg for r in rows]) if has_theta else None,
+        np.radians(theta_odo_deg) if has_theta else None,
         np.array([r.run for r in rows]),
     )
     return MeasuredRuns(runs, m, resolution_m, side_wall)
@@ -615,7 +644,9 @@ def format_measured_csv(runs: RunsTable, m: Measurement) -> str:
     """
     out = io.StringIO()
     w = csv_writer(out, lineterminator="\n")
-    has_theta = runs.theta_odo is not None
+    assert runs.run is not None and runs.theta_abs is not None  # measured runs: named, with their headings
+    theta_odo = runs.theta_odo
+    has_theta = theta_odo is not None
     header = ["run", "direction", "x_abs", "y_abs", "x_odo", "y_odo", "theta_abs"]
     if has_theta:
         header += ["theta_odo"]
@@ -632,8 +663,8 @@ def format_measured_csv(runs: RunsTable, m: Measurement) -> str:
             f(runs.y_odo[i] * 1e3),
         ]
         row += [f(math.degrees(runs.theta_abs[i]), 4)]
-        if has_theta:
-            row += [f(math.degrees(runs.theta_odo[i]), 4)]
+        if theta_odo is not None:
+            row += [f(math.degrees(theta_odo[i]), 4)]
         row += [f(m.x_sd[i] * 1e3), f(m.y_sd[i] * 1e3), f(math.degrees(m.theta_sd[i]), 4)]
         w.writerow(row)
     return out.getvalue()

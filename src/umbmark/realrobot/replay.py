@@ -28,18 +28,20 @@ The results are the dataclasses of :mod:`umbmark.realrobot.results` (SI units); 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from umbmark.correct import METHODS, correct_runs
 from umbmark.correct.lsq import LSQ_DEFAULTS, fit_lsq
 from umbmark.errors import InputError
 from umbmark.io.load import LogOptions
 from umbmark.metrics import umbmark
-from umbmark.model.dataset import Dataset, WheelGeometry, replay_increments
+from umbmark.model.dataset import Dataset, Run, WheelGeometry, replay_increments
 from umbmark.model.geometry import wrap_angle
 from umbmark.model.runs import RunsTable
 from umbmark.realrobot.results import (
@@ -89,7 +91,9 @@ def method_names() -> list[str]:
     return sorted(set(METHODS) | {"lsq"})
 
 
-def replay(ds: Dataset, geometry: WheelGeometry, method: str = "exact"):
+def replay(
+    ds: Dataset, geometry: WheelGeometry, method: str = "exact"
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The odometry of every run of a data set, replayed with a geometry.
 
     Parameters
@@ -156,7 +160,7 @@ def detect_directions(ds: Dataset) -> tuple[list[str], np.ndarray, list[str]]:
     warnings = []
     several = len({r.source for r in ds.runs}) > 1  # runs of several logs: each named with its log
 
-    def where(run) -> str:
+    def where(run: Run) -> str:
         return f"{ds.name}/{run.name}" + (f" ({run.source})" if several and run.source else "")
 
     for run, t in zip(ds.runs, turn):
@@ -174,7 +178,7 @@ def detect_directions(ds: Dataset) -> tuple[list[str], np.ndarray, list[str]]:
     return dirs, turn, warnings
 
 
-def square_runs(ds: Dataset, geometry: WheelGeometry, directions) -> RunsTable:
+def square_runs(ds: Dataset, geometry: WheelGeometry, directions: Iterable[str]) -> RunsTable:
     """The UMBmark runs table of square runs: replayed end pose (odometry) against the
     ground-truth end pose (absolute), in the start frame.
 
@@ -197,13 +201,13 @@ def square_runs(ds: Dataset, geometry: WheelGeometry, directions) -> RunsTable:
         A run has no ground-truth end pose.
     """
     odo = end_poses(ds, geometry)
-    truth = []
+    ends = []
     for run in ds.runs:
         e = run.end_truth
         if e is None:
             raise InputError("no ground-truth end pose for this run", source=run.source or f"{ds.name}/{run.name}")
-        truth.append(e)
-    truth = np.asarray(truth)
+        ends.append(e)
+    truth = np.asarray(ends)
     return RunsTable.from_columns(
         list(directions),
         truth[:, 0],
@@ -241,12 +245,20 @@ def prepare(ds: Dataset) -> tuple[Dataset, list[str], np.ndarray]:
     return replace(ds, directions=tuple(dirs)), read + warnings, turn
 
 
+def _directions(ds: Dataset) -> tuple[str, ...]:
+    """The directions of a square data set's runs (set by :func:`prepare` or declared)."""
+    assert ds.directions is not None, "square runs without their directions"
+    return ds.directions
+
+
 def _check_method(method: str) -> None:
     if method not in method_names():
         raise InputError(f"unknown method {method!r} (choose from {', '.join(method_names())})")
 
 
-def calibrate(ds, method: str, lsq_options: dict | None = None) -> Calibrated:
+def calibrate(
+    ds: Dataset | list[Dataset] | tuple[Dataset, ...], method: str, lsq_options: dict | None = None
+) -> Calibrated:
     """Calibrate a geometry from logged runs.
 
     Parameters
@@ -286,18 +298,20 @@ def calibrate(ds, method: str, lsq_options: dict | None = None) -> Calibrated:
     if ds.directions is None:
         ds = prepare(ds)[0]
     _check_both_directions(ds)
-    runs = square_runs(ds, ds.nominal, ds.directions)
+    runs = square_runs(ds, ds.nominal, _directions(ds))
+    assert ds.side_m is not None  # square runs: their side is known
     corr = correct_runs(method, runs, ds.side_m, ds.nominal.wheelbase_m)
     return Calibrated(method, ds.nominal.calibrated(corr.calibration), ds.nominal, correction=corr)
 
 
 def _check_both_directions(ds: Dataset) -> None:
     """Refuse square runs in one direction only, naming every run with its direction and log."""
-    missing = [d for d in ("cw", "ccw") if d not in ds.directions]
+    directions = _directions(ds)
+    missing = [d for d in ("cw", "ccw") if d not in directions]
     if not missing:
         return
     several = len({r.source for r in ds.runs}) > 1  # several logs: each run's named
-    listed = [f"{r.name} {d}" + (f" ({r.source})" if several else "") for r, d in zip(ds.runs, ds.directions)]
+    listed = [f"{r.name} {d}" + (f" ({r.source})" if several else "") for r, d in zip(ds.runs, directions)]
     more = f", and {len(listed) - 20} more" if len(listed) > 20 else ""
     raise InputError(
         f"no {missing[0]} runs: the bi-directional test needs runs in both directions (the direction of a run "
@@ -329,8 +343,8 @@ def _run_errors(ds: Dataset, geometry: WheelGeometry) -> list[tuple[float, float
     return out
 
 
-def _rms(a) -> float | None:
-    a = np.asarray(a, dtype=float)
+def _rms(values: np.ndarray) -> float | None:
+    a = np.asarray(values, dtype=float)
     a = a[np.isfinite(a)]
     return float(np.sqrt(np.mean(a**2))) if a.size else None
 
@@ -381,7 +395,7 @@ def _loo_obstacle(ds: Dataset) -> str | None:
     if len(ds.runs) < 2:
         return f"only one run: nothing to hold out ({_ACROSS_HINT})"
     if ds.is_square:
-        counts = {d: list(ds.directions).count(d) for d in ("cw", "ccw")}
+        counts = {d: list(_directions(ds)).count(d) for d in ("cw", "ccw")}
         if min(counts.values()) < 2:
             return (
                 f"leave-one-run-out needs at least 2 runs in both directions (this set has "
@@ -398,16 +412,16 @@ def _heldout_loo(ds: Dataset, method: str, lsq_options: dict | None, full: Calib
     reason = _loo_obstacle(ds)
     if reason is not None:
         return HeldOut(scheme, reason=reason)
-    geoms, failed = [], []
+    geoms: list[WheelGeometry] = []
+    failed = []
     for i in range(n):
         sub = ds.subset([j for j in range(n) if j != i])
         try:
-            if ds.is_square and set(sub.directions) != {"cw", "ccw"}:
+            if ds.is_square and set(_directions(sub)) != {"cw", "ccw"}:
                 raise InputError("runs in both directions are needed")
             opts = {**(lsq_options or {}), "start": full.geometry} if method == "lsq" else lsq_options
             geoms.append(calibrate(sub, method, opts).geometry)
         except InputError as e:
-            geoms.append(None)
             failed.append(f"{ds.runs[i].name}: {e}")
     if failed:
         return HeldOut(scheme, reason="cannot calibrate without a run: " + "; ".join(failed))
@@ -417,7 +431,7 @@ def _heldout_loo(ds: Dataset, method: str, lsq_options: dict | None, full: Calib
     if ds.is_square:
         truth = np.array([r.end_truth for r in ds.runs])
         runs = RunsTable.from_columns(
-            list(ds.directions), truth[:, 0], truth[:, 1], odo[:, 0], odo[:, 1], run=[r.name for r in ds.runs]
+            list(_directions(ds)), truth[:, 0], truth[:, 1], odo[:, 0], odo[:, 1], run=[r.name for r in ds.runs]
         )
     held = tuple(HeldOutRun(r.name, g, e[0]) for r, g, e in zip(ds.runs, geoms, errors))
     return HeldOut(scheme, ErrorSummary(**_summary(errors, runs)), held)
@@ -493,9 +507,12 @@ def calibration_notes(ds: Dataset, cal: Calibrated, lsq_options: dict | None = N
     return notes
 
 
-def _report(ds: Dataset, method: str, cal: Calibrated, turn, warnings, heldout: HeldOut | None) -> ReplayReport:
+def _report(
+    ds: Dataset, method: str, cal: Calibrated, turn: np.ndarray, warnings: list[str], heldout: HeldOut | None
+) -> ReplayReport:
+    dirs = _directions(ds) if ds.is_square else ()
     runs = tuple(
-        RunInfo(r.name, len(r), float(r.t[-1] - r.t[0]), *((ds.directions[i], turn[i]) if ds.is_square else ()))
+        RunInfo(r.name, len(r), float(r.t[-1] - r.t[0]), *((dirs[i], turn[i]) if ds.is_square else ()))
         for i, r in enumerate(ds.runs)
     )
     return ReplayReport(
@@ -518,7 +535,7 @@ def _report(ds: Dataset, method: str, cal: Calibrated, turn, warnings, heldout: 
 
 
 def replay_report(
-    datasets, method: str = "bf", lsq_options: dict | None = None, heldout: bool = True
+    datasets: Dataset | Iterable[Dataset], method: str = "bf", lsq_options: dict | None = None, heldout: bool = True
 ) -> ReplayReport | MultiReplayReport:
     """Replay, calibrate and evaluate each data set, with held-out figures.
 
@@ -559,7 +576,8 @@ def replay_report(
     if len(parts) == 1:
         ds, cal, turn, warnings, loo = parts[0]
         return _report(ds, method, cal, turn, warnings, loo)
-    across, reports = [], []
+    across: list[AcrossRow] = []
+    reports = []
     for j, (dst, dst_cal, turn, warnings, loo) in enumerate(parts):
         rows = tuple(
             AcrossRow(src.name, dst.name, evaluate(dst, cal.geometry))
@@ -573,7 +591,7 @@ def replay_report(
     return MultiReplayReport(method, tuple(reports), tuple(across))
 
 
-def pooled_report(datasets, lsq_options: dict | None = None, heldout: bool = True) -> PooledReport:
+def pooled_report(datasets: Iterable[Dataset], lsq_options: dict | None = None, heldout: bool = True) -> PooledReport:
     """One ``lsq`` geometry fitted to all data sets together (same robot).
 
     Parameters
@@ -618,11 +636,11 @@ def pooled_report(datasets, lsq_options: dict | None = None, heldout: bool = Tru
 class _PoseKeeper:
     """Collects the poses after every ``decimate``-th sample across chunks."""
 
-    def __init__(self, decimate: int):
+    def __init__(self, decimate: int) -> None:
         self.decimate = decimate
         self.parts: dict[str, list] = {"sample": [], "t_s": [], "x_m": [], "y_m": [], "theta_rad": []}
 
-    def add(self, first: int, t, poses) -> None:
+    def add(self, first: int, t: np.ndarray, poses: Iterable[ArrayLike]) -> None:
         sel = np.arange((-(first + 1)) % self.decimate, len(t), self.decimate)
         self.parts["sample"].append(first + sel)
         self.parts["t_s"].append(np.asarray(t, dtype=float)[sel])
@@ -734,11 +752,11 @@ def stream_replay(
 
 
 def stream_log(
-    path,
+    path: str | Path | Sequence[str | Path],
     decimate: int | None = None,
     chunk_rows: int = 1 << 16,
     fmt: str = "auto",
-    poses_out=None,
+    poses_out: str | Path | None = None,
     options: LogOptions | None = None,
 ) -> StreamReport:
     """Replay ONE long generic CSV log with its nominal geometry in bounded memory.
@@ -780,6 +798,7 @@ def stream_log(
         if len(path) != 1:
             raise InputError("streaming replays one log file at a time")
         path = path[0]
+    assert isinstance(path, (str, Path)), "one log file"
     if fmt == "auto":
         fmt = detect_format(path)
     if fmt != "csv":
@@ -825,8 +844,8 @@ def _report_parts(rep: dict) -> list[dict]:
 
 
 def history_fields(
-    report,
-    paths,
+    report: ReplayReport | MultiReplayReport | PooledReport | dict[str, Any],
+    paths: str | Path | Sequence[str | Path],
     *,
     kind: str = "replay",
     method: str | None = None,
@@ -859,17 +878,17 @@ def history_fields(
         ``source`` and ``inputs`` (``paths``, ``dataset``).
     """
     rep = report.to_dict() if hasattr(report, "to_dict") else report
-    paths = [str(p) for p in (paths if isinstance(paths, (list, tuple)) else [paths])]
+    names = [str(p) for p in (paths if isinstance(paths, (list, tuple)) else [paths])]
     out = []
     for i, part in enumerate(_report_parts(rep)):
-        src = part.get("source") or part.get("dataset") or (paths[i] if i < len(paths) else None)
-        src_path = next((p for p in paths if src and (p == src or Path(p).name == Path(str(src)).name)), src)
-        exists = bool(src_path) and Path(src_path).exists()
+        src = part.get("source") or part.get("dataset") or (names[i] if i < len(names) else None)
+        src_path = next((p for p in names if src and (p == src or Path(p).name == Path(str(src)).name)), src)
+        found = src_path if src_path and Path(src_path).exists() else None  # the path, when it exists
         params = {k: part.get(k, rep.get(k)) for k in ("Ed", "Eb", "c_left", "c_right")}
         params["wheelbase_mm"] = part.get("wheelbase_corrected_mm", rep.get("wheelbase_corrected_mm"))
         results = dict(part)
-        before = part.get("before") if isinstance(part.get("before"), dict) else {}
-        results["emax_syst_mm"] = before.get("emax_syst_mm")
+        before = part.get("before")
+        results["emax_syst_mm"] = before.get("emax_syst_mm") if isinstance(before, dict) else None
         nominal = part.get("nominal", rep.get("nominal"))
         out.append(
             {
@@ -877,10 +896,10 @@ def history_fields(
                 "method": str(method or part.get("method") or rep.get("method") or "?"),
                 "results": results,
                 "parameters": params,
-                "input_sha256": file_hash(src_path) if exists and file_hash is not None else None,
-                "source": None if src_path is None else str(Path(src_path).resolve() if exists else src_path),
+                "input_sha256": file_hash(found) if found is not None and file_hash is not None else None,
+                "source": None if src_path is None else str(Path(found).resolve() if found is not None else src_path),
                 "parameters_in_use": nominal if isinstance(nominal, dict) else None,
-                "inputs": {"paths": paths, "dataset": src},
+                "inputs": {"paths": names, "dataset": src},
             }
         )
     return out

@@ -19,7 +19,9 @@ the values it reports, so the JSON figures are those of the numbers shown beside
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -59,14 +61,14 @@ def _deg(v: float | None) -> float | None:
     return None if v is None else math.degrees(v)
 
 
-def _jackknife(values) -> float:
+def _jackknife(values: Iterable[float]) -> float:
     """The jackknife standard deviation of leave-one-out estimates."""
     v = np.array(values)
     n = len(v)
     return float(math.sqrt((n - 1) / n * np.sum((v - np.mean(v)) ** 2)))
 
 
-def _rms_of(values) -> float | None:
+def _rms_of(values: Iterable[float | None]) -> float | None:
     """RMS of the values that are not None (None when there are none)."""
     v = [x for x in values if x is not None]
     return float(np.sqrt(np.mean(np.square(v)))) if v else None
@@ -178,6 +180,7 @@ class RunErrors:
             "path_position_rms_mm": self.path_position_rms_m * 1e3,
         }
         if self.direction is not None:
+            assert self.eps_x_m is not None and self.eps_y_m is not None  # a square run's: set with its direction
             d.update({"direction": self.direction, "eps_x_mm": self.eps_x_m * 1e3, "eps_y_mm": self.eps_y_m * 1e3})
         return d
 
@@ -423,6 +426,7 @@ class HeldOut:
     def to_dict(self) -> dict:
         """``scheme``, then the held-out figures (or ``reason``), ``jackknife_std``, ``runs`` and
         ``across_datasets`` as they apply."""
+        d: dict[str, Any]
         if self.summary is None:
             d = {"scheme": self.scheme, "emax_syst_mm": None, "end_position_rms_mm": None, "reason": self.reason}
         else:
@@ -464,6 +468,7 @@ class RunInfo:
         """The JSON of one run (``total_turn_deg`` in degrees)."""
         d = {"run": self.run, "samples": self.samples, "duration_s": self.duration_s}
         if self.direction is not None:
+            assert self.total_turn_rad is not None  # a square run's: set with its direction
             d.update({"direction": self.direction, "total_turn_deg": math.degrees(self.total_turn_rad)})
         return d
 
@@ -632,6 +637,7 @@ class PooledRow:
             "after": {k: after[k] for k in _HEADLINE},
         }
         if self.heldout is not None:
+            assert self.heldout_geometry is not None  # held out: fitted on the others
             ev = self.heldout.to_dict()
             d["heldout"] = {
                 "scheme": "fitted on the other data sets",
@@ -694,7 +700,7 @@ class PooledReport:
         }
         if self.is_held_out:
 
-            def agg(part):
+            def agg(part: str) -> float | None:
                 return _rms_of(r[part]["end_position_rms_mm"] for r in per)
 
             out["before"] = {"end_position_rms_mm": agg("before")}
@@ -786,7 +792,7 @@ class StreamReport:
     def to_dict(self) -> dict:
         """The JSON of ``umbmark replay --stream --json`` (the number of kept poses, not the poses)."""
 
-        def pose(p):
+        def pose(p: tuple[float, float, float] | None) -> dict[str, float] | None:
             return None if p is None else {"x_mm": p[0] * 1e3, "y_mm": p[1] * 1e3, "theta_deg": math.degrees(p[2])}
 
         d = {

@@ -40,7 +40,7 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from umbmark._numbers import strict_float
 from umbmark.errors import InputError
@@ -126,7 +126,7 @@ class RunScanTruth:
     def to_dict(self) -> dict[str, Any]:
         """JSON-ready values (mm and degrees)."""
 
-        def pose(p):
+        def pose(p: tuple[float, float, float] | None) -> dict[str, float] | None:
             return None if p is None else {"x_mm": p[0] * 1e3, "y_mm": p[1] * 1e3, "theta_deg": math.degrees(p[2])}
 
         return {
@@ -181,7 +181,7 @@ class ScanTruth:
         }
 
 
-def read_sensor_pose(path) -> tuple[float, float, float]:
+def read_sensor_pose(path: str | Path) -> tuple[float, float, float]:
     """The ``sensor_pose`` of a self-calibration JSON (``umbmark selfcal --json`` or ``--save``).
 
     Parameters
@@ -205,9 +205,9 @@ def read_sensor_pose(path) -> tuple[float, float, float]:
         d = json.loads(read_text(path))
     except ValueError as e:
         raise InputError(f"not JSON ({e})", source=str(path)) from None
-    sp = d.get("sensor_pose") if isinstance(d, dict) else None
+    sp: Any = d.get("sensor_pose") if isinstance(d, dict) else None  # any JSON value: a bad one raises below
     try:
-        vals = (float(sp["x_mm"]) * 1e-3, float(sp["y_mm"]) * 1e-3, math.radians(float(sp["yaw_deg"])))  # type: ignore[index]
+        vals = (float(sp["x_mm"]) * 1e-3, float(sp["y_mm"]) * 1e-3, math.radians(float(sp["yaw_deg"])))
     except (TypeError, KeyError, ValueError):
         raise InputError(
             'no "sensor_pose" with x_mm, y_mm, yaw_deg (the JSON a self-calibration writes)',
@@ -303,7 +303,7 @@ def check_sensor_pose(pose: tuple[float, float, float]) -> list[str]:
     return notes
 
 
-def robot_displacement(sensor_displacement, sensor_pose) -> FloatArray:
+def robot_displacement(sensor_displacement: ArrayLike, sensor_pose: ArrayLike) -> FloatArray:
     """The robot centre's displacement from the sensor's: ``S D_sensor S^-1``.
 
     Parameters
@@ -353,7 +353,7 @@ def _bag_motion(bag: SelfcalBag) -> tuple[FloatArray, NDArray[np.int8]]:
     return np.asarray(bag.wheel_t_s, dtype=float), _signature(forward, forward, dth)
 
 
-def _signature(dl, dr, turn) -> NDArray[np.int8]:
+def _signature(dl: ArrayLike, dr: ArrayLike, turn: ArrayLike) -> NDArray[np.int8]:
     turn = np.asarray(turn, dtype=float)
     tiny = 1e-12 * max(float(np.max(np.abs(turn), initial=0.0)), 1e-300)
     sig = np.where(np.abs(turn) > tiny, 2 * np.sign(turn), np.sign(np.asarray(dl) + np.asarray(dr)))
@@ -479,7 +479,7 @@ def attach_scan_truth(
     datasets: Sequence[Dataset],
     scan_topic: str,
     *,
-    sensor_pose=None,
+    sensor_pose: ArrayLike | None = None,
     sensor_pose_source: str = "given",
     wheels: WheelSource,
     config: ICPConfig = SCAN_TRUTH_ICP,

@@ -579,7 +579,7 @@ class CheckedCalibration:
         }
 
 
-def _load_json(path) -> dict:
+def _load_json(path: str | Path) -> dict:
     src = str(path)
     text = read_text(path)
     try:
@@ -640,12 +640,15 @@ def _selfcal_delay(d: dict, src: str) -> tuple[float, str, list[str]]:
     return applied[0], "calibration", warnings
 
 
+_Sizes = tuple[float | None, float | None, float | None]  # left and right wheel diameters, wheelbase [m]
+
+
 def _geometry(
     kind: str,
     src: str,
     factors: tuple[float, float, float],
-    nominal: tuple[float | None, float | None, float | None],
-    calibrated: tuple[float | None, float | None, float | None],
+    nominal: _Sizes,
+    calibrated: _Sizes,
     wheel_diameter_m: float | None,
     wheelbase_m: float | None,
 ) -> tuple[WheelGeometry, WheelGeometry, list[str]]:
@@ -654,7 +657,9 @@ def _geometry(
     given = (wheel_diameter_m, wheel_diameter_m, wheelbase_m)
     names = ("left wheel diameter", "right wheel diameter", "wheelbase")
     params = ("wheel_diameter_m", "wheel_diameter_m", "wheelbase_m")
-    nom, cal, warnings = [], [], []
+    nom: list[float] = []
+    cal: list[float] = []
+    warnings: list[tuple[str, str]] = []
     for name, param, f, n, c, g in zip(names, params, factors, nominal, calibrated, given):
         if n is None and g is None:
             raise InputError(
@@ -730,6 +735,12 @@ def read_calibration(
     if kind is None:
         keys = ", ".join(sorted(map(str, d))[:8]) or "none"
         raise InputError(f"a JSON object without the figures of a calibration (its keys: {keys}); {_EXPECTED}", src)
+    nominal: _Sizes
+    cal_w: _Sizes
+    pose: Pose | None
+    npose: Pose | None
+    nsrc: str | None
+    method: str | None
     if kind == "selfcal":
         dl, dr, b = (
             _positive_mm(d, k, src) for k in ("wheel_diameter_left_mm", "wheel_diameter_right_mm", "wheelbase_mm")
@@ -751,7 +762,8 @@ def read_calibration(
         factors = (_positive(d, "c_left", src), _positive(d, "c_right", src), _positive(d, "Eb", src))
         dl, dr, b = (_positive_mm(d, k, src) for k in ("diameter_left_mm", "diameter_right_mm", "wheelbase_mm"))
         cal_w = (dl, dr, b)
-        nominal = tuple(None if v is None else v / f for v, f in zip(cal_w, factors))  # type: ignore[assignment]
+        n_dl, n_dr, n_b = (None if v is None else v / f for v, f in zip(cal_w, factors))
+        nominal = (n_dl, n_dr, n_b)
         sp = d.get("sensor_pose")
         pose = None if sp is None else _pose_mm_deg(sp, "sensor_pose", src)
         npose, nsrc, delay, delay_src, warnings = None, None, 0.0, "none", []
@@ -1408,6 +1420,268 @@ def _plausibility(
     return out
 
 
+def _scans_in_window(
+    st: FloatArray, window_s: tuple[float, float] | None, src: str
+) -> tuple[float, float, NDArray[np.bool_], list[str]]:
+    """The window [s from the first scan], the scans inside it (at least two), and the window's warnings."""
+    origin = float(st[0])
+    lo, hi, warnings = _window(st, window_s, src)
+    in_win = (st - origin >= lo - 1e-9) & (st - origin <= hi + 1e-9)
+    if in_win.sum() < 2:
+        raise InputError(f"the window {lo:g} to {hi:g} s holds {int(in_win.sum())} scans: too few to check", src)
+    return lo, hi, in_win, warnings
+
+
+def _scan_delay(calibration: CheckedCalibration, scan_delay_s: float | None) -> tuple[float, str, list[str]]:
+    """The scans' delay (given, else the calibration's), where it came from, and a warning for an unlikely one."""
+    if scan_delay_s is not None:
+        delay, delay_src = _check_number("scan_delay_s", scan_delay_s, positive=False), "given"
+    else:
+        delay, delay_src = calibration.scan_delay_s, calibration.scan_delay_source
+    warnings: list[str] = []
+    if abs(delay) > _MAX_DELAY_S:
+        warnings.append(
+            f"a scan delay of {delay:g} s: the scans and the wheel data are usually within 0.3 s (seconds are "
+            "expected: 50 ms is 0.05)"
+        )
+    return delay, delay_src, warnings
+
+
+@dataclass(frozen=True)
+class _SensorPoses:
+    """The lidar's pose before the calibration and after it, with where each came from."""
+
+    nominal: Pose
+    nominal_source: str
+    after: Pose
+    after_source: str
+
+
+def _sensor_poses(
+    bag: SelfcalBag, calibration: CheckedCalibration, base_frame: str | None
+) -> tuple[_SensorPoses, list[str]]:
+    """The sensor poses: the calibration's nominal one, else /tf_static; the calibration's after it."""
+    warnings: list[str] = []
+    tf, tf_src, _, tf_warn = _nominal_sensor_pose(bag, None, base_frame)
+    tf_pose = (tf[0], tf[1], tf[5])
+    nominal_pose: Pose
+    if calibration.nominal_sensor_pose is not None:
+        nominal_pose = calibration.nominal_sensor_pose
+        nominal_src = f"calibration ({calibration.nominal_sensor_pose_source})"
+        dpos = math.hypot(nominal_pose[0] - tf_pose[0], nominal_pose[1] - tf_pose[1])
+        dyaw = abs(math.remainder(nominal_pose[2] - tf_pose[2], 2 * math.pi))
+        if tf_src != "none" and (dpos > 1e-3 or dyaw > math.radians(0.1)):
+            warnings.append(
+                f"the calibration's nominal sensor pose differs from {tf_src} of this log by {dpos * 1e3:.1f} mm "
+                f"and {math.degrees(dyaw):.2f} deg: the calibration's is used before it"
+            )
+    else:
+        nominal_pose, nominal_src = tf_pose, ("no transform to the scans' frame: zero" if tf_src == "none" else tf_src)
+        warnings += tf_warn
+    if calibration.sensor_pose is not None:
+        after_pose, after_src = calibration.sensor_pose, "calibration"
+    else:
+        after_pose, after_src = nominal_pose, "nominal (the calibration has no sensor pose)"
+    return _SensorPoses(nominal_pose, nominal_src, after_pose, after_src), warnings
+
+
+def _reference_relations(
+    reference: Relations | Trajectory,
+    scan_t_s: FloatArray,
+    reference_frame: str,
+    nominal_pose: Pose,
+    short_max_s: float,
+    tolerance_s: float,
+    span_s: float,
+) -> tuple[Relations, str | None, int | None, str, list[str]]:
+    """The relations (a trajectory's made at the window's scans), their mode, scans with a pose, kind, warnings."""
+    if not isinstance(reference, Trajectory):
+        return reference, None, None, "relations", []
+    rel, mode, with_pose = relations_from_trajectory(
+        reference,
+        scan_t_s,
+        sensor_pose=nominal_pose if reference_frame == "base" else None,
+        short_max_s=short_max_s,
+        tolerance_s=tolerance_s,
+    )
+    covered = (rel.t2_s.max() - rel.t1_s.min()) if len(rel) else 0.0
+    warnings: list[str] = []
+    if covered < 0.9 * span_s:
+        warnings.append(
+            f"the trajectory covers {covered:.1f} s of the {span_s:.1f} s checked: the rest has no relations"
+        )
+    return rel, mode, with_pose, "trajectory", warnings
+
+
+@dataclass(frozen=True)
+class _Matched:
+    """The scans each relation joins, the relations used (inside the window, with wheel data) and the others' counts."""
+
+    k1: NDArray[np.int64]
+    k2: NDArray[np.int64]
+    inside: NDArray[np.bool_]
+    unmatched: int
+    without_wheel_data: int
+    outside_window: int
+
+
+def _match_relations(
+    rel: Relations,
+    st: FloatArray,
+    wheel_t_s: FloatArray,
+    in_win: NDArray[np.bool_],
+    delay: float,
+    tol: float,
+    window: tuple[float, float],
+    src: str,
+) -> tuple[_Matched, list[str]]:
+    """Each relation's stamps matched to scans; those without scans, without wheel data or outside the window."""
+    k1, off1 = _nearest(st, rel.t1_s)
+    k2, off2 = _nearest(st, rel.t2_s)
+    matched = (off1 <= tol) & (off2 <= tol) & (k1 != k2)
+    n_rel = len(rel)
+    if not matched.any():
+        j = int(np.argmin(np.minimum(off1, off2)))
+        raise InputError(
+            f"none of the {n_rel} relations has scans at its stamps (within `tolerance_s` {tol:g} s; the nearest "
+            f"scan to a relation's stamp is {min(off1[j], off2[j]):.3f} s away; the scans span {st[0]:.3f} to "
+            f"{st[-1]:.3f} s): are these the relations of this log?",
+            rel.source,
+        )
+    warnings: list[str] = []
+    unmatched = int((~matched).sum())
+    if unmatched:
+        bad = int(np.flatnonzero(~matched)[0])
+        line = f" (the first on line {int(rel.lines[bad])})" if rel.lines is not None else ""
+        warnings.append(
+            f"{unmatched} of {n_rel} relations have a stamp without a scan within `tolerance_s` {tol:g} s{line}: "
+            "not used"
+        )
+    wt = wheel_t_s
+    has_wheels = (st - delay >= wt[0]) & (st - delay <= wt[-1])
+    wheeled = matched & has_wheels[k1] & has_wheels[k2]
+    without = int((matched & ~wheeled).sum())
+    if without:
+        warnings.append(
+            f"{without} relations join scans outside the wheel data's time span ({wt[0]:.3f} to {wt[-1]:.3f} s, "
+            f"with the scan delay {delay:g} s): not used"
+        )
+    inside = wheeled & in_win[k1] & in_win[k2]
+    outside = int((wheeled & ~inside).sum())
+    if not inside.any():
+        lo, hi = window
+        raise InputError(
+            f"no relation with wheel data lies inside the window {lo:g} to {hi:g} s ({int(wheeled.sum())} outside it)",
+            src,
+        )
+    return _Matched(k1, k2, inside, unmatched, without, outside), warnings
+
+
+@dataclass(frozen=True)
+class _Odometries:
+    """The odometries at the scans before and after the calibration, and the matched relations they are checked on."""
+
+    before: FloatArray
+    after: FloatArray
+    poses: _SensorPoses
+    k1: NDArray[np.int64]
+    k2: NDArray[np.int64]
+    reference: FloatArray
+    short: NDArray[np.bool_]
+
+    def figures(self, sel: NDArray[np.bool_]) -> tuple[OdometryFigures, OdometryFigures]:
+        """The figures before and after the calibration on the selected relations."""
+        args = (self.k1[sel], self.k2[sel], self.reference[sel])
+        return (
+            OdometryFigures.compute(self.before, *args, self.poses.nominal, self.short[sel]),
+            OdometryFigures.compute(self.after, *args, self.poses.after, self.short[sel]),
+        )
+
+
+def _odometries(
+    bag: SelfcalBag,
+    calibration: CheckedCalibration,
+    delay: float,
+    poses: _SensorPoses,
+    matched: _Matched,
+    rel: Relations,
+    short_max_s: float,
+) -> _Odometries:
+    """The odometries (step 1): the wheel angles at the scans integrated with each geometry."""
+    left, right = wheel_angles_at_scans(bag, calibration.nominal, delay)
+    nom, cal = calibration.nominal, calibration.calibrated
+    before_odo = odometry_from_wheels(
+        left, right, 0.5 * nom.diameter_left_m, 0.5 * nom.diameter_right_m, nom.wheelbase_m
+    )
+    after_odo = odometry_from_wheels(
+        left, right, 0.5 * cal.diameter_left_m, 0.5 * cal.diameter_right_m, cal.wheelbase_m
+    )
+    return _Odometries(before_odo, after_odo, poses, matched.k1, matched.k2, rel.pose, rel.span_s < short_max_s)
+
+
+def _check_spans(
+    odo: _Odometries,
+    inside: NDArray[np.bool_],
+    t: FloatArray,
+    in_win: NDArray[np.bool_],
+    window: tuple[float, float],
+    halves: bool,
+    whole_label: str,
+) -> tuple[tuple[SpanCheck, ...], int, list[str]]:
+    """The spans (the whole log or window, or its halves) checked, the relations crossing the halves, warnings."""
+    lo, hi = window
+    if halves:
+        mid = 0.5 * (lo + hi)
+        parts = [("first half", lo, mid, in_win & (t < mid)), ("second half", mid, hi, in_win & (t >= mid))]
+    else:
+        parts = [(whole_label, lo, hi, in_win)]
+    spans = []
+    warnings: list[str] = []
+    crossing = 0
+    in_some = np.zeros(len(inside), dtype=bool)
+    for label, a, b, scans in parts:
+        sel = inside & scans[odo.k1] & scans[odo.k2]
+        in_some |= sel
+        before, after = odo.figures(sel)
+        spans.append(SpanCheck(label, float(a), float(b), int(scans.sum()), before, after, judge(before, after)))
+        if before.short.count == 0:
+            warnings.append(f"no short relations inside the {label}: its short-relation rules do not apply")
+    if halves:
+        crossing = int((inside & ~in_some).sum())
+        if crossing:
+            warnings.append(f"{crossing} relations have a stamp in each half: in neither half's figures")
+    return tuple(spans), crossing, warnings
+
+
+def _reference_summary(
+    kind: str,
+    reference: Relations | Trajectory,
+    rel: Relations,
+    matched: _Matched,
+    reference_frame: str,
+    with_pose: int | None,
+    mode: str | None,
+) -> ReferenceSummary:
+    """The reference and what became of its relations (a trajectory's frame and poses for a trajectory)."""
+    return ReferenceSummary(
+        kind,
+        rel.source if kind == "relations" else reference.source,
+        len(rel),
+        matched.unmatched,
+        matched.without_wheel_data,
+        matched.outside_window,
+        reference_frame if kind == "trajectory" else None,
+        len(reference) if kind == "trajectory" else None,
+        with_pose,
+        mode,
+    )
+
+
+def _float_pose(p: Pose) -> Pose:
+    """A pose as three Python floats."""
+    return (float(p[0]), float(p[1]), float(p[2]))
+
+
 def validate(
     bag: SelfcalBag,
     calibration: CheckedCalibration,
@@ -1471,155 +1745,38 @@ def validate(
     warnings: list[str] = list(bag.warnings) + list(calibration.warnings)
     st = np.asarray(bag.scan_t_s, dtype=float)
     origin = float(st[0])
-    lo, hi, w = _window(st, window_s, src)
+    lo, hi, in_win, w = _scans_in_window(st, window_s, src)
     warnings += w
-    in_win = (st - origin >= lo - 1e-9) & (st - origin <= hi + 1e-9)
-    if in_win.sum() < 2:
-        raise InputError(f"the window {lo:g} to {hi:g} s holds {int(in_win.sum())} scans: too few to check", src)
-    if scan_delay_s is not None:
-        delay, delay_src = _check_number("scan_delay_s", scan_delay_s, positive=False), "given"
-    else:
-        delay, delay_src = calibration.scan_delay_s, calibration.scan_delay_source
-    if abs(delay) > _MAX_DELAY_S:
-        warnings.append(
-            f"a scan delay of {delay:g} s: the scans and the wheel data are usually within 0.3 s (seconds are "
-            "expected: 50 ms is 0.05)"
-        )
-    # the sensor poses: the calibration's nominal one, else /tf_static; the calibration's after it
-    tf, tf_src, _, tf_warn = _nominal_sensor_pose(bag, None, base_frame)
-    tf_pose = (tf[0], tf[1], tf[5])
-    if calibration.nominal_sensor_pose is not None:
-        nominal_pose = calibration.nominal_sensor_pose
-        nominal_src = f"calibration ({calibration.nominal_sensor_pose_source})"
-        dpos = math.hypot(nominal_pose[0] - tf_pose[0], nominal_pose[1] - tf_pose[1])
-        dyaw = abs(math.remainder(nominal_pose[2] - tf_pose[2], 2 * math.pi))
-        if tf_src != "none" and (dpos > 1e-3 or dyaw > math.radians(0.1)):
-            warnings.append(
-                f"the calibration's nominal sensor pose differs from {tf_src} of this log by {dpos * 1e3:.1f} mm "
-                f"and {math.degrees(dyaw):.2f} deg: the calibration's is used before it"
-            )
-    else:
-        nominal_pose, nominal_src = tf_pose, ("no transform to the scans' frame: zero" if tf_src == "none" else tf_src)
-        warnings += tf_warn
-    if calibration.sensor_pose is not None:
-        after_pose, after_src = calibration.sensor_pose, "calibration"
-    else:
-        after_pose, after_src = nominal_pose, "nominal (the calibration has no sensor pose)"
+    delay, delay_src, w = _scan_delay(calibration, scan_delay_s)
+    warnings += w
+    poses, w = _sensor_poses(bag, calibration, base_frame)
+    warnings += w
     # the relations
-    if isinstance(reference, Trajectory):
-        rel, mode, with_pose = relations_from_trajectory(
-            reference,
-            st[in_win],
-            sensor_pose=nominal_pose if reference_frame == "base" else None,
-            short_max_s=short_max,
-            tolerance_s=tol,
-        )
-        covered = (rel.t2_s.max() - rel.t1_s.min()) if len(rel) else 0.0
-        if covered < 0.9 * (hi - lo):
-            warnings.append(
-                f"the trajectory covers {covered:.1f} s of the {hi - lo:.1f} s checked: the rest has no relations"
-            )
-        kind = "trajectory"
-    else:
-        rel, mode, with_pose, kind = reference, None, None, "relations"
-    k1, off1 = _nearest(st, rel.t1_s)
-    k2, off2 = _nearest(st, rel.t2_s)
-    matched = (off1 <= tol) & (off2 <= tol) & (k1 != k2)
-    n_rel = len(rel)
-    if not matched.any():
-        j = int(np.argmin(np.minimum(off1, off2)))
-        raise InputError(
-            f"none of the {n_rel} relations has scans at its stamps (within `tolerance_s` {tol:g} s; the nearest "
-            f"scan to a relation's stamp is {min(off1[j], off2[j]):.3f} s away; the scans span {st[0]:.3f} to "
-            f"{st[-1]:.3f} s): are these the relations of this log?",
-            rel.source,
-        )
-    unmatched = int((~matched).sum())
-    if unmatched:
-        bad = int(np.flatnonzero(~matched)[0])
-        line = f" (the first on line {int(rel.lines[bad])})" if rel.lines is not None else ""
-        warnings.append(
-            f"{unmatched} of {n_rel} relations have a stamp without a scan within `tolerance_s` {tol:g} s{line}: "
-            "not used"
-        )
-    wt = np.asarray(bag.wheel_t_s, dtype=float)
-    has_wheels = (st - delay >= wt[0]) & (st - delay <= wt[-1])
-    wheeled = matched & has_wheels[k1] & has_wheels[k2]
-    without = int((matched & ~wheeled).sum())
-    if without:
-        warnings.append(
-            f"{without} relations join scans outside the wheel data's time span ({wt[0]:.3f} to {wt[-1]:.3f} s, "
-            f"with the scan delay {delay:g} s): not used"
-        )
-    inside = wheeled & in_win[k1] & in_win[k2]
-    outside = int((wheeled & ~inside).sum())
-    if not inside.any():
-        raise InputError(
-            f"no relation with wheel data lies inside the window {lo:g} to {hi:g} s ({int(wheeled.sum())} outside it)",
-            src,
-        )
+    rel, mode, with_pose, kind, w = _reference_relations(
+        reference, st[in_win], reference_frame, poses.nominal, short_max, tol, hi - lo
+    )
+    warnings += w
+    matched, w = _match_relations(rel, st, np.asarray(bag.wheel_t_s, dtype=float), in_win, delay, tol, (lo, hi), src)
+    warnings += w
     # the odometries (step 1)
-    left, right = wheel_angles_at_scans(bag, calibration.nominal, delay)
-    nom, cal = calibration.nominal, calibration.calibrated
-    before_odo = odometry_from_wheels(
-        left, right, 0.5 * nom.diameter_left_m, 0.5 * nom.diameter_right_m, nom.wheelbase_m
-    )
-    after_odo = odometry_from_wheels(
-        left, right, 0.5 * cal.diameter_left_m, 0.5 * cal.diameter_right_m, cal.wheelbase_m
-    )
-    short = rel.span_s < short_max
-
-    def figures(sel: NDArray[np.bool_]) -> tuple[OdometryFigures, OdometryFigures]:
-        args = (k1[sel], k2[sel], rel.pose[sel])
-        return (
-            OdometryFigures.compute(before_odo, *args, nominal_pose, short[sel]),
-            OdometryFigures.compute(after_odo, *args, after_pose, short[sel]),
-        )
-
-    sel = inside & short
+    odo = _odometries(bag, calibration, delay, poses, matched, rel, short_max)
+    k1, k2, inside = matched.k1, matched.k2, matched.inside
+    sel = inside & odo.short
     warnings += _plausibility(
-        before_odo,
+        odo.before,
         k1[sel],
         k2[sel],
         rel.pose[sel],
-        nominal_pose,
-        figures(inside)[0],
+        poses.nominal,
+        odo.figures(inside)[0],
         "relations" if kind == "relations" else "relations made from the trajectory",
         rel.source,
     )
     # the spans
-    t = st - origin
-    if halves:
-        mid = 0.5 * (lo + hi)
-        parts = [("first half", lo, mid, in_win & (t < mid)), ("second half", mid, hi, in_win & (t >= mid))]
-    else:
-        parts = [("whole log" if window_s is None else "window", lo, hi, in_win)]
-    spans = []
-    crossing = 0
-    in_some = np.zeros(len(rel), dtype=bool)
-    for label, a, b, scans in parts:
-        sel = inside & scans[k1] & scans[k2]
-        in_some |= sel
-        before, after = figures(sel)
-        spans.append(SpanCheck(label, float(a), float(b), int(scans.sum()), before, after, judge(before, after)))
-        if before.short.count == 0:
-            warnings.append(f"no short relations inside the {label}: its short-relation rules do not apply")
-    if halves:
-        crossing = int((inside & ~in_some).sum())
-        if crossing:
-            warnings.append(f"{crossing} relations have a stamp in each half: in neither half's figures")
-    summary = ReferenceSummary(
-        kind,
-        rel.source if kind == "relations" else reference.source,
-        n_rel,
-        unmatched,
-        without,
-        outside,
-        reference_frame if kind == "trajectory" else None,
-        len(reference) if kind == "trajectory" else None,
-        with_pose,
-        mode,
-    )
+    whole = "whole log" if window_s is None else "window"
+    spans, crossing, w = _check_spans(odo, inside, st - origin, in_win, (lo, hi), halves, whole)
+    warnings += w
+    summary = _reference_summary(kind, reference, rel, matched, reference_frame, with_pose, mode)
     return Validation(
         log=src,
         wheel_data=bag.wheel_description,
@@ -1628,14 +1785,14 @@ def validate(
         window_s=None if window_s is None else (float(lo), float(hi)),
         reference=summary,
         calibration=calibration,
-        nominal_sensor_pose=tuple(float(v) for v in nominal_pose),  # type: ignore[arg-type]
-        nominal_sensor_pose_source=nominal_src,
-        sensor_pose=tuple(float(v) for v in after_pose),  # type: ignore[arg-type]
-        sensor_pose_source=after_src,
+        nominal_sensor_pose=_float_pose(poses.nominal),
+        nominal_sensor_pose_source=poses.nominal_source,
+        sensor_pose=_float_pose(poses.after),
+        sensor_pose_source=poses.after_source,
         scan_delay_s=float(delay),
         scan_delay_source=delay_src,
         short_max_s=short_max,
-        spans=tuple(spans),
+        spans=spans,
         relations_crossing=crossing,
         warnings=warnings,
     )
@@ -1702,9 +1859,12 @@ def validate_log(
         calibration_path, dataset=dataset, wheel_diameter_m=wheel_diameter_m, wheelbase_m=wheelbase_m
     )
     say("read reference")
-    ref: Relations | Trajectory = (
-        read_relations(relations_path) if relations_path is not None else read_tum(reference_path)
-    )
+    ref: Relations | Trajectory
+    if relations_path is not None:
+        ref = read_relations(relations_path)
+    else:
+        assert reference_path is not None  # exactly one reference, checked above
+        ref = read_tum(reference_path)
     say("read log")
     from umbmark.io.rosbag import read_selfcal_bag
 

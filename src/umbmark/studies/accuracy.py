@@ -257,7 +257,7 @@ def robot_trial(cfg: AccuracyConfig, ed: float, eb: float, noise: str, robot: in
         c1 = _correct(method, before, side, b0)
         cal1 = c1.calibration if c1 else None
         after1 = run(cal1, s_after)
-        c2 = _correct(method, after1, side, cal1.wheelbase_m, cal1) if c1 else None
+        c2 = _correct(method, after1, side, c1.calibration.wheelbase_m, c1.calibration) if c1 else None
         out[f"emax_{name1}_mm"] = umbmark(after1).emax_syst * 1e3
         out[f"emax_{name2}_mm"] = umbmark(run(c2.calibration if c2 else cal1, s_after2)).emax_syst * 1e3
         out[f"fail_{name1}"], out[f"fail_{name2}"] = c1 is None, c2 is None

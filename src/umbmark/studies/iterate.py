@@ -20,6 +20,7 @@ import hashlib
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -254,6 +255,7 @@ def calibrate_loop(
         if res.emax_syst < tol_m:
             decision = stopped = f"stop: E_max,syst {res.emax_syst * 1e3:.3g} mm is below the tolerance"
         elif not res.second_pass_recommended:
+            assert rule is not None  # a further pass is recommended whenever the spread is unknown
             decision = stopped = (
                 f"stop: E_max,syst {res.emax_syst * 1e3:.1f} mm < 3 x SEM = {rule * 1e3:.1f} mm "
                 "(a further pass is unlikely to help)"
@@ -419,7 +421,7 @@ def history_fields(loop: LoopResult) -> dict:
     results = loop.to_dict()
     results["emax_syst_mm"] = first.result.emax_syst * 1e3
     results["emax_syst_last_pass_mm"] = last.result.emax_syst * 1e3
-    fields = {
+    fields: dict[str, Any] = {
         "kind": "calibrate",
         "method": loop.method,
         "results": results,
@@ -436,6 +438,7 @@ def history_fields(loop: LoopResult) -> dict:
     sim = loop.simulation
     if sim is not None:
         e = loop.errors
+        assert e is not None  # a simulated loop carries its robot's true errors
         fields["inputs"]["simulation"] = {
             "Ed": e.ed,
             "Eb": e.eb,

@@ -43,8 +43,10 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from umbmark.correct import CorrectionResult, bf_correction
 from umbmark.errors import InputError
@@ -391,8 +393,12 @@ def simulate_tests(tests: list[TestSpec], cfg: StudyConfig) -> list[RunsTable]:
         ccw_rngs += run_seeds(ccw_ss, n)
         tp = t.errors.true_params(geo)
         mp = OdometryParams.from_geometry(geo, t.calibration)
-        tl.append(tp.left_m_per_pulse), tr.append(tp.right_m_per_pulse), tb.append(tp.wheelbase_m)
-        ml.append(mp.left_m_per_pulse), mr.append(mp.right_m_per_pulse), mb.append(mp.wheelbase_m)
+        tl.append(tp.left_m_per_pulse)
+        tr.append(tp.right_m_per_pulse)
+        tb.append(tp.wheelbase_m)
+        ml.append(mp.left_m_per_pulse)
+        mr.append(mp.right_m_per_pulse)
+        mb.append(mp.wheelbase_m)
     rep = lambda v: np.repeat(np.asarray(v, dtype=float), n)  # noqa: E731
     true_all = dict(left_m_per_pulse=rep(tl), right_m_per_pulse=rep(tr), wheelbase_m=rep(tb))
     model_all = dict(left_m_per_pulse=rep(ml), right_m_per_pulse=rep(mr), wheelbase_m=rep(mb))
@@ -485,6 +491,9 @@ class Experiment:
         """The experiment as JSON-able values in millimetres (one entry of the study's ``experiments``)."""
         r1 = self.first.result
         rule = r1.sem_rule
+        sem_before, std_after, sem_after = self.before.worst.sem, r1.worst.std, r1.worst.sem
+        # a study's tests have at least 2 runs per direction (StudyConfig.n_runs): every spread is known
+        assert sem_before is not None and std_after is not None and sem_after is not None
         d = {
             "id": self.id,
             "seed": self.seed,
@@ -494,9 +503,9 @@ class Experiment:
             "emax_before_mm": self.emax_before * 1e3,
             "emax_after_mm": self.emax_after * 1e3,
             "improvement": self.improvement,
-            "sem_before_mm": self.before.worst.sem * 1e3,
-            "std_after_mm": r1.worst.std * 1e3,
-            "sem_after_mm": r1.worst.sem * 1e3,
+            "sem_before_mm": sem_before * 1e3,
+            "std_after_mm": std_after * 1e3,
+            "sem_after_mm": sem_after * 1e3,
             "three_sem_after_mm": None if rule is None else rule * 1e3,
             "second_pass_recommended": r1.second_pass_recommended,
             "correction": _corr_dict(self.first.correction),
@@ -517,12 +526,16 @@ class Experiment:
 
 
 def _corr_dict(c: CorrectionResult) -> dict:
+    """A correction of :func:`umbmark.correct.bf_correction` as JSON (mm, deg)."""
+    wheelbase_m = c.calibration.wheelbase_m
+    # bf_correction always gives the wheelbase and both angles
+    assert wheelbase_m is not None and c.alpha is not None and c.beta is not None
     return {
         "Ed": c.ed,
         "Eb": c.eb,
         "c_left": c.calibration.c_left,
         "c_right": c.calibration.c_right,
-        "wheelbase_mm": c.calibration.wheelbase_m * 1e3,
+        "wheelbase_mm": wheelbase_m * 1e3,
         "alpha_deg": math.degrees(c.alpha),
         "beta_deg": math.degrees(c.beta),
     }
@@ -578,6 +591,7 @@ def run_seed_experiments(seeds: list[int], cfg: StudyConfig) -> dict[int, list[E
         ex = exps[k]
         if ex.first.result.second_pass_recommended:
             cal1 = ex.first.correction.calibration
+            assert cal1.wheelbase_m is not None  # bf_correction always gives the wheelbase
             c2 = bf_correction(ex.first.result, cfg.side_m, cal1.wheelbase_m, prior=cal1)
             keys2.append(k)
             corr2.append(c2)
@@ -726,7 +740,10 @@ def tape_model(cfg: StudyConfig) -> dict:
         ``layer_thickness_mm``, ``wheel_diameter_mm``, ``fig11_noise_free_emax_before_mm`` and
         ``exp7``, ``exp8`` (loops, E_d, E_s, noise-free E_max,syst before).
     """
-    out = {"layer_thickness_mm": cfg.tape_layer_m * 1e3, "wheel_diameter_mm": cfg.geometry.wheel_diameter_m * 1e3}
+    out: dict[str, Any] = {
+        "layer_thickness_mm": cfg.tape_layer_m * 1e3,
+        "wheel_diameter_mm": cfg.geometry.wheel_diameter_m * 1e3,
+    }
     base_free = _noise_free_emax(FIG11_ERRORS, cfg)
     out["fig11_noise_free_emax_before_mm"] = base_free * 1e3
     for eid, right, left in ((7, 3, 0), (8, 0, 5)):
@@ -863,6 +880,8 @@ class Pitfall:
     def to_dict(self) -> dict:
         """The pitfall as JSON-able values in millimetres (the ``pitfall`` of the study's JSON)."""
         i = int(np.argmin(self.cw_r_cg))
+        bf_wheelbase_m = self.bf_correction.calibration.wheelbase_m
+        assert bf_wheelbase_m is not None  # bf_correction always gives the wheelbase
         return {
             "robot_Ed": self.errors.ed,
             "robot_wheelbase_mm": self.errors.eb * self.wheelbase_nominal_m * 1e3,
@@ -873,7 +892,7 @@ class Pitfall:
             "uncalibrated": _bi_dict(self.uncalibrated),
             "uni_directionally_tuned": _bi_dict(self.tuned),
             "bi_directional_bf": _bi_dict(self.bf),
-            "bf_wheelbase_mm": self.bf_correction.calibration.wheelbase_m * 1e3,
+            "bf_wheelbase_mm": bf_wheelbase_m * 1e3,
             "bf_Ed": self.bf_correction.ed,
         }
 
@@ -940,7 +959,8 @@ def uni_directional_pitfall(
             )
             ex = (res.abs_x - res.odo_x).reshape(len(g), n).mean(axis=1)
             ey = (res.abs_y - res.odo_y).reshape(len(g), n).mean(axis=1)
-            xs.append(ex), ys.append(ey)
+            xs.append(ex)
+            ys.append(ey)
         r_cg[direction] = np.hypot(np.concatenate(xs), np.concatenate(ys))
     i = int(np.argmin(r_cg["cw"]))
     tuned_b = float(grid[i])
@@ -1009,7 +1029,8 @@ def run_trajectories(
             rngs=run_seeds(ss, 1),
             trajectory=True,
         )
-        t = {k: np.concatenate([[0.0], v[0]]) for k, v in res.trajectory.items()}
+        assert res.trajectory is not None  # asked for with trajectory=True
+        t: dict[str, NDArray[np.float64] | str] = {k: np.concatenate([[0.0], v[0]]) for k, v in res.trajectory.items()}
         t["label"] = direction
         out.append(t)
     return out

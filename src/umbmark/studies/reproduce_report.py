@@ -139,16 +139,16 @@ def save_study_figures(figs: dict, out_dir, formats=("png", "svg")) -> dict:
         Name -> ``{format: path}``, plus the PNG bytes under ``"_png"`` (for embedding).
     """
     out_dir = Path(out_dir)
-    paths = {}
+    paths: dict[str, dict[str, bytes | Path]] = {}
     for name, fig in figs.items():
-        paths[name] = {}
         buf = io.BytesIO()
         fig.savefig(buf, format="png", dpi=110)
-        paths[name]["_png"] = buf.getvalue()
+        png = buf.getvalue()
+        paths[name] = {"_png": png}
         for kind in formats:
             if kind == "png":
                 p = out_dir / f"{name}.png"
-                atomic_write(p, paths[name]["_png"])
+                atomic_write(p, png)
             else:
                 p = out_dir / f"{name}.{kind}"
                 save_figure_keep_open(fig, p)
@@ -394,7 +394,7 @@ def _second_passes(study: Study) -> list[str]:
                         (str(x.id), ""),
                         (fmt(x.emax_before * 1e3, 0), ""),
                         (fmt(x.emax_after * 1e3), ""),
-                        (fmt(x.first.result.sem_rule * 1e3), ""),
+                        (fmt(None if x.first.result.sem_rule is None else x.first.result.sem_rule * 1e3), ""),
                         (fmt(x.emax_final * 1e3), ""),
                         (f"{x.improvement_final:.1f}-fold", ""),
                     ]

@@ -61,7 +61,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from umbmark.errors import InputError
-from umbmark.io.relations import read_relations
+from umbmark.io.relations import Relations, read_relations
 from umbmark.io.rosbag import SelfcalBag, read_selfcal_bag
 from umbmark.io.wheels import WheelSource
 from umbmark.model import se2
@@ -570,12 +570,268 @@ def _delayed(bag: SelfcalBag, scan_delay_s: float) -> SelfcalBag:
 
 
 def _tf_pose(bag: SelfcalBag, base_frame: str | None) -> Pose:
+    """The laser pose of ``/tf_static`` from the robot frame (the first of the candidates found), else zero."""
     frames = [base_frame] if base_frame else [f for f in (bag.odom_child_frame, "base_link", "base_footprint") if f]
     for f in frames:
         tf = sensor_pose_from_tf(bag.static_transforms, f, bag.scan_frame)
         if tf is not None:
             return (tf[0], tf[1], tf[5])
     return (0.0, 0.0, 0.0)
+
+
+def _check_options(short_max_s: float, scan_delay_s: float | str | None) -> tuple[str, float | str]:
+    """Check ``short_max_s`` and ``scan_delay_s``; the ``scan_delay_mode`` and the pipeline's ``scan_delay`` for it."""
+    if not (isinstance(short_max_s, (int, float)) and short_max_s > 0):
+        raise InputError(f"`short_max_s` must be a positive number of seconds, got {short_max_s!r}")
+    if scan_delay_s is None:
+        return "recorded", 0.0
+    if isinstance(scan_delay_s, str):
+        if scan_delay_s != "estimate":
+            raise InputError(f"`scan_delay_s` must be None, a number of seconds or 'estimate', got {scan_delay_s!r}")
+        return "estimated", "auto"
+    if isinstance(scan_delay_s, (int, float)) and math.isfinite(scan_delay_s):
+        return "given", float(scan_delay_s)
+    raise InputError(f"`scan_delay_s` must be None, a number of seconds or 'estimate', got {scan_delay_s!r}")
+
+
+def _read_log(
+    bag_path: str | Path,
+    relations_path: str | Path,
+    scan_topic: str,
+    odom_topic: str,
+    say: Progress,
+    timings: dict[str, float],
+) -> tuple[SelfcalBag, Relations]:
+    """Read the bag and its relations file, timed into ``timings`` (``read_bag``, ``read_relations``)."""
+    say("read bag")
+    t0 = time.perf_counter()
+    bag = read_selfcal_bag(bag_path, scan_topic=scan_topic, wheels=WheelSource(odom_topic=odom_topic))
+    timings["read_bag"] = time.perf_counter() - t0
+    say("read relations")
+    t0 = time.perf_counter()
+    relations = read_relations(relations_path)
+    timings["read_relations"] = time.perf_counter() - t0
+    return bag, relations
+
+
+def _window(bag: SelfcalBag, window_s: tuple[float, float] | None, bag_path: str | Path) -> tuple[SelfcalBag, float]:
+    """The bag cut to the window studied, and the log's first scan stamp (the origin of the study's times) [s]."""
+    st_all = np.asarray(bag.scan_t_s, dtype=float)
+    origin = float(st_all[0])
+    if window_s is None:
+        in_win = np.ones(len(st_all), dtype=bool)
+    else:
+        lo, hi = (float(v) for v in window_s)
+        if not hi > lo:
+            raise InputError(f"`window_s` must be (start, end) with end after start, got {window_s!r}")
+        in_win = (st_all >= origin + lo) & (st_all <= origin + hi)
+    if in_win.sum() < 20:
+        raise InputError(f"the window {window_s!r} holds {int(in_win.sum())} scans: too few to study", str(bag_path))
+    return (_slice_bag(bag, in_win) if window_s is not None else bag), origin
+
+
+def _window_relations(
+    relations: Relations, st: FloatArray, tolerance_s: float, relations_path: str | Path
+) -> Relations:
+    """The relations with both stamps within the scans studied (stamps ``st``); InputError when none."""
+    keep = (np.minimum(relations.t1_s, relations.t2_s) >= st[0] - tolerance_s) & (
+        np.maximum(relations.t1_s, relations.t2_s) <= st[-1] + tolerance_s
+    )
+    if not keep.any():
+        raise InputError(
+            f"none of the {len(relations)} relations lies within the scans studied ({st[0]:.3f} to {st[-1]:.3f} s): "
+            "are these the relations of this log?",
+            str(relations_path),
+        )
+    return relations.subset(keep)
+
+
+def _halves(st: FloatArray) -> tuple[float, dict[str, NDArray[np.bool_]]]:
+    """The split between the halves (the middle of the scans' time) and the scans of each part of the study."""
+    split = float(st[0] + 0.5 * (st[-1] - st[0]))
+    first = st < split
+    return split, {"first half": first, "second half": ~first, "full log": np.ones(len(st), dtype=bool)}
+
+
+def _span(stamps_s: FloatArray, origin: float) -> tuple[float, float]:
+    """The first and the last of the stamps, from the origin [s]."""
+    return (float(stamps_s[0] - origin), float(stamps_s[-1] - origin))
+
+
+@dataclass(frozen=True)
+class _Calibrator:
+    """How each part of the log is self-calibrated: the nominal geometry and the pipeline's settings."""
+
+    wheel_diameter_m: float
+    wheelbase_m: float
+    keyframes: KeyframeRule | None
+    base_frame: str | None
+    icp: ICPConfig | None
+    scan_delay: float | str
+    selfcal_options: dict[str, Any] | None
+
+    def calibrate(
+        self, bag: SelfcalBag, mask: NDArray[np.bool_], label: str, origin: float, say: Progress
+    ) -> Calibration:
+        """Self-calibrate on the scans of ``mask``, timed from the cut of the bag on."""
+        t0 = time.perf_counter()
+        part = _slice_bag(bag, mask) if not mask.all() else bag
+        say(f"calibrate: {label}")
+        opts = IntervalOptions(
+            keyframes=DEFAULT_KEYFRAMES if self.keyframes is None else self.keyframes,
+            base_frame=self.base_frame,
+            icp=self.icp,
+            scan_delay=self.scan_delay,
+        )
+        si = bag_intervals(part, self.wheel_diameter_m, self.wheelbase_m, opts)
+        delay, d_s = si.scan_delay, si.plan.scan_delay_s
+        report = selfcal_report([si], self.wheel_diameter_m, self.wheelbase_m, **(self.selfcal_options or {}))
+        elapsed = time.perf_counter() - t0
+        ts = part.scan_t_s
+        return Calibration(label, *_span(ts, origin), len(ts), report, elapsed, delay, d_s)
+
+
+@dataclass(eq=False)
+class _Evaluator:
+    """What the evaluations share: the log, the geometries, the relations and the odometries computed so far."""
+
+    bag: SelfcalBag
+    wheel_diameter_m: float
+    wheelbase_m: float
+    calibrations: dict[str, Calibration]
+    tf_pose: Pose
+    relations: Relations
+    i1: NDArray[np.int64]
+    i2: NDArray[np.int64]
+    short: NDArray[np.bool_]
+    cache: dict[float, dict[str, FloatArray]] = field(default_factory=dict)
+
+    def odometries(self, d_s: float) -> dict[str, FloatArray]:
+        """The odometries at the scans read ``d_s`` earlier: recorded, nominal, each calibration's (computed once)."""
+        if d_s not in self.cache:
+            r_nom = 0.5 * self.wheel_diameter_m
+            b = _delayed(self.bag, d_s)
+            geometry = WheelGeometry(self.wheel_diameter_m, self.wheel_diameter_m, self.wheelbase_m)
+            left, right = scan_wheel_angles(b, geometry)
+            odo = {
+                "recorded": recorded_odometry_at_scans(b),
+                "nominal": odometry_from_wheels(left, right, r_nom, r_nom, self.wheelbase_m),
+            }
+            for lab, cal in self.calibrations.items():
+                odo[f"calibrated({lab})"] = odometry_from_wheels(left, right, *cal.geometry)
+            self.cache[d_s] = odo
+        return self.cache[d_s]
+
+    def evaluate(
+        self, sel: NDArray[np.bool_], d_s: float, odometry: str, cal: Calibration | None, pose_src: str
+    ) -> Evaluation:
+        """One odometry, seen from the laser pose of ``pose_src``, against the selected relations."""
+        name = f"calibrated({cal.label})" if odometry == "calibrated" and cal is not None else odometry
+        lp = self.tf_pose if pose_src == "/tf_static" or cal is None else cal.sensor_pose
+        p = self.odometries(d_s)[name]
+        ref = self.relations.pose[sel]
+        q = in_sensor_frame(se2.between(p[self.i1[sel]], p[self.i2[sel]]), lp)
+        et, er = relation_errors(q, ref)
+        s = self.short[sel]
+        return Evaluation(
+            odometry,
+            cal.label if cal is not None else None,
+            lp,
+            pose_src,
+            ErrorStats.from_errors(et, er),
+            ErrorStats.from_errors(et[s], er[s]),
+            ErrorStats.from_errors(et[~s], er[~s]),
+            SystematicErrors.fit(q[s], ref[s]),
+        )
+
+
+def _inside_halves(relations: Relations, split: float) -> dict[str, NDArray[np.bool_]]:
+    """The relations with both stamps inside the first half, and inside the second."""
+    lo_t, hi_t = np.minimum(relations.t1_s, relations.t2_s), np.maximum(relations.t1_s, relations.t2_s)
+    return {"first half": hi_t < split, "second half": lo_t >= split}
+
+
+def _half_test(ev: _Evaluator, label: str, other: str, sel: NDArray[np.bool_], span: tuple[float, float]) -> HalfTest:
+    """The test of one half (relations ``sel``), calibrated out of sample on the ``other`` half."""
+    cal_o, cal_h, cal_f = ev.calibrations[other], ev.calibrations[label], ev.calibrations["full log"]
+    d_s = cal_o.scan_delay_s
+    evals = (
+        ev.evaluate(sel, d_s, "recorded", None, "/tf_static"),
+        ev.evaluate(sel, d_s, "nominal", None, "/tf_static"),
+        ev.evaluate(sel, d_s, "nominal", cal_o, "estimated"),
+        ev.evaluate(sel, d_s, "calibrated", cal_o, "estimated"),
+        ev.evaluate(sel, d_s, "calibrated", cal_o, "/tf_static"),
+        ev.evaluate(sel, d_s, "calibrated", cal_h, "estimated"),
+        ev.evaluate(sel, d_s, "calibrated", cal_f, "estimated"),
+    )
+    return HalfTest(label, other, *span, int((sel & ev.short).sum()), int((sel & ~ev.short).sum()), evals, d_s)
+
+
+def _full_log_test(ev: _Evaluator, span: tuple[float, float]) -> HalfTest:
+    """The test of the full log on all the relations, calibrated on itself."""
+    every = np.ones(len(ev.relations), dtype=bool)
+    cal_f = ev.calibrations["full log"]
+    d_f = cal_f.scan_delay_s
+    evals = (
+        ev.evaluate(every, d_f, "recorded", None, "/tf_static"),
+        ev.evaluate(every, d_f, "nominal", None, "/tf_static"),
+        ev.evaluate(every, d_f, "nominal", cal_f, "estimated"),
+        ev.evaluate(every, d_f, "calibrated", cal_f, "estimated"),
+        ev.evaluate(every, d_f, "calibrated", cal_f, "/tf_static"),
+    )
+    return HalfTest("full log", None, *span, int(ev.short.sum()), int((~ev.short).sum()), evals, d_f)
+
+
+def _tests(
+    ev: _Evaluator,
+    inside: dict[str, NDArray[np.bool_]],
+    parts: dict[str, NDArray[np.bool_]],
+    st: FloatArray,
+    origin: float,
+) -> tuple[HalfTest, ...]:
+    """The tests: each half calibrated out of sample on the other, then the full log calibrated on itself."""
+    tests = [
+        _half_test(ev, label, other, inside[label], _span(st[parts[label]], origin))
+        for label, other in (("second half", "first half"), ("first half", "second half"))
+    ]
+    return (*tests, _full_log_test(ev, _span(st, origin)))
+
+
+def _scan_matching_check(ev: _Evaluator, d_s: float, icp: ICPConfig | None) -> ScanMatchCheck:
+    """Match the scans of each short relation from the nominal odometry seen from ``/tf_static``; compare both."""
+    i1, i2, ref = ev.i1, ev.i2, ev.relations.pose
+    js = np.flatnonzero(ev.short)
+    nominal = ev.odometries(d_s)["nominal"]
+    q0 = in_sensor_frame(se2.between(nominal[i1[js]], nominal[i2[js]]), ev.tf_pose)
+    m = match_scan_pairs(ev.bag.ranges_m[i1[js]], ev.bag.ranges_m[i2[js]], ev.bag.angles_rad, q0, icp)
+    ok = np.asarray(m.converged, dtype=bool)
+    poses = np.asarray(m.poses, dtype=float)[ok]
+    et_m, er_m = relation_errors(poses, ref[js[ok]])
+    et_o, er_o = relation_errors(q0[ok], ref[js[ok]])
+    return ScanMatchCheck(
+        int(js.size),
+        int(ok.sum()),
+        ErrorStats.from_errors(et_m, er_m),
+        ErrorStats.from_errors(et_o, er_o),
+        SystematicErrors.fit(poses, ref[js[ok]]),
+        SystematicErrors.fit(q0[ok], ref[js[ok]]),
+    )
+
+
+def _study_warnings(
+    crossing: int, relations: int, inside: dict[str, NDArray[np.bool_]], short: NDArray[np.bool_]
+) -> list[str]:
+    """What the study notices: relations across the halves, a half without short relations."""
+    warnings = []
+    if crossing:
+        warnings.append(
+            f"{crossing} of {relations} relations have one stamp in each half: in neither half's test "
+            "(they are in the full log's)"
+        )
+    for label in ("first half", "second half"):
+        if not (inside[label] & short).any():
+            warnings.append(f"no short relations inside the {label}: its test has no short-relation figures")
+    return warnings
 
 
 def study_log(
@@ -646,200 +902,37 @@ def study_log(
     """
     t_total = time.perf_counter()
     say = progress or (lambda stage: None)
-    if not (isinstance(short_max_s, (int, float)) and short_max_s > 0):
-        raise InputError(f"`short_max_s` must be a positive number of seconds, got {short_max_s!r}")
-    if scan_delay_s is None:
-        mode = "recorded"
-    elif isinstance(scan_delay_s, str):
-        if scan_delay_s != "estimate":
-            raise InputError(f"`scan_delay_s` must be None, a number of seconds or 'estimate', got {scan_delay_s!r}")
-        mode = "estimated"
-    elif isinstance(scan_delay_s, (int, float)) and math.isfinite(scan_delay_s):
-        mode = "given"
-    else:
-        raise InputError(f"`scan_delay_s` must be None, a number of seconds or 'estimate', got {scan_delay_s!r}")
+    mode, delay = _check_options(short_max_s, scan_delay_s)
     timings: dict[str, float] = {}
-    say("read bag")
-    t0 = time.perf_counter()
-    full_bag = read_selfcal_bag(bag_path, scan_topic=scan_topic, wheels=WheelSource(odom_topic=odom_topic))
-    timings["read_bag"] = time.perf_counter() - t0
-    say("read relations")
-    t0 = time.perf_counter()
-    rel_all = read_relations(relations_path)
-    timings["read_relations"] = time.perf_counter() - t0
-    st_all = np.asarray(full_bag.scan_t_s, dtype=float)
-    origin = float(st_all[0])
-    if window_s is None:
-        in_win = np.ones(len(st_all), dtype=bool)
-    else:
-        lo, hi = (float(v) for v in window_s)
-        if not hi > lo:
-            raise InputError(f"`window_s` must be (start, end) with end after start, got {window_s!r}")
-        in_win = (st_all >= origin + lo) & (st_all <= origin + hi)
-    if in_win.sum() < 20:
-        raise InputError(f"the window {window_s!r} holds {int(in_win.sum())} scans: too few to study", str(bag_path))
-    bag = _slice_bag(full_bag, in_win) if window_s is not None else full_bag
+    full_bag, rel_all = _read_log(bag_path, relations_path, scan_topic, odom_topic, say, timings)
+    bag, origin = _window(full_bag, window_s, bag_path)
     st = np.asarray(bag.scan_t_s, dtype=float)
     # relations inside the window, and the scans they join
-    keep = (np.minimum(rel_all.t1_s, rel_all.t2_s) >= st[0] - tolerance_s) & (
-        np.maximum(rel_all.t1_s, rel_all.t2_s) <= st[-1] + tolerance_s
-    )
-    if not keep.any():
-        raise InputError(
-            f"none of the {len(rel_all)} relations lies within the scans studied ({st[0]:.3f} to {st[-1]:.3f} s): "
-            "are these the relations of this log?",
-            str(relations_path),
-        )
-    rel = rel_all.subset(keep)
+    rel = _window_relations(rel_all, st, tolerance_s, relations_path)
     i1, i2 = rel.indices(st, tolerance_s)
     short = rel.span_s < short_max_s
-    split = st[0] + 0.5 * (st[-1] - st[0])
-    first = st < split
-    parts = {"first half": first, "second half": ~first, "full log": np.ones(len(st), dtype=bool)}
+    split, parts = _halves(st)
 
+    calibrator = _Calibrator(wheel_diameter_m, wheelbase_m, keyframes, base_frame, icp, delay, selfcal_options)
     calibrations: dict[str, Calibration] = {}
     for label, mask in parts.items():
-        t0 = time.perf_counter()
-        part = _slice_bag(bag, mask) if not mask.all() else bag
-        say(f"calibrate: {label}")
-        delay_given = "auto" if mode == "estimated" else (float(scan_delay_s) if mode == "given" else 0.0)
-        opts = IntervalOptions(
-            keyframes=DEFAULT_KEYFRAMES if keyframes is None else keyframes,
-            base_frame=base_frame,
-            icp=icp,
-            scan_delay=delay_given,
-        )
-        si = bag_intervals(part, wheel_diameter_m, wheelbase_m, opts)
-        delay, d_s = si.scan_delay, si.plan.scan_delay_s
-        report = selfcal_report([si], wheel_diameter_m, wheelbase_m, **(selfcal_options or {}))
-        elapsed = time.perf_counter() - t0
-        timings[f"calibrate_{label.replace(' ', '_')}"] = elapsed
-        ts = part.scan_t_s
-        span = (float(ts[0] - origin), float(ts[-1] - origin))
-        calibrations[label] = Calibration(label, *span, len(ts), report, elapsed, delay, d_s)
+        calibrations[label] = calibrator.calibrate(bag, mask, label, origin, say)
+        timings[f"calibrate_{label.replace(' ', '_')}"] = calibrations[label].elapsed_s
 
     say("evaluate")
     t0 = time.perf_counter()
-    r_nom = 0.5 * wheel_diameter_m
     tf_pose = _tf_pose(bag, base_frame)
-    ref = rel.pose
-    cache: dict[float, dict[str, FloatArray]] = {}
-
-    def odometries(d_s: float) -> dict[str, FloatArray]:
-        if d_s not in cache:
-            b = _delayed(bag, d_s)
-            left, right = scan_wheel_angles(b, WheelGeometry(wheel_diameter_m, wheel_diameter_m, wheelbase_m))
-            odo = {
-                "recorded": recorded_odometry_at_scans(b),
-                "nominal": odometry_from_wheels(left, right, r_nom, r_nom, wheelbase_m),
-            }
-            for lab, cal in calibrations.items():
-                odo[f"calibrated({lab})"] = odometry_from_wheels(left, right, *cal.geometry)
-            cache[d_s] = odo
-        return cache[d_s]
-
-    def evaluate(
-        sel: NDArray[np.bool_], d_s: float, odometry: str, cal: Calibration | None, pose_src: str
-    ) -> Evaluation:
-        name = f"calibrated({cal.label})" if odometry == "calibrated" and cal is not None else odometry
-        lp = tf_pose if pose_src == "/tf_static" or cal is None else cal.sensor_pose
-        p = odometries(d_s)[name]
-        q = in_sensor_frame(se2.between(p[i1[sel]], p[i2[sel]]), lp)
-        et, er = relation_errors(q, ref[sel])
-        s = short[sel]
-        return Evaluation(
-            odometry,
-            cal.label if cal is not None else None,
-            lp,
-            pose_src,
-            ErrorStats.from_errors(et, er),
-            ErrorStats.from_errors(et[s], er[s]),
-            ErrorStats.from_errors(et[~s], er[~s]),
-            SystematicErrors.fit(q[s], ref[sel][s]),
-        )
-
-    lo_t, hi_t = np.minimum(rel.t1_s, rel.t2_s), np.maximum(rel.t1_s, rel.t2_s)
-    inside = {"first half": hi_t < split, "second half": lo_t >= split}
+    ev = _Evaluator(bag, wheel_diameter_m, wheelbase_m, calibrations, tf_pose, rel, i1, i2, short)
+    inside = _inside_halves(rel, split)
     crossing = int((~inside["first half"] & ~inside["second half"]).sum())
-    tests = []
-    cal_f = calibrations["full log"]
-    for label, other in (("second half", "first half"), ("first half", "second half")):
-        sel = inside[label]
-        cal_o, cal_h = calibrations[other], calibrations[label]
-        d_s = cal_o.scan_delay_s
-        evals = (
-            evaluate(sel, d_s, "recorded", None, "/tf_static"),
-            evaluate(sel, d_s, "nominal", None, "/tf_static"),
-            evaluate(sel, d_s, "nominal", cal_o, "estimated"),
-            evaluate(sel, d_s, "calibrated", cal_o, "estimated"),
-            evaluate(sel, d_s, "calibrated", cal_o, "/tf_static"),
-            evaluate(sel, d_s, "calibrated", cal_h, "estimated"),
-            evaluate(sel, d_s, "calibrated", cal_f, "estimated"),
-        )
-        ts = st[parts[label]]
-        tests.append(
-            HalfTest(
-                label,
-                other,
-                float(ts[0] - origin),
-                float(ts[-1] - origin),
-                int((sel & short).sum()),
-                int((sel & ~short).sum()),
-                evals,
-                d_s,
-            )
-        )
-    every = np.ones(len(rel), dtype=bool)
-    d_f = cal_f.scan_delay_s
-    tests.append(
-        HalfTest(
-            "full log",
-            None,
-            float(st[0] - origin),
-            float(st[-1] - origin),
-            int(short.sum()),
-            int((~short).sum()),
-            (
-                evaluate(every, d_f, "recorded", None, "/tf_static"),
-                evaluate(every, d_f, "nominal", None, "/tf_static"),
-                evaluate(every, d_f, "nominal", cal_f, "estimated"),
-                evaluate(every, d_f, "calibrated", cal_f, "estimated"),
-                evaluate(every, d_f, "calibrated", cal_f, "/tf_static"),
-            ),
-            d_f,
-        )
-    )
+    tests = _tests(ev, inside, parts, st, origin)
     timings["evaluate"] = time.perf_counter() - t0
 
     say("scan matching against the relations")
     t0 = time.perf_counter()
-    js = np.flatnonzero(short)
-    nominal = odometries(d_f)["nominal"]
-    q0 = in_sensor_frame(se2.between(nominal[i1[js]], nominal[i2[js]]), tf_pose)
-    m = match_scan_pairs(bag.ranges_m[i1[js]], bag.ranges_m[i2[js]], bag.angles_rad, q0, icp)
-    ok = np.asarray(m.converged, dtype=bool)
-    poses = np.asarray(m.poses, dtype=float)[ok]
-    et_m, er_m = relation_errors(poses, ref[js[ok]])
-    et_o, er_o = relation_errors(q0[ok], ref[js[ok]])
-    check = ScanMatchCheck(
-        int(js.size),
-        int(ok.sum()),
-        ErrorStats.from_errors(et_m, er_m),
-        ErrorStats.from_errors(et_o, er_o),
-        SystematicErrors.fit(poses, ref[js[ok]]),
-        SystematicErrors.fit(q0[ok], ref[js[ok]]),
-    )
+    check = _scan_matching_check(ev, calibrations["full log"].scan_delay_s, icp)
     timings["scan_matching_check"] = time.perf_counter() - t0
     timings["total"] = time.perf_counter() - t_total
-    warnings = []
-    if crossing:
-        warnings.append(
-            f"{crossing} of {len(rel)} relations have one stamp in each half: in neither half's test "
-            "(they are in the full log's)"
-        )
-    for label in ("first half", "second half"):
-        if not (inside[label] & short).any():
-            warnings.append(f"no short relations inside the {label}: its test has no short-relation figures")
     return Slam2dStudy(
         name=Path(bag_path).stem,
         bag=str(bag_path),
@@ -854,9 +947,9 @@ def study_log(
         scan_delay_mode=mode,
         tf_sensor_pose=tf_pose,
         calibrations=tuple(calibrations.values()),
-        tests=tuple(tests),
+        tests=tests,
         relations_crossing=crossing,
         scan_matching=check,
         timings_s=timings,
-        warnings=warnings,
+        warnings=_study_warnings(crossing, len(rel), inside, short),
     )

@@ -41,6 +41,7 @@ import resource
 import subprocess
 import sys
 import time
+from typing import Any
 
 import numpy as np
 
@@ -466,7 +467,7 @@ def _get(results, kind, impl, n):
 
 
 def _summary(results):
-    s = {"replay": [], "sim": [], "targets": {}}
+    s: dict[str, Any] = {"replay": [], "sim": [], "targets": {}}
     for n in sorted({r["n"] for r in results if r["kind"] == "replay"}):
         ref = _get(results, "replay", "reference", n)
         row = {"n": n}
@@ -511,12 +512,12 @@ def _summary(results):
     if st:
         t["stream_1e8_rss_peak_mib"] = st["rss_peak_mib"]
         t["stream_target_met"] = st["rss_peak_mib"] < 1024
-    row = next((r for r in s["sim"] if r["n"] == 1000), None)
-    if row and "numba" in row:
-        t["sim_1000_x_reference_one_thread"] = row["numba"]["x_reference"]
-        if "numba-threads" in row:
-            t["sim_1000_x_reference_threads"] = row["numba-threads"]["x_reference"]
-        t["sim_target_met_one_thread"] = (row["numba"]["x_reference"] or 0) >= 30
+    sim_1000 = next((r for r in s["sim"] if r["n"] == 1000), None)
+    if sim_1000 and "numba" in sim_1000:
+        t["sim_1000_x_reference_one_thread"] = sim_1000["numba"]["x_reference"]
+        if "numba-threads" in sim_1000:
+            t["sim_1000_x_reference_threads"] = sim_1000["numba-threads"]["x_reference"]
+        t["sim_target_met_one_thread"] = (sim_1000["numba"]["x_reference"] or 0) >= 30
     res_pool = _get(results, "sweep", "pool", next(iter([x["n"] for x in s.get("sweep", [])]), None))
     res_dask = _get(results, "sweep", "dask", res_pool["n"] if res_pool else None)
     if res_pool and res_dask:

@@ -184,7 +184,7 @@ def _dask_map(fn, items, dask, workers, tick=lambda: None):
         ) from None
     if not items:
         return []
-    own = []
+    own: list[Client | LocalCluster] = []  # closed at the end, the client first
     try:
         if isinstance(dask, str):
             if dask == "local":

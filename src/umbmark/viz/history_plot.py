@@ -3,10 +3,20 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from datetime import datetime
+from typing import TYPE_CHECKING, Any
 
 from umbmark.history.base import Record
 from umbmark.viz.text import interval95
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+
+# a 95 % interval (low, high), or None
+_Interval = tuple[float, float] | None
 
 __all__ = ["series", "history_figure"]
 
@@ -15,15 +25,15 @@ __all__ = ["series", "history_figure"]
 class _Series:
     """Time series of one robot's records, for plots."""
 
-    times: list = field(default_factory=list)
-    emax_syst_mm: list = field(default_factory=list)
-    ed: list = field(default_factory=list)
-    eb: list = field(default_factory=list)
-    wheelbase_mm: list = field(default_factory=list)
-    ids: list = field(default_factory=list)
+    times: list[datetime] = field(default_factory=list)
+    emax_syst_mm: list[float | None] = field(default_factory=list)
+    ed: list[float | None] = field(default_factory=list)
+    eb: list[float | None] = field(default_factory=list)
+    wheelbase_mm: list[float | None] = field(default_factory=list)
+    ids: list[int] = field(default_factory=list)
 
 
-def series(records: list[Record]) -> _Series:
+def series(records: Sequence[Record]) -> _Series:
     """The records' times, E_max,syst, E_d, E_b, recommended wheelbase and ids, as lists.
 
     Parameters
@@ -47,7 +57,7 @@ def series(records: list[Record]) -> _Series:
     return s
 
 
-def _date_axis(ax, times: list) -> None:
+def _date_axis(ax: Axes, times: Sequence[datetime]) -> None:
     """Label the time axis with dates (and times of day, and seconds where the records are
     that close), never with an offset: records seconds apart read ``2026-05-04 12:00:05``,
     not ``5 ... 9`` beside an offset label.
@@ -61,7 +71,8 @@ def _date_axis(ax, times: list) -> None:
     if times:
         lo, hi = min(times), max(times)
         pad = max((hi - lo) * 0.05, timedelta(seconds=10))
-        ax.set_xlim(lo - pad, hi + pad)
+        # matplotlib converts datetimes through its units registry; its stubs type the limits as float only
+        ax.set_xlim(lo - pad, hi + pad)  # type: ignore[arg-type]
         span = hi - lo + 2 * pad
     else:
         span = timedelta(days=1)
@@ -81,7 +92,7 @@ def _date_axis(ax, times: list) -> None:
     ax.set_xlabel("time (UTC)")
 
 
-def _ci(results: dict, *keys: str) -> tuple[float, float] | None:
+def _ci(results: dict[str, Any], *keys: str) -> _Interval:
     """The first of ``keys`` in a record's results that holds a 95 % interval ``[low, high]``."""
     for k in keys:
         ci = interval95(results, k)
@@ -90,7 +101,7 @@ def _ci(results: dict, *keys: str) -> tuple[float, float] | None:
     return None
 
 
-def _selfcal_value(r: Record, key: str, pose: bool = False) -> tuple[float | None, tuple[float, float] | None]:
+def _selfcal_value(r: Record, key: str, pose: bool = False) -> tuple[float | None, _Interval]:
     """A self-calibration record's figure and its interval (None, None for another kind)."""
     res = r.results if isinstance(r.results, dict) else {}
     if r.method != "selfcal":
@@ -101,7 +112,7 @@ def _selfcal_value(r: Record, key: str, pose: bool = False) -> tuple[float | Non
     return float(src[key]), _ci(src, f"{key}_ci95")
 
 
-def history_figure(records: list[Record], title: str | None = None):
+def history_figure(records: Sequence[Record], title: str | None = None) -> Figure:
     """E_max,syst, E_d, E_b and the recommended wheelbase over time (one panel each), with the
     records' 95 % intervals where they hold them; with self-calibrations also the wheel
     diameters and the lidar's position. A panel no record has a value for is left out.
@@ -122,8 +133,9 @@ def history_figure(records: list[Record], title: str | None = None):
 
     s = series(records)
     res = [r.results if isinstance(r.results, dict) else {} for r in records]
-    plain = [None] * len(records)
-    panels: list[tuple[str, list[tuple[str, list, list]]]] = [
+    plain: list[_Interval] = [None] * len(records)
+    # (label, [(line name, values, intervals), ...]) of each panel
+    panels: list[tuple[str, list[tuple[str, list[float | None], list[_Interval]]]]] = [
         ("E_max,syst [mm]\n(measured, before)", [("", s.emax_syst_mm, plain)]),
         ("E_d = D_R / D_L", [("", s.ed, [_ci(x, "Ed_ci95") for x in res])]),
         ("E_b", [("", s.eb, [_ci(x, "Eb_ci95") for x in res])]),

@@ -8,16 +8,24 @@ one); :func:`save_figure` writes one to a file.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, Protocol
 
 import matplotlib.ticker
 import numpy as np
 from matplotlib.figure import Figure
+from numpy.typing import ArrayLike, NDArray
 
 from umbmark.errors import InputError
 from umbmark.io.atomic import atomic_path
-from umbmark.metrics import umbmark
+from umbmark.metrics import UMBmarkResult, umbmark
 from umbmark.model.runs import RunsTable
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+
+    from umbmark.model.geometry import ErrorParams
 
 __all__ = [
     "scatter_figure",
@@ -51,7 +59,7 @@ def new_figure(figsize: tuple[float, float]) -> Figure:
     return Figure(figsize=figsize)
 
 
-def _draw_runs(ax, runs: RunsTable, label: str, filled: bool):
+def _draw_runs(ax: Axes, runs: RunsTable, label: str, filled: bool) -> UMBmarkResult:
     res = umbmark(runs)
     for d, st in (("cw", res.cw), ("ccw", res.ccw)):
         rows = runs.direction_rows(d)
@@ -78,7 +86,7 @@ def _draw_runs(ax, runs: RunsTable, label: str, filled: bool):
     return res
 
 
-def scatter_figure(before: RunsTable, after: RunsTable | None = None, title: str | None = None):
+def scatter_figure(before: RunsTable, after: RunsTable | None = None, title: str | None = None) -> Figure:
     """Return-position errors (Eq. 3.1) of the cw and ccw runs with their centres of gravity,
     before (open markers) and after calibration (filled), like the paper's Figs. 6 and 11.
 
@@ -117,7 +125,7 @@ def scatter_figure(before: RunsTable, after: RunsTable | None = None, title: str
     return fig
 
 
-def trajectory_figure(trajectories: list[dict], title: str | None = None):
+def trajectory_figure(trajectories: Sequence[dict[str, Any]], title: str | None = None) -> Figure:
     """True (solid) and odometry (dashed) paths of runs, with the start marked.
 
     Parameters
@@ -159,7 +167,7 @@ def trajectory_figure(trajectories: list[dict], title: str | None = None):
     return fig
 
 
-def close_figure(fig) -> None:
+def close_figure(fig: Figure) -> None:
     """Release a figure: close it in pyplot when pyplot manages it (a figure made elsewhere).
 
     The figures of this module are not registered with pyplot; they are freed with their last
@@ -176,7 +184,7 @@ def close_figure(fig) -> None:
         plt.close(fig)  # a no-op for a figure pyplot does not know
 
 
-def save_figure(fig, path) -> Path:
+def save_figure(fig: Figure, path: str | Path) -> Path:
     """Write a figure to a file atomically, in the format its suffix names, and release it.
 
     Parameters
@@ -218,8 +226,11 @@ def save_figure(fig, path) -> Path:
 
 
 def exaggerated_trajectory_figure(
-    trajectories: list[dict], exaggerate: float = 1.0, side_m: float | None = None, title: str | None = None
-):
+    trajectories: Sequence[dict[str, Any]],
+    exaggerate: float = 1.0,
+    side_m: float | None = None,
+    title: str | None = None,
+) -> Figure:
     """True (solid) and odometry (dashed) paths of runs, like the paper's Figs. 3-5.
 
     Parameters
@@ -273,7 +284,33 @@ def exaggerated_trajectory_figure(
     return fig
 
 
-def pitfall_figure(pitfall, title: str | None = None):
+class PitfallLike(Protocol):
+    """What :func:`pitfall_figure` reads of :class:`umbmark.studies.reproduce.Pitfall` (a layer above
+    the figures, which do not import it)."""
+
+    @property
+    def errors(self) -> ErrorParams: ...
+    @property
+    def grid_m(self) -> NDArray[np.float64]: ...
+    @property
+    def cw_r_cg(self) -> NDArray[np.float64]: ...
+    @property
+    def ccw_r_cg(self) -> NDArray[np.float64]: ...
+    @property
+    def tuned_wheelbase_m(self) -> float: ...
+    @property
+    def wheelbase_nominal_m(self) -> float: ...
+    @property
+    def tuned_runs(self) -> RunsTable: ...
+    @property
+    def tuned(self) -> UMBmarkResult: ...
+    @property
+    def bf_runs(self) -> RunsTable: ...
+    @property
+    def bf(self) -> UMBmarkResult: ...
+
+
+def pitfall_figure(pitfall: PitfallLike, title: str | None = None) -> Figure:
     """The uni-directional pitfall (paper section 3.1) in two panels.
 
     (a) What the experimenter saw while tuning the wheelbase on cw runs only, and what the ccw
@@ -351,14 +388,14 @@ def pitfall_figure(pitfall, title: str | None = None):
 
 
 def distribution_figure(
-    emax_before_mm,
-    emax_after_mm,
-    emax_final_mm,
-    improvement_final,
-    paper_after_mm=(),
-    paper_improvement=(),
+    emax_before_mm: ArrayLike,
+    emax_after_mm: ArrayLike,
+    emax_final_mm: ArrayLike,
+    improvement_final: ArrayLike,
+    paper_after_mm: Sequence[float] = (),
+    paper_improvement: Sequence[float] = (),
     title: str | None = None,
-):
+) -> Figure:
     """Histograms of the study over many seeds: E_max,syst after calibration (first pass and
     final) and the final improvement factor, with the paper's values marked.
 

@@ -19,14 +19,25 @@ import base64
 import html
 import io
 import math
+from collections.abc import Callable, Iterable, Sequence
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from umbmark._version import __version__
 from umbmark.errors import CorrectionUndefined
 from umbmark.viz.text import fmt, interval95
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
+
+    from umbmark.correct.analysis import Analysis
+    from umbmark.correct.result import CorrectionResult
+    from umbmark.history.base import Record
+    from umbmark.model.geometry import Calibration
+    from umbmark.model.runs import RunsTable
 
 __all__ = [
     "analysis_report",
@@ -77,7 +88,7 @@ def _header(title: str, when: str | None, robot: str | None, source: str | None,
     return [f"<h1>{_e(title)}</h1>", f'<p class="meta">{" &middot; ".join(_e(m) for m in meta)}</p>']
 
 
-def figure_data_uri(fig, dpi: int = 100) -> str:
+def figure_data_uri(fig: Figure, dpi: int = 100) -> str:
     """A figure as a ``data:image/png;base64,...`` URI, to embed in a page.
 
     Parameters
@@ -101,20 +112,25 @@ def figure_data_uri(fig, dpi: int = 100) -> str:
     return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode("ascii")
 
 
-def _e(v) -> str:
+def _e(v: object) -> str:
     return html.escape(str(v), quote=True)
 
 
-def _ci(lo_hi, digits) -> str:
+def _ci(lo_hi: Sequence[float | None] | None, digits: int) -> str:
     if not lo_hi or lo_hi[0] is None or lo_hi[1] is None:
         return "-"
     return f"[{fmt(lo_hi[0], digits)}, {fmt(lo_hi[1], digits)}]"
 
 
-def _table(header, rows, cls: str | None = None, col_cls: dict[int, str] | None = None) -> str:
+def _table(
+    header: Sequence[object],
+    rows: Iterable[Sequence[object]],
+    cls: str | None = None,
+    col_cls: dict[int, str] | None = None,
+) -> str:
     col_cls = col_cls or {}
 
-    def cell(tag: str, j: int, c) -> str:
+    def cell(tag: str, j: int, c: object) -> str:
         k = col_cls.get(j)
         return f'<{tag} class="{k}">{_e(c)}</{tag}>' if k else f"<{tag}>{_e(c)}</{tag}>"
 
@@ -135,7 +151,9 @@ def _warnings_list(items: list[str]) -> str:
     return "<ul>" + "".join(f'<li class="warn">{_e(w)}</li>' for w in items) + "</ul>"
 
 
-def _load_section(d: dict, source: str | None, commands: str | None, formats: tuple[tuple[str, str], ...]) -> list[str]:
+def _load_section(
+    d: dict[str, Any], source: str | None, commands: str | None, formats: tuple[tuple[str, str], ...]
+) -> list[str]:
     """The commands that load a result into the robot, and the texts they write: ``formats``
     holds (export format, label) pairs (:func:`umbmark.io.export.format_export`)."""
     from umbmark.errors import InputError
@@ -164,7 +182,7 @@ def _page(title: str, body: str, body_cls: str | None = None) -> str:
     )
 
 
-def cg_intervals(runs, level: float = 0.95) -> dict:
+def cg_intervals(runs: RunsTable, level: float = 0.95) -> dict[str, dict[str, tuple[float | None, float | None]]]:
     """Student-t intervals of the centres of gravity of the return errors, per direction and axis.
 
     Parameters
@@ -182,7 +200,7 @@ def cg_intervals(runs, level: float = 0.95) -> dict:
     """
     from umbmark._stats import t_ppf
 
-    out = {}
+    out: dict[str, dict[str, tuple[float | None, float | None]]] = {}
     for d in ("cw", "ccw"):
         rows = runs.direction_rows(d)
         n = len(rows)
@@ -205,7 +223,7 @@ BOOTSTRAP_RESAMPLES = 1000
 BOOTSTRAP_MIN_RESAMPLES = 200
 
 
-def exact_resample_options(full) -> dict:
+def exact_resample_options(full: CorrectionResult) -> dict[str, Any]:
     """The options of method ``exact`` for the bootstrap's resamples.
 
     A resample lies next to the runs, so the answer's basin is the one to look in: each is
@@ -224,7 +242,12 @@ def exact_resample_options(full) -> dict:
     """
     from umbmark.correct.result import ExactFit
 
-    options = {"_start": (full.ed_pass, full.eb), "global_search": False, "_intervals": False, "_fast": True}
+    options: dict[str, Any] = {
+        "_start": (full.ed_pass, full.eb),
+        "global_search": False,
+        "_intervals": False,
+        "_fast": True,
+    }
     if isinstance(full.details, ExactFit) and full.details.heading_weight_m is not None:
         options["heading_weight_m"] = full.details.heading_weight_m
     return options
@@ -275,17 +298,17 @@ def default_bootstrap(method: str, n_runs: int) -> tuple[int, str | None]:
 
 
 def bootstrap_intervals(
-    runs,
+    runs: RunsTable,
     side_m: float,
     wheelbase_m: float,
     method: str = "bf",
-    prior=None,
+    prior: Calibration | None = None,
     n_boot: int = 1000,
     seed: int = 0,
     level: float = 0.95,
-    advance=None,
-    center=None,
-) -> dict:
+    advance: Callable[[], object] | None = None,
+    center: CorrectionResult | None = None,
+) -> dict[str, Any]:
     """Percentile bootstrap intervals of Ed, Eb, wheelbase_mm, c_left, c_right.
 
     The runs are resampled with replacement within each direction and the correction is
@@ -325,24 +348,27 @@ def bootstrap_intervals(
     """
     from umbmark.correct import correct_runs
 
-    def values(c) -> dict:
+    def values(c: CorrectionResult) -> dict[str, float]:
         return {
             "Ed": c.ed,
             "Eb": c.eb,
-            "wheelbase_mm": c.calibration.wheelbase_m * 1e3,
+            "wheelbase_mm": _corrected_wheelbase_m(c.calibration) * 1e3,
             "c_left": c.calibration.c_left,
             "c_right": c.calibration.c_right,
         }
 
-    options: dict = {}
-    full = correct_runs(method, runs, side_m, wheelbase_m, prior) if method == "exact" or center else None
-    if method == "exact":  # each resample fitted from the answer on all runs: see exact_resample_options
-        options = exact_resample_options(full)
-    shift = {k: values(center)[k] - v for k, v in values(full).items()} if center is not None else None
+    options: dict[str, Any] = {}
+    shift: dict[str, float] | None = None
+    if method == "exact" or center is not None:
+        full = correct_runs(method, runs, side_m, wheelbase_m, prior)
+        if method == "exact":  # each resample fitted from the answer on all runs: see exact_resample_options
+            options = exact_resample_options(full)
+        if center is not None:
+            shift = {k: values(center)[k] - v for k, v in values(full).items()}
     rng = np.random.default_rng(seed)
     idx = {d: np.flatnonzero(runs.direction == d) for d in ("cw", "ccw")}
     keys = ("Ed", "Eb", "wheelbase_mm", "c_left", "c_right")
-    vals = {k: [] for k in keys}
+    vals: dict[str, list[float]] = {k: [] for k in keys}
     failed = 0
     for _ in range(n_boot):
         pick = np.concatenate([rng.choice(idx[d], size=idx[d].size, replace=True) for d in ("cw", "ccw")])
@@ -355,7 +381,7 @@ def bootstrap_intervals(
                 vals[k].append(v + (shift[k] if shift else 0.0))
         if advance is not None:
             advance()
-    out: dict = {"n_boot": n_boot, "failed": failed, "seed": seed, "level": level}
+    out: dict[str, Any] = {"n_boot": n_boot, "failed": failed, "seed": seed, "level": level}
     if shift is not None:
         out["shift"] = shift
     q = [50 * (1 - level), 100 - 50 * (1 - level)]
@@ -364,7 +390,7 @@ def bootstrap_intervals(
     return out
 
 
-def _replay_runs(block: dict, what: str, source: str):
+def _replay_runs(block: object, what: str, source: str) -> RunsTable:
     """The runs table of a replay result's ``before`` or ``after`` block: its return errors
     (truth minus odometry) as the absolute end poses of an odometry that closed."""
     from umbmark.errors import InputError
@@ -388,7 +414,7 @@ def _replay_runs(block: dict, what: str, source: str):
     return RunsTable.from_columns(direction, eps[:, 0], eps[:, 1], zero, zero, theta, zero, run=names)
 
 
-def replay_analysis(result: dict, source: str = "<replay>"):
+def replay_analysis(result: dict[str, Any], source: str = "<replay>") -> tuple[Analysis, RunsTable | None]:
     """The analysis a ``replay`` result holds: its runs, its calibration, its runs after it.
 
     The result (the JSON ``umbmark replay --save`` writes) holds each run's return error
@@ -470,7 +496,9 @@ def replay_analysis(result: dict, source: str = "<replay>"):
     return Analysis(runs, umbmark(runs), correction, side_m, wheelbase_m), after
 
 
-def _analysis_sections(analysis, boot: dict | None, prior=None, boot_note: str | None = None) -> str:
+def _analysis_sections(
+    analysis: Analysis, boot: dict[str, Any] | None, prior: Calibration | None = None, boot_note: str | None = None
+) -> str:
     """The return errors, the correction and the recommended parameters of one analysis, as HTML."""
     d = analysis.to_dict()
     parts = (
@@ -483,7 +511,7 @@ def _analysis_sections(analysis, boot: dict | None, prior=None, boot_note: str |
     return "\n".join(parts)
 
 
-def _errors_section(analysis, d: dict) -> list[str]:
+def _errors_section(analysis: Analysis, d: dict[str, Any]) -> list[str]:
     """The return errors per direction with Student-t intervals, E_max,syst and the 3 x SEM rule."""
     res = analysis.result
     runs = analysis.runs
@@ -520,7 +548,7 @@ def _errors_section(analysis, d: dict) -> list[str]:
     return parts
 
 
-def _correction_section(analysis, d: dict) -> list[str]:
+def _correction_section(analysis: Analysis, d: dict[str, Any]) -> list[str]:
     """The method, and for a linear correction its angles and factors from x, from y and used."""
     corr = analysis.correction
     parts = [f"<h2>Correction (method {_e(corr.method)})</h2>"]
@@ -535,10 +563,23 @@ def _correction_section(analysis, d: dict) -> list[str]:
     return parts
 
 
-def _parameters_section(analysis, d: dict, boot: dict | None, prior, boot_note: str | None = None) -> list[str]:
+def _corrected_wheelbase_m(cal: Calibration) -> float:
+    """The wheelbase of a correction's calibration (every correction method sets it)."""
+    assert cal.wheelbase_m is not None, "a correction's calibration holds the corrected wheelbase"
+    return cal.wheelbase_m
+
+
+def _parameters_section(
+    analysis: Analysis,
+    d: dict[str, Any],
+    boot: dict[str, Any] | None,
+    prior: Calibration | None,
+    boot_note: str | None = None,
+) -> list[str]:
     """The parameters to load into the odometry, with the bootstrap's and the method's intervals."""
     corr = analysis.correction
     cal = corr.calibration
+    wheelbase_mm = _corrected_wheelbase_m(cal) * 1e3
     parts = []
     b = boot or {}
     prow = [
@@ -546,7 +587,7 @@ def _parameters_section(analysis, d: dict, boot: dict | None, prior, boot_note: 
         ["E_b", fmt(corr.eb, 6), _ci(b.get("Eb"), 6)],
         ["c_left", fmt(cal.c_left, 6), _ci(b.get("c_left"), 6)],
         ["c_right", fmt(cal.c_right, 6), _ci(b.get("c_right"), 6)],
-        ["wheelbase [mm]", fmt(cal.wheelbase_m * 1e3, 2), _ci(b.get("wheelbase_mm"), 2)],
+        ["wheelbase [mm]", fmt(wheelbase_mm, 2), _ci(b.get("wheelbase_mm"), 2)],
     ]
     for k, v in d.items():
         if k.endswith("_ci95") and isinstance(v, (list, tuple)) and len(v) == 2:
@@ -559,7 +600,7 @@ def _parameters_section(analysis, d: dict, boot: dict | None, prior, boot_note: 
     parts.append(
         '<h2>Recommended parameters</h2><div class="box">'
         f"<p>Load into the odometry: <b>c_left = {fmt(cal.c_left, 6)}</b>, "
-        f"<b>c_right = {fmt(cal.c_right, 6)}</b>, <b>wheelbase = {fmt(cal.wheelbase_m * 1e3, 2)} mm</b>.</p>"
+        f"<b>c_right = {fmt(cal.c_right, 6)}</b>, <b>wheelbase = {fmt(wheelbase_mm, 2)} mm</b>.</p>"
         f"<p>The runs were made with {used}wheelbase = {fmt(analysis.wheelbase_m * 1e3, 2)} mm; "
         f"square side {fmt(analysis.side_m * 1e3, 0)} mm.</p></div>"
     )
@@ -577,16 +618,16 @@ def _parameters_section(analysis, d: dict, boot: dict | None, prior, boot_note: 
 
 
 def analysis_report(
-    analysis,
+    analysis: Analysis,
     *,
     title: str | None = None,
     source: str | None = None,
-    source_sha256=None,
-    prior=None,
-    after_runs=None,
-    trajectories: list[dict] | None = None,
+    source_sha256: str | None = None,
+    prior: Calibration | None = None,
+    after_runs: RunsTable | None = None,
+    trajectories: Sequence[dict[str, Any]] | None = None,
     exported: dict[str, str] | None = None,
-    boot: dict | None = None,
+    boot: dict[str, Any] | None = None,
     robot: str | None = None,
     when: str | None = None,
     boot_note: str | None = None,
@@ -679,10 +720,10 @@ def _definitions(kinds: set[str] | None = None) -> str:
     return "<h2>Definitions</h2>" + "".join(parts)
 
 
-def _selfcal_table(records) -> str:
+def _selfcal_table(records: Iterable[Record]) -> str:
     """One row per self-calibration record: its diameters, wheelbase and lidar pose with intervals."""
 
-    def cell(d: dict, key: str, digits: int) -> str:
+    def cell(d: dict[str, Any], key: str, digits: int) -> str:
         v = d.get(key)
         ci = interval95(d, f"{key}_ci95")
         if not isinstance(v, (int, float)):
@@ -694,7 +735,9 @@ def _selfcal_table(records) -> str:
     rows = []
     for r in records:
         d = r.results if isinstance(r.results, dict) else {}
-        sp = d.get("sensor_pose") if isinstance(d.get("sensor_pose"), dict) else {}
+        sp = d.get("sensor_pose")
+        if not isinstance(sp, dict):
+            sp = {}
         delays = [x.get("applied_s") for x in (d.get("scan_delay") or []) if isinstance(x, dict)]
         delay = ", ".join(fmt(x * 1e3, 1) for x in delays if isinstance(x, (int, float))) or "-"
         rows.append(
@@ -725,7 +768,7 @@ def _selfcal_table(records) -> str:
     )
 
 
-def _records_table(records) -> str:
+def _records_table(records: Iterable[Record]) -> str:
     """One row per record: id, time, kind, method, the figures and the parameters, its input."""
     rows = []
     for r in records:
@@ -766,7 +809,7 @@ def _records_table(records) -> str:
     )
 
 
-def history_report(records, *, title: str | None = None, db_path: str | None = None) -> str:
+def history_report(records: Sequence[Record], *, title: str | None = None, db_path: str | None = None) -> str:
     """HTML page of one robot's calibration history: the records, the history figure, the
     latest recommended parameters and the latest runs.
 
@@ -820,7 +863,9 @@ def history_report(records, *, title: str | None = None, db_path: str | None = N
     extra = ""
     if latest.method == "selfcal" and isinstance(latest.results, dict):
         d = latest.results
-        sp = d.get("sensor_pose") if isinstance(d.get("sensor_pose"), dict) else {}
+        sp = d.get("sensor_pose")
+        if not isinstance(sp, dict):
+            sp = {}
         extra = (
             f"<p>D_L = {fmt(d.get('wheel_diameter_left_mm'), 3)} mm, D_R = {fmt(d.get('wheel_diameter_right_mm'), 3)}"
             f" mm; the lidar at x = {fmt(sp.get('x_mm'), 1)} mm, y = {fmt(sp.get('y_mm'), 1)} mm, yaw = "

@@ -6,7 +6,7 @@ wheelbase (``umbmark replay --imu-topic``): one self-contained page each, as the
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -22,6 +22,9 @@ from umbmark.viz.report import (
     figure_data_uri,
 )
 from umbmark.viz.text import fmt, interval95
+
+if TYPE_CHECKING:
+    from matplotlib.figure import Figure
 
 __all__ = ["is_calibrate_result", "is_gyro_result", "calibrate_page", "gyro_page", "GYRO_DEFINITIONS"]
 
@@ -55,7 +58,7 @@ def _f(v: Any, digits: int = 1, times: float = 1.0) -> str:
     return fmt(None if x is None else x * times, digits)
 
 
-def _ci(d: dict, key: str, digits: int, scale: float = 1.0) -> str:
+def _ci(d: dict[str, Any], key: str, digits: int, scale: float = 1.0) -> str:
     lo_hi = interval95(d, key + "_ci95")
     if lo_hi is None:
         return "-"
@@ -65,7 +68,7 @@ def _ci(d: dict, key: str, digits: int, scale: float = 1.0) -> str:
 # ---------------------------------------------------------------- calibrate
 
 
-def passes_figure(passes: list[dict]):
+def passes_figure(passes: list[dict[str, Any]]) -> Figure:
     """E_max,syst of each pass against the paper's stopping rule (3 x SEM), on a log scale."""
     from umbmark.viz.plots import new_figure
 
@@ -92,7 +95,7 @@ def _count(n: object, one: str, many: str | None = None) -> str:
 
 
 def calibrate_page(
-    d: dict,
+    d: dict[str, Any],
     *,
     title: str | None = None,
     source: str | None = None,
@@ -200,7 +203,7 @@ def calibrate_page(
 # ---------------------------------------------------------------- gyro
 
 
-def turns_figure(g: dict):
+def turns_figure(g: dict[str, Any]) -> Figure:
     """Each turn's gyro over wheel odometry ratio (the wheelbase factor it alone implies), with the fit."""
     from umbmark.viz.plots import new_figure
 
@@ -232,7 +235,7 @@ def turns_figure(g: dict):
 
 
 def gyro_page(
-    d: dict,
+    d: dict[str, Any],
     *,
     title: str | None = None,
     source: str | None = None,

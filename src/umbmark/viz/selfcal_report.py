@@ -11,10 +11,12 @@ history record): its ``figures`` carry the map and the residuals
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from umbmark.viz.report import (
     SELFCAL_DEFINITIONS,
@@ -28,6 +30,11 @@ from umbmark.viz.report import (
     figure_data_uri,
 )
 from umbmark.viz.text import fmt, interval95
+
+if TYPE_CHECKING:
+    from matplotlib.axes import Axes
+    from matplotlib.figure import Figure
+    from matplotlib.patches import Rectangle
 
 __all__ = [
     "is_selfcal_result",
@@ -61,14 +68,14 @@ def is_selfcal_result(d: Any) -> bool:
     return isinstance(d, dict) and d.get("method") == "selfcal" and isinstance(d.get("sensor_pose"), dict)
 
 
-def _ci(d: dict, key: str, digits: int) -> str:
+def _ci(d: dict[str, Any], key: str, digits: int) -> str:
     lo_hi = interval95(d, f"{key}_ci95")
     if lo_hi is None:
         return "-"
     return f"{fmt(lo_hi[0], digits)} to {fmt(lo_hi[1], digits)}"
 
 
-def _estimates_table(d: dict) -> str:
+def _estimates_table(d: dict[str, Any]) -> str:
     nominal_pose = d.get("nominal_sensor_pose") or {}
     rows = []
     for label, key, digits, nom in _ROWS:
@@ -88,7 +95,7 @@ def _estimates_table(d: dict) -> str:
     return _table(["", "estimate", "95 % interval", "nominal"], rows)
 
 
-def _correlations(d: dict) -> str:
+def _correlations(d: dict[str, Any]) -> str:
     cov = d.get("covariance")
     try:
         c = np.asarray(cov, dtype=float)
@@ -120,14 +127,14 @@ def _correlations(d: dict) -> str:
     )
 
 
-def robust_sd(v: np.ndarray) -> float:
+def robust_sd(v: ArrayLike) -> float:
     """1.4826 times the median absolute deviation from the median (nan when empty)."""
-    v = np.asarray(v, dtype=float)
-    v = v[np.isfinite(v)]
-    return float(1.4826 * np.median(np.abs(v - np.median(v)))) if v.size else math.nan
+    x = np.asarray(v, dtype=float)
+    x = x[np.isfinite(x)]
+    return float(1.4826 * np.median(np.abs(x - np.median(x)))) if x.size else math.nan
 
 
-def _noise(d: dict, res: dict | None) -> str:
+def _noise(d: dict[str, Any], res: dict[str, NDArray[Any]] | None) -> str:
     nsd = d.get("noise_sd") or {}
     dof = d.get("noise_dof")
     tail = "Gaussian" if dof is None or dof > 100 else f"heavy-tailed (Student t, {fmt(dof, 3)} degrees of freedom)"
@@ -146,7 +153,7 @@ def _noise(d: dict, res: dict | None) -> str:
     )
 
 
-def map_figure(maps: list[dict], title: str | None = None):
+def map_figure(maps: Sequence[dict[str, Any]], title: str | None = None) -> Figure:
     """The scans placed by the nominal odometry beside the same scans placed by the calibrated one.
 
     Parameters
@@ -188,7 +195,7 @@ def map_figure(maps: list[dict], title: str | None = None):
     return fig
 
 
-def _ellipse(ax, cx: float, cy: float, cov: np.ndarray, scale: float, **kw) -> None:
+def _ellipse(ax: Axes, cx: float, cy: float, cov: NDArray[np.float64], scale: float, **kw: Any) -> None:
     vals, vecs = np.linalg.eigh(cov)
     t = np.linspace(0.0, 2.0 * math.pi, 80)
     circle = np.stack([np.cos(t), np.sin(t)])
@@ -196,7 +203,7 @@ def _ellipse(ax, cx: float, cy: float, cov: np.ndarray, scale: float, **kw) -> N
     ax.plot(cx + pts[0], cy + pts[1], **kw)
 
 
-def mount_figure(d: dict):
+def mount_figure(d: dict[str, Any]) -> Figure:
     """The robot from above: its wheels at the calibrated wheelbase and diameters, and the lidar
     at its nominal and its estimated pose (the estimate's 95 % ellipse, drawn 10 x larger).
 
@@ -260,13 +267,13 @@ def mount_figure(d: dict):
     return fig
 
 
-def _rect(x, y, w, h, **kw):
+def _rect(x: float, y: float, w: float, h: float, **kw: Any) -> Rectangle:
     from matplotlib.patches import Rectangle
 
     return Rectangle((x, y), w, h, **kw)
 
 
-def residuals_figure(res: dict, names: list[str] | None = None):
+def residuals_figure(res: dict[str, NDArray[Any]], names: Sequence[str] | None = None) -> Figure:
     """Each interval's residual over time, per component; rejected intervals marked.
 
     Parameters
@@ -322,7 +329,7 @@ def residuals_figure(res: dict, names: list[str] | None = None):
 
 
 def selfcal_page(
-    d: dict,
+    d: dict[str, Any],
     *,
     title: str | None = None,
     source: str | None = None,
@@ -385,7 +392,9 @@ def selfcal_page(
     body.append("<h2>Estimates</h2>")
     body.append(_estimates_table(d))
     body.append(f'<p class="meta">{_e(_MEANING)}</p>')
-    figures = d.get("figures") if isinstance(d.get("figures"), dict) else {}
+    figures = d.get("figures")
+    if not isinstance(figures, dict):
+        figures = {}
     try:
         res = decode_residuals(figures["residuals"])
     except (ValueError, KeyError, TypeError):
@@ -396,7 +405,8 @@ def selfcal_page(
     body.append(_warnings_list(warnings))
     body.append(_correlations(d))
     body.append("<h2>The map, before and after</h2>")
-    maps, broken = [], False
+    maps: list[dict[str, Any]] = []
+    broken = False
     for m in figures.get("maps") or []:
         try:
             maps.append(decode_map(m))

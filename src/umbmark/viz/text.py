@@ -7,7 +7,7 @@ import math
 __all__ = ["fmt", "interval95"]
 
 
-def fmt(value, digits: int = 1, unit: str = "", *, spec: str = "f", scale: float = 1.0) -> str:
+def fmt(value: float | None, digits: int = 1, unit: str = "", *, spec: str = "f", scale: float = 1.0) -> str:
     """A number as text with a fixed number of digits, or ``"-"`` when there is none.
 
     Parameters
@@ -34,7 +34,7 @@ def fmt(value, digits: int = 1, unit: str = "", *, spec: str = "f", scale: float
     return f"{value / scale if scale != 1.0 else value:.{digits}{spec}}{unit}"
 
 
-def interval95(d, key: str) -> tuple[float, float] | None:
+def interval95(d: object, key: str) -> tuple[float, float] | None:
     """The 95 % interval ``d[key]`` of a result's JSON as ``(low, high)``, or None when it holds
     none (missing, not two numbers).
 
