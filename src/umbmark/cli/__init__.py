@@ -54,7 +54,8 @@ def main(argv=None) -> int:
         sys.stderr.write(f"{prog}: aborted\n")
         code = 1
     except click.exceptions.ClickException as e:
-        where = e.ctx.command_path if getattr(e, "ctx", None) is not None else prog
+        ctx = getattr(e, "ctx", None)
+        where = ctx.command_path if ctx is not None else prog
         sys.stderr.write(f"{where}: error: {_one_line(e.format_message())}\n")
         code = 2
     except UmbmarkError as e:
@@ -64,7 +65,7 @@ def main(argv=None) -> int:
         if isinstance(e, BrokenPipeError):
             return 0
         name = f" {e.filename}" if getattr(e, "filename", None) else ""
-        sys.stderr.write(f"{prog}: error: cannot access{name}: {_one_line(e.strerror or e)}\n")
+        sys.stderr.write(f"{prog}: error: cannot access{name}: {_one_line(e.strerror or str(e))}\n")
         code = 2
     if argv is None:
         sys.exit(code)

@@ -6,7 +6,7 @@ import math
 import os
 import re
 import sys
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 import click
 
@@ -216,7 +216,12 @@ def emit_json(obj) -> None:
     sys.stdout.write(dumps(_cli_strings(obj), indent=2) + "\n")
 
 
-def table(title: str, columns: list[str], rows: list[list], justify_first: str = "left") -> Table:
+def table(
+    title: str,
+    columns: list[str],
+    rows: list[list],
+    justify_first: Literal["default", "left", "center", "right", "full"] = "left",
+) -> Table:
     """A rich table: a title, a header of ``columns``, the ``rows`` (any values, shown with ``str``).
 
     Parameters

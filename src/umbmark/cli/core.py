@@ -206,6 +206,7 @@ def _next_commands(a: Analysis, runs_file, side_mm, method, c_left, c_right, los
     """The commands that analyse the calibrated robot's runs, and that save this analysis as JSON."""
     q = shlex.quote
     cal = a.correction.calibration
+    assert cal.wheelbase_m is not None  # every correction method sets it
     common = f"--side-mm {side_mm:.10g}" + ("" if method == "bf" else f" --method {method}")
     if loss is not None:
         common += f" --loss {loss}"
@@ -542,6 +543,7 @@ def _print_demo(r: DemoResult) -> None:
     c.print(_stats_table("After calibration (correction loaded into the odometry, fresh runs)", r.after))
     c.print(_legend(LEGEND_RUNS))
     yes_no = lambda v: "yes" if v else "no"  # noqa: E731
+    assert cal.wheelbase_m is not None  # every correction method sets it
     rows = [
         ["E_max,syst [mm]", fmt(before["emax_syst_mm"]), fmt(after["emax_syst_mm"])],
         ["3 x SEM [mm]", fmt(before["three_sem_mm"]), fmt(after["three_sem_mm"])],

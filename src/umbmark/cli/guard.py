@@ -234,7 +234,7 @@ def check_paths(command_path: str, params: dict, flags: dict[str, str] | None = 
 
 def _absurd_sizes(command: click.Command, params: dict) -> list[tuple[click.Parameter, float]]:
     """The size options (``--*-mm``, ``--*-m``) whose value is not finite or beyond :data:`MAX_SIZE_M`."""
-    out = []
+    out: list[tuple[click.Parameter, float]] = []
     for p in command.params:
         if not isinstance(p, click.Option) or not isinstance(p.type, click.types.FloatParamType) or not p.name:
             continue
@@ -281,11 +281,11 @@ def _flag_names(command: click.Command) -> dict[str, str]:
 def _refuse_underscored_numbers(command: click.Command, args: list[str], ctx: click.Context) -> None:
     """Refuse ``--speed 1_0``: Python reads it as 10, a user meant something else (a typo, a
     thousands separator)."""
-    numeric = {}
-    for p in command.params:
-        if isinstance(p, click.Option) and isinstance(p.type, (click.types.FloatParamType, click.types.IntParamType)):
-            for o in p.opts:
-                numeric[o] = p
+    numeric: dict[str, click.Option] = {}
+    for q in command.params:
+        if isinstance(q, click.Option) and isinstance(q.type, (click.types.FloatParamType, click.types.IntParamType)):
+            for o in q.opts:
+                numeric[o] = q
     for i, a in enumerate(args):
         if a == "--":
             return

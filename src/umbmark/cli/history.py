@@ -146,10 +146,11 @@ def record_report_if_requested(
     from umbmark.history import file_sha256
     from umbmark.realrobot.replay import history_fields
 
-    return [
+    records = [
         record_if_requested(robot, True, db, **fields)
         for fields in history_fields(rep, paths, kind=kind, method=method, file_hash=file_sha256)
     ]
+    return [r for r in records if r is not None]
 
 
 def print_recorded(rec) -> None:
@@ -480,12 +481,19 @@ def _result_input(runs_file, record_id, db) -> dict | None:
     except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError):
         return None  # the replay reader says what is wrong with it
     kinds = (("selfcal", is_selfcal_result), ("calibrate", is_calibrate_result), ("gyro", is_gyro_result))
-    kind = next((k for k, is_kind in kinds if is_kind(d)), None)
-    if kind is None:
+    found = next((k for k, is_kind in kinds if is_kind(d)), None)
+    if found is None:
         return None
     from umbmark.history import file_sha256
 
-    return {"d": d, "kind": kind, "source": str(runs_file), "sha": file_sha256(runs_file), "robot": None, "label": None}
+    return {
+        "d": d,
+        "kind": found,
+        "source": str(runs_file),
+        "sha": file_sha256(runs_file),
+        "robot": None,
+        "label": None,
+    }
 
 
 def _other_page(r: dict, out_path, robot) -> dict:
@@ -948,6 +956,7 @@ def measure_cmd(distances_file, front, rear, back, side_wall, resolution_mm, out
     if is_quiet():
         return
     runs, m = res.runs, res.measurement
+    assert runs.run is not None and runs.theta_abs is not None  # measured runs are named, with headings
     trows = [
         [
             str(runs.run[i]),
@@ -1006,6 +1015,7 @@ def _interactive(marks, side_wall, resolution_m, out_path, n_runs):
                     echo("  reset the odometry, drive the square, then:")
                     x_odo = click.prompt("  odometry x at the end [mm]", type=float)
                     y_odo = click.prompt("  odometry y at the end [mm]", type=float)
+                    th: str | float
                     if want_theta is None:
                         th = click.prompt(
                             "  odometry theta at the end [deg] (empty: not read)", default="", show_default=False
@@ -1029,6 +1039,7 @@ def _interactive(marks, side_wall, resolution_m, out_path, n_runs):
             res = measure_runs(marks, rows + [row], resolution_m, source="<interactive>", side_wall=side_wall)
             rows.append(row)
             runs = res.runs
+            assert runs.theta_abs is not None  # measured runs have their headings
             echo(
                 f"  -> x_abs = {runs.x_abs[-1] * 1e3:.1f} mm, y_abs = {runs.y_abs[-1] * 1e3:.1f} mm, "
                 f"theta_abs = {math.degrees(runs.theta_abs[-1]):.2f} deg"

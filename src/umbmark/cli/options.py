@@ -11,7 +11,7 @@ import math
 
 from umbmark.errors import InputError
 
-__all__ = ["wheel_source", "read_options", "length_m", "parse_joints"]
+__all__ = ["wheel_source", "read_options", "length_m", "given_nominal_m", "nominal_m", "parse_joints"]
 
 
 def parse_joints(text: str) -> tuple[str, str]:
@@ -52,26 +52,61 @@ def _positive(flag: str, v) -> None:
         raise InputError(f"{flag} must be a positive number, got {v!r}")
 
 
-def length_m(kw: dict, mm_key: str, m_key: str, m_factor: float = 1.0) -> float | None:
+def length_m(kw: dict, mm_key: str, m_key: str, m_factor: float = 1.0, both: str = "agree") -> float | None:
     """A length given in millimetres (``mm_key``) or in ROS's metres (``m_key``, times
-    ``m_factor``: 2 for a radius given for a diameter) [m]; both given, they must agree.
+    ``m_factor``: 2 for a radius given for a diameter) [m]; None when neither is given.
+
+    Parameters
+    ----------
+    both : str
+        Both given: ``agree`` (they must) or ``refuse``.
 
     Raises
     ------
     InputError
-        A value that is not a positive number; the two forms disagree.
+        A value that is not a positive number; both forms given and refused, or disagreeing.
     """
     mm, m = kw.get(mm_key), kw.get(m_key)
-    _positive("--" + mm_key.replace("_", "-"), mm)
-    _positive("--" + m_key.replace("_", "-"), m)
+    flag_mm, flag_m = "--" + mm_key.replace("_", "-"), "--" + m_key.replace("_", "-")
+    if mm is not None and m is not None and both == "refuse":
+        raise InputError(f"give {flag_mm} or {flag_m}, not both (one of them)")
+    _positive(flag_mm, mm)
+    _positive(flag_m, m)
     if m is None:
         return None if mm is None else mm * 1e-3
     if mm is not None and not math.isclose(mm * 1e-3, m * m_factor, rel_tol=1e-6):
-        raise InputError(
-            f"--{mm_key.replace('_', '-')} {mm:g} and --{m_key.replace('_', '-')} {m:g} disagree "
-            f"({m * m_factor * 1e3:g} mm): give one of them"
-        )
+        raise InputError(f"{flag_mm} {mm:g} and {flag_m} {m:g} disagree ({m * m_factor * 1e3:g} mm): give one of them")
     return m * m_factor
+
+
+def given_nominal_m(kw: dict) -> tuple[float | None, float | None]:
+    """The nominal wheel diameter and wheelbase [m] of ``--wheel-diameter-mm`` or ``--wheel-radius-m``
+    and ``--wheelbase-mm`` or ``--wheel-separation-m`` (one form of each), None where not given.
+
+    Raises
+    ------
+    InputError
+        Both forms of one, a value that is not a positive number.
+    """
+    d = length_m(kw, "wheel_diameter_mm", "wheel_radius_m", 2.0, both="refuse")
+    b = length_m(kw, "wheelbase_mm", "wheel_separation_m", both="refuse")
+    return d, b
+
+
+def nominal_m(kw: dict) -> tuple[float, float]:
+    """As :func:`given_nominal_m`, both needed.
+
+    Raises
+    ------
+    InputError
+        As :func:`given_nominal_m`, and one of them missing.
+    """
+    d, b = given_nominal_m(kw)
+    if d is None:
+        raise InputError("give the nominal wheel size: --wheel-diameter-mm D or --wheel-radius-m R (one of them)")
+    if b is None:
+        raise InputError("give the nominal wheelbase: --wheelbase-mm B or --wheel-separation-m S (one of them)")
+    return d, b
 
 
 def read_options(kw: dict):

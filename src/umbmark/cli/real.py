@@ -9,8 +9,12 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
+
+if TYPE_CHECKING:
+    from umbmark.realrobot.results import MultiReplayReport, PooledReport, ReplayReport
 
 from umbmark.cli.app import LOG_FORMAT_CHOICES, app, cli_message, console, emit_json, fmt, is_quiet, table
 from umbmark.cli.config import config_options
@@ -484,6 +488,7 @@ def replay(
         "points_per_run": points_per_run,
         "fit_offset": fit_marker_offset,
     }
+    rep: ReplayReport | MultiReplayReport | PooledReport
     if pool:
         if method != "lsq":
             raise InputError("--pool works with --method lsq")
@@ -516,11 +521,12 @@ def replay(
     from umbmark.realrobot.results import MultiReplayReport
 
     print_recorded(rec)
-    several = isinstance(rep, MultiReplayReport)
-    for r in rep.reports if several else (rep,):
-        _print_report(r)
-    if several:
+    if isinstance(rep, MultiReplayReport):
+        for r in rep.reports:
+            _print_report(r)
         _print_across(rep)
+    else:
+        _print_report(rep)
     if scan_truth is not None:
         _print_scan_truth(scan_truth)
     if gyro is not None:

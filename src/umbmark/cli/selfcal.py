@@ -50,25 +50,6 @@ def _float_list(text: str, n: int, flag: str, meta: str) -> list[float]:
     return vals
 
 
-def _geometry(wheel_diameter_mm, wheelbase_mm, wheel_radius_m, wheel_separation_m) -> tuple[float, float]:
-    """The nominal wheel diameter and wheelbase [m] from either pair of flags."""
-    if (wheel_diameter_mm is None) == (wheel_radius_m is None):
-        raise InputError("give the nominal wheel size: --wheel-diameter-mm D or --wheel-radius-m R (one of them)")
-    if (wheelbase_mm is None) == (wheel_separation_m is None):
-        raise InputError("give the nominal wheelbase: --wheelbase-mm B or --wheel-separation-m S (one of them)")
-    for flag, v in (
-        ("--wheel-diameter-mm", wheel_diameter_mm),
-        ("--wheel-radius-m", wheel_radius_m),
-        ("--wheelbase-mm", wheelbase_mm),
-        ("--wheel-separation-m", wheel_separation_m),
-    ):
-        if v is not None and not (math.isfinite(v) and v > 0):
-            raise InputError(f"{flag} must be a positive number, got {v!r}")
-    d = wheel_diameter_mm * 1e-3 if wheel_diameter_mm is not None else 2.0 * wheel_radius_m
-    b = wheelbase_mm * 1e-3 if wheelbase_mm is not None else wheel_separation_m
-    return d, b
-
-
 def _kind_of(paths) -> str:
     """``bags`` or ``intervals`` (CSV files): all inputs must be of one kind."""
     from umbmark.io.rosbag import is_bag
@@ -357,7 +338,16 @@ def selfcal_cmd(
       umbmark selfcal drive_bag --odom-topic /odom --wheel-radius-m 0.075 --wheel-separation-m 0.34 --save cal.json
       umbmark export cal.json --format urdf
     """
-    d_m, b_m = _geometry(wheel_diameter_mm, wheelbase_mm, wheel_radius_m, wheel_separation_m)
+    from umbmark.cli.options import nominal_m
+
+    d_m, b_m = nominal_m(
+        dict(
+            wheel_diameter_mm=wheel_diameter_mm,
+            wheel_radius_m=wheel_radius_m,
+            wheelbase_mm=wheelbase_mm,
+            wheel_separation_m=wheel_separation_m,
+        )
+    )
     kind = _kind_of(paths)
     opts = {"reject_outliers": not keep_outliers, "time_jitter": wheel_jitter}
     if kind == "intervals":

@@ -109,24 +109,6 @@ def _window(text: str | None) -> tuple[float, float] | None:
     return lo, hi
 
 
-def _nominal(wheel_diameter_mm, wheelbase_mm, wheel_radius_m, wheel_separation_m) -> tuple[float | None, float | None]:
-    """The nominal wheel diameter and wheelbase [m] given (either form of each, or neither)."""
-    for a, b, va, vb in (
-        ("--wheel-diameter-mm", "--wheel-radius-m", wheel_diameter_mm, wheel_radius_m),
-        ("--wheelbase-mm", "--wheel-separation-m", wheelbase_mm, wheel_separation_m),
-    ):
-        if va is not None and vb is not None:
-            raise InputError(f"give {a} or {b}, not both")
-        for flag, v in ((a, va), (b, vb)):
-            if v is not None and not (math.isfinite(v) and v > 0):
-                raise InputError(f"{flag} must be a positive number, got {v!r}")
-    d = wheel_diameter_mm * 1e-3 if wheel_diameter_mm is not None else None
-    d = 2.0 * wheel_radius_m if wheel_radius_m is not None else d
-    b = wheelbase_mm * 1e-3 if wheelbase_mm is not None else None
-    b = wheel_separation_m if wheel_separation_m is not None else b
-    return d, b
-
-
 def _cell(v, digits: int) -> str:
     return "" if v is None or (isinstance(v, float) and not math.isfinite(v)) else fmt(v, digits)
 
@@ -278,7 +260,7 @@ def validate_cmd(
       umbmark validate robot_bag selfcal.json --joints left_wheel_joint,right_wheel_joint --reference slam.tum --halves
       umbmark validate robot_bag cal.json --odom-topic /odom --reference slam.tum --window 0:120 --json
     """
-    from umbmark.cli.options import wheel_source
+    from umbmark.cli.options import given_nominal_m, wheel_source
     from umbmark.realrobot.validate import validate_log
 
     if reference_frame is not None and reference is None:
@@ -287,7 +269,7 @@ def validate_cmd(
         math.isfinite(kw["pulses_per_wheel_rev"]) and kw["pulses_per_wheel_rev"] > 0
     ):
         raise InputError(f"--pulses-per-wheel-rev must be a positive number, got {kw['pulses_per_wheel_rev']!r}")
-    d_m, b_m = _nominal(kw["wheel_diameter_mm"], kw["wheelbase_mm"], kw["wheel_radius_m"], kw["wheel_separation_m"])
+    d_m, b_m = given_nominal_m(kw)
     try:
         v = validate_log(
             log,
