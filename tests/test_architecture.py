@@ -7,6 +7,7 @@ including those inside functions):
 * the real-robot commands (replay, selfcal, validate, export, bag-info) import nothing from
   ``umbmark.studies``, lazily or not, directly or through another module;
 * no module reads a key of a result's ``extra`` dict (results are typed);
+* no function is longer than :data:`MAX_FUNCTION_LINES` but the numba kernels (compiled whole);
 * the top-level ``umbmark`` package loads its public names lazily (importing it imports no layer).
 """
 
@@ -239,6 +240,53 @@ def test_no_module_reads_a_key_of_extra():
 
 def test_the_extra_rule_sees_a_violation():
     assert _extra_reads("a = r.extra['Ed_ci95']\nb = r.extra.get('x')\nc = r.details.intervals\n") == [1, 2]
+
+
+MAX_FUNCTION_LINES = 120
+
+
+def _kernels(tree: ast.Module) -> set[str]:
+    """The functions a module compiles with numba: ``numba.njit(...)(f)``, and the names of its
+    ``_KERNELS`` tuple."""
+    out: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Call):
+            inner = node.func.func
+            if isinstance(inner, ast.Attribute) and inner.attr == "njit" and node.args:
+                if isinstance(node.args[0], ast.Name):
+                    out.add(node.args[0].id)
+        if isinstance(node, ast.Assign) and any(isinstance(t, ast.Name) and t.id == "_KERNELS" for t in node.targets):
+            if isinstance(node.value, (ast.Tuple, ast.List)):
+                out |= {e.value for e in node.value.elts if isinstance(e, ast.Constant) and isinstance(e.value, str)}
+    return out
+
+
+def _long_functions(source: str, most: int = MAX_FUNCTION_LINES) -> list[tuple[str, int, int]]:
+    """``(name, line, length)`` of the functions longer than ``most`` lines, but the kernels."""
+    tree = ast.parse(source)
+    kernels = _kernels(tree)
+    out = []
+    for node in ast.walk(tree):
+        if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and node.name not in kernels:
+            n = (node.end_lineno or node.lineno) - node.lineno + 1
+            if n > most:
+                out.append((node.name, node.lineno, n))
+    return out
+
+
+def test_no_function_is_longer_than_the_limit():
+    long = [
+        f"{m}.{name} (line {line}): {n} lines"
+        for m, p in MODULES.items()
+        for name, line, n in _long_functions(p.read_text())
+    ]
+    assert not long, f"split these at their steps (at most {MAX_FUNCTION_LINES} lines):\n" + "\n".join(long)
+
+
+def test_the_length_rule_sees_a_long_function_and_spares_a_kernel():
+    body = "\n".join(f"    x{i} = {i}" for i in range(130))
+    source = f"def long():\n{body}\n\ndef _k():\n{body}\n\nk = numba.njit(cache=True)(_k)\n"
+    assert [name for name, _, _ in _long_functions(source)] == ["long"]
 
 
 def test_the_contract_sees_a_violation():

@@ -512,14 +512,19 @@ def replay(
             click.echo(f"warning: {cli_message(w)}", err=True)
         emit_json(d if rec is None else {**d, "history": rec})
         return
-    if is_quiet():
-        return
-    if pool:
+    if not is_quiet():
+        _print_replay(rep, rec, scan_truth, gyro)
+
+
+def _print_replay(rep, rec, scan_truth, gyro) -> None:
+    """A replay's report as tables: a pooled fit, one data set's or several's; the lidar's and
+    the gyro's lines."""
+    from umbmark.realrobot.results import MultiReplayReport, PooledReport
+
+    if isinstance(rep, PooledReport):
         _print_pooled(rep)
         print_recorded(rec)
         return
-    from umbmark.realrobot.results import MultiReplayReport
-
     print_recorded(rec)
     if isinstance(rep, MultiReplayReport):
         for r in rep.reports:
