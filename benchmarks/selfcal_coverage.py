@@ -294,7 +294,7 @@ def simulate(cfg: dict):
     nominal = Geometry(
         wheel_diameter_m=cfg["nominal_diameter_m"],
         wheelbase_m=cfg["nominal_wheelbase_m"],
-        pulses_per_rev=float(pulses) if pulses else 1000.0,
+        pulses_per_motor_rev=float(pulses) if pulses else 1000.0,
         gear_ratio=1.0,
     )
     d_l, d_r = cfg["diameter_left_m"], cfg["diameter_right_m"]

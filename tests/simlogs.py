@@ -11,7 +11,7 @@ from umbmark.model.dataset import Dataset, Run, WheelGeometry, wheel_travel_from
 from umbmark.model.geometry import ErrorParams, Geometry, OdometryParams
 from umbmark.model.simulate import Motion, Segment, run_program, square_program
 
-GEOM = Geometry(wheel_diameter_m=0.10, wheelbase_m=0.30, pulses_per_rev=1000.0, gear_ratio=1.0)
+GEOM = Geometry(wheel_diameter_m=0.10, wheelbase_m=0.30, pulses_per_motor_rev=1000.0, gear_ratio=1.0)
 TRUE = ErrorParams(ed=1.004, eb=1.02, es=0.99)
 
 
@@ -57,7 +57,7 @@ def world(pose, yaw=YAW_30, origin=(2.0, -1.0)):
 def dataset(programs, geom=GEOM, errors=TRUE, dt=0.02, side_m=None, units="pulses"):
     """A Dataset of simulated runs (log units: encoder pulses of the nominal geometry)."""
     runs = []
-    upr = geom.pulses_per_rev * geom.gear_ratio
+    upr = geom.pulses_per_motor_rev * geom.gear_ratio
     for i, prog in enumerate(programs):
         al, ar, pose = simulate_wheels(prog, errors, geom, dt)
         k = upr / (2 * math.pi)

@@ -186,7 +186,7 @@ def write_bag(
 # The robot of docs/ros.md (nominal wheel_radius 0.05 m, wheel_separation 0.30 m; true wheels 99.3
 # and 99.7 mm, true wheelbase 306 mm), six runs (cw, ccw, ...), one ROS 2 bag each in odom_runs/:
 # /joint_states and /odom at 50 Hz, /mocap/robot/pose at 120 Hz with 0.5 mm and 0.1 deg noise.
-DOC_GEOM = Geometry(wheel_diameter_m=0.100, wheelbase_m=0.300, pulses_per_rev=1000.0, gear_ratio=1.0)
+DOC_GEOM = Geometry(wheel_diameter_m=0.100, wheelbase_m=0.300, pulses_per_motor_rev=1000.0, gear_ratio=1.0)
 DOC_TRUE = ErrorParams(ed=0.0997 / 0.0993, eb=0.306 / 0.300, es=(0.0993 + 0.0997) / 2 / 0.100)
 
 

@@ -22,7 +22,7 @@ def test_round_trip_of_simulated_runs(tmp_path):
     ds = ds.with_runs([type(r)(r.name, r.t, np.round(r.d_left), np.round(r.d_right), r.gt) for r in ds.runs])
     f = tmp_path / "log.csv"
     f.write_text(format_generic_csv(ds))
-    back = read_generic_csv(f, ds.nominal, ds.units_per_rev, side_m=2.0)
+    back = read_generic_csv(f, ds.nominal, ds.units_per_wheel_rev, side_m=2.0)
     assert [r.name for r in back.runs] == ["run-01", "run-02"]
     for a, b in zip(ds.runs, back.runs):
         assert np.allclose(a.d_left, b.d_left) and np.allclose(a.d_right, b.d_right)

@@ -19,7 +19,7 @@ def test_reads_square_set(optiodom):
     assert ds.side_m == pytest.approx(0.75)
     assert ds.nominal.wheelbase_m == pytest.approx(0.2)
     assert ds.nominal.diameter_left_m == pytest.approx(0.084)
-    assert ds.units_per_rev == pytest.approx(43.7 * 64)
+    assert ds.units_per_wheel_rev == pytest.approx(43.7 * 64)
     assert ds.directions == ("cw",) * 3 + ("ccw",) * 3
     r = ds.runs[0]
     assert r.gt.shape == (len(r), 3)

@@ -146,7 +146,7 @@ def test_ros2_jointstate_posestamped_gives_true_parameters(tmp_path, sim, storag
     ds = read_bag(
         bag, nominal=NOMINAL, gt_topic="/mocap/pose", wheels=WheelSource(joints=("wheel_left", "wheel_right"))
     )
-    assert ds.units_per_rev == pytest.approx(2 * math.pi)
+    assert ds.units_per_wheel_rev == pytest.approx(2 * math.pi)
     run = ds.runs[0]
     assert np.allclose(run.gt[0], 0.0, atol=1e-12)  # world frame -> start frame
     res = _check_true(ds)
@@ -175,7 +175,7 @@ def test_tf_ground_truth_and_tick_topic(tmp_path, sim):
             ticks_topic="/encoders", left_field="data[0]", right_field="data[1]", pulses_per_wheel_rev=ppr
         ),
     )
-    assert ds.units_per_rev == ppr
+    assert ds.units_per_wheel_rev == ppr
     res = fit_lsq(ds)
     true = simlogs.true_geometry()
     # quantised to whole pulses: still close

@@ -28,7 +28,7 @@ def _one_run_csv(tmp_path, whole_pulses=True, world=True):
     ds = ds.with_runs([type(r)(r.name, r.t, dl, dr, gt)])
     f = tmp_path / "run.csv"
     f.write_text(format_generic_csv(ds))
-    return f, read_generic_csv(f, ds.nominal, ds.units_per_rev)
+    return f, read_generic_csv(f, ds.nominal, ds.units_per_wheel_rev)
 
 
 @settings(max_examples=15, deadline=None)
@@ -38,7 +38,7 @@ def test_stream_equals_batch_for_any_chunking(tmp_path_factory, chunk_rows, whol
     ev = evaluate(batch, batch.nominal)
     x, y, th, _ = replay(batch, batch.nominal)
     rep = stream_replay(
-        iter_generic_csv(f, chunk_rows=chunk_rows), batch.nominal, batch.units_per_rev, decimate=decimate
+        iter_generic_csv(f, chunk_rows=chunk_rows), batch.nominal, batch.units_per_wheel_rev, decimate=decimate
     )
     s, ev = rep.to_dict(), ev.to_dict()
     assert s["samples"] == len(batch.runs[0])

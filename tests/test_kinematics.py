@@ -23,7 +23,7 @@ from umbmark.model.runs import RunsTable
 
 
 def test_mm_per_pulse_is_eq_2_1():
-    g = Geometry(wheel_diameter_m=0.084, wheelbase_m=0.2, pulses_per_rev=64, gear_ratio=43.7)
+    g = Geometry(wheel_diameter_m=0.084, wheelbase_m=0.2, pulses_per_motor_rev=64, gear_ratio=43.7)
     assert g.m_per_pulse == pytest.approx(math.pi * 0.084 / (43.7 * 64), rel=1e-15)
 
 
@@ -138,8 +138,8 @@ def test_midpoint_converges_to_exact(kernel):
     errs = []
     for k in (10, 100, 1000):
         dl, dr = np.full(k, 1.0 / k), np.full(k, 1.2 / k)
-        xe, ye, _ = integrate_end(dl, dr, b, method="exact", kernel=kernel)
-        xm, ym, _ = integrate_end(dl, dr, b, method="midpoint", kernel=kernel)
+        xe, ye, _ = integrate_end(dl, dr, b, integrator="exact", kernel=kernel)
+        xm, ym, _ = integrate_end(dl, dr, b, integrator="midpoint", kernel=kernel)
         errs.append(math.hypot(xe - xm, ye - ym))
     assert errs[0] > errs[1] > errs[2]
     assert errs[2] < 1e-6
@@ -166,8 +166,8 @@ def test_integrate_end_equals_last_pose(runs, k, seed, method, kernel):
 
 @pytest.mark.parametrize("kernel", KERNELS)
 def test_unknown_method(kernel):
-    with pytest.raises(InputError, match="unknown integration method"):
-        integrate([0.1], [0.1], 0.3, method="rk4", kernel=kernel)
+    with pytest.raises(InputError, match="unknown integrator"):
+        integrate([0.1], [0.1], 0.3, integrator="rk4", kernel=kernel)
 
 
 def test_unknown_kernel():

@@ -28,7 +28,7 @@ def _close(a, b, tol):
         np.testing.assert_allclose(np.asarray(u), np.asarray(v), rtol=0, atol=tol)
 
 
-@pytest.mark.parametrize("method", odometry.METHODS)
+@pytest.mark.parametrize("method", odometry.INTEGRATORS)
 def test_matches_numpy_integrator_with_large_turns(method):
     rng = np.random.default_rng(0)
     dl = rng.normal(0.0, 0.05, (3, 3000))  # up to ~0.5 rad per sample: exercises the exact fallback
@@ -47,7 +47,7 @@ def test_matches_numpy_integrator_with_large_turns(method):
     dr_off=st.floats(-0.002, 0.002),
     b=st.floats(0.05, 1.0),
     th0=st.floats(-10, 10),
-    method=st.sampled_from(odometry.METHODS),
+    method=st.sampled_from(odometry.INTEGRATORS),
     chunk=st.integers(1, 200),
 )
 def test_property_same_poses_as_numpy(dl, dr_scale, dr_off, b, th0, method, chunk):
@@ -59,7 +59,7 @@ def test_property_same_poses_as_numpy(dl, dr_scale, dr_off, b, th0, method, chun
     _close(end, [w[-1] for w in want], 1e-11)
 
 
-@pytest.mark.parametrize("method", odometry.METHODS)
+@pytest.mark.parametrize("method", odometry.INTEGRATORS)
 def test_pulses_table_kernel(method):
     rng = np.random.default_rng(1)
     nl = rng.integers(-3, 12, 200_000)
@@ -95,10 +95,10 @@ def test_matches_per_sample_reference_loop():
     rng = np.random.default_rng(4)
     nl = rng.integers(2, 7, 20_000)
     nr = rng.integers(2, 7, 20_000)
-    for method in odometry.METHODS:
+    for method in odometry.INTEGRATORS:
         _close(
-            odometry.integrate_pulses(nl, nr, PARAMS, method=method),
-            reference.integrate_pulses(nl, nr, PARAMS, method=method),
+            odometry.integrate_pulses(nl, nr, PARAMS, integrator=method),
+            reference.integrate_pulses(nl, nr, PARAMS, integrator=method),
             1e-10,
         )
 
@@ -166,8 +166,8 @@ def test_empty_chunk_and_pose_state():
 
 
 def test_bad_input():
-    with pytest.raises(InputError, match="unknown integration method"):
-        odometry.integrate([0.1], [0.1], 0.3, method="rk4")
+    with pytest.raises(InputError, match="unknown integrator"):
+        odometry.integrate([0.1], [0.1], 0.3, integrator="rk4")
     with pytest.raises(InputError, match="same|one shape"):
         odometry.integrate([0.1, 0.2], [0.1], 0.3)
     with pytest.raises(InputError, match="K >= 1"):
@@ -187,7 +187,7 @@ def test_bad_input():
     nl=arrays(np.int64, st.integers(1, 400), elements=st.integers(-20, 40)),
     shift=st.integers(-3, 3),
     th0=st.floats(-10, 10),
-    method=st.sampled_from(odometry.METHODS),
+    method=st.sampled_from(odometry.INTEGRATORS),
     chunk=st.integers(1, 300),
 )
 def test_property_pulses_same_poses_as_numpy(nl, shift, th0, method, chunk):
@@ -198,7 +198,7 @@ def test_property_pulses_same_poses_as_numpy(nl, shift, th0, method, chunk):
     _close(end, [w[-1] for w in want], 1e-12)
 
 
-@pytest.mark.parametrize("method", odometry.METHODS)
+@pytest.mark.parametrize("method", odometry.INTEGRATORS)
 def test_trig_kernel_matches_per_sample_loop(method):
     rng = np.random.default_rng(7)
     nl = rng.integers(-2, 9, 5000)

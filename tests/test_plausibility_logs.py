@@ -18,7 +18,7 @@ from umbmark.errors import InputError
 from umbmark.io.generic_csv import format_generic_csv, read_generic_csv
 
 GEOM = simlogs.dataset(simlogs.squares(1), side_m=2.0).nominal
-UPR = simlogs.GEOM.pulses_per_rev * simlogs.GEOM.gear_ratio
+UPR = simlogs.GEOM.pulses_per_motor_rev * simlogs.GEOM.gear_ratio
 
 
 def _rows(tmp_path):

@@ -75,5 +75,5 @@ def test_errors():
         reference.run_program(square_program("cw", 1.0), true, model, 2, simulate.NOISE_PRESETS["paper"])
     with pytest.raises(InputError, match="empty"):
         reference.run_program((), true, model, 1)
-    with pytest.raises(InputError, match="method"):
-        reference.integrate([0.1], [0.1], 0.3, method="rk4")
+    with pytest.raises(InputError, match="integrator"):
+        reference.integrate([0.1], [0.1], 0.3, integrator="rk4")

@@ -124,7 +124,7 @@ def test_read_bag_reads_the_joint_states(bag, log):
     _, path = bag
     ds = read_bag(path, nominal=log.nominal_geometry, wheels=WheelSource(joints=JOINT_NAMES))
     (run,) = ds.runs
-    assert ds.units_per_rev == pytest.approx(2 * math.pi)
+    assert ds.units_per_wheel_rev == pytest.approx(2 * math.pi)
     np.testing.assert_allclose(run.t, log.t_s, atol=1e-6)
     np.testing.assert_allclose(np.cumsum(run.d_left), log.left_rad - log.left_rad[0], atol=1e-9)
     np.testing.assert_allclose(np.cumsum(run.d_right), log.right_rad - log.right_rad[0], atol=1e-9)

@@ -33,7 +33,7 @@ from umbmark.realrobot.scan_truth import parse_sensor_pose, read_sensor_pose, ro
 
 ED, EB = 1.004, 1.03
 ROBOT = SimRobot(
-    nominal=Geometry(wheel_diameter_m=0.150, wheelbase_m=0.340, pulses_per_rev=500.0, gear_ratio=20.0),
+    nominal=Geometry(wheel_diameter_m=0.150, wheelbase_m=0.340, pulses_per_motor_rev=500.0, gear_ratio=20.0),
     errors=ErrorParams(ed=ED, eb=EB, es=1.0),
     sensor_pose=SensorPose(0.035, 0.0, 0.0),  # 35 mm ahead of the axle
     lidar=Lidar(range_noise_m=0.005),

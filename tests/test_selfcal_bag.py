@@ -396,7 +396,7 @@ def test_tilted_lidar_is_refused(exact, tmp_path):
     )
 
 
-def _write_ticks_bag(path, log, pulses_per_rev, incremental=False):
+def _write_ticks_bag(path, log, pulses_per_motor_rev, incremental=False):
     """The drive as a ROS 2 bag with /scan and encoder counts in a geometry_msgs/Vector3Stamped
     (x left, y right), no /tf_static."""
     from rosbags.rosbag2 import Writer
@@ -413,7 +413,7 @@ def _write_ticks_bag(path, log, pulses_per_rev, incremental=False):
             stamp=T["builtin_interfaces/msg/Time"](sec=ns // 10**9, nanosec=ns % 10**9), frame_id=frame
         )
 
-    step = 2 * math.pi / pulses_per_rev
+    step = 2 * math.pi / pulses_per_motor_rev
     counts = np.floor(np.column_stack([log.left_rad, log.right_rad]) / step + 1e-9)
     if incremental:
         counts = np.diff(counts, axis=0, prepend=counts[:1])

@@ -46,7 +46,7 @@ def _three_paths(bag, source):
     """The wheel stamps and the wheel angles' increments [rad] each path reads."""
     ds = read_bag(bag, nominal=NOMINAL, wheels=source)
     (run,) = ds.runs
-    k = 2 * math.pi / ds.units_per_rev
+    k = 2 * math.pi / ds.units_per_wheel_rev
     replay = (run.t, run.d_left[1:] * k, run.d_right[1:] * k)
     sb = read_selfcal_bag(bag, wheels=source)
     left, right = recording_wheel_angles(sb, NOMINAL)
@@ -121,4 +121,6 @@ def test_the_source_in_words():
     assert SOURCES["ticks"].description == ticks
     assert SOURCES["odom"].description == "nav_msgs/Odometry on /odom"
     assert [s.kind for s in SOURCES.values()] == ["joints", "ticks", "odom"]
-    assert SOURCES["ticks"].units_per_rev == PPR and SOURCES["odom"].units_per_rev == pytest.approx(2 * math.pi)
+    assert SOURCES["ticks"].units_per_wheel_rev == PPR and SOURCES["odom"].units_per_wheel_rev == pytest.approx(
+        2 * math.pi
+    )

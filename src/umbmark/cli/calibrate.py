@@ -196,7 +196,7 @@ def calibrate(
         geom = Geometry(
             wheel_diameter_m,
             wheelbase_m,
-            LABMATE.pulses_per_rev,
+            LABMATE.pulses_per_motor_rev,
             LABMATE.gear_ratio,
         )
         errors = ErrorParams(true_ed, true_eb)

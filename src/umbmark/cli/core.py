@@ -342,7 +342,7 @@ def simulate(
     geom = Geometry(
         positive("--wheel-diameter-mm", wheel_diameter_mm) * 1e-3,
         positive("--wheelbase-mm", wheelbase_mm) * 1e-3,
-        LABMATE.pulses_per_rev,
+        LABMATE.pulses_per_motor_rev,
         LABMATE.gear_ratio,
     )
     side_m = positive("--side-mm", side_mm) * 1e-3

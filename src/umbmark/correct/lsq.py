@@ -220,7 +220,7 @@ class _Problem:
         self.rows = np.concatenate(rows)
         self.cols = np.concatenate(cols)
         self.gt = np.concatenate(gts)
-        self.k = math.pi / ds.units_per_rev
+        self.k = math.pi / ds.units_per_wheel_rev
         self.end = mode != "sampled"
         if not self.end:  # samples after the last compared one do not matter
             kmax = int(self.cols.max()) + 1
@@ -285,7 +285,7 @@ def _heading_start(datasets: Sequence[Dataset]) -> tuple[float, float] | None:
     """
     rows, rhs = [], []
     for ds in datasets:
-        k = math.pi / ds.units_per_rev
+        k = math.pi / ds.units_per_wheel_rev
         for r in ds.runs:
             if r.gt is None:
                 continue
@@ -344,7 +344,7 @@ def _scale_decision(datasets: Sequence[Dataset], mode: str, scale: str) -> tuple
     for ds in datasets:
         for run in ds.runs:
             end = run.end_truth
-            k = math.pi * ds.nominal.diameter_avg_m / ds.units_per_rev
+            k = math.pi * ds.nominal.diameter_avg_m / ds.units_per_wheel_rev
             path = np.sum(0.5 * np.abs(run.d_left + run.d_right)) * k
             if path > 0:
                 ratios.append(math.hypot(end[0], end[1]) / path)

@@ -26,7 +26,7 @@ _COUNTER_SPAN = 20.0
 
 
 def wheels_against_truth(
-    run: Run, nominal: WheelGeometry, units_per_rev: float, travel_hint: str, turn_hint: str, degrees_hint: str
+    run: Run, nominal: WheelGeometry, units_per_wheel_rev: float, travel_hint: str, turn_hint: str, degrees_hint: str
 ) -> list[str]:
     """The run's ground-truth track against its wheels and the nominal geometry.
 
@@ -36,7 +36,7 @@ def wheels_against_truth(
         A run with a ground-truth track (others are not checked).
     nominal : WheelGeometry
         The geometry the wheels are read with.
-    units_per_rev : float
+    units_per_wheel_rev : float
         Encoder units per wheel revolution.
     travel_hint, turn_hint : str
         What to check when the travels, or the turns, disagree (named in the warning).
@@ -65,8 +65,8 @@ def wheels_against_truth(
     gt_path = float(np.sum(np.hypot(np.diff(gx), np.diff(gy))))
     gt_dth = np.diff(gth)
     gt_turn = float(np.sum(np.abs(gt_dth)))
-    dl = np.cumsum(run.d_left)[k] * math.pi * nominal.diameter_left_m / units_per_rev
-    dr = np.cumsum(run.d_right)[k] * math.pi * nominal.diameter_right_m / units_per_rev
+    dl = np.cumsum(run.d_left)[k] * math.pi * nominal.diameter_left_m / units_per_wheel_rev
+    dr = np.cumsum(run.d_right)[k] * math.pi * nominal.diameter_right_m / units_per_wheel_rev
     wheel_path = float(np.sum(np.abs(np.diff(dl + dr)) / 2.0))
     wheel_dth = np.diff(dr - dl) / nominal.wheelbase_m
     wheel_turn = float(np.sum(np.abs(wheel_dth)))
@@ -120,7 +120,7 @@ def check_tick_mode(
     ticks: str,
     run: Run,
     nominal: WheelGeometry,
-    units_per_rev: float,
+    units_per_wheel_rev: float,
     side_m: float | None,
     line: int,
 ) -> None:
@@ -137,7 +137,7 @@ def check_tick_mode(
         The run read from them (its ground truth and source).
     nominal : WheelGeometry
         The nominal geometry.
-    units_per_rev : float
+    units_per_wheel_rev : float
         Encoder pulses per wheel revolution.
     side_m : float or None
         The square's side, when the runs are squares.
@@ -154,8 +154,8 @@ def check_tick_mode(
         expected = None if side_m is None else 4.0 * side_m
     if expected is None or len(raw) < _MIN_SAMPLES:
         return
-    kl = math.pi * nominal.diameter_left_m / units_per_rev
-    kr = math.pi * nominal.diameter_right_m / units_per_rev
+    kl = math.pi * nominal.diameter_left_m / units_per_wheel_rev
+    kr = math.pi * nominal.diameter_right_m / units_per_wheel_rev
 
     def travel(d: np.ndarray) -> float:
         return float(np.sum(np.abs(d[:, 0] * kl + d[:, 1] * kr)) / 2.0)

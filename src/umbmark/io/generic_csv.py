@@ -358,7 +358,7 @@ def format_generic_csv(ds: Dataset) -> str:
     """
     out = io.StringIO()
     nom = ds.nominal
-    values = (nom.diameter_left_m * 1e3, nom.diameter_right_m * 1e3, nom.wheelbase_m * 1e3, ds.units_per_rev)
+    values = (nom.diameter_left_m * 1e3, nom.diameter_right_m * 1e3, nom.wheelbase_m * 1e3, ds.units_per_wheel_rev)
     out.write(_GEOMETRY_LINE + "".join(f" {k}={float(v)!r}" for k, v in zip(GEOMETRY_KEYS, values)) + "\n")
     w = csv_writer(out, lineterminator="\n")
     w.writerow(["run", "time_s", "left_ticks", "right_ticks", "x_m", "y_m", "theta_rad"])

@@ -315,7 +315,7 @@ def _load_bag(paths: list, opts: LogOptions) -> Dataset:
     return Dataset(
         f"{first.name}..{sets[-1].name}",
         first.nominal,
-        first.units_per_rev,
+        first.units_per_wheel_rev,
         tuple(runs),
         opts.side_m,
         first.source,

@@ -214,7 +214,7 @@ def read_optiodom(folder: str | Path) -> Dataset:
     return Dataset(
         name=folder.name,
         nominal=nominal,
-        units_per_rev=ngear * enc,
+        units_per_wheel_rev=ngear * enc,
         runs=tuple(runs),
         side_m=side,
         source=str(folder),
@@ -222,7 +222,7 @@ def read_optiodom(folder: str | Path) -> Dataset:
         meta={
             "format": "optiodom",
             "gear_ratio": ngear,
-            "pulses_per_rev": enc,
+            "pulses_per_motor_rev": enc,
             "ignored_files": extra,
             "warnings": tuple(warnings),
         },

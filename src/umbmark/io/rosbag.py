@@ -472,7 +472,7 @@ class _WheelMessages:
             self.a,
             self.b,
             # a joint turns 2 pi per revolution: its rim goes 30 m/s at 3000 rad/s on a 2 cm wheel
-            metres_per_unit=1.0 if odom else 0.01 * 2.0 * math.pi / w.units_per_rev,
+            metres_per_unit=1.0 if odom else 0.01 * 2.0 * math.pi / w.units_per_wheel_rev,
             cumulative=w.cumulative,
             wrapped_turn=2.0 * math.pi if w.kind == "joints" else None,
             poses=odom,
@@ -572,9 +572,9 @@ def _truth_at_rest(t, dl, dr, tg, poses, gtk) -> None:
     gtk[j[ok]] = poses[hi[ok]]
 
 
-def _turn_deg(run: Run, nominal: WheelGeometry, units_per_rev: float) -> float:
+def _turn_deg(run: Run, nominal: WheelGeometry, units_per_wheel_rev: float) -> float:
     """The total turn of a run's nominal odometry [deg]."""
-    th = replay_increments(run.d_left, run.d_right, nominal.params(units_per_rev), end=True)[2]
+    th = replay_increments(run.d_left, run.d_right, nominal.params(units_per_wheel_rev), end=True)[2]
     return math.degrees(float(np.reshape(th, -1)[0]))
 
 
@@ -582,14 +582,16 @@ def _one_square(turn_deg: float) -> bool:
     return abs(abs(turn_deg) - 360.0) <= 45.0
 
 
-def _square_runs(whole: Run, nominal: WheelGeometry, units_per_rev: float, stop_s: float, src: str, warnings: list):
+def _square_runs(
+    whole: Run, nominal: WheelGeometry, units_per_wheel_rev: float, stop_s: float, src: str, warnings: list
+):
     """The runs of a square bag cut neither by time ranges nor at stops: the whole bag when it
     turns about one revolution, else the pieces between its stops when each of them does."""
-    turn = _turn_deg(whole, nominal, units_per_rev)
+    turn = _turn_deg(whole, nominal, units_per_wheel_rev)
     if _one_square(turn):
         return [whole.slice(0, len(whole), name="run-01")]
-    pieces = split_at_stops(whole, units_per_rev, stop_s=stop_s)
-    turns = [_turn_deg(p, nominal, units_per_rev) for p in pieces]
+    pieces = split_at_stops(whole, units_per_wheel_rev, stop_s=stop_s)
+    turns = [_turn_deg(p, nominal, units_per_wheel_rev) for p in pieces]
     if len(pieces) >= 2 and all(_one_square(t) for t in turns):
         n_cw = sum(t < 0 for t in turns)
         warnings.append(
@@ -613,7 +615,7 @@ def _cut_runs(
     ranges: Sequence[tuple[float, float]] | None,
     stops: bool,
     stop_s: float,
-    units_per_rev: float,
+    units_per_wheel_rev: float,
     src: str,
     square: tuple[WheelGeometry, list] | None = None,
 ) -> list[Run]:
@@ -628,12 +630,12 @@ def _cut_runs(
             runs.append(whole.slice(int(idx[0]), int(idx[-1]) + 1, name=f"range-{n}"))
         return runs
     if stops:
-        runs = split_at_stops(whole, units_per_rev, stop_s=stop_s)
+        runs = split_at_stops(whole, units_per_wheel_rev, stop_s=stop_s)
         if not runs:
             raise InputError("no motion found to split at stops", src)
         return runs
     if square is not None:
-        return _square_runs(whole, square[0], units_per_rev, stop_s, src, square[1])
+        return _square_runs(whole, square[0], units_per_wheel_rev, stop_s, src, square[1])
     return [whole.slice(0, len(whole), name="run-01")]
 
 
@@ -706,7 +708,7 @@ def read_bag(
         reader.close()
     from umbmark.model.timing import WheelStream, check_truth_stream
 
-    upr = wheels.units_per_rev
+    upr = wheels.units_per_wheel_rev
     left, right = wd.positions(nominal)
     chk = check_truth_stream(
         WheelStream(wd.t_s, left, right, wd.warnings),
@@ -1006,7 +1008,7 @@ def read_selfcal_bag(
     wd = wheel_msgs.finish()
     assert scans.layout is not None  # set by the first of the scans checked() kept
     first, inc = scans.layout[1], scans.layout[2]
-    k = 2.0 * math.pi / wheels.units_per_rev  # counts to radians (1 for joint angles)
+    k = 2.0 * math.pi / wheels.units_per_wheel_rev  # counts to radians (1 for joint angles)
     return SelfcalBag(
         source=src,
         scan_topic=scan_topic,

@@ -140,7 +140,7 @@ class WheelSource:
         return _WHAT.get(self.kind, "wheel data")
 
     @property
-    def units_per_rev(self) -> float:
+    def units_per_wheel_rev(self) -> float:
         """Log units per wheel revolution: ``2 pi`` for joint angles and odometry, the pulses for encoders."""
         if self.kind != "ticks":
             return 2.0 * math.pi
@@ -161,7 +161,7 @@ class WheelSource:
         if self.kind == "ticks":
             return (
                 f"encoder counts {self.left_field}, {self.right_field} on {self.ticks_topic} ({self.ticks}, "
-                f"{self.units_per_rev:g} per rev)"
+                f"{self.units_per_wheel_rev:g} per rev)"
             )
         return f"nav_msgs/Odometry on {self.odom_topic}" if self.kind == "odom" else "no wheel data"
 
@@ -239,7 +239,7 @@ class WheelData:
         return self.source.kind
 
     def positions(self, nominal: WheelGeometry) -> tuple[FloatArray, FloatArray]:
-        """The cumulative wheel positions in log units (:attr:`WheelSource.units_per_rev` a turn):
+        """The cumulative wheel positions in log units (:attr:`WheelSource.units_per_wheel_rev` a turn):
         as recorded, or from an odometry through ``nominal`` (:meth:`angles`)."""
         if self.odom_pose is None:
             assert self.left is not None and self.right is not None
@@ -267,5 +267,5 @@ class WheelData:
         if self.odom_pose is not None:
             return wheel_angles_from_poses(self.odom_pose, nominal)
         assert self.left is not None and self.right is not None
-        k = 2.0 * math.pi / self.source.units_per_rev
+        k = 2.0 * math.pi / self.source.units_per_wheel_rev
         return self.left * k, self.right * k

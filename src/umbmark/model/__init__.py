@@ -52,7 +52,7 @@ _LAZY = {
     ),
     **dict.fromkeys(
         (
-            "METHODS",
+            "INTEGRATORS",
             "KERNELS",
             "integrate",
             "integrate_end",

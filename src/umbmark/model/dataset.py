@@ -3,9 +3,9 @@
 Every reader in :mod:`umbmark.io` (optiodom folders, the generic CSV, ROS bags) returns a
 :class:`Dataset`: a nominal geometry, the wheel units of the log and a list of :class:`Run`.
 
-* Wheel increments are in the log's own units (``units_per_rev`` of them per wheel
-  revolution): encoder pulses (``units_per_rev = gear ratio x pulses per motor revolution``)
-  or radians (``units_per_rev = 2 pi``, e.g. ``sensor_msgs/JointState`` positions).
+* Wheel increments are in the log's own units (``units_per_wheel_rev`` of them per wheel
+  revolution): encoder pulses (``units_per_wheel_rev = gear ratio x pulses per motor revolution``)
+  or radians (``units_per_wheel_rev = 2 pi``, e.g. ``sensor_msgs/JointState`` positions).
   ``d_left[k]``/``d_right[k]`` is the wheel rotation during sample k (between ``t[k-1]`` and
   ``t[k]``); sample 0 is the start pose (its increment is normally 0).
 * The ground truth (``gt``, shape (K, 3): x, y, theta) is at the same sample times, in the run's
@@ -155,7 +155,7 @@ class Dataset:
         Name of the dataset.
     nominal : WheelGeometry
         The nominal geometry the runs are replayed with.
-    units_per_rev : float
+    units_per_wheel_rev : float
         Log units per wheel revolution (pulses, or 2 pi for radians).
     runs : tuple of Run
         The runs (at least one).
@@ -172,12 +172,12 @@ class Dataset:
     Raises
     ------
     InputError
-        Without runs, or on a non-positive ``units_per_rev``.
+        Without runs, or on a non-positive ``units_per_wheel_rev``.
     """
 
     name: str
     nominal: WheelGeometry
-    units_per_rev: float
+    units_per_wheel_rev: float
     runs: tuple
     side_m: float | None = None
     source: str | None = None
@@ -187,9 +187,9 @@ class Dataset:
     def __post_init__(self) -> None:
         if not self.runs:
             raise InputError("no runs", source=self.source or self.name)
-        if not (math.isfinite(self.units_per_rev) and self.units_per_rev > 0):
+        if not (math.isfinite(self.units_per_wheel_rev) and self.units_per_wheel_rev > 0):
             raise InputError(
-                f"units per wheel revolution must be positive, got {self.units_per_rev!r}", source=self.source
+                f"units per wheel revolution must be positive, got {self.units_per_wheel_rev!r}", source=self.source
             )
 
     @property
@@ -371,7 +371,7 @@ def check_stop_s(stop_s, source: str | None = None) -> float:
 
 
 def split_at_stops(
-    run: Run, units_per_rev: float, stop_s: float = 1.0, min_samples: int = 5, still_units: float = 0.0
+    run: Run, units_per_wheel_rev: float, stop_s: float = 1.0, min_samples: int = 5, still_units: float = 0.0
 ) -> list[Run]:
     """Split a run where both wheels stand still for at least ``stop_s`` seconds.
 
@@ -379,7 +379,7 @@ def split_at_stops(
     ----------
     run : Run
         The run to split.
-    units_per_rev : float
+    units_per_wheel_rev : float
         Log units per wheel revolution.
     stop_s : float
         The stillness [s] that ends a piece.
@@ -431,7 +431,7 @@ def replay_increments(
     d_left: ArrayLike,
     d_right: ArrayLike,
     params: OdometryParams,
-    method: str = "exact",
+    integrator: str = "exact",
     end: bool = False,
     integral: bool | None = None,
 ) -> tuple[Any, Any, Any]:
@@ -448,7 +448,7 @@ def replay_increments(
         Wheel increments in log units, arrays (..., K).
     params : OdometryParams
         Metres per log unit of each wheel, and the wheelbase.
-    method : str
+    integrator : str
         ``"exact"``, ``"midpoint"`` or ``"euler"``.
     end : bool
         Return only the end pose.
@@ -467,10 +467,10 @@ def replay_increments(
     if kernel == "fast" and (_whole_numbers(d_left, d_right) if integral is None else integral):
         n_left, n_right = d_left.astype(np.int64), d_right.astype(np.int64)
         if end:
-            return odometry.integrate_pulses_end(n_left, n_right, params, method=method)
-        return odometry.integrate_pulses(n_left, n_right, params, method=method)
+            return odometry.integrate_pulses_end(n_left, n_right, params, integrator=integrator)
+        return odometry.integrate_pulses(n_left, n_right, params, integrator=integrator)
     d_left = d_left * params.left_m_per_pulse
     d_right = d_right * params.right_m_per_pulse
     if end:
-        return odometry.integrate_end(d_left, d_right, params.wheelbase_m, method=method, kernel=kernel)
-    return odometry.integrate(d_left, d_right, params.wheelbase_m, method=method, kernel=kernel)
+        return odometry.integrate_end(d_left, d_right, params.wheelbase_m, integrator=integrator, kernel=kernel)
+    return odometry.integrate(d_left, d_right, params.wheelbase_m, integrator=integrator, kernel=kernel)

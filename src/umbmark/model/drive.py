@@ -1179,7 +1179,9 @@ def skid_steer_robot(
     for name, v in (("track_m", track_m), ("wheel_diameter_m", wheel_diameter_m), ("factor", factor)):
         _check_rate(name, v)
     return SimRobot(
-        nominal=Geometry(wheel_diameter_m=wheel_diameter_m, wheelbase_m=track_m, pulses_per_rev=1024.0, gear_ratio=1.0),
+        nominal=Geometry(
+            wheel_diameter_m=wheel_diameter_m, wheelbase_m=track_m, pulses_per_motor_rev=1024.0, gear_ratio=1.0
+        ),
         errors=ErrorParams(ed=ed, eb=factor),
         sensor_pose=SensorPose() if sensor_pose is None else sensor_pose,
         lidar=Lidar() if lidar is None else lidar,

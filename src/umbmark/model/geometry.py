@@ -128,7 +128,7 @@ def _check_positive(obj: object, names: tuple[str, ...]) -> None:
 class Geometry:
     """Nominal design of a differential-drive robot with wheel encoders.
 
-    Both wheels have the nominal diameter; the encoders count ``gear_ratio * pulses_per_rev``
+    Both wheels have the nominal diameter; the encoders count ``gear_ratio * pulses_per_motor_rev``
     pulses per wheel revolution. A robot's actual wheels differ from this by its
     :class:`ErrorParams`.
 
@@ -138,7 +138,7 @@ class Geometry:
         Nominal wheel diameter D_n [m].
     wheelbase_m : float
         Nominal wheelbase b [m].
-    pulses_per_rev : float
+    pulses_per_motor_rev : float
         Encoder resolution C_e, pulses per motor revolution.
     gear_ratio : float
         Reduction n between motor and wheel.
@@ -151,21 +151,21 @@ class Geometry:
 
     wheel_diameter_m: float
     wheelbase_m: float
-    pulses_per_rev: float = 1000.0
+    pulses_per_motor_rev: float = 1000.0
     gear_ratio: float = 1.0
 
     def __post_init__(self) -> None:
-        _check_positive(self, ("wheel_diameter_m", "wheelbase_m", "pulses_per_rev", "gear_ratio"))
+        _check_positive(self, ("wheel_diameter_m", "wheelbase_m", "pulses_per_motor_rev", "gear_ratio"))
 
     @property
     def m_per_pulse(self) -> float:
         """Eq. 2.1: c_m, metres of wheel travel per encoder pulse."""
-        return math.pi * self.wheel_diameter_m / (self.gear_ratio * self.pulses_per_rev)
+        return math.pi * self.wheel_diameter_m / (self.gear_ratio * self.pulses_per_motor_rev)
 
     @property
     def pulses_per_wheel_rev(self) -> float:
-        """Encoder pulses per wheel revolution, ``gear_ratio * pulses_per_rev``."""
-        return self.gear_ratio * self.pulses_per_rev
+        """Encoder pulses per wheel revolution, ``gear_ratio * pulses_per_motor_rev``."""
+        return self.gear_ratio * self.pulses_per_motor_rev
 
     def with_wheelbase(self, wheelbase_m: float) -> Geometry:
         """This geometry with another nominal wheelbase.
@@ -195,7 +195,7 @@ class Geometry:
 # diameter or the encoder resolution; these are assumptions (150 mm wheels, 500-line encoders
 # behind a 20:1 gear: about 0.047 mm per pulse). The UMBmark results do not depend on them
 # except through encoder quantisation.
-LABMATE = Geometry(wheel_diameter_m=0.150, wheelbase_m=0.340, pulses_per_rev=500.0, gear_ratio=20.0)
+LABMATE = Geometry(wheel_diameter_m=0.150, wheelbase_m=0.340, pulses_per_motor_rev=500.0, gear_ratio=20.0)
 
 
 @dataclass(frozen=True)
@@ -265,7 +265,7 @@ class WheelGeometry:
     """The size of each wheel and the wheelbase of a differential-drive robot, in metres.
 
     Unlike :class:`Geometry` it has no encoder: the encoder units belong to the log
-    (``units_per_rev`` of a dataset) and are given to :meth:`params`. It describes a nominal
+    (``units_per_wheel_rev`` of a dataset) and are given to :meth:`params`. It describes a nominal
     robot (from a dataset's metadata) as well as a corrected one (a calibration applied, or
     a path fit's estimate).
 
@@ -299,12 +299,12 @@ class WheelGeometry:
         """The mean wheel diameter (D_R + D_L) / 2 [m]."""
         return 0.5 * (self.diameter_left_m + self.diameter_right_m)
 
-    def params(self, units_per_rev: float) -> OdometryParams:
-        """The odometry of these wheels for a log counting ``units_per_rev`` per wheel revolution.
+    def params(self, units_per_wheel_rev: float) -> OdometryParams:
+        """The odometry of these wheels for a log counting ``units_per_wheel_rev`` per wheel revolution.
 
         Parameters
         ----------
-        units_per_rev : float
+        units_per_wheel_rev : float
             Log units (encoder pulses, or 2 pi for radians) per wheel revolution.
 
         Returns
@@ -312,7 +312,7 @@ class WheelGeometry:
         OdometryParams
             Metres of wheel travel per log unit of each wheel, and the wheelbase.
         """
-        k = math.pi / units_per_rev
+        k = math.pi / units_per_wheel_rev
         return OdometryParams(k * self.diameter_left_m, k * self.diameter_right_m, self.wheelbase_m)
 
     def relative_to(self, nominal: WheelGeometry) -> dict:

@@ -54,7 +54,7 @@ from umbmark.errors import InputError
 from umbmark.model.geometry import OdometryParams
 
 __all__ = [
-    "METHODS",
+    "INTEGRATORS",
     "KERNELS",
     "BLOCK",
     "BLOCK_MAX_RAD",
@@ -69,7 +69,7 @@ __all__ = [
     "StreamResult",
 ]
 
-METHODS = ("exact", "midpoint", "euler")
+INTEGRATORS = ("exact", "midpoint", "euler")
 KERNELS = ("fast", "trig")
 BLOCK = 32  # samples per block sharing one trig call (float kernel)
 BLOCK_MAX_RAD = 0.3  # largest heading change within a block handled by the polynomials
@@ -85,9 +85,9 @@ _SINC_DIV = (6.0, 20.0, 42.0, 72.0)  # sin(h)/h to the h^8 term
 _SINC_MAX = 0.1  # above this half-angle per sample: numpy.sinc (h^10/11! < 3e-18 below it)
 
 
-def _check_method(method):
-    if method not in METHODS:
-        raise InputError(f"unknown integration method {method!r} (use 'exact', 'midpoint' or 'euler')")
+def _check_integrator(integrator):
+    if integrator not in INTEGRATORS:
+        raise InputError(f"unknown integrator {integrator!r} (use 'exact', 'midpoint' or 'euler')")
 
 
 def _horner(d2, divs, out):
@@ -163,7 +163,7 @@ def _cos_sin_blocks(ref, work):
     return cos_.reshape(R, nb * BLOCK)[:, :C], sin_.reshape(R, nb * BLOCK)[:, :C]
 
 
-def _float_chunk(dl, dr, b, x0, y0, th0, method, poses, dest=None, work=None):
+def _float_chunk(dl, dr, b, x0, y0, th0, integrator, poses, dest=None, work=None):
     """One chunk of the float kernel. dl, dr: (R, C); b, x0, y0, th0: (R,).
     Returns (x, y, theta) arrays (R, C) when ``poses`` (written into ``dest`` when given),
     else the end pose (R,) arrays."""
@@ -182,12 +182,12 @@ def _float_chunk(dl, dr, b, x0, y0, th0, method, poses, dest=None, work=None):
     theta += th0[:, None]
     ref = work.arr("ref", shape)
     chord = du
-    if method == "euler":
+    if integrator == "euler":
         np.subtract(theta, dth, out=ref)
     else:
         np.multiply(dth, -0.5, out=ref)
         ref += theta
-        if method == "exact":
+        if integrator == "exact":
             chord = _sinc_half(dth, work.arr("chord", shape), work)
             chord *= du
     dx, dy = _cos_sin_blocks(ref, work)
@@ -202,7 +202,7 @@ def _float_chunk(dl, dr, b, x0, y0, th0, method, poses, dest=None, work=None):
     return x0 + dx.sum(axis=1), y0 + dy.sum(axis=1), theta[:, -1].copy()
 
 
-def _table_row(nl, nr, m_l, m_r, b, x0, y0, th0, method, poses, cache=None, dest=None, work=None):
+def _table_row(nl, nr, m_l, m_r, b, x0, y0, th0, integrator, poses, cache=None, dest=None, work=None):
     """One run, one chunk of the table kernel (integer increments nl, nr: 1-D int64).
     Returns None when the increments are too varied for tables (caller uses the float kernel)."""
     lmin, lmax = int(nl.min()), int(nl.max())
@@ -238,9 +238,9 @@ def _table_row(nl, nr, m_l, m_r, b, x0, y0, th0, method, poses, cache=None, dest
     gr = np.arange(rmin, rmax + 1, dtype=float)[None, :] * m_r
     du = 0.5 * (gl + gr)
     dth = (gr - gl) / b
-    if method == "euler":
+    if integrator == "euler":
         f = du + 0j
-    elif method == "midpoint":
+    elif integrator == "midpoint":
         f = du * np.exp(0.5j * dth)
     else:
         f = du * np.sinc(dth / (2.0 * np.pi)) * np.exp(0.5j * dth)
@@ -294,7 +294,7 @@ class Odometer:
         Wheelbase [m], scalar or one per run; ``None``: the wheelbase of ``params``.
     pose0 : tuple of float or array_like
         Start pose ``(x, y, theta)``, scalars or one per run.
-    method : str
+    integrator : str
         ``"exact"``, ``"midpoint"`` or ``"euler"``.
     shape : tuple of int
         The leading shape of the runs (``()`` for one log).
@@ -306,24 +306,24 @@ class Odometer:
     Raises
     ------
     InputError
-        On an unknown method, a missing or non-positive wheelbase, or ``chunk < 1``.
+        On an unknown integrator, a missing or non-positive wheelbase, or ``chunk < 1``.
     """
 
     def __init__(
         self,
         wheelbase_m: ArrayLike | None = None,
         pose0: Iterable[ArrayLike] = (0.0, 0.0, 0.0),
-        method: str = "exact",
+        integrator: str = "exact",
         shape: tuple = (),
         params: OdometryParams | None = None,
         chunk: int = DEFAULT_CHUNK,
     ) -> None:
-        _check_method(method)
+        _check_integrator(integrator)
         if wheelbase_m is None:
             if params is None:
                 raise InputError("Odometer needs a wheelbase or odometry parameters")
             wheelbase_m = params.wheelbase_m
-        self.method = method
+        self.integrator = integrator
         self.params = params
         self.shape = tuple(shape)
         R = int(np.prod(self.shape)) if self.shape else 1
@@ -431,7 +431,9 @@ class Odometer:
                     dr = b_[:, s:e] * pulses.right_m_per_pulse
                 else:
                     dl, dr = a[:, s:e], b_[:, s:e]
-                res = _float_chunk(dl, dr, self._b, self._x, self._y, self._th, self.method, poses, dest, self._work)
+                res = _float_chunk(
+                    dl, dr, self._b, self._x, self._y, self._th, self.integrator, poses, dest, self._work
+                )
             if dest is not None:
                 for o, r in zip(dest, res):
                     if r is not o:
@@ -458,7 +460,7 @@ class Odometer:
                 float(self._x[i]),
                 float(self._y[i]),
                 float(self._th[i]),
-                self.method,
+                self.integrator,
                 poses,
                 self._cache,
                 None if dest is None else tuple(d[i] for d in dest),
@@ -472,7 +474,7 @@ class Odometer:
         return tuple(np.array([r[j] for r in rows]) for j in range(3))
 
 
-def _trig_poses(d_left, d_right, wheelbase_m, pose0, method, end):
+def _trig_poses(d_left, d_right, wheelbase_m, pose0, integrator, end):
     """The ``"trig"`` kernel: one cos and sin per sample, whole arrays (..., K) at once.
 
     ``wheelbase_m`` broadcasts to the leading shape. Returns the poses after each sample
@@ -482,9 +484,9 @@ def _trig_poses(d_left, d_right, wheelbase_m, pose0, method, end):
     du = 0.5 * (d_right + d_left)
     dth = (d_right - d_left) / np.asarray(wheelbase_m, dtype=float)[..., None]
     theta = th0[..., None] + np.cumsum(dth, axis=-1)
-    if method == "euler":
+    if integrator == "euler":
         th_ref, chord = theta - dth, du
-    elif method == "midpoint":
+    elif integrator == "midpoint":
         th_ref, chord = theta - 0.5 * dth, du
     else:
         # chord of an arc of length du turning dth: du * sin(dth/2) / (dth/2)
@@ -496,10 +498,10 @@ def _trig_poses(d_left, d_right, wheelbase_m, pose0, method, end):
     return x0[..., None] + np.cumsum(dx, axis=-1), y0[..., None] + np.cumsum(dy, axis=-1), theta
 
 
-def _check_kernel(kernel: str, method: str) -> None:
+def _check_kernel(kernel: str, integrator: str) -> None:
     if kernel not in KERNELS:
         raise InputError(f"unknown odometry kernel {kernel!r} (use 'fast' or 'trig')")
-    _check_method(method)
+    _check_integrator(integrator)
 
 
 def _pair(left, right, names: str, end: bool, dtype=None):
@@ -526,7 +528,7 @@ def integrate(
     d_right: ArrayLike,
     wheelbase_m: ArrayLike,
     pose0: Iterable[ArrayLike] = (0.0, 0.0, 0.0),
-    method: str = "exact",
+    integrator: str = "exact",
     chunk: int = DEFAULT_CHUNK,
     kernel: str = "fast",
 ) -> Poses:
@@ -541,7 +543,7 @@ def integrate(
         Wheelbase [m], a scalar or an array of the leading shape.
     pose0 : tuple
         Start pose ``(x, y, theta)``, each a scalar or an array of the leading shape.
-    method : str
+    integrator : str
         ``"exact"``, ``"midpoint"`` or ``"euler"`` (see the module docstring).
     chunk : int
         Samples per run integrated at once by the ``"fast"`` kernel (bounds the memory).
@@ -556,16 +558,16 @@ def integrate(
     Raises
     ------
     InputError
-        On arrays of different shapes, an unknown method or kernel, or a non-positive wheelbase.
+        On arrays of different shapes, an unknown integrator or kernel, or a non-positive wheelbase.
     """
     d_left, d_right, shape = _pair(d_left, d_right, "d_left and d_right", False, float)
-    _check_kernel(kernel, method)
+    _check_kernel(kernel, integrator)
     if kernel == "trig":
-        return _trig_poses(d_left, d_right, wheelbase_m, pose0, method, end=False)
+        return _trig_poses(d_left, d_right, wheelbase_m, pose0, integrator, end=False)
     odo = Odometer(
         np.broadcast_to(np.asarray(wheelbase_m, dtype=float), shape),
         _pose_for(pose0, shape),
-        method,
+        integrator,
         shape,
         chunk=chunk,
     )
@@ -577,7 +579,7 @@ def integrate_end(
     d_right: ArrayLike,
     wheelbase_m: ArrayLike,
     pose0: Iterable[ArrayLike] = (0.0, 0.0, 0.0),
-    method: str = "exact",
+    integrator: str = "exact",
     chunk: int = DEFAULT_CHUNK,
     kernel: str = "fast",
 ) -> tuple[Any, Any, Any]:
@@ -592,17 +594,17 @@ def integrate_end(
     Raises
     ------
     InputError
-        On arrays of different shapes or without samples, an unknown method or kernel, or a
+        On arrays of different shapes or without samples, an unknown integrator or kernel, or a
         non-positive wheelbase.
     """
     d_left, d_right, shape = _pair(d_left, d_right, "d_left and d_right", True, float)
-    _check_kernel(kernel, method)
+    _check_kernel(kernel, integrator)
     if kernel == "trig":
-        return _end_of(_trig_poses(d_left, d_right, wheelbase_m, pose0, method, end=True), shape)
+        return _end_of(_trig_poses(d_left, d_right, wheelbase_m, pose0, integrator, end=True), shape)
     odo = Odometer(
         np.broadcast_to(np.asarray(wheelbase_m, dtype=float), shape),
         _pose_for(pose0, shape),
-        method,
+        integrator,
         shape,
         chunk=chunk,
     )
@@ -614,7 +616,7 @@ def integrate_pulses(
     n_right: ArrayLike,
     params: OdometryParams,
     pose0: Iterable[ArrayLike] = (0.0, 0.0, 0.0),
-    method: str = "exact",
+    integrator: str = "exact",
     chunk: int = DEFAULT_CHUNK,
     kernel: str = "fast",
 ) -> Poses:
@@ -632,7 +634,7 @@ def integrate_pulses(
         Metres per pulse of each wheel and the wheelbase.
     pose0 : tuple
         Start pose ``(x, y, theta)``, each a scalar or an array of the leading shape.
-    method : str
+    integrator : str
         ``"exact"``, ``"midpoint"`` or ``"euler"``.
     chunk : int
         Samples per run integrated at once by the ``"fast"`` kernel.
@@ -647,20 +649,20 @@ def integrate_pulses(
     Raises
     ------
     InputError
-        On arrays of different shapes, an unknown method or kernel.
+        On arrays of different shapes, an unknown integrator or kernel.
     """
     n_left, n_right, shape = _pair(n_left, n_right, "n_left and n_right", False)
-    _check_kernel(kernel, method)
+    _check_kernel(kernel, integrator)
     if kernel == "trig":
         return _trig_poses(
             np.asarray(n_left, dtype=float) * params.left_m_per_pulse,
             np.asarray(n_right, dtype=float) * params.right_m_per_pulse,
             params.wheelbase_m,
             pose0,
-            method,
+            integrator,
             end=False,
         )
-    odo = Odometer(None, _pose_for(pose0, shape), method, shape, params=params, chunk=chunk)
+    odo = Odometer(None, _pose_for(pose0, shape), integrator, shape, params=params, chunk=chunk)
     return odo.update_pulses(n_left, n_right, poses=True)
 
 
@@ -669,7 +671,7 @@ def integrate_pulses_end(
     n_right: ArrayLike,
     params: OdometryParams,
     pose0: Iterable[ArrayLike] = (0.0, 0.0, 0.0),
-    method: str = "exact",
+    integrator: str = "exact",
     chunk: int = DEFAULT_CHUNK,
     kernel: str = "fast",
 ) -> tuple[Any, Any, Any]:
@@ -684,10 +686,10 @@ def integrate_pulses_end(
     Raises
     ------
     InputError
-        On arrays of different shapes or without samples, an unknown method or kernel.
+        On arrays of different shapes or without samples, an unknown integrator or kernel.
     """
     n_left, n_right, shape = _pair(n_left, n_right, "n_left and n_right", True)
-    _check_kernel(kernel, method)
+    _check_kernel(kernel, integrator)
     if kernel == "trig":
         return _end_of(
             _trig_poses(
@@ -695,12 +697,12 @@ def integrate_pulses_end(
                 np.asarray(n_right, dtype=float) * params.right_m_per_pulse,
                 params.wheelbase_m,
                 pose0,
-                method,
+                integrator,
                 end=True,
             ),
             shape,
         )
-    odo = Odometer(None, _pose_for(pose0, shape), method, shape, params=params, chunk=chunk)
+    odo = Odometer(None, _pose_for(pose0, shape), integrator, shape, params=params, chunk=chunk)
     return _end_of(odo.update_pulses(n_left, n_right, poses=False), shape)
 
 
@@ -731,7 +733,7 @@ def replay_stream(
     params: OdometryParams | None = None,
     wheelbase_m: float | None = None,
     pose0: Iterable[ArrayLike] = (0.0, 0.0, 0.0),
-    method: str = "exact",
+    integrator: str = "exact",
     pulses: bool = True,
     decimate: int | None = None,
     chunk: int = DEFAULT_CHUNK,
@@ -750,7 +752,7 @@ def replay_stream(
         Wheelbase [m]; ``None``: the wheelbase of ``params``.
     pose0 : tuple of float
         Start pose ``(x, y, theta)``.
-    method : str
+    integrator : str
         ``"exact"``, ``"midpoint"`` or ``"euler"``.
     pulses : bool
         Chunks are encoder increments (else wheel travel [m]).
@@ -771,7 +773,7 @@ def replay_stream(
     """
     if decimate is not None and decimate < 1:
         raise InputError(f"decimate must be >= 1, got {decimate}")
-    odo = Odometer(wheelbase_m, pose0, method, (), params=params, chunk=chunk)
+    odo = Odometer(wheelbase_m, pose0, integrator, (), params=params, chunk=chunk)
     kept: dict[str, list] = {"sample": [], "x": [], "y": [], "theta": []}
     for left, right in chunks:
         start = odo.samples

@@ -986,8 +986,8 @@ def align_truth(ds, time_offset, what: str = "log"):
     if request is None:
         return ds
     g = ds.nominal
-    mpu_l = math.pi * g.diameter_left_m / ds.units_per_rev
-    mpu_r = math.pi * g.diameter_right_m / ds.units_per_rev
+    mpu_l = math.pi * g.diameter_left_m / ds.units_per_wheel_rev
+    mpu_r = math.pi * g.diameter_right_m / ds.units_per_wheel_rev
     runs = [r for r in ds.runs if r.has_trajectory]
     if not runs:
         raise InputError(f"`time_offset` needs a ground-truth trajectory; this {what} has none", ds.source)

@@ -92,7 +92,7 @@ def method_names() -> list[str]:
 
 
 def replay(
-    ds: Dataset, geometry: WheelGeometry, method: str = "exact"
+    ds: Dataset, geometry: WheelGeometry, integrator: str = "exact"
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The odometry of every run of a data set, replayed with a geometry.
 
@@ -102,7 +102,7 @@ def replay(
         The logged runs.
     geometry : WheelGeometry
         The geometry to replay with.
-    method : str
+    integrator : str
         The integration of one sample (see :func:`umbmark.model.dataset.replay_increments`).
 
     Returns
@@ -113,7 +113,7 @@ def replay(
         The length of each run.
     """
     dl, dr, n = ds.padded()
-    x, y, th = replay_increments(dl, dr, geometry.params(ds.units_per_rev), method=method)
+    x, y, th = replay_increments(dl, dr, geometry.params(ds.units_per_wheel_rev), integrator=integrator)
     return x, y, th, n
 
 
@@ -133,7 +133,7 @@ def end_poses(ds: Dataset, geometry: WheelGeometry) -> np.ndarray:
         (R, 3): x, y [m] and theta [rad, unwrapped] in each run's start frame.
     """
     dl, dr, _ = ds.padded()
-    x, y, th = replay_increments(dl, dr, geometry.params(ds.units_per_rev), end=True)
+    x, y, th = replay_increments(dl, dr, geometry.params(ds.units_per_wheel_rev), end=True)
     return np.column_stack([np.reshape(x, -1), np.reshape(y, -1), np.reshape(th, -1)])
 
 
@@ -522,7 +522,7 @@ def _report(
         kind="square" if ds.is_square else "path",
         method=method,
         nominal=ds.nominal,
-        units_per_rev=ds.units_per_rev,
+        units_per_wheel_rev=ds.units_per_wheel_rev,
         side_m=ds.side_m,
         runs=runs,
         calibration=cal,
@@ -652,7 +652,11 @@ class _PoseKeeper:
 
 
 def stream_replay(
-    chunks: Iterable, geometry: WheelGeometry, units_per_rev: float, decimate: int | None = None, method: str = "exact"
+    chunks: Iterable,
+    geometry: WheelGeometry,
+    units_per_wheel_rev: float,
+    decimate: int | None = None,
+    integrator: str = "exact",
 ) -> StreamReport:
     """Replay ONE long run given as chunks, in bounded memory.
 
@@ -666,11 +670,11 @@ def stream_replay(
         :func:`umbmark.io.generic_csv.iter_generic_csv`).
     geometry : WheelGeometry
         The geometry to replay with.
-    units_per_rev : float
+    units_per_wheel_rev : float
         Log units per wheel revolution.
     decimate : int, optional
         Keep the pose after every ``decimate``-th sample.
-    method : str
+    integrator : str
         The integration of one sample.
 
     Returns
@@ -689,8 +693,8 @@ def stream_replay(
 
     if decimate is not None and decimate < 1:
         raise InputError(f"decimate must be >= 1, got {decimate}")
-    p = geometry.params(units_per_rev)
-    odo = Odometer(None, params=p, method=method)
+    p = geometry.params(units_per_wheel_rev)
+    odo = Odometer(None, params=p, integrator=integrator)
     keeper = _PoseKeeper(decimate) if decimate else None
     n = 0
     sq_sum, n_gt = 0.0, 0
@@ -739,7 +743,7 @@ def stream_replay(
         chunks=chunks_read,
         duration_s=t_end,
         nominal=geometry,
-        units_per_rev=units_per_rev,
+        units_per_wheel_rev=units_per_wheel_rev,
         end_pose=(x, y, th),
         end_truth=truth,
         end_position_error_m=err_pos,

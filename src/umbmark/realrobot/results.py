@@ -74,8 +74,8 @@ def _rms_of(values: Iterable[float | None]) -> float | None:
     return float(np.sqrt(np.mean(np.square(v)))) if v else None
 
 
-def _nominal_dict(nominal: WheelGeometry, units_per_rev: float) -> dict:
-    return {**nominal.to_dict(), "units_per_wheel_rev": units_per_rev}
+def _nominal_dict(nominal: WheelGeometry, units_per_wheel_rev: float) -> dict:
+    return {**nominal.to_dict(), "units_per_wheel_rev": units_per_wheel_rev}
 
 
 @dataclass(frozen=True)
@@ -499,7 +499,7 @@ class ReplayReport:
         The calibration method.
     nominal : WheelGeometry
         The geometry the logs were recorded with.
-    units_per_rev : float
+    units_per_wheel_rev : float
         Log units per wheel revolution.
     side_m : float or None
         The side of the square (None on general paths).
@@ -525,7 +525,7 @@ class ReplayReport:
     kind: str
     method: str
     nominal: WheelGeometry
-    units_per_rev: float
+    units_per_wheel_rev: float
     side_m: float | None
     runs: tuple[RunInfo, ...]
     calibration: Calibrated
@@ -556,7 +556,7 @@ class ReplayReport:
             "format": self.format,
             "kind": self.kind,
             "method": self.method,
-            "nominal": _nominal_dict(self.nominal, self.units_per_rev),
+            "nominal": _nominal_dict(self.nominal, self.units_per_wheel_rev),
             "side_mm": _mm(self.side_m),
             "runs": [r.to_dict() for r in self.runs],
             **self.calibration.to_dict(),
@@ -751,7 +751,7 @@ class StreamReport:
         Time of the last sample from the run's start.
     nominal : WheelGeometry
         The geometry replayed with.
-    units_per_rev : float
+    units_per_wheel_rev : float
         Log units per wheel revolution.
     end_pose : tuple of float
         The odometry's end pose (x [m], y [m], theta [rad], unwrapped).
@@ -778,7 +778,7 @@ class StreamReport:
     chunks: int
     duration_s: float
     nominal: WheelGeometry
-    units_per_rev: float
+    units_per_wheel_rev: float
     end_pose: tuple[float, float, float]
     end_truth: tuple[float, float, float] | None
     end_position_error_m: float | None
@@ -803,7 +803,7 @@ class StreamReport:
             "samples": self.samples,
             "chunks": self.chunks,
             "duration_s": self.duration_s,
-            "nominal": _nominal_dict(self.nominal, self.units_per_rev),
+            "nominal": _nominal_dict(self.nominal, self.units_per_wheel_rev),
             "end_pose": pose(self.end_pose),
             "end_truth": pose(self.end_truth),
             "end_position_error_mm": _mm(self.end_position_error_m),

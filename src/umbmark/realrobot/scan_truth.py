@@ -394,7 +394,7 @@ def _still_scan(scan_t: FloatArray, lo: float, hi: float, last: bool) -> int | N
 def _odometry_end(ds: Dataset, run: Run) -> FloatArray:
     from umbmark.model.dataset import replay_increments
 
-    x, y, th = replay_increments(run.d_left, run.d_right, ds.nominal.params(ds.units_per_rev), end=True)
+    x, y, th = replay_increments(run.d_left, run.d_right, ds.nominal.params(ds.units_per_wheel_rev), end=True)
     return np.array([float(x), float(y), float(th)])
 
 

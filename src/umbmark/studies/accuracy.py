@@ -66,7 +66,7 @@ __all__ = [
     "write_results",
 ]
 
-METHODS = ("bf1", "bf2", "exact", "exact2", "perfect", "bound")
+ROWS = ("bf1", "bf2", "exact", "exact2", "perfect", "bound")
 FITTED = ("bf1", "bf2", "exact", "exact2")
 
 
@@ -152,7 +152,7 @@ QUICK = AccuracyConfig(
 def _geometry(cfg: AccuracyConfig, eb: float) -> Geometry:
     """The nominal geometry of the cell's robot (the true one is ``ErrorParams(ed, eb)`` of it)."""
     b = cfg.true_wheelbase_m / eb if cfg.fixed_wheelbase == "true" else cfg.true_wheelbase_m
-    return Geometry(LABMATE.wheel_diameter_m, b, LABMATE.pulses_per_rev, LABMATE.gear_ratio)
+    return Geometry(LABMATE.wheel_diameter_m, b, LABMATE.pulses_per_motor_rev, LABMATE.gear_ratio)
 
 
 def _correct(method, runs, side, wheelbase, prior=None):
@@ -309,7 +309,7 @@ def _summarise(trials: list[dict]) -> dict:
     row = {"noise": t["noise"], "Ed": t["ed"], "Eb": t["eb"], "robots": len(trials)}
     col = lambda k: np.array([x[k] for x in trials], dtype=float)  # noqa: E731
     row["emax_before_mm"] = float(np.median(col("emax_before_mm")))
-    for m in METHODS:
+    for m in ROWS:
         row[f"emax_{m}_mm"] = float(np.median(col(f"emax_{m}_mm")))
     for m in FITTED:
         e, b = col(f"ed_err_{m}"), col(f"eb_err_{m}")

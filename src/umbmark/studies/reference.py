@@ -41,19 +41,19 @@ from umbmark.model.simulate import (
 __all__ = ["integrate", "integrate_pulses", "run_program", "simulate_umbmark"]
 
 
-def _step(x: float, y: float, th: float, dl: float, dr: float, b: float, method: str) -> tuple[float, float, float]:
+def _step(x: float, y: float, th: float, dl: float, dr: float, b: float, integrator: str) -> tuple[float, float, float]:
     """One sample of odometry: the pose after wheel travel ``dl``, ``dr``."""
     du = 0.5 * (dl + dr)
     dth = (dr - dl) / b
-    if method == "euler":
+    if integrator == "euler":
         ref, chord = th, du
-    elif method == "midpoint":
+    elif integrator == "midpoint":
         ref, chord = th + 0.5 * dth, du
-    elif method == "exact":
+    elif integrator == "exact":
         h = 0.5 * dth
         ref, chord = th + h, (du * math.sin(h) / h if h != 0.0 else du)
     else:
-        raise InputError(f"unknown integration method {method!r} (use 'exact', 'midpoint' or 'euler')")
+        raise InputError(f"unknown integrator {integrator!r} (use 'exact', 'midpoint' or 'euler')")
     return x + chord * math.cos(ref), y + chord * math.sin(ref), th + dth
 
 
@@ -62,7 +62,7 @@ def integrate(
     d_right: Sequence[float] | np.ndarray,
     wheelbase_m: float,
     pose0: Iterable[float] = (0.0, 0.0, 0.0),
-    method: str = "exact",
+    integrator: str = "exact",
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The poses of one log, one sample at a time: the oracle of :func:`umbmark.model.odometry.integrate`.
 
@@ -74,7 +74,7 @@ def integrate(
         Wheelbase [m].
     pose0 : tuple of float
         Start pose ``(x, y, theta)``.
-    method : str
+    integrator : str
         ``"exact"``, ``"midpoint"`` or ``"euler"``.
 
     Returns
@@ -85,7 +85,7 @@ def integrate(
     Raises
     ------
     InputError
-        On sequences of different lengths or an unknown method.
+        On sequences of different lengths or an unknown integrator.
     """
     x, y, th = (float(v) for v in pose0)
     b = float(wheelbase_m)
@@ -96,7 +96,7 @@ def integrate(
     dl_list = [float(v) for v in d_left]
     dr_list = [float(v) for v in d_right]
     for k in range(n):
-        x, y, th = _step(x, y, th, dl_list[k], dr_list[k], b, method)
+        x, y, th = _step(x, y, th, dl_list[k], dr_list[k], b, integrator)
         xs[k] = x
         ys[k] = y
         ts[k] = th
@@ -108,7 +108,7 @@ def integrate_pulses(
     n_right: Sequence[float] | np.ndarray,
     params: OdometryParams,
     pose0: Iterable[float] = (0.0, 0.0, 0.0),
-    method: str = "exact",
+    integrator: str = "exact",
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The poses of one log of encoder increments, one sample at a time (Eqs. 2.2, 2.3).
 
@@ -122,7 +122,7 @@ def integrate_pulses(
     """
     ml, mr = params.left_m_per_pulse, params.right_m_per_pulse
     return integrate(
-        [ml * float(v) for v in n_left], [mr * float(v) for v in n_right], params.wheelbase_m, pose0, method
+        [ml * float(v) for v in n_left], [mr * float(v) for v in n_right], params.wheelbase_m, pose0, integrator
     )
 
 
