@@ -18,7 +18,7 @@ import time
 from dataclasses import asdict
 from pathlib import Path
 
-from umbmark.metrics import umbmark
+from umbmark.metrics import umbmark_figures
 from umbmark.model.geometry import FIG11_ERRORS
 from umbmark.model.simulate import NOISE_PRESETS, Motion, simulate_umbmark
 
@@ -40,7 +40,7 @@ def main(argv=None):
     out = {"preset": asdict(NOISE_PRESETS["paper"]), "runs_per_direction": a.runs, "seed": a.seed, "by_period": {}}
     for period in (0.01, 0.05):
         t = time.perf_counter()
-        res = umbmark(
+        res = umbmark_figures(
             simulate_umbmark(
                 FIG11_ERRORS, n_runs=a.runs, noise="paper", seed=a.seed, motion=Motion(sample_period_s=period)
             )

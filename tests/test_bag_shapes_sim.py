@@ -12,7 +12,7 @@ import simlogs
 from rosbags.rosbag2 import StoragePlugin, Writer
 from rosbags.typesys import Stores, get_typestore
 
-from umbmark.metrics import umbmark
+from umbmark.metrics import umbmark_figures
 from umbmark.model.dataset import WheelGeometry, replay_increments
 from umbmark.model.geometry import ErrorParams, Geometry, wrap_angle
 from umbmark.model.runs import RunsTable
@@ -90,7 +90,7 @@ def true_emax(truth):
     tr = np.array([r[1] for r in truth])
     od = np.array([r[2] for r in truth])
     runs = RunsTable.from_columns(d, tr[:, 0], tr[:, 1], od[:, 0], od[:, 1], wrap_angle(tr[:, 2]), wrap_angle(od[:, 2]))
-    return umbmark(runs).emax_syst
+    return umbmark_figures(runs).emax_syst
 
 
 def _header(t, frame):

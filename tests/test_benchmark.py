@@ -6,7 +6,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from umbmark.errors import InputError
-from umbmark.metrics import direction_stats, umbmark
+from umbmark.metrics import direction_stats, umbmark_figures
 from umbmark.model.runs import RunsTable
 
 
@@ -18,7 +18,7 @@ def table(cw, ccw):
 
 
 def test_hand_computed_example():
-    r = umbmark(table([(0.1, 0.0), (0.3, 0.0)], [(0.0, -0.2), (0.0, -0.4), (0.0, -0.3)]))
+    r = umbmark_figures(table([(0.1, 0.0), (0.3, 0.0)], [(0.0, -0.2), (0.0, -0.4), (0.0, -0.3)]))
     assert r.cw.x_cg == pytest.approx(0.2) and r.cw.y_cg == 0
     assert r.ccw.y_cg == pytest.approx(-0.3)
     assert r.emax_syst == pytest.approx(0.3)
@@ -32,7 +32,9 @@ def test_hand_computed_example():
 
 
 def test_rule_says_stop_when_cg_is_inside_the_noise():
-    r = umbmark(table([(0.01, 0.03), (-0.02, -0.02), (0.015, -0.01)], [(0.0, 0.02), (0.01, -0.03), (-0.02, 0.0)]))
+    r = umbmark_figures(
+        table([(0.01, 0.03), (-0.02, -0.02), (0.015, -0.01)], [(0.0, 0.02), (0.01, -0.03), (-0.02, 0.0)])
+    )
     assert r.emax_syst < r.sem_rule
     assert not r.second_pass_recommended
 
@@ -46,11 +48,11 @@ def test_return_error_is_absolute_minus_calculated():
 def test_missing_direction_is_an_error():
     t = RunsTable.from_columns(["cw", "cw"], [1, 2], [1, 2], [0, 0], [0, 0])
     with pytest.raises(InputError, match="no ccw runs"):
-        umbmark(t)
+        umbmark_figures(t)
 
 
 def test_single_run_has_unknown_spread():
-    r = umbmark(table([(0.1, 0.1)], [(0.1, 0.0), (0.2, 0.0)]))
+    r = umbmark_figures(table([(0.1, 0.1)], [(0.1, 0.0), (0.2, 0.0)]))
     assert r.cw.std is None and r.warnings
     assert r.to_dict()["cw"]["std_mm"] is None
 
@@ -72,6 +74,6 @@ def test_spread_is_translation_invariant_and_cg_moves(p, dx, dy):
 @settings(max_examples=60, deadline=None)
 @given(pts, pts)
 def test_emax_is_the_larger_r_cg(cw, ccw):
-    r = umbmark(table(cw, ccw))
+    r = umbmark_figures(table(cw, ccw))
     assert r.emax_syst == max(r.cw.r_cg, r.ccw.r_cg)
     assert r.worst.r_cg == r.emax_syst

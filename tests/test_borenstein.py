@@ -6,7 +6,7 @@ from hypothesis import strategies as st
 
 from umbmark.correct import bf_correction, compose
 from umbmark.errors import CorrectionUndefined
-from umbmark.metrics import umbmark
+from umbmark.metrics import umbmark_figures
 from umbmark.model.geometry import LABMATE, Calibration, ErrorParams
 from umbmark.model.runs import RunsTable
 from umbmark.model.simulate import Motion, simulate_umbmark
@@ -16,7 +16,7 @@ EXACT = Motion(sample_period_s=None)
 
 def result_from_cgs(xcw, ycw, xccw, yccw):
     t = RunsTable.from_columns(["cw", "ccw"], [xcw, xccw], [ycw, yccw], [0, 0], [0, 0])
-    return umbmark(t)
+    return umbmark_figures(t)
 
 
 def reference_formulas(xcw, ycw, xccw, yccw, L, b):
@@ -67,14 +67,14 @@ def test_undefined_geometry_is_an_error():
 
 def test_sign_convention_bigger_right_wheel_gives_ed_above_one():
     runs = simulate_umbmark(ErrorParams(ed=1.003), n_runs=1, motion=EXACT)
-    c = bf_correction(umbmark(runs), 4.0, LABMATE.wheelbase_m)
+    c = bf_correction(umbmark_figures(runs), 4.0, LABMATE.wheelbase_m)
     assert c.beta > 0  # legs curve to the left
     assert c.ed > 1 and c.calibration.c_right > 1 > c.calibration.c_left  # bigger right wheel: more travel per pulse
 
 
 def test_sign_convention_smaller_wheelbase_turns_more():
     runs = simulate_umbmark(ErrorParams(eb=0.98), n_runs=1, motion=EXACT)
-    c = bf_correction(umbmark(runs), 4.0, LABMATE.wheelbase_m)
+    c = bf_correction(umbmark_figures(runs), 4.0, LABMATE.wheelbase_m)
     assert c.alpha < 0  # alpha > 0 means turning less than commanded
     assert c.eb < 1
 
@@ -83,30 +83,30 @@ def test_sign_convention_smaller_wheelbase_turns_more():
 @given(st.floats(0.995, 1.005), st.floats(0.98, 1.02))
 def test_noise_free_recovery_and_15_fold_improvement(ed, eb):
     e = ErrorParams(ed=ed, eb=eb)
-    before = umbmark(simulate_umbmark(e, n_runs=1, motion=EXACT))
+    before = umbmark_figures(simulate_umbmark(e, n_runs=1, motion=EXACT))
     c = bf_correction(before, 4.0, LABMATE.wheelbase_m)
     assert abs(c.ed - ed) <= 3e-4
     assert abs(c.eb - eb) <= 3e-3
-    after = umbmark(simulate_umbmark(e, n_runs=1, motion=EXACT, calibration=c.calibration))
+    after = umbmark_figures(simulate_umbmark(e, n_runs=1, motion=EXACT, calibration=c.calibration))
     assert after.emax_syst * 15 <= before.emax_syst or before.emax_syst < 1e-9
 
 
 def test_paper_check_corrected_wheelbase():
     runs = simulate_umbmark(ErrorParams(ed=1.00084, eb=336.17 / 340), n_runs=5, noise="none")
-    c = bf_correction(umbmark(runs), 4.0, 0.340)
+    c = bf_correction(umbmark_figures(runs), 4.0, 0.340)
     assert c.calibration.wheelbase_m * 1e3 == pytest.approx(336.17, abs=0.5)
     assert c.ed == pytest.approx(1.00084, abs=3e-5)
 
 
 def test_second_pass_composes_and_improves():
     e = ErrorParams(ed=1.005, eb=0.98)
-    r1 = umbmark(simulate_umbmark(e, n_runs=1, motion=EXACT))
+    r1 = umbmark_figures(simulate_umbmark(e, n_runs=1, motion=EXACT))
     c1 = bf_correction(r1, 4.0, 0.34)
-    r2 = umbmark(simulate_umbmark(e, n_runs=1, motion=EXACT, calibration=c1.calibration))
+    r2 = umbmark_figures(simulate_umbmark(e, n_runs=1, motion=EXACT, calibration=c1.calibration))
     c2 = bf_correction(r2, 4.0, c1.calibration.wheelbase_m, prior=c1.calibration)
     assert c2.ed == pytest.approx(c1.ed * c2.ed_pass, rel=1e-12)
     assert c2.calibration.wheelbase_m == pytest.approx(c1.calibration.wheelbase_m * c2.eb, rel=1e-12)
-    r3 = umbmark(simulate_umbmark(e, n_runs=1, motion=EXACT, calibration=c2.calibration))
+    r3 = umbmark_figures(simulate_umbmark(e, n_runs=1, motion=EXACT, calibration=c2.calibration))
     assert r3.emax_syst < r2.emax_syst / 3
     assert abs(c2.ed - 1.005) < abs(c1.ed - 1.005)
 
@@ -129,9 +129,9 @@ def test_warns_far_beyond_small_angles():
 
     head = "direction,x_abs,y_abs,x_odo,y_odo\n"
     ok = parse_runs_csv(head + "cw,-60,-60,0,0\ncw,-50,-70,0,0\nccw,60,-60,0,0\nccw,70,-50,0,0\n")
-    assert bf_correction(umbmark(ok), 4.0, 0.34).warnings == ()
+    assert bf_correction(umbmark_figures(ok), 4.0, 0.34).warnings == ()
     bad = parse_runs_csv(head + "cw,-60,-60,0,0\ncw,1000000,-70,0,0\nccw,60,-60,0,0\nccw,70,-50,0,0\n")
-    c = bf_correction(umbmark(bad), 4.0, 0.34)
+    c = bf_correction(umbmark_figures(bad), 4.0, 0.34)
     assert math.degrees(c.alpha) < -90
     assert len(c.warnings) == 1 and 'try `method="exact"`' in c.warnings[0]
     from umbmark.cli.app import cli_message

@@ -21,7 +21,7 @@ from umbmark.correct.plausibility import (
 )
 from umbmark.errors import InputError
 from umbmark.io.runs_csv import write_runs_csv
-from umbmark.metrics import umbmark
+from umbmark.metrics import umbmark_figures
 from umbmark.model.geometry import LABMATE, ErrorParams
 from umbmark.model.runs import RunsTable
 from umbmark.model.simulate import simulate_umbmark
@@ -111,7 +111,7 @@ def test_square_model_explains_noise_free_simulated_runs():
     """The fitted model leaves a noise-free simulated robot's runs unexplained by less than a
     millimetre, while the x- and y-based estimates of the paper differ (the linearisation)."""
     runs = simulate_umbmark(ErrorParams(1.004, 0.97, 1.0), LABMATE, 4.0, 2, None, "none", seed=0)
-    res = umbmark(runs)
+    res = umbmark_figures(runs)
     # the paper's two estimates of alpha differ by the linearisation
     ax = (res.cw.x_cg + res.ccw.x_cg) / -16.0
     ay = (res.cw.y_cg - res.ccw.y_cg) / -16.0
@@ -256,7 +256,7 @@ def test_property_mislabelled_runs_are_flagged(ed, eb, seed, how):
     bad = MISLABEL[how](runs)
     if runs_warnings(bad, 4.0):
         return
-    a0, a1 = alpha_beta(umbmark(runs), 4.0), alpha_beta(umbmark(bad), 4.0)
+    a0, a1 = alpha_beta(umbmark_figures(runs), 4.0), alpha_beta(umbmark_figures(bad), 4.0)
     assert how == "x_y"
     assert abs(a1.alpha - a0.alpha) < math.radians(0.1) and abs(a1.beta - a0.beta) < math.radians(0.1)
 

@@ -17,7 +17,7 @@ from umbmark.cli import main  # noqa: E402
 from umbmark.errors import InputError  # noqa: E402
 from umbmark.io.rosbag_write import write_drive_bag  # noqa: E402
 from umbmark.io.wheels import WheelSource  # noqa: E402
-from umbmark.metrics import umbmark  # noqa: E402
+from umbmark.metrics import umbmark_figures  # noqa: E402
 from umbmark.model.drive import (  # noqa: E402
     SimRobot,
     WheelNoise,
@@ -66,7 +66,9 @@ def truth_of(drives):
 
 def truth_emax(drives, directions):
     true, odo = truth_of(drives)
-    return umbmark(RunsTable.from_columns(list(directions), true[:, 0], true[:, 1], odo[:, 0], odo[:, 1])).emax_syst
+    return umbmark_figures(
+        RunsTable.from_columns(list(directions), true[:, 0], true[:, 1], odo[:, 0], odo[:, 1])
+    ).emax_syst
 
 
 @pytest.fixture(scope="module")

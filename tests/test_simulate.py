@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from umbmark.errors import InputError
-from umbmark.metrics import umbmark
+from umbmark.metrics import umbmark_figures
 from umbmark.model.geometry import LABMATE, Calibration, ErrorParams, OdometryParams
 from umbmark.model.simulate import (
     MAX_SAMPLES_PER_RUN,
@@ -88,13 +88,13 @@ def test_sampled_stops_are_exact_without_noise():
 def test_paper_check_value():
     """Fig. 11 robot, noise-free: uncalibrated E_max,syst about 311 mm (reference sheet)."""
     runs = simulate_umbmark(ErrorParams(ed=1.00084, eb=336.17 / 340), n_runs=5, noise="none")
-    assert umbmark(runs).emax_syst * 1e3 == pytest.approx(311, rel=0.03)
+    assert umbmark_figures(runs).emax_syst * 1e3 == pytest.approx(311, rel=0.03)
 
 
 def test_calibration_with_true_parameters_removes_the_error():
     e = ErrorParams(ed=1.004, eb=0.97)
     runs = simulate_umbmark(e, n_runs=1, motion=EXACT, calibration=e.ideal_calibration(LABMATE))
-    assert umbmark(runs).emax_syst < 1e-9
+    assert umbmark_figures(runs).emax_syst < 1e-9
 
 
 def test_noise_is_seeded_and_reproducible():
@@ -153,7 +153,7 @@ def test_quantised_encoders_stop_within_one_sample():
 @pytest.mark.slow
 def test_paper_noise_preset_spread_is_about_25_mm():
     runs = simulate_umbmark(ErrorParams(ed=1.00084, eb=336.17 / 340), n_runs=200, noise="paper", seed=3)
-    res = umbmark(runs)
+    res = umbmark_figures(runs)
     for st in (res.cw, res.ccw):
         assert 20e-3 < st.std < 30e-3
 

@@ -9,7 +9,11 @@ from __future__ import annotations
 
 from types import ModuleType
 
-__all__ = ["numba_module", "have_numba"]
+__all__ = ["numba_module", "have_numba", "ENGINES", "check_engine"]
+
+ENGINES = ("auto", "numba", "numpy")
+"""The engines of the compiled loops: ``numba`` (compiled), ``numpy`` (vectorised), ``auto``
+(numba where it is installed)."""
 
 _MODULE: list[ModuleType | None] = []  # empty until the first question
 
@@ -39,3 +43,17 @@ def have_numba() -> bool:
     bool
     """
     return numba_module() is not None
+
+
+def check_engine(engine: str) -> None:
+    """Refuse an engine not in :data:`ENGINES`.
+
+    Raises
+    ------
+    umbmark.errors.InputError
+        An unknown engine.
+    """
+    if engine not in ENGINES:
+        from umbmark.errors import InputError
+
+        raise InputError(f"unknown engine {engine!r} (choose from {', '.join(ENGINES)})")

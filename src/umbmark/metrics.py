@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike
 from umbmark.errors import InputError
 from umbmark.model.runs import DIRECTIONS, RunsTable
 
-__all__ = ["DirectionStats", "UMBmarkResult", "direction_stats", "umbmark"]
+__all__ = ["DirectionStats", "UMBmarkResult", "direction_stats", "umbmark_figures"]
 
 
 @dataclass(frozen=True)
@@ -163,7 +163,7 @@ class UMBmarkResult:
         }
 
 
-def umbmark(runs: RunsTable) -> UMBmarkResult:
+def umbmark_figures(runs: RunsTable) -> UMBmarkResult:
     """UMBmark metrics of a bi-directional square test.
 
     Parameters

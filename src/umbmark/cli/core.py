@@ -335,7 +335,7 @@ def simulate(
       umbmark simulate --ed 1.002 --eb 0.99 --runs 5 --seed 1 --noise paper --out runs.csv
     """
     from umbmark.io.runs_csv import write_runs_csv
-    from umbmark.metrics import umbmark
+    from umbmark.metrics import umbmark_figures
     from umbmark.model.geometry import LABMATE, ErrorParams, Geometry
     from umbmark.model.simulate import Motion, simulate_umbmark
 
@@ -362,7 +362,7 @@ def simulate(
             errors, geom, side_m, n_runs, _prior(c_left, c_right, model_wheelbase_mm), noise, motion, seed=seed
         )
     write_runs_csv(runs, out)
-    res = umbmark(runs)
+    res = umbmark_figures(runs)
     if as_json:
         emit_json({"out": str(out), "runs_per_direction": n_runs, "noise": noise, "seed": seed, **res.to_dict()})
     elif not is_quiet():

@@ -9,7 +9,7 @@ from typing import Any
 from umbmark.correct.registry import correct_runs
 from umbmark.correct.result import CorrectionResult
 from umbmark.errors import InputError
-from umbmark.metrics import UMBmarkResult, umbmark
+from umbmark.metrics import UMBmarkResult, umbmark_figures
 from umbmark.model.geometry import Calibration
 from umbmark.model.runs import RunsTable
 
@@ -116,6 +116,6 @@ def analyze(
         from umbmark.correct.plausibility import check_geometry, runs_warnings
 
         checks = check_geometry(side_m, wheelbase_m) + runs_warnings(runs, side_m)
-    result = umbmark(runs)
+    result = umbmark_figures(runs)
     corr = correct_runs(method, runs, side_m, wheelbase_m, prior, **options)
     return Analysis(runs, result, corr, side_m, wheelbase_m, tuple(checks))

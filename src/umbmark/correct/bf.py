@@ -23,7 +23,7 @@ from umbmark.correct.plausibility import check_units
 from umbmark.correct.registry import register
 from umbmark.correct.result import CorrectionResult, LinearEstimates, compose
 from umbmark.errors import CorrectionUndefined, InputError
-from umbmark.metrics import UMBmarkResult, umbmark
+from umbmark.metrics import UMBmarkResult, umbmark_figures
 from umbmark.model.geometry import Calibration
 from umbmark.model.runs import RunsTable
 
@@ -216,4 +216,4 @@ def bf_method(
     CorrectionResult
         As :func:`bf_correction`.
     """
-    return bf_correction(umbmark(runs), side_m, wheelbase_m, prior)
+    return bf_correction(umbmark_figures(runs), side_m, wheelbase_m, prior)

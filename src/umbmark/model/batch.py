@@ -29,7 +29,7 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from umbmark._numba import numba_module
+from umbmark._numba import ENGINES, check_engine, numba_module
 from umbmark.errors import InputError
 from umbmark.model.geometry import LABMATE, Calibration, ErrorParams, Geometry, OdometryParams, wrap_angle
 from umbmark.model.runs import RunsTable
@@ -51,8 +51,6 @@ from umbmark.model.simulate import (
 )
 
 __all__ = ["ENGINES", "have_numba", "default_engine", "run_batch", "simulate_batch"]
-
-ENGINES = ("auto", "numba", "numpy")
 
 
 def have_numba() -> bool:
@@ -304,8 +302,7 @@ def _get_kernel():
 
 
 def _check_engine(engine: str) -> str:
-    if engine not in ENGINES:
-        raise InputError(f"unknown engine {engine!r} (choose from {', '.join(ENGINES)})")
+    check_engine(engine)
     return default_engine() if engine == "auto" else engine
 
 

@@ -38,7 +38,7 @@ from numpy.typing import ArrayLike, NDArray
 from umbmark.errors import InputError
 from umbmark.model.geometry import LABMATE, ErrorParams, Geometry, WheelGeometry
 from umbmark.model.intervals import Intervals
-from umbmark.model.se2 import arc, between, compose
+from umbmark.model.se2 import Pose, arc, between, compose
 from umbmark.model.sensors import Gyro, Lidar, Room, SensorPose
 from umbmark.model.simulate import child_seeds
 
@@ -65,8 +65,6 @@ __all__ = [
 
 MAX_SAMPLES = 20_000_000  # wheel samples of one drive (55 h at 100 Hz): beyond it the inputs are wrong
 _PLAN_DT_S = 0.05  # time between the points at which a planned command's path is checked
-
-Pose = tuple[float, float, float]
 
 
 @dataclass(frozen=True)

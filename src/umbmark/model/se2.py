@@ -19,7 +19,10 @@ from numpy.typing import ArrayLike, NDArray
 
 from umbmark.model.geometry import wrap_angle
 
-__all__ = ["compose", "inverse", "between", "arc", "sinc", "dsinc"]
+__all__ = ["Pose", "compose", "inverse", "between", "arc", "sinc", "dsinc"]
+
+Pose = tuple[float, float, float]
+"""One planar pose or relative pose ``(x_m, y_m, yaw_rad)``."""
 
 
 def _split(p: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from umbmark._numba import numba_module
+from umbmark._numba import ENGINES, check_engine, numba_module
 from umbmark.errors import InputError
 
 __all__ = [
@@ -40,7 +40,6 @@ __all__ = [
     "have_numba",
 ]
 
-ENGINES = ("auto", "numba", "numpy")
 _CHUNK_ELEMENTS = 1 << 21  # rays x segments handled at once by the numpy engine (bounds its memory)
 _U_TOL = 1e-12  # a ray meeting a segment this close (in segment lengths) beyond an end still hits it
 _T_MIN = 1e-12  # hits closer than this [m] are the ray's own origin, not a return
@@ -639,8 +638,7 @@ def cast_rays(
     InputError
         Bad segments, poses or angles, or an unknown or unavailable engine.
     """
-    if engine not in ENGINES:
-        raise InputError(f"unknown engine {engine!r} (choose from {', '.join(ENGINES)})")
+    check_engine(engine)
     seg = room.segments if isinstance(room, Room) else _as_segments(room, "room")
     poses, single = _as_poses(sensor_poses)
     angles = np.asarray(angles_rad, dtype=float).reshape(-1)

@@ -40,7 +40,7 @@ from umbmark.correct import METHODS, correct_runs
 from umbmark.correct.lsq import LSQ_DEFAULTS, fit_lsq
 from umbmark.errors import InputError
 from umbmark.io.load import LogOptions
-from umbmark.metrics import umbmark
+from umbmark.metrics import umbmark_figures
 from umbmark.model.dataset import Dataset, Run, WheelGeometry, replay_increments
 from umbmark.model.geometry import wrap_angle
 from umbmark.model.runs import RunsTable
@@ -353,7 +353,7 @@ def _summary(errors: list[tuple[float, float, float]], runs: RunsTable | None) -
     """The fields of an :class:`ErrorSummary` from per-run errors (and square runs' table)."""
     cols = np.array(errors, dtype=float).reshape(-1, 3)
     return {
-        "benchmark": None if runs is None else umbmark(runs),
+        "benchmark": None if runs is None else umbmark_figures(runs),
         "end_position_rms_m": _rms(cols[:, 0]),
         "end_heading_rms_rad": _rms(cols[:, 1]),
         "path_position_rms_m": _rms(cols[:, 2]),

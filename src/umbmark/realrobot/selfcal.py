@@ -129,7 +129,8 @@ DEFAULT_KEYFRAMES_MIN_S, DEFAULT_KEYFRAMES_S = 0.5, 2.0
 turn, or 2 s (:data:`DEFAULT_KEYFRAMES`)."""
 
 FloatArray = NDArray[np.float64]
-Progress = Callable[[int, int], None]
+StepProgress = Callable[[int, int], None]
+"""``progress(done, total)``: a step of a pipeline moved to ``done`` of ``total``."""
 
 
 @dataclass(frozen=True)
@@ -882,7 +883,7 @@ def match_intervals(
     *,
     icp: ICPConfig | None = None,
     min_intervals: int = 10,
-    progress: Progress | None = None,
+    progress: StepProgress | None = None,
 ) -> ScanIntervals:
     """Match the two scans of every planned interval; keep those that matched (step 3).
 
@@ -1099,7 +1100,7 @@ def bag_intervals(
     wheelbase_m: float,
     options: IntervalOptions | None = None,
     *,
-    progress: Progress | None = None,
+    progress: StepProgress | None = None,
 ) -> ScanIntervals:
     """The intervals of a bag, matched: steps 1-4 of the module docstring.
 
@@ -1568,7 +1569,7 @@ NAME``, ``self-calibrating``) moved to ``done`` of ``total`` steps (``total`` 0:
 steps has started)."""
 
 
-def _stage(progress: StageProgress | None, stage: str) -> Progress | None:
+def _stage(progress: StageProgress | None, stage: str) -> StepProgress | None:
     return None if progress is None else (lambda done, total: progress(stage, done, total))
 
 

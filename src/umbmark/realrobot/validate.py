@@ -78,6 +78,7 @@ from umbmark.model import se2
 from umbmark.model.dataset import wheel_angles_from_poses
 from umbmark.model.drive import integrate_wheels
 from umbmark.model.geometry import WheelGeometry
+from umbmark.model.se2 import Pose
 from umbmark.realrobot.selfcal import _nominal_sensor_pose
 from umbmark.realrobot.wheels import scan_wheel_angles
 
@@ -140,8 +141,8 @@ _DEG = math.degrees(1.0)
 _MAX_DELAY_S = 1.0  # a scan delay beyond this is more likely milliseconds given as seconds
 
 FloatArray = NDArray[np.float64]
-Pose = tuple[float, float, float]
-Progress = Callable[[str], None]
+StageNotice = Callable[[str], None]
+"""``say(stage)``: a stage of a check starts."""
 
 
 def _wrap(a: ArrayLike) -> FloatArray:
@@ -1814,7 +1815,7 @@ def validate_log(
     scan_delay_s: float | None = None,
     base_frame: str | None = None,
     tolerance_s: float = STAMP_TOLERANCE_S,
-    progress: Progress | None = None,
+    progress: StageNotice | None = None,
     wheels: WheelSource,
     scan_topic: str = "/scan",
 ) -> Validation:

@@ -51,7 +51,7 @@ from umbmark.correct.exact import _Problem
 from umbmark.correct.result import compose
 from umbmark.errors import InputError, UmbmarkError
 from umbmark.jsonutil import dumps
-from umbmark.metrics import umbmark
+from umbmark.metrics import umbmark_figures
 from umbmark.model.geometry import LABMATE, ErrorParams, Geometry
 from umbmark.model.simulate import Motion, simulate_umbmark
 from umbmark.viz.text import fmt
@@ -258,24 +258,24 @@ def robot_trial(cfg: AccuracyConfig, ed: float, eb: float, noise: str, robot: in
         cal1 = c1.calibration if c1 else None
         after1 = run(cal1, s_after)
         c2 = _correct(method, after1, side, c1.calibration.wheelbase_m, c1.calibration) if c1 else None
-        out[f"emax_{name1}_mm"] = umbmark(after1).emax_syst * 1e3
-        out[f"emax_{name2}_mm"] = umbmark(run(c2.calibration if c2 else cal1, s_after2)).emax_syst * 1e3
+        out[f"emax_{name1}_mm"] = umbmark_figures(after1).emax_syst * 1e3
+        out[f"emax_{name2}_mm"] = umbmark_figures(run(c2.calibration if c2 else cal1, s_after2)).emax_syst * 1e3
         out[f"fail_{name1}"], out[f"fail_{name2}"] = c1 is None, c2 is None
         return c1, c2
 
     out = {"ed": ed, "eb": eb, "noise": noise, "robot": robot}
     before = run(None, s_before)
-    out["emax_before_mm"] = umbmark(before).emax_syst * 1e3
+    out["emax_before_mm"] = umbmark_figures(before).emax_syst * 1e3
     bf1, bf2 = two_passes("bf", "bf1", "bf2")
     ex, ex2 = two_passes("exact", "exact", "exact2")
-    out["emax_perfect_mm"] = umbmark(run(errors.ideal_calibration(geom), s_after)).emax_syst * 1e3
+    out["emax_perfect_mm"] = umbmark_figures(run(errors.ideal_calibration(geom), s_after)).emax_syst * 1e3
     if bound_cov is None:
         out["emax_bound_mm"] = out["emax_perfect_mm"] if noise == "none" else math.nan
     else:
         g = np.random.default_rng(np.random.SeedSequence([cfg.seed, robot, _BOUND_KEY]))
         d_ed, d_eb = g.multivariate_normal(np.zeros(2), bound_cov)
         _, cal_bound = compose(ed + d_ed, eb + d_eb, b0, None)
-        out["emax_bound_mm"] = umbmark(run(cal_bound, s_after)).emax_syst * 1e3
+        out["emax_bound_mm"] = umbmark_figures(run(cal_bound, s_after)).emax_syst * 1e3
     true_b = eb * b0
     for name, c in (("bf1", bf1), ("bf2", bf2), ("exact", ex), ("exact2", ex2)):
         out[f"ed_err_{name}"] = abs(c.ed - ed) if c else math.nan

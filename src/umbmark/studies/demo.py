@@ -10,7 +10,7 @@ import numpy as np
 
 from umbmark.correct.analysis import Analysis, analyze
 from umbmark.errors import InputError
-from umbmark.metrics import UMBmarkResult, umbmark
+from umbmark.metrics import UMBmarkResult, umbmark_figures
 from umbmark.model.geometry import FIG11_ERRORS, LABMATE, ErrorParams, Geometry
 from umbmark.model.runs import RunsTable
 from umbmark.model.simulate import Motion, NoiseModel, simulate_umbmark
@@ -171,4 +171,4 @@ def demo(
         errors, geometry, side_m, n_runs, before.correction.calibration, noise, motion, seed=s_after
     )
     name = noise if isinstance(noise, str) else noise.name
-    return DemoResult(errors, geometry, side_m, before, after_runs, umbmark(after_runs), n_runs, name, seed)
+    return DemoResult(errors, geometry, side_m, before, after_runs, umbmark_figures(after_runs), n_runs, name, seed)

@@ -27,7 +27,7 @@ import numpy as np
 from umbmark._files import same_inputs
 from umbmark.correct import CorrectionResult, correct_runs
 from umbmark.errors import InputError
-from umbmark.metrics import UMBmarkResult, umbmark
+from umbmark.metrics import UMBmarkResult, umbmark_figures
 from umbmark.model.geometry import LABMATE, Calibration, ErrorParams, Geometry
 from umbmark.model.runs import RunsTable
 from umbmark.model.simulate import Motion, NoiseModel, simulate_umbmark
@@ -247,7 +247,7 @@ def calibrate_loop(
     stopped = ""
     for k in range(max_passes + 1):
         runs = simulate_umbmark(errors, geometry, side_m, n_runs, cal, noise, motion, seed=seeds[k])
-        res = umbmark(runs)
+        res = umbmark_figures(runs)
         if on_progress is not None:
             on_progress(k + 1, max_passes + 1)
         b_used = geometry.wheelbase_m if cal is None or cal.wheelbase_m is None else cal.wheelbase_m
@@ -344,7 +344,7 @@ def compose_passes(
     passes = []
     for k, runs in enumerate(runs_list):
         b_used = wheelbase_m if cal is None or cal.wheelbase_m is None else cal.wheelbase_m
-        res = umbmark(runs)
+        res = umbmark_figures(runs)
         try:
             corr = correct_runs(method, runs, side_m, b_used, cal, **options)
         except InputError as e:

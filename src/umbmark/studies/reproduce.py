@@ -50,7 +50,7 @@ from numpy.typing import NDArray
 
 from umbmark.correct import CorrectionResult, bf_correction
 from umbmark.errors import InputError
-from umbmark.metrics import UMBmarkResult, umbmark
+from umbmark.metrics import UMBmarkResult, umbmark_figures
 from umbmark.model.geometry import (
     FIG11_ERRORS,  # the paper's Fig. 11 robot: E_d = 1.00084, b = 336.17 mm
     LABMATE,
@@ -568,7 +568,7 @@ def run_seed_experiments(seeds: list[int], cfg: StudyConfig) -> dict[int, list[E
     runs0 = simulate_tests([TestSpec(robots[s][g - 1], None, test_seed(s, g, _PASS_BEFORE)) for s, g in keys0], cfg)
     before = {}
     for k, rt in zip(keys0, runs0):
-        res = umbmark(rt)
+        res = umbmark_figures(rt)
         before[k] = (rt, res, bf_correction(res, cfg.side_m, b_nom))
     # pass 1: runs with the first calibration (every experiment)
     keys1 = [(s, e) for s in seeds for e in range(1, 9)]
@@ -583,7 +583,7 @@ def run_seed_experiments(seeds: list[int], cfg: StudyConfig) -> dict[int, list[E
     for (s, e), rt in zip(keys1, runs1):
         rt0, res0, corr = before[(s, _GROUP_OF[e])]
         exps[(s, e)] = Experiment(
-            e, s, robots[s][e - 1], rt0, res0, PassResult(corr, rt, umbmark(rt)), wheelbase_nominal_m=b_nom
+            e, s, robots[s][e - 1], rt0, res0, PassResult(corr, rt, umbmark_figures(rt)), wheelbase_nominal_m=b_nom
         )
     # pass 2: where the 3 x SEM rule calls for it, a second compensation on top of the first
     keys2, specs2, corr2 = [], [], []
@@ -597,7 +597,7 @@ def run_seed_experiments(seeds: list[int], cfg: StudyConfig) -> dict[int, list[E
             corr2.append(c2)
             specs2.append(TestSpec(ex.errors, c2.calibration, test_seed(k[0], k[1], _PASS_SECOND)))
     for k, c2, rt in zip(keys2, corr2, simulate_tests(specs2, cfg)):
-        exps[k].second = PassResult(c2, rt, umbmark(rt))
+        exps[k].second = PassResult(c2, rt, umbmark_figures(rt))
     return {s: [exps[(s, e)] for e in range(1, 9)] for s in seeds}
 
 
@@ -762,7 +762,7 @@ def _noise_free_emax(errors: ErrorParams, cfg: StudyConfig, calibration: Calibra
     from umbmark.model.simulate import simulate_umbmark
 
     rt = simulate_umbmark(errors, cfg.geometry, cfg.side_m, 1, calibration, "none", Motion(sample_period_s=None))
-    return umbmark(rt).emax_syst
+    return umbmark_figures(rt).emax_syst
 
 
 def seed_groups(cfg: StudyConfig) -> list[list[int]]:
@@ -968,7 +968,7 @@ def uni_directional_pitfall(
     s1 = np.random.SeedSequence(seed, spawn_key=(_PITFALL_KEY, 11))
     s2 = np.random.SeedSequence(seed, spawn_key=(_PITFALL_KEY, 12))
     (unc_runs,) = simulate_tests([TestSpec(errors, None, s0)], cfg)
-    unc = umbmark(unc_runs)
+    unc = umbmark_figures(unc_runs)
     corr = bf_correction(unc, cfg.side_m, geo.wheelbase_m)
     tuned_runs, bf_runs = simulate_tests(
         [TestSpec(errors, Calibration(wheelbase_m=tuned_b), s1), TestSpec(errors, corr.calibration, s2)], cfg
@@ -982,10 +982,10 @@ def uni_directional_pitfall(
         unc_runs,
         unc,
         tuned_runs,
-        umbmark(tuned_runs),
+        umbmark_figures(tuned_runs),
         corr,
         bf_runs,
-        umbmark(bf_runs),
+        umbmark_figures(bf_runs),
         geo.wheelbase_m,
     )
 

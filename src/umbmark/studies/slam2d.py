@@ -52,7 +52,6 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
@@ -66,6 +65,7 @@ from umbmark.io.rosbag import SelfcalBag, read_selfcal_bag
 from umbmark.io.wheels import WheelSource
 from umbmark.model import se2
 from umbmark.model.geometry import WheelGeometry
+from umbmark.model.se2 import Pose
 from umbmark.realrobot.scanmatch import ICPConfig, match_scan_pairs
 from umbmark.realrobot.selfcal import (
     DEFAULT_KEYFRAMES,
@@ -80,6 +80,7 @@ from umbmark.realrobot.selfcal import (
 from umbmark.realrobot.validate import (
     SHORT_MAX_S,
     ErrorStats,
+    StageNotice,
     SystematicErrors,
     in_sensor_frame,
     odometry_from_wheels,
@@ -97,16 +98,14 @@ __all__ = [
     "ErrorStats",
     "SystematicErrors",
     "ScanMatchCheck",
-    "Calibration",
-    "Evaluation",
+    "PartCalibration",
+    "RelationEvaluation",
     "HalfTest",
     "Slam2dStudy",
     "study_log",
 ]
 
 FloatArray = NDArray[np.float64]
-Pose = tuple[float, float, float]
-Progress = Callable[[str], None]
 
 
 @dataclass(frozen=True)
@@ -157,7 +156,7 @@ class ScanMatchCheck:
 
 
 @dataclass(frozen=True, eq=False)
-class Calibration:
+class PartCalibration:
     """One self-calibration of the study: on a half of the log, or on all of it.
 
     Parameters
@@ -260,7 +259,7 @@ class Calibration:
 
 
 @dataclass(frozen=True)
-class Evaluation:
+class RelationEvaluation:
     """One odometry compared with a set of relations.
 
     Parameters
@@ -268,7 +267,7 @@ class Evaluation:
     odometry : str
         ``recorded``, ``nominal`` or ``calibrated``.
     calibration : str or None
-        The label of the :class:`Calibration` whose geometry (``calibrated``) or sensor pose
+        The label of the :class:`PartCalibration` whose geometry (``calibrated``) or sensor pose
         was used.
     sensor_pose : tuple of float
         ``(x_m, y_m, yaw_rad)``: the laser pose the relative poses were seen from.
@@ -337,7 +336,7 @@ class HalfTest:
         The part's span, from the log's first scan [s].
     relations_short, relations_long : int
         Relations with both stamps inside it.
-    evaluations : tuple of Evaluation
+    evaluations : tuple of RelationEvaluation
         The odometries compared.
     scan_delay_s : float
         The scans' delay applied to every odometry of the test (that of the calibration tested
@@ -350,11 +349,11 @@ class HalfTest:
     t_end_s: float
     relations_short: int
     relations_long: int
-    evaluations: tuple[Evaluation, ...]
+    evaluations: tuple[RelationEvaluation, ...]
     scan_delay_s: float = 0.0
 
-    def get(self, key: str) -> Evaluation:
-        """The evaluation of a :attr:`Evaluation.key`.
+    def get(self, key: str) -> RelationEvaluation:
+        """The evaluation of a :attr:`RelationEvaluation.key`.
 
         Parameters
         ----------
@@ -363,7 +362,7 @@ class HalfTest:
 
         Returns
         -------
-        Evaluation
+        RelationEvaluation
 
         Raises
         ------
@@ -376,12 +375,12 @@ class HalfTest:
         raise KeyError(f"{key!r}: not among {[e.key for e in self.evaluations]}")
 
     @property
-    def before(self) -> Evaluation:
+    def before(self) -> RelationEvaluation:
         """The nominal odometry seen from the ``/tf_static`` laser pose."""
         return self.get("nominal@/tf_static")
 
     @property
-    def after(self) -> Evaluation:
+    def after(self) -> RelationEvaluation:
         """The odometry calibrated on :attr:`calibrated_on` (the full log when None), seen from the estimated pose."""
         return self.get(f"calibrated({self.calibrated_on or 'full log'})@estimated")
 
@@ -430,7 +429,7 @@ class Slam2dStudy:
         :func:`umbmark.realrobot.selfcal.estimate_scan_delay`).
     tf_sensor_pose : tuple of float
         The laser pose of ``/tf_static`` ``(x_m, y_m, yaw_rad)``.
-    calibrations : tuple of Calibration
+    calibrations : tuple of PartCalibration
         ``first half``, ``second half``, ``full log``.
     tests : tuple of HalfTest
         ``second half`` (calibrated on the first), ``first half`` (calibrated on the second),
@@ -458,14 +457,14 @@ class Slam2dStudy:
     short_max_s: float
     scan_delay_mode: str
     tf_sensor_pose: Pose
-    calibrations: tuple[Calibration, ...]
+    calibrations: tuple[PartCalibration, ...]
     tests: tuple[HalfTest, ...]
     relations_crossing: int
     scan_matching: ScanMatchCheck
     timings_s: dict[str, float] = field(default_factory=dict)
     warnings: list[str] = field(default_factory=list)
 
-    def calibration(self, label: str) -> Calibration:
+    def calibration(self, label: str) -> PartCalibration:
         """The calibration of a label (``first half``, ``second half``, ``full log``).
 
         Parameters
@@ -474,7 +473,7 @@ class Slam2dStudy:
 
         Returns
         -------
-        Calibration
+        PartCalibration
 
         Raises
         ------
@@ -599,7 +598,7 @@ def _read_log(
     relations_path: str | Path,
     scan_topic: str,
     odom_topic: str,
-    say: Progress,
+    say: StageNotice,
     timings: dict[str, float],
 ) -> tuple[SelfcalBag, Relations]:
     """Read the bag and its relations file, timed into ``timings`` (``read_bag``, ``read_relations``)."""
@@ -671,8 +670,8 @@ class _Calibrator:
     selfcal_options: dict[str, Any] | None
 
     def calibrate(
-        self, bag: SelfcalBag, mask: NDArray[np.bool_], label: str, origin: float, say: Progress
-    ) -> Calibration:
+        self, bag: SelfcalBag, mask: NDArray[np.bool_], label: str, origin: float, say: StageNotice
+    ) -> PartCalibration:
         """Self-calibrate on the scans of ``mask``, timed from the cut of the bag on."""
         t0 = time.perf_counter()
         part = _slice_bag(bag, mask) if not mask.all() else bag
@@ -688,7 +687,7 @@ class _Calibrator:
         report = selfcal_report([si], self.wheel_diameter_m, self.wheelbase_m, **(self.selfcal_options or {}))
         elapsed = time.perf_counter() - t0
         ts = part.scan_t_s
-        return Calibration(label, *_span(ts, origin), len(ts), report, elapsed, delay, d_s)
+        return PartCalibration(label, *_span(ts, origin), len(ts), report, elapsed, delay, d_s)
 
 
 @dataclass(eq=False)
@@ -698,7 +697,7 @@ class _Evaluator:
     bag: SelfcalBag
     wheel_diameter_m: float
     wheelbase_m: float
-    calibrations: dict[str, Calibration]
+    calibrations: dict[str, PartCalibration]
     tf_pose: Pose
     relations: Relations
     i1: NDArray[np.int64]
@@ -723,8 +722,8 @@ class _Evaluator:
         return self.cache[d_s]
 
     def evaluate(
-        self, sel: NDArray[np.bool_], d_s: float, odometry: str, cal: Calibration | None, pose_src: str
-    ) -> Evaluation:
+        self, sel: NDArray[np.bool_], d_s: float, odometry: str, cal: PartCalibration | None, pose_src: str
+    ) -> RelationEvaluation:
         """One odometry, seen from the laser pose of ``pose_src``, against the selected relations."""
         name = f"calibrated({cal.label})" if odometry == "calibrated" and cal is not None else odometry
         lp = self.tf_pose if pose_src == "/tf_static" or cal is None else cal.sensor_pose
@@ -733,7 +732,7 @@ class _Evaluator:
         q = in_sensor_frame(se2.between(p[self.i1[sel]], p[self.i2[sel]]), lp)
         et, er = relation_errors(q, ref)
         s = self.short[sel]
-        return Evaluation(
+        return RelationEvaluation(
             odometry,
             cal.label if cal is not None else None,
             lp,
@@ -850,7 +849,7 @@ def study_log(
     selfcal_options: dict[str, Any] | None = None,
     base_frame: str | None = None,
     tolerance_s: float = 1e-3,
-    progress: Progress | None = None,
+    progress: StageNotice | None = None,
 ) -> Slam2dStudy:
     """Calibrate on each half of a log and on all of it; compare the odometries with the relations.
 
@@ -914,7 +913,7 @@ def study_log(
     split, parts = _halves(st)
 
     calibrator = _Calibrator(wheel_diameter_m, wheelbase_m, keyframes, base_frame, icp, delay, selfcal_options)
-    calibrations: dict[str, Calibration] = {}
+    calibrations: dict[str, PartCalibration] = {}
     for label, mask in parts.items():
         calibrations[label] = calibrator.calibrate(bag, mask, label, origin, say)
         timings[f"calibrate_{label.replace(' ', '_')}"] = calibrations[label].elapsed_s

@@ -19,7 +19,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from umbmark.errors import InputError
 from umbmark.io.atomic import atomic_path
-from umbmark.metrics import UMBmarkResult, umbmark
+from umbmark.metrics import UMBmarkResult, umbmark_figures
 from umbmark.model.runs import RunsTable
 
 if TYPE_CHECKING:
@@ -60,7 +60,7 @@ def new_figure(figsize: tuple[float, float]) -> Figure:
 
 
 def _draw_runs(ax: Axes, runs: RunsTable, label: str, filled: bool) -> UMBmarkResult:
-    res = umbmark(runs)
+    res = umbmark_figures(runs)
     for d, st in (("cw", res.cw), ("ccw", res.ccw)):
         rows = runs.direction_rows(d)
         style = _STYLE[d]

@@ -445,7 +445,7 @@ def replay_analysis(result: dict[str, Any], source: str = "<replay>") -> tuple[A
     from umbmark.correct.analysis import Analysis
     from umbmark.correct.result import CorrectionResult
     from umbmark.errors import InputError
-    from umbmark.metrics import umbmark
+    from umbmark.metrics import umbmark_figures
 
     if isinstance(result, dict) and {"cw", "ccw", "emax_syst_mm"} <= result.keys():
         made_from = result.get("file")
@@ -493,7 +493,7 @@ def replay_analysis(result: dict[str, Any], source: str = "<replay>") -> tuple[A
         ) from None
     runs = _replay_runs(result["before"], "before", source)
     after = _replay_runs(result["after"], "after", source) if isinstance(result.get("after"), dict) else None
-    return Analysis(runs, umbmark(runs), correction, side_m, wheelbase_m), after
+    return Analysis(runs, umbmark_figures(runs), correction, side_m, wheelbase_m), after
 
 
 def _analysis_sections(
@@ -667,7 +667,7 @@ def analysis_report(
     str
         The page: one self-contained HTML document.
     """
-    from umbmark.metrics import umbmark
+    from umbmark.metrics import umbmark_figures
     from umbmark.viz.plots import scatter_figure, trajectory_figure
 
     title = title or "UMBmark report"
@@ -675,7 +675,7 @@ def analysis_report(
     body.append(_analysis_sections(analysis, boot, prior, boot_note))
     body.append("<h2>Return position errors: scatter</h2>")
     if after_runs is not None:
-        after = umbmark(after_runs)
+        after = umbmark_figures(after_runs)
         body.append(
             f"<p>Before: E<sub>max,syst</sub> = {fmt(analysis.result.emax_syst * 1e3)} mm; after: "
             f"{fmt(after.emax_syst * 1e3)} mm (improvement "

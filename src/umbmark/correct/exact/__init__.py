@@ -90,7 +90,7 @@ from umbmark.correct.exact.uncertainty import _loss_rho1, _reweigh_heading, inte
 from umbmark.correct.registry import register
 from umbmark.correct.result import CorrectionIntervals, CorrectionResult, ExactFit, compose
 from umbmark.errors import InputError
-from umbmark.metrics import umbmark
+from umbmark.metrics import umbmark_figures
 from umbmark.model.geometry import Calibration, wrap_angle
 from umbmark.model.runs import RunsTable
 
@@ -432,7 +432,7 @@ def exact_correction(
     prob.fast = not _reference
     warns = _closure_warnings(runs, prob, side_m)
     f_scale = _robust_scale(prob, loss, f_scale_m, side_m)
-    st = umbmark(runs)
+    st = umbmark_figures(runs)
     sems = [st.cw.sem, st.ccw.sem]
     if global_search not in ("auto", True, False):
         raise InputError(f"global_search must be 'auto', True or False, got {global_search!r}")

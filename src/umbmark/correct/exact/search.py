@@ -26,7 +26,7 @@ from umbmark.correct.bf import bf_correction
 from umbmark.correct.exact import kernel
 from umbmark.correct.exact.model import FloatArray, _Problem
 from umbmark.errors import CorrectionUndefined
-from umbmark.metrics import umbmark
+from umbmark.metrics import umbmark_figures
 from umbmark.model.runs import RunsTable
 
 __all__: list[str] = []
@@ -88,7 +88,7 @@ def _bf_start(runs: RunsTable, side_m: float, wheelbase_m: float) -> FloatArray 
         E_b in (0.1, 10).
     """
     try:
-        bf = bf_correction(umbmark(runs), side_m, wheelbase_m)
+        bf = bf_correction(umbmark_figures(runs), side_m, wheelbase_m)
     except CorrectionUndefined:
         return None
     if not (0.5 < bf.ed_pass < 2.0 and 0.1 < bf.eb < 10.0):
