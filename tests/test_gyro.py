@@ -28,7 +28,7 @@ from umbmark.model.drive import (  # noqa: E402
     simulate_drive,
     simulate_gyro,
     skid_steer_robot,
-    square_program,
+    square_drive,
 )
 from umbmark.model.geometry import LABMATE, ErrorParams  # noqa: E402
 from umbmark.model.sensors import Gyro, Lidar, SensorPose  # noqa: E402
@@ -209,7 +209,7 @@ def test_gyro_beside_a_lidar_square_test(tmp_path):
     """The turns of the UMBmark squares give the wheelbase too, beside the lidar's calibration."""
     robot = SimRobot(LABMATE, ErrorParams(ed=1.004, eb=1.03), SensorPose(0.035, 0.0, 0.0), Lidar(range_noise_m=0.005))
     drives = [
-        simulate_drive(square_program(d), robot, start_pose=(4.0, 4.0, 0.0), noise=WheelNoise(0.01), seed=20 + i)
+        simulate_drive(square_drive(d), robot, start_pose=(4.0, 4.0, 0.0), noise=WheelNoise(0.01), seed=20 + i)
         for i, d in enumerate(["cw", "ccw", "cw", "ccw"])
     ]
     # the gyro of each run on its own (the robot is carried between runs: no gyro reading spans it)

@@ -231,13 +231,13 @@ LIDAR_SQUARE_BAGS = {"lidar_squares_bag": dict(seed=1)}
 
 def _write_lidar_square_bag(path, seed):
     from umbmark.io.rosbag_write import write_drive_bag
-    from umbmark.model.drive import SimRobot, WheelNoise, concatenate_drives, simulate_drive, square_program
+    from umbmark.model.drive import SimRobot, WheelNoise, concatenate_drives, simulate_drive, square_drive
     from umbmark.model.geometry import LABMATE, ErrorParams
     from umbmark.model.sensors import Lidar, SensorPose
 
     robot = SimRobot(LABMATE, ErrorParams(ed=1.004, eb=1.03), SensorPose(0.035, 0.0, 0.0), Lidar(range_noise_m=0.005))
     drives = [
-        simulate_drive(square_program(d), robot, start_pose=(4.0, 4.0, 0.0), noise=WheelNoise(0.01), seed=seed + i)
+        simulate_drive(square_drive(d), robot, start_pose=(4.0, 4.0, 0.0), noise=WheelNoise(0.01), seed=seed + i)
         for i, d in enumerate(["cw"] * 3 + ["ccw"] * 3)
     ]
     write_drive_bag(concatenate_drives(drives), path, odom=False, tf_static=False)

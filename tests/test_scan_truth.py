@@ -23,7 +23,7 @@ from umbmark.model.drive import (  # noqa: E402
     WheelNoise,
     concatenate_drives,
     simulate_drive,
-    square_program,
+    square_drive,
 )
 from umbmark.model.geometry import ErrorParams, Geometry  # noqa: E402
 from umbmark.model.runs import RunsTable  # noqa: E402
@@ -75,7 +75,7 @@ def truth_emax(drives, directions):
 def put_back(tmp_path_factory):
     """Six runs, the robot put back on its mark before each (JointState and LaserScan only)."""
     drives = [
-        simulate_drive(square_program(d), ROBOT, start_pose=START, noise=NOISE, seed=10 + i)
+        simulate_drive(square_drive(d), ROBOT, start_pose=START, noise=NOISE, seed=10 + i)
         for i, d in enumerate(DIRECTIONS)
     ]
     bag = write_drive_bag(
@@ -174,7 +174,7 @@ def test_pose_from_tf_static_and_from_a_selfcal_json(put_back, tmp_path):
 def test_robot_left_where_it_stopped(tmp_path):
     """Not put back: each run starts where the one before stopped; each is measured against its own start."""
     directions = ("cw", "ccw", "cw", "ccw")
-    prog = [square_program(d) for d in directions]
+    prog = [square_drive(d) for d in directions]
     from umbmark.model.drive import Program
 
     whole = simulate_drive(
@@ -296,7 +296,7 @@ def test_return_errors_of_a_metre_and_forty_degrees(tmp_path, ed, eb):
 
     robot = SimRobot(ROBOT.nominal, ErrorParams(ed=ed, eb=eb), ROBOT.sensor_pose, ROBOT.lidar)
     drives = [
-        simulate_drive(square_program(d), robot, start_pose=START, seed=1 + i) for i, d in enumerate(("cw", "ccw"))
+        simulate_drive(square_drive(d), robot, start_pose=START, seed=1 + i) for i, d in enumerate(("cw", "ccw"))
     ]
     bag = write_drive_bag(concatenate_drives(drives), tmp_path / "big", odom=False, tf_static=False)
     wheels = WheelSource(joints=("left_wheel_joint", "right_wheel_joint"))

@@ -14,8 +14,10 @@ from umbmark.cli import (
     bench_speed,  # noqa: F401,E402  bench speed
     calibrate,  # noqa: F401,E402  calibrate
     core,  # noqa: F401,E402  simulate, analyze, demo
-    history,  # noqa: F401,E402  history, report, guide, measure
+    field,  # noqa: F401,E402  guide, measure
+    history,  # noqa: F401,E402  history
     real,  # noqa: F401,E402  replay, export
+    report,  # noqa: F401,E402  report
     reproduce,  # noqa: F401,E402  reproduce
     selfcal,  # noqa: F401,E402  selfcal
     validate,  # noqa: F401,E402  validate

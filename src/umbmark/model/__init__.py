@@ -10,7 +10,13 @@ imports no other layer of umbmark.
 * :mod:`~umbmark.model.odometry`: the integrators (:func:`integrate`, :func:`integrate_pulses`,
   streaming :class:`Odometer`);
 * :mod:`~umbmark.model.simulate`: the closed-loop simulator and its planner;
-* :mod:`~umbmark.model.batch`: the same simulation for many robots at once.
+* :mod:`~umbmark.model.batch`: the same simulation for many robots at once;
+* :mod:`~umbmark.model.drive`: a robot driving a program of commands in a room, with its
+  wheel data, lidar scans and gyro (the simulated recordings of the real-robot tools);
+* :mod:`~umbmark.model.sensors`: the room, the lidar and the gyro;
+* :mod:`~umbmark.model.intervals`: the intervals of a self-calibration;
+* :mod:`~umbmark.model.se2`: planar poses (compose, inverse, between);
+* :mod:`~umbmark.model.timing`: the stamps of logged streams, their checks and time offsets.
 
 The names below are importable from here (``from umbmark.model import simulate_batch``); each
 module is imported when one of its names is first used, so importing a submodule costs only
@@ -87,6 +93,48 @@ _LAZY = {
         "umbmark.model.simulate",
     ),
     **dict.fromkeys(("ENGINES", "run_batch", "simulate_batch"), "umbmark.model.batch"),
+    **dict.fromkeys(
+        (
+            "Command",
+            "Program",
+            "WheelNoise",
+            "SimRobot",
+            "EXAMPLE_ROBOT",
+            "DriveLog",
+            "simulate_drive",
+            "integrate_wheels",
+            "mixed_program",
+            "straight_only",
+            "spins_only",
+            "one_way_turns",
+            "default_start",
+            "square_drive",
+            "concatenate_drives",
+            "skid_steer_robot",
+            "simulate_gyro",
+        ),
+        "umbmark.model.drive",
+    ),
+    **dict.fromkeys(("Room", "SensorPose", "Lidar", "Gyro", "cast_rays"), "umbmark.model.sensors"),
+    **dict.fromkeys(
+        ("Intervals", "IntervalSteps", "sensor_motion", "step_motion", "intervals_from_motion"),
+        "umbmark.model.intervals",
+    ),
+    **dict.fromkeys(("Pose", "compose", "inverse", "between"), "umbmark.model.se2"),
+    **dict.fromkeys(
+        (
+            "TimeOffset",
+            "estimate_time_offset",
+            "parse_time_offset",
+            "WheelStream",
+            "check_wheel_stream",
+            "StreamCheck",
+            "check_streams",
+            "check_truth_stream",
+            "align_truth",
+        ),
+        "umbmark.model.timing",
+    ),
 }
 
 __all__ = list(_LAZY)

@@ -22,7 +22,7 @@ true pose at each scan time. The result is a :class:`DriveLog`.
 Programs: :func:`mixed_program` (straights, arcs of both signs, spins both ways and pauses,
 planned so the robot stays at least ``clearance_m`` from every wall), and the simpler
 :func:`straight_only`, :func:`spins_only` and :func:`one_way_turns`, which leave parts of the
-calibration unobservable; :func:`square_program`, one UMBmark run at rest before and after.
+calibration unobservable; :func:`square_drive`, one UMBmark run at rest before and after.
 :func:`concatenate_drives` joins drives as if the robot had been carried between them.
 """
 
@@ -56,7 +56,7 @@ __all__ = [
     "spins_only",
     "one_way_turns",
     "default_start",
-    "square_program",
+    "square_drive",
     "concatenate_drives",
     "skid_steer_robot",
     "simulate_gyro",
@@ -996,7 +996,7 @@ def one_way_turns(
     return _repeat([arc_cmd, spin_cmd], duration_s, step_s)
 
 
-def square_program(
+def square_drive(
     direction: str,
     side_m: float = 2.0,
     *,
