@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING, Literal
 
 import click
 
+from umbmark import _check
 from umbmark._version import __version__
 from umbmark.cli.guard import GuardedGroup
 from umbmark.errors import InputError
@@ -300,9 +301,7 @@ def positive(name: str, value: float) -> float:
     InputError
         If ``value`` is missing, not finite or not positive.
     """
-    if value is None or not (math.isfinite(value) and value > 0):
-        raise InputError(f"{name} must be a positive number, got {value!r}")
-    return float(value)
+    return _check.positive(name, value)
 
 
 # the true errors a simulated robot may have: wheels differing by up to a factor of 2, an

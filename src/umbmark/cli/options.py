@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import math
 
+from umbmark._check import positive_or_none
 from umbmark.errors import InputError
 
 __all__ = ["wheel_source", "read_options", "length_m", "given_nominal_m", "nominal_m", "parse_joints"]
@@ -47,11 +48,6 @@ def wheel_source(kw: dict):
     )
 
 
-def _positive(flag: str, v) -> None:
-    if v is not None and not (math.isfinite(v) and v > 0):
-        raise InputError(f"{flag} must be a positive number, got {v!r}")
-
-
 def length_m(kw: dict, mm_key: str, m_key: str, m_factor: float = 1.0, both: str = "agree") -> float | None:
     """A length given in millimetres (``mm_key``) or in ROS's metres (``m_key``, times
     ``m_factor``: 2 for a radius given for a diameter) [m]; None when neither is given.
@@ -70,8 +66,8 @@ def length_m(kw: dict, mm_key: str, m_key: str, m_factor: float = 1.0, both: str
     flag_mm, flag_m = "--" + mm_key.replace("_", "-"), "--" + m_key.replace("_", "-")
     if mm is not None and m is not None and both == "refuse":
         raise InputError(f"give {flag_mm} or {flag_m}, not both (one of them)")
-    _positive(flag_mm, mm)
-    _positive(flag_m, m)
+    positive_or_none(flag_mm, mm)
+    positive_or_none(flag_m, m)
     if m is None:
         return None if mm is None else mm * 1e-3
     if mm is not None and not math.isclose(mm * 1e-3, m * m_factor, rel_tol=1e-6):
@@ -121,7 +117,7 @@ def read_options(kw: dict):
     from umbmark.io.load import LogOptions, TruthSource, parse_ranges
 
     for k in ("side_mm", "left_diameter_mm", "right_diameter_mm", "pulses_per_wheel_rev", "stop_s"):
-        _positive("--" + k.replace("_", "-"), kw.get(k))
+        positive_or_none("--" + k.replace("_", "-"), kw.get(k))
     d = length_m(kw, "wheel_diameter_mm", "wheel_radius_m", 2.0)
     mm = lambda k: None if kw.get(k) is None else kw[k] * 1e-3  # noqa: E731
     ranges = kw.get("ranges")

@@ -2,24 +2,17 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any
 
+from umbmark._check import positive
 from umbmark.correct.registry import correct_runs
 from umbmark.correct.result import CorrectionResult
-from umbmark.errors import InputError
 from umbmark.metrics import UMBmarkResult, umbmark_figures
 from umbmark.model.geometry import Calibration
 from umbmark.model.runs import RunsTable
 
 __all__ = ["Analysis", "analyze"]
-
-
-def _positive(name: str, value: float | None) -> float:
-    if value is None or not (math.isfinite(value) and value > 0):
-        raise InputError(f"{name} must be a positive number, got {value!r}")
-    return float(value)
 
 
 @dataclass(frozen=True)
@@ -109,8 +102,8 @@ def analyze(
     InputError
         ``side_m`` or ``wheelbase_m`` is not a positive number, or the method refuses its input.
     """
-    _positive("side_m", side_m)
-    _positive("wheelbase_m", wheelbase_m)
+    positive("side_m", side_m)
+    positive("wheelbase_m", wheelbase_m)
     checks: list[str] = []
     if check:
         from umbmark.correct.plausibility import check_geometry, runs_warnings

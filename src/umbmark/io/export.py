@@ -41,6 +41,7 @@ import unicodedata
 from dataclasses import dataclass, replace
 from pathlib import Path
 
+from umbmark._check import positive
 from umbmark.errors import InputError
 from umbmark.io.atomic import atomic_write
 
@@ -108,9 +109,7 @@ def _finite(name: str, v: object, source: str | None = None) -> float:
 
 
 def _pos(name: str, v: object, source: str | None = None) -> float:
-    if v is None or not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0):
-        raise InputError(f"{name} must be a positive number, got {v!r}", source=source)
-    return float(v)
+    return positive(name, v, source=source)
 
 
 def _factor(name: str, v: object, source: str | None = None) -> float:

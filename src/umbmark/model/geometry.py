@@ -35,6 +35,7 @@ from typing import Any
 
 import numpy as np
 
+from umbmark._check import positive
 from umbmark.errors import InputError
 
 __all__ = [
@@ -119,9 +120,7 @@ def wrap_angle(a: Any) -> Any:
 
 def _check_positive(obj: object, names: tuple[str, ...]) -> None:
     for name in names:
-        v = getattr(obj, name)
-        if not (isinstance(v, (int, float, np.integer, np.floating)) and math.isfinite(v) and v > 0):
-            raise InputError(f"{name} must be a positive number, got {v!r}")
+        positive(name, getattr(obj, name))
 
 
 @dataclass(frozen=True)

@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 import re
 
+from umbmark._check import positive_or_none
 from umbmark.errors import InputError
 
 __all__ = ["STEP_TITLES", "check_run_plan", "guide_text", "ros2_runs_script"]
@@ -35,8 +36,7 @@ MAX_TURN_RATE_DEG_S = 360.0
 def _check_positive(**values: float | None) -> None:
     """Refuse a value (given by its parameter's name) that is not a positive number; None passes."""
     for name, v in values.items():
-        if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-            raise InputError(f"`{name}` must be a positive number, not {v!r}")
+        positive_or_none(f"`{name}`", v)
 
 
 # a rest between runs longer than this (seconds) is no rest between runs

@@ -54,6 +54,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from umbmark._check import positive
 from umbmark._files import check_distinct_inputs
 from umbmark._numbers import strict_float
 from umbmark.correct.selfcal import SelfcalResult, selfcal
@@ -66,7 +67,7 @@ from umbmark.model.drive import integrate_wheels
 from umbmark.model.geometry import WheelGeometry
 from umbmark.model.intervals import Intervals, IntervalSteps
 from umbmark.realrobot.scanmatch import ICPConfig, match_scan_pairs
-from umbmark.realrobot.wheels import _positive, recording_wheel_angles
+from umbmark.realrobot.wheels import recording_wheel_angles
 
 __all__ = [
     "selfcal_history_fields",
@@ -167,8 +168,8 @@ class KeyframeRule:
 
     def __post_init__(self) -> None:
         for name in ("min_distance_m", "min_rotation_rad", "min_interval_s"):
-            _positive(name, getattr(self, name), allow_zero=True)
-        _positive("max_interval_s", self.max_interval_s, allow_inf=True)
+            positive(f"`{name}`", getattr(self, name), allow_zero=True)
+        positive("`max_interval_s`", self.max_interval_s, allow_inf=True)
         if self.max_interval_s < self.min_interval_s:
             raise InputError(
                 f"`max_interval_s` {self.max_interval_s:g} is below `min_interval_s` {self.min_interval_s:g}"
@@ -335,7 +336,7 @@ class IntervalOptions:
     def __post_init__(self) -> None:
         if not isinstance(self.keyframes, KeyframeRule):
             raise InputError(f"`keyframes` must be a KeyframeRule, got {type(self.keyframes).__name__}")
-        _positive("max_wheel_gap_s", self.max_wheel_gap_s)
+        positive("`max_wheel_gap_s`", self.max_wheel_gap_s)
         if not isinstance(self.min_intervals, (int, np.integer)) or isinstance(self.min_intervals, bool):
             raise InputError(f"`min_intervals` must be a whole number, got {self.min_intervals!r}")
         if self.min_intervals < 3:
@@ -660,8 +661,8 @@ def plan_intervals(
         A geometry or threshold that is not positive; scans and wheel data that do not
         overlap in time (both spans named); no motion; a tilted lidar in ``/tf_static``.
     """
-    d_nom = _positive("wheel_diameter_m", wheel_diameter_m)
-    b_nom = _positive("wheelbase_m", wheelbase_m)
+    d_nom = positive("`wheel_diameter_m`", wheel_diameter_m)
+    b_nom = positive("`wheelbase_m`", wheelbase_m)
     opts = _options(options)
     gap, rule = opts.max_wheel_gap_s, opts.keyframes
     src = bag.source

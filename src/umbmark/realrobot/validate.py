@@ -68,6 +68,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from umbmark._check import positive
 from umbmark.errors import InputError
 from umbmark.io._text import read_text
 from umbmark.io.relations import Relations, read_relations
@@ -506,13 +507,6 @@ def _positive_mm(d: dict, key: str, src: str) -> float | None:
     return float(v) * 1e-3
 
 
-def _positive(d: dict, key: str, src: str) -> float:
-    v = d.get(key)
-    if not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0):
-        raise InputError(f"{key!r} must be a positive number, got {v!r}", src)
-    return float(v)
-
-
 @dataclass(frozen=True)
 class CheckedCalibration:
     """A calibration to check: the nominal and the calibrated geometry and sensor pose, the scan delay.
@@ -760,7 +754,11 @@ def read_calibration(
         delay, delay_src, warnings = _selfcal_delay(d, src)
         method = str(d.get("method") or "selfcal")
     elif kind == "export":
-        factors = (_positive(d, "c_left", src), _positive(d, "c_right", src), _positive(d, "Eb", src))
+        factors = (
+            positive("'c_left'", d.get("c_left"), source=src),
+            positive("'c_right'", d.get("c_right"), source=src),
+            positive("'Eb'", d.get("Eb"), source=src),
+        )
         dl, dr, b = (_positive_mm(d, k, src) for k in ("diameter_left_mm", "diameter_right_mm", "wheelbase_mm"))
         cal_w = (dl, dr, b)
         n_dl, n_dr, n_b = (None if v is None else v / f for v, f in zip(cal_w, factors))

@@ -5,12 +5,9 @@ Imports numpy, :mod:`umbmark.model` and :mod:`umbmark.io.rosbag` (the recording'
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numpy.typing import NDArray
 
-from umbmark.errors import InputError
 from umbmark.io.rosbag import SelfcalBag
 from umbmark.model.dataset import wheel_angles_from_poses
 from umbmark.model.geometry import WheelGeometry
@@ -18,16 +15,6 @@ from umbmark.model.geometry import WheelGeometry
 __all__ = ["recording_wheel_angles", "scan_wheel_angles"]
 
 FloatArray = NDArray[np.float64]
-
-
-def _positive(name: str, v: float, allow_zero: bool = False, allow_inf: bool = False) -> float:
-    """``v`` as a float, or an InputError naming ``name`` (positive, or non-negative; finite unless
-    ``allow_inf``)."""
-    ok = isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool) and not math.isnan(v)
-    ok = ok and (v >= 0 if allow_zero else v > 0) and (allow_inf or math.isfinite(v))
-    if not ok:
-        raise InputError(f"`{name}` must be a {'non-negative' if allow_zero else 'positive'} number, got {v!r}")
-    return float(v)
 
 
 def recording_wheel_angles(bag: SelfcalBag, nominal: WheelGeometry) -> tuple[FloatArray, FloatArray]:
