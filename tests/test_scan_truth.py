@@ -295,9 +295,7 @@ def test_return_errors_of_a_metre_and_forty_degrees(tmp_path, ed, eb):
     from umbmark.realrobot.scan_truth import attach_scan_truth
 
     robot = SimRobot(ROBOT.nominal, ErrorParams(ed=ed, eb=eb), ROBOT.sensor_pose, ROBOT.lidar)
-    drives = [
-        simulate_drive(square_drive(d), robot, start_pose=START, seed=1 + i) for i, d in enumerate(("cw", "ccw"))
-    ]
+    drives = [simulate_drive(square_drive(d), robot, start_pose=START, seed=1 + i) for i, d in enumerate(("cw", "ccw"))]
     bag = write_drive_bag(concatenate_drives(drives), tmp_path / "big", odom=False, tf_static=False)
     wheels = WheelSource(joints=("left_wheel_joint", "right_wheel_joint"))
     opts = LogOptions(0.15, 0.15, 0.34, wheels=wheels, split_stops=True, side_m=2.0)

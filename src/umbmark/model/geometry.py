@@ -30,7 +30,7 @@ Headings are wrapped with :func:`wrap_angle` only, into (-pi, pi].
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -165,20 +165,6 @@ class Geometry:
     def pulses_per_wheel_rev(self) -> float:
         """Encoder pulses per wheel revolution, ``gear_ratio * pulses_per_motor_rev``."""
         return self.gear_ratio * self.pulses_per_motor_rev
-
-    def with_wheelbase(self, wheelbase_m: float) -> Geometry:
-        """This geometry with another nominal wheelbase.
-
-        Parameters
-        ----------
-        wheelbase_m : float
-            The new nominal wheelbase [m].
-
-        Returns
-        -------
-        Geometry
-        """
-        return replace(self, wheelbase_m=wheelbase_m)
 
     def wheels(self) -> WheelGeometry:
         """The nominal wheels: both of diameter D_n, the nominal wheelbase.

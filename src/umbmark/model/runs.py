@@ -136,34 +136,6 @@ class RunsTable:
         """
         return self.select(self.direction == direction)
 
-    def concat(self, other: RunsTable) -> RunsTable:
-        """This table's rows, then ``other``'s.
-
-        Parameters
-        ----------
-        other : RunsTable
-            The rows to append.
-
-        Returns
-        -------
-        RunsTable
-            Both tables' rows; a heading or run column only if both tables have it.
-        """
-
-        def cat(a, b):
-            return None if a is None or b is None else np.concatenate([a, b])
-
-        return RunsTable(
-            np.concatenate([self.direction, other.direction]),
-            np.concatenate([self.x_abs, other.x_abs]),
-            np.concatenate([self.y_abs, other.y_abs]),
-            np.concatenate([self.x_odo, other.x_odo]),
-            np.concatenate([self.y_odo, other.y_odo]),
-            cat(self.theta_abs, other.theta_abs),
-            cat(self.theta_odo, other.theta_odo),
-            cat(self.run, other.run),
-        )
-
     @property
     def eps_x(self) -> np.ndarray:
         """Eq. 3.1: return position error, absolute minus calculated (x)."""

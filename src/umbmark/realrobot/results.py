@@ -348,24 +348,6 @@ class AcrossHeldOut:
     def _values(self, attr: str) -> list[float]:
         return [v for v in (getattr(r.evaluation, attr) for r in self.rows) if v is not None]
 
-    @property
-    def emax_syst_mean_m(self) -> float | None:
-        """Mean E_max,syst over the other data sets' calibrations (None: no square runs)."""
-        v = self._values("emax_syst_m")
-        return float(np.mean(v)) if v else None
-
-    @property
-    def emax_syst_max_m(self) -> float | None:
-        """Largest E_max,syst over the other data sets' calibrations."""
-        v = self._values("emax_syst_m")
-        return float(np.max(v)) if v else None
-
-    @property
-    def end_position_rms_mean_m(self) -> float | None:
-        """Mean end-position RMS over the other data sets' calibrations."""
-        v = self._values("end_position_rms_m")
-        return float(np.mean(v)) if v else None
-
     def to_dict(self) -> dict:
         """``scheme``, the means and maximum (mm) and the rows (``from``)."""
         rows = [r.to_dict() for r in self.rows]
@@ -672,21 +654,6 @@ class PooledReport:
 
     def _rms(self, part: str) -> float | None:
         return _rms_of(getattr(p, part).end_position_rms_m for p in self.per_dataset)
-
-    @property
-    def end_position_rms_before_m(self) -> float | None:
-        """RMS over the data sets of the end-position RMS with the nominal geometry."""
-        return self._rms("before")
-
-    @property
-    def end_position_rms_after_m(self) -> float | None:
-        """RMS over the data sets of the end-position RMS with the pooled fit."""
-        return self._rms("after")
-
-    @property
-    def end_position_rms_heldout_m(self) -> float | None:
-        """RMS over the data sets of the end-position RMS with the fit on the others."""
-        return self._rms("heldout") if self.is_held_out else None
 
     def to_dict(self) -> dict:
         """The JSON of ``umbmark replay --pool --json``."""
