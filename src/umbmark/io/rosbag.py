@@ -373,13 +373,13 @@ class _WheelMessages:
     :meth:`add` takes each of their messages.
     """
 
-    def __init__(self, reader, wheels: WheelSource, source: str):
+    def __init__(self, reader, wheels: WheelSource, source: str, two_wheels: bool = True):
         if not wheels.given:
             raise InputError(
                 f"give the wheel data: {ONE_WHEEL_SOURCE}{_wheel_hint(reader)} (topics: {_topics_hint(reader)})",
                 source,
             )
-        wheels.check(source)
+        wheels.check(source, two_wheels)
         self.wheels, self.src = wheels, source
         kind = wheels.kind
         if kind == "joints":
@@ -393,6 +393,7 @@ class _WheelMessages:
         self.a: list[float] = []
         self.b: list[float] = []
         self.yaw: list[float] = []
+        self.rest: list[list[float]] = []  # the joints beyond the first two
         self.names_seen: set[str] = set()
         self.no_position = 0
         self.child_frames: set[str] = set()
@@ -403,15 +404,16 @@ class _WheelMessages:
         if w.kind == "joints":
             assert w.joints is not None
             names = list(getattr(msg, "name", []))
-            if w.joints[0] in names and w.joints[1] in names:
+            if all(j in names for j in w.joints):
                 pos = msg.position
-                i, j = names.index(w.joints[0]), names.index(w.joints[1])
-                if len(pos) <= max(i, j):
+                cols = [names.index(j) for j in w.joints]
+                if len(pos) <= max(cols):
                     self.no_position += 1
                     return
                 self.t.append(_stamp(msg, ns))
-                self.a.append(float(pos[i]))
-                self.b.append(float(pos[j]))
+                self.a.append(float(pos[cols[0]]))
+                self.b.append(float(pos[cols[1]]) if len(cols) > 1 else 0.0)
+                self.rest.append([float(pos[c]) for c in cols[2:]])
             elif len(self.names_seen) < 50:
                 self.names_seen.update(names)
         elif w.kind == "ticks":
@@ -438,16 +440,18 @@ class _WheelMessages:
             return
         if w.kind == "joints":
             assert w.joints is not None
+            named = " and ".join(f"{j!r}" for j in w.joints) if len(w.joints) == 2 else ", ".join(map(repr, w.joints))
             if self.no_position:
                 raise InputError(
-                    f"the JointState messages on {w.joint_topic} name the joints {w.joints[0]!r} and "
-                    f"{w.joints[1]!r} but carry no positions: record the wheel positions, or use the odometry "
-                    "(`odom_topic`)",
+                    f"the JointState messages on {w.joint_topic} name the joints {named} but carry no positions: "
+                    "record the wheel positions, or use the odometry (`odom_topic`)",
                     src,
                 )
+            every = "both joints" if len(w.joints) == 2 else "every joint of"
+            takes = "`joints` takes LEFT,RIGHT" if w.two_wheels else "check the joint names"
             raise InputError(
-                f"no JointState message on {w.joint_topic} names both joints {w.joints[0]!r} and {w.joints[1]!r} "
-                f"(joints there: {', '.join(sorted(self.names_seen)) or 'none'}; `joints` takes LEFT,RIGHT)",
+                f"no JointState message on {w.joint_topic} names {every} {named} "
+                f"(joints there: {', '.join(sorted(self.names_seen)) or 'none'}; {takes})",
                 src,
             )
         raise InputError(f"no messages on {w.topic} for the wheel data", src)
@@ -462,15 +466,18 @@ class _WheelMessages:
             No message with the wheel data, fewer than two samples kept, or what
             :func:`umbmark.model.timing.check_wheel_stream` refuses.
         """
-        from umbmark.model.timing import check_wheel_stream
+        from umbmark.model.timing import check_joint_stream
 
         w, src = self.wheels, self.src
         self._refuse_empty()
         odom = w.kind == "odom"
-        chk = check_wheel_stream(
+        n_joints = len(w.joints) if w.joints is not None else 2
+        pos = np.column_stack([self.a, self.b] + ([np.asarray(self.rest, dtype=float)] if n_joints > 2 else []))
+        rolling = w.rolling if w.joints is not None else (True, True)
+        chk = check_joint_stream(
             self.t,
-            self.a,
-            self.b,
+            pos[:, :n_joints],
+            rolling,
             # a joint turns 2 pi per revolution: its rim goes 30 m/s at 3000 rad/s on a 2 cm wheel
             metres_per_unit=1.0 if odom else 0.01 * 2.0 * math.pi / w.units_per_wheel_rev,
             cumulative=w.cumulative,
@@ -485,10 +492,13 @@ class _WheelMessages:
             warnings.append(f"{self.no_position} JointState messages on {w.topic} without positions: dropped")
         if chk.t.size < 2:
             raise InputError(f"fewer than two {w.what} on {w.topic}", src)
+        p = chk.positions
         if not odom:
-            return WheelData(w, chk.t, chk.left, chk.right, warnings=tuple(warnings))
-        assert chk.kept is not None
-        pose = np.column_stack([chk.left, chk.right, np.asarray(self.yaw, dtype=float)[chk.kept]])
+            joints = p if w.kind == "joints" else None
+            if not w.two_wheels:
+                return WheelData(w, chk.t, None, None, warnings=tuple(warnings), joints=joints)
+            return WheelData(w, chk.t, p[:, 0], p[:, 1], warnings=tuple(warnings), joints=joints)
+        pose = np.column_stack([p[:, 0], p[:, 1], np.asarray(self.yaw, dtype=float)[chk.kept]])
         if not np.all(np.isfinite(pose)):
             raise InputError(f"the odometry poses on {w.topic} contain NaN or infinite values", src)
         child = sorted(self.child_frames)[0] if len(self.child_frames) == 1 else None
@@ -794,6 +804,11 @@ class SelfcalBag:
         The bag's topics, for messages.
     warnings : tuple of str
         What the reader dropped or noticed (scans of another beam layout, repeated stamps).
+    joint_positions : numpy.ndarray or None
+        ``(K, J)`` every joint's position [rad] at ``wheel_t_s`` (joint states; rolling joints
+        cumulative, steering joints their angle).
+    joint_names : tuple of str
+        Their names (empty without joint states).
     """
 
     source: str
@@ -813,6 +828,8 @@ class SelfcalBag:
     static_transforms: tuple[StaticTransform, ...]
     topics: tuple[str, ...]
     warnings: tuple[str, ...] = ()
+    joint_positions: np.ndarray | None = None
+    joint_names: tuple[str, ...] = ()
 
     @property
     def n_scans(self) -> int:
@@ -942,6 +959,7 @@ def read_selfcal_bag(
     scan_frame: str | None = None,
     tf_topic: str = "/tf_static",
     progress: Callable[[int, int], None] | None = None,
+    two_wheels: bool = True,
 ) -> SelfcalBag:
     """Read the scans, the wheel data and the static transforms of a bag for a lidar self-calibration.
 
@@ -959,6 +977,9 @@ def read_selfcal_bag(
         The topic of the static transforms (read when the bag has it).
     progress : callable, optional
         Called as ``progress(messages_read, messages_total)`` while reading.
+    two_wheels : bool
+        Only a differential drive's two wheels will do (``False``: the joints of any kind of
+        robot, :attr:`SelfcalBag.joint_positions`).
 
     Returns
     -------
@@ -975,12 +996,12 @@ def read_selfcal_bag(
     """
     src = str(path)
     if wheels.given:
-        wheels.check(src)  # before the bag is opened
+        wheels.check(src, two_wheels)  # before the bag is opened
     reader = _open(path)
     try:
         topics = tuple(sorted({c.topic for c in reader.connections}))
         scan_conns = _typed_conns(reader, scan_topic, ("LaserScan",), src, "laser scans")
-        wheel_msgs = _WheelMessages(reader, wheels, src)
+        wheel_msgs = _WheelMessages(reader, wheels, src, two_wheels)
         tf_conns = [c for c in reader.connections if c.topic == tf_topic and c.msgtype.endswith("TFMessage")]
         conns = scan_conns + wheel_msgs.conns + tf_conns
         total = sum(c.msgcount for c in conns)
@@ -1027,6 +1048,8 @@ def read_selfcal_bag(
         static_transforms=tuple(tfs.values()),
         topics=topics,
         warnings=tuple(warnings) + wd.warnings,
+        joint_positions=wd.joints,
+        joint_names=tuple(wheels.joints or ()),
     )
 
 

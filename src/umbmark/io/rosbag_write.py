@@ -1,4 +1,4 @@
-"""Write a simulated drive (:class:`umbmark.model.drive.DriveLog`) as a ROS bag, with the ``rosbags`` package.
+"""Write a simulated drive (:class:`umbmark.model.drive.DriveLog`, :class:`~umbmark.model.kinematic_drive.JointDriveLog`) as a ROS bag, with the ``rosbags`` package.
 
 Imports numpy, :mod:`umbmark.errors` and :mod:`umbmark.model` (the drive log and
 :mod:`~umbmark.model.se2`); ``rosbags`` when a bag is written. Storage: a ROS 1 ``.bag`` file,
@@ -8,9 +8,11 @@ Topics (header stamps and bag times are the sample times, from ``epoch_s``; a sc
 stamp :attr:`umbmark.model.drive.DriveLog.scan_stamps_s`, late or jittered when the drive was
 :meth:`~umbmark.model.drive.DriveLog.stamped` so):
 
-* ``/joint_states`` (``sensor_msgs/JointState``) at the wheel rate: joints
+* ``/joint_states`` (``sensor_msgs/JointState``) at the wheel rate: a differential drive's joints
   ``left_wheel_joint`` and ``right_wheel_joint``, ``position`` the cumulative wheel angles
-  [rad], ``velocity`` the mean wheel speed over the sample that ends there [rad/s];
+  [rad], ``velocity`` the mean wheel speed over the sample that ends there [rad/s]; a
+  tricycle's or mecanum robot's (:class:`~umbmark.model.kinematic_drive.JointDriveLog`) its
+  joints, the wheels' cumulative angles and the steering joint's angle;
 * ``/scan`` (``sensor_msgs/LaserScan``, frame ``laser``) at the scan rate: ``angle_min``,
   ``angle_max``, ``angle_increment``, ``range_min``, ``range_max``, ``scan_time``, the ranges
   as float32 with ``inf`` for no return (``time_increment`` 0: the scans are instantaneous);
@@ -45,6 +47,7 @@ from numpy.typing import ArrayLike
 
 from umbmark.errors import InputError
 from umbmark.model.drive import DriveLog
+from umbmark.model.kinematic_drive import JointDriveLog
 
 __all__ = [
     "STORAGES",
@@ -113,6 +116,26 @@ def _stamp_ns(epoch_s: float, t_s: np.ndarray) -> np.ndarray:
     return base + np.round(np.asarray(t_s) * 1e9).astype(np.int64)
 
 
+def _joint_positions(log: DriveLog | JointDriveLog) -> np.ndarray:
+    """``(K, J)`` the joints as published: a differential drive's wheels, or any robot's joints."""
+    if isinstance(log, JointDriveLog):
+        return np.asarray(log.positions, dtype=float)
+    return np.column_stack([log.left_rad, log.right_rad])
+
+
+def _odom_twist(log: DriveLog | JointDriveLog) -> np.ndarray:
+    """``(K, 3)`` the odometry's twist ``(v_x, v_y, omega)`` over the sample that ends at each stamp (0 first)."""
+    dt = np.diff(log.t_s)[:, None]
+    if isinstance(log, JointDriveLog):
+        tw = log.nominal.twist(log.joint_steps().values) / dt
+    else:
+        g = log.nominal_geometry
+        vl = 0.5 * g.diameter_left_m * np.diff(log.left_rad) / dt[:, 0]
+        vr = 0.5 * g.diameter_right_m * np.diff(log.right_rad) / dt[:, 0]
+        tw = np.column_stack([0.5 * (vl + vr), np.zeros_like(vl), (vr - vl) / g.wheelbase_m])
+    return np.vstack([np.zeros((1, 3)), tw])
+
+
 def _quat(T: Any, yaw: float) -> Any:
     return T["geometry_msgs/msg/Quaternion"](x=0.0, y=0.0, z=math.sin(0.5 * yaw), w=math.cos(0.5 * yaw))
 
@@ -122,25 +145,26 @@ class _Messages:
 
     def __init__(
         self,
-        log: DriveLog,
+        log: DriveLog | JointDriveLog,
         ts: Any,
         ros1: bool,
         epoch_s: float,
-        joints: tuple[str, str],
+        joints: tuple[str, ...],
         gyro: tuple[np.ndarray, np.ndarray] | None = None,
         ticks_per_rev: float | None = None,
     ) -> None:
         self.log, self.T, self.ros1, self.joints = log, ts.types, ros1, list(joints)
+        self.positions = _joint_positions(log)
         self.counts = None
         if ticks_per_rev is not None:
             pulse = 2.0 * math.pi / ticks_per_rev
-            self.counts = np.floor(np.column_stack([log.left_rad, log.right_rad]) / pulse + 1e-9)
+            self.counts = np.floor(self.positions / pulse + 1e-9)
         self.wheel_ns = _stamp_ns(epoch_s, log.t_s)
         self.scan_ns = _stamp_ns(epoch_s, log.scan_stamps_s)
         dt = np.diff(log.t_s)
-        self.vel_l = np.concatenate([[0.0], np.diff(log.left_rad) / dt])
-        self.vel_r = np.concatenate([[0.0], np.diff(log.right_rad) / dt])
+        self.vel = np.vstack([np.zeros((1, self.positions.shape[1])), np.diff(self.positions, axis=0) / dt[:, None]])
         self._odom: np.ndarray | None = None
+        self._twist = np.zeros((0, 3))
         self._seq: dict[str, int] = {}
         self.gyro: tuple[np.ndarray, np.ndarray] | None = gyro
         self.gyro_ns = None if gyro is None else _stamp_ns(epoch_s, gyro[0])
@@ -155,12 +179,11 @@ class _Messages:
         return T["std_msgs/msg/Header"](stamp=stamp, frame_id=frame)
 
     def joint(self, k: int) -> Any:
-        log = self.log
         return self.T["sensor_msgs/msg/JointState"](
             header=self.header(int(self.wheel_ns[k]), "", "joint"),
             name=self.joints,
-            position=np.array([log.left_rad[k], log.right_rad[k]]),
-            velocity=np.array([self.vel_l[k], self.vel_r[k]]),
+            position=np.array(self.positions[k]),
+            velocity=np.array(self.vel[k]),
             effort=np.array([], dtype=float),
         )
 
@@ -192,9 +215,9 @@ class _Messages:
         T, log = self.T, self.log
         if self._odom is None:
             self._odom = log.odometry()
+            self._twist = _odom_twist(log)
         x, y, yaw = self._odom[k]
-        g = log.nominal_geometry
-        vl, vr = 0.5 * g.diameter_left_m * self.vel_l[k], 0.5 * g.diameter_right_m * self.vel_r[k]
+        vx, vy, wz = self._twist[k]
         vec = T["geometry_msgs/msg/Vector3"]
         cov = np.zeros(36)
         return T["nav_msgs/msg/Odometry"](
@@ -203,8 +226,8 @@ class _Messages:
             pose=T["geometry_msgs/msg/PoseWithCovariance"](pose=self._pose(x, y, yaw), covariance=cov),
             twist=T["geometry_msgs/msg/TwistWithCovariance"](
                 twist=T["geometry_msgs/msg/Twist"](
-                    linear=vec(x=0.5 * (vl + vr), y=0.0, z=0.0),
-                    angular=vec(x=0.0, y=0.0, z=(vr - vl) / g.wheelbase_m),
+                    linear=vec(x=float(vx), y=float(vy), z=0.0),
+                    angular=vec(x=0.0, y=0.0, z=float(wz)),
                 ),
                 covariance=cov,
             ),
@@ -295,7 +318,7 @@ def _static_qos() -> list[Any]:
 
 
 def _write(
-    log: DriveLog,
+    log: DriveLog | JointDriveLog,
     target: Path,
     storage: str,
     epoch_s: float,
@@ -345,14 +368,14 @@ def _write(
 
 
 def write_drive_bag(
-    log: DriveLog,
+    log: DriveLog | JointDriveLog,
     path: str | os.PathLike[str],
     *,
     storage: str | None = None,
     odom: bool = True,
     truth: bool = False,
     epoch_s: float = EPOCH_S,
-    joints: tuple[str, str] = JOINT_NAMES,
+    joints: tuple[str, ...] | None = None,
     tf_static: bool = True,
     gyro: tuple[ArrayLike, ArrayLike] | None = None,
     ticks_per_rev: float | None = None,
@@ -361,8 +384,8 @@ def write_drive_bag(
 
     Parameters
     ----------
-    log : DriveLog
-        The simulated drive.
+    log : DriveLog or JointDriveLog
+        The simulated drive (a differential drive's, or any kind of robot's).
     path : str or Path
         The bag to create: a ``.bag`` file for ROS 1, a folder for ROS 2. It must not exist.
     storage : str, optional
@@ -373,8 +396,10 @@ def write_drive_bag(
         Write ``/ground_truth`` (the true robot pose in the room).
     epoch_s : float
         The time of the drive's start [s since 1970].
-    joints : (str, str)
-        The names of the left and right wheel joints.
+    joints : tuple of str, optional
+        The joints' names (default a differential drive's ``left_wheel_joint`` and
+        ``right_wheel_joint``; a :class:`~umbmark.model.kinematic_drive.JointDriveLog`'s own
+        :attr:`~umbmark.model.kinematic_drive.JointDriveLog.joint_names`).
     tf_static : bool
         Write ``/tf_static`` (the lidar's mounting pose).
     gyro : (array_like, array_like), optional
@@ -394,6 +419,10 @@ def write_drive_bag(
         ``path`` exists, its folder does not, a bad storage or epoch, gyro arrays of different
         lengths or not finite, or the ``rosbags`` package missing.
     """
+    if joints is None:
+        joints = log.joint_names if isinstance(log, JointDriveLog) else JOINT_NAMES
+    if len(joints) != _joint_positions(log).shape[1]:
+        raise InputError(f"`joints` must name the drive's {_joint_positions(log).shape[1]} joints, got {joints!r}")
     rates = None
     if gyro is not None:
         g_t, g_w = (np.asarray(a, dtype=float).reshape(-1) for a in gyro)

@@ -59,9 +59,12 @@ class WheelSource:
 
     Parameters
     ----------
-    joints : (str, str), optional
-        The left and right wheel joints of the ``sensor_msgs/JointState`` messages on
-        ``joint_topic``; or:
+    joints : tuple of str, optional
+        The wheel joints of the ``sensor_msgs/JointState`` messages on ``joint_topic``: a
+        differential drive's ``(left, right)``; any other kind of robot's joints in its
+        :attr:`~umbmark.model.kinematics.Kinematics.joint_roles` order (a tricycle's
+        ``(drive, steer)``, a mecanum robot's ``(front_left, front_right, rear_left,
+        rear_right)``); or:
     ticks_topic, left_field, right_field : str, optional
         A topic of encoder counts and the fields of the left and right count, with ``ticks``
         and ``pulses_per_wheel_rev``; or:
@@ -74,6 +77,8 @@ class WheelSource:
         ``cumulative`` or ``incremental`` counts (:data:`TICK_MODES`).
     pulses_per_wheel_rev : float, optional
         Encoder pulses per wheel revolution (needed with ``ticks_topic``).
+    steer_joints : tuple of str
+        Of ``joints``, those that hold a steering angle [rad] rather than roll.
 
     Notes
     -----
@@ -81,7 +86,7 @@ class WheelSource:
     called by the readers before they open a bag.
     """
 
-    joints: tuple[str, str] | None = None
+    joints: tuple[str, ...] | None = None
     joint_topic: str = "/joint_states"
     ticks_topic: str | None = None
     left_field: str | None = None
@@ -89,11 +94,29 @@ class WheelSource:
     ticks: str = "cumulative"
     pulses_per_wheel_rev: float | None = None
     odom_topic: str | None = None
+    steer_joints: tuple[str, ...] = ()
 
     @classmethod
     def joint_states(cls, left: str, right: str, topic: str = "/joint_states") -> WheelSource:
         """The wheel joints ``left`` and ``right`` of the JointState messages on ``topic``."""
         return cls(joints=(left, right), joint_topic=topic)
+
+    @classmethod
+    def robot_joints(
+        cls, joints: tuple[str, ...], steer_joints: tuple[str, ...] = (), topic: str = "/joint_states"
+    ) -> WheelSource:
+        """The joints of any kind of robot (its roles' order), ``steer_joints`` among them."""
+        return cls(joints=tuple(joints), joint_topic=topic, steer_joints=tuple(steer_joints))
+
+    @property
+    def rolling(self) -> tuple[bool, ...]:
+        """Per joint: it rolls (a wheel), else it holds a steering angle."""
+        return tuple(j not in self.steer_joints for j in (self.joints or ()))
+
+    @property
+    def two_wheels(self) -> bool:
+        """The data are a differential drive's two wheels (joints, encoder counts or an odometry)."""
+        return self.joints is None or (len(self.joints) == 2 and not self.steer_joints)
 
     @classmethod
     def encoder_counts(
@@ -157,7 +180,7 @@ class WheelSource:
         """Where the wheel data come from, in words (for reports)."""
         if self.kind == "joints":
             assert self.joints is not None
-            return f"JointState {self.joints[0]}, {self.joints[1]} on {self.joint_topic}"
+            return f"JointState {', '.join(self.joints)} on {self.joint_topic}"
         if self.kind == "ticks":
             return (
                 f"encoder counts {self.left_field}, {self.right_field} on {self.ticks_topic} ({self.ticks}, "
@@ -165,13 +188,16 @@ class WheelSource:
             )
         return f"nav_msgs/Odometry on {self.odom_topic}" if self.kind == "odom" else "no wheel data"
 
-    def check(self, source: str | None = None) -> None:
+    def check(self, source: str | None = None, two_wheels: bool = True) -> None:
         """Refuse a source that is not exactly one of the three, or incomplete.
 
         Parameters
         ----------
         source : str, optional
             The recording, for messages.
+        two_wheels : bool
+            Only a differential drive's two wheels will do (else any joints, at least one of
+            them rolling).
 
         Raises
         ------
@@ -186,10 +212,18 @@ class WheelSource:
             raise InputError(f"give the wheel data: {ONE_WHEEL_SOURCE}", source)
         if self.ticks not in TICK_MODES:
             raise InputError(f"ticks must be 'cumulative' or 'incremental', got {self.ticks!r}", source)
-        if self.joints is not None and (
-            len(self.joints) != 2 or not all(isinstance(j, str) and j for j in self.joints)
-        ):
-            raise InputError(f"`joints` needs two names LEFT,RIGHT, got {self.joints!r}", source)
+        if self.joints is not None:
+            names = self.joints
+            if not all(isinstance(j, str) and j for j in names) or len(set(names)) != len(names):
+                raise InputError(f"`joints` must be distinct names, got {names!r}", source)
+            if two_wheels and not self.two_wheels:
+                raise InputError(f"`joints` needs two names LEFT,RIGHT, got {names!r}", source)
+            if not set(self.steer_joints) <= set(names) or not any(self.rolling):
+                raise InputError(
+                    f"the steering joints {self.steer_joints!r} must be among the joints {names!r}, "
+                    "beside at least one wheel",
+                    source,
+                )
         if self.kind == "ticks":
             if not self.left_field or not self.right_field:
                 raise InputError("a ticks topic needs `left_field` and `right_field`", source)
@@ -223,6 +257,10 @@ class WheelData:
         The odometry's ``child_frame_id`` when it names one frame.
     warnings : tuple of str
         What the checks found and did.
+    joints : numpy.ndarray or None
+        ``(K, J)`` every joint's position [rad] in the order of :attr:`WheelSource.joints`
+        (rolling joints cumulative, steering joints their angle); None for encoder counts and
+        odometry.
     """
 
     source: WheelSource
@@ -232,6 +270,7 @@ class WheelData:
     odom_pose: FloatArray | None = None
     odom_child_frame: str | None = None
     warnings: tuple[str, ...] = ()
+    joints: FloatArray | None = None
 
     @property
     def kind(self) -> str:

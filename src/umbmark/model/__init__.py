@@ -128,6 +128,8 @@ _LAZY = {
             "parse_time_offset",
             "WheelStream",
             "check_wheel_stream",
+            "check_joint_stream",
+            "JointStream",
             "StreamCheck",
             "check_streams",
             "check_truth_stream",

@@ -53,6 +53,8 @@ __all__ = [
     "given_offset_note",
     "WheelStream",
     "check_wheel_stream",
+    "check_joint_stream",
+    "JointStream",
     "StreamCheck",
     "check_streams",
     "check_truth_stream",
@@ -164,9 +166,13 @@ def wheel_spikes(t: ArrayLike, left: ArrayLike, right: ArrayLike, metres_per_uni
         True when every one is an isolated spike (the samples before and after it agree, so
         dropping it loses nothing).
     """
-    t = np.asarray(t, dtype=float)
     pos = np.column_stack([np.asarray(left, dtype=float), np.asarray(right, dtype=float)])
-    if len(t) < 2:
+    return _spikes(np.asarray(t, dtype=float), pos, metres_per_unit)
+
+
+def _spikes(t: np.ndarray, pos: np.ndarray, metres_per_unit: float) -> tuple[np.ndarray, bool]:
+    """:func:`wheel_spikes` of ``(N, J)`` positions (no joint: none)."""
+    if len(t) < 2 or pos.shape[1] == 0:
         return np.array([], dtype=int), True
     dt = np.diff(t)
     with np.errstate(over="ignore", invalid="ignore"):
@@ -573,22 +579,95 @@ def check_wheel_stream(
         Stamps that go backwards, running counters read as increments, non-finite values, a
         jump that stays.
     """
+    pos = np.column_stack([np.asarray(left, dtype=float).reshape(-1), np.asarray(right, dtype=float).reshape(-1)])
+    chk = check_joint_stream(
+        t,
+        pos,
+        (True, True),
+        metres_per_unit=metres_per_unit,
+        cumulative=cumulative,
+        wrapped_turn=wrapped_turn,
+        poses=poses,
+        what=what,
+        topic=topic,
+        source=source,
+    )
+    return WheelStream(chk.t, chk.positions[:, 0], chk.positions[:, 1], chk.warnings, chk.kept)
+
+
+@dataclass(frozen=True)
+class JointStream:
+    """A log's joint data, checked (see :func:`check_joint_stream`).
+
+    Attributes
+    ----------
+    t : numpy.ndarray
+        ``(K,)`` the stamps kept, in time order [s].
+    positions : numpy.ndarray
+        ``(K, J)`` the positions kept (rolling joints cumulative, incremental counts summed).
+    warnings : tuple of str
+        What was found and done.
+    kept : numpy.ndarray
+        ``(K,)`` the index of each sample kept in the stream as given.
+    """
+
+    t: np.ndarray
+    positions: np.ndarray
+    warnings: tuple[str, ...]
+    kept: np.ndarray
+
+
+def check_joint_stream(
+    t,
+    positions,
+    rolling,
+    *,
+    metres_per_unit: float,
+    cumulative: bool = True,
+    wrapped_turn: float | None = None,
+    poses: bool = False,
+    what: str = "joint positions",
+    topic: str = "the joint topic",
+    source: str | None = None,
+) -> JointStream:
+    """Check the stamps and values of any number of joints (:func:`check_wheel_stream`'s checks).
+
+    Stamp order, repeated stamps and finite values concern every joint; running counters,
+    spikes and wrapped turns only the rolling ones (a steering joint holds an angle).
+
+    Parameters
+    ----------
+    t : array_like
+        ``(K,)`` stamps [s] as recorded.
+    positions : array_like
+        ``(K, J)`` the joints' values (log units).
+    rolling : sequence of bool
+        ``(J,)`` which joints roll (a wheel) rather than hold an angle (a steering joint).
+    metres_per_unit, cumulative, wrapped_turn, poses, what, topic, source
+        As for :func:`check_wheel_stream`.
+
+    Returns
+    -------
+    JointStream
+
+    Raises
+    ------
+    InputError
+        As :func:`check_wheel_stream`.
+    """
     warnings: list[str] = []
     t = np.asarray(t, dtype=float)
-    pl = np.asarray(left, dtype=float)
-    pr = np.asarray(right, dtype=float)
+    pos = np.asarray(positions, dtype=float).reshape(t.size, -1)
+    roll = np.asarray(rolling, dtype=bool)
     kept = np.arange(t.size)
-    t, (pl, pr, kept), keep, rep, first = _in_stamp_order(t, [pl, pr, kept], what, topic, source, warnings)
+    t, (pos, kept), keep, rep, first = _in_stamp_order(t, [pos, kept], what, topic, source, warnings)
     if rep:
         if cumulative:
             note = "the last of each stamp is kept"
         else:  # incremental: identical copies count once, different counts of one stamp add up
             groups = np.concatenate([[0], keep[:-1] + 1])
-            same = (np.maximum.reduceat(pl, groups) == np.minimum.reduceat(pl, groups)) & (
-                np.maximum.reduceat(pr, groups) == np.minimum.reduceat(pr, groups)
-            )
-            pl = np.where(same, pl[keep], np.add.reduceat(pl, groups))
-            pr = np.where(same, pr[keep], np.add.reduceat(pr, groups))
+            same = np.all(np.maximum.reduceat(pos, groups) == np.minimum.reduceat(pos, groups), axis=1)
+            pos = np.where(same[:, None], pos[keep], np.add.reduceat(pos, groups))
             note = "identical copies are counted once, different counts of one stamp are added up"
         warnings.append(
             f"{rep} of the {t.size} {what} on {topic} repeat the stamp of the message before "
@@ -596,20 +675,21 @@ def check_wheel_stream(
         )
         t, kept = t[keep], kept[keep]
         if cumulative:
-            pl, pr = pl[keep], pr[keep]
-    if not (np.all(np.isfinite(pl)) and np.all(np.isfinite(pr))):
-        k = int(np.flatnonzero(~(np.isfinite(pl) & np.isfinite(pr)))[0])
+            pos = pos[keep]
+    if not np.all(np.isfinite(pos)):
+        k = int(np.flatnonzero(~np.isfinite(pos).all(axis=1))[0])
         raise InputError(
             f"the {what} on {topic} are not finite at t={t[k] - t[0]:.3f} s (message {k + 1} kept)",
             source,
         )
+    wheels = pos[:, roll]
     if not cumulative:
-        _refuse_running_counters(t, pl, pr, metres_per_unit, what, topic, source)
-        pl, pr = np.cumsum(pl), np.cumsum(pr)
-    bad, isolated = wheel_spikes(t, pl, pr, metres_per_unit)
+        _refuse_running_counters(t, wheels, metres_per_unit, what, topic, source)
+        wheels = np.cumsum(wheels, axis=0)
+    bad, isolated = _spikes(t, wheels, metres_per_unit)
     if bad.size:
         k = int(bad[0])
-        jump = max(abs(pl[k] - pl[k - 1]), abs(pr[k] - pr[k - 1]))
+        jump = float(np.abs(wheels[k] - wheels[k - 1]).max())
         where = f"at t={t[k] - t[0]:.3f} s (sample {k + 1})"
         if not (isolated and cumulative):
             at = "" if poses else " at the wheel rim"
@@ -624,26 +704,27 @@ def check_wheel_stream(
         )
         ok = np.ones(t.size, dtype=bool)
         ok[bad] = False
-        t, pl, pr, kept = t[ok], pl[ok], pr[ok], kept[ok]
+        t, pos, wheels, kept = t[ok], pos[ok], wheels[ok], kept[ok]
     if wrapped_turn is not None and t.size > 1:
-        jumps = int((np.abs(np.diff(pl)) > 0.5 * wrapped_turn).sum() + (np.abs(np.diff(pr)) > 0.5 * wrapped_turn).sum())
+        jumps = int((np.abs(np.diff(wheels, axis=0)) > 0.5 * wrapped_turn).sum())
         if jumps:
             warnings.append(
                 f"the {what} on {topic} jump by more than half a turn {jumps} times between messages (wrapped to "
                 "one turn?): unwrapped"
             )
-            pl = np.unwrap(pl, period=wrapped_turn)
-            pr = np.unwrap(pr, period=wrapped_turn)
-    return WheelStream(t, pl, pr, tuple(warnings), kept)
+            wheels = np.unwrap(wheels, period=wrapped_turn, axis=0)
+    pos = pos.copy()
+    pos[:, roll] = wheels
+    return JointStream(t, pos, tuple(warnings), kept)
 
 
-def _refuse_running_counters(t, pl, pr, metres_per_unit: float, what: str, topic: str, source: str | None) -> None:
+def _refuse_running_counters(t, wheels, metres_per_unit: float, what: str, topic: str, source: str | None) -> None:
     """Refuse incremental counts whose median would turn a wheel rim faster than any wheel: they
-    are running counters read per message."""
+    are running counters read per message (``wheels``: ``(K, J)``)."""
     if t.size <= 2:
         return
     dt = float(np.median(np.diff(t)))
-    speed = float(np.median(np.maximum(np.abs(pl), np.abs(pr)))) * metres_per_unit / dt if dt > 0 else 0.0
+    speed = float(np.median(np.abs(wheels).max(axis=1))) * metres_per_unit / dt if dt > 0 else 0.0
     if speed > MAX_WHEEL_SPEED_MPS:
         raise InputError(
             f"read as counts per message, the {what} on {topic} would turn the wheel rims at {speed:.3g} m/s "

@@ -149,12 +149,12 @@ def _physical(p: FloatArray) -> FloatArray:
     return out
 
 
-def _robust_sd(r: FloatArray) -> FloatArray:
+def robust_sd(r: FloatArray) -> FloatArray:
     med = np.median(r, axis=0)
     return np.maximum(_MAD * np.median(np.abs(r - med), axis=0), _SD_FLOOR)
 
 
-class _Problem:
+class Problem:
     """The intervals in use and their whitening: given covariances, or a common scatter matrix."""
 
     def __init__(self, iv: Intervals, given_w: FloatArray | None, jitter: bool = False):
@@ -175,7 +175,12 @@ class _Problem:
         if self.jitter:
             assert iv.end_rates is not None
             self.rates = (np.asarray(iv.end_rates[:, :2], float), np.asarray(iv.end_rates[:, 2:], float))
+        self.n = 6  # parameters
         self.last_information = np.eye(6)  # the last Gauss-Newton step's (whitened, weighted)
+
+    def param_scale(self, p: FloatArray) -> FloatArray:
+        """The scale of each parameter for relative steps (:func:`_param_scale`)."""
+        return _param_scale(p)
 
     def jitter_terms(self, p: FloatArray) -> tuple[FloatArray, tuple[FloatArray, FloatArray, FloatArray, FloatArray]]:
         """``G_k = a_s a_s^T + a_e a_e^T`` ``(K, 3, 3)`` (the covariance of a unit jitter at both
@@ -254,7 +259,7 @@ class _Problem:
         ).ravel()
         jac: Callable[[FloatArray], FloatArray] = lambda p: (  # noqa: E731
             -sw[:, None, None] * self.white(self.jac(p, idx), idx, w3)
-        ).reshape(-1, 6)
+        ).reshape(-1, self.n)
         method = "lm" if loss == "linear" else "trf"
         sol = least_squares(
             fun, p0, jac=jac, method=method, loss=loss, x_scale="jac", ftol=1e-12, xtol=1e-12, gtol=1e-12, max_nfev=500
@@ -283,7 +288,7 @@ class _Problem:
 
         z = self.white(self.res(p, idx), idx, w3)
         sw = np.sqrt(weights)
-        jw = (sw[:, None, None] * self.whitened_jacobian(p, idx, w3)).reshape(-1, 6)
+        jw = (sw[:, None, None] * self.whitened_jacobian(p, idx, w3)).reshape(-1, self.n)
         h = jw.T @ jw
         self.last_information = h
         g = jw.T @ (sw[:, None] * z).reshape(-1)
@@ -305,7 +310,7 @@ class _Problem:
         return p
 
 
-def _diag_whitener(sd: FloatArray) -> FloatArray:
+def diag_whitener(sd: FloatArray) -> FloatArray:
     return np.diag(1.0 / np.maximum(sd, _SD_FLOOR))
 
 
@@ -315,27 +320,27 @@ def _scatter_whitener(scatter: FloatArray) -> FloatArray:
     try:
         return np.asarray(np.linalg.inv(np.linalg.cholesky(a)), dtype=float)
     except np.linalg.LinAlgError:
-        return _diag_whitener(np.sqrt(np.maximum(np.diag(a), 0.0)))
+        return diag_whitener(np.sqrt(np.maximum(np.diag(a), 0.0)))
 
 
-def _gaussian_fit(prob: _Problem, p0: FloatArray, idx: NDArray[np.intp]) -> tuple[FloatArray, FloatArray | None]:
+def _gaussian_fit(prob: Problem, p0: FloatArray, idx: NDArray[np.intp]) -> tuple[FloatArray, FloatArray | None]:
     """Maximum likelihood for Gaussian noise on the intervals ``idx``: the parameters and the
     whitener (``None`` with given covariances; else that of the noise sd of each component,
     estimated from the residuals and the fit repeated until it settles)."""
     if prob.given_w is not None:
         return prob.fit(p0, idx, None), None
     n = len(idx)
-    sd = _robust_sd(prob.res(p0, idx))
+    sd = robust_sd(prob.res(p0, idx))
     p = p0
     for _ in range(10):
-        p = prob.fit(p, idx, _diag_whitener(sd))
+        p = prob.fit(p, idx, diag_whitener(sd))
         r = prob.res(p, idx)
         new = np.maximum(np.sqrt((r * r).sum(axis=0) / max(n - 2, 1)), _SD_FLOOR)
         done = bool(np.all(np.abs(new / sd - 1.0) < 1e-4))
         sd = new
         if done:
             break
-    return p, _diag_whitener(sd)
+    return p, diag_whitener(sd)
 
 
 def _t_loglik(nu: float, d2: FloatArray) -> float:
@@ -391,7 +396,7 @@ def _fit_jitter(base: FloatArray, g: FloatArray, r: FloatArray, wt: FloatArray) 
 
 
 def _student_fit(
-    prob: _Problem, p0: FloatArray, idx: NDArray[np.intp], student: bool = True
+    prob: Problem, p0: FloatArray, idx: NDArray[np.intp], student: bool = True
 ) -> tuple[FloatArray, FloatArray | None, float, FloatArray, FloatArray | None, float]:
     """Maximum likelihood for Student t noise on the intervals ``idx`` (expectation maximisation).
 
@@ -410,7 +415,7 @@ def _student_fit(
     """
     p = p0
     r = prob.res(p, idx)
-    scatter = None if prob.given_w is not None else np.diag(_robust_sd(r) ** 2)
+    scatter = None if prob.given_w is not None else np.diag(robust_sd(r) ** 2)
     sig2 = 0.0
     g, d = prob.jitter_terms(p) if prob.jitter else (None, None)
     own = prob.own(g, sig2)
@@ -463,7 +468,7 @@ def _student_fit(
         if d is not None and sig2 > 0:
             corr = (wt[:, None] * prob.score_correction(d, idx, w3, sig2)).sum(axis=0)
         q = prob.gauss_newton(p, idx, w3, wt, corr)
-        step = _param_scale(p)
+        step = prob.param_scale(p)
         # with the jitter modelled the EM converges linearly and slowly (the scatter's EM
         # steps, the jitter and the degrees of freedom trade off): it has settled once the
         # degrees of freedom move by less than 1e-4 of themselves and the jitter by 10 us
@@ -485,7 +490,7 @@ def _student_fit(
         p, nu = q, nu_new
         r = prob.res(p, idx)
         # the jitter's terms move with the parameters, slowly: computed again once they moved
-        if prob.jitter and bool(np.max(np.abs(p - p_terms) / np.abs(_param_scale(p))) > 1e-5):
+        if prob.jitter and bool(np.max(np.abs(p - p_terms) / np.abs(prob.param_scale(p))) > 1e-5):
             g, d = prob.jitter_terms(p)
             p_terms = p.copy()
             own = prob.own(g, sig2)
@@ -498,12 +503,12 @@ def _student_fit(
     return p, w3, nu, wt, scatter, sig2
 
 
-def _score(prob: _Problem, p: FloatArray, idx: NDArray[np.intp]) -> float:
+def _score(prob: Problem, p: FloatArray, idx: NDArray[np.intp]) -> float:
     """Robust log-likelihood-like score of a candidate: the log of the robust noise scales."""
     r = prob.res(p, idx)
     if prob.given_w is not None:
         r = whiten(prob.given_w[idx], r)
-    return float(np.log(_robust_sd(r)).sum())
+    return float(np.log(robust_sd(r)).sum())
 
 
 def time_blocks(dt_s: ArrayLike, block_s: float = BLOCK_S, max_blocks: int = MAX_BLOCKS) -> NDArray[np.intp]:
@@ -705,16 +710,16 @@ def selfcal(
     # 1. the better start, refined robustly when outliers are rejected or the loss is robust
     p0 = _start(prob, r_nom, b_nom, robust=reject_outliers or student)
     # 2-3. maximum likelihood and outliers, until the inliers settle
-    fit = _fit_and_reject(prob, p0, student, reject_outliers, outlier_tail, max_rounds)
+    fit = fit_and_reject(prob, p0, student, reject_outliers, outlier_tail, max_rounds)
     # 4. the physical one of the mirror pair
     fit = replace(fit, p=_physical(fit.p))
     # 5-6. uncertainty, identifiability, plausibility
-    unc = _uncertainty(prob, fit, student, labels, r_nom, b_nom, lim)
+    unc = uncertainty(prob, fit, student, labels, _drive_identify(prob, r_nom, b_nom, lim))
     return _result(intervals, fit, unc, float(wheel_diameter_m), b_nom, prob.jitter)
 
 
 def _result(
-    intervals: Intervals, fit: _Fit, unc: _Uncertainty, wheel_diameter_m: float, b_nom: float, jitter: bool
+    intervals: Intervals, fit: Fit, unc: Uncertainty, wheel_diameter_m: float, b_nom: float, jitter: bool
 ) -> SelfcalResult:
     """The estimate with its 95 % intervals and every warning (the reader's, plausibility,
     identifiability, many outliers)."""
@@ -760,9 +765,9 @@ def _problem(
     block_s: float,
     max_blocks: int,
     time_jitter: bool,
-) -> tuple[_Problem, NDArray[Any]]:
+) -> tuple[Problem, NDArray[Any]]:
     """The intervals checked (at least 3, wheels that turn, a positive definite covariance, a block
-    label each) as a :class:`_Problem`, and the labels of their blocks of time."""
+    label each) as a :class:`Problem`, and the labels of their blocks of time."""
     if not isinstance(intervals, Intervals):
         raise InputError(f"`intervals` must be an Intervals, got {type(intervals).__name__}")
     src = intervals.source
@@ -782,10 +787,10 @@ def _problem(
             raise InputError("`sensor_covariance` must be positive definite", src) from None
         except ValueError as err:
             raise InputError(f"`sensor_covariance`: {err}", src) from None
-    return _Problem(intervals, given_w, jitter=time_jitter), labels
+    return Problem(intervals, given_w, jitter=time_jitter), labels
 
 
-def _start(prob: _Problem, r_nom: float, b_nom: float, robust: bool) -> FloatArray:
+def _start(prob: Problem, r_nom: float, b_nom: float, robust: bool) -> FloatArray:
     """Step 1: of the closed form and the fixed-scale closed form (the nominal geometry where both
     fail), the start with the smaller robust residuals, refined with a Cauchy loss when ``robust``."""
     idx = prob.all
@@ -804,7 +809,7 @@ def _start(prob: _Problem, r_nom: float, b_nom: float, robust: bool) -> FloatArr
     p0 = min(starts, key=lambda q: _score(prob, q, idx))
     p = p0
     if robust:
-        w0 = _diag_whitener(_robust_sd(prob.res(p0, idx))) if prob.given_w is None else None
+        w0 = diag_whitener(robust_sd(prob.res(p0, idx))) if prob.given_w is None else None
         p = prob.fit(p0, idx, w0, loss="cauchy")
     if not np.all(np.isfinite(p)):
         raise InputError("the fit did not converge to finite values: check the units and the wheel order", prob.source)
@@ -812,7 +817,7 @@ def _start(prob: _Problem, r_nom: float, b_nom: float, robust: bool) -> FloatArr
 
 
 @dataclass(frozen=True)
-class _Fit:
+class Fit:
     """The maximum-likelihood fit on the inliers: the parameters, the inliers, the whitener, the
     Student t degrees of freedom, the scatter matrix and the wheel data's jitter variance [s^2]."""
 
@@ -824,17 +829,17 @@ class _Fit:
     sig2: float
 
 
-def _fit_on(prob: _Problem, mask: NDArray[np.bool_], start: FloatArray, student: bool) -> _Fit:
+def _fit_on(prob: Problem, mask: NDArray[np.bool_], start: FloatArray, student: bool) -> Fit:
     """The maximum-likelihood fit on the intervals of ``mask`` from ``start``."""
     sel = np.flatnonzero(mask)
     if student or prob.sig is not None or prob.jitter:
         q, w, dof, _, sc, j2 = _student_fit(prob, start, sel, student)
-        return _Fit(q, mask, w, dof, sc, j2)
+        return Fit(q, mask, w, dof, sc, j2)
     q, w = _gaussian_fit(prob, start, sel)
-    return _Fit(q, mask, w, math.inf, None, 0.0)
+    return Fit(q, mask, w, math.inf, None, 0.0)
 
 
-def _outside(prob: _Problem, fit: _Fit, student: bool, tail: float, first_round: bool) -> NDArray[np.bool_]:
+def _outside(prob: Problem, fit: Fit, student: bool, tail: float, first_round: bool) -> NDArray[np.bool_]:
     """Step 3: the intervals within the ``1 - tail`` quantile of the fitted noise (the inliers)."""
     from umbmark._stats import chi2_isf, f_isf
 
@@ -848,15 +853,15 @@ def _outside(prob: _Problem, fit: _Fit, student: bool, tail: float, first_round:
         e = whiten(prob.given_w, e)
     # first round robust (the outliers are still in); then the scale of the inliers
     ei = e[fit.inliers]
-    scale = _robust_sd(ei) if first_round else np.maximum(np.sqrt((ei * ei).mean(axis=0)), _SD_FLOOR)
+    scale = robust_sd(ei) if first_round else np.maximum(np.sqrt((ei * ei).mean(axis=0)), _SD_FLOOR)
     return np.asarray(((e / scale) ** 2).sum(axis=1) <= chi2_isf(tail, 3))
 
 
-def _fit_and_reject(prob: _Problem, p: FloatArray, student: bool, reject: bool, tail: float, max_rounds: int) -> _Fit:
+def fit_and_reject(prob: Problem, p: FloatArray, student: bool, reject: bool, tail: float, max_rounds: int) -> Fit:
     """Steps 2-3: the fit on the inliers and the outliers set aside, until the inliers settle (a
     set-aside interval is judged again every round)."""
     inl = np.ones(len(prob.all), dtype=bool)
-    fit: _Fit | None = None
+    fit: Fit | None = None
     for rnd in range(max_rounds):
         fit = _fit_on(prob, inl, p if fit is None else fit.p, student)
         if not reject:
@@ -870,7 +875,7 @@ def _fit_and_reject(prob: _Problem, p: FloatArray, student: bool, reject: bool, 
 
 
 @dataclass(frozen=True)
-class _Uncertainty:
+class Uncertainty:
     """Steps 5-6: the covariance (cluster-robust where there are blocks), the quantile of its 95 %
     intervals, the noise's standard deviations, the identifiability warnings, the blocks used and
     the cost at the answer."""
@@ -883,16 +888,26 @@ class _Uncertainty:
     cost: float
 
 
-def _uncertainty(
-    prob: _Problem,
-    fit: _Fit,
-    student: bool,
-    labels: NDArray[Any],
-    r_nom: float,
-    b_nom: float,
-    lim: identify.Limits,
-) -> _Uncertainty:
-    """Steps 5-6 of the module docstring at the fit's answer."""
+Identify = Callable[
+    [FloatArray, FloatArray, NDArray[np.intp], "FloatArray | None"], tuple[FloatArray, list[str], "str | None"]
+]
+"""How a kind of robot judges what its intervals determine: ``(p, information, inliers,
+covariance or None) -> (covariance, warnings, the error of a singular information or None)``."""
+
+
+def _drive_identify(prob: Problem, r_nom: float, b_nom: float, lim: identify.Limits) -> Identify:
+    """The differential drive's identifiability (:func:`identify.identifiability`) as an :data:`Identify`."""
+
+    def judge(p: FloatArray, info: FloatArray, idx: NDArray[np.intp], cov: FloatArray | None):
+        drv = identify.driving_summary(prob.fl[idx], prob.fr[idx], r_nom, b_nom)
+        c, warn, singular = identify.identifiability(p, info, drv, r_nom, b_nom, lim, covariance=cov)
+        return c, list(warn), singular
+
+    return judge
+
+
+def uncertainty(prob: Problem, fit: Fit, student: bool, labels: NDArray[Any], judge: Identify) -> Uncertainty:
+    """Steps 5-6 of the module docstring at the fit's answer (``judge``: the kind's identifiability)."""
     from umbmark._stats import t_ppf
 
     p, w3, nu, idx = fit.p, fit.w3, fit.nu, np.flatnonzero(fit.inliers)
@@ -900,22 +915,21 @@ def _uncertainty(
     z = prob.white(prob.res(p, idx), idx, w3)
     d2 = (z * z).sum(axis=1)
     wt = (nu + 3) / (nu + d2) if student else np.ones(len(idx))
-    flat = jw.reshape(-1, 6)
+    flat = jw.reshape(-1, prob.n)
     info = (flat.T @ flat) * ((nu + 3) / (nu + 5) if student else 1.0)
     if prob.given_w is None:
         assert w3 is not None
         scatter = np.linalg.inv(w3.T @ w3) if fit.scatter is None else fit.scatter
         sd_noise = np.sqrt(np.maximum(np.diag(scatter), 0.0))
         noise_sd = (float(sd_noise[0]), float(sd_noise[1]), float(sd_noise[2]))
-        tq = t_ppf(0.975, max(3 * len(idx) - 6, 1))
+        tq = t_ppf(0.975, max(3 * len(idx) - prob.n, 1))
     else:
         given = prob.given_w[idx]
         cov_in = np.linalg.inv(np.einsum("kji,kjl->kil", given, given))
         rms = np.sqrt(np.mean(np.diagonal(cov_in, axis1=1, axis2=2), axis=0))
         noise_sd = (float(rms[0]), float(rms[1]), float(rms[2]))
         tq = 1.959963984540054
-    drv = identify.driving_summary(prob.fl[idx], prob.fr[idx], r_nom, b_nom)
-    cov, id_warnings, singular = identify.identifiability(p, info, drv, r_nom, b_nom, lim)
+    cov, id_warnings, singular = judge(p, info, idx, None)
     if singular is not None:
         raise InputError(singular, prob.source)
     n_blocks = 0
@@ -932,5 +946,5 @@ def _uncertainty(
         if MIN_BLOCKS <= n_long < n_blocks:
             cov_long, _ = _block_covariance(info, hessians, scores, merge_blocks(labels[idx], n_long))
             cov = loewner_max(cov, cov_long * (t_ppf(0.975, n_long - 1) / tq) ** 2)
-        cov, id_warnings, _ = identify.identifiability(p, info, drv, r_nom, b_nom, lim, covariance=cov)
-    return _Uncertainty(cov, tq, noise_sd, list(id_warnings), n_blocks, float(0.5 * (z * z).sum()))
+        cov, id_warnings, _ = judge(p, info, idx, cov)
+    return Uncertainty(cov, tq, noise_sd, list(id_warnings), n_blocks, float(0.5 * (z * z).sum()))
