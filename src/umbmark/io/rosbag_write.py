@@ -1,4 +1,7 @@
-"""Write a simulated drive (:class:`umbmark.model.drive.DriveLog`, :class:`~umbmark.model.kinematic_drive.JointDriveLog`) as a ROS bag, with the ``rosbags`` package.
+"""Write a simulated drive as a ROS bag, with the ``rosbags`` package.
+
+The drive: a differential drive's (:class:`umbmark.model.drive.DriveLog`) or any robot's
+(:class:`umbmark.model.kinematic_drive.JointDriveLog`).
 
 Imports numpy, :mod:`umbmark.errors` and :mod:`umbmark.model` (the drive log and
 :mod:`~umbmark.model.se2`); ``rosbags`` when a bag is written. Storage: a ROS 1 ``.bag`` file,

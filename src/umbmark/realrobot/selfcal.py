@@ -82,7 +82,11 @@ __all__ = [
     "ScanIntervals",
     "ScanDelay",
     "estimate_scan_delay",
+    "delay_from_turns",
     "parse_scan_delay",
+    "match_pairs",
+    "PairMatches",
+    "composed_matches",
     "matched_motion",
     "SelfcalReport",
     "sensor_pose_from_tf",
@@ -492,7 +496,7 @@ def _span(t: FloatArray) -> str:
     return f"{t[0]:.3f} to {t[-1]:.3f} s"
 
 
-def _nominal_sensor_pose(
+def nominal_sensor_pose_of(
     bag: SelfcalBag, sensor_pose: ArrayLike | None, base_frame: str | None
 ) -> tuple[tuple[float, float, float, float, float, float], str, str, list[str]]:
     """The pose the matching starts from, where it came from, the base frame, warnings."""
@@ -537,7 +541,7 @@ def _options(options: IntervalOptions | None) -> IntervalOptions:
     return options
 
 
-def _usable_scans(
+def usable_scans(
     st: FloatArray, wt: FloatArray, period: float, gap: float, src: str, warnings: list[str]
 ) -> NDArray[np.bool_]:
     """The scans with wheel data around them: within half a wheel sample of the wheel data's span
@@ -674,7 +678,7 @@ def plan_intervals(
     st = np.asarray(bag.scan_t_s, dtype=float) - float(scan_delay_s)
     warnings: list[str] = list(bag.warnings)
     period = float(np.median(np.diff(wt))) if len(wt) > 1 else 0.0  # of the wheel data
-    usable = _usable_scans(st, wt, period, gap, src, warnings)
+    usable = usable_scans(st, wt, period, gap, src, warnings)
     sl = np.interp(st, wt, left)
     sr = np.interp(st, wt, right)
     odo = integrate_wheels(r_nom * np.diff(sl), r_nom * np.diff(sr), b_nom)
@@ -691,7 +695,7 @@ def plan_intervals(
             "record while the robot drives straights, arcs and spins",
             src,
         )
-    pose, pose_src, base, pose_warn = _nominal_sensor_pose(bag, opts.sensor_pose, opts.base_frame)
+    pose, pose_src, base, pose_warn = nominal_sensor_pose_of(bag, opts.sensor_pose, opts.base_frame)
     warnings += pose_warn
     l0 = np.array([pose[0], pose[1], pose[5]])
     q = se2.between(odo[a[moving]], odo[b[moving]])
@@ -911,46 +915,10 @@ def match_intervals(
         named).
     """
     bag = plan.bag
-    n = len(plan)
-    poses = np.empty((n, 3))
-    covs = np.full((n, 3, 3), np.nan)
-    ok = np.zeros(n, dtype=bool)
-    rms = np.full(n, math.nan)
-    why = [""] * n
-    for s0 in range(0, n, _CHUNK):
-        e = min(s0 + _CHUNK, n)
-        a, b = plan.pairs[s0:e, 0], plan.pairs[s0:e, 1]
-        m = match_scan_pairs(bag.ranges_m[a], bag.ranges_m[b], bag.angles_rad, plan.initial[s0:e], icp)
-        poses[s0:e] = m.poses
-        covs[s0:e] = m.covariances
-        ok[s0:e] = m.converged
-        rms[s0:e] = m.rms_m
-        why[s0:e] = [r.split(" (")[0] for r in m.reasons]
-        if progress is not None:
-            progress(e, n)
-    direct = ok.copy()
-    if plan.chained is not None:
-        assert plan.chained_covariance is not None
-        use = ~ok & plan.chained
-        poses[use] = plan.initial[use]
-        covs[use] = plan.chained_covariance[use]
-        ok |= use
-    reasons: Counter[str] = Counter(r for r, c in zip(why, ok) if not c)
+    m = match_pairs(bag, plan.pairs, plan.initial, plan.chained, plan.chained_covariance, icp=icp, progress=progress)
+    n, ok, poses, covs = len(plan), m.ok, m.poses, m.covariances
     matched = int(ok.sum())
-    if matched < min_intervals:
-        causes = "; ".join(f"{c} {r}" for r, c in reasons.most_common(3)) or "none failed"
-        raise InputError(
-            f"only {matched} usable intervals (fewer than {min_intervals}): {n} scan pairs with motion, "
-            f"{n - matched} failed to match ({causes}), {plan.intervals_still} without wheel motion; "
-            "drive longer, in view of walls and objects",
-            bag.source,
-        )
-    warnings = list(plan.warnings)
-    if n - matched > 0.2 * n:
-        warnings.append(
-            f"{n - matched} of {n} scan pairs ({100 * (n - matched) / n:.0f} %) did not match "
-            f"({'; '.join(f'{c} {r}' for r, c in reasons.most_common(2))}): drive slower, or near more structure"
-        )
+    warnings = m.judge(min_intervals, plan.intervals_still, plan.warnings, bag.source)
     iv = Intervals(
         plan.dt_s[ok],
         plan.left_rad[ok],
@@ -967,13 +935,121 @@ def match_intervals(
         plan=plan,
         pairs_matched=matched,
         pairs_failed=n - matched,
-        pairs_chained=int((ok & ~direct).sum()),
-        failure_reasons=dict(reasons.most_common()),
-        match_rms_m=float(np.median(rms[ok])),
+        pairs_chained=m.chained,
+        failure_reasons=dict(m.reasons.most_common()),
+        match_rms_m=float(np.median(m.rms_m[ok])),
         matched=ok,
         poses=poses,
         covariances=covs,
     )
+
+
+@dataclass(frozen=True, eq=False)
+class PairMatches:
+    """The matches of planned scan pairs (:func:`match_pairs`).
+
+    Attributes
+    ----------
+    poses : numpy.ndarray
+        ``(K, 3)`` the matcher's answer (a chained pair's: the composed matches).
+    covariances : numpy.ndarray
+        ``(K, 3, 3)``.
+    ok : numpy.ndarray
+        ``(K,)`` matched, or chained.
+    rms_m : numpy.ndarray
+        ``(K,)`` root-mean-square point-to-line residual [m].
+    reasons : collections.Counter
+        Why the failed ones failed: reason -> count.
+    chained : int
+        Pairs that did not match but were chained.
+    """
+
+    poses: FloatArray
+    covariances: FloatArray
+    ok: NDArray[np.bool_]
+    rms_m: FloatArray
+    reasons: Counter[str]
+    chained: int
+
+    def judge(self, min_intervals: int, still: int, warnings: Sequence[str], source: str) -> list[str]:
+        """The planning's warnings and one for many failures; an error when fewer than
+        ``min_intervals`` matched (``still``: the pairs set aside without wheel motion)."""
+        n, matched = len(self.ok), int(self.ok.sum())
+        if matched < min_intervals:
+            causes = "; ".join(f"{c} {r}" for r, c in self.reasons.most_common(3)) or "none failed"
+            raise InputError(
+                f"only {matched} usable intervals (fewer than {min_intervals}): {n} scan pairs with motion, "
+                f"{n - matched} failed to match ({causes}), {still} without wheel motion; "
+                "drive longer, in view of walls and objects",
+                source,
+            )
+        out = list(warnings)
+        if n - matched > 0.2 * n:
+            out.append(
+                f"{n - matched} of {n} scan pairs ({100 * (n - matched) / n:.0f} %) did not match "
+                f"({'; '.join(f'{c} {r}' for r, c in self.reasons.most_common(2))}): drive slower, or near more "
+                "structure"
+            )
+        return out
+
+
+def match_pairs(
+    bag: SelfcalBag,
+    pairs: NDArray[np.int64],
+    initial: FloatArray,
+    chained: NDArray[np.bool_] | None = None,
+    chained_covariance: FloatArray | None = None,
+    *,
+    icp: ICPConfig | None = None,
+    progress: StepProgress | None = None,
+) -> PairMatches:
+    """Match the scans of each pair from its initial displacement; a pair that fails but is
+    ``chained`` takes ``initial`` (the composed matches) with ``chained_covariance``.
+
+    Parameters
+    ----------
+    bag : SelfcalBag
+        The scans.
+    pairs : numpy.ndarray
+        ``(K, 2)`` scan indices.
+    initial : numpy.ndarray
+        ``(K, 3)`` the matcher's starts.
+    chained, chained_covariance : numpy.ndarray, optional
+        ``(K,)`` and ``(K, 3, 3)`` (:attr:`IntervalPlan.chained`).
+    icp : ICPConfig, optional
+    progress : callable, optional
+        Called as ``progress(pairs_done, pairs_total)`` after each batch.
+
+    Returns
+    -------
+    PairMatches
+    """
+    n = len(pairs)
+    poses = np.empty((n, 3))
+    covs = np.full((n, 3, 3), np.nan)
+    ok = np.zeros(n, dtype=bool)
+    rms = np.full(n, math.nan)
+    why = [""] * n
+    for s0 in range(0, n, _CHUNK):
+        e = min(s0 + _CHUNK, n)
+        a, b = pairs[s0:e, 0], pairs[s0:e, 1]
+        m = match_scan_pairs(bag.ranges_m[a], bag.ranges_m[b], bag.angles_rad, initial[s0:e], icp)
+        poses[s0:e] = m.poses
+        covs[s0:e] = m.covariances
+        ok[s0:e] = m.converged
+        rms[s0:e] = m.rms_m
+        why[s0:e] = [r.split(" (")[0] for r in m.reasons]
+        if progress is not None:
+            progress(e, n)
+    direct = ok.copy()
+    if chained is not None:
+        assert chained_covariance is not None
+        use = ~ok & chained
+        poses[use] = initial[use]
+        covs[use] = chained_covariance[use]
+        ok |= use
+    reasons: Counter[str] = Counter(r for r, c in zip(why, ok) if not c)
+    return PairMatches(poses, covs, ok, rms, reasons, int((ok & ~direct).sum()))
 
 
 def estimate_scan_delay(
@@ -1031,11 +1107,61 @@ def estimate_scan_delay(
         assert bag.left_rad is not None and bag.right_rad is not None
         left, right = recording_wheel_angles(bag, WheelGeometry(wheel_diameter_m, wheel_diameter_m, wheelbase_m))
         heading = 0.5 * wheel_diameter_m * (right - left) / wheelbase_m
-    wt = np.asarray(bag.wheel_t_s, dtype=float)
     st = np.asarray(bag.scan_t_s, dtype=float)
-    ta, tb = st[plan.pairs[ok, 0]], st[plan.pairs[ok, 1]]
+    return delay_from_turns(
+        np.asarray(bag.wheel_t_s, dtype=float),
+        heading,
+        st[plan.pairs[ok, 0]],
+        st[plan.pairs[ok, 1]],
+        turn,
+        plan.scan_delay_s,
+        search_s=search_s,
+        step_s=step_s,
+        source=bag.source,
+    )
+
+
+def delay_from_turns(
+    wt: FloatArray,
+    heading: FloatArray,
+    ta: FloatArray,
+    tb: FloatArray,
+    turn: FloatArray,
+    around_s: float,
+    *,
+    search_s: float = SCAN_DELAY_SEARCH_S,
+    step_s: float = 0.005,
+    source: str | None = None,
+) -> ScanDelay:
+    """The delay of the scans' stamps that best lines the wheels' turns up with the matched ones
+    (the method of :func:`estimate_scan_delay`).
+
+    Parameters
+    ----------
+    wt, heading : numpy.ndarray
+        ``(W,)`` the wheel data's stamps and the heading they make [rad].
+    ta, tb : numpy.ndarray
+        ``(K,)`` the stamps of each matched pair's scans [s].
+    turn : numpy.ndarray
+        ``(K,)`` the matched turns [rad].
+    around_s : float
+        The centre of the delays searched [s].
+    search_s, step_s : float
+        The largest delay searched either way from ``around_s``, and the grid step [s].
+    source : str, optional
+        For messages.
+
+    Returns
+    -------
+    ScanDelay
+
+    Raises
+    ------
+    InputError
+        The wheels do not turn between the matched scans.
+    """
     n = int(math.floor(search_s / step_s + 1e-9))
-    grid = plan.scan_delay_s + np.arange(-n, n + 1) * step_s
+    grid = around_s + np.arange(-n, n + 1) * step_s
 
     def corr(d: float) -> float:
         o = np.interp(tb - d, wt, heading) - np.interp(ta - d, wt, heading)
@@ -1045,14 +1171,14 @@ def estimate_scan_delay(
 
     c = np.array([corr(float(d)) for d in grid])
     if not np.any(np.isfinite(c)):
-        raise InputError("the wheels do not turn between the matched scans: no delay to estimate", bag.source)
+        raise InputError("the wheels do not turn between the matched scans: no delay to estimate", source)
     k = int(np.nanargmax(c))
     best = float(grid[k])
     if 0 < k < len(grid) - 1 and np.all(np.isfinite(c[k - 1 : k + 2])):
         den = c[k - 1] - 2 * c[k] + c[k + 1]
         if den < 0:
             best += float(0.5 * (c[k - 1] - c[k + 1]) / den * step_s)
-    return ScanDelay(best + 0.0, corr(best), corr(0.0), int(ok.sum()), float(search_s))
+    return ScanDelay(best + 0.0, corr(best), corr(0.0), len(turn), float(search_s))
 
 
 def parse_scan_delay(value: float | str | None) -> float | str:
@@ -1204,15 +1330,37 @@ def matched_motion(matches: ScanIntervals) -> tuple[FloatArray, NDArray[np.bool_
         ``(M - 1, 3, 3)`` each step's covariance (the match's; zero without one).
     """
     plan = matches.plan
-    n = plan.bag.n_scans - 1
-    step = np.zeros((n, 3))
-    step[plan.pairs[:, 0]] = np.where(matches.matched[:, None], matches.poses, plan.initial)
-    links = np.ones(n, dtype=bool)
-    links[plan.pairs[:, 0]] = matches.matched
-    cov = np.zeros((n, 3, 3))
-    cov[plan.pairs[matches.matched, 0]] = matches.covariances[matches.matched]
     st = np.asarray(plan.bag.scan_t_s, dtype=float) - plan.scan_delay_s
-    wt = np.asarray(plan.bag.wheel_t_s, dtype=float)
+    return composed_matches(
+        st,
+        np.asarray(plan.bag.wheel_t_s, dtype=float),
+        plan.pairs,
+        matches.matched,
+        matches.poses,
+        plan.initial,
+        matches.covariances,
+    )
+
+
+def composed_matches(
+    st: FloatArray,
+    wt: FloatArray,
+    pairs: NDArray[np.int64],
+    matched: NDArray[np.bool_],
+    poses: FloatArray,
+    initial: FloatArray,
+    covariances: FloatArray,
+) -> tuple[FloatArray, NDArray[np.bool_], FloatArray]:
+    """:func:`matched_motion` of matches of consecutive scans: ``st`` the scans' stamps (delay
+    applied), ``wt`` the wheel data's, ``pairs`` ``(K, 2)`` consecutive scan indices, then per
+    pair whether it matched, the match, the matcher's start and the match's covariance."""
+    n = len(st) - 1
+    step = np.zeros((n, 3))
+    step[pairs[:, 0]] = np.where(matched[:, None], poses, initial)
+    links = np.ones(n, dtype=bool)
+    links[pairs[:, 0]] = matched
+    cov = np.zeros((n, 3, 3))
+    cov[pairs[matched, 0]] = covariances[matched]
     links &= (st[1:] >= wt[0]) & (st[:-1] <= wt[-1])  # the wheels' data cover the step
     th = np.concatenate([[0.0], np.cumsum(step[:, 2])])
     c, s = np.cos(th[:-1]), np.sin(th[:-1])
@@ -1439,7 +1587,7 @@ def _pose_warnings(parts: Sequence[ScanIntervals | str], result: SelfcalResult) 
     return out
 
 
-def interval_blocks(parts: Sequence[ScanIntervals | Intervals]) -> NDArray[np.intp]:
+def interval_blocks(parts: Sequence[Any]) -> NDArray[np.intp]:
     """Block labels of the pooled intervals of several inputs, for the covariance of shared errors.
 
     Each input's intervals are cut into equal stretches of time (a bag's by its scans' stamps,
@@ -1449,7 +1597,8 @@ def interval_blocks(parts: Sequence[ScanIntervals | Intervals]) -> NDArray[np.in
     Parameters
     ----------
     parts : sequence
-        Per input: a :class:`ScanIntervals` or the :class:`Intervals` of a file.
+        Per input: a :class:`ScanIntervals` (or any bag's matched intervals with their
+        ``start_s``) or the :class:`Intervals` of a file.
 
     Returns
     -------
@@ -1458,8 +1607,8 @@ def interval_blocks(parts: Sequence[ScanIntervals | Intervals]) -> NDArray[np.in
     """
     times = []
     for p in parts:
-        if isinstance(p, ScanIntervals):
-            t = p.start_s
+        if hasattr(p, "start_s"):  # a bag's matched intervals (of any kind of robot)
+            t = np.asarray(p.start_s, dtype=float)
             t = t - t[0] if t.size else t
         else:
             dt = np.asarray(p.dt_s, dtype=float)

@@ -80,7 +80,7 @@ from umbmark.model.dataset import wheel_angles_from_poses
 from umbmark.model.drive import integrate_wheels
 from umbmark.model.geometry import WheelGeometry
 from umbmark.model.se2 import Pose
-from umbmark.realrobot.selfcal import _nominal_sensor_pose
+from umbmark.realrobot.selfcal import nominal_sensor_pose_of
 from umbmark.realrobot.wheels import scan_wheel_angles
 
 __all__ = [
@@ -1461,7 +1461,7 @@ def _sensor_poses(
 ) -> tuple[_SensorPoses, list[str]]:
     """The sensor poses: the calibration's nominal one, else /tf_static; the calibration's after it."""
     warnings: list[str] = []
-    tf, tf_src, _, tf_warn = _nominal_sensor_pose(bag, None, base_frame)
+    tf, tf_src, _, tf_warn = nominal_sensor_pose_of(bag, None, base_frame)
     tf_pose = (tf[0], tf[1], tf[5])
     nominal_pose: Pose
     if calibration.nominal_sensor_pose is not None:

@@ -1,0 +1,509 @@
+"""From a ROS bag to a lidar self-calibration of a tricycle or mecanum robot (any :mod:`~umbmark.model.kinematics`).
+
+The steps of :mod:`umbmark.realrobot.selfcal` with the joints of any kind of robot in place of
+two wheels:
+
+1. **The joints on one time grid**: the joint states' stamps and the scans' (less their delay),
+   the joints interpolated linearly to it; per step of the grid a rolling joint's increment and
+   a steering joint's mean angle (:class:`umbmark.model.kinematics.JointSteps`). The nominal
+   odometry integrates them.
+2. **Every pair of consecutive scans matched** from the nominal odometry seen from the sensor
+   at its nominal pose (``/tf_static``, given, or zero); from those matches the scans' delay
+   (``auto``: :func:`umbmark.realrobot.selfcal.delay_from_turns`, the nominal odometry's
+   heading against the matched turns) and the motion the keyframes are chosen on.
+3. **Keyframes** (:class:`umbmark.realrobot.selfcal.KeyframeRule`, by default
+   :data:`~umbmark.realrobot.selfcal.DEFAULT_KEYFRAMES`) on the composed matches; each
+   interval's two scans matched from them (a pair that fails but whose consecutive scans all
+   matched takes those matches composed); its motion is its grid steps composed.
+4. :func:`umbmark.correct.selfcal.kinematic.kinematic_selfcal` on the intervals of every bag
+   (blocks of time per bag).
+
+:func:`kinematic_bag_intervals` does 1-3 for one bag, :func:`kinematic_selfcal_from_bags`
+everything from files into a :class:`KinematicReport` (the JSON of ``umbmark selfcal
+--kinematics``).
+
+Imports numpy, :mod:`umbmark.model`, :mod:`umbmark.io`, :mod:`umbmark.correct.selfcal` and
+:mod:`umbmark.realrobot`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from umbmark._files import check_distinct_inputs
+from umbmark.correct.selfcal.kinematic import KinematicSelfcalResult, kinematic_selfcal
+from umbmark.errors import InputError
+from umbmark.io.rosbag import SelfcalBag, read_selfcal_bag
+from umbmark.io.wheels import WheelSource
+from umbmark.model import se2
+from umbmark.model.kinematics import (
+    JointIntervals,
+    JointSteps,
+    Kinematics,
+    Mecanum,
+    Tricycle,
+    integrate_steps,
+    twist_displacement,
+)
+from umbmark.realrobot.selfcal import (
+    STILL_M,
+    IntervalOptions,
+    KeyframeRule,
+    ScanDelay,
+    StageProgress,
+    StepProgress,
+    composed_matches,
+    delay_from_turns,
+    interval_blocks,
+    match_pairs,
+    nominal_sensor_pose_of,
+    usable_scans,
+)
+
+__all__ = [
+    "JointScanIntervals",
+    "KinematicReport",
+    "kinematic_bag_intervals",
+    "kinematic_selfcal_from_bags",
+    "joint_source",
+]
+
+FloatArray = NDArray[np.float64]
+
+
+def joint_source(nominal: Kinematics, joints: Sequence[str], topic: str = "/joint_states") -> WheelSource:
+    """The :class:`~umbmark.io.wheels.WheelSource` of a robot's joints, in its roles' order.
+
+    Parameters
+    ----------
+    nominal : Kinematics
+        The kind of robot (its :attr:`~umbmark.model.kinematics.Kinematics.joint_roles`).
+    joints : sequence of str
+        The joint names, one per role.
+    topic : str
+        The JointState topic.
+
+    Returns
+    -------
+    WheelSource
+
+    Raises
+    ------
+    InputError
+        Not one name per role.
+    """
+    roles = nominal.joint_roles
+    names = tuple(joints)
+    if len(names) != len(roles):
+        raise InputError(f"a {nominal.kind} needs {len(roles)} joints ({', '.join(roles)}), got {len(names)}")
+    steer = tuple(n for n, rolls in zip(names, nominal.rolling) if not rolls)
+    return WheelSource.robot_joints(names, steer, topic)
+
+
+def _rolling_radii(k: Kinematics) -> FloatArray:
+    if isinstance(k, Tricycle):
+        return np.array([0.5 * k.wheel_diameter_m])
+    if isinstance(k, Mecanum):
+        return 0.5 * np.asarray(k.wheel_diameters_m, dtype=float)
+    return 0.5 * np.asarray(k.vector()[:2], dtype=float)
+
+
+@dataclass(frozen=True, eq=False)
+class _Grid:
+    """The joints on the grid of wheel and scan stamps: the steps, each usable scan's grid index,
+    the nominal odometry at the scans and the joints' positions there."""
+
+    steps_values: FloatArray
+    steps_dt: FloatArray
+    scan_index: NDArray[np.intp]
+    odometry: FloatArray
+    at_scans: FloatArray
+
+
+def _grid(bag: SelfcalBag, nominal: Kinematics, st: FloatArray, usable: NDArray[np.bool_]) -> _Grid:
+    assert bag.joint_positions is not None
+    wt = np.asarray(bag.wheel_t_s, dtype=float)
+    pos = np.asarray(bag.joint_positions, dtype=float)
+    g = np.unique(np.concatenate([wt, st[usable]]))
+    at = np.column_stack([np.interp(g, wt, pos[:, j]) for j in range(pos.shape[1])])
+    vals = np.empty((len(g) - 1, pos.shape[1]))
+    for j, rolls in enumerate(nominal.rolling):
+        vals[:, j] = np.diff(at[:, j]) if rolls else 0.5 * (at[1:, j] + at[:-1, j])
+    odo = integrate_steps(twist_displacement(nominal.twist(vals)))
+    idx = np.searchsorted(g, st).clip(0, len(g) - 1)
+    return _Grid(vals, np.diff(g), idx, odo[idx], at[idx])
+
+
+def _wheel_odometry(bag: SelfcalBag, nominal: Kinematics) -> FloatArray:
+    """``(W, 3)`` the nominal odometry at the joint states' stamps."""
+    assert bag.joint_positions is not None
+    pos = np.asarray(bag.joint_positions, dtype=float)
+    vals = np.empty((len(pos) - 1, pos.shape[1]))
+    for j, rolls in enumerate(nominal.rolling):
+        vals[:, j] = np.diff(pos[:, j]) if rolls else 0.5 * (pos[1:, j] + pos[:-1, j])
+    return integrate_steps(twist_displacement(nominal.twist(vals)))
+
+
+def _steps_of(grid: _Grid, pairs: NDArray[np.int64]) -> JointSteps:
+    a, b = grid.scan_index[pairs[:, 0]], grid.scan_index[pairs[:, 1]]
+    counts = b - a
+    take = np.repeat(a, counts) + np.arange(int(counts.sum())) - np.repeat(np.cumsum(counts) - counts, counts)
+    return JointSteps(grid.steps_values[take], np.concatenate([[0], np.cumsum(counts)]), grid.steps_dt[take])
+
+
+@dataclass(frozen=True, eq=False)
+class JointScanIntervals:
+    """The matched intervals of one bag of any kind of robot, and how they were made.
+
+    Attributes
+    ----------
+    intervals : JointIntervals
+        The intervals whose scans matched.
+    bag : SelfcalBag
+    pairs : numpy.ndarray
+        ``(K, 2)`` their scan indices.
+    scan_delay_s : float
+        The scans' delay applied [s].
+    scan_delay : ScanDelay or None
+        The delay estimated (None when given).
+    scan_delay_requested : str
+        ``auto`` or the seconds given.
+    keyframe_rule : KeyframeRule
+    keyframes, scans_usable, intervals_still, pairs_matched, pairs_chained, pairs_failed : int
+    failure_reasons : dict
+    match_rms_m : float
+    nominal_sensor_pose : tuple of float
+        ``(x, y, z, roll, pitch, yaw)`` the matching started from.
+    sensor_pose_source, base_frame : str
+    time_span_s : float
+    start_s : numpy.ndarray
+        ``(K,)`` the stamps of the intervals' first scans, delay applied [s].
+    """
+
+    intervals: JointIntervals
+    bag: SelfcalBag
+    pairs: NDArray[np.int64]
+    scan_delay_s: float
+    scan_delay: ScanDelay | None
+    scan_delay_requested: str
+    keyframe_rule: KeyframeRule
+    keyframes: int
+    scans_usable: int
+    intervals_still: int
+    pairs_matched: int
+    pairs_chained: int
+    pairs_failed: int
+    failure_reasons: dict[str, int]
+    match_rms_m: float
+    nominal_sensor_pose: tuple[float, float, float, float, float, float]
+    sensor_pose_source: str
+    base_frame: str
+    time_span_s: float
+    start_s: FloatArray
+
+    def to_dict(self) -> dict[str, Any]:
+        """What the pipeline did with the bag, as JSON (the keys of a differential drive's bag part)."""
+        x, y, z, roll, pitch, yaw = self.nominal_sensor_pose
+        delay: dict[str, Any] = {"bag": self.bag.source, "requested": self.scan_delay_requested}
+        if self.scan_delay is not None:
+            delay.update(self.scan_delay.to_dict())
+        delay["applied_s"] = self.scan_delay_s
+        return {
+            "path": self.bag.source,
+            "kind": "bag",
+            "scan_topic": self.bag.scan_topic,
+            "scan_frame": self.bag.scan_frame,
+            "base_frame": self.base_frame,
+            "wheel_data": self.bag.wheel_description,
+            "scans_read": self.bag.n_scans,
+            "scans_usable": self.scans_usable,
+            "keyframes": self.keyframes,
+            "intervals_still": self.intervals_still,
+            "pairs_matched": self.pairs_matched,
+            "pairs_chained": self.pairs_chained,
+            "pairs_failed": self.pairs_failed,
+            "failure_reasons": dict(self.failure_reasons),
+            "match_rms_mm": self.match_rms_m * 1e3,
+            "time_span_s": self.time_span_s,
+            "scan_delay": delay,
+            "nominal_sensor_pose": {
+                "x_mm": x * 1e3,
+                "y_mm": y * 1e3,
+                "z_mm": z * 1e3,
+                "roll_deg": math.degrees(roll),
+                "pitch_deg": math.degrees(pitch),
+                "yaw_deg": math.degrees(yaw),
+                "source": self.sensor_pose_source,
+            },
+        }
+
+
+def _moving(grid: _Grid, pairs: NDArray[np.int64], nominal: Kinematics) -> NDArray[np.bool_]:
+    roll = np.array(nominal.rolling)
+    d = np.abs(grid.at_scans[pairs[:, 1]][:, roll] - grid.at_scans[pairs[:, 0]][:, roll]) * _rolling_radii(nominal)
+    return np.asarray(np.any(d > STILL_M, axis=1))
+
+
+def _match(
+    bag: SelfcalBag,
+    grid: _Grid,
+    pairs: NDArray[np.int64],
+    initial: FloatArray,
+    opts: IntervalOptions,
+    min_intervals: int,
+    chained: tuple[NDArray[np.bool_], FloatArray] | None,
+    progress: StepProgress | None,
+    warnings: list[str],
+    still: int,
+):
+    m = match_pairs(
+        bag,
+        pairs,
+        initial,
+        None if chained is None else chained[0],
+        None if chained is None else chained[1],
+        icp=opts.icp,
+        progress=progress,
+    )
+    notes = m.judge(min_intervals, still, warnings, bag.source)
+    ok = m.ok
+    st_pairs = pairs[ok]
+    cov = 0.5 * (m.covariances[ok] + np.swapaxes(m.covariances[ok], 1, 2))
+    steps = _steps_of(grid, st_pairs)
+    dt = np.add.reduceat(steps.dt_s, steps.start[:-1]) if steps.dt_s is not None else np.zeros(len(st_pairs))
+    iv = JointIntervals(dt, steps, m.poses[ok], bag.source, tuple(notes), cov)
+    return iv, m
+
+
+def kinematic_bag_intervals(
+    bag: SelfcalBag,
+    nominal: Kinematics,
+    options: IntervalOptions | None = None,
+    *,
+    progress: StepProgress | None = None,
+) -> JointScanIntervals:
+    """The matched intervals of a bag of any kind of robot (steps 1-3 of the module docstring).
+
+    Parameters
+    ----------
+    bag : SelfcalBag
+        With joint states (:attr:`~umbmark.io.rosbag.SelfcalBag.joint_positions` in the kind's
+        roles' order: :func:`joint_source`).
+    nominal : Kinematics
+        The nominal geometry.
+    options : IntervalOptions, optional
+        Keyframes, sensor pose, base frame, wheel gap, matcher, fewest intervals, scans' delay.
+    progress : callable, optional
+        ``progress(done, total)`` over both passes of matching.
+
+    Returns
+    -------
+    JointScanIntervals
+
+    Raises
+    ------
+    InputError
+        A bag without the joints, scans and joints that do not overlap, no motion, too few
+        matches.
+    """
+    opts = IntervalOptions() if options is None else options
+    src = bag.source
+    if bag.joint_positions is None or bag.joint_positions.shape[1] != len(nominal.joint_roles):
+        raise InputError(f"the bag's joint data are not a {nominal.kind}'s ({', '.join(nominal.joint_roles)})", src)
+    want = opts.scan_delay
+    first = 0.0 if want == "auto" else float(want)
+    wt = np.asarray(bag.wheel_t_s, dtype=float)
+    period = float(np.median(np.diff(wt))) if len(wt) > 1 else 0.0
+    pose, pose_src, base, pose_warn = nominal_sensor_pose_of(bag, opts.sensor_pose, opts.base_frame)
+    l0 = np.array([pose[0], pose[1], pose[5]])
+
+    def plan(delay: float) -> tuple[FloatArray, NDArray[np.bool_], _Grid, list[str]]:
+        warnings: list[str] = list(bag.warnings) + pose_warn
+        st = np.asarray(bag.scan_t_s, dtype=float) - delay
+        usable = usable_scans(st, wt, period, opts.max_wheel_gap_s, src, warnings)
+        return st, usable, _grid(bag, nominal, st, usable), warnings
+
+    st, usable, grid, warnings = plan(first)
+    every = np.array(KeyframeRule().select(st, grid.odometry, usable), dtype=np.int64).reshape(-1, 2)
+    moving = _moving(grid, every, nominal)
+    if not moving.any():
+        raise InputError(
+            f"the wheels do not move between the scans ({bag.wheel_description}): nothing to calibrate from; "
+            "record while the robot drives",
+            src,
+        )
+    pairs1 = every[moving]
+    seen = lambda q: se2.compose(se2.inverse(l0), se2.compose(q, l0))  # noqa: E731
+    init1 = seen(se2.between(grid.odometry[pairs1[:, 0]], grid.odometry[pairs1[:, 1]]))
+    rule = opts.keyframes
+    n0 = len(pairs1)
+    pass1 = None if progress is None else (lambda d, t: progress(d, 2 * n0))  # noqa: E731
+    iv1, m1 = _match(
+        bag,
+        grid,
+        pairs1,
+        init1,
+        opts,
+        1 if not rule.every_scan else opts.min_intervals,
+        None,
+        pass1,
+        warnings,
+        int((~moving).sum()),
+    )
+    est = None
+    delay = first
+    if want == "auto":
+        heading = _wheel_odometry(bag, nominal)[:, 2]
+        ok = m1.ok
+        try:
+            est = delay_from_turns(
+                wt, heading, st[pairs1[ok, 0]] + first, st[pairs1[ok, 1]] + first, m1.poses[ok, 2], first, source=src
+            )
+            delay = est.delay_s
+        except InputError as err:
+            warnings.append(f"the scans' delay is not estimated ({err.message}): stamps as recorded")
+    requested = "auto" if want == "auto" else f"{first:g}"
+
+    def done(iv: JointIntervals, m, pairs: NDArray[np.int64], still: int, st_: FloatArray, usable_: NDArray[np.bool_]):
+        idx = np.flatnonzero(usable_)
+        return JointScanIntervals(
+            intervals=iv,
+            bag=bag,
+            pairs=pairs[m.ok],
+            scan_delay_s=delay,
+            scan_delay=est,
+            scan_delay_requested=requested,
+            keyframe_rule=rule,
+            keyframes=int(np.unique(pairs).size),
+            scans_usable=int(usable_.sum()),
+            intervals_still=still,
+            pairs_matched=int(m.ok.sum()),
+            pairs_chained=m.chained,
+            pairs_failed=int((~m.ok).sum()),
+            failure_reasons=dict(m.reasons.most_common()),
+            match_rms_m=float(np.median(m.rms_m[m.ok])) if m.ok.any() else math.nan,
+            nominal_sensor_pose=pose,
+            sensor_pose_source=pose_src,
+            base_frame=base,
+            time_span_s=float(st_[idx[-1]] - st_[idx[0]]),
+            start_s=st_[pairs[m.ok, 0]],
+        )
+
+    if rule.every_scan and delay == first:
+        if len(iv1) < opts.min_intervals:
+            m1.judge(opts.min_intervals, int((~moving).sum()), warnings, src)  # raises, naming the failures
+        return done(iv1, m1, pairs1, int((~moving).sum()), st, usable)
+    motion, links, link_cov = composed_matches(st, wt, pairs1, m1.ok, m1.poses, init1, m1.covariances)
+    if delay != first:
+        st, usable, grid, warnings = plan(delay)
+    pairs = np.array(rule.select(st, motion, usable), dtype=np.int64).reshape(-1, 2)
+    moving = _moving(grid, pairs, nominal)
+    pairs2 = pairs[moving]
+    init2 = se2.between(motion[pairs2[:, 0]], motion[pairs2[:, 1]])
+    bad = np.concatenate([[0], np.cumsum(~links)])
+    chained = bad[pairs2[:, 1]] - bad[pairs2[:, 0]] == 0
+    cum = np.concatenate([np.zeros((1, 3, 3)), np.cumsum(np.nan_to_num(link_cov), axis=0)])
+    n1 = len(pairs2)
+    pass2 = None if progress is None else (lambda d, t: progress(n0 + round(d * n0 / max(n1, 1)), 2 * n0))  # noqa: E731
+    iv2, m2 = _match(
+        bag,
+        grid,
+        pairs2,
+        init2,
+        opts,
+        opts.min_intervals,
+        (chained, cum[pairs2[:, 1]] - cum[pairs2[:, 0]]),
+        pass2,
+        warnings,
+        int((~moving).sum()),
+    )
+    return done(iv2, m2, pairs2, int((~moving).sum()), st, usable)
+
+
+@dataclass(frozen=True, eq=False)
+class KinematicReport:
+    """A self-calibration of a tricycle or mecanum robot from bags, and how its intervals were made.
+
+    Attributes
+    ----------
+    result : KinematicSelfcalResult
+    parts : tuple of JointScanIntervals
+    """
+
+    result: KinematicSelfcalResult
+    parts: tuple[JointScanIntervals, ...]
+
+    def to_dict(self) -> dict[str, Any]:
+        """The result's JSON (:meth:`KinematicSelfcalResult.to_dict`) with ``inputs`` (each bag's
+        :meth:`JointScanIntervals.to_dict`), ``keyframes`` and ``scan_delay`` (per bag, ``applied_s``)."""
+        out = self.result.to_dict()
+        out["inputs"] = [p.to_dict() for p in self.parts]
+        out["keyframes"] = self.parts[0].keyframe_rule.to_dict() if self.parts else None
+        out["scan_delay"] = [p.to_dict()["scan_delay"] for p in self.parts]
+        return out
+
+
+def kinematic_selfcal_from_bags(
+    paths: Sequence[str | Path],
+    nominal: Kinematics,
+    joints: Sequence[str],
+    *,
+    joint_topic: str = "/joint_states",
+    scan_topic: str = "/scan",
+    scan_frame: str | None = None,
+    options: IntervalOptions | None = None,
+    fit: Sequence[str] | None = None,
+    progress: StageProgress | None = None,
+) -> KinematicReport:
+    """Self-calibrate a tricycle or mecanum robot (any kind) from bags: read, match, estimate.
+
+    Parameters
+    ----------
+    paths : sequence of path
+        The bags (distinct).
+    nominal : Kinematics
+        The nominal geometry.
+    joints : sequence of str
+        The joint names in the kind's roles' order (a tricycle's drive and steering joints; a
+        mecanum robot's front left, front right, rear left and rear right wheels).
+    joint_topic, scan_topic, scan_frame : str
+        Where the joint states and scans are.
+    options : IntervalOptions, optional
+    fit : sequence of str, optional
+        The geometry parameters to estimate (default :func:`kinematic_selfcal`'s).
+    progress : callable, optional
+        ``progress(stage, done, total)``.
+
+    Returns
+    -------
+    KinematicReport
+
+    Raises
+    ------
+    InputError
+        As the reader, :func:`kinematic_bag_intervals` and :func:`kinematic_selfcal`.
+    """
+    if not paths:
+        raise InputError("give at least one bag")
+    check_distinct_inputs([str(p) for p in paths])
+    source = joint_source(nominal, joints, joint_topic)
+    parts = []
+    for p in paths:
+        read = None if progress is None else (lambda d, t, p=p: progress(f"reading {p}", d, t))
+        bag = read_selfcal_bag(
+            p, wheels=source, scan_topic=scan_topic, scan_frame=scan_frame, progress=read, two_wheels=False
+        )
+        step = None if progress is None else (lambda d, t, p=p: progress(f"matching {p}", d, t))
+        parts.append(kinematic_bag_intervals(bag, nominal, options, progress=step))
+    ivs = [p.intervals for p in parts]
+    blocks = interval_blocks(parts)
+    iv = JointIntervals.concatenate(ivs, source=", ".join(str(p) for p in paths))
+    result = kinematic_selfcal(iv, nominal, fit=fit, blocks=blocks)
+    return KinematicReport(result, tuple(parts))
