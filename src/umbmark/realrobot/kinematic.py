@@ -56,6 +56,7 @@ from umbmark.realrobot.selfcal import (
     STILL_M,
     IntervalOptions,
     KeyframeRule,
+    PairMatches,
     ScanDelay,
     StageProgress,
     StepProgress,
@@ -282,6 +283,71 @@ def _match(
     return iv, m
 
 
+class _Pipeline:
+    """The steps of :func:`kinematic_bag_intervals` on one bag."""
+
+    def __init__(self, bag: SelfcalBag, nominal: Kinematics, opts: IntervalOptions):
+        self.bag, self.nominal, self.opts = bag, nominal, opts
+        self.wt = np.asarray(bag.wheel_t_s, dtype=float)
+        self.period = float(np.median(np.diff(self.wt))) if len(self.wt) > 1 else 0.0
+        self.pose, self.pose_src, self.base, self.pose_warn = nominal_sensor_pose_of(
+            bag, opts.sensor_pose, opts.base_frame
+        )
+        self.l0 = np.array([self.pose[0], self.pose[1], self.pose[5]])
+        want = opts.scan_delay
+        self.first = 0.0 if want == "auto" else float(want)
+        self.requested = "auto" if want == "auto" else f"{self.first:g}"
+        self.delay = self.first
+        self.est: ScanDelay | None = None
+
+    def plan(self, delay: float) -> tuple[FloatArray, NDArray[np.bool_], _Grid, list[str]]:
+        """Step 1 with the scans' delay ``delay``: stamps, usable scans, the grid, the warnings."""
+        warnings: list[str] = list(self.bag.warnings) + self.pose_warn
+        st = np.asarray(self.bag.scan_t_s, dtype=float) - delay
+        usable = usable_scans(st, self.wt, self.period, self.opts.max_wheel_gap_s, self.bag.source, warnings)
+        return st, usable, _grid(self.bag, self.nominal, st, usable), warnings
+
+    def estimate_delay(self, st: FloatArray, pairs: NDArray[np.int64], m: PairMatches, warnings: list[str]) -> None:
+        """Step 2's delay, from the matches of consecutive scans (``auto`` only)."""
+        if self.opts.scan_delay != "auto":
+            return
+        heading = _wheel_odometry(self.bag, self.nominal)[:, 2]
+        ok = m.ok
+        ta, tb = st[pairs[ok, 0]] + self.first, st[pairs[ok, 1]] + self.first
+        try:
+            self.est = delay_from_turns(self.wt, heading, ta, tb, m.poses[ok, 2], self.first, source=self.bag.source)
+            self.delay = self.est.delay_s
+        except InputError as err:
+            warnings.append(f"the scans' delay is not estimated ({err.message}): stamps as recorded")
+
+    def done(
+        self, iv: JointIntervals, m: PairMatches, pairs: NDArray[np.int64], still: int, st: FloatArray, usable
+    ) -> JointScanIntervals:
+        idx = np.flatnonzero(usable)
+        return JointScanIntervals(
+            intervals=iv,
+            bag=self.bag,
+            pairs=pairs[m.ok],
+            scan_delay_s=self.delay,
+            scan_delay=self.est,
+            scan_delay_requested=self.requested,
+            keyframe_rule=self.opts.keyframes,
+            keyframes=int(np.unique(pairs).size),
+            scans_usable=int(usable.sum()),
+            intervals_still=still,
+            pairs_matched=int(m.ok.sum()),
+            pairs_chained=m.chained,
+            pairs_failed=int((~m.ok).sum()),
+            failure_reasons=dict(m.reasons.most_common()),
+            match_rms_m=float(np.median(m.rms_m[m.ok])) if m.ok.any() else math.nan,
+            nominal_sensor_pose=self.pose,
+            sensor_pose_source=self.pose_src,
+            base_frame=self.base,
+            time_span_s=float(st[idx[-1]] - st[idx[0]]),
+            start_s=st[pairs[m.ok, 0]],
+        )
+
+
 def kinematic_bag_intervals(
     bag: SelfcalBag,
     nominal: Kinematics,
@@ -317,20 +383,10 @@ def kinematic_bag_intervals(
     src = bag.source
     if bag.joint_positions is None or bag.joint_positions.shape[1] != len(nominal.joint_roles):
         raise InputError(f"the bag's joint data are not a {nominal.kind}'s ({', '.join(nominal.joint_roles)})", src)
-    want = opts.scan_delay
-    first = 0.0 if want == "auto" else float(want)
-    wt = np.asarray(bag.wheel_t_s, dtype=float)
-    period = float(np.median(np.diff(wt))) if len(wt) > 1 else 0.0
-    pose, pose_src, base, pose_warn = nominal_sensor_pose_of(bag, opts.sensor_pose, opts.base_frame)
-    l0 = np.array([pose[0], pose[1], pose[5]])
-
-    def plan(delay: float) -> tuple[FloatArray, NDArray[np.bool_], _Grid, list[str]]:
-        warnings: list[str] = list(bag.warnings) + pose_warn
-        st = np.asarray(bag.scan_t_s, dtype=float) - delay
-        usable = usable_scans(st, wt, period, opts.max_wheel_gap_s, src, warnings)
-        return st, usable, _grid(bag, nominal, st, usable), warnings
-
-    st, usable, grid, warnings = plan(first)
+    pipe = _Pipeline(bag, nominal, opts)
+    rule = opts.keyframes
+    # 1-2: every pair of consecutive scans, matched from the nominal odometry
+    st, usable, grid, warnings = pipe.plan(pipe.first)
     every = np.array(KeyframeRule().select(st, grid.odometry, usable), dtype=np.int64).reshape(-1, 2)
     moving = _moving(grid, every, nominal)
     if not moving.any():
@@ -339,70 +395,22 @@ def kinematic_bag_intervals(
             "record while the robot drives",
             src,
         )
-    pairs1 = every[moving]
-    seen = lambda q: se2.compose(se2.inverse(l0), se2.compose(q, l0))  # noqa: E731
-    init1 = seen(se2.between(grid.odometry[pairs1[:, 0]], grid.odometry[pairs1[:, 1]]))
-    rule = opts.keyframes
+    pairs1, still1 = every[moving], int((~moving).sum())
+    init1 = se2.compose(
+        se2.inverse(pipe.l0),
+        se2.compose(se2.between(grid.odometry[pairs1[:, 0]], grid.odometry[pairs1[:, 1]]), pipe.l0),
+    )
     n0 = len(pairs1)
     pass1 = None if progress is None else (lambda d, t: progress(d, 2 * n0))  # noqa: E731
-    iv1, m1 = _match(
-        bag,
-        grid,
-        pairs1,
-        init1,
-        opts,
-        1 if not rule.every_scan else opts.min_intervals,
-        None,
-        pass1,
-        warnings,
-        int((~moving).sum()),
-    )
-    est = None
-    delay = first
-    if want == "auto":
-        heading = _wheel_odometry(bag, nominal)[:, 2]
-        ok = m1.ok
-        try:
-            est = delay_from_turns(
-                wt, heading, st[pairs1[ok, 0]] + first, st[pairs1[ok, 1]] + first, m1.poses[ok, 2], first, source=src
-            )
-            delay = est.delay_s
-        except InputError as err:
-            warnings.append(f"the scans' delay is not estimated ({err.message}): stamps as recorded")
-    requested = "auto" if want == "auto" else f"{first:g}"
-
-    def done(iv: JointIntervals, m, pairs: NDArray[np.int64], still: int, st_: FloatArray, usable_: NDArray[np.bool_]):
-        idx = np.flatnonzero(usable_)
-        return JointScanIntervals(
-            intervals=iv,
-            bag=bag,
-            pairs=pairs[m.ok],
-            scan_delay_s=delay,
-            scan_delay=est,
-            scan_delay_requested=requested,
-            keyframe_rule=rule,
-            keyframes=int(np.unique(pairs).size),
-            scans_usable=int(usable_.sum()),
-            intervals_still=still,
-            pairs_matched=int(m.ok.sum()),
-            pairs_chained=m.chained,
-            pairs_failed=int((~m.ok).sum()),
-            failure_reasons=dict(m.reasons.most_common()),
-            match_rms_m=float(np.median(m.rms_m[m.ok])) if m.ok.any() else math.nan,
-            nominal_sensor_pose=pose,
-            sensor_pose_source=pose_src,
-            base_frame=base,
-            time_span_s=float(st_[idx[-1]] - st_[idx[0]]),
-            start_s=st_[pairs[m.ok, 0]],
-        )
-
-    if rule.every_scan and delay == first:
-        if len(iv1) < opts.min_intervals:
-            m1.judge(opts.min_intervals, int((~moving).sum()), warnings, src)  # raises, naming the failures
-        return done(iv1, m1, pairs1, int((~moving).sum()), st, usable)
-    motion, links, link_cov = composed_matches(st, wt, pairs1, m1.ok, m1.poses, init1, m1.covariances)
-    if delay != first:
-        st, usable, grid, warnings = plan(delay)
+    least = 1 if not rule.every_scan else opts.min_intervals
+    iv1, m1 = _match(bag, grid, pairs1, init1, opts, least, None, pass1, warnings, still1)
+    pipe.estimate_delay(st, pairs1, m1, warnings)
+    if rule.every_scan and pipe.delay == pipe.first:
+        return pipe.done(iv1, m1, pairs1, still1, st, usable)
+    # 3: keyframes on the composed matches, matched from them
+    motion, links, link_cov = composed_matches(st, pipe.wt, pairs1, m1.ok, m1.poses, init1, m1.covariances)
+    if pipe.delay != pipe.first:
+        st, usable, grid, warnings = pipe.plan(pipe.delay)
     pairs = np.array(rule.select(st, motion, usable), dtype=np.int64).reshape(-1, 2)
     moving = _moving(grid, pairs, nominal)
     pairs2 = pairs[moving]
@@ -410,21 +418,12 @@ def kinematic_bag_intervals(
     bad = np.concatenate([[0], np.cumsum(~links)])
     chained = bad[pairs2[:, 1]] - bad[pairs2[:, 0]] == 0
     cum = np.concatenate([np.zeros((1, 3, 3)), np.cumsum(np.nan_to_num(link_cov), axis=0)])
+    chain = (chained, cum[pairs2[:, 1]] - cum[pairs2[:, 0]])
     n1 = len(pairs2)
     pass2 = None if progress is None else (lambda d, t: progress(n0 + round(d * n0 / max(n1, 1)), 2 * n0))  # noqa: E731
-    iv2, m2 = _match(
-        bag,
-        grid,
-        pairs2,
-        init2,
-        opts,
-        opts.min_intervals,
-        (chained, cum[pairs2[:, 1]] - cum[pairs2[:, 0]]),
-        pass2,
-        warnings,
-        int((~moving).sum()),
-    )
-    return done(iv2, m2, pairs2, int((~moving).sum()), st, usable)
+    still2 = int((~moving).sum())
+    iv2, m2 = _match(bag, grid, pairs2, init2, opts, opts.min_intervals, chain, pass2, warnings, still2)
+    return pipe.done(iv2, m2, pairs2, still2, st, usable)
 
 
 @dataclass(frozen=True, eq=False)
