@@ -135,3 +135,66 @@ def read_options(kw: dict):
         stop_s=kw.get("stop_s") or 1.0,
         time_offset=kw.get("time_offset"),
     )
+
+
+def kinematic_nominal(kind: str, kw: dict):
+    """The nominal geometry of a tricycle or mecanum robot from ``--wheel-diameter-mm`` (or
+    ``--wheel-radius-m``) and ``--wheelbase-mm`` (a tricycle) or ``--lx-plus-ly-mm`` (mecanum).
+
+    Raises
+    ------
+    InputError
+        A missing or non-positive size, or one that belongs to another kind.
+    """
+    from umbmark.model.kinematics import Mecanum, Tricycle
+
+    d = length_m(kw, "wheel_diameter_mm", "wheel_radius_m", 2.0, both="refuse")
+    if d is None:
+        raise InputError("give the nominal wheel size: --wheel-diameter-mm D or --wheel-radius-m R (one of them)")
+    if kw.get("wheel_separation_m") is not None:
+        raise InputError(f"--wheel-separation-m is a differential drive's; a {kind} has none")
+    if kind == "tricycle":
+        if kw.get("lx_plus_ly_mm") is not None:
+            raise InputError("--lx-plus-ly-mm is a mecanum robot's; a tricycle has --wheelbase-mm")
+        positive_or_none("--wheelbase-mm", kw.get("wheelbase_mm"))
+        if kw.get("wheelbase_mm") is None:
+            raise InputError(
+                "give the nominal wheelbase of the tricycle: --wheelbase-mm L (rear axle to steered wheel)"
+            )
+        return Tricycle(d, kw["wheelbase_mm"] * 1e-3)
+    if kw.get("wheelbase_mm") is not None:
+        raise InputError("--wheelbase-mm is a tricycle's or differential drive's; a mecanum robot has --lx-plus-ly-mm")
+    positive_or_none("--lx-plus-ly-mm", kw.get("lx_plus_ly_mm"))
+    if kw.get("lx_plus_ly_mm") is None:
+        raise InputError(
+            "give the nominal --lx-plus-ly-mm S (half the wheelbase plus half the track) of the mecanum robot"
+        )
+    return Mecanum.uniform(d, kw["lx_plus_ly_mm"] * 1e-3)
+
+
+def kinematic_joints(kind: str, kw: dict) -> tuple[str, ...]:
+    """The joint names of a tricycle (``--drive-joint``, ``--steer-joint``) or a mecanum robot
+    (``--joints FL,FR,RL,RR``), in the kind's roles' order.
+
+    Raises
+    ------
+    InputError
+        Missing names, or flags of another kind.
+    """
+    if kw.get("ticks_topic") or kw.get("odom_topic"):
+        raise InputError(f"a {kind} is read from its joint states (JointState), not --ticks-topic or --odom-topic")
+    if kind == "tricycle":
+        if kw.get("joints"):
+            raise InputError("a tricycle's joints are --drive-joint NAME and --steer-joint NAME, not --joints")
+        if not kw.get("drive_joint") or not kw.get("steer_joint"):
+            raise InputError("a tricycle needs --drive-joint NAME (the traction wheel) and --steer-joint NAME")
+        return (str(kw["drive_joint"]), str(kw["steer_joint"]))
+    if kw.get("drive_joint") or kw.get("steer_joint"):
+        raise InputError("--drive-joint and --steer-joint are a tricycle's; a mecanum robot has --joints FL,FR,RL,RR")
+    names = [p.strip() for p in str(kw.get("joints") or "").split(",")]
+    if len(names) != 4 or not all(names):
+        raise InputError(
+            "a mecanum robot needs --joints FL,FR,RL,RR (front left, front right, rear left, rear right), "
+            f"got {kw.get('joints')!r}"
+        )
+    return tuple(names)

@@ -209,8 +209,38 @@ def _print_report(d: dict, again: str, export: str) -> None:
 
 @app.command("selfcal")
 @click.argument("paths", nargs=-1, required=True, metavar="INPUT...")
+@click.option(
+    "--kinematics",
+    type=click.Choice(["diff_drive", "tricycle", "mecanum"]),
+    default="diff_drive",
+    show_default=True,
+    help="The kind of robot: a differential drive (or skid steer), a tricycle (--drive-joint, --steer-joint, "
+    "--wheelbase-mm) or a mecanum robot (--joints FL,FR,RL,RR, --lx-plus-ly-mm).",
+)
 @click.option("--scan-topic", default="/scan", show_default=True, help="Bag: the sensor_msgs/LaserScan topic.")
-@click.option("--joints", default=None, metavar="LEFT,RIGHT", help="Bag: JointState names of the wheels.")
+@click.option(
+    "--joints",
+    default=None,
+    metavar="LEFT,RIGHT",
+    help="Bag: JointState names of the wheels (mecanum: FL,FR,RL,RR).",
+)
+@click.option("--drive-joint", default=None, help="Tricycle: JointState name of the traction wheel.")
+@click.option(
+    "--steer-joint",
+    default=None,
+    help="Tricycle: JointState name of the steering joint (radians, counter-clockwise positive, 0 straight).",
+)
+@click.option(
+    "--lx-plus-ly-mm",
+    type=float,
+    default=None,
+    help="Mecanum: nominal half wheelbase plus half track (sum_of_robot_center_projection_on_X_Y_axis).",
+)
+@click.option(
+    "--fit-steering-scale",
+    is_flag=True,
+    help="Tricycle: also estimate the steering scale (true over measured angle; needs large steering angles).",
+)
 @click.option("--joint-topic", default="/joint_states", show_default=True, help="Bag: JointState topic.")
 @click.option("--ticks-topic", default=None, help="Bag: topic with encoder counts (instead of --joints).")
 @click.option("--left-field", default=None, help="Bag: field of the left count, e.g. data[0].")
@@ -308,6 +338,7 @@ def _print_report(d: dict, again: str, export: str) -> None:
 @config_options
 def selfcal_cmd(
     paths,
+    kinematics,
     wheel_diameter_mm,
     wheelbase_mm,
     wheel_radius_m,
@@ -340,6 +371,24 @@ def selfcal_cmd(
     """
     from umbmark.cli.options import nominal_m
 
+    if kinematics != "diff_drive":
+        from umbmark.cli.selfcal_kinematic import kinematic_selfcal_cmd
+
+        if not wheel_jitter:
+            raise InputError(f"--no-wheel-jitter is for a differential drive, not --kinematics {kinematics}")
+        sizes = dict(
+            wheel_diameter_mm=wheel_diameter_mm,
+            wheel_radius_m=wheel_radius_m,
+            wheelbase_mm=wheelbase_mm,
+            wheel_separation_m=wheel_separation_m,
+        )
+        kinematic_selfcal_cmd(kinematics, paths, min_intervals, keep_outliers, save, as_json, record, {**kw, **sizes})
+        return
+    for flag in ("drive_joint", "steer_joint", "lx_plus_ly_mm"):
+        if kw.get(flag) is not None:
+            raise InputError(f"--{flag.replace('_', '-')} needs --kinematics tricycle or mecanum")
+    if kw.get("fit_steering_scale"):
+        raise InputError("--fit-steering-scale needs --kinematics tricycle")
     d_m, b_m = nominal_m(
         dict(
             wheel_diameter_mm=wheel_diameter_mm,
@@ -446,12 +495,11 @@ def _start_kernels() -> None:
         click.echo("compiling the scan matcher (once per machine, about 10 s)", err=True)
 
 
-def _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json):
-    """The self-calibration of the bags (:func:`umbmark.realrobot.selfcal.selfcal_from_bags`), with
-    progress bars; the matched intervals written when ``--intervals-out`` asks."""
-    from umbmark.cli.options import wheel_source
+def _interval_options(kw, min_intervals: int):
+    """The :class:`~umbmark.realrobot.selfcal.IntervalOptions` of the bag flags (keyframes, sensor
+    pose, base frame, wheel gap, matcher, scans' delay)."""
     from umbmark.realrobot.scanmatch import ICPConfig
-    from umbmark.realrobot.selfcal import IntervalOptions, KeyframeRule, parse_scan_delay, selfcal_from_bags
+    from umbmark.realrobot.selfcal import IntervalOptions, KeyframeRule, parse_scan_delay
 
     for flag in ("keyframe_mm", "keyframe_deg", "keyframe_s", "keyframe_min_s"):
         v = kw[flag]
@@ -482,6 +530,24 @@ def _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json):
         raise InputError(
             f"--scan-delay must be auto, off or seconds (positive: the scans are late), got {kw['scan_delay']!r}"
         ) from None
+    return IntervalOptions(
+        keyframes=rule,
+        sensor_pose=pose,
+        base_frame=kw["base_frame"],
+        max_wheel_gap_s=kw["max_wheel_gap_s"],
+        icp=ICPConfig(coarse=True) if kw["coarse"] else None,
+        min_intervals=min_intervals,
+        scan_delay=scan_delay,
+    )
+
+
+def _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json):
+    """The self-calibration of the bags (:func:`umbmark.realrobot.selfcal.selfcal_from_bags`), with
+    progress bars; the matched intervals written when ``--intervals-out`` asks."""
+    from umbmark.cli.options import wheel_source
+    from umbmark.realrobot.selfcal import selfcal_from_bags
+
+    options = _interval_options(kw, min_intervals)
     wheels = wheel_source(kw)
     if wheels.given:
         wheels.check()  # before anything is compiled or read
@@ -494,15 +560,7 @@ def _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json):
             wheels=wheels,
             scan_topic=kw["scan_topic"],
             scan_frame=kw["scan_frame"],
-            options=IntervalOptions(
-                keyframes=rule,
-                sensor_pose=pose,
-                base_frame=kw["base_frame"],
-                max_wheel_gap_s=kw["max_wheel_gap_s"],
-                icp=ICPConfig(coarse=True) if kw["coarse"] else None,
-                min_intervals=min_intervals,
-                scan_delay=scan_delay,
-            ),
+            options=options,
             selfcal_options=opts,
             progress=bars,
         )

@@ -459,6 +459,7 @@ def kinematic_selfcal_from_bags(
     scan_frame: str | None = None,
     options: IntervalOptions | None = None,
     fit: Sequence[str] | None = None,
+    reject_outliers: bool = True,
     progress: StageProgress | None = None,
 ) -> KinematicReport:
     """Self-calibrate a tricycle or mecanum robot (any kind) from bags: read, match, estimate.
@@ -477,6 +478,8 @@ def kinematic_selfcal_from_bags(
     options : IntervalOptions, optional
     fit : sequence of str, optional
         The geometry parameters to estimate (default :func:`kinematic_selfcal`'s).
+    reject_outliers : bool
+        Set aside intervals far beyond the rest (failed matches).
     progress : callable, optional
         ``progress(stage, done, total)``.
 
@@ -504,5 +507,5 @@ def kinematic_selfcal_from_bags(
     ivs = [p.intervals for p in parts]
     blocks = interval_blocks(parts)
     iv = JointIntervals.concatenate(ivs, source=", ".join(str(p) for p in paths))
-    result = kinematic_selfcal(iv, nominal, fit=fit, blocks=blocks)
+    result = kinematic_selfcal(iv, nominal, fit=fit, blocks=blocks, reject_outliers=reject_outliers)
     return KinematicReport(result, tuple(parts))
