@@ -1,4 +1,6 @@
-"""umbmark.model.geometry (the robot types, wrap_angle) and the physics of umbmark.model.odometry's integrators."""
+"""Tricycle and mecanum kinematics, their simulated drives and their self-calibration (without bags)."""
+
+from __future__ import annotations
 
 import math
 
@@ -7,211 +9,285 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from umbmark.correct.selfcal import selfcal
+from umbmark.correct.selfcal.kinematic import KinematicProblem, kinematic_selfcal
 from umbmark.errors import InputError
-from umbmark.model import dataset
-from umbmark.model.geometry import (
-    LABMATE,
-    Calibration,
-    ErrorParams,
-    Geometry,
-    OdometryParams,
-    WheelGeometry,
-    wrap_angle,
+from umbmark.model import se2
+from umbmark.model.intervals import Intervals
+from umbmark.model.kinematic_drive import JointNoise, KinematicRobot, kinematic_program, simulate_kinematic_drive
+from umbmark.model.kinematics import (
+    DiffDrive,
+    JointIntervals,
+    JointSteps,
+    Mecanum,
+    Tricycle,
+    compose_steps,
+    integrate_steps,
+    joint_intervals_from_motion,
+    twist_displacement,
 )
-from umbmark.model.odometry import KERNELS, integrate, integrate_end, integrate_pulses
-from umbmark.model.runs import RunsTable
+from umbmark.model.sensors import Lidar, SensorPose
+
+TRICYCLE = (Tricycle(0.25, 0.6), Tricycle(0.2525, 0.59, math.radians(1.5)))
+MECANUM = (Mecanum.uniform(0.1, 0.4), Mecanum((0.101, 0.0995, 0.1003, 0.0998), 0.405))
+POSE = SensorPose(0.3, -0.05, math.radians(2.0))
+speeds = st.floats(-1.0, 1.0, allow_nan=False)
 
 
-def test_mm_per_pulse_is_eq_2_1():
-    g = Geometry(wheel_diameter_m=0.084, wheelbase_m=0.2, pulses_per_motor_rev=64, gear_ratio=43.7)
-    assert g.m_per_pulse == pytest.approx(math.pi * 0.084 / (43.7 * 64), rel=1e-15)
+# ---------------------------------------------------------------- conventions
+def test_a_tricycle_steered_left_turns_left_and_an_offset_curves_a_straight_command():
+    t = Tricycle(0.2, 0.5)
+    tw = t.twist([[1.0, math.radians(20)]])[0]
+    assert tw[0] > 0 and tw[2] > 0 and tw[1] == 0
+    off = Tricycle(0.2, 0.5, math.radians(1.0))
+    assert off.twist([[1.0, 0.0]])[0, 2] > 0  # a measured 0 steers left by the offset
+    # a quarter turn of the steering spins the robot about the rear axle's midpoint
+    spin = t.twist([[1.0, math.pi / 2]])[0]
+    assert abs(spin[0]) < 1e-12 and spin[2] == pytest.approx(0.1 / 0.5)
 
 
-@pytest.mark.parametrize("bad", [0.0, -1.0, float("nan"), float("inf")])
-def test_geometry_rejects_non_positive(bad):
-    with pytest.raises(InputError):
-        Geometry(wheel_diameter_m=bad, wheelbase_m=0.3)
+def test_a_bigger_front_right_mecanum_wheel_drifts_left_and_turns_left():
+    m = Mecanum((0.1, 0.102, 0.1, 0.1), 0.4)
+    tw = m.twist([[1.0, 1.0, 1.0, 1.0]])[0]
+    assert tw[0] > 0 and tw[1] > 0 and tw[2] > 0
 
 
-def test_calibration_factors_scale_each_wheel():
-    g = Geometry(0.15, 0.34, 500, 20)
-    p = OdometryParams.from_geometry(g, Calibration(0.99, 1.01, 0.336))
-    assert p.left_m_per_pulse == pytest.approx(0.99 * g.m_per_pulse)
-    assert p.right_m_per_pulse == pytest.approx(1.01 * g.m_per_pulse)
-    assert p.wheelbase_m == 0.336
-    assert OdometryParams.from_geometry(g).wheelbase_m == 0.34
-
-
-@given(ed=st.floats(0.9, 1.1), es=st.floats(0.9, 1.1))
-def test_error_params_diameters(ed, es):
-    g = Geometry(0.15, 0.34)
-    dl, dr = ErrorParams(ed=ed, es=es).diameters_m(g)
-    assert dr / dl == pytest.approx(ed, rel=1e-12)
-    assert (dl + dr) / 2 == pytest.approx(es * 0.15, rel=1e-12)
-
-
-def test_true_wheels_and_odometry_of_an_error_model():
-    g = Geometry(0.084, 0.2, 64, 43.7)
-    e = ErrorParams(1.003, 0.97, 1.01)
-    w = e.wheels(g)
-    assert (w.diameter_left_m, w.diameter_right_m) == e.diameters_m(g)
-    assert w.wheelbase_m == 0.97 * 0.2
-    assert g.pulses_per_wheel_rev == 43.7 * 64
-    p = e.true_params(g)
-    k = math.pi / (43.7 * 64)
-    assert (p.left_m_per_pulse, p.right_m_per_pulse, p.wheelbase_m) == (
-        k * w.diameter_left_m,
-        k * w.diameter_right_m,
-        w.wheelbase_m,
-    )
-    assert p == w.params(g.pulses_per_wheel_rev)
-    nominal = g.wheels()
-    assert (nominal.diameter_left_m, nominal.diameter_right_m, nominal.wheelbase_m) == (0.084, 0.084, 0.2)
-    assert nominal.params(g.pulses_per_wheel_rev).left_m_per_pulse == pytest.approx(g.m_per_pulse, rel=1e-15)
-
-
-def test_wheel_geometry_conversions():
-    nominal = WheelGeometry(0.1, 0.1, 0.3)
-    cal = Calibration(0.99, 1.01, 0.29)
-    g = nominal.calibrated(cal)
-    assert (g.diameter_left_m, g.diameter_right_m, g.wheelbase_m) == (0.099, 0.101, 0.29)
-    back = g.calibration_from(nominal)
-    assert back.c_left == pytest.approx(0.99) and back.c_right == pytest.approx(1.01) and back.wheelbase_m == 0.29
-    rel = g.relative_to(nominal)
-    assert rel["Ed"] == pytest.approx(1.01 / 0.99) and rel["Eb"] == pytest.approx(0.29 / 0.3)
-    assert rel["Es"] == pytest.approx(1.0) and rel["wheelbase_corrected_mm"] == pytest.approx(290.0)
-    assert g.to_dict() == pytest.approx({"diameter_left_mm": 99.0, "diameter_right_mm": 101.0, "wheelbase_mm": 290.0})
-    with pytest.raises(InputError, match="wheelbase_m"):
-        WheelGeometry(0.1, 0.1, 0.0)
-
-
-def test_wheel_geometry_is_one_type_importable_from_the_dataset_module():
-    assert dataset.WheelGeometry is WheelGeometry
-
-
-def test_ideal_calibration_makes_the_odometry_exact():
-    e = ErrorParams(ed=1.004, eb=0.98)
-    odo = OdometryParams.from_geometry(LABMATE, e.ideal_calibration(LABMATE))
-    true = e.true_params(LABMATE)
-    assert odo.right_m_per_pulse / odo.left_m_per_pulse == pytest.approx(true.right_m_per_pulse / true.left_m_per_pulse)
-    assert odo.wheelbase_m == true.wheelbase_m
-
-
-@pytest.mark.parametrize("kernel", KERNELS)
-def test_straight_line(kernel):
-    d = np.full(100, 0.01)
-    x, y, th = integrate(d, d, 0.3, kernel=kernel)
-    assert x[-1] == pytest.approx(1.0)
-    assert np.all(y == 0) and np.all(th == 0)
-
-
-@pytest.mark.parametrize("kernel", KERNELS)
-def test_bigger_right_wheel_turns_left(kernel):
-    x, y, th = integrate_pulses(np.full(50, 100), np.full(50, 101), OdometryParams(1e-4, 1e-4, 0.3), kernel=kernel)
-    assert th[-1] > 0 and y[-1] > 0
+def test_the_mecanum_forward_kinematics_is_the_controllers():
+    """ros2_controllers' mecanum odometry: vx = r/4 (FL + BL + BR + FR), vy = r/4 (-FL + BL - BR + FR),
+    wz = r/(4 k) (-FL - BL + BR + FR)."""
+    r, k = 0.05, 0.3
+    w = np.array([0.3, -1.1, 2.0, 0.7])  # FL, FR, RL, RR
+    fl, fr, rl, rr = w
+    want = [r / 4 * (fl + rl + rr + fr), r / 4 * (-fl + rl - rr + fr), r / (4 * k) * (-fl - rl + rr + fr)]
+    np.testing.assert_allclose(Mecanum.uniform(2 * r, k).twist(w[None])[0], want, rtol=1e-12)
 
 
 @settings(max_examples=60, deadline=None)
-@given(
-    radius=st.floats(0.2, 20.0),
-    arc=st.floats(0.05, 10.0),
-    k=st.integers(1, 400),
-    sign=st.sampled_from([-1.0, 1.0]),
-    kernel=st.sampled_from(KERNELS),
+@given(speeds, speeds, speeds)
+def test_each_kind_drives_the_twist_its_inverse_kinematics_commands(vx, vy, w):
+    dt = 0.01
+    for k, lateral in (
+        (Tricycle(0.2, 0.6, math.radians(2.0), 1.03), False),
+        (Mecanum((0.1, 0.11, 0.09, 0.1), 0.35), True),
+        (DiffDrive(0.15, 0.152, 0.34), False),
+    ):
+        y = vy if lateral else 0.0
+        if isinstance(k, Tricycle) and vx == 0 and w == 0:
+            continue
+        tw = k.twist(k.joint_motion(vx, y, w, dt))
+        np.testing.assert_allclose(tw, np.array([vx, y, w]) * dt, atol=1e-12)
+
+
+def test_a_kind_without_sideways_motion_refuses_a_sideways_command():
+    with pytest.raises(InputError, match="sideways"):
+        Tricycle(0.2, 0.6).joint_motion(0.1, 0.1, 0.0, 0.01)
+    with pytest.raises(InputError, match="sideways"):
+        DiffDrive(0.1, 0.1, 0.3).joint_motion(0.1, 0.1, 0.0, 0.01)
+
+
+@pytest.mark.parametrize(
+    "make",
+    [
+        lambda: Tricycle(-0.2, 0.6),
+        lambda: Tricycle(0.2, 0.6, math.radians(120.0)),
+        lambda: Mecanum((0.1, 0.1, 0.1), 0.3),
+        lambda: Mecanum.uniform(0.1, float("nan")),
+        lambda: DiffDrive(0.1, 0.1, 0.0),
+    ],
 )
-def test_exact_arcs_land_on_the_circle_for_any_sampling(radius, arc, k, sign, kernel):
-    b = 0.3
-    # constant curvature 1/radius: wheel travel ratio (R + b/2) / (R - b/2)
-    du = np.full(k, arc / k)
-    dth = sign * du / radius
-    dl, dr = du - dth * b / 2, du + dth * b / 2
-    x, y, th = integrate_end(dl, dr, b, kernel=kernel)
-    phi = sign * arc / radius
-    assert th == pytest.approx(phi, abs=1e-9)
-    assert x == pytest.approx(radius * math.sin(arc / radius), abs=1e-9)
-    assert y == pytest.approx(sign * radius * (1 - math.cos(arc / radius)), abs=1e-9)
+def test_impossible_geometry_is_refused(make):
+    with pytest.raises(InputError):
+        make()
 
 
-@pytest.mark.parametrize("kernel", KERNELS)
-def test_midpoint_converges_to_exact(kernel):
-    b = 0.3
-    errs = []
-    for k in (10, 100, 1000):
-        dl, dr = np.full(k, 1.0 / k), np.full(k, 1.2 / k)
-        xe, ye, _ = integrate_end(dl, dr, b, integrator="exact", kernel=kernel)
-        xm, ym, _ = integrate_end(dl, dr, b, integrator="midpoint", kernel=kernel)
-        errs.append(math.hypot(xe - xm, ye - ym))
-    assert errs[0] > errs[1] > errs[2]
-    assert errs[2] < 1e-6
+@settings(max_examples=80, deadline=None)
+@given(st.floats(-2, 2), st.floats(-2, 2), st.floats(-7, 7))
+def test_the_displacement_of_a_twist_is_two_halves_composed(a, b, th):
+    whole = twist_displacement([a, b, th])
+    half = twist_displacement([a / 2, b / 2, th / 2])
+    two = se2.compose(half, half)
+    np.testing.assert_allclose(two[:2], whole[:2], atol=1e-9)
+    assert se2.between(np.r_[0, 0, th], np.r_[0, 0, two[2]])[2] == pytest.approx(0.0, abs=1e-9)
 
 
-@settings(max_examples=40, deadline=None)
-@given(
-    runs=st.integers(1, 4),
-    k=st.integers(1, 50),
-    seed=st.integers(0, 2**31),
-    method=st.sampled_from(["exact", "midpoint", "euler"]),
-    kernel=st.sampled_from(KERNELS),
-)
-def test_integrate_end_equals_last_pose(runs, k, seed, method, kernel):
-    rng = np.random.default_rng(seed)
-    dl, dr = rng.normal(0.01, 0.005, (2, runs, k))
-    b = rng.uniform(0.1, 0.5, runs)
-    pose0 = tuple(rng.normal(size=(3, runs)))
-    full = integrate(dl, dr, b, pose0, method, kernel=kernel)
-    end = integrate_end(dl, dr, b, pose0, method, kernel=kernel)
-    for a, e in zip(full, end):
-        np.testing.assert_allclose(a[:, -1], e, rtol=0, atol=1e-12)
+def test_a_twist_without_sideways_motion_is_the_differential_drive_arc():
+    d = np.array([0.3, -0.2, 0.0, 1.0])
+    dth = np.array([0.5, 1e-9, 2.0, -3.0])
+    np.testing.assert_allclose(twist_displacement(np.c_[d, 0 * d, dth]), se2.arc(d - dth / 2, d + dth / 2, 1.0))
 
 
-@pytest.mark.parametrize("kernel", KERNELS)
-def test_unknown_method(kernel):
-    with pytest.raises(InputError, match="unknown integrator"):
-        integrate([0.1], [0.1], 0.3, integrator="rk4", kernel=kernel)
-
-
-def test_unknown_kernel():
-    with pytest.raises(InputError, match="unknown odometry kernel"):
-        integrate([0.1], [0.1], 0.3, kernel="gpu")
-
-
-@given(st.floats(-1e4, 1e4))
-def test_wrap_angle_range(a):
-    w = float(wrap_angle(a))
-    assert -math.pi < w <= math.pi
-    assert math.isclose(math.cos(w), math.cos(a), abs_tol=1e-9)
-    assert math.isclose(math.sin(w), math.sin(a), abs_tol=1e-9)
-
-
-def test_wrap_angle_boundary_is_plus_pi():
-    """(-pi, pi]: every odd multiple of pi maps to +pi; elsewhere it is the plain modulo."""
-    odd = np.array([np.pi, -np.pi, 3 * np.pi, -3 * np.pi])
-    np.testing.assert_array_equal(wrap_angle(odd), np.full(4, np.pi))
+def test_composed_steps_are_the_integrated_path_between_the_intervals_ends():
     rng = np.random.default_rng(0)
-    a = rng.uniform(-100, 100, 10_000)
-    np.testing.assert_array_equal(wrap_angle(a), np.mod(a + np.pi, 2 * np.pi) - np.pi)
+    local = twist_displacement(rng.normal(0, 0.1, (30, 3)))
+    start = np.array([0, 4, 5, 17, 30])
+    q = compose_steps(local, start)
+    path = integrate_steps(local)
+    for k in range(4):
+        rel = se2.between(path[start[k]], path[start[k + 1]])
+        np.testing.assert_allclose(rel[:2], q[k, :2], atol=1e-12)
+        assert path[start[k + 1], 2] - path[start[k], 2] == pytest.approx(q[k, 2])
 
 
-def test_wrap_angle_keeps_the_kind_of_its_input():
-    w = wrap_angle(4.0)
-    assert isinstance(w, np.float64) and w == pytest.approx(4.0 - 2 * math.pi)
-    assert wrap_angle(np.zeros((2, 3))).shape == (2, 3)
-    assert wrap_angle([7.0]).shape == (1,)
+def test_joint_steps_refuse_offsets_and_values_that_do_not_fit():
+    with pytest.raises(InputError, match="start"):
+        JointSteps(np.zeros((3, 2)), [0, 2])
+    with pytest.raises(InputError, match="finite"):
+        JointSteps(np.array([[0.0, np.nan]]), [0, 1])
+    with pytest.raises(InputError, match="dt_s"):
+        JointSteps(np.zeros((2, 2)), [0, 2], [0.1])
 
 
-def test_runs_heading_error_uses_the_same_convention():
-    t = RunsTable.from_columns(["cw", "ccw"], [0, 0], [0, 0], [0, 0], [0, 0], [np.pi, 0.25], [0.0, -0.25])
-    np.testing.assert_array_equal(t.eps_theta, [np.pi, 0.5])
+# ---------------------------------------------------------------- simulation
+@pytest.mark.parametrize("pair", [TRICYCLE, MECANUM], ids=["tricycle", "mecanum"])
+def test_the_true_geometrys_odometry_of_a_noise_free_drive_is_its_true_path(pair):
+    nominal, true = pair
+    robot = KinematicRobot(nominal, true, POSE, Lidar(n_beams=90))
+    moves, start = kinematic_program(robot, 40, seed=2)
+    log = simulate_kinematic_drive(moves, robot, start_pose=start, seed=1)
+    odo = log.odometry(true)
+    rel = se2.between(log.true_pose[0], log.true_pose)
+    np.testing.assert_allclose(odo[:, :2], rel[:, :2], atol=1e-9)
+    # and the nominal geometry's drifts (the systematic errors are there to find)
+    assert np.hypot(*(log.odometry()[-1, :2] - rel[-1, :2])) > 0.01
 
 
-def test_the_model_package_exports_its_public_names():
-    import importlib
+def test_a_simulated_drive_stays_in_the_room_and_scans_it():
+    robot = KinematicRobot(*MECANUM, POSE, Lidar(n_beams=90))
+    moves, start = kinematic_program(robot, 60, seed=5)
+    log = simulate_kinematic_drive(moves, robot, start_pose=start, seed=1)
+    assert np.all(log.room.distance_to_walls(log.true_pose[:, :2]) > 0.5)
+    assert np.isfinite(log.ranges_m).mean() > 0.9
+    assert {m.vy_mps > 0 for m in moves if abs(m.vy_mps) > 0.05} == {True, False}  # sideways both ways
 
-    import umbmark.model as model
 
-    for name in model.__all__:
-        module = importlib.import_module(model._LAZY[name])
-        assert name in module.__all__, f"{name} is not public in {module.__name__}"
-        assert getattr(model, name) is getattr(module, name)
-    with pytest.raises(AttributeError):
-        model.no_such_name  # noqa: B018
+def test_a_noisy_drive_needs_a_seed():
+    robot = KinematicRobot(*TRICYCLE, POSE, Lidar(n_beams=90, range_noise_m=0.0, dropout_prob=0.0))
+    moves, start = kinematic_program(robot, 20, seed=1)
+    with pytest.raises(InputError, match="seed"):
+        simulate_kinematic_drive(moves, robot, start_pose=start, noise=JointNoise(speed_rel_sd=0.01))
+
+
+def test_a_robot_of_two_kinds_is_refused():
+    with pytest.raises(InputError, match="one kind"):
+        KinematicRobot(Tricycle(0.2, 0.6), Mecanum.uniform(0.1, 0.3))
+
+
+# ---------------------------------------------------------------- self-calibration
+def _intervals(log, sd_m=0.0, seed=0, every=5):
+    """Intervals of ``every`` scans with the true sensor motion (plus noise), steps at the joint samples."""
+    t_scan = log.scan_t_s[::every]
+    t = np.unique(np.concatenate([log.t_s, t_scan]))
+    js = log.joint_steps(t)
+    b = np.searchsorted(t, t_scan)
+    steps = JointSteps(js.values[b[0] : b[-1]], b - b[0], js.dt_s[b[0] : b[-1]])
+    iv = joint_intervals_from_motion(steps, log.true, log.sensor_pose.as_array())
+    if sd_m:
+        rng = np.random.default_rng(seed)
+        noise = rng.normal(0.0, 1.0, iv.sensor.shape) * np.array([sd_m, sd_m, sd_m / 0.5])
+        iv = JointIntervals(iv.dt_s, iv.steps, iv.sensor + noise)
+    return iv
+
+
+def _drive(pair, seed=1, kinds=None, duration=120.0, noise=None):
+    nominal, true = pair
+    robot = KinematicRobot(nominal, true, POSE, Lidar(n_beams=30))
+    moves, start = kinematic_program(robot, duration, seed=seed, kinds=kinds)
+    return simulate_kinematic_drive(moves, robot, start_pose=start, noise=noise, seed=seed)
+
+
+@pytest.mark.parametrize("pair", [TRICYCLE, MECANUM], ids=["tricycle", "mecanum"])
+def test_a_noise_free_robot_is_recovered_exactly(pair):
+    log = _drive(pair)
+    r = kinematic_selfcal(_intervals(log), pair[0])
+    np.testing.assert_allclose(r.kinematics.vector(), pair[1].vector(), rtol=1e-8, atol=1e-9)
+    np.testing.assert_allclose(r.sensor_pose, POSE.as_array(), atol=1e-8)
+    assert r.warnings == []
+
+
+def test_the_steering_scale_is_recovered_when_asked():
+    true = Tricycle(0.2525, 0.59, math.radians(1.5), 1.04)
+    log = _drive((TRICYCLE[0], true))
+    fit = ("wheel_diameter_m", "wheelbase_m", "steering_offset_rad", "steering_scale")
+    r = kinematic_selfcal(_intervals(log), TRICYCLE[0], fit=fit)
+    assert r.kinematics.steering_scale == pytest.approx(1.04, rel=1e-7)
+    assert "steering_scale" in r.ci95
+
+
+@pytest.mark.parametrize("pair", [TRICYCLE, MECANUM], ids=["tricycle", "mecanum"])
+def test_the_jacobian_is_the_residuals_derivative(pair):
+    iv = _intervals(_drive(pair, duration=30.0))
+    prob = KinematicProblem(iv, pair[0], [n != "steering_scale" for n in pair[0].parameter_names])
+    p = np.concatenate([pair[1].vector()[prob.free], POSE.as_array()]) * 1.001
+    j = prob.jac(p, prob.all)
+    num = np.zeros_like(j)
+    for i in range(len(p)):
+        e = np.zeros(len(p))
+        e[i] = 1e-6 * prob.param_scale(p)[i]
+        num[:, :, i] = -(prob.res(p + e, prob.all) - prob.res(p - e, prob.all)) / (2 * e[i])
+    np.testing.assert_allclose(j, num, atol=1e-6 * np.abs(num).max())
+
+
+def test_the_general_estimator_of_a_differential_drive_is_the_differential_drives():
+    nominal, true = DiffDrive(0.15, 0.15, 0.34), DiffDrive(0.151, 0.1495, 0.35)
+    log = _drive((nominal, true), duration=90.0, noise=JointNoise(speed_rel_sd=0.01))
+    iv = _intervals(log, sd_m=0.002, seed=3)
+    general = kinematic_selfcal(iv, nominal, reject_outliers=False)
+    left, right = (np.add.reduceat(iv.steps.values[:, j], iv.steps.start[:-1]) for j in (0, 1))
+    from umbmark.model.intervals import IntervalSteps
+
+    steps = IntervalSteps(iv.steps.values[:, 0], iv.steps.values[:, 1], iv.steps.start)
+    own = selfcal(
+        Intervals(iv.dt_s, left, right, iv.sensor, steps=steps), 0.15, 0.34, reject_outliers=False, time_jitter=False
+    )
+    mine = general.kinematics.vector()
+    np.testing.assert_allclose(mine, [own.diameter_left_m, own.diameter_right_m, own.wheelbase_m], rtol=1e-6)
+    np.testing.assert_allclose(general.sensor_pose, own.sensor_pose, atol=1e-6)
+
+
+@pytest.mark.parametrize("pair", [TRICYCLE, MECANUM], ids=["tricycle", "mecanum"])
+def test_the_intervals_cover_the_truth(pair):
+    """Coverage over noisy drives: the truth inside the 95 % intervals for most parameters and robots
+    (``benchmarks/kinematic_coverage.py`` measures it over 50 robots from bags)."""
+    inside, total = 0, 0
+    for seed in range(8):
+        log = _drive(pair, seed=seed, noise=JointNoise(speed_rel_sd=0.01))
+        r = kinematic_selfcal(_intervals(log, sd_m=0.002, seed=seed), pair[0])
+        truth = np.concatenate(
+            [pair[1].vector()[[n != "steering_scale" for n in pair[0].parameter_names]], POSE.as_array()]
+        )
+        for name, v in zip(r.parameters, truth):
+            lo, hi = r.ci95[name]
+            inside += lo <= v <= hi
+            total += 1
+    assert inside / total >= 0.85
+
+
+def test_a_mecanum_robot_that_never_moves_sideways_is_told_to():
+    kinds = ("straight", "back", "arc+", "arc-", "spin+", "spin-")
+    log = _drive(MECANUM, kinds=kinds, noise=JointNoise(speed_rel_sd=0.01))
+    try:
+        r = kinematic_selfcal(_intervals(log, sd_m=0.001), MECANUM[0])
+        text = " ".join(r.warnings)
+    except InputError as err:
+        text = str(err)
+    assert "sideways" in text and "lx_plus_ly_m" in text
+
+
+def test_a_tricycle_that_steers_one_way_only_is_told_to_steer_both_ways():
+    log = _drive(TRICYCLE, kinds=("straight", "back", "arc+", "spin+"), noise=JointNoise(speed_rel_sd=0.01))
+    r = kinematic_selfcal(_intervals(log, sd_m=0.001), TRICYCLE[0])
+    assert any("steer both ways" in w for w in r.warnings)
+
+
+@pytest.mark.parametrize("pair", [TRICYCLE, MECANUM], ids=["tricycle", "mecanum"])
+def test_a_drive_of_every_move_draws_no_warning(pair):
+    log = _drive(pair, noise=JointNoise(speed_rel_sd=0.01))
+    assert kinematic_selfcal(_intervals(log, sd_m=0.002), pair[0]).warnings == []
+
+
+def test_intervals_of_another_kind_are_refused():
+    iv = _intervals(_drive(TRICYCLE, duration=20.0))
+    with pytest.raises(InputError, match="mecanum has 4"):
+        kinematic_selfcal(iv, MECANUM[0])
+    with pytest.raises(InputError, match="unknown parameter"):
+        kinematic_selfcal(iv, TRICYCLE[0], fit=("wheel_radius_m",))

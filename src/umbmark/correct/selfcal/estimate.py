@@ -176,6 +176,8 @@ class Problem:
             assert iv.end_rates is not None
             self.rates = (np.asarray(iv.end_rates[:, :2], float), np.asarray(iv.end_rates[:, 2:], float))
         self.n = 6  # parameters
+        # settled once a step moves the parameters by less than 1e-3 of their standard deviations
+        self.settle_by_sd = False
         self.last_information = np.eye(6)  # the last Gauss-Newton step's (whitened, weighted)
 
     def param_scale(self, p: FloatArray) -> FloatArray:
@@ -472,7 +474,8 @@ def _student_fit(
         # with the jitter modelled the EM converges linearly and slowly (the scatter's EM
         # steps, the jitter and the degrees of freedom trade off): it has settled once the
         # degrees of freedom move by less than 1e-4 of themselves and the jitter by 10 us
-        nu_tol = 1e-4 if prob.jitter else 1e-7
+        loose = prob.jitter or prob.settle_by_sd
+        nu_tol = 1e-4 if loose else 1e-7
         settled = (not student or abs(math.log(nu_new / nu)) < nu_tol) and abs(
             math.sqrt(sig2) - math.sqrt(sig2_old)
         ) < 1e-5
@@ -480,7 +483,7 @@ def _student_fit(
         # standard deviations: far below their uncertainty
         tol = 1e-9 if sig2 > 0 else 1e-11
         small = bool(np.max(np.abs(q - p) / np.abs(step)) < tol)
-        if prob.jitter and not small:
+        if loose and not small:
             try:
                 sd = np.sqrt(np.maximum(np.diag(np.linalg.inv(prob.last_information)), 0.0))
                 small = bool(np.all(np.abs(q - p) <= 1e-3 * sd))

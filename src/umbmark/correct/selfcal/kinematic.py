@@ -99,6 +99,7 @@ class KinematicProblem(Problem):
         self.jitter = False
         self.rates = None
         self.n = int(self.free.sum()) + 3
+        self.settle_by_sd = True
         self.last_information = np.eye(self.n)
         self._cache: tuple[bytes, FloatArray, FloatArray | None] | None = None
 
