@@ -57,6 +57,8 @@ def kinematic_selfcal_cmd(kind: str, paths, min_intervals: int, keep_outliers: b
     nominal = kinematic_nominal(kind, kw)
     joints = kinematic_joints(kind, kw)
     fit = None
+    if kind != "tricycle" and kw.get("fit_steering_scale"):
+        raise InputError("--fit-steering-scale is a tricycle's")
     if kind == "tricycle" and kw.get("fit_steering_scale"):
         fit = ("wheel_diameter_m", "wheelbase_m", "steering_offset_rad", "steering_scale")
     options = _interval_options(kw, min_intervals)

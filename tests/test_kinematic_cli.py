@@ -1,0 +1,173 @@
+"""`umbmark selfcal --kinematics tricycle|mecanum` on simulated bags: the pinned flags and JSON keys,
+accuracy within the targets with the truth inside the intervals, the joint reader, and bad input
+(one line, exit status 2)."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import math
+
+import numpy as np
+import pytest
+
+pytest.importorskip("rosbags")
+from umbmark.cli import main  # noqa: E402
+from umbmark.io.rosbag import read_selfcal_bag  # noqa: E402
+from umbmark.io.wheels import WheelSource  # noqa: E402
+from umbmark.studies.kinematic import JOINTS, draw_robot, selfcal_args, simulated_bag, truth_of  # noqa: E402
+
+PINNED = {
+    "tricycle": ["kinematics", "wheel_diameter_mm", "wheelbase_mm", "steering_offset_deg", "sensor_pose", "warnings"],
+    "mecanum": ["kinematics", "wheel_diameters_mm", "lx_plus_ly_mm", "sensor_pose", "warnings"],
+}
+TARGET = {"rel": 0.003, "steering_offset_deg": 0.1, "sensor_x_mm": 5.0, "sensor_y_mm": 5.0, "sensor_yaw_deg": 0.3}
+
+
+def run(args, code=0):
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        rc = main(args)
+    assert rc == code, (rc, err.getvalue(), out.getvalue()[-500:])
+    if code == 0:
+        return out.getvalue()
+    lines = err.getvalue().strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("umbmark: error: ") and "Traceback" not in err.getvalue()
+    return lines[0]
+
+
+@pytest.fixture(scope="module", params=["tricycle", "mecanum"])
+def case(request, tmp_path_factory):
+    drawn = draw_robot(request.param, seed=11)
+    bag = simulated_bag(drawn, tmp_path_factory.mktemp(request.param) / "drive.bag")
+    return drawn, bag, json.loads(run(selfcal_args(drawn, bag)))
+
+
+def _value(d, key):
+    if key.startswith("sensor_"):
+        k = key.removeprefix("sensor_")
+        return d["sensor_pose"][k], d["sensor_pose"][f"{k}_ci95"]
+    if "." in key:
+        a, b = key.split(".")
+        return d[a][b], d[f"{a}_ci95"][b]
+    return d[key], d[f"{key}_ci95"]
+
+
+def test_the_json_has_the_pinned_keys_each_estimate_with_its_interval(case):
+    drawn, _, d = case
+    for key in PINNED[drawn.kind]:
+        assert key in d
+    assert d["kinematics"] == drawn.kind
+    for k in ("x_mm", "y_mm", "yaw_deg"):
+        assert len(d["sensor_pose"][f"{k}_ci95"]) == 2
+    if drawn.kind == "mecanum":
+        assert set(d["wheel_diameters_mm"]) == {"front_left", "front_right", "rear_left", "rear_right"}
+        assert set(d["wheel_diameters_mm_ci95"]) == set(d["wheel_diameters_mm"])
+        assert len(d["lx_plus_ly_mm_ci95"]) == 2
+    else:
+        for k in ("wheel_diameter_mm", "wheelbase_mm", "steering_offset_deg"):
+            assert len(d[f"{k}_ci95"]) == 2
+        assert d["steering_scale"] == 1.0 and d["steering_scale_ci95"] is None  # not estimated unless asked
+
+
+def test_the_truth_is_found_within_the_targets_and_inside_the_intervals(case):
+    drawn, _, d = case
+    assert d["warnings"] == []
+    for key, truth in truth_of(drawn).items():
+        est, (lo, hi) = _value(d, key)
+        if key in TARGET:
+            assert abs(est - truth) <= TARGET[key], key
+        else:
+            assert abs(est - truth) <= TARGET["rel"] * truth, key
+        # the truth inside, allowing the 5 % the intervals leave out a little room
+        assert lo - 0.5 * (hi - lo) <= truth <= hi + 0.5 * (hi - lo), key
+
+
+def test_the_table_names_the_kind_and_what_to_do_next(case):
+    drawn, bag, _ = case
+    args = [a for a in selfcal_args(drawn, bag) if a != "--json"]
+    out = run(args)
+    assert f"Self-calibration of a {drawn.kind}" in out and "umbmark export" in out
+    assert ("steering offset" in out) == (drawn.kind == "tricycle")
+    assert ("lx + ly" in out) == (drawn.kind == "mecanum")
+
+
+def test_the_reader_takes_the_joints_of_the_kind_and_unwraps_only_the_wheels(case):
+    drawn, bag, _ = case
+    names = JOINTS[drawn.kind]
+    steer = names[1:] if drawn.kind == "tricycle" else ()
+    b = read_selfcal_bag(bag, wheels=WheelSource.robot_joints(names, steer), two_wheels=False)
+    assert b.joint_positions is not None and b.joint_positions.shape[1] == len(names)
+    assert b.left_rad is None and b.joint_names == names
+    if drawn.kind == "tricycle":
+        assert np.abs(b.joint_positions[:, 1]).max() < 2.0  # an angle, not unwrapped into turns
+
+
+def _args(case, drop=(), add=()):
+    drawn, bag, _ = case
+    args = selfcal_args(drawn, bag)
+    out = []
+    skip = 0
+    for i, a in enumerate(args):
+        if skip:
+            skip -= 1
+            continue
+        if a in drop:
+            skip = 0 if args[i + 1 : i + 2] and args[i + 1].startswith("--") else 1
+            continue
+        out.append(a)
+    return out + list(add)
+
+
+def test_missing_or_foreign_flags_are_one_line_errors(case):
+    drawn = case[0]
+    if drawn.kind == "tricycle":
+        assert "--drive-joint" in run(_args(case, drop=("--drive-joint",)), 2)
+        assert "--lx-plus-ly-mm is a mecanum" in run(_args(case, add=("--lx-plus-ly-mm", "300")), 2)
+        assert "--wheelbase-mm" in run(_args(case, drop=("--wheelbase-mm",)), 2)
+        assert "not --joints" in run(_args(case, add=("--joints", "a,b")), 2)
+    else:
+        assert "FL,FR,RL,RR" in run(_args(case, drop=("--joints",), add=("--joints", "a,b,c")), 2)
+        assert "--lx-plus-ly-mm" in run(_args(case, drop=("--lx-plus-ly-mm",)), 2)
+        assert "a tricycle's" in run(_args(case, add=("--steer-joint", "s")), 2)
+    assert "--odom-topic" in run(_args(case, add=("--odom-topic", "/odom")), 2)
+
+
+def test_a_joint_the_bag_lacks_is_named_with_the_joints_it_has(case):
+    drawn = case[0]
+    if drawn.kind == "tricycle":
+        args = _args(case, drop=("--steer-joint",), add=("--steer-joint", "no_such_joint"))
+    else:
+        args = _args(case, drop=("--joints",), add=("--joints", "a,b,c,d"))
+    msg = run(args, 2)
+    assert "no JointState message" in msg and JOINTS[drawn.kind][0] in msg
+
+
+def test_the_flags_of_another_kind_need_their_kind(tmp_path):
+    msg = run(
+        ["selfcal", str(tmp_path), "--steer-joint", "s", "--wheel-diameter-mm", "100", "--wheelbase-mm", "300"], 2
+    )
+    assert "--kinematics" in msg
+
+
+def test_a_tricycle_from_intervals_files_is_refused(tmp_path):
+    f = tmp_path / "iv.csv"
+    f.write_text("dt_s,left_rad,right_rad,sensor_dx_m,sensor_dy_m,sensor_dyaw_rad\n0.1,1,1,0.1,0,0\n")
+    msg = run(
+        ["selfcal", str(f), "--kinematics", "tricycle", "--drive-joint", "d", "--steer-joint", "s"]
+        + ["--wheel-diameter-mm", "200", "--wheelbase-mm", "600"],
+        2,
+    )
+    assert "ROS bags" in msg
+
+
+def test_the_scale_of_the_steering_is_estimated_on_request(case):
+    drawn = case[0]
+    if drawn.kind != "tricycle":
+        assert "tricycle" in run(_args(case, add=("--fit-steering-scale",)), 2)
+        return
+    d = json.loads(run(_args(case, add=("--fit-steering-scale",))))
+    assert d["steering_scale_ci95"] is not None
+    assert d["steering_scale"] == pytest.approx(1.0, abs=0.01)
+    assert math.isfinite(d["wheelbase_mm"])
