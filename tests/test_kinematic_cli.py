@@ -171,3 +171,68 @@ def test_the_scale_of_the_steering_is_estimated_on_request(case):
     assert d["steering_scale_ci95"] is not None
     assert d["steering_scale"] == pytest.approx(1.0, abs=0.01)
     assert math.isfinite(d["wheelbase_mm"])
+
+
+# the parameters of the controllers as ros2_controllers defines them: name -> (type, must be positive)
+SCHEMA = {
+    "tricycle": {"wheelbase": (float, True), "wheel_radius": (float, True)},
+    "mecanum": {
+        "kinematics.wheels_radius": (float, True),
+        "kinematics.sum_of_robot_center_projection_on_X_Y_axis": (float, False),
+    },
+}
+CONTROLLER = {"tricycle": "tricycle_controller", "mecanum": "mecanum_drive_controller"}
+
+
+def _flat(d, prefix=""):
+    out = {}
+    for k, v in d.items():
+        if isinstance(v, dict):
+            out.update(_flat(v, f"{prefix}{k}."))
+        else:
+            out[prefix + k] = v
+    return out
+
+
+def test_the_ros2_export_is_the_controllers_parameter_file(case, tmp_path):
+    import yaml
+
+    drawn, bag, d = case
+    cal = tmp_path / "cal.json"
+    cal.write_text(json.dumps(d))
+    out = tmp_path / "params.yaml"
+    run(["export", str(cal), "--format", "ros2", "--out", str(out)])
+    doc = yaml.safe_load(out.read_text())
+    params = _flat(doc[CONTROLLER[drawn.kind]]["ros__parameters"])
+    assert set(params) == set(SCHEMA[drawn.kind])
+    for key, (kind, pos) in SCHEMA[drawn.kind].items():
+        assert isinstance(params[key], kind) and (params[key] > 0 or not pos)
+    truth = truth_of(drawn)
+    text = out.read_text()
+    if drawn.kind == "tricycle":
+        assert params["wheel_radius"] == pytest.approx(0.5e-3 * truth["wheel_diameter_mm"], rel=0.003)
+        assert params["wheelbase"] == pytest.approx(1e-3 * truth["wheelbase_mm"], rel=0.003)
+        offset = float(text.split("<offset>")[1].split("<")[0])
+        assert math.degrees(offset) == pytest.approx(truth["steering_offset_deg"], abs=0.1)
+    else:
+        mean = np.mean(
+            [truth[f"wheel_diameters_mm.{r}"] for r in ("front_left", "front_right", "rear_left", "rear_right")]
+        )
+        assert params["kinematics.wheels_radius"] == pytest.approx(0.5e-3 * mean, rel=0.003)
+        assert params["kinematics.sum_of_robot_center_projection_on_X_Y_axis"] == pytest.approx(
+            1e-3 * truth["lx_plus_ly_mm"], rel=0.003
+        )
+        assert "differ beyond their 95 % intervals" in text  # the drawn wheels differ by up to 2 %
+    assert "<origin xyz=" in text and "static_transform_publisher" in text
+
+
+def test_the_urdf_export_is_the_lidars_origin_and_ros1_is_refused(case, tmp_path):
+    drawn, _, d = case
+    cal = tmp_path / "cal.json"
+    cal.write_text(json.dumps(d))
+    urdf = run(["export", str(cal), "--format", "urdf"])
+    sp = d["sensor_pose"]
+    xyz = [float(v) for v in urdf.split('xyz="')[1].split('"')[0].split()]
+    assert xyz[0] == pytest.approx(sp["x_mm"] * 1e-3, abs=1e-6) and xyz[1] == pytest.approx(sp["y_mm"] * 1e-3, abs=1e-6)
+    assert "ros2" in run(["export", str(cal), "--format", "ros1"], 2)
+    assert "differential drive" in run(["export", str(cal), "--format", "ros2", "--c-left", "1.01"], 2)

@@ -835,14 +835,34 @@ def _ros_size_notes(cal, wheel_radius_m: float | None, wheel_separation_m: float
     "out_format",
     type=click.Choice(["ros2", "ros1", "json", "firmware", "urdf", "tf"]),
     required=True,
-    help="ros2/ros1: diff_drive_controller parameters; json; firmware: C header (mm per pulse); "
+    help="ros2/ros1: diff_drive_controller parameters (a tricycle's or mecanum robot's self-calibration: "
+    "tricycle_controller or mecanum_drive_controller, ros2 only); json; firmware: C header (mm per pulse); "
     "urdf, tf: the lidar pose of a self-calibration (URDF origin, static_transform_publisher).",
 )
 @click.option("--dataset", default=None, help="Data set to take from a replay JSON of several.")
 @click.option("--c-left", type=float, default=None, help="Left wheel-travel factor (instead of CAL.json).")
 @click.option("--c-right", type=float, default=None, help="Right wheel-travel factor (instead of CAL.json).")
 @click.option("--eb", type=float, default=None, help="Wheelbase factor E_b (instead of CAL.json).")
-@click.option("--controller", default="diff_drive_controller", show_default=True, help="Controller name (ros).")
+@click.option(
+    "--controller",
+    default=None,
+    help="Controller name (ros) [default: diff_drive_controller; tricycle_controller or mecanum_drive_controller "
+    "for those kinds].",
+)
+@click.option(
+    "--steering-offset-in-use-deg",
+    type=float,
+    default=0.0,
+    show_default=True,
+    help="Tricycle: the offset of the steering joint's transmission when the bag was recorded.",
+)
+@click.option(
+    "--steering-reduction-in-use",
+    type=float,
+    default=1.0,
+    show_default=True,
+    help="Tricycle: the mechanical_reduction of the steering joint's transmission when the bag was recorded.",
+)
 @click.option(
     "--left-multiplier",
     type=float,
@@ -899,10 +919,14 @@ def export(
     robot,
     record,
     db,
+    steering_offset_in_use_deg=0.0,
+    steering_reduction_in_use=1.0,
 ):
     """Write a calibration as ROS 2 / ROS 1 diff_drive_controller parameters, JSON or a
     firmware header; a lidar self-calibration also as the lidar's URDF origin or a
-    static_transform_publisher command.
+    static_transform_publisher command. A tricycle's or mecanum robot's self-calibration
+    becomes tricycle_controller or mecanum_drive_controller parameters (ros2), with the steering
+    offset's transmission or the per-wheel factors as comments.
 
     The calibration comes from CAL.json (the output of `umbmark replay --json`,
     `umbmark analyze --json` or `umbmark selfcal --json`) or from --c-left/--c-right/--eb. ROS
@@ -929,6 +953,35 @@ def export(
     )
 
     flags = (c_left, c_right, eb)
+    if calibration is not None:
+        from umbmark.io.export_kinematic import read_kinematic_json
+
+        kd = read_kinematic_json(calibration)
+        if kd is not None:
+            given = dict(
+                c_left=c_left,
+                c_right=c_right,
+                eb=eb,
+                wheel_radius_m=wheel_radius_m,
+                wheel_separation_m=wheel_separation_m,
+                wheel_diameter_mm=wheel_diameter_mm,
+                wheelbase_mm=wheelbase_mm,
+                pulses_per_wheel_rev=pulses_per_wheel_rev,
+                dataset=dataset,
+            )
+            given.update(
+                {k: v for k, v in (("left_multiplier", left_multiplier), ("right_multiplier", right_multiplier),
+                 ("separation_multiplier", separation_multiplier)) if v != 1.0}
+            )  # fmt: skip
+            _export_kinematic(
+                kd, str(calibration), out_format, controller, sensor_z_mm, out, record,
+                (steering_offset_in_use_deg, steering_reduction_in_use), given,
+            )  # fmt: skip
+            return
+    if controller is None:
+        controller = "diff_drive_controller"
+    if (steering_offset_in_use_deg, steering_reduction_in_use) != (0.0, 1.0):
+        raise InputError("--steering-offset-in-use-deg and --steering-reduction-in-use are a tricycle's")
     if calibration is not None:
         if any(v is not None for v in flags):
             raise InputError("give CAL.json or --c-left/--c-right/--eb, not both")
@@ -993,6 +1046,44 @@ def export(
         print_recorded(rec)
     elif rec is not None and not is_quiet():  # the export went to stdout: the note to stderr
         click.echo(f"recorded as #{rec['record_id']} in the history of {rec['robot']} ({rec['db']})", err=True)
+
+
+def _export_kinematic(d, src, out_format, controller, sensor_z_mm, out, record, steering, given) -> None:
+    """``umbmark export`` of a tricycle's or mecanum robot's self-calibration."""
+    from dataclasses import replace
+
+    from umbmark.io.export import write_export
+    from umbmark.io.export_kinematic import format_kinematic_export, kinematic_calibration_from_dict
+
+    for name, v in given.items():
+        if v is not None:
+            raise InputError(f"--{name.replace('_', '-')} is a differential drive's: not for a {d['kinematics']}", src)
+    if record:
+        raise InputError(f"--record keeps differential drives' calibrations, not a {d['kinematics']}'s", src)
+    cal = kinematic_calibration_from_dict(d, src)
+    if sensor_z_mm is not None:
+        if not math.isfinite(sensor_z_mm):
+            raise InputError(f"--sensor-z-mm must be a number of millimetres, got {sensor_z_mm}")
+        x, y, _, roll, pitch, yaw = cal.sensor_pose
+        cal = replace(cal, sensor_pose=(x, y, sensor_z_mm * 1e-3, roll, pitch, yaw), sensor_height_known=True)
+    offset_deg, reduction = steering
+    if cal.kind != "tricycle" and (offset_deg, reduction) != (0.0, 1.0):
+        raise InputError("--steering-offset-in-use-deg and --steering-reduction-in-use are a tricycle's", src)
+    text = format_kinematic_export(
+        cal,
+        out_format,
+        controller,
+        steering_offset0_rad=math.radians(offset_deg),
+        steering_reduction0=reduction,
+    )
+    for w in cal.warnings:
+        click.echo(f"warning: {cli_message(w)}", err=True)
+    if out:
+        write_export(text, out)
+        if not is_quiet():
+            console().print(f"wrote {out}")
+    else:
+        click.echo(text, nl=False)
 
 
 def _record_selfcal(calibration, robot, record, db):

@@ -54,7 +54,9 @@ __all__ = [
     "FORMATS",
     "calibration_from_json",
     "urdf_origin",
+    "origin_element",
     "static_transform_command",
+    "transform_command",
     "export_warnings",
     "scale_note",
     "FACTOR_LIMITS",
@@ -68,7 +70,7 @@ _TF2_ARGS = ("x", "y", "z", "roll", "pitch", "yaw", "frame-id", "child-frame-id"
 
 
 _FRAME = re.compile(r"[A-Za-z0-9_./][A-Za-z0-9_./-]*")
-_CONTROLLER = re.compile(r"[A-Za-z0-9_~/.][A-Za-z0-9_~/.-]*")
+CONTROLLER_NAME = re.compile(r"[A-Za-z0-9_~/.][A-Za-z0-9_~/.-]*")
 _PARAM_TICKS = re.compile(r"`([^`]*)`")
 
 # a factor outside these is no correction of a wheel or a wheelbase: refused
@@ -96,7 +98,7 @@ def _c_comment(text: str) -> str:
     return _plain(text).replace("*/", "*\\/").replace("/*", "/\\*")
 
 
-def _xml_comment(text: str) -> str:
+def xml_comment(text: str) -> str:
     """Text for the inside of an XML comment: one line, no ``--``, not ending in ``-``."""
     t = re.sub(r"-(?=-)", "- ", _plain(text))
     return t + " " if t.endswith("-") else t
@@ -691,11 +693,11 @@ def _sensor_export(cal: ExportCalibration, fmt: str, notes: list[str]) -> str:
             f"the {fmt} export is the lidar's mounting pose: it needs the JSON of a self-calibration (umbmark selfcal)"
         )
     if fmt == "urdf":
-        comments = "".join(f"<!-- warning: {_xml_comment(w)} -->\n" for w in notes)
-        return f"<!-- {_xml_comment(_header(cal, '').strip())} -->\n{comments}{urdf_origin(cal)}\n"
+        comments = "".join(f"<!-- warning: {xml_comment(w)} -->\n" for w in notes)
+        return f"<!-- {xml_comment(_header(cal, '').strip())} -->\n{comments}{urdf_origin(cal)}\n"
     return (
-        _hash_comment(_header(cal, "").strip())
-        + "".join(_hash_comment("warning: " + w) for w in notes)
+        hash_comment(_header(cal, "").strip())
+        + "".join(hash_comment("warning: " + w) for w in notes)
         + f"# the pose of {cal.sensor_frame} in {cal.base_frame}; ROS 1: {static_transform_command(cal, ros=1)}\n"
         + static_transform_command(cal)
         + "\n"
@@ -714,7 +716,7 @@ def _ros_export(
     wheel_separation_m: float | None,
 ) -> str:
     """The ``ros2`` or ``ros1`` export: a diff_drive_controller parameter file."""
-    if not isinstance(controller, str) or not _CONTROLLER.fullmatch(controller):
+    if not isinstance(controller, str) or not CONTROLLER_NAME.fullmatch(controller):
         raise InputError(f"bad controller name {controller!r} (letters, digits, _ / ~ . -)")
     params = ros_multipliers(cal, left0, right0, separation0)
     if wheel_radius_m is not None:
@@ -728,8 +730,8 @@ def _ros_export(
     import yaml
 
     text = (
-        _hash_comment(_header(cal, "").strip())
-        + "".join(_hash_comment("warning: " + w) for w in notes)
+        hash_comment(_header(cal, "").strip())
+        + "".join(hash_comment("warning: " + w) for w in notes)
         + note
         + yaml.safe_dump(body, sort_keys=False, default_flow_style=False)
     )
@@ -800,7 +802,7 @@ def _firmware_export(
     return "\n".join(lines) + "\n"
 
 
-def _hash_comment(text: str) -> str:
+def hash_comment(text: str) -> str:
     """One ``#`` comment line (YAML, shell) holding ``text`` as plain text."""
     return f"# {_plain(text)}\n"
 
@@ -838,7 +840,13 @@ def urdf_origin(cal: ExportCalibration) -> str:
     InputError
         If the calibration has no sensor pose.
     """
-    x, y, z, roll, pitch, yaw = _sensor_values(cal)
+    return origin_element(_sensor_values(cal))
+
+
+def origin_element(pose: tuple[float, float, float, float, float, float]) -> str:
+    """``<origin xyz="x y z" rpy="roll pitch yaw"/>`` of a mounting pose ``(x, y, z, roll, pitch, yaw)``
+    (metres, radians)."""
+    x, y, z, roll, pitch, yaw = pose
     return f'<origin xyz="{_n(x)} {_n(y)} {_n(z)}" rpy="{_n(roll)} {_n(pitch)} {_n(yaw)}"/>'
 
 
@@ -863,13 +871,30 @@ def static_transform_command(cal: ExportCalibration, ros: int = 2) -> str:
     InputError
         If the calibration has no sensor pose, or ``ros`` is not 1 or 2.
     """
-    x, y, z, roll, pitch, yaw = _sensor_values(cal)
+    return transform_command(_sensor_values(cal), cal.base_frame, cal.sensor_frame, ros)
+
+
+def transform_command(
+    pose: tuple[float, float, float, float, float, float], parent: str, child: str, ros: int = 2
+) -> str:
+    """The ``static_transform_publisher`` command of a mounting pose ``(x, y, z, roll, pitch, yaw)``
+    of ``child`` in ``parent`` (see :func:`static_transform_command`).
+
+    Raises
+    ------
+    InputError
+        ``ros`` not 1 or 2, or a frame name with spaces, quotes or markup characters.
+    """
+    for name in (parent, child):
+        if not isinstance(name, str) or not _FRAME.fullmatch(name):
+            raise InputError(f"a frame name is letters, digits, _ / . -; got {name!r}")
+    x, y, z, roll, pitch, yaw = pose
     if ros == 1:
         values = " ".join(_n(v) for v in (x, y, z, yaw, pitch, roll))
-        return f"rosrun tf2_ros static_transform_publisher {values} {cal.base_frame} {cal.sensor_frame}"
+        return f"rosrun tf2_ros static_transform_publisher {values} {parent} {child}"
     if ros != 2:
         raise InputError(f"ros must be 1 or 2, got {ros!r}")
-    named = [_n(v) for v in (x, y, z, roll, pitch, yaw)] + [cal.base_frame, cal.sensor_frame]
+    named = [_n(v) for v in (x, y, z, roll, pitch, yaw)] + [parent, child]
     args = " ".join(f"--{name} {v}" for name, v in zip(_TF2_ARGS, named))
     return f"ros2 run tf2_ros static_transform_publisher {args}"
 
