@@ -12,7 +12,7 @@ to 5 %; the lidar up to 200 mm / 100 mm / 5 deg from the origin, the URDF's gues
 and 2 deg off; a 360-beam lidar at 10 Hz with 5 mm range noise; joint-speed jitter, slip and
 steering-reading noise; 2-3 minutes of every move the kind makes, both ways, in the test
 room), written as a ROS 1 bag in a temporary folder and calibrated by the command itself in a
-new process (:func:`umbmark.studies.kinematic.selfcal_args`: ``umbmark selfcal BAG
+new process (:func:`umbmark.cli.kinematic_args.selfcal_args`: ``umbmark selfcal BAG
 --kinematics tricycle --steer-joint ... --drive-joint ... --wheel-diameter-mm D --wheelbase-mm
 L --sensor-pose URDF --json``, or ``--kinematics mecanum --joints FL,FR,RL,RR
 --wheel-diameter-mm D --lx-plus-ly-mm S``).
@@ -78,7 +78,8 @@ def _value(d: dict, key: str) -> tuple[float, list[float]]:
 
 def one(kind: str, seed: int) -> dict:
     """Draw, simulate, write and calibrate one robot; its truth, estimates and intervals."""
-    from umbmark.studies.kinematic import draw_robot, selfcal_args, simulated_bag, truth_of
+    from umbmark.cli.kinematic_args import selfcal_args
+    from umbmark.studies.kinematic import draw_robot, simulated_bag, truth_of
 
     drawn = draw_robot(kind, seed)
     with tempfile.TemporaryDirectory() as tmp:

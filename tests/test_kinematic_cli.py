@@ -14,9 +14,10 @@ import pytest
 
 pytest.importorskip("rosbags")
 from umbmark.cli import main  # noqa: E402
+from umbmark.cli.kinematic_args import selfcal_args  # noqa: E402
 from umbmark.io.rosbag import read_selfcal_bag  # noqa: E402
 from umbmark.io.wheels import WheelSource  # noqa: E402
-from umbmark.studies.kinematic import JOINTS, draw_robot, selfcal_args, simulated_bag, truth_of  # noqa: E402
+from umbmark.studies.kinematic import JOINTS, draw_robot, simulated_bag, truth_of  # noqa: E402
 
 PINNED = {
     "tricycle": ["kinematics", "wheel_diameter_mm", "wheelbase_mm", "steering_offset_deg", "sensor_pose", "warnings"],
@@ -236,3 +237,75 @@ def test_the_urdf_export_is_the_lidars_origin_and_ros1_is_refused(case, tmp_path
     assert xyz[0] == pytest.approx(sp["x_mm"] * 1e-3, abs=1e-6) and xyz[1] == pytest.approx(sp["y_mm"] * 1e-3, abs=1e-6)
     assert "ros2" in run(["export", str(cal), "--format", "ros1"], 2)
     assert "differential drive" in run(["export", str(cal), "--format", "ros2", "--c-left", "1.01"], 2)
+
+
+# ---------------------------------------------------------------- against a ground truth
+MARKER = (0.15, 0.03, math.radians(5.0))
+
+
+@pytest.fixture(scope="module", params=["tricycle", "mecanum"])
+def tracked(request, tmp_path_factory):
+    """A drawn robot's bag whose ground truth tracks a marker 150 mm ahead, 30 mm left, turned 5 deg."""
+    import dataclasses
+
+    from umbmark.io.rosbag_write import write_drive_bag
+    from umbmark.model import se2
+    from umbmark.studies.kinematic import simulated_drive
+
+    drawn = draw_robot(request.param, seed=21)
+    log = simulated_drive(drawn)
+    marker = se2.compose(log.true_pose, np.array(MARKER))
+    marker[:, 2] = log.true_pose[:, 2] + MARKER[2]
+    bag = tmp_path_factory.mktemp("gt") / "drive.bag"
+    write_drive_bag(dataclasses.replace(log, true_pose=marker), bag, truth=True, tf_static=False, odom=False)
+    return drawn, bag, log
+
+
+def _replay_args(drawn, bag):
+    args = selfcal_args(drawn, bag)
+    args[0] = "replay"
+    i = args.index("--sensor-pose")
+    del args[i : i + 2]
+    return args + ["--gt-topic", "/ground_truth", "--method", "lsq"]
+
+
+def test_replay_against_a_ground_truth_finds_the_geometry_and_the_marker(tracked):
+    drawn, bag, _ = tracked
+    d = json.loads(run(_replay_args(drawn, bag)))
+    assert d["kinematics"] == drawn.kind and d["method"] == "lsq"
+    for key, truth in truth_of(drawn).items():
+        if key.startswith("sensor_"):
+            continue
+        est, _ = _value(d, key)
+        limit = TARGET.get(key, TARGET["rel"] * truth)
+        assert abs(est - truth) <= limit, key
+    mp = d["marker_pose"]
+    assert mp["x_mm"] == pytest.approx(150.0, abs=5.0) and mp["y_mm"] == pytest.approx(30.0, abs=5.0)
+    assert mp["yaw_deg"] == pytest.approx(5.0, abs=0.3)
+    e = d["relative_pose_error"]
+    assert e["after_mm"] < 0.5 * e["before_mm"]  # the calibrated odometry drifts less
+
+
+def test_replay_of_another_method_or_without_a_ground_truth_is_refused(tracked):
+    drawn, bag, _ = tracked
+    args = _replay_args(drawn, bag)
+    assert "--method lsq" in run([a if a != "lsq" else "bf" for a in args], 2)
+    i = args.index("--gt-topic")
+    assert "--gt-topic" in run(args[:i] + args[i + 2 :], 2)
+    assert "--split-stops" in run(args + ["--split-stops"], 2)
+
+
+def test_the_ground_truths_delay_is_estimated(tracked):
+    import dataclasses
+
+    from umbmark.io.rosbag import read_joint_truth_bag
+    from umbmark.realrobot.kinematic import joint_source
+    from umbmark.realrobot.kinematic_replay import kinematic_replay
+
+    drawn, bag, _ = tracked
+    src = joint_source(drawn.robot.nominal, JOINTS[drawn.kind])
+    b = read_joint_truth_bag(bag, wheels=src, gt_topic="/ground_truth")
+    late = b.truth.copy()
+    late[:, 0] += 0.08
+    r = kinematic_replay(dataclasses.replace(b, truth=late), drawn.robot.nominal)
+    assert r.time_offset_s == pytest.approx(0.08, abs=0.005)

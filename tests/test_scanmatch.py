@@ -465,13 +465,13 @@ def test_kernel_state_says_whether_the_matcher_is_compiled(monkeypatch):
 def test_selfcal_says_when_the_matching_will_be_slow(monkeypatch, capsys, state, terminal, said):
     import umbmark.cli.progress as progress
     import umbmark.realrobot.scanmatch as sm
-    from umbmark.cli.selfcal import _start_kernels
+    from umbmark.cli.bags import start_kernels
 
     started = []
     monkeypatch.setattr(sm, "kernel_state", lambda: state)
     monkeypatch.setattr(sm, "start_compiling", lambda: started.append(True))
     monkeypatch.setattr(progress, "progress_enabled", lambda console=None: terminal)
-    _start_kernels()
+    start_kernels()
     err = capsys.readouterr().err
     assert (said in err) if said else err == ""
     assert len(err.splitlines()) <= 1

@@ -19,6 +19,7 @@ if TYPE_CHECKING:
 from umbmark.cli.app import LOG_FORMAT_CHOICES, app, cli_message, console, emit_json, fmt, is_quiet, table
 from umbmark.cli.config import config_options
 from umbmark.cli.history import history_options, print_recorded, record_if_requested, record_report_if_requested
+from umbmark.cli.kinematic import kinematic_options
 from umbmark.cli.progress import progress, track
 from umbmark.errors import InputError
 
@@ -408,6 +409,7 @@ def _print_stream(rep) -> None:
     help="--stream: write the kept poses (CSV) to this file.",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+@kinematic_options
 @history_options
 @config_options
 def replay(
@@ -458,6 +460,17 @@ def replay(
     """
     if not (math.isfinite(heading_weight_m) and heading_weight_m >= 0):
         raise InputError(f"--heading-weight-m must be >= 0, got {heading_weight_m!r}")
+    kinematics = kw.pop("kinematics", "diff_drive")
+    if kinematics != "diff_drive":
+        from umbmark.cli.kinematic import kinematic_replay_cmd
+
+        kinematic_replay_cmd(kinematics, paths, method, save, as_json, record, kw)
+        return
+    for flag in ("drive_joint", "steer_joint", "lx_plus_ly_mm"):
+        if kw.pop(flag, None) is not None:
+            raise InputError(f"--{flag.replace('_', '-')} needs --kinematics tricycle or mecanum")
+    if kw.pop("fit_steering_scale", False):
+        raise InputError("--fit-steering-scale needs --kinematics tricycle")
     from umbmark._files import check_distinct_inputs
 
     check_distinct_inputs([p for p in paths if Path(p).exists()])
@@ -924,9 +937,9 @@ def export(
 ):
     """Write a calibration as ROS 2 / ROS 1 diff_drive_controller parameters, JSON or a
     firmware header; a lidar self-calibration also as the lidar's URDF origin or a
-    static_transform_publisher command. A tricycle's or mecanum robot's self-calibration
-    becomes tricycle_controller or mecanum_drive_controller parameters (ros2), with the steering
-    offset's transmission or the per-wheel factors as comments.
+    static_transform_publisher command. A tricycle's or mecanum robot's self-calibration becomes
+    tricycle_controller or mecanum_drive_controller parameters (ros2, the steering offset's
+    transmission or the per-wheel factors in comments).
 
     The calibration comes from CAL.json (the output of `umbmark replay --json`,
     `umbmark analyze --json` or `umbmark selfcal --json`) or from --c-left/--c-right/--eb. ROS
@@ -954,32 +967,20 @@ def export(
 
     flags = (c_left, c_right, eb)
     if calibration is not None:
-        from umbmark.io.export_kinematic import read_kinematic_json
-
-        kd = read_kinematic_json(calibration)
+        kd = _kinematic_json(calibration)
         if kd is not None:
-            given = dict(
-                c_left=c_left,
-                c_right=c_right,
-                eb=eb,
-                wheel_radius_m=wheel_radius_m,
-                wheel_separation_m=wheel_separation_m,
-                wheel_diameter_mm=wheel_diameter_mm,
-                wheelbase_mm=wheelbase_mm,
-                pulses_per_wheel_rev=pulses_per_wheel_rev,
-                dataset=dataset,
-            )
-            given.update(
-                {k: v for k, v in (("left_multiplier", left_multiplier), ("right_multiplier", right_multiplier),
-                 ("separation_multiplier", separation_multiplier)) if v != 1.0}
+            diff_drive_flags = dict(
+                c_left=c_left, c_right=c_right, eb=eb, wheel_radius_m=wheel_radius_m,
+                wheel_separation_m=wheel_separation_m, wheel_diameter_mm=wheel_diameter_mm, wheelbase_mm=wheelbase_mm,
+                pulses_per_wheel_rev=pulses_per_wheel_rev, dataset=dataset, left_multiplier=left_multiplier,
+                right_multiplier=right_multiplier, separation_multiplier=separation_multiplier,
             )  # fmt: skip
             _export_kinematic(
                 kd, str(calibration), out_format, controller, sensor_z_mm, out, record,
-                (steering_offset_in_use_deg, steering_reduction_in_use), given,
+                (steering_offset_in_use_deg, steering_reduction_in_use), diff_drive_flags,
             )  # fmt: skip
             return
-    if controller is None:
-        controller = "diff_drive_controller"
+    controller = "diff_drive_controller" if controller is None else controller
     if (steering_offset_in_use_deg, steering_reduction_in_use) != (0.0, 1.0):
         raise InputError("--steering-offset-in-use-deg and --steering-reduction-in-use are a tricycle's")
     if calibration is not None:
@@ -1005,23 +1006,7 @@ def export(
         cal = replace(cal, nominal_wheelbase_m=wheelbase_mm * 1e-3)
     if pulses_per_wheel_rev is not None:
         cal = replace(cal, pulses_per_wheel_rev=pulses_per_wheel_rev)
-    notes = []
-    if sensor_z_mm is not None:
-        if cal.sensor_pose is None:
-            raise InputError("--sensor-z-mm is the lidar's height: it needs a self-calibration's JSON")
-        if not math.isfinite(sensor_z_mm):
-            raise InputError(f"--sensor-z-mm must be a number of millimetres, got {sensor_z_mm}")
-        cal = replace(cal, sensor_z_m=sensor_z_mm * 1e-3, sensor_height_known=True)
-        if 0 < abs(sensor_z_mm) < 5 or abs(sensor_z_mm) > 5000:
-            notes.append(
-                f"--sensor-z-mm {sensor_z_mm:g} puts the lidar {sensor_z_mm:g} mm above {cal.base_frame}: "
-                "the option is in millimetres (a height in metres would be 1000 times smaller)"
-            )
-    elif out_format in ("urdf", "tf") and cal.sensor_pose is not None and not cal.sensor_height_known:
-        notes.append(
-            f"the lidar's height is 0 mm: the calibration holds none (its bag had no /tf_static for "
-            f"{cal.sensor_frame}); give --sensor-z-mm, or the pose puts the lidar at the height of {cal.base_frame}"
-        )
+    cal, notes = _with_sensor_height(cal, sensor_z_mm, out_format)
     notes += _ros_size_notes(cal, wheel_radius_m, wheel_separation_m)
     text = format_export(
         cal,
@@ -1048,6 +1033,37 @@ def export(
         click.echo(f"recorded as #{rec['record_id']} in the history of {rec['robot']} ({rec['db']})", err=True)
 
 
+def _with_sensor_height(cal, sensor_z_mm, out_format):
+    """The calibration with the lidar's height of ``--sensor-z-mm``, and notes on that height."""
+    from dataclasses import replace
+
+    notes = []
+    if sensor_z_mm is not None:
+        if cal.sensor_pose is None:
+            raise InputError("--sensor-z-mm is the lidar's height: it needs a self-calibration's JSON")
+        if not math.isfinite(sensor_z_mm):
+            raise InputError(f"--sensor-z-mm must be a number of millimetres, got {sensor_z_mm}")
+        cal = replace(cal, sensor_z_m=sensor_z_mm * 1e-3, sensor_height_known=True)
+        if 0 < abs(sensor_z_mm) < 5 or abs(sensor_z_mm) > 5000:
+            notes.append(
+                f"--sensor-z-mm {sensor_z_mm:g} puts the lidar {sensor_z_mm:g} mm above {cal.base_frame}: "
+                "the option is in millimetres (a height in metres would be 1000 times smaller)"
+            )
+    elif out_format in ("urdf", "tf") and cal.sensor_pose is not None and not cal.sensor_height_known:
+        notes.append(
+            f"the lidar's height is 0 mm: the calibration holds none (its bag had no /tf_static for "
+            f"{cal.sensor_frame}); give --sensor-z-mm, or the pose puts the lidar at the height of {cal.base_frame}"
+        )
+    return cal, notes
+
+
+def _kinematic_json(path) -> dict | None:
+    """The JSON of a tricycle's or mecanum robot's self-calibration, else None."""
+    from umbmark.io.export_kinematic import read_kinematic_json
+
+    return read_kinematic_json(path)
+
+
 def _export_kinematic(d, src, out_format, controller, sensor_z_mm, out, record, steering, given) -> None:
     """``umbmark export`` of a tricycle's or mecanum robot's self-calibration."""
     from dataclasses import replace
@@ -1056,7 +1072,7 @@ def _export_kinematic(d, src, out_format, controller, sensor_z_mm, out, record, 
     from umbmark.io.export_kinematic import format_kinematic_export, kinematic_calibration_from_dict
 
     for name, v in given.items():
-        if v is not None:
+        if v is not None and not (name.endswith("_multiplier") and v == 1.0):
             raise InputError(f"--{name.replace('_', '-')} is a differential drive's: not for a {d['kinematics']}", src)
     if record:
         raise InputError(f"--record keeps differential drives' calibrations, not a {d['kinematics']}'s", src)

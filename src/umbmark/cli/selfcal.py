@@ -9,17 +9,17 @@ imported before the command runs.
 
 from __future__ import annotations
 
-import math
 import shlex
 from contextlib import ExitStack
 from pathlib import Path
 
 import click
 
-from umbmark._numbers import strict_float
 from umbmark.cli.app import app, cli_message, console, emit_json, fmt, is_quiet, table
+from umbmark.cli.bags import Bars, interval_options, kind_of, start_kernels
 from umbmark.cli.config import config_options
 from umbmark.cli.history import history_options, print_recorded, record_if_requested
+from umbmark.cli.kinematic import kinematic_options
 from umbmark.cli.progress import progress
 from umbmark.errors import InputError
 
@@ -37,71 +37,6 @@ LEGEND = (
     "wheel data jitter: how far the wheel data's stamps scatter against the scans' (the errors it puts in the "
     "wheels' rotation at the ends of each interval are part of the fit; --no-wheel-jitter takes them as exact).",
 )
-
-
-def _float_list(text: str, n: int, flag: str, meta: str) -> list[float]:
-    parts = [p.strip() for p in text.split(",")]
-    try:
-        vals = [strict_float(p) for p in parts]
-    except ValueError:
-        vals = []
-    if len(vals) != n or not all(math.isfinite(v) for v in vals):
-        raise InputError(f"{flag} needs {n} numbers {meta}, got {text!r}")
-    return vals
-
-
-def _kind_of(paths) -> str:
-    """``bags`` or ``intervals`` (CSV files): all inputs must be of one kind."""
-    from umbmark.io.rosbag import is_bag
-
-    kinds = set()
-    for p in paths:
-        q = Path(p)
-        if not q.exists():
-            raise InputError("not found", source=str(p))
-        if q.is_file() and q.suffix.lower() == ".csv":
-            kinds.add("intervals")
-        elif is_bag(q):
-            kinds.add("bags")
-        else:
-            raise InputError(
-                "not a ROS bag (.bag, .mcap, .db3, or a folder with metadata.yaml) nor an intervals file (.csv)",
-                source=str(p),
-            )
-    if len(kinds) > 1:
-        raise InputError("give bags or intervals files, not both")
-    from umbmark._files import check_distinct_inputs
-
-    check_distinct_inputs(paths)
-    return kinds.pop()
-
-
-class _Bars:
-    """Progress bars of the library's stages (:data:`umbmark.realrobot.selfcal.StageProgress`), each
-    opened when the library first reports it (a spinner for a stage without steps); none with
-    --json or --quiet."""
-
-    def __init__(self, enabled: bool):
-        self.enabled = enabled
-        self.stack = ExitStack()
-        self.bars: dict[str, tuple] = {}
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.stack.close()
-
-    def __call__(self, stage: str, done: int, total: int) -> None:
-        if not self.enabled:
-            return
-        if stage not in self.bars:
-            advance = self.stack.enter_context(progress(stage, total=total or None))
-            self.bars[stage] = (advance, [0])
-        advance, seen = self.bars[stage]
-        if total:
-            advance(done - seen[0])
-            seen[0] = done
 
 
 def _next_command(paths, save, d_m, b_m, flags: list[str]) -> tuple[str, str]:
@@ -209,37 +144,13 @@ def _print_report(d: dict, again: str, export: str) -> None:
 
 @app.command("selfcal")
 @click.argument("paths", nargs=-1, required=True, metavar="INPUT...")
-@click.option(
-    "--kinematics",
-    type=click.Choice(["diff_drive", "tricycle", "mecanum"]),
-    default="diff_drive",
-    show_default=True,
-    help="The kind of robot: a differential drive (or skid steer), a tricycle (--drive-joint, --steer-joint, "
-    "--wheelbase-mm) or a mecanum robot (--joints FL,FR,RL,RR, --lx-plus-ly-mm).",
-)
+@kinematic_options
 @click.option("--scan-topic", default="/scan", show_default=True, help="Bag: the sensor_msgs/LaserScan topic.")
 @click.option(
     "--joints",
     default=None,
     metavar="LEFT,RIGHT",
     help="Bag: JointState names of the wheels (mecanum: FL,FR,RL,RR).",
-)
-@click.option("--drive-joint", default=None, help="Tricycle: JointState name of the traction wheel.")
-@click.option(
-    "--steer-joint",
-    default=None,
-    help="Tricycle: JointState name of the steering joint (radians, counter-clockwise positive, 0 straight).",
-)
-@click.option(
-    "--lx-plus-ly-mm",
-    type=float,
-    default=None,
-    help="Mecanum: nominal half wheelbase plus half track (sum_of_robot_center_projection_on_X_Y_axis).",
-)
-@click.option(
-    "--fit-steering-scale",
-    is_flag=True,
-    help="Tricycle: also estimate the steering scale (true over measured angle; needs large steering angles).",
 )
 @click.option("--joint-topic", default="/joint_states", show_default=True, help="Bag: JointState topic.")
 @click.option("--ticks-topic", default=None, help="Bag: topic with encoder counts (instead of --joints).")
@@ -372,7 +283,7 @@ def selfcal_cmd(
     from umbmark.cli.options import nominal_m
 
     if kinematics != "diff_drive":
-        from umbmark.cli.selfcal_kinematic import kinematic_selfcal_cmd
+        from umbmark.cli.kinematic import kinematic_selfcal_cmd
 
         if not wheel_jitter:
             raise InputError(f"--no-wheel-jitter is for a differential drive, not --kinematics {kinematics}")
@@ -397,7 +308,7 @@ def selfcal_cmd(
             wheel_separation_m=wheel_separation_m,
         )
     )
-    kind = _kind_of(paths)
+    kind = kind_of(paths)
     opts = {"reject_outliers": not keep_outliers, "time_jitter": wheel_jitter}
     if kind == "intervals":
         from umbmark.realrobot.selfcal import selfcal_from_intervals
@@ -473,86 +384,18 @@ def _bag_flags(kw) -> list[str]:
     return out
 
 
-def _start_kernels() -> None:
-    """Start compiling the scan matcher where it is not yet compiled on this machine (in the
-    background, while the bags are read), and say in one line on stderr when the matching will
-    be slow (nothing with --quiet): numba missing, or the compile (only on a terminal)."""
-    from umbmark.cli.progress import progress_enabled
-    from umbmark.realrobot.scanmatch import kernel_state, start_compiling
-
-    state = kernel_state()
-    if state == "compile":
-        start_compiling()
-    if is_quiet():
-        return
-    if state == "interpreted":
-        click.echo(
-            "warning: numba is not installed: the scan matcher runs interpreted, about 100 times slower "
-            "(pip install numba)",
-            err=True,
-        )
-    elif state == "compile" and progress_enabled():
-        click.echo("compiling the scan matcher (once per machine, about 10 s)", err=True)
-
-
-def _interval_options(kw, min_intervals: int):
-    """The :class:`~umbmark.realrobot.selfcal.IntervalOptions` of the bag flags (keyframes, sensor
-    pose, base frame, wheel gap, matcher, scans' delay)."""
-    from umbmark.realrobot.scanmatch import ICPConfig
-    from umbmark.realrobot.selfcal import IntervalOptions, KeyframeRule, parse_scan_delay
-
-    for flag in ("keyframe_mm", "keyframe_deg", "keyframe_s", "keyframe_min_s"):
-        v = kw[flag]
-        if not (math.isfinite(v) and v >= 0):
-            raise InputError(f"--{flag.replace('_', '-')} must be a number >= 0, got {v!r}")
-    v = kw["max_wheel_gap_s"]
-    if not (math.isfinite(v) and v > 0):
-        raise InputError(f"--max-wheel-gap-s must be a positive number, got {v!r}")
-    if kw["keyframe_s"] > 0 and kw["keyframe_s"] < kw["keyframe_min_s"]:
-        raise InputError(f"--keyframe-s {kw['keyframe_s']:g} is below --keyframe-min-s {kw['keyframe_min_s']:g}")
-    rule = KeyframeRule(
-        min_distance_m=kw["keyframe_mm"] * 1e-3,
-        min_rotation_rad=math.radians(kw["keyframe_deg"]),
-        min_interval_s=kw["keyframe_min_s"],
-        max_interval_s=kw["keyframe_s"] if kw["keyframe_s"] > 0 else math.inf,
-    )
-    pose = None
-    if kw["sensor_pose"] is not None:
-        from umbmark.realrobot.scan_truth import check_sensor_pose
-
-        x, y, yaw = _float_list(kw["sensor_pose"], 3, "--sensor-pose", "X_MM,Y_MM,YAW_DEG")
-        pose = (x * 1e-3, y * 1e-3, math.radians(yaw))
-        for w in check_sensor_pose(pose):
-            click.echo(f"warning: {cli_message(w)}", err=True)
-    try:
-        scan_delay = parse_scan_delay(kw["scan_delay"])
-    except InputError:
-        raise InputError(
-            f"--scan-delay must be auto, off or seconds (positive: the scans are late), got {kw['scan_delay']!r}"
-        ) from None
-    return IntervalOptions(
-        keyframes=rule,
-        sensor_pose=pose,
-        base_frame=kw["base_frame"],
-        max_wheel_gap_s=kw["max_wheel_gap_s"],
-        icp=ICPConfig(coarse=True) if kw["coarse"] else None,
-        min_intervals=min_intervals,
-        scan_delay=scan_delay,
-    )
-
-
 def _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json):
     """The self-calibration of the bags (:func:`umbmark.realrobot.selfcal.selfcal_from_bags`), with
     progress bars; the matched intervals written when ``--intervals-out`` asks."""
     from umbmark.cli.options import wheel_source
     from umbmark.realrobot.selfcal import selfcal_from_bags
 
-    options = _interval_options(kw, min_intervals)
+    options = interval_options(kw, min_intervals)
     wheels = wheel_source(kw)
     if wheels.given:
         wheels.check()  # before anything is compiled or read
-    _start_kernels()
-    with _Bars(enabled=not as_json) as bars:
+    start_kernels()
+    with Bars(enabled=not as_json) as bars:
         rep = selfcal_from_bags(
             list(paths),
             d_m,

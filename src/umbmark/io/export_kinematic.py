@@ -1,5 +1,5 @@
-"""Write a tricycle's or mecanum robot's self-calibration (the JSON of ``umbmark selfcal --kinematics``)
-in the forms its software loads.
+"""Write a tricycle's or mecanum robot's self-calibration (its JSON, ``kinematics`` ``tricycle`` or
+``mecanum``) in the forms its software loads.
 
 Formats:
 
@@ -65,7 +65,7 @@ _ROLES = ("front_left", "front_right", "rear_left", "rear_right")
 def _num(d: dict, key: str, src: str) -> float:
     v = d.get(key)
     if isinstance(v, bool) or not isinstance(v, (int, float)) or not math.isfinite(v):
-        raise InputError(f"{key!r} must be a number: not the JSON of umbmark selfcal --kinematics", source=src)
+        raise InputError(f"{key!r} must be a number: not a tricycle's or mecanum robot's calibration", source=src)
     return float(v)
 
 
@@ -120,7 +120,7 @@ class KinematicCalibration:
 
 
 def kinematic_calibration_from_dict(d: dict, source: str = "<json>") -> KinematicCalibration:
-    """The calibration in the JSON of ``umbmark selfcal --kinematics tricycle|mecanum``.
+    """The calibration in the JSON of a tricycle's or mecanum robot's self-calibration (``umbmark selfcal``).
 
     Raises
     ------
@@ -281,8 +281,8 @@ def format_kinematic_export(
     """
     if fmt in ("ros1", "firmware"):
         raise InputError(
-            f"no standard {'ROS 1 controller' if fmt == 'ros1' else 'firmware'} for a {cal.kind}: export "
-            f"--format ros2 ({CONTROLLERS[cal.kind]}), json, urdf or tf"
+            f"no standard {'ROS 1 controller' if fmt == 'ros1' else 'firmware'} for a {cal.kind}: export it as "
+            f"ros2 ({CONTROLLERS[cal.kind]}), json, urdf or tf"
         )
     if fmt not in KINEMATIC_FORMATS:
         raise InputError(f"unknown export format {fmt!r} (choose from {', '.join(KINEMATIC_FORMATS)})")

@@ -55,6 +55,8 @@ __all__ = [
     "StaticTransform",
     "read_gyro_bag",
     "GyroBag",
+    "read_joint_truth_bag",
+    "JointTruthBag",
 ]
 
 _GT_TYPES = ("PoseStamped", "Odometry", "TFMessage", "PoseWithCovarianceStamped")
@@ -1050,6 +1052,108 @@ def read_selfcal_bag(
         warnings=tuple(warnings) + wd.warnings,
         joint_positions=wd.joints,
         joint_names=tuple(wheels.joints or ()),
+    )
+
+
+@dataclass(frozen=True, eq=False)
+class JointTruthBag:
+    """The joint states and a ground truth of one bag (a tricycle or mecanum robot against a tracker).
+
+    Attributes
+    ----------
+    source : str
+        The bag.
+    joint_names : tuple of str
+        The joints, in the order of the columns.
+    wheel_t_s : numpy.ndarray
+        ``(K,)`` the joint states' stamps [s].
+    joint_positions : numpy.ndarray
+        ``(K, J)`` the joints [rad] (rolling joints cumulative, steering joints their angle).
+    truth : numpy.ndarray
+        ``(M, 4)`` ``(t_s, x_m, y_m, yaw_rad)`` of the tracked point, in stamp order, yaw unwrapped.
+    wheel_description, truth_topic : str
+        Where they came from.
+    warnings : tuple of str
+        What the reading found and did.
+    """
+
+    source: str
+    joint_names: tuple[str, ...]
+    wheel_t_s: np.ndarray
+    joint_positions: np.ndarray
+    truth: np.ndarray
+    wheel_description: str
+    truth_topic: str
+    warnings: tuple[str, ...] = ()
+
+
+def read_joint_truth_bag(
+    path: str | Path,
+    *,
+    wheels: WheelSource,
+    gt_topic: str,
+    gt_frame: str | None = None,
+    gt_parent: str | None = None,
+) -> JointTruthBag:
+    """Read the joint states of any kind of robot and a ground truth from a bag.
+
+    Parameters
+    ----------
+    path : str or Path
+        A ROS 1 ``.bag``, a ROS 2 bag folder, or its ``.db3`` / ``.mcap`` file.
+    wheels : WheelSource
+        The joints (:meth:`~umbmark.io.wheels.WheelSource.robot_joints`).
+    gt_topic : str
+        The ground truth (PoseStamped, Odometry or /tf).
+    gt_frame, gt_parent : str, optional
+        For /tf: the tracked frame and its parent.
+
+    Returns
+    -------
+    JointTruthBag
+
+    Raises
+    ------
+    InputError
+        An unreadable bag, missing topics or joints, joint data the stream checks refuse, a
+        ground truth that is not finite or goes back in time, fewer than two ground-truth poses.
+    """
+    from umbmark.model.timing import ordered_stamps
+
+    src = str(path)
+    wheels.check(src, two_wheels=False)
+    if wheels.kind != "joints":
+        raise InputError("the joints of a tricycle or mecanum robot come from joint states (JointState)", src)
+    reader = _open(path)
+    try:
+        wd = _WheelMessages(reader, wheels, src, two_wheels=False).read(reader)
+        gt = np.asarray(_read_truth(reader, gt_topic, gt_frame, gt_parent, src), dtype=float)
+    finally:
+        reader.close()
+    warnings = list(wd.warnings)
+    if not np.all(np.isfinite(gt)):
+        raise InputError(f"the ground truth on {gt_topic} is not finite in places", src)
+    keep, rep, _, (moved, _) = ordered_stamps(gt[:, 0], "ground-truth poses", gt_topic, src)
+    if moved:
+        gt = gt[np.argsort(gt[:, 0], kind="stable")]
+        keep, rep, _, _ = ordered_stamps(gt[:, 0], "ground-truth poses", gt_topic, src)
+        warnings.append(f"{moved} ground-truth poses on {gt_topic} out of stamp order: put in order")
+    if rep:
+        warnings.append(f"{rep} ground-truth poses on {gt_topic} repeat a stamp: the last of each kept")
+    gt = gt[keep]
+    if len(gt) < 2:
+        raise InputError(f"fewer than two ground-truth poses on {gt_topic}", src)
+    gt[:, 3] = np.unwrap(gt[:, 3])
+    assert wd.joints is not None
+    return JointTruthBag(
+        source=src,
+        joint_names=tuple(wheels.joints or ()),
+        wheel_t_s=wd.t_s,
+        joint_positions=wd.joints,
+        truth=gt,
+        wheel_description=wheels.description,
+        truth_topic=gt_topic,
+        warnings=tuple(warnings),
     )
 
 

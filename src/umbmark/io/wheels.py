@@ -214,10 +214,11 @@ class WheelSource:
             raise InputError(f"ticks must be 'cumulative' or 'incremental', got {self.ticks!r}", source)
         if self.joints is not None:
             names = self.joints
-            if not all(isinstance(j, str) and j for j in names) or len(set(names)) != len(names):
-                raise InputError(f"`joints` must be distinct names, got {names!r}", source)
-            if two_wheels and not self.two_wheels:
+            named = all(isinstance(j, str) and j for j in names)
+            if two_wheels and not (self.two_wheels and named):
                 raise InputError(f"`joints` needs two names LEFT,RIGHT, got {names!r}", source)
+            if not named or len(set(names)) != len(names):
+                raise InputError(f"`joints` must be distinct names, got {names!r}", source)
             if not set(self.steer_joints) <= set(names) or not any(self.rolling):
                 raise InputError(
                     f"the steering joints {self.steer_joints!r} must be among the joints {names!r}, "

@@ -299,19 +299,14 @@ class Tricycle:
         Returns
         -------
         tuple of numpy.ndarray
-            ``(gamma_rad, speed_mps)``: the angle in ``(-pi/2, pi/2]`` (a quarter turn to the
-            left for a spin on the spot) and the wheel's signed speed (negative: rolling back).
+            ``(gamma_rad, speed_mps)``: the angle in ``[-pi/2, pi/2]`` (a quarter turn for a spin
+            on the spot, towards the turn) and the wheel's signed speed (negative: rolling back).
         """
         vx, w = np.broadcast_arrays(np.asarray(vx_mps, dtype=float), np.asarray(omega_radps, dtype=float))
+        sign = np.where(vx < 0, -1.0, 1.0)
         lat = w * self.wheelbase_m  # the steered wheel's sideways speed
-        spin = np.abs(vx) <= 1e-12 * np.maximum(np.abs(lat), 1e-300)
-        g = np.where(
-            spin,
-            np.where(lat == 0, 0.0, 0.5 * np.pi),
-            np.arctan(np.divide(lat, vx, where=~spin, out=np.zeros_like(vx))),
-        )
-        speed = np.where(spin, lat, np.divide(vx, np.cos(g), where=~spin, out=np.zeros_like(vx)))
-        return g, speed
+        g = np.arctan2(sign * lat, np.abs(vx))
+        return g, sign * np.hypot(vx, lat)
 
     def joint_motion(self, vx_mps: ArrayLike, vy_mps: ArrayLike, omega_radps: ArrayLike, dt_s: float) -> FloatArray:
         vx, vy, w = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (vx_mps, vy_mps, omega_radps)))

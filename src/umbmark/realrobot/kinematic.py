@@ -130,8 +130,11 @@ class _Grid:
 
 def _grid(bag: SelfcalBag, nominal: Kinematics, st: FloatArray, usable: NDArray[np.bool_]) -> _Grid:
     assert bag.joint_positions is not None
-    wt = np.asarray(bag.wheel_t_s, dtype=float)
-    pos = np.asarray(bag.joint_positions, dtype=float)
+    return _grid_of(np.asarray(bag.wheel_t_s, float), np.asarray(bag.joint_positions, float), nominal, st, usable)
+
+
+def _grid_of(wt: FloatArray, pos: FloatArray, nominal: Kinematics, st: FloatArray, usable: NDArray[np.bool_]) -> _Grid:
+    """The joints ``pos`` at ``wt`` on the grid of ``wt`` and the usable times ``st``."""
     g = np.unique(np.concatenate([wt, st[usable]]))
     at = np.column_stack([np.interp(g, wt, pos[:, j]) for j in range(pos.shape[1])])
     vals = np.empty((len(g) - 1, pos.shape[1]))
@@ -142,8 +145,8 @@ def _grid(bag: SelfcalBag, nominal: Kinematics, st: FloatArray, usable: NDArray[
     return _Grid(vals, np.diff(g), idx, odo[idx], at[idx])
 
 
-def _wheel_odometry(bag: SelfcalBag, nominal: Kinematics) -> FloatArray:
-    """``(W, 3)`` the nominal odometry at the joint states' stamps."""
+def _wheel_odometry(bag: Any, nominal: Kinematics) -> FloatArray:
+    """``(W, 3)`` the nominal odometry at the joint states' stamps (of a bag with ``joint_positions``)."""
     assert bag.joint_positions is not None
     pos = np.asarray(bag.joint_positions, dtype=float)
     vals = np.empty((len(pos) - 1, pos.shape[1]))

@@ -3,9 +3,9 @@
 :func:`draw_robot` draws a seeded robot of a kind (nominal geometry, a true geometry off it, a
 lidar pose and the URDF's guess of it, noise); :func:`simulated_bag` drives it in the test room
 (:func:`umbmark.model.kinematic_drive.kinematic_program`, every move the kind can make both ways)
-and writes the bag that ``umbmark selfcal --kinematics`` reads; :func:`selfcal_args` is that
-command's arguments. The coverage benchmark (``benchmarks/kinematic_coverage.py``) and the tests
-share them.
+and writes the bag that the self-calibration of its kind reads
+(:func:`umbmark.cli.kinematic_args.selfcal_args` gives the command's arguments). The coverage
+benchmark (``benchmarks/kinematic_coverage.py``) and the tests share them.
 
 Imports numpy, :mod:`umbmark.model` and :mod:`umbmark.io` (the bag writer).
 """
@@ -37,7 +37,6 @@ __all__ = [
     "draw_robot",
     "simulated_drive",
     "simulated_bag",
-    "selfcal_args",
     "truth_of",
 ]
 
@@ -135,29 +134,8 @@ def simulated_drive(drawn: DrawnRobot, kinds: Sequence[str] | None = None) -> Jo
 
 def simulated_bag(drawn: DrawnRobot, path: str | Path, kinds: Sequence[str] | None = None) -> Path:
     """Write the drawn robot's drive as a bag (joint states, scans, the true pose on ``/ground_truth``;
-    no ``/tf_static``: the URDF's guess goes to the command, :func:`selfcal_args`)."""
+    no ``/tf_static``: the URDF's guess goes to the command)."""
     return write_drive_bag(simulated_drive(drawn, kinds), path, truth=True, tf_static=False, odom=False)
-
-
-def selfcal_args(drawn: DrawnRobot, bag: str | Path) -> list[str]:
-    """The arguments of ``umbmark selfcal`` for the drawn robot's bag (the pinned interface, with the
-    URDF's guess of the lidar as the matching's start)."""
-    n = drawn.robot.nominal
-    x, y, yaw = drawn.urdf_pose
-    pose = ["--sensor-pose", f"{x * 1e3:.3f},{y * 1e3:.3f},{math.degrees(yaw):.4f}"]
-    if isinstance(n, Tricycle):
-        drive, steer = JOINTS["tricycle"]
-        return [
-            "selfcal", str(bag), "--kinematics", "tricycle", "--steer-joint", steer, "--drive-joint", drive,
-            "--wheel-diameter-mm", f"{n.wheel_diameter_m * 1e3:g}", "--wheelbase-mm", f"{n.wheelbase_m * 1e3:g}",
-            *pose, "--json",
-        ]  # fmt: skip
-    assert isinstance(n, Mecanum)
-    return [
-        "selfcal", str(bag), "--kinematics", "mecanum", "--joints", ",".join(JOINTS["mecanum"]),
-        "--wheel-diameter-mm", f"{n.wheel_diameters_m[0] * 1e3:g}", "--lx-plus-ly-mm", f"{n.lx_plus_ly_m * 1e3:g}",
-        *pose, "--json",
-    ]  # fmt: skip
 
 
 def truth_of(drawn: DrawnRobot) -> dict[str, float]:

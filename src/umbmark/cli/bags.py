@@ -1,0 +1,153 @@
+"""The bag options shared by ``umbmark selfcal``'s kinds of robot: inputs, progress bars, the
+scan matcher's compile, the interval options of the bag flags.
+
+Thin: no numerical module is imported before a command runs.
+"""
+
+from __future__ import annotations
+
+import math
+from contextlib import ExitStack
+from pathlib import Path
+
+import click
+
+from umbmark._numbers import strict_float
+from umbmark.cli.app import cli_message, is_quiet
+from umbmark.cli.progress import progress
+from umbmark.errors import InputError
+
+__all__ = ["float_list", "kind_of", "Bars", "start_kernels", "interval_options"]
+
+
+def float_list(text: str, n: int, flag: str, meta: str) -> list[float]:
+    parts = [p.strip() for p in text.split(",")]
+    try:
+        vals = [strict_float(p) for p in parts]
+    except ValueError:
+        vals = []
+    if len(vals) != n or not all(math.isfinite(v) for v in vals):
+        raise InputError(f"{flag} needs {n} numbers {meta}, got {text!r}")
+    return vals
+
+
+def kind_of(paths) -> str:
+    """``bags`` or ``intervals`` (CSV files): all inputs must be of one kind."""
+    from umbmark.io.rosbag import is_bag
+
+    kinds = set()
+    for p in paths:
+        q = Path(p)
+        if not q.exists():
+            raise InputError("not found", source=str(p))
+        if q.is_file() and q.suffix.lower() == ".csv":
+            kinds.add("intervals")
+        elif is_bag(q):
+            kinds.add("bags")
+        else:
+            raise InputError(
+                "not a ROS bag (.bag, .mcap, .db3, or a folder with metadata.yaml) nor an intervals file (.csv)",
+                source=str(p),
+            )
+    if len(kinds) > 1:
+        raise InputError("give bags or intervals files, not both")
+    from umbmark._files import check_distinct_inputs
+
+    check_distinct_inputs(paths)
+    return kinds.pop()
+
+
+class Bars:
+    """Progress bars of the library's stages (:data:`umbmark.realrobot.selfcal.StageProgress`), each
+    opened when the library first reports it (a spinner for a stage without steps); none with
+    --json or --quiet."""
+
+    def __init__(self, enabled: bool):
+        self.enabled = enabled
+        self.stack = ExitStack()
+        self.bars: dict[str, tuple] = {}
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.stack.close()
+
+    def __call__(self, stage: str, done: int, total: int) -> None:
+        if not self.enabled:
+            return
+        if stage not in self.bars:
+            advance = self.stack.enter_context(progress(stage, total=total or None))
+            self.bars[stage] = (advance, [0])
+        advance, seen = self.bars[stage]
+        if total:
+            advance(done - seen[0])
+            seen[0] = done
+
+
+def start_kernels() -> None:
+    """Start compiling the scan matcher where it is not yet compiled on this machine (in the
+    background, while the bags are read), and say in one line on stderr when the matching will
+    be slow (nothing with --quiet): numba missing, or the compile (only on a terminal)."""
+    from umbmark.cli.progress import progress_enabled
+    from umbmark.realrobot.scanmatch import kernel_state, start_compiling
+
+    state = kernel_state()
+    if state == "compile":
+        start_compiling()
+    if is_quiet():
+        return
+    if state == "interpreted":
+        click.echo(
+            "warning: numba is not installed: the scan matcher runs interpreted, about 100 times slower "
+            "(pip install numba)",
+            err=True,
+        )
+    elif state == "compile" and progress_enabled():
+        click.echo("compiling the scan matcher (once per machine, about 10 s)", err=True)
+
+
+def interval_options(kw, min_intervals: int):
+    """The :class:`~umbmark.realrobot.selfcal.IntervalOptions` of the bag flags (keyframes, sensor
+    pose, base frame, wheel gap, matcher, scans' delay)."""
+    from umbmark.realrobot.scanmatch import ICPConfig
+    from umbmark.realrobot.selfcal import IntervalOptions, KeyframeRule, parse_scan_delay
+
+    for flag in ("keyframe_mm", "keyframe_deg", "keyframe_s", "keyframe_min_s"):
+        v = kw[flag]
+        if not (math.isfinite(v) and v >= 0):
+            raise InputError(f"--{flag.replace('_', '-')} must be a number >= 0, got {v!r}")
+    v = kw["max_wheel_gap_s"]
+    if not (math.isfinite(v) and v > 0):
+        raise InputError(f"--max-wheel-gap-s must be a positive number, got {v!r}")
+    if kw["keyframe_s"] > 0 and kw["keyframe_s"] < kw["keyframe_min_s"]:
+        raise InputError(f"--keyframe-s {kw['keyframe_s']:g} is below --keyframe-min-s {kw['keyframe_min_s']:g}")
+    rule = KeyframeRule(
+        min_distance_m=kw["keyframe_mm"] * 1e-3,
+        min_rotation_rad=math.radians(kw["keyframe_deg"]),
+        min_interval_s=kw["keyframe_min_s"],
+        max_interval_s=kw["keyframe_s"] if kw["keyframe_s"] > 0 else math.inf,
+    )
+    pose = None
+    if kw["sensor_pose"] is not None:
+        from umbmark.realrobot.scan_truth import check_sensor_pose
+
+        x, y, yaw = float_list(kw["sensor_pose"], 3, "--sensor-pose", "X_MM,Y_MM,YAW_DEG")
+        pose = (x * 1e-3, y * 1e-3, math.radians(yaw))
+        for w in check_sensor_pose(pose):
+            click.echo(f"warning: {cli_message(w)}", err=True)
+    try:
+        scan_delay = parse_scan_delay(kw["scan_delay"])
+    except InputError:
+        raise InputError(
+            f"--scan-delay must be auto, off or seconds (positive: the scans are late), got {kw['scan_delay']!r}"
+        ) from None
+    return IntervalOptions(
+        keyframes=rule,
+        sensor_pose=pose,
+        base_frame=kw["base_frame"],
+        max_wheel_gap_s=kw["max_wheel_gap_s"],
+        icp=ICPConfig(coarse=True) if kw["coarse"] else None,
+        min_intervals=min_intervals,
+        scan_delay=scan_delay,
+    )
