@@ -89,7 +89,7 @@ def test_the_table_names_the_kind_and_what_to_do_next(case):
     drawn, bag, _ = case
     args = [a for a in selfcal_args(drawn, bag) if a != "--json"]
     out = run(args)
-    assert f"Self-calibration of a {drawn.kind}" in out and "umbmark export" in out
+    assert "Self-calibration of a " in out and drawn.kind in out and "umbmark export" in out
     assert ("steering offset" in out) == (drawn.kind == "tricycle")
     assert ("lx + ly" in out) == (drawn.kind == "mecanum")
 

@@ -264,8 +264,19 @@ def _write_gyro_bag(path, seed):
     write_drive_bag(log, path, gyro=(t, w), odom=False)
 
 
+# The tricycle and mecanum robots of docs/tricycle.md and docs/mecanum.md (tests/kinematic_bags.py): a
+# 2.5-minute drive of every move the kind makes, a 360-beam lidar with 5 mm noise, joint-speed jitter and
+# slip, a /tf_static with the drawing's lidar pose, and the true pose of the robot on /ground_truth.
+KINEMATIC_BAGS = ("tricycle_bag", "mecanum_bag")
+
+
 def write_example_bags(folder, text):
     """The example bags a page mentions, simulated into ``folder``."""
+    for name in KINEMATIC_BAGS:
+        if name in text:
+            from kinematic_bags import write_example_bag
+
+            write_example_bag(folder / name, name.removesuffix("_bag"))
     for name, spec in GYRO_BAGS.items():
         if name in text:
             _write_gyro_bag(folder / name, **spec)

@@ -72,6 +72,8 @@ _COMMON = (
     "does not cover errors shared by the whole recording: calibrate on another to see those.",
 )
 
+_NOUN = {"tricycle": "tricycle", "mecanum": "mecanum robot"}
+
 # flags of the differential drive's calibration a tricycle or mecanum robot has no use for
 _REFUSED = {
     "ticks_topic": "--ticks-topic",
@@ -181,7 +183,7 @@ def _print(d: dict, save) -> None:
     ]
     c.print(
         table(
-            f"Self-calibration of a {d['kinematics']} from {d['intervals_used']} intervals "
+            f"Self-calibration of a {_NOUN[d['kinematics']]} from {d['intervals_used']} intervals "
             f"({len(d['intervals_rejected'])} rejected as outliers)",
             ["", "estimate", "95 % interval", "nominal"],
             rows,
@@ -277,7 +279,7 @@ def kinematic_replay_cmd(kind: str, paths, method: str, save, as_json, record, k
     ]
     c.print(
         table(
-            f"Geometry of a {d['kinematics']} against the ground truth",
+            f"Geometry of a {_NOUN[d['kinematics']]} against the ground truth",
             ["", "estimate", "95 % interval", "nominal"],
             rows,
         )

@@ -288,7 +288,8 @@ def format_kinematic_export(
         raise InputError(f"unknown export format {fmt!r} (choose from {', '.join(KINEMATIC_FORMATS)})")
     if not (math.isfinite(steering_offset0_rad) and math.isfinite(steering_reduction0) and steering_reduction0 != 0):
         raise InputError("the steering transmission in use needs a finite offset and a non-zero reduction")
-    head = f"umbmark self-calibration of a {cal.kind} from {cal.source}"
+    noun = "tricycle" if cal.kind == "tricycle" else "mecanum robot"
+    head = f"umbmark self-calibration of a {noun} from {cal.source}"
     if fmt == "urdf":
         warn = "".join(f"<!-- warning: {xml_comment(w)} -->\n" for w in cal.warnings)
         return f"<!-- {xml_comment(head)} -->\n{warn}{origin_element(cal.sensor_pose)}\n"

@@ -5,7 +5,8 @@ out, stream long logs (:mod:`~umbmark.realrobot.replay`, its results in
 registration (:mod:`~umbmark.realrobot.scanmatch`); the lidar self-calibration from a bag
 (:mod:`~umbmark.realrobot.selfcal`, the wheel angles of a recording in
 :mod:`~umbmark.realrobot.wheels`, its scans placed into a map and its residuals in
-:mod:`~umbmark.realrobot.selfcal_map`); the lidar as the ground truth of square runs
+:mod:`~umbmark.realrobot.selfcal_map`; of a tricycle or mecanum robot :mod:`~umbmark.realrobot.kinematic`,
+and against a ground truth :mod:`~umbmark.realrobot.kinematic_replay`); the lidar as the ground truth of square runs
 (:mod:`~umbmark.realrobot.scan_truth`); the gyro as a rotation reference
 (:mod:`~umbmark.realrobot.gyro`); a calibration checked on a real log against SLAM relations or
 a trajectory (:mod:`~umbmark.realrobot.validate`).

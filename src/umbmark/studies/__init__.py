@@ -4,7 +4,8 @@ information bound (:mod:`~umbmark.studies.accuracy`), the speed benchmark
 (:mod:`~umbmark.studies.speed`, with the per-sample oracle :mod:`~umbmark.studies.reference`),
 the iterated calibration (:mod:`~umbmark.studies.iterate`), the demo
 (:mod:`~umbmark.studies.demo`), the lidar self-calibration on real logs
-(:mod:`~umbmark.studies.slam2d`) and sweeps over a process pool or a Dask cluster
+(:mod:`~umbmark.studies.slam2d`), simulated tricycle and mecanum robots
+(:mod:`~umbmark.studies.kinematic`) and sweeps over a process pool or a Dask cluster
 (:mod:`~umbmark.studies.sweep`).
 
 The names below and the submodules are loaded when first used.

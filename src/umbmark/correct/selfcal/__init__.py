@@ -21,6 +21,8 @@ Modules:
   noise estimation, outlier rejection and the mirror solution resolved.
 * :mod:`~umbmark.correct.selfcal.identify`: what the driving determines, plausibility.
 * :mod:`~umbmark.correct.selfcal.result`: :class:`SelfcalResult` and its JSON.
+* :mod:`~umbmark.correct.selfcal.kinematic`: the same for a tricycle or mecanum robot (any
+  :mod:`~umbmark.model.kinematics`): :func:`kinematic_selfcal`, :class:`KinematicSelfcalResult`.
 
 Imports numpy, :mod:`umbmark.model` and, when a calibration runs, scipy.
 """
@@ -30,12 +32,15 @@ from __future__ import annotations
 from umbmark.correct.selfcal.closed_form import ClosedFormFailed, closed_form
 from umbmark.correct.selfcal.estimate import mirror, selfcal
 from umbmark.correct.selfcal.identify import Limits
+from umbmark.correct.selfcal.kinematic import KinematicSelfcalResult, kinematic_selfcal
 from umbmark.correct.selfcal.model import PARAMETERS, fisher_information, jacobian, predict, residuals
 from umbmark.correct.selfcal.result import SelfcalResult
 
 __all__ = [
     "selfcal",
     "SelfcalResult",
+    "kinematic_selfcal",
+    "KinematicSelfcalResult",
     "Limits",
     "PARAMETERS",
     "closed_form",
