@@ -309,3 +309,37 @@ def test_the_ground_truths_delay_is_estimated(tracked):
     late[:, 0] += 0.08
     r = kinematic_replay(dataclasses.replace(b, truth=late), drawn.robot.nominal)
     assert r.time_offset_s == pytest.approx(0.08, abs=0.005)
+
+
+# ---------------------------------------------------------------- bags as other publishers write them
+@pytest.fixture(scope="module")
+def tricycle_log():
+    from umbmark.studies.kinematic import simulated_drive
+
+    drawn = draw_robot("tricycle", seed=31)
+    return drawn, simulated_drive(drawn)
+
+
+def test_joints_in_separate_messages_are_joined(tricycle_log, tmp_path):
+    from umbmark.io.rosbag_write import write_drive_bag
+
+    drawn, log = tricycle_log
+    bag = write_drive_bag(log, tmp_path / "apart.bag", tf_static=False, odom=False, separate_joints=True)
+    d = json.loads(run(selfcal_args(drawn, bag)))
+    assert any("separate JointState messages" in w for w in d["warnings"])
+    truth = truth_of(drawn)
+    assert d["wheel_diameter_mm"] == pytest.approx(truth["wheel_diameter_mm"], rel=0.003)
+    assert d["steering_offset_deg"] == pytest.approx(truth["steering_offset_deg"], abs=0.1)
+
+
+def test_a_joint_that_counts_backwards_is_named(tricycle_log, tmp_path):
+    import dataclasses
+
+    from umbmark.io.rosbag_write import write_drive_bag
+
+    drawn, log = tricycle_log
+    flipped = log.positions.copy()
+    flipped[:, 0] *= -1.0  # the traction wheel's joint counts backwards
+    bag = write_drive_bag(dataclasses.replace(log, positions=flipped), tmp_path / "back.bag", tf_static=False)
+    msg = run(selfcal_args(drawn, bag), 2)
+    assert "traction joint turns backwards" in msg

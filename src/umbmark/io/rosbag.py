@@ -397,6 +397,8 @@ class _WheelMessages:
         self.yaw: list[float] = []
         self.rest: list[list[float]] = []  # the joints beyond the first two
         self.names_seen: set[str] = set()
+        self.partial: dict[str, list[tuple[float, float]]] = {}  # joint -> (stamp, position), one at a time
+        self.joined = ""
         self.no_position = 0
         self.child_frames: set[str] = set()
 
@@ -416,8 +418,14 @@ class _WheelMessages:
                 self.a.append(float(pos[cols[0]]))
                 self.b.append(float(pos[cols[1]]) if len(cols) > 1 else 0.0)
                 self.rest.append([float(pos[c]) for c in cols[2:]])
-            elif len(self.names_seen) < 50:
-                self.names_seen.update(names)
+            else:
+                if not w.two_wheels:  # a joint per message, or a few: joined in finish()
+                    pos = msg.position
+                    for i, n in enumerate(names):
+                        if n in w.joints and i < len(pos):
+                            self.partial.setdefault(n, []).append((_stamp(msg, ns), float(pos[i])))
+                if len(self.names_seen) < 50:
+                    self.names_seen.update(names)
         elif w.kind == "ticks":
             self.t.append(_stamp(msg, ns))
             self.a.append(_field(msg, str(w.left_field), self.src))
@@ -436,8 +444,39 @@ class _WheelMessages:
             self.add(reader.deserialize(raw, c.msgtype), ns)
         return self.finish()
 
+    def _join_partial(self) -> None:
+        """The joints of separate JointState messages on one time base: the stamps of the first
+        joint's messages, the others interpolated linearly (rolling joints unwrapped first)."""
+        w = self.wheels
+        assert w.joints is not None
+        series = {}
+        for n, rolls in zip(w.joints, w.rolling):
+            pts = sorted(self.partial.get(n, []))
+            if len(pts) < 2:
+                return
+            t, v = np.array([p[0] for p in pts]), np.array([p[1] for p in pts])
+            series[n] = (t, np.unwrap(v) if rolls else v)
+        base = series[w.joints[0]][0]
+        inside = np.ones(len(base), dtype=bool)
+        for t, _ in series.values():
+            inside &= (base >= t[0]) & (base <= t[-1])
+        if inside.sum() < 2:
+            return
+        base = base[inside]
+        cols = [np.interp(base, *series[n]) for n in w.joints]
+        self.t = base.tolist()
+        self.a = cols[0].tolist()
+        self.b = cols[1].tolist() if len(cols) > 1 else [0.0] * len(base)
+        self.rest = np.column_stack(cols[2:]).tolist() if len(cols) > 2 else [[] for _ in base]
+        self.joined = (
+            f"the joints come in separate JointState messages on {w.joint_topic}: joined at the stamps of "
+            f"{w.joints[0]!r}, the others interpolated"
+        )
+
     def _refuse_empty(self) -> None:
         w, src = self.wheels, self.src
+        if not self.t and self.partial:
+            self._join_partial()
         if self.t:
             return
         if w.kind == "joints":
@@ -492,6 +531,8 @@ class _WheelMessages:
         warnings = list(chk.warnings)
         if self.no_position:
             warnings.append(f"{self.no_position} JointState messages on {w.topic} without positions: dropped")
+        if self.joined:
+            warnings.append(self.joined)
         if chk.t.size < 2:
             raise InputError(f"fewer than two {w.what} on {w.topic}", src)
         p = chk.positions

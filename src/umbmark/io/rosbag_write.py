@@ -157,6 +157,7 @@ class _Messages:
         ticks_per_rev: float | None = None,
     ) -> None:
         self.log, self.T, self.ros1, self.joints = log, ts.types, ros1, list(joints)
+        self.separate_joints = False
         self.positions = _joint_positions(log)
         self.counts = None
         if ticks_per_rev is not None:
@@ -295,7 +296,21 @@ class _Messages:
             streams.append([(int(ns), len(wheel) + 2, "imu", k) for k, ns in enumerate(self.gyro_ns)])
             make["imu"] = self.imu
         for ns, _, key, i in heapq.merge(*streams):
+            if key == "joint" and self.separate_joints:
+                for j in range(len(self.joints)):
+                    yield ns, key, self.joint_part(i, j)
+                continue
             yield ns, key, (self.tf_static() if key == "tf_static" else make[key](i))
+
+    def joint_part(self, k: int, j: int) -> Any:
+        """Sample ``k`` of joint ``j`` alone in a JointState message (a publisher per joint)."""
+        return self.T["sensor_msgs/msg/JointState"](
+            header=self.header(int(self.wheel_ns[k]), "", "joint"),
+            name=[self.joints[j]],
+            position=np.array([self.positions[k, j]]),
+            velocity=np.array([self.vel[k, j]]),
+            effort=np.array([], dtype=float),
+        )
 
 
 def _static_qos() -> list[Any]:
@@ -331,6 +346,7 @@ def _write(
     tf_static: bool = True,
     gyro: tuple[np.ndarray, np.ndarray] | None = None,
     ticks_per_rev: float | None = None,
+    separate_joints: bool = False,
 ) -> None:
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
@@ -339,6 +355,7 @@ def _write(
     if _T["tf_static"][1] not in ts.types:  # the ROS 1 store has no tf2_msgs: its definition
         ts.register(get_types_from_msg("geometry_msgs/TransformStamped[] transforms", _T["tf_static"][1]))
     msgs = _Messages(log, ts, ros1, epoch_s, joints, gyro, ticks_per_rev)
+    msgs.separate_joints = separate_joints
     if ros1:
         from rosbags.rosbag1 import Writer as Writer1
 
@@ -382,6 +399,7 @@ def write_drive_bag(
     tf_static: bool = True,
     gyro: tuple[ArrayLike, ArrayLike] | None = None,
     ticks_per_rev: float | None = None,
+    separate_joints: bool = False,
 ) -> Path:
     """Write ``log`` as a ROS bag (see the module docstring for the topics).
 
@@ -410,6 +428,8 @@ def write_drive_bag(
         (e.g. :meth:`umbmark.model.sensors.Gyro.measure`).
     ticks_per_rev : float, optional
         Write ``/wheel_ticks``: encoder counters of this many pulses per wheel revolution.
+    separate_joints : bool
+        Publish each joint in a JointState message of its own (as a publisher per joint does).
 
     Returns
     -------
@@ -450,7 +470,7 @@ def write_drive_bag(
     work = Path(tempfile.mkdtemp(prefix=f".{dest.name}.", dir=parent))
     try:
         target = work / dest.name
-        _write(log, target, fmt, epoch_s, tuple(joints), odom, truth, tf_static, rates, ticks_per_rev)
+        _write(log, target, fmt, epoch_s, tuple(joints), odom, truth, tf_static, rates, ticks_per_rev, separate_joints)
         if dest.exists() or dest.is_symlink():
             raise InputError("appeared while the bag was written: not overwriting it", str(dest))
         os.rename(target, dest)

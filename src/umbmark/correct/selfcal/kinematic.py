@@ -582,6 +582,33 @@ def kinematic_selfcal(
     return _result(prob, result, unc, intervals, nominal)
 
 
+def _refuse_negative(nominal: Kinematics, g: FloatArray, source: str | None) -> None:
+    """A fitted diameter or length that is not positive (or a tricycle's steering half a turn off) is
+    a joint read backwards or joints in another order: an error saying which."""
+    names = nominal.parameter_names
+    bad = [n for n, v in zip(names, g) if not n.endswith(("_rad", "scale")) and not v > 0]
+    if isinstance(nominal, Tricycle) and abs(wrap_angle(g[2])) > 0.5 * math.pi:
+        # a steering offset of half a turn is a wheel rolling the other way
+        bad = ["wheel_diameter_m"] if g[0] > 0 else bad
+    if not bad:
+        return
+    if isinstance(nominal, Tricycle):
+        why = (
+            "the traction joint turns backwards when the robot drives forward"
+            if "wheel_diameter_m" in bad
+            else "the steering joint's angle is clockwise positive (it must be counter-clockwise positive)"
+        )
+    elif isinstance(nominal, Mecanum) and "lx_plus_ly_m" not in bad:
+        wheels = ", ".join(n.removeprefix("diameter_").removesuffix("_m").replace("_", " ") for n in bad)
+        why = (
+            f"the {wheels} wheel's joint turns backwards when the robot drives forward, or the joints are in "
+            "another order (FL,FR,RL,RR)"
+        )
+    else:
+        why = "the joints are in another order or turn backwards"
+    raise InputError(f"the fit needs a negative {' and '.join(bad)} (or the steering half a turn off): {why}", source)
+
+
 def _result(
     prob: KinematicProblem, fit: Fit, unc: Uncertainty, iv: JointIntervals, nominal: Kinematics
 ) -> KinematicSelfcalResult:
@@ -590,8 +617,7 @@ def _result(
     p[nf + 2] = float(wrap_angle(p[nf + 2]))
     g = prob.geometry(p)
     warnings = list(iv.warnings) + list(unc.warnings)
-    if np.any(g <= 0) and not isinstance(nominal, Tricycle):
-        warnings.append("a fitted length is not positive: check the joints' order and directions")
+    _refuse_negative(nominal, g, iv.source)
     try:
         geometry = nominal.with_vector(g)
     except InputError as err:
