@@ -65,21 +65,10 @@ TARGETS = {
 """Per parameter: how its error is measured (relative or absolute, in the key's unit) and the target."""
 
 
-def _value(d: dict, key: str) -> tuple[float, list[float]]:
-    """The estimate and its interval of a key of :func:`umbmark.studies.kinematic.truth_of`."""
-    if key.startswith("sensor_"):
-        k = key.removeprefix("sensor_")
-        return d["sensor_pose"][k], d["sensor_pose"][f"{k}_ci95"]
-    if "." in key:
-        a, b = key.split(".")
-        return d[a][b], d[f"{a}_ci95"][b]
-    return d[key], d[f"{key}_ci95"]
-
-
 def one(kind: str, seed: int) -> dict:
     """Draw, simulate, write and calibrate one robot; its truth, estimates and intervals."""
     from umbmark.cli.kinematic_args import selfcal_args
-    from umbmark.studies.kinematic import draw_robot, simulated_bag, truth_of
+    from umbmark.studies.kinematic import draw_robot, estimate_of, simulated_bag, truth_of
 
     drawn = draw_robot(kind, seed)
     with tempfile.TemporaryDirectory() as tmp:
@@ -100,7 +89,7 @@ def one(kind: str, seed: int) -> dict:
     out["warnings"] = d["warnings"]
     out["params"] = {}
     for key, truth in truth_of(drawn).items():
-        est, ci = _value(d, key)
+        est, ci = estimate_of(d, key)
         how, _ = TARGETS[key]
         err = (est - truth) / truth if how == "rel" else est - truth
         out["params"][key] = {

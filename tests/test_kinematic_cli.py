@@ -17,7 +17,7 @@ from umbmark.cli import main  # noqa: E402
 from umbmark.cli.kinematic_args import selfcal_args  # noqa: E402
 from umbmark.io.rosbag import read_selfcal_bag  # noqa: E402
 from umbmark.io.wheels import WheelSource  # noqa: E402
-from umbmark.studies.kinematic import JOINTS, draw_robot, simulated_bag, truth_of  # noqa: E402
+from umbmark.studies.kinematic import JOINTS, draw_robot, estimate_of, simulated_bag, truth_of  # noqa: E402
 
 PINNED = {
     "tricycle": ["kinematics", "wheel_diameter_mm", "wheelbase_mm", "steering_offset_deg", "sensor_pose", "warnings"],
@@ -45,16 +45,6 @@ def case(request, tmp_path_factory):
     return drawn, bag, json.loads(run(selfcal_args(drawn, bag)))
 
 
-def _value(d, key):
-    if key.startswith("sensor_"):
-        k = key.removeprefix("sensor_")
-        return d["sensor_pose"][k], d["sensor_pose"][f"{k}_ci95"]
-    if "." in key:
-        a, b = key.split(".")
-        return d[a][b], d[f"{a}_ci95"][b]
-    return d[key], d[f"{key}_ci95"]
-
-
 def test_the_json_has_the_pinned_keys_each_estimate_with_its_interval(case):
     drawn, _, d = case
     for key in PINNED[drawn.kind]:
@@ -76,7 +66,7 @@ def test_the_truth_is_found_within_the_targets_and_inside_the_intervals(case):
     drawn, _, d = case
     assert d["warnings"] == []
     for key, truth in truth_of(drawn).items():
-        est, (lo, hi) = _value(d, key)
+        est, (lo, hi) = estimate_of(d, key)
         if key in TARGET:
             assert abs(est - truth) <= TARGET[key], key
         else:
@@ -276,7 +266,7 @@ def test_replay_against_a_ground_truth_finds_the_geometry_and_the_marker(tracked
     for key, truth in truth_of(drawn).items():
         if key.startswith("sensor_"):
             continue
-        est, _ = _value(d, key)
+        est, _ = estimate_of(d, key)
         limit = TARGET.get(key, TARGET["rel"] * truth)
         assert abs(est - truth) <= limit, key
     mp = d["marker_pose"]

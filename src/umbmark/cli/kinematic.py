@@ -133,6 +133,14 @@ def _ci(lo_hi, digits: int) -> str:
     return "fixed" if lo_hi is None else f"{lo_hi[0]:.{digits}f} to {lo_hi[1]:.{digits}f}"
 
 
+def _pose_rows(what: str, pose: dict) -> list[list[str]]:
+    """The table rows of a pose on the robot (the lidar's, a marker's) with its intervals."""
+    return [
+        [f"{what} {k} [{unit}]", fmt(pose[f"{k}_{unit}"], n), _ci(pose[f"{k}_{unit}_ci95"], n), ""]
+        for k, unit, n in (("x", "mm", 2), ("y", "mm", 2), ("yaw", "deg", 3))
+    ]
+
+
 def _rows(d: dict) -> list[list[str]]:
     n = d["nominal"]
     if d["kinematics"] == "tricycle":
@@ -175,12 +183,7 @@ def _print(d: dict, save) -> None:
                 f"matched, {b['pairs_failed']} failed; scans' delay {1e3 * b['scan_delay']['applied_s']:.1f} ms"
             )
         )
-    sp = d["sensor_pose"]
-    rows = _rows(d) + [
-        ["lidar x [mm]", fmt(sp["x_mm"], 2), _ci(sp["x_mm_ci95"], 2), ""],
-        ["lidar y [mm]", fmt(sp["y_mm"], 2), _ci(sp["y_mm_ci95"], 2), ""],
-        ["lidar yaw [deg]", fmt(sp["yaw_deg"], 3), _ci(sp["yaw_deg_ci95"], 3), ""],
-    ]
+    rows = _rows(d) + _pose_rows("lidar", d["sensor_pose"])
     c.print(
         table(
             f"Self-calibration of a {_NOUN[d['kinematics']]} from {d['intervals_used']} intervals "
@@ -271,12 +274,7 @@ def kinematic_replay_cmd(kind: str, paths, method: str, save, as_json, record, k
             f"{'estimated' if d['time_offset_estimated'] else 'given'} {1e3 * d['time_offset_s']:.1f} ms late"
         )
     )
-    mp = d["marker_pose"]
-    rows = _rows(d) + [
-        ["marker x [mm]", fmt(mp["x_mm"], 2), _ci(mp["x_mm_ci95"], 2), ""],
-        ["marker y [mm]", fmt(mp["y_mm"], 2), _ci(mp["y_mm_ci95"], 2), ""],
-        ["marker yaw [deg]", fmt(mp["yaw_deg"], 3), _ci(mp["yaw_deg_ci95"], 3), ""],
-    ]
+    rows = _rows(d) + _pose_rows("marker", d["marker_pose"])
     c.print(
         table(
             f"Geometry of a {_NOUN[d['kinematics']]} against the ground truth",

@@ -962,7 +962,6 @@ def export(
         calibration_from_json,
         export_warnings,
         format_export,
-        write_export,
     )
 
     flags = (c_left, c_right, eb)
@@ -1019,14 +1018,7 @@ def export(
         wheel_separation_m,
     )
     rec = _record_selfcal(calibration, robot, record, db) if record else None
-    for w in notes + export_warnings(cal, left_multiplier, right_multiplier, separation_multiplier):
-        click.echo(f"warning: {cli_message(w)}", err=True)
-    if out:
-        write_export(text, out)
-        if not is_quiet():
-            console().print(f"wrote {out}")
-    else:
-        click.echo(text, nl=False)
+    _emit_export(text, out, notes + export_warnings(cal, left_multiplier, right_multiplier, separation_multiplier))
     if rec is not None and out:
         print_recorded(rec)
     elif rec is not None and not is_quiet():  # the export went to stdout: the note to stderr
@@ -1068,7 +1060,6 @@ def _export_kinematic(d, src, out_format, controller, sensor_z_mm, out, record, 
     """``umbmark export`` of a tricycle's or mecanum robot's self-calibration."""
     from dataclasses import replace
 
-    from umbmark.io.export import write_export
     from umbmark.io.export_kinematic import format_kinematic_export, kinematic_calibration_from_dict
 
     for name, v in given.items():
@@ -1092,7 +1083,14 @@ def _export_kinematic(d, src, out_format, controller, sensor_z_mm, out, record, 
         steering_offset0_rad=math.radians(offset_deg),
         steering_reduction0=reduction,
     )
-    for w in cal.warnings:
+    _emit_export(text, out, cal.warnings)
+
+
+def _emit_export(text: str, out, warnings) -> None:
+    """The warnings on stderr, then the export written to ``out`` (said) or printed."""
+    from umbmark.io.export import write_export
+
+    for w in warnings:
         click.echo(f"warning: {cli_message(w)}", err=True)
     if out:
         write_export(text, out)

@@ -38,6 +38,7 @@ __all__ = [
     "simulated_drive",
     "simulated_bag",
     "truth_of",
+    "estimate_of",
 ]
 
 KINDS = ("tricycle", "mecanum")
@@ -157,3 +158,27 @@ def truth_of(drawn: DrawnRobot) -> dict[str, float]:
         out["lx_plus_ly_mm"] = t.lx_plus_ly_m * 1e3
     out.update(sensor_x_mm=p.x_m * 1e3, sensor_y_mm=p.y_m * 1e3, sensor_yaw_deg=math.degrees(p.yaw_rad))
     return out
+
+
+def estimate_of(d: dict, key: str) -> tuple[float, list[float]]:
+    """The estimate and its 95 % interval under a key of :func:`truth_of` in a self-calibration's JSON.
+
+    Parameters
+    ----------
+    d : dict
+        The JSON of the self-calibration of a tricycle or mecanum robot.
+    key : str
+        A key of :func:`truth_of` (``sensor_x_mm``: ``sensor_pose.x_mm``; ``a.b``: nested).
+
+    Returns
+    -------
+    tuple
+        ``(estimate, [low, high])``.
+    """
+    if key.startswith("sensor_"):
+        k = key.removeprefix("sensor_")
+        return d["sensor_pose"][k], d["sensor_pose"][f"{k}_ci95"]
+    if "." in key:
+        a, b = key.split(".")
+        return d[a][b], d[f"{a}_ci95"][b]
+    return d[key], d[f"{key}_ci95"]
