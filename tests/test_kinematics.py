@@ -291,3 +291,14 @@ def test_intervals_of_another_kind_are_refused():
         kinematic_selfcal(iv, MECANUM[0])
     with pytest.raises(InputError, match="unknown parameter"):
         kinematic_selfcal(iv, TRICYCLE[0], fit=("wheel_radius_m",))
+
+
+def test_quantised_joints_report_whole_pulses_and_still_calibrate():
+    noise = JointNoise(speed_rel_sd=0.01, pulses_per_wheel_rev=1024)
+    log = _drive(TRICYCLE, noise=noise)
+    pulses = log.positions[:, 0] / (2 * math.pi / 1024)
+    np.testing.assert_allclose(pulses, np.round(pulses), atol=1e-6)
+    r = kinematic_selfcal(_intervals(log), TRICYCLE[0])
+    assert r.kinematics.wheel_diameter_m == pytest.approx(TRICYCLE[1].wheel_diameter_m, rel=1e-3)
+    with pytest.raises(InputError, match="whole number"):
+        JointNoise(pulses_per_wheel_rev=0)

@@ -11,7 +11,7 @@ moves as its TRUE geometry makes those joint steps move it. A steering joint tur
 its target at most ``steer_rate_radps`` (between two samples it turns linearly, and the step
 takes its mean); a move without motion keeps the steering where it is. Noise
 (:class:`JointNoise`): rolling-joint speed jitter (seen by the encoders), ground slip of each
-rolling joint (not seen) and steering-angle reading noise. The lidar scans at ``scan_rate_hz``
+rolling joint (not seen), steering-angle reading noise and encoder quantisation. The lidar scans at ``scan_rate_hz``
 from the exact true pose (the sample's constant twist, a fraction of the way along).
 
 :func:`kinematic_program` plans moves that keep the robot in the room and excite every
@@ -93,17 +93,24 @@ class JointNoise:
         standard deviation ``k sqrt(|r dphi|)`` (the encoders do not see it).
     steer_sd_rad : float
         Standard deviation of each steering reading about the true measured angle [rad].
+    pulses_per_wheel_rev : int, optional
+        The rolling joints are reported in whole encoder pulses of this many a revolution
+        (``None``: exact).
     """
 
     speed_rel_sd: float = 0.0
     slip_m_per_sqrt_m: float = 0.0
     steer_sd_rad: float = 0.0
+    pulses_per_wheel_rev: int | None = None
 
     def __post_init__(self) -> None:
         for n in ("speed_rel_sd", "slip_m_per_sqrt_m", "steer_sd_rad"):
             v = getattr(self, n)
             if not (math.isfinite(v) and v >= 0):
                 raise InputError(f"`{n}` must be >= 0, got {v!r}")
+        ppr = self.pulses_per_wheel_rev
+        if ppr is not None and not (isinstance(ppr, (int, np.integer)) and ppr > 0):
+            raise InputError(f"`pulses_per_wheel_rev` must be a positive whole number, got {ppr!r}")
 
     @property
     def draws(self) -> bool:
@@ -293,6 +300,9 @@ def _sample_joints(
                 inc = inc * (1.0 + noise.speed_rel_sd * rng.standard_normal(big_n))
             reported[1:, j] = np.cumsum(inc)
             ground[:, j] = inc
+            if noise.pulses_per_wheel_rev is not None:
+                step = 2.0 * math.pi / noise.pulses_per_wheel_rev
+                reported[:, j] = np.floor(reported[:, j] / step + 1e-9) * step
         else:
             path = _slew(cmd[:, j], float(end[j]), robot.steer_rate_radps * dt)
             ground[:, j] = 0.5 * (path[1:] + path[:-1])
