@@ -14,6 +14,7 @@ from umbmark.cli import (
     bench_speed,  # noqa: F401,E402  bench speed
     calibrate,  # noqa: F401,E402  calibrate
     core,  # noqa: F401,E402  simulate, analyze, demo
+    drift,  # noqa: F401,E402  drift
     field,  # noqa: F401,E402  guide, measure
     history,  # noqa: F401,E402  history
     real,  # noqa: F401,E402  replay, export

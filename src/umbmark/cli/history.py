@@ -45,6 +45,36 @@ __all__ = ["history_options", "record_if_requested", "record_report_if_requested
 
 
 # -- the options other commands attach --------------------------------------------------------------
+_RECORDED_AT = "umbmark.recorded_at"
+
+
+def _recorded_at(text: str) -> str:
+    """``--recorded-at`` checked: an ISO 8601 time, not in the future (UTC when no zone)."""
+    from datetime import datetime, timedelta, timezone
+
+    try:
+        when = datetime.fromisoformat(text.strip().replace("Z", "+00:00"))
+    except ValueError:
+        raise click.BadParameter(
+            f"{text!r} is not an ISO 8601 date/time (e.g. 2026-05-01 or 2026-05-01T14:30:00Z)",
+            param_hint="'--recorded-at'",
+        ) from None
+    if when.tzinfo is None:
+        when = when.replace(tzinfo=timezone.utc)
+    if when > datetime.now(timezone.utc) + timedelta(minutes=5):
+        raise click.BadParameter(
+            f"{text} is in the future (a record dates a session that happened)", param_hint="'--recorded-at'"
+        )
+    if when.year < 1970:
+        raise click.BadParameter(f"{text} is before 1970: a year typed wrong?", param_hint="'--recorded-at'")
+    return when.isoformat()
+
+
+def _when() -> str | None:
+    ctx = click.get_current_context(silent=True)
+    return None if ctx is None else ctx.find_root().meta.get(_RECORDED_AT)
+
+
 def history_options(f):
     """Add ``--robot NAME``, ``--record`` and ``--db PATH`` to a click command.
 
@@ -63,8 +93,20 @@ def history_options(f):
     def wrapper(*args, **kwargs):
         if kwargs.get("record") and not kwargs.get("robot"):
             raise click.UsageError("--record needs --robot NAME (the robot whose history gets the result)")
+        when = kwargs.pop("recorded_at", None)
+        if when is not None:
+            if not kwargs.get("record"):
+                raise click.UsageError("--recorded-at dates a record: it needs --record")
+            click.get_current_context().meta[_RECORDED_AT] = _recorded_at(when)
         return f(*args, **kwargs)
 
+    wrapper = click.option(
+        "--recorded-at",
+        metavar="ISO8601",
+        default=None,
+        help="--record: the session's date and time (e.g. 2026-05-01T14:30, UTC unless a zone is given; "
+        "default: now). For a history of sessions recorded later, as for `umbmark drift`.",
+    )(wrapper)
     wrapper = click.option(
         "--db",
         type=click.Path(dir_okay=False),
@@ -108,8 +150,10 @@ def record_if_requested(
 
     path = resolve_db(db)
     if analysis is not None:
-        rid = record_analysis(robot, analysis, kind=kind, source=source, db=path, prior=prior, note=note)
+        rid = record_analysis(robot, analysis, kind=kind, source=source, db=path, prior=prior, note=note, when=_when())
     else:
+        if fields.get("when") is None:
+            fields["when"] = _when()
         rid = record_result(robot, kind=kind, db=path, source=source, note=note, **fields)
     return {"record_id": rid, "robot": robot, "db": display_db(path)}
 

@@ -1,0 +1,459 @@
+"""Drift of a robot's calibration over its recorded sessions: slow wear and sudden changes.
+
+Every recorded calibration that holds a parameter with its 95 % interval (the self-calibration's
+wheel diameters, wheelbase, ``Ed``, ``Eb`` and lidar pose; a replay's or an analysis's ``Ed``,
+``Eb`` and wheelbase) is a point of that parameter's time series: its value, its standard error
+(the interval's half-width / 1.96) and its date.
+
+The model of one series is a straight line in time (wear: a rate per day) with steps (a wheel
+swapped, a payload added), all steps sharing the one rate, fitted by weighted least squares with
+the sessions' standard errors. Steps are found by forward selection with a generalised
+likelihood ratio test: for every session that could be the first after a step, the drop of the
+weighted residual sum of squares when the step is added; the largest drop is a change when its
+F test, Bonferroni-corrected for the number of sessions tried, is below the stated false-alarm
+rate (the probability that a series with no step raises an alarm). The sessions' intervals are
+trusted when the residuals agree with them and widened by the residuals' scatter when they do
+not (the scale ``max(1, chi^2 / dof)``), so a robot whose intervals are too narrow raises no
+false alarms from it. A segment between two steps holds at least two sessions (one odd session
+in the middle of a history is an outlier, not a change); the latest session alone may follow a
+step (a change on the last day is what a daily check is for).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from datetime import datetime
+from typing import Any
+
+import numpy as np
+
+from umbmark.errors import InputError
+from umbmark.history.base import Record
+
+__all__ = [
+    "DEFAULT_FALSE_ALARM",
+    "SeriesPoint",
+    "Series",
+    "Change",
+    "Trend",
+    "DriftReport",
+    "series_of",
+    "detect_drift",
+]
+
+# the probability that one parameter's history with no step raises an alarm
+DEFAULT_FALSE_ALARM = 1e-3
+# a series needs this many sessions for a trend and a test
+MIN_SESSIONS = 4
+_Z95 = 1.959963984540054
+_SECONDS_PER_DAY = 86400.0
+
+
+@dataclass(frozen=True)
+class SeriesPoint:
+    """One session's value of one parameter."""
+
+    record: int
+    time_utc: str
+    value: float
+    sd: float | None
+
+    @property
+    def time(self) -> datetime:
+        """The session's time (aware, UTC)."""
+        return _parse_time(self.time_utc)
+
+
+@dataclass(frozen=True)
+class Series:
+    """One parameter over a robot's sessions, oldest first."""
+
+    parameter: str
+    points: tuple[SeriesPoint, ...]
+
+    @property
+    def days(self) -> np.ndarray:
+        """Each session's time in days after the first."""
+        t = [_parse_time(p.time_utc) for p in self.points]
+        return np.array([(x - t[0]).total_seconds() / _SECONDS_PER_DAY for x in t])
+
+    @property
+    def values(self) -> np.ndarray:
+        """Each session's value."""
+        return np.array([p.value for p in self.points])
+
+
+@dataclass(frozen=True)
+class Change:
+    """A step in one parameter: the fitted level just before and just after it, at the time of
+    the first session after it."""
+
+    parameter: str
+    record: int
+    previous_record: int
+    time_utc: str
+    before: float
+    after: float
+    step: float
+    step_ci95: tuple[float, float]
+    p_value: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "record": self.record,
+            "parameter": self.parameter,
+            "before": self.before,
+            "after": self.after,
+            "step": self.step,
+            "step_ci95": list(self.step_ci95),
+            "relative_step": self.step / self.before if self.before else None,
+            "previous_record": self.previous_record,
+            "time_utc": self.time_utc,
+            "p_value": self.p_value,
+        }
+
+
+@dataclass(frozen=True)
+class Trend:
+    """A parameter's rate of change per day (common to its segments between steps)."""
+
+    parameter: str
+    rate_per_day: float | None
+    rate_per_day_ci95: tuple[float, float] | None
+    sessions: int
+    span_days: float
+    latest: float
+    latest_ci95: tuple[float, float] | None
+    scale: float
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "rate_per_day": self.rate_per_day,
+            "rate_per_day_ci95": None if self.rate_per_day_ci95 is None else list(self.rate_per_day_ci95),
+            "sessions": self.sessions,
+            "span_days": self.span_days,
+            "latest": self.latest,
+            "latest_ci95": None if self.latest_ci95 is None else list(self.latest_ci95),
+            "interval_scale": self.scale,
+        }
+
+
+@dataclass(frozen=True)
+class DriftReport:
+    """Changes and trends of one robot's parameters (see :func:`detect_drift`)."""
+
+    robot: str
+    kind: str | None
+    false_alarm_rate: float
+    changes: tuple[Change, ...]
+    trends: dict[str, Trend]
+    sessions: int
+    fits: dict[str, Any] = field(default_factory=dict, repr=False, compare=False)
+    notes: tuple[str, ...] = ()
+    series: dict[str, Series] = field(default_factory=dict, repr=False, compare=False)
+
+    def fitted(self, parameter: str) -> np.ndarray:
+        """The fitted model (levels between the changes, the common trend) at each session of a
+        parameter, in the order of ``series[parameter].points``."""
+        fit = self.fits[parameter]
+        return np.asarray(_design(fit["t"], fit["cuts"], fit["span_days"] > 0) @ fit["coef"])
+
+    @property
+    def alarm(self) -> bool:
+        """True when a change was found."""
+        return bool(self.changes)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "robot": self.robot,
+            "kind": self.kind,
+            "sessions": self.sessions,
+            "false_alarm_rate": self.false_alarm_rate,
+            "alarm": self.alarm,
+            "changes": [c.to_dict() for c in self.changes],
+            "trends": {k: t.to_dict() for k, t in self.trends.items()},
+            "notes": list(self.notes),
+        }
+
+
+def _parse_time(s: str) -> datetime:
+    return datetime.fromisoformat(s.replace("Z", "+00:00"))
+
+
+def _sd_of(ci: Any, value: float) -> float | None:
+    if not (isinstance(ci, (list, tuple)) and len(ci) == 2):
+        return None
+    try:
+        lo, hi = float(ci[0]), float(ci[1])
+    except (TypeError, ValueError):
+        return None
+    if not (math.isfinite(lo) and math.isfinite(hi)) or hi < lo:
+        return None
+    sd = (hi - lo) / (2 * _Z95)
+    return sd if sd > 0 else None
+
+
+def _numbers(results: dict[str, Any]) -> Iterable[tuple[str, float, float | None]]:
+    """``(parameter, value, sd)`` of every number of a result that has its 95 % interval."""
+    for key, v in results.items():
+        if isinstance(v, dict):
+            for sub, w in v.items():
+                if isinstance(w, (int, float)) and not isinstance(w, bool) and f"{sub}_ci95" in v:
+                    yield f"{key}.{sub}", float(w), _sd_of(v[f"{sub}_ci95"], float(w))
+        elif isinstance(v, (int, float)) and not isinstance(v, bool) and f"{key}_ci95" in results:
+            yield key, float(v), _sd_of(results[f"{key}_ci95"], float(v))
+
+
+def series_of(records: Sequence[Record], kind: str | None = None) -> dict[str, Series]:
+    """The time series of every parameter the records hold with a 95 % interval.
+
+    Parameters
+    ----------
+    records : sequence of Record
+        One robot's records (any order; sorted by time here).
+    kind : str, optional
+        Only records of this kind (``selfcal``, ``replay``, ...).
+
+    Returns
+    -------
+    dict of str to Series
+        Keyed by the result's JSON key (``wheelbase_mm``; ``sensor_pose.x_mm`` for a nested one).
+    """
+    pts: dict[str, list[SeriesPoint]] = {}
+    for r in sorted(records, key=lambda r: (r.time, r.id)):
+        if kind is not None and r.kind != kind:
+            continue
+        results = r.results if isinstance(r.results, dict) else {}
+        for name, value, sd in _numbers(results):
+            if math.isfinite(value):
+                pts.setdefault(name, []).append(SeriesPoint(r.id, r.created_utc, value, sd))
+    return {k: Series(k, tuple(v)) for k, v in pts.items()}
+
+
+def _design(t: np.ndarray, cuts: Sequence[int], slope: bool) -> np.ndarray:
+    """Columns: one level per segment (cut before the given indices), then the common slope."""
+    n = len(t)
+    edges = [0, *sorted(cuts), n]
+    cols = []
+    for a, b in zip(edges[:-1], edges[1:]):
+        c = np.zeros(n)
+        c[a:b] = 1.0
+        cols.append(c)
+    if slope:
+        cols.append(t)
+    return np.column_stack(cols)
+
+
+def _wls(x: np.ndarray, y: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, float, np.ndarray]:
+    """Weighted least squares: coefficients, weighted RSS, the unscaled covariance."""
+    sw = np.sqrt(w)
+    a = x * sw[:, None]
+    coef, *_ = np.linalg.lstsq(a, y * sw, rcond=None)
+    r = (y - x @ coef) * sw
+    cov = np.linalg.pinv(a.T @ a)
+    return coef, float(r @ r), cov
+
+
+def _allowed(k: int, cuts: Sequence[int], n: int) -> bool:
+    """A cut before index ``k`` leaves every segment two sessions long (the last may be one)."""
+    edges = sorted([0, *cuts, k, n])
+    if k in cuts or k < 2:
+        return False
+    lengths = np.diff(edges)
+    return bool(np.all(lengths[:-1] >= 2) and lengths[-1] >= 1)
+
+
+def _fit_series(s: Series, alpha: float) -> dict[str, Any]:
+    """Forward selection of steps in one series (see the module's description)."""
+    from scipy import stats
+
+    days, y = s.days, s.values
+    span = float(np.ptp(days))
+    t = days / span if span > 0 else days  # a slope per span, for conditioning
+    n = len(y)
+    sds = [p.sd for p in s.points]
+    trusted = all(sd is not None for sd in sds)
+    w = np.array([1.0 / sd**2 for sd in sds]) if trusted else np.ones(n)  # type: ignore[operator]
+    slope = span > 0
+    cuts: list[int] = []
+    p_values: dict[int, float] = {}
+    while True:
+        base = _design(t, cuts, slope)
+        _, rss0, _ = _wls(base, y, w)
+        best: tuple[float, int, float, int] | None = None
+        tried = 0
+        for k in range(1, n):
+            if not _allowed(k, cuts, n):
+                continue
+            tried += 1
+            x1 = _design(t, [*cuts, k], slope)
+            _, rss1, _ = _wls(x1, y, w)
+            dof = n - x1.shape[1]
+            if dof < 1:
+                continue
+            scale = max(1.0, rss1 / dof) if trusted else rss1 / dof
+            if scale <= 0:
+                continue
+            stat = (rss0 - rss1) / scale
+            if best is None or stat > best[0]:
+                best = (stat, k, scale, dof)
+        if best is None:
+            break
+        stat, k, _, dof = best
+        p = float(min(1.0, tried * stats.f.sf(stat, 1, dof)))
+        if p >= alpha:
+            break
+        cuts.append(k)
+        p_values[k] = p
+    x = _design(t, cuts, slope)
+    coef, rss, cov = _wls(x, y, w)
+    dof = n - x.shape[1]
+    scale = (max(1.0, rss / dof) if trusted else rss / dof) if dof > 0 else float("nan")
+    return {
+        "t": t,
+        "y": y,
+        "cuts": sorted(cuts),
+        "p": p_values,
+        "coef": coef,
+        "cov": cov * scale,
+        "dof": dof,
+        "scale": scale,
+        "span_days": span,
+    }
+
+
+def _quantile(dof: int) -> float:
+    from scipy import stats
+
+    return float(stats.t.ppf(0.975, dof)) if dof > 0 else float("inf")
+
+
+def _changes(s: Series, fit: dict[str, Any]) -> list[Change]:
+    t, coef, cov = fit["t"], fit["coef"], fit["cov"]
+    q = _quantile(fit["dof"])
+    slope = coef[-1] if len(coef) > len(fit["cuts"]) + 1 else 0.0
+    out = []
+    for j, k in enumerate(fit["cuts"]):
+        before = coef[j] + slope * t[k]
+        after = coef[j + 1] + slope * t[k]
+        var = cov[j, j] + cov[j + 1, j + 1] - 2 * cov[j, j + 1]
+        half = q * math.sqrt(max(var, 0.0))
+        step = float(after - before)
+        out.append(
+            Change(
+                parameter=s.parameter,
+                record=s.points[k].record,
+                previous_record=s.points[k - 1].record,
+                time_utc=s.points[k].time_utc,
+                before=float(before),
+                after=float(after),
+                step=step,
+                step_ci95=(step - half, step + half),
+                p_value=fit["p"][k],
+            )
+        )
+    return out
+
+
+def _trend(s: Series, fit: dict[str, Any]) -> Trend:
+    t, coef, cov, dof = fit["t"], fit["coef"], fit["cov"], fit["dof"]
+    q = _quantile(dof)
+    has_slope = len(coef) > len(fit["cuts"]) + 1
+    rate = ci = None
+    if has_slope and dof > 0:
+        rate = float(coef[-1]) / fit["span_days"]
+        half = q * math.sqrt(max(cov[-1, -1], 0.0)) / fit["span_days"]
+        ci = (rate - half, rate + half)
+    # the latest level: the last segment's line at the last session
+    g = np.zeros(len(coef))
+    g[len(fit["cuts"])] = 1.0
+    if has_slope:
+        g[-1] = t[-1]
+    latest = float(g @ coef)
+    lhalf = q * math.sqrt(max(float(g @ cov @ g), 0.0)) if dof > 0 else None
+    return Trend(
+        parameter=s.parameter,
+        rate_per_day=rate,
+        rate_per_day_ci95=ci,
+        sessions=len(t),
+        span_days=float(fit["span_days"]),
+        latest=latest,
+        latest_ci95=None if lhalf is None else (latest - lhalf, latest + lhalf),
+        scale=float(fit["scale"]),
+    )
+
+
+def _kind_of(records: Sequence[Record]) -> str | None:
+    """The kind with the most records holding intervals (ties: the self-calibration)."""
+    counts: dict[str, int] = {}
+    for r in records:
+        if isinstance(r.results, dict) and any(True for _ in _numbers(r.results)):
+            counts[r.kind] = counts.get(r.kind, 0) + 1
+    if not counts:
+        return None
+    return max(counts, key=lambda k: (counts[k], k == "selfcal"))
+
+
+def detect_drift(
+    records: Sequence[Record],
+    *,
+    robot: str,
+    kind: str | None = None,
+    parameters: Sequence[str] | None = None,
+    false_alarm: float = DEFAULT_FALSE_ALARM,
+) -> DriftReport:
+    """Steps and trends of every parameter of one robot's history.
+
+    Parameters
+    ----------
+    records : sequence of Record
+        The robot's records.
+    robot : str
+        Its name (for the report).
+    kind : str, optional
+        The kind of records to follow (default: the kind with the most records that hold
+        intervals; a self-calibration and a replay measure with different biases, so one series
+        holds one kind).
+    parameters : sequence of str, optional
+        Only these parameters (result keys; default: every one with intervals).
+    false_alarm : float
+        The probability that one parameter with no step raises an alarm (0 < a < 0.5).
+
+    Returns
+    -------
+    DriftReport
+
+    Raises
+    ------
+    InputError
+        A false-alarm rate outside (0, 0.5), or a parameter the records do not hold.
+    """
+    if not (0.0 < false_alarm < 0.5):
+        raise InputError(f"the false-alarm rate must be above 0 and below 0.5, got {false_alarm}")
+    kind = kind if kind is not None else _kind_of(records)
+    all_series = series_of(records, kind)
+    if parameters:
+        missing = [p for p in parameters if p not in all_series]
+        if missing:
+            known = ", ".join(sorted(all_series)) or "none"
+            raise InputError(
+                f"{robot}'s {kind or ''} records hold no {', '.join(missing)} with intervals (they hold: {known})"
+            )
+        all_series = {p: all_series[p] for p in parameters}
+    changes: list[Change] = []
+    trends: dict[str, Trend] = {}
+    fits: dict[str, Any] = {}
+    notes = []
+    for name, s in all_series.items():
+        if len(s.points) < MIN_SESSIONS:
+            notes.append(f"{name}: {len(s.points)} sessions, {MIN_SESSIONS} needed for a trend and a test")
+            continue
+        fit = _fit_series(s, false_alarm)
+        fits[name] = fit
+        changes += _changes(s, fit)
+        trends[name] = _trend(s, fit)
+    sessions = len({p.record for s in all_series.values() for p in s.points})
+    changes.sort(key=lambda c: (c.time_utc, c.record, c.parameter))
+    return DriftReport(robot, kind, false_alarm, tuple(changes), trends, sessions, fits, tuple(notes), all_series)
