@@ -183,6 +183,11 @@ def test_the_command_records_sessions_and_raises_the_alarm(tmp_path):
     # the text names the change and what to do; the status is the same
     code, out, _ = run("drift", "r1", "--db", str(db), "--parameter", "wheelbase_mm")
     assert code == 3 and "ALARM: wheelbase_mm changed at record" in out and "what to do" in out
+    # the history page draws the same
+    code, _, err = run("report", "--robot", "r1", "--db", str(db), "--out", str(tmp_path / "h.html"))
+    assert code == 0, err
+    page = (tmp_path / "h.html").read_text()
+    assert "<h2>Drift</h2>" in page and "<b>wheelbase_mm</b> changed at record #" in page
     # without the changed parameter: no alarm
     code, out, _ = run("drift", "r1", "--db", str(db), "--parameter", "sensor_pose.x_mm", "--json")
     assert code == 0 and json.loads(out)["changes"] == []

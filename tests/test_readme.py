@@ -289,6 +289,10 @@ def write_example_bags(folder, text):
     for name, spec in LIDAR_BAGS.items():
         if name in text:
             _write_lidar_bag(folder / name, **spec)
+    if "sessions/day" in text:  # a robot's daily self-calibration intervals (umbmark.studies.drift.EXAMPLE_ROBOT)
+        from umbmark.studies.drift import write_sessions
+
+        write_sessions(folder / "sessions")
     if "odom_runs/" in text:  # six one-run bags with /odom and a motion capture (tests/test_bag_shapes_sim.py)
         from test_bag_shapes_sim import write_odom_run_bags
 

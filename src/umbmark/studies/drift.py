@@ -21,7 +21,17 @@ import numpy as np
 
 from umbmark.model.intervals import Intervals, intervals_from_motion
 
-__all__ = ["Step", "FleetRobot", "draw_fleet", "session_intervals", "record_fleet", "score_fleet", "STEP_KINDS"]
+__all__ = [
+    "Step",
+    "FleetRobot",
+    "draw_fleet",
+    "session_intervals",
+    "record_fleet",
+    "score_fleet",
+    "write_sessions",
+    "STEP_KINDS",
+    "EXAMPLE_ROBOT",
+]
 
 # what a sudden change does: the parameter it moves and by how much (relative)
 STEP_KINDS = {"wheelbase": ("wheelbase_mm", 0.015), "left_wheel": ("wheel_diameter_left_mm", -0.008)}
@@ -61,6 +71,27 @@ class FleetRobot:
         if self.step is not None and session >= self.step.session:
             t[self.step.parameter] *= 1.0 + self.step.relative
         return t
+
+
+# the robot of the "keep it calibrated" guide: wheels 100.2 / 99.9 mm, wheelbase 302 mm, wearing
+# 0.01 % a session, its left wheel swapped for one 0.8 % smaller before the 8th session
+EXAMPLE_ROBOT = FleetRobot("r7", 0.1002, 0.0999, 0.302, 1e-4, Step(7, "wheel_diameter_left_mm", -0.008))
+
+
+def write_sessions(
+    folder: str | Path, robot: FleetRobot = EXAMPLE_ROBOT, n_sessions: int = 10, seed: int = 0
+) -> list[Path]:
+    """One intervals file per session (``day01.csv``, ...) of a robot, into ``folder``."""
+    from umbmark.io.intervals_csv import write_intervals_csv
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    out = []
+    for k in range(n_sessions):
+        path = folder / f"day{k + 1:02d}.csv"
+        write_intervals_csv(session_intervals(robot.truth(k), seed=seed * 1000 + k), path)
+        out.append(path)
+    return out
 
 
 def draw_fleet(

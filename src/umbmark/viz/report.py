@@ -809,6 +809,51 @@ def _records_table(records: Iterable[Record]) -> str:
     )
 
 
+def _drift_section(records: Sequence[Record]) -> list[str]:
+    """Wear and changes of the history (:func:`umbmark.history.drift.detect_drift`), when some
+    parameter has enough sessions."""
+    from umbmark.history.drift import detect_drift
+    from umbmark.viz.drift_plot import drift_figure
+
+    rep = detect_drift(records, robot=records[0].robot)
+    if not rep.trends:
+        return []
+    out = [
+        "<h2>Drift</h2>",
+        f"<p>Each parameter of the {_e(rep.kind)} records over its {rep.sessions} sessions: one wear rate per "
+        "day, and steps where the sessions' intervals cannot hold one line (false-alarm rate "
+        f"{rep.false_alarm_rate:g} per parameter; <code>umbmark drift</code> checks the same).</p>",
+    ]
+    if rep.changes:
+        out.append(
+            '<div class="box">'
+            + "".join(
+                f'<p class="warn"><b>{_e(c.parameter)}</b> changed at record #{c.record} ({_e(c.time_utc[:16])}): '
+                f"{fmt(c.before, 6)} &rarr; {fmt(c.after, 6)} (step {fmt(c.step, 6)}, 95 % interval "
+                f"{fmt(c.step_ci95[0], 6)} .. {fmt(c.step_ci95[1], 6)})</p>"
+                for c in rep.changes
+            )
+            + "</div>"
+        )
+    else:
+        out.append("<p>No change: every parameter follows one trend within its intervals.</p>")
+    rows = [
+        [
+            name,
+            t.sessions,
+            fmt(t.latest, 6),
+            fmt(t.rate_per_day, 6),
+            "-"
+            if t.rate_per_day_ci95 is None
+            else f"{fmt(t.rate_per_day_ci95[0], 6)} .. {fmt(t.rate_per_day_ci95[1], 6)}",
+        ]
+        for name, t in rep.trends.items()
+    ]
+    out.append(_table(["parameter", "sessions", "latest", "rate per day", "95 % interval"], rows))
+    out.append(_img(figure_data_uri(drift_figure(rep)), "drift plot"))
+    return out
+
+
 def history_report(records: Sequence[Record], *, title: str | None = None, db_path: str | None = None) -> str:
     """HTML page of one robot's calibration history: the records, the history figure, the
     latest recommended parameters and the latest runs.
@@ -857,6 +902,7 @@ def history_report(records: Sequence[Record], *, title: str | None = None, db_pa
         body.append(_selfcal_table(selfcals))
     body.append("<h2>Over time</h2>")
     body.append(_img(figure_data_uri(history_figure(records)), "history plot"))
+    body += _drift_section(records)
     latest = records[-1]
     ex = export_parameters(latest)
     body.append("<h2>Latest recommended parameters</h2>")
