@@ -136,6 +136,9 @@ class WheelNoise:
     quantise : bool
         The wheel angles are reported in whole encoder pulses of the nominal geometry
         (``pulses_per_wheel_rev`` per turn).
+    slip_right_m_per_sqrt_m : float, optional
+        The right wheel's random slip when it differs from the left's (``slip_m_per_sqrt_m``
+        is then the left wheel's); the variance of a wheel's travel per metre is its square.
 
     Raises
     ------
@@ -146,17 +149,23 @@ class WheelNoise:
     speed_rel_sd: float = 0.0
     slip_m_per_sqrt_m: float = 0.0
     quantise: bool = False
+    slip_right_m_per_sqrt_m: float | None = None
 
     def __post_init__(self) -> None:
-        for name in ("speed_rel_sd", "slip_m_per_sqrt_m"):
+        for name in ("speed_rel_sd", "slip_m_per_sqrt_m", "slip_right_m_per_sqrt_m"):
             v = getattr(self, name)
-            if not (math.isfinite(v) and v >= 0):
+            if v is not None and not (math.isfinite(v) and v >= 0):
                 raise InputError(f"`{name}` must be >= 0, got {v!r}")
+
+    @property
+    def slip_right(self) -> float:
+        """The right wheel's slip [m per sqrt(m)] (the left's unless given)."""
+        return self.slip_m_per_sqrt_m if self.slip_right_m_per_sqrt_m is None else self.slip_right_m_per_sqrt_m
 
     @property
     def draws(self) -> bool:
         """Whether the noise needs random numbers."""
-        return self.speed_rel_sd > 0 or self.slip_m_per_sqrt_m > 0
+        return self.speed_rel_sd > 0 or self.slip_m_per_sqrt_m > 0 or self.slip_right > 0
 
 
 @dataclass(frozen=True)
@@ -701,9 +710,9 @@ def _drive_wheels(
     true = robot.true_wheels
     travel_l = 0.5 * true.diameter_left_m * dphi_l
     travel_r = 0.5 * true.diameter_right_m * dphi_r
-    if noise.slip_m_per_sqrt_m > 0:
+    if noise.slip_m_per_sqrt_m > 0 or noise.slip_right > 0:
         travel_l = travel_l + noise.slip_m_per_sqrt_m * np.sqrt(np.abs(travel_l)) * z[2]
-        travel_r = travel_r + noise.slip_m_per_sqrt_m * np.sqrt(np.abs(travel_r)) * z[3]
+        travel_r = travel_r + noise.slip_right * np.sqrt(np.abs(travel_r)) * z[3]
     left = np.concatenate([[0.0], np.cumsum(dphi_l)])
     right = np.concatenate([[0.0], np.cumsum(dphi_r)])
     if noise.quantise:

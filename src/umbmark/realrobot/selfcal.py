@@ -57,6 +57,7 @@ from numpy.typing import ArrayLike, NDArray
 from umbmark._check import positive
 from umbmark._files import check_distinct_inputs
 from umbmark._numbers import strict_float
+from umbmark.correct.noise import OdometryNoise
 from umbmark.correct.selfcal import SelfcalResult, selfcal
 from umbmark.correct.selfcal.estimate import BLOCK_S, MAX_BLOCKS
 from umbmark.errors import InputError
@@ -1400,6 +1401,30 @@ class SelfcalReport:
         sizes = self.sizes or (len(self.intervals.dt_s),)
         return selfcal_figures(self.parts, sizes, self.intervals, self.result)
 
+    @cached_property
+    def odometry_noise(self) -> OdometryNoise | None:
+        """Each wheel's travel variance per metre, fitted to the residuals of the intervals kept
+        (:func:`umbmark.correct.noise.estimate_odometry_noise`); None where the drive is too
+        short for it."""
+        from umbmark.correct.noise import estimate_odometry_noise
+
+        r = self.result
+        keep = np.ones(len(self.intervals.dt_s), dtype=bool)
+        keep[list(r.intervals_rejected)] = False
+        iv = self.intervals
+        try:
+            return estimate_odometry_noise(
+                iv.left_rad[keep],
+                iv.right_rad[keep],
+                iv.sensor[keep],
+                r.r_left_m,
+                r.r_right_m,
+                r.wheelbase_m,
+                r.sensor_pose,
+            )
+        except InputError:
+            return None
+
     @property
     def bags(self) -> list[ScanIntervals]:
         """The inputs that were bags."""
@@ -1443,7 +1468,8 @@ class SelfcalReport:
             delay of its scans' stamps, ``applied_s``; null without bags) and ``inputs`` (one
             object per input: a bag's
             :meth:`ScanIntervals.to_dict`, or ``path`` and ``kind`` ``intervals``) and ``figures``
-            (:attr:`figures`: what ``umbmark report`` draws).
+            (:attr:`figures`: what ``umbmark report`` draws) and ``odometry_noise``
+            (:attr:`odometry_noise` as :meth:`OdometryNoise.to_dict`, or null).
         """
         bags = self.bags
         out = self.result.to_dict()
@@ -1469,6 +1495,7 @@ class SelfcalReport:
                     for p in self.parts
                 ],
                 "figures": self.figures,
+                "odometry_noise": None if self.odometry_noise is None else self.odometry_noise.to_dict(),
             }
         )
         return out
