@@ -16,6 +16,7 @@ from umbmark.cli import (
     core,  # noqa: F401,E402  simulate, analyze, demo
     drift,  # noqa: F401,E402  drift
     field,  # noqa: F401,E402  guide, measure
+    fleet,  # noqa: F401,E402  fleet
     history,  # noqa: F401,E402  history
     real,  # noqa: F401,E402  replay, export
     report,  # noqa: F401,E402  report

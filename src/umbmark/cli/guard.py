@@ -329,6 +329,15 @@ class GuardedCommand(click.Command):
             raise
 
     def invoke(self, ctx: click.Context):
+        absurd = self.check_params(ctx)
+        if not absurd:
+            return super().invoke(ctx)
+        return self._invoke_absurd(ctx, absurd)
+
+    def check_params(self, ctx: click.Context) -> list[tuple[click.Parameter, float]]:
+        """The checks of the parsed options before the command runs (paths, the history's
+        address, sizes no robot has); returns the sizes beyond :data:`MAX_SIZE_M` that the
+        command checks itself."""
         path = ctx.command_path.split(" ", 1)[1] if " " in ctx.command_path else ctx.command_path
         try:
             check_paths(path, ctx.params, _flag_names(self))
@@ -350,8 +359,9 @@ class GuardedCommand(click.Command):
                     slip = _slip(p, v)
                     if slip is not None:
                         raise click.BadParameter(slip, ctx=ctx, param=p)
-        if not absurd:
-            return super().invoke(ctx)
+        return absurd
+
+    def _invoke_absurd(self, ctx: click.Context, absurd: list[tuple[click.Parameter, float]]):
         # a size no robot has: the command's own checks speak first; what they do not catch
         # (an overflow deep in the numbers) is reported as that size, in one line
         with warnings.catch_warnings(record=True) as caught:
