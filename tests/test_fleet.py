@@ -43,16 +43,12 @@ def _fleet_dir(root: Path, robots: int, sessions: int, n: int = 120) -> Path:
     return root
 
 
-def _db(tmp_path):
-    url = os.environ.get("UMBMARK_TEST_POSTGRES_URL")
-    if url:
-        from sqlalchemy import create_engine, text
-
-        eng = create_engine(url)
-        with eng.begin() as c:
-            c.execute(text("DROP TABLE IF EXISTS calibrations, robots, umbmark_schema CASCADE"))
-        eng.dispose()
-        return url
+@pytest.fixture(params=["sqlite", "postgresql"])
+def fleet_db(request, tmp_path):
+    """The fleet's history: an SQLite file, and PostgreSQL (conftest's postgres_url: skipped
+    without a server)."""
+    if request.param == "postgresql":
+        return request.getfixturevalue("postgres_url")
     return str(tmp_path / "fleet.sqlite")
 
 
@@ -84,11 +80,11 @@ def test_every_recording_once_a_failure_named_and_reruns_skip(tmp_path):
     assert "1 recorded, 9 already recorded, 0 failed" in out
 
 
-def test_a_killed_worker_s_recording_is_done_again_and_recorded_once(tmp_path):
+def test_a_killed_worker_s_recording_is_done_again_and_recorded_once(tmp_path, fleet_db):
     # 100 recordings on a local cluster of two workers; one worker killed while it calibrates
     root = _fleet_dir(tmp_path / "fleet", 5, 20, n=60)
     jobs = plan_fleet(root, tuple(GEO))
-    db = _db(tmp_path)
+    db = fleet_db
     cluster = distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None)
     client = distributed.Client(cluster)
     killed = []
