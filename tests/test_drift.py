@@ -230,3 +230,43 @@ def test_recorded_at_is_checked(tmp_path):
     )
     assert code == 0, err
     assert _records(db, "r")[0].created_utc.startswith("2026-01-02T01:04:00")
+
+
+def test_windows_of_a_long_recording_are_calibrated_and_recorded_each(tmp_path):
+    from umbmark.model.intervals import Intervals
+
+    robot = draw_fleet(1, 1, 0, seed=1)[0]
+    before = session_intervals(robot.truth(0), seed=1, n=480)
+    after = session_intervals({**robot.truth(0), "wheelbase_mm": robot.truth(0)["wheelbase_mm"] * 1.03}, seed=2, n=480)
+    cat = lambda a: np.concatenate([getattr(before, a), getattr(after, a)])  # noqa: E731
+    f = tmp_path / "long.csv"
+    write_intervals_csv(Intervals(cat("dt_s"), cat("left_rad"), cat("right_rad"), cat("sensor"), "long"), f)
+    db = tmp_path / "h.sqlite"
+    base = ["selfcal", str(f), "--wheel-diameter-mm", "100", "--wheelbase-mm", "300"]
+    code, out, err = run(*base, "--window", "2min", "--robot", "r", "--record", "--db", str(db),
+                         "--recorded-at", "2026-02-01T08:00", "--json")  # fmt: skip
+    assert code == 0, err
+    d = json.loads(out)
+    wins = d["windows"]
+    assert len(wins) == 4 and [w["start_s"] for w in wins] == pytest.approx([0, 120, 240, 360])
+    assert [w["start_utc"][:16] for w in wins] == [
+        "2026-02-01T08:00",
+        "2026-02-01T08:02",
+        "2026-02-01T08:04",
+        "2026-02-01T08:06",
+    ]
+    wb = [w["result"]["wheelbase_mm"] for w in wins]
+    assert wb[3] / wb[0] - 1 == pytest.approx(0.03, abs=0.01)
+    assert "figures" not in wins[0]["result"] and d["wheelbase_mm"] > 0  # the whole recording's result too
+    recs = _records(db, "r")
+    assert [r.time.strftime("%H:%M") for r in recs] == ["08:00", "08:02", "08:04", "08:06"]
+    assert [w["history"]["record_id"] for w in wins] == [r.id for r in recs]
+    assert recs[0].note.startswith("window 1 (0-120 s) of")
+    # windows no shorter than 10 s, a duration as written, a differential drive's
+    for window, message in [("5s", "10 s to a week"), ("ten", "no duration"), ("1e9", "no duration")]:
+        code, _, err = run(*base, "--window", window)
+        assert code == 2 and message in err, err
+    code, _, err = run(
+        *base, "--window", "1min", "--kinematics", "mecanum", "--joints", "a,b,c,d", "--lx-plus-ly-mm", "400"
+    )
+    assert code == 2 and "--window is for a differential drive" in err

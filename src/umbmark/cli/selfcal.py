@@ -244,6 +244,13 @@ def _print_report(d: dict, again: str, export: str) -> None:
     default=None,
     help="Bag: write the matched intervals as an intervals file (CSV).",
 )
+@click.option(
+    "--window",
+    metavar="DURATION",
+    default=None,
+    help="Also cut each input into windows of about DURATION (10min, 600s, 1h) and self-calibrate each "
+    "(JSON key windows); with --record, each window is recorded with its own date (for `umbmark drift`).",
+)
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @history_options
 @config_options
@@ -282,8 +289,17 @@ def selfcal_cmd(
     """
     from umbmark.cli.options import nominal_m
 
+    window = kw.pop("window", None)
+    window_s = None
+    if window is not None:
+        from umbmark.cli.selfcal_windows import window_seconds
+
+        window_s = window_seconds(window)
     if kinematics != "diff_drive":
         from umbmark.cli.kinematic import kinematic_selfcal_cmd
+
+        if window_s is not None:
+            raise InputError(f"--window is for a differential drive, not --kinematics {kinematics}")
 
         if not wheel_jitter:
             raise InputError(f"--no-wheel-jitter is for a differential drive, not --kinematics {kinematics}")
@@ -329,12 +345,16 @@ def selfcal_cmd(
     if min_intervals != 10:
         flags.append(f"--min-intervals {min_intervals}")
     d = rep.to_dict()
+    rec: dict | list | None = None
+    if window_s is not None:
+        from umbmark.cli.selfcal_windows import selfcal_windows_cmd
+
+        d["windows"], rec = selfcal_windows_cmd(rep, window_s, opts, robot, record, db)
     if save:
         from umbmark.io.atomic import write_json
 
         write_json(save, d)
-    rec = None
-    if record:
+    if record and window_s is None:
         from umbmark.history import file_sha256
 
         fields = rep.history_fields(kind="selfcal", file_hash=file_sha256 if len(paths) == 1 else None)
@@ -345,6 +365,10 @@ def selfcal_cmd(
     if is_quiet():
         return
     _print_report(d, *_next_command(paths, save, d_m, b_m, flags + ([] if wheel_jitter else ["--no-wheel-jitter"])))
+    if window_s is not None:
+        from umbmark.cli.selfcal_windows import print_windows
+
+        print_windows(d["windows"])
     print_recorded(rec)
 
 
