@@ -293,6 +293,13 @@ def write_example_bags(folder, text):
         from umbmark.studies.drift import write_sessions
 
         write_sessions(folder / "sessions")
+    if "fleet_example/" in text:  # two robots' sessions, one folder each
+        import dataclasses
+
+        from umbmark.studies.drift import EXAMPLE_ROBOT, write_sessions
+
+        write_sessions(folder / "fleet_example" / "r7", n_sessions=4)
+        write_sessions(folder / "fleet_example" / "r8", dataclasses.replace(EXAMPLE_ROBOT, step=None), 4, seed=1)
     if "odom_runs/" in text:  # six one-run bags with /odom and a motion capture (tests/test_bag_shapes_sim.py)
         from test_bag_shapes_sim import write_odom_run_bags
 

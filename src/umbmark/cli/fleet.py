@@ -39,6 +39,7 @@ def _record(history: Any, job: Any, result: dict[str, Any]) -> int:
     fields = selfcal_history_fields(result, "selfcal")
     fields["input_sha256"] = job.sha256
     fields["source"] = job.path
+    fields["when"] = job.when
     return int(history.add(job.robot, **fields))
 
 

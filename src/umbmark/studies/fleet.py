@@ -1,5 +1,5 @@
 """A fleet's recordings calibrated in parallel (on a Dask cluster or local processes) into one
-history, each recording once.
+history, each recording once, dated when its file was last written.
 
 The layout: a folder with one sub-folder per robot, holding that robot's recordings (bags, ROS 2
 bag folders, intervals files); or a manifest (YAML) naming each robot's recordings. Each
@@ -35,6 +35,7 @@ class FleetJob:
     path: str
     sha256: str
     args: tuple[str, ...] = ()
+    when: str | None = None
 
 
 @dataclass(frozen=True)
@@ -74,6 +75,14 @@ class FleetSummary:
             "failed": self.count("failed"),
             "outcomes": [o.to_dict() for o in self.outcomes],
         }
+
+
+def _modified(p: Path) -> str:
+    """When a recording was last written (a ROS 2 bag folder: its metadata), ISO 8601 UTC."""
+    from datetime import datetime, timezone
+
+    f = p / "metadata.yaml" if p.is_dir() else p
+    return datetime.fromtimestamp(f.stat().st_mtime, tz=timezone.utc).isoformat()
 
 
 def _recordings(folder: Path) -> list[Path]:
@@ -123,7 +132,7 @@ def plan_fleet(
         if (d / "metadata.yaml").is_file():
             raise InputError(f"{d}: a ROS 2 bag, not a robot's folder (put the bags in {root}/ROBOT/)")
         robot = check_robot(d.name)
-        jobs += [FleetJob(robot, str(p), h(p), tuple(args)) for p in _recordings(d)]
+        jobs += [FleetJob(robot, str(p), h(p), tuple(args), _modified(p)) for p in _recordings(d)]
     if not jobs:
         raise InputError(
             f"{root}: no recordings (expected {root}/ROBOT/*.bag, *.mcap, *.db3, *.csv or ROS 2 bag folders)"
@@ -168,7 +177,7 @@ def read_manifest(path: str | Path, file_hash: Callable[[str | Path], str] | Non
             p = (path.parent / r) if not Path(r).is_absolute() else Path(r)
             if not p.exists():
                 raise InputError(f"{path}: robot {robot!r}: recording {r} does not exist")
-            jobs.append(FleetJob(robot, str(p), h(p), tuple(str(a) for a in args)))
+            jobs.append(FleetJob(robot, str(p), h(p), tuple(str(a) for a in args), _modified(p)))
     return jobs
 
 
