@@ -741,7 +741,8 @@ def test_intervals_with_dx_and_dy_exchanged_are_named(tmp_path):
 
 def test_intervals_with_the_sensor_turning_the_other_way_are_named(tmp_path):
     """sensor_dyaw_rad negated (the sensor's turns counted clockwise): the fit needs a negative
-    wheelbase, and the warning names that column among the causes."""
+    wheelbase; from a file that is refused, naming that column among the causes (the library's
+    fit itself warns)."""
     from umbmark.realrobot.selfcal import selfcal_from_intervals
 
     rng = np.random.default_rng(16)
@@ -750,6 +751,8 @@ def test_intervals_with_the_sensor_turning_the_other_way_are_named(tmp_path):
     flipped = Intervals(iv.dt_s, iv.left_rad, iv.right_rad, iv.sensor * np.array([1.0, 1.0, -1.0]), "neg.csv")
     path = tmp_path / "neg.csv"
     write_intervals_csv(flipped, path)
-    res = selfcal_from_intervals(path, 0.1, 0.3).result
+    with pytest.raises(InputError, match="`sensor_dyaw_rad` negated"):
+        selfcal_from_intervals(path, 0.1, 0.3)
+    res = selfcal(flipped, 0.1, 0.3)
     assert res.wheelbase_m < 0
     assert any("`sensor_dyaw_rad` negated" in w for w in res.warnings)

@@ -134,6 +134,7 @@ PARAM_FLAGS = {
     "robot": "--robot NAME",
     "runs": "--runs",
     "scale": "--scale",
+    "scan_delay": "--scan-delay",
     "scan_frame": "--scan-frame",
     "sensor_pose": "--sensor-pose",
     "side_mm": "--side-mm",

@@ -20,6 +20,27 @@ from umbmark.errors import InputError
 __all__ = ["float_list", "kind_of", "Bars", "start_kernels", "interval_options"]
 
 
+KEYFRAME_BOUNDS = {
+    "keyframe_mm": (5000.0, "two scans that far apart hardly see the same walls (a room is metres across)"),
+    "keyframe_deg": (180.0, "a turn beyond half a revolution cannot be told from a turn the other way"),
+    "keyframe_s": (60.0, "a minute between keyframes leaves the wheel odometry too far off for the scan matching"),
+    "keyframe_min_s": (60.0, "a minute between keyframes leaves the wheel odometry too far off for the scan matching"),
+}
+"""The largest value of each keyframe flag, and why."""
+
+WHEEL_GAP_S = (1e-3, 10.0)
+"""The bounds of --max-wheel-gap-s [s]."""
+
+MAX_MIN_INTERVALS = 100_000
+"""The largest --min-intervals."""
+
+
+def _shown(text: object, limit: int = 40) -> str:
+    """``text`` quoted, cut to ``limit`` characters (a number of 5001 digits is not echoed whole)."""
+    t = str(text)
+    return repr(t) if len(t) <= limit else repr(t[:limit]) + f" ... ({len(t)} characters)"
+
+
 def float_list(text: str, n: int, flag: str, meta: str) -> list[float]:
     parts = [p.strip() for p in text.split(",")]
     try:
@@ -27,7 +48,7 @@ def float_list(text: str, n: int, flag: str, meta: str) -> list[float]:
     except ValueError:
         vals = []
     if len(vals) != n or not all(math.isfinite(v) for v in vals):
-        raise InputError(f"{flag} needs {n} numbers {meta}, got {text!r}")
+        raise InputError(f"{flag} needs {n} numbers {meta}, got {_shown(text)}")
     return vals
 
 
@@ -113,13 +134,26 @@ def interval_options(kw, min_intervals: int):
     from umbmark.realrobot.scanmatch import ICPConfig
     from umbmark.realrobot.selfcal import IntervalOptions, KeyframeRule, parse_scan_delay
 
-    for flag in ("keyframe_mm", "keyframe_deg", "keyframe_s", "keyframe_min_s"):
+    for flag, (top, why) in KEYFRAME_BOUNDS.items():
         v = kw[flag]
         if not (math.isfinite(v) and v >= 0):
             raise InputError(f"--{flag.replace('_', '-')} must be a number >= 0, got {v!r}")
+        if v > top:
+            raise InputError(f"--{flag.replace('_', '-')} {v:g} is beyond {top:g}: {why}")
     v = kw["max_wheel_gap_s"]
     if not (math.isfinite(v) and v > 0):
         raise InputError(f"--max-wheel-gap-s must be a positive number, got {v!r}")
+    lo, hi = WHEEL_GAP_S
+    if not lo <= v <= hi:
+        raise InputError(
+            f"--max-wheel-gap-s {v:g} is outside {lo:g} to {hi:g} s: wheel data come at most every millisecond, "
+            "and in a gap of seconds the wheels' motion is not known (milliseconds given as seconds?)"
+        )
+    if min_intervals > MAX_MIN_INTERVALS:
+        raise InputError(
+            f"--min-intervals {min_intervals} is beyond {MAX_MIN_INTERVALS}: a self-calibration needs tens to "
+            "hundreds of intervals (a recording of hours gives tens of thousands)"
+        )
     if kw["keyframe_s"] > 0 and kw["keyframe_s"] < kw["keyframe_min_s"]:
         raise InputError(f"--keyframe-s {kw['keyframe_s']:g} is below --keyframe-min-s {kw['keyframe_min_s']:g}")
     rule = KeyframeRule(
@@ -133,14 +167,20 @@ def interval_options(kw, min_intervals: int):
         from umbmark.realrobot.scan_truth import check_sensor_pose
 
         x, y, yaw = float_list(kw["sensor_pose"], 3, "--sensor-pose", "X_MM,Y_MM,YAW_DEG")
+        if abs(yaw) > 360.0:
+            raise InputError(
+                f"--sensor-pose turns the sensor {yaw:g} deg: a mounting yaw is within +-360 deg (the yaw in degrees)"
+            )
         pose = (x * 1e-3, y * 1e-3, math.radians(yaw))
         for w in check_sensor_pose(pose):
             click.echo(f"warning: {cli_message(w)}", err=True)
     try:
         scan_delay = parse_scan_delay(kw["scan_delay"])
-    except InputError:
+    except InputError as err:
+        if "beyond" in err.message:
+            raise
         raise InputError(
-            f"--scan-delay must be auto, off or seconds (positive: the scans are late), got {kw['scan_delay']!r}"
+            f"--scan-delay must be auto, off or seconds (positive: the scans are late), got {_shown(kw['scan_delay'])}"
         ) from None
     return IntervalOptions(
         keyframes=rule,

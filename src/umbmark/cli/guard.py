@@ -278,6 +278,10 @@ def _flag_names(command: click.Command) -> dict[str, str]:
     return out
 
 
+MAX_NUMBER_CHARS = 64
+"""A number given to an option longer than this is refused without being echoed whole."""
+
+
 def _refuse_underscored_numbers(command: click.Command, args: list[str], ctx: click.Context) -> None:
     """Refuse ``--speed 1_0``: Python reads it as 10, a user meant something else (a typo, a
     thousands separator)."""
@@ -296,6 +300,12 @@ def _refuse_underscored_numbers(command: click.Command, args: list[str], ctx: cl
         n = max(p.nargs, 1)
         values = [value] if eq else args[i + 1 : i + 1 + n]
         for v in values:
+            if len(v) > MAX_NUMBER_CHARS:
+                raise click.BadParameter(
+                    f"{v[:12]!r}... ({len(v)} characters) is no number a robot's option takes",
+                    ctx=ctx,
+                    param=p,
+                )
             if "_" in v:
                 raise click.BadParameter(
                     f"{v!r} is not a number: '_' is not a digit (write the number without it)",

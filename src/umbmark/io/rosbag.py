@@ -916,6 +916,8 @@ class _Scans:
         self.layout: tuple[int, float, float] | None = None
         self.frame: str | None = None
         self.other_layout = 0
+        self.limits: tuple[float, float] | None = None  # the first kept scan's range_min, range_max
+        self.raw_medians: list[float] = []  # each kept scan's median finite range, as published
 
     def add(self, msg, ns: int) -> None:
         frame = msg.header.frame_id.lstrip("/")
@@ -945,6 +947,11 @@ class _Scans:
             self.other_layout += 1
             return
         lo, hi = float(msg.range_min), float(msg.range_max)
+        if self.limits is None:
+            self.limits = (lo, hi)
+        fin = r[np.isfinite(r)]
+        if fin.size:
+            self.raw_medians.append(float(np.median(fin)))
         with np.errstate(invalid="ignore"):
             # a range at range_max is the driver's "no return" (a far wall would not be at it exactly)
             bad = ~np.isfinite(r) | (r < lo) | (r >= hi)
@@ -970,6 +977,7 @@ class _Scans:
         if repeated:
             warnings.append(f"{repeated} scans on {self.topic} repeat the stamp of the scan before: dropped")
         ranges = np.stack(self.ranges)[keep]
+        self._check_units(ranges)
         if not np.isfinite(ranges).any():
             raise InputError(
                 f"every range of the {len(keep)} scans on {self.topic} is infinite, NaN or outside "
@@ -977,6 +985,36 @@ class _Scans:
                 self.src,
             )
         return st[keep], ranges, warnings
+
+    def _check_units(self, ranges: np.ndarray) -> None:
+        """Refuse ranges in millimetres (or centimetres): a median range beyond
+        :data:`MAX_MEDIAN_RANGE_M`, or every range beyond ``range_max`` where a thousandth of it
+        would be within ``[range_min, range_max)``."""
+        lo, hi = self.limits if self.limits is not None else (0.0, math.inf)
+        fin = ranges[np.isfinite(ranges)]
+        med = float(np.median(fin)) if fin.size else math.nan
+        raw = float(np.median(self.raw_medians)) if self.raw_medians else math.nan
+        unit = "millimetres (or centimetres)"
+        if med > MAX_MEDIAN_RANGE_M:
+            raise InputError(
+                f"the ranges on {self.topic} look like {unit}, not metres: their median is {med:.6g} "
+                f"(range_max {hi:g}), where a lidar sees the walls around it within tens of metres "
+                f"(no 2D lidar's median beyond {MAX_MEDIAN_RANGE_M:g} m); LaserScan ranges are in metres: "
+                "publish them in metres",
+                self.src,
+            )
+        if not fin.size and raw >= hi and lo <= raw / 1000.0 < hi:
+            raise InputError(
+                f"every range on {self.topic} is at or beyond range_max {hi:g}: their median is {raw:.6g}, "
+                f"{raw / 1000.0:.3g} if it is millimetres: the ranges look like millimetres, range_max like "
+                "metres; LaserScan ranges are in metres: publish them in metres",
+                self.src,
+            )
+
+
+MAX_MEDIAN_RANGE_M = 100.0
+"""The median range of a lidar's scans beyond which they are refused as millimetres [m]: walls
+in view (a self-calibration's, a ground truth's) are within tens of metres."""
 
 
 def _ordered(t: np.ndarray, what: str, topic: str, source: str) -> tuple[np.ndarray, int]:

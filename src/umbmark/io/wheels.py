@@ -225,10 +225,10 @@ class WheelSource:
                     "beside at least one wheel",
                     source,
                 )
-        if self.kind == "ticks":
-            if not self.left_field or not self.right_field:
+        ppr = self.pulses_per_wheel_rev
+        if self.kind == "ticks" or ppr is not None:
+            if self.kind == "ticks" and (not self.left_field or not self.right_field):
                 raise InputError("a ticks topic needs `left_field` and `right_field`", source)
-            ppr = self.pulses_per_wheel_rev
             if ppr is None or not (
                 isinstance(ppr, (int, float)) and math.isfinite(ppr) and 0 < ppr <= MAX_PULSES_PER_WHEEL_REV
             ):

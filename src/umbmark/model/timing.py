@@ -367,6 +367,16 @@ def estimate_time_offset(
             shift = float(np.clip(0.5 * (a - e) / den, -0.5, 0.5))
     offset = (lags[j] + shift) * dt
     if best < MIN_CORRELATION:
+        worst = float(np.min(vals))
+        if worst <= -MIN_CORRELATION:
+            return (
+                None,
+                best,
+                max_lag_s,
+                f"the wheels turn the other way from the ground truth (their turn rates correlate {worst:.2f}): "
+                "the left and right wheels swapped, or the ground truth's heading mirrored (a tracker's "
+                "frame upside down)",
+            )
         return (
             None,
             best,
@@ -685,7 +695,16 @@ def check_joint_stream(
     wheels = pos[:, roll]
     if not cumulative:
         _refuse_running_counters(t, wheels, metres_per_unit, what, topic, source)
-        wheels = np.cumsum(wheels, axis=0)
+        summed = np.cumsum(wheels, axis=0)
+        counter_jumps = _spikes(t, summed, metres_per_unit)[0]
+        if counter_jumps.size and not _spikes(t, wheels, metres_per_unit)[0].size:
+            raise InputError(
+                f"summed as counts per message, the {what} on {topic} jump faster than {MAX_WHEEL_SPEED_MPS:g} m/s "
+                f"at the wheel rim at t={t[int(counter_jumps[0])] - t[0]:.3f} s, while as a running counter they "
+                'move as a wheel does: the counts look cumulative, running counters (`ticks="cumulative"`)',
+                source,
+            )
+        wheels = summed
     bad, isolated = _spikes(t, wheels, metres_per_unit)
     if bad.size:
         k = int(bad[0])
@@ -728,7 +747,7 @@ def _refuse_running_counters(t, wheels, metres_per_unit: float, what: str, topic
     if speed > MAX_WHEEL_SPEED_MPS:
         raise InputError(
             f"read as counts per message, the {what} on {topic} would turn the wheel rims at {speed:.3g} m/s "
-            f'(median): they look like running counters (`ticks="cumulative"`)',
+            f'(median): the counts look cumulative, they look like running counters (`ticks="cumulative"`)',
             source,
         )
 
@@ -895,6 +914,7 @@ def check_truth_stream(
     if truth is not None:
         g = _checked_truth(truth, truth_topic, source, warnings)
         heading_w = (cr * metres_per_unit_right - cl * metres_per_unit_left) / wheelbase_m
+        _refuse_degree_turns(t, heading_w, g, wheel_topic, truth_topic, source)
         offset, gp = _truth_offset(t, heading_w, g, request, wheel_topic, truth_topic, source, warnings)
         if offset.applied_s:
             g = g.copy()
@@ -937,6 +957,31 @@ def _checked_truth(truth: ArrayLike, truth_topic: str, source: str | None, warni
             )
     g[:, 3] = np.unwrap(g[:, 3])
     return g
+
+
+def _refuse_degree_turns(
+    t: np.ndarray, heading_w: np.ndarray, g: np.ndarray, wheel_topic: str, truth_topic: str, source: str | None
+) -> None:
+    """Refuse wheels that turn 57.3 times as far as the ground truth (within a factor of two:
+    any wheelbase error): wheel angles in degrees. The headings are compared every 0.2 s or
+    more (a tracker's noise does not add up)."""
+    inside = g[(g[:, 0] >= t[0]) & (g[:, 0] <= t[-1])]
+    if len(inside) < 3:
+        return
+    step = max(1, int(math.ceil(0.2 / max(_median_period(inside[:, 0]), 1e-9))))
+    tg, hg = inside[::step, 0], inside[::step, 3]
+    turn_g = float(np.sum(np.abs(np.diff(hg))))
+    turn_w = float(np.sum(np.abs(np.diff(np.interp(tg, t, heading_w)))))
+    if turn_g < 0.5:
+        return
+    ratio = turn_w / turn_g
+    if 0.5 <= ratio / math.degrees(1.0) <= 2.0:
+        raise InputError(
+            f"the wheel data on {wheel_topic} turn {ratio:.3g} times as far as the ground truth on {truth_topic} "
+            "(the nominal geometry): the wheel angles look like degrees (JointState positions are radians; encoder "
+            "counts: `pulses_per_wheel_rev` 57.3 times too small)",
+            source,
+        )
 
 
 def _truth_offset(

@@ -55,6 +55,7 @@ from umbmark.model.dataset import WheelGeometry
 from umbmark.model.se2 import compose, inverse
 from umbmark.realrobot.scan_truth import SCAN_TRUTH_ICP, robot_displacement
 from umbmark.realrobot.scanmatch import ICPConfig, match_scans
+from umbmark.realrobot.selfcal import check_bag_motion
 
 __all__ = ["GyroTurn", "GyroReference", "gyro_reference", "gyro_history_fields", "still_periods"]
 
@@ -188,24 +189,44 @@ EB_RANGE = (0.25, 4.0)
 """The effective wheelbase over the nominal one a robot's turns can imply (skid-steer included)."""
 
 
-def _checked_eb(g: FloatArray, w: FloatArray, k: float, scale: float) -> float:
+MAX_BIAS_RADPS = math.radians(20.0)
+"""A gyro's zero-rate offset at rest is within this (a consumer MEMS gyro's data sheet: +-20 deg/s
+at most) [rad/s]."""
+
+SCALE_RANGE = (0.5, 2.0)
+"""The gyro's own scale factor a gyro can have (data sheets: within a few per cent)."""
+
+
+def _checked_eb(g: FloatArray, w: FloatArray, k: float, scale: float, bias_radps: float = 0.0) -> float:
     """``E_b = scale / k``; refused where the gyro turns cannot be a wheelbase's: turning the
     other way (an IMU upside down), an E_b outside :data:`EB_RANGE` that deg/s would put inside
-    (deg/s published as rad/s), or any other E_b outside it."""
+    (deg/s published as rad/s), that rad/s divided by 57.3 (or wheel angles in degrees) would,
+    or any other E_b outside it."""
     against = int(np.sum(np.sign(g) == -np.sign(w)))
+    lo, hi = EB_RANGE
+    deg = math.degrees(1.0)
     if k <= 0 or against > len(g) // 2:
+        also = ""
+        if k != 0 and not lo <= abs(scale / k) <= hi and lo <= abs(scale / k) * deg <= hi:
+            also = f"; it also turned {abs(k):.1f} times as far: its rates look like deg/s published as rad/s"
         raise InputError(
             f"the gyro turned the other way from the wheels in {against} of {len(g)} turns: an IMU mounted "
             "upside down (its z axis pointing down), or the left and right wheels swapped; mount it z up or "
-            "turn its frame in its driver"
+            f"turn its frame in its driver{also}"
         )
     eb = scale / k
-    lo, hi = EB_RANGE
-    if not lo <= eb <= hi and lo <= eb * math.degrees(1.0) <= hi:
+    if not lo <= eb <= hi and lo <= eb * deg <= hi:
         raise InputError(
             f"the gyro turned {1.0 / eb:.1f} times as far as the wheels (E_b {eb:.3g}; read as deg/s, "
-            f"{eb * math.degrees(1.0):.3g}): its rates look like deg/s published as rad/s (sensor_msgs/Imu "
-            "angular_velocity is in rad/s)"
+            f"{eb * deg:.3g}; its bias at rest {math.degrees(bias_radps):.3g} deg/s read as rad/s, "
+            f"{bias_radps:.3g} deg/s as deg/s): its rates look like deg/s published as rad/s "
+            "(sensor_msgs/Imu angular_velocity is in rad/s)"
+        )
+    if not lo <= eb <= hi and 0.5 <= eb / deg <= hi:  # not a nominal wheelbase a few times off
+        raise InputError(
+            f"the wheels turned {eb:.3g} times as far as the gyro (E_b {eb:.3g}; {eb / deg:.3g} with a factor "
+            "57.3 out): the wheel angles look like degrees (JointState positions are radians), or the gyro's "
+            "rates divided by 57.3 (converted from degrees to radians twice)"
         )
     if not lo <= eb <= hi:
         raise InputError(
@@ -213,6 +234,27 @@ def _checked_eb(g: FloatArray, w: FloatArray, k: float, scale: float) -> float:
             "the nominal wheel diameter and wheelbase (units: millimetres or metres) and the Imu topic"
         )
     return eb
+
+
+def _checked_scale(scale: float, source: str) -> None:
+    """Refuse a gyro scale outside :data:`SCALE_RANGE` measured against ``source``."""
+    lo, hi = SCALE_RANGE
+    if lo <= scale <= hi:
+        return
+    deg = math.degrees(1.0)
+    if scale < 0 and source == "lidar":
+        cause = (
+            "the lidar turns the other way from the gyro and the wheels: a lidar mounted upside down (its scans "
+            "mirrored: its frame's z axis down)"
+        )
+    elif lo <= scale / deg <= hi:
+        cause = "its rates look like deg/s published as rad/s"
+    else:
+        cause = "the lidar's turns or the counted turns are not the gyro's (check `sensor_pose` and the full turns)"
+    raise InputError(
+        f"the gyro turned {scale:.3g} times as far as the {source} (its scale; a gyro's is within "
+        f"{lo:g} to {hi:g}): {cause}"
+    )
 
 
 def gyro_history_fields(
@@ -557,13 +599,13 @@ def _gyro_scale(turns: list[GyroTurn], true: dict[int, float]) -> tuple[float, t
 
 
 def _wheelbase_factor(
-    turns: list[GyroTurn], spots: list[int], scale: float, scale_ci: tuple[float, float] | None
+    turns: list[GyroTurn], spots: list[int], scale: float, scale_ci: tuple[float, float] | None, bias: float = 0.0
 ) -> tuple[float, tuple[float, float] | None, list[str]]:
     """``E_b = scale / k`` of the turns fitted and its interval (none, warned, with one turn)."""
     g = np.array([turns[i].gyro_rad for i in spots])
     w = np.array([turns[i].wheels_rad for i in spots])
     k, k_sd = _ratio(g, w)
-    eb = _checked_eb(g, w, k, scale)
+    eb = _checked_eb(g, w, k, scale, bias)
     rel = None
     warnings: list[str] = []
     if k_sd is not None:
@@ -635,10 +677,31 @@ def gyro_reference(
     turns = pooled.turns
     spots, w = _turns_used(turns, min_turn_rad, still_s)
     warnings += w
+    weights = pooled.weights
+    bias = float(np.average(pooled.biases, weights=weights)) if weights else 0.0
+    g = np.array([turns[i].gyro_rad for i in spots])
+    _checked_eb(
+        g,
+        np.array([turns[i].wheels_rad for i in spots]),
+        _ratio(g, np.array([turns[i].wheels_rad for i in spots]))[0],
+        1.0,
+        bias,
+    )
+    if abs(bias) > MAX_BIAS_RADPS:
+        warnings.append(
+            f"the gyro reads {math.degrees(bias):.3g} deg/s at rest: more than any gyro's bias "
+            f"({math.degrees(MAX_BIAS_RADPS):g} deg/s): the robot turning while its wheels rest, or rates in "
+            "another unit; check the Imu topic's readings at rest"
+        )
+    for scan_bag in (scans or {}).values():  # a lidar upside down, ranges or wheels in another unit
+        d_m = 0.5 * (nominal.diameter_left_m + nominal.diameter_right_m)
+        check_bag_motion(scan_bag, d_m, nominal.wheelbase_m, np.asarray(sensor_pose, dtype=float))
     true, source, w = _true_turns(turns, spots, pooled, full_turns, scans, sensor_pose, config)
     warnings += w
     scale, scale_ci = _gyro_scale(turns, true)
-    eb, eb_ci, w = _wheelbase_factor(turns, spots, scale, scale_ci)
+    if true:
+        _checked_scale(scale, "lidar" if source == "lidar" else "counted full turns")
+    eb, eb_ci, w = _wheelbase_factor(turns, spots, scale, scale_ci, bias)
     warnings += w
     used = set(spots)
     turns = [
@@ -646,7 +709,6 @@ def gyro_reference(
         for i, t in enumerate(turns)
     ]
     b = nominal.wheelbase_m
-    weights = pooled.weights
     return GyroReference(
         imu_topic=bags[0].imu_topic,
         nominal_wheelbase_m=b,
@@ -657,7 +719,7 @@ def gyro_reference(
         gyro_scale=scale,
         gyro_scale_ci95=scale_ci,
         gyro_scale_source=source,
-        bias_radps=float(np.average(pooled.biases, weights=weights)) if weights else 0.0,
+        bias_radps=bias,
         noise_radps=float(np.average(pooled.noises, weights=weights)) if weights else float("nan"),
         still_s=pooled.still_total,
         readings=pooled.readings,

@@ -52,6 +52,7 @@ from umbmark.model.kinematics import (
     integrate_steps,
     twist_displacement,
 )
+from umbmark.realrobot.motion_check import check_wheels_against_scans
 from umbmark.realrobot.selfcal import (
     STILL_M,
     IntervalOptions,
@@ -351,6 +352,28 @@ class _Pipeline:
         )
 
 
+MAX_STEERING_RAD = math.pi
+"""No steering joint turns further than this from straight ahead [rad]: beyond it, degrees."""
+
+
+def _check_steering(bag: SelfcalBag, nominal: Kinematics) -> None:
+    """Refuse a steering joint beyond :data:`MAX_STEERING_RAD` (degrees published as radians)."""
+    assert bag.joint_positions is not None
+    pos = np.asarray(bag.joint_positions, dtype=float)
+    for j, rolls in enumerate(nominal.rolling):
+        if rolls or not pos.size:
+            continue
+        top = float(np.max(np.abs(pos[:, j])))
+        if top > MAX_STEERING_RAD:
+            name = bag.joint_names[j] if j < len(bag.joint_names) else f"joint {j + 1}"
+            raise InputError(
+                f"the steering joint {name} reaches {top:.4g} rad ({math.degrees(top):.4g} deg): no steering "
+                f"turns further than {math.degrees(MAX_STEERING_RAD):g} deg from straight; its positions look "
+                f"like degrees ({top:.4g} deg is {math.radians(top):.3g} rad): JointState positions are radians",
+                bag.source,
+            )
+
+
 def kinematic_bag_intervals(
     bag: SelfcalBag,
     nominal: Kinematics,
@@ -386,10 +409,12 @@ def kinematic_bag_intervals(
     src = bag.source
     if bag.joint_positions is None or bag.joint_positions.shape[1] != len(nominal.joint_roles):
         raise InputError(f"the bag's joint data are not a {nominal.kind}'s ({', '.join(nominal.joint_roles)})", src)
+    _check_steering(bag, nominal)
     pipe = _Pipeline(bag, nominal, opts)
     rule = opts.keyframes
     # 1-2: every pair of consecutive scans, matched from the nominal odometry
     st, usable, grid, warnings = pipe.plan(pipe.first)
+    check_wheels_against_scans(bag, st, usable, grid.odometry, pipe.l0, kind=nominal.kind)
     every = np.array(KeyframeRule().select(st, grid.odometry, usable), dtype=np.int64).reshape(-1, 2)
     moving = _moving(grid, every, nominal)
     if not moving.any():

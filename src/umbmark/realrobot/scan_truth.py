@@ -49,7 +49,7 @@ from umbmark.io.wheels import WheelSource
 from umbmark.model.dataset import Dataset, Run
 from umbmark.model.se2 import compose, inverse
 from umbmark.realrobot.scanmatch import ICPConfig, match_scans
-from umbmark.realrobot.selfcal import BASE_FRAMES, MAX_TILT_RAD, sensor_pose_from_tf
+from umbmark.realrobot.selfcal import BASE_FRAMES, MAX_TILT_RAD, check_bag_motion, sensor_pose_from_tf
 
 __all__ = [
     "SCAN_TRUTH_ICP",
@@ -531,6 +531,7 @@ def attach_scan_truth(
     bags: dict[str, SelfcalBag] = {}
     motion: dict[str, tuple[FloatArray, NDArray[np.int8]]] = {}
     next_sample: dict[str, int] = {}
+    checked: set[str] = set()
     out, records = [], []
     for ds in datasets:
         kept = []
@@ -556,6 +557,11 @@ def attach_scan_truth(
                     elif found is not None and pose_used is None:
                         pose_used, pose_src = found
             bag = bags[src]
+            if src not in checked:
+                nom = ds.nominal
+                d_m = 0.5 * (nom.diameter_left_m + nom.diameter_right_m)
+                check_bag_motion(bag, d_m, nom.wheelbase_m, pose_used or (0.0, 0.0, 0.0))
+                checked.add(src)
             t, mv = motion[src]
             next_sample[src], rec = _measure_run(
                 ds,

@@ -67,6 +67,7 @@ from umbmark.model import se2
 from umbmark.model.drive import integrate_wheels
 from umbmark.model.geometry import WheelGeometry
 from umbmark.model.intervals import Intervals, IntervalSteps
+from umbmark.realrobot.motion_check import check_wheels_against_scans
 from umbmark.realrobot.scanmatch import ICPConfig, match_scan_pairs
 from umbmark.realrobot.wheels import recording_wheel_angles
 
@@ -83,6 +84,7 @@ __all__ = [
     "ScanIntervals",
     "ScanDelay",
     "estimate_scan_delay",
+    "check_bag_motion",
     "delay_from_turns",
     "parse_scan_delay",
     "match_pairs",
@@ -1222,6 +1224,54 @@ def parse_scan_delay(value: float | str | None) -> float | str:
     return float(value)
 
 
+def check_bag_motion(
+    bag: SelfcalBag,
+    wheel_diameter_m: float,
+    wheelbase_m: float,
+    sensor_pose: ArrayLike,
+    *,
+    delay_s: float = 0.0,
+    max_wheel_gap_s: float = 0.5,
+) -> None:
+    """The nominal odometry of a differential drive's recording at its scans against the lidar's
+    own motion (:func:`umbmark.realrobot.motion_check.check_wheels_against_scans`; encoder
+    counts read as a running counter are also tried as counts per message).
+
+    Parameters
+    ----------
+    bag : SelfcalBag
+        The recording.
+    wheel_diameter_m, wheelbase_m : float
+        The nominal geometry [m].
+    sensor_pose : array_like
+        ``(x_m, y_m, yaw_rad)``: the lidar's nominal mounting pose.
+    delay_s : float
+        How late the scans are stamped [s].
+    max_wheel_gap_s : float
+        Scans in longer gaps of the wheel data are left out [s].
+
+    Raises
+    ------
+    InputError
+        As :func:`~umbmark.realrobot.motion_check.check_wheels_against_scans`.
+    """
+    d_nom, b_nom = positive("`wheel_diameter_m`", wheel_diameter_m), positive("`wheelbase_m`", wheelbase_m)
+    left, right = recording_wheel_angles(bag, WheelGeometry(d_nom, d_nom, b_nom))
+    wt = np.asarray(bag.wheel_t_s, dtype=float)
+    st = np.asarray(bag.scan_t_s, dtype=float) - delay_s
+    period = float(np.median(np.diff(wt))) if len(wt) > 1 else 0.0
+    usable = usable_scans(st, wt, period, max_wheel_gap_s, bag.source, [])
+    r = 0.5 * d_nom
+
+    def odometry(left: FloatArray, right: FloatArray) -> FloatArray:
+        return integrate_wheels(r * np.diff(np.interp(st, wt, left)), r * np.diff(np.interp(st, wt, right)), b_nom)
+
+    other = {}
+    if bag.wheel_kind == "ticks" and "(cumulative" in bag.wheel_description:
+        other['counts per message (`ticks="incremental"`)'] = odometry(np.cumsum(left), np.cumsum(right))
+    check_wheels_against_scans(bag, st, usable, odometry(left, right), sensor_pose, alternatives=other)
+
+
 def bag_intervals(
     bag: SelfcalBag,
     wheel_diameter_m: float,
@@ -1269,6 +1319,15 @@ def bag_intervals(
     opts = _options(options)
     want, rule, icp, min_intervals = opts.scan_delay, opts.keyframes, opts.icp, opts.min_intervals
     first = 0.0 if want == "auto" else float(want)
+    pose = nominal_sensor_pose_of(bag, opts.sensor_pose, opts.base_frame)[0]
+    check_bag_motion(
+        bag,
+        wheel_diameter_m,
+        wheelbase_m,
+        (pose[0], pose[1], pose[5]),
+        delay_s=first,
+        max_wheel_gap_s=opts.max_wheel_gap_s,
+    )
     # every pair of consecutive scans matched: the scans' delay and the motion the keyframes are chosen on
     every = replace(opts, keyframes=KeyframeRule())
     plan = plan_intervals(bag, wheel_diameter_m, wheelbase_m, every, scan_delay_s=first)
@@ -1614,6 +1673,102 @@ def _pose_warnings(parts: Sequence[ScanIntervals | str], result: SelfcalResult) 
     return out
 
 
+# another reading of an intervals file whose fit costs less than this share of the file's as
+# read names the file's columns as misread
+MISREAD_COST = 0.3
+
+
+def _alternative_readings(iv: Intervals) -> dict[str, Intervals]:
+    """The intervals as other column mistakes would have them: dx and dy exchanged, the turns
+    in degrees."""
+    out = {}
+    swapped = iv.sensor[:, [1, 0, 2]]
+    out["`sensor_dx_m` and `sensor_dy_m` look swapped (dx is along the sensor's forward axis, dy to its left)"] = (
+        swapped
+    )
+    if np.max(np.abs(iv.sensor[:, 2])) > 0.5 * math.pi:
+        degrees = iv.sensor.copy()
+        degrees[:, 2] = np.radians(degrees[:, 2])
+        out["`sensor_dyaw_rad` looks like degrees"] = degrees
+    return {k: replace(iv, sensor=v, covariance=None) for k, v in out.items()}
+
+
+MISREAD_SIZE = (0.2, 5.0)
+"""A fitted wheel diameter or wheelbase beyond these times the nominal is refused: a nominal size
+is within a factor of two of the true one, so the columns or their units are wrong."""
+
+
+def _refuse_unit_ratios(d_ratio: float, b_ratio: float, source: str | None) -> None:
+    """Refuse fitted sizes at a unit's factor from the nominal ones (degrees, millimetres) or
+    beyond :data:`MISREAD_SIZE`."""
+    deg = math.degrees(1.0)
+
+    def near(x: float, k: float) -> bool:
+        return abs(x / k - 1.0) < 0.35
+
+    sizes = f"the wheel diameters come out {d_ratio:.3g} x the nominal and the wheelbase {b_ratio:.3g} x"
+    if near(d_ratio, 1 / deg):
+        cause = "`left_rad` and `right_rad` look like degrees (57.3 times radians)"
+    elif near(d_ratio, 1e3) and near(b_ratio, 1e3):
+        cause = "`sensor_dx_m` and `sensor_dy_m` look like millimetres"
+    elif near(b_ratio, 1 / deg) and 0.5 <= d_ratio <= 2.0:
+        cause = "`sensor_dyaw_rad` looks like degrees (57.3 times radians)"
+    elif not (MISREAD_SIZE[0] <= d_ratio <= MISREAD_SIZE[1] and MISREAD_SIZE[0] <= b_ratio <= MISREAD_SIZE[1]):
+        cause = (
+            "no robot is that far from its nominal sizes: the columns are not what their names say, or in other "
+            "units (dt_s, left_rad, right_rad, sensor_dx_m, sensor_dy_m, sensor_dyaw_rad: seconds, radians, metres), "
+            "or the nominal `wheel_diameter_mm` and `wheelbase_mm` are"
+        )
+    else:
+        return
+    raise InputError(f"{sizes}: {cause}", source)
+
+
+def _refuse_misread_intervals(
+    iv: Intervals, res: SelfcalResult, wheel_diameter_m: float, wheelbase_m: float, options: dict[str, Any]
+) -> None:
+    """Refuse intervals files whose columns the fit shows misread: the wheels' turns against the
+    sensor's (a mirror: a negative wheelbase with positive radii), wheel angles in degrees (the
+    diameters 1/57.3 of nominal), or another reading (:func:`_alternative_readings`) that fits at
+    a fraction of the cost."""
+    rl, rr, b = res.r_left_m, res.r_right_m, res.wheelbase_m
+    if rl > 0 and rr > 0 and b < 0:
+        raise InputError(
+            f"the intervals fit only with the wheels exchanged (positive radii need a negative wheelbase, "
+            f"{1e3 * b:.1f} mm): the sensor turns against the wheels; `left_rad` and `right_rad` are swapped, or "
+            "the sensor's turns counted clockwise (`sensor_dyaw_rad` negated; a sensor upside down mirrors "
+            "`sensor_dy_m` too), or both wheels counted backwards",
+            iv.source,
+        )
+    lo, hi = MISREAD_SIZE
+    if rl * rr < 0 and all(lo <= 2 * abs(r) / wheel_diameter_m <= hi for r in (rl, rr)):
+        which = "left" if rl < 0 else "right"
+        raise InputError(
+            f"the wheel radii come out with opposite signs ({1e3 * rl:.1f} mm, {1e3 * rr:.1f} mm): the {which} "
+            f"wheel's angle is counted backwards: negate `{which}_rad`",
+            iv.source,
+        )
+    ratio = (abs(rl) + abs(rr)) / wheel_diameter_m
+    b_ratio = abs(b) / wheelbase_m
+    _refuse_unit_ratios(ratio, b_ratio, iv.source)
+    yaw = abs(math.remainder(res.sensor_pose[2], 2 * math.pi))
+    odd = yaw > SIDEWAYS_RAD or len(res.intervals_rejected) > 0.1 * len(iv.dt_s)
+    if not (odd or not 0.5 <= ratio <= 2.0 or not 0.5 <= b_ratio <= 2.0) or not math.isfinite(res.cost):
+        return
+    for reading, other in _alternative_readings(iv).items():
+        try:
+            alt = selfcal(other, wheel_diameter_m, wheelbase_m, **options)
+        except InputError:
+            continue
+        if alt.cost < MISREAD_COST * res.cost and len(alt.intervals_rejected) <= len(res.intervals_rejected):
+            raise InputError(
+                f"{reading}: read so the intervals fit at {alt.cost / res.cost:.2g} of the cost "
+                f"({len(alt.intervals_rejected)} outliers instead of {len(res.intervals_rejected)}, the sensor's "
+                f"yaw {math.degrees(alt.sensor_pose[2]):.1f} deg instead of {math.degrees(res.sensor_pose[2]):.1f})",
+                iv.source,
+            )
+
+
 def interval_blocks(parts: Sequence[Any]) -> NDArray[np.intp]:
     """Block labels of the pooled intervals of several inputs, for the covariance of shared errors.
 
@@ -1734,6 +1889,8 @@ def selfcal_report(
         pooled = ivs[0]
     blocks = interval_blocks([p if isinstance(p, ScanIntervals) else p[1] for p in parts])
     res = selfcal(pooled, wheel_diameter_m, wheelbase_m, blocks=blocks, **options)
+    if all(isinstance(p, str) for p in kept):
+        _refuse_misread_intervals(pooled, res, wheel_diameter_m, wheelbase_m, dict(options, blocks=blocks))
     extra_w = _pose_warnings(kept, res)
     if extra_w:
         res = replace(res, warnings=list(res.warnings) + extra_w)

@@ -1,0 +1,220 @@
+"""The wheels' motion against the lidar's, before a self-calibration: units and signs.
+
+The wheel data in another unit (joint positions in degrees, a wrong encoder resolution, counts
+per message read as a running counter) or a lidar mounted upside down (its scans mirrored) do
+not make a self-calibration fail where they are: the scan matching, started from an odometry
+57 times too long, fails and asks to drive longer; a mirrored lidar gives a negative
+wheelbase. :func:`check_wheels_against_scans` compares the two motions directly: consecutive
+scans (a tenth of a second apart: the robot moved little) are matched from no motion at all,
+whatever the wheels say, and the robot's travel and turns they show are set against the nominal
+odometry's over the same scans.
+
+* **Turning the other way**: in most of the scan pairs that turn, the lidar turns against the
+  wheels: a lidar mounted upside down (or the wheels' joints given right before left).
+* **Travel at another scale**: the wheels' travel over the lidar's beyond
+  :data:`TRAVEL_RATIO` either way (the turns' beyond :data:`TURN_RATIO` when the robot only
+  spins: a skid-steer robot turns less than its wheels say): the factor is named, 57.3 as
+  degrees, a factor near nothing as counts per message read as a counter.
+
+SI units. Imports numpy, :mod:`umbmark.model.se2` and the scan matcher.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from umbmark.errors import InputError
+from umbmark.io.rosbag import SelfcalBag
+from umbmark.model import se2
+from umbmark.realrobot.scanmatch import ICPConfig, match_scan_pairs
+
+__all__ = ["check_wheels_against_scans", "TRAVEL_RATIO", "TURN_RATIO", "DEGREE"]
+
+FloatArray = NDArray[np.float64]
+
+TRAVEL_RATIO = 3.0
+"""The wheels' travel over the lidar's beyond this (or below its inverse) is another unit: a
+nominal wheel within a factor of two of the true one, slip of a few per cent."""
+
+TURN_RATIO = 6.0
+"""The same for the turns alone: a skid-steer robot's effective wheelbase is up to four times
+its track (:data:`umbmark.realrobot.gyro.EB_RANGE`)."""
+
+DEGREE = math.degrees(1.0)
+"""A quantity in degrees read as radians is this many times too large."""
+
+_PAIRS = 120  # consecutive scan pairs matched (spread over the recording)
+_MIN_TRAVEL_M = 0.3  # the lidar's summed travel over them that makes a travel ratio
+_MIN_TURN_RAD = math.radians(30.0)  # ... and the summed turn that makes a turn ratio
+_STRAIGHT_RAD = math.radians(1.0)  # a pair turning less counts for the travel ratio
+_TURN_STEP_RAD = math.radians(0.5)  # a pair turning less is left out of the sign count
+_STEP_M = 0.005  # a pair moving less than this forward is left out of the direction count
+_AGAINST = 0.8  # the share of turning pairs turning the other way that names a mirror
+
+
+def _pairs(usable: NDArray[np.bool_]) -> NDArray[np.int64]:
+    """Up to :data:`_PAIRS` consecutive usable scans, spread evenly over the recording (whatever
+    the wheels say: wheel data in another unit may not move where the robot does)."""
+    i = np.flatnonzero(usable[:-1] & usable[1:])
+    if i.size == 0:
+        return np.zeros(0, dtype=np.int64)
+    take = np.unique(np.linspace(0, i.size - 1, min(_PAIRS, i.size)).round().astype(np.int64))
+    return i[take]
+
+
+def _steps(odo: FloatArray) -> FloatArray:
+    """The odometry's motion from each scan to the next, in the robot's frame."""
+    return se2.between(odo[:-1], odo[1:]) if len(odo) > 1 else np.zeros((0, 3))
+
+
+def _unit_cause(ratio: float, wheel_kind: str) -> str:
+    """The likely unit mistake of a travel ratio far from 1."""
+    if abs(ratio / DEGREE - 1.0) < 0.35:
+        what = {
+            "joints": "the joint positions look like degrees (JointState positions are radians)",
+            "ticks": "`pulses_per_wheel_rev` 57.3 times too small, or counts in degrees",
+            "odom": "the odometry's units",
+        }.get(wheel_kind, "wheel angles in degrees")
+        return f"{what}"
+    if ratio < 1.0 / 20.0 and wheel_kind == "ticks":
+        return 'the counts look like counts per message read as a running counter (`ticks="incremental"`)'
+    if ratio < 1.0 / 20.0 and wheel_kind == "joints":
+        return "the joints hardly move while the robot does: other joints than the wheels' (`joints`)"
+    return (
+        "the wheel data's units (joint positions in radians, `pulses_per_wheel_rev`) or the nominal wheel "
+        "size (`wheel_diameter_mm`)"
+    )
+
+
+def check_wheels_against_scans(
+    bag: SelfcalBag,
+    st: ArrayLike,
+    usable: ArrayLike,
+    odometry: ArrayLike,
+    sensor_pose: ArrayLike,
+    *,
+    kind: str = "diff_drive",
+    alternatives: Mapping[str, ArrayLike] | None = None,
+) -> None:
+    """Refuse wheel data whose motion the lidar contradicts (module docstring).
+
+    Parameters
+    ----------
+    bag : SelfcalBag
+        The recording (its scans).
+    st : array_like
+        ``(M,)`` the scans' times on the wheels' clock [s] (unused but for their count).
+    usable : array_like
+        ``(M,)`` the scans with wheel data around them.
+    odometry : array_like
+        ``(M, 3)`` the nominal odometry's robot pose at each scan.
+    sensor_pose : array_like
+        ``(3,)`` the lidar's nominal mounting pose ``(x_m, y_m, yaw_rad)``.
+    kind : str
+        ``diff_drive``, ``tricycle`` or ``mecanum``: the wording of a mirror's causes.
+    alternatives : dict, optional
+        Other readings of the wheel data (how they would be read, in words -> their ``(M, 3)``
+        odometry at the scans): the one the lidar agrees with is named as the cause.
+
+    Raises
+    ------
+    InputError
+        The lidar turns the other way from the wheels, or the wheels travel (turn) a factor
+        beyond :data:`TRAVEL_RATIO` (:data:`TURN_RATIO`) from what the lidar saw.
+    """
+    odo = np.asarray(odometry, dtype=float)
+    use = np.asarray(usable, dtype=bool)
+    if odo.shape != (len(np.asarray(st)), 3) or len(bag.ranges_m) != len(odo):
+        raise InputError(f"`odometry` must hold one pose per scan, got {odo.shape}", bag.source)
+    steps = _steps(odo)
+    i = _pairs(use)
+    if i.size < 10:
+        return
+    m = match_scan_pairs(bag.ranges_m[i], bag.ranges_m[i + 1], bag.angles_rad, None, ICPConfig(coarse=True))
+    ok = np.asarray(m.converged, dtype=bool)
+    if ok.sum() < 10:
+        return
+    lidar = np.asarray(sensor_pose, dtype=float)
+    raw = np.asarray(m.poses, dtype=float)[ok]
+    seen = se2.compose(lidar, se2.compose(raw, se2.inverse(lidar)))
+    # the travel of pairs that hardly turn is the sensor's own, whatever its nominal pose
+    c, si = math.cos(lidar[2]), math.sin(lidar[2])
+    own = np.column_stack([c * raw[:, 0] - si * raw[:, 1], si * raw[:, 0] + c * raw[:, 1]])
+    seen[:, :2] = np.where(np.abs(raw[:, 2:3]) < _STRAIGHT_RAD, own, seen[:, :2])
+    wheel = steps[i[ok]]
+    _check_turn_signs(wheel, seen, kind, bag)
+    other = {k: _steps(np.asarray(v, dtype=float))[i[ok]] for k, v in (alternatives or {}).items()}
+    _check_scale(wheel, seen, bag, other)
+
+
+def _check_turn_signs(wheel: FloatArray, seen: FloatArray, kind: str, bag: SelfcalBag) -> None:
+    """Refuse turns the other way: mirrored scans (the lidar upside down) or wheels exchanged
+    when the robot's forward travel agrees; wheels counted backwards when it does not."""
+    turning = (np.abs(seen[:, 2]) > _TURN_STEP_RAD) & (np.abs(wheel[:, 2]) > 0.1 * _TURN_STEP_RAD)
+    n = int(turning.sum())
+    against = int(np.sum(np.sign(seen[turning, 2]) != np.sign(wheel[turning, 2])))
+    if n < 5 or against < _AGAINST * n:
+        return
+    ahead = (np.abs(seen[:, 0]) > _STEP_M) & (np.abs(wheel[:, 0]) > 0.1 * _STEP_M)
+    back = int(np.sum(np.sign(seen[ahead, 0]) != np.sign(wheel[ahead, 0])))
+    where = f"the lidar turns the other way from the wheels in {against} of {n} scan pairs that turn"
+    if ahead.sum() >= 5 and back >= _AGAINST * ahead.sum():
+        backwards = {
+            "diff_drive": "both wheels' angles count backwards when the robot drives forward (negate them)",
+            "tricycle": "the traction joint turns backwards when the robot drives forward",
+            "mecanum": "the wheels' joints turn backwards when the robot drives forward, or the joints are in "
+            "another order (FL,FR,RL,RR)",
+        }.get(kind, "the wheels count backwards")
+        raise InputError(f"{where}, and it moves back where they drive forward: {backwards}", bag.source)
+    swap = {
+        "diff_drive": "the wheels given right before left (`joints`)",
+        "tricycle": "the steering joint's angle clockwise positive (it must be counter-clockwise positive)",
+        "mecanum": "the wheels' joints given in another order (`joints` FL,FR,RL,RR)",
+    }.get(kind, "the wheels exchanged")
+    raise InputError(
+        f"{where}: a lidar mounted upside down (its scans mirrored: its frame's z axis down; turn it over in the "
+        f"URDF or the driver), or {swap}",
+        bag.source,
+    )
+
+
+def _ratio(wheel: FloatArray, seen: FloatArray) -> tuple[float, float, str, str] | None:
+    """The wheels' travel over the lidar's (their turn over its, when the robot hardly
+    travels), its bound, what was compared and how much the lidar saw; None: too little motion."""
+    straight = np.abs(seen[:, 2]) < _STRAIGHT_RAD  # the lever arm of a wrong sensor pose does not count there
+    travel_seen = float(np.sum(np.hypot(seen[straight, 0], seen[straight, 1])))
+    turn_seen = float(np.sum(np.abs(seen[:, 2])))
+    if travel_seen >= _MIN_TRAVEL_M:
+        travel_wheel = float(np.sum(np.hypot(wheel[straight, 0], wheel[straight, 1])))
+        return travel_wheel / travel_seen, TRAVEL_RATIO, "travel", f"{travel_seen:.2f} m"
+    if turn_seen >= _MIN_TURN_RAD:
+        turn_wheel = float(np.sum(np.abs(wheel[:, 2])))
+        return turn_wheel / turn_seen, TURN_RATIO, "turn", f"{math.degrees(turn_seen):.0f} deg"
+    return None
+
+
+def _check_scale(wheel: FloatArray, seen: FloatArray, bag: SelfcalBag, alternatives: dict[str, FloatArray]) -> None:
+    found = _ratio(wheel, seen)
+    if found is None:
+        return
+    ratio, bound, what, seen_text = found
+    cause = None
+    if not 0.5 <= ratio <= 2.0:  # another reading the lidar agrees with names itself
+        for reading, steps in alternatives.items():
+            other = _ratio(steps, seen)
+            if other is not None and other[2] == what and 1.0 / 1.5 <= other[0] <= 1.5:
+                cause = f"they look like {reading} (read so, they {what} {other[0]:.3g} times as far)"
+                break
+    if cause is None:
+        if 1.0 / bound <= ratio <= bound:
+            return
+        cause = _unit_cause(ratio, bag.wheel_kind)
+    raise InputError(
+        f"the wheels {what} {ratio:.3g} times as far as the lidar sees the robot {what} ({seen_text} over "
+        f"{len(seen)} pairs of consecutive scans): {cause}",
+        bag.source,
+    )
