@@ -62,7 +62,8 @@ def unit_slip(kind: str, value_m: float, unit: str) -> str | None:
     Parameters
     ----------
     kind : str
-        ``"diameter"``, ``"radius"`` or ``"wheelbase"``.
+        ``"diameter"``, ``"radius"``, ``"wheelbase"`` or ``"lx_plus_ly"`` (a mecanum robot's half
+        wheelbase plus half track, within a wheelbase's range).
     value_m : float
         The size as given, converted to metres with its stated unit.
     unit : str
@@ -75,18 +76,18 @@ def unit_slip(kind: str, value_m: float, unit: str) -> str | None:
         half a diameter); else a sentence such as ``"0.15 mm is no wheel's diameter (...):
         given in metres? 0.15 m is 150 mm"``.
     """
-    if kind not in ("diameter", "radius", "wheelbase"):
+    if kind not in ("diameter", "radius", "wheelbase", "lx_plus_ly"):
         raise ValueError(f"unknown kind {kind!r}")
     if not math.isfinite(value_m) or value_m <= 0:
         return None  # a sign or a NaN is the callers' own check
-    lo, hi = ROBOT_SIZES_M["wheelbase" if kind == "wheelbase" else "diameter"]
+    lo, hi = ROBOT_SIZES_M["diameter" if kind in ("diameter", "radius") else "wheelbase"]
     if kind == "radius":
         lo, hi = lo / 2, hi / 2
     if lo <= value_m <= hi:
         return None
     scale = 1e-3 if unit == "mm" else 1.0
     given = value_m / scale
-    what = "wheelbase" if kind == "wheelbase" else f"wheel's {kind}"
+    what = {"wheelbase": "wheelbase", "lx_plus_ly": "mecanum robot's lx + ly"}.get(kind, f"wheel's {kind}")
     text = f"{given:g} {unit} is no {what} (a robot's is {lo / scale:g} to {hi / scale:g} {unit})"
     if unit == "mm" and value_m < lo:
         return f"{text}: given in metres? {given:g} m is {given * 1000.0:g} mm"
