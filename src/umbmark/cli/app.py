@@ -122,6 +122,7 @@ PARAM_FLAGS = {
     "left_diameter_mm": "--left-diameter-mm",
     "left_field": "--left-field",
     "limit": "--limit",
+    "lx_plus_ly_mm": "--lx-plus-ly-mm",
     "max_wheel_gap_s": "--max-wheel-gap-s",
     "method": "--method",
     "odom_topic": "--odom-topic",

@@ -42,7 +42,7 @@ from umbmark.errors import InputError
 from umbmark.io.load import LogOptions
 from umbmark.metrics import umbmark_figures
 from umbmark.model.dataset import Dataset, Run, WheelGeometry, replay_increments
-from umbmark.model.geometry import wrap_angle
+from umbmark.model.geometry import nominal_slip, wrap_angle
 from umbmark.model.runs import RunsTable
 from umbmark.realrobot.results import (
     AcrossHeldOut,
@@ -437,9 +437,6 @@ def _heldout_loo(ds: Dataset, method: str, lsq_options: dict | None, full: Calib
     return HeldOut(scheme, ErrorSummary(**_summary(errors, runs)), held)
 
 
-# a calibrated wheel size or wheelbase beyond this factor from the nominal one is a nominal
-# size in another unit or quantity (a diameter given as the radius), not an odometry error
-_FAR_FROM_NOMINAL = 1.5
 # the tracked point's lever arm is named when fitting it removes this share of the position
 # residual and it is this far from the axle (and beyond three standard deviations)
 _LEVER_GAIN = 0.3
@@ -449,8 +446,9 @@ _LEVER_MIN_M = 0.01
 def calibration_notes(ds: Dataset, cal: Calibrated, lsq_options: dict | None = None) -> list[str]:
     """Warnings about what a calibration's numbers say of its inputs.
 
-    * A corrected mean wheel diameter or wheelbase more than :data:`_FAR_FROM_NOMINAL` times
-      from the nominal one: the nominal size was given in another unit or as another quantity.
+    * A corrected mean wheel diameter or wheelbase far from the nominal one
+      (:func:`umbmark.model.geometry.nominal_slip`): the nominal size was given in another unit or
+      as another quantity.
     * ``lsq`` along the path without the tracked point's offset: the fit is repeated with it,
       and an offset that explains much of the residual (a motion-capture marker ahead of the
       axle biases the wheelbase) is named with how to fit it.
@@ -472,15 +470,15 @@ def calibration_notes(ds: Dataset, cal: Calibrated, lsq_options: dict | None = N
     g, n = cal.geometry, cal.nominal
     d_ratio = g.diameter_avg_m / n.diameter_avg_m
     b_ratio = g.wheelbase_m / n.wheelbase_m
-    for what, ratio, got, nom in (
-        ("mean wheel diameter", d_ratio, g.diameter_avg_m, n.diameter_avg_m),
-        ("wheelbase", b_ratio, g.wheelbase_m, n.wheelbase_m),
+    for what, kind, ratio, got, nom in (
+        ("mean wheel diameter", "diameter", d_ratio, g.diameter_avg_m, n.diameter_avg_m),
+        ("wheelbase", "wheelbase", b_ratio, g.wheelbase_m, n.wheelbase_m),
     ):
-        if not 1 / _FAR_FROM_NOMINAL <= ratio <= _FAR_FROM_NOMINAL:
-            hint = " (a diameter given as the radius?)" if what != "wheelbase" and 0.4 < ratio < 0.6 else ""
+        slip = nominal_slip(kind, ratio)
+        if slip is not None:
             notes.append(
                 f"the calibrated {what} is {1e3 * got:.1f} mm, {ratio:.2f} times the nominal {1e3 * nom:.1f} mm: "
-                f"the nominal size is likely in another unit or another quantity{hint}; give the robot's "
+                f"the nominal size is likely in another unit or another quantity ({slip}); give the robot's "
                 "nominal geometry, or the calibration's correction factors mean little"
             )
     res = cal.lsq
