@@ -152,6 +152,8 @@ PARAM_FLAGS = {
     "wheel_separation_m": "--wheel-separation-m",
     "wheelbase_mm": "--wheelbase-mm",
 }
+# boolean parameters set False by a flag of their own
+PARAM_NO_FLAGS = {"fit_offset": "--no-fit-marker-offset"}
 _PARAM = re.compile(r"`(\w+)(?:=([^`]*))?`")
 
 
@@ -176,6 +178,8 @@ def cli_message(text: str) -> str:
         f = PARAM_FLAGS[name]
         if value is None or value == "True":
             return f
+        if value == "False" and name in PARAM_NO_FLAGS:
+            return PARAM_NO_FLAGS[name]
         return f"{f} {value.strip(chr(34) + chr(39))}"
 
     return _PARAM.sub(flag, text)

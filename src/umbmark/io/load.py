@@ -200,8 +200,6 @@ def load_logs(
     _check_log_numbers(opts)
     if fmt in ("optiodom", "csv"):
         ds = _load_optiodom(paths, opts.side_m) if fmt == "optiodom" else _load_csv(paths, opts)
-        if opts.time_offset is None:
-            return ds
         from umbmark.model.timing import align_truth
 
         return align_truth(ds, opts.time_offset, "optiodom folder" if fmt == "optiodom" else "CSV log")
