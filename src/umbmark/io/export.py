@@ -804,9 +804,17 @@ def _firmware_export(
 ) -> str:
     """The ``firmware`` export: a C header with the millimetres per pulse and the wheelbase."""
     if mmpp is None:
+        held = (
+            "this gyro result (replay --imu-topic) holds the wheelbase only; "
+            if cal.method == "gyro"
+            else "this calibration does not hold them; "
+            if cal.source and cal.source != "command line"
+            else ""
+        )
         raise InputError(
             "the firmware export needs the nominal wheel diameters and encoder pulses per wheel "
-            "revolution (give `wheel_diameter_mm` and `pulses_per_wheel_rev`, or use replay's JSON)"
+            f"revolution ({held}give `wheel_diameter_mm` and `pulses_per_wheel_rev`, or export the JSON of a "
+            "replay of a log that holds them)"
         )
     lines = ["/* " + _c_comment(_header(cal, "").strip()) + " */"]
     lines += ["/* warning: " + _c_comment(w) + " */" for w in notes]
