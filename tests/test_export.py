@@ -209,7 +209,9 @@ def test_absurd_written_values_are_refused(capsys):
     with pytest.raises(InputError, match="left_wheel_radius_multiplier"):
         format_export(ExportCalibration(900.0, 1.0, 1.0), "ros2", left0=900.0)
     with pytest.raises(InputError, match="left_mm_per_pulse"):
-        format_export(ExportCalibration(1.0, 1.0, 1.0, 1e5, 1e5, 0.34, 1e-5), "firmware")
+        format_export(ExportCalibration(1.0, 1.0, 1.0, 3.0, 3.0, 0.34, 1e-9), "firmware")
+    with pytest.raises(InputError, match="nominal_diameter_left_mm: 1e\\+08 mm is no wheel's diameter"):
+        ExportCalibration(1.0, 1.0, 1.0, 1e5, 1e5, 0.34, 1e-5)  # a size no robot has: refused as such
     with pytest.raises(InputError, match="pulses_per_wheel_rev = 1e-300"):
         ExportCalibration(1.0, 1.0, 1.0, 0.15, 0.15, 0.34, 1e-300)
     with pytest.raises(InputError, match="nominal_diameter_left_mm = 1e\\+308"):

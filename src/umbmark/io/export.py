@@ -44,6 +44,7 @@ from pathlib import Path
 from umbmark._check import positive
 from umbmark.errors import InputError
 from umbmark.io.atomic import atomic_write
+from umbmark.model.geometry import unit_slip
 
 __all__ = [
     "ExportCalibration",
@@ -218,6 +219,9 @@ class ExportCalibration:
         for k in ("nominal_diameter_left_m", "nominal_diameter_right_m", "nominal_wheelbase_m"):
             if getattr(self, k) is not None:
                 _size(k[:-2] + "_mm", getattr(self, k) * 1e3, self.source)
+                slip = unit_slip("wheelbase" if "wheelbase" in k else "diameter", getattr(self, k), "mm")
+                if slip is not None:  # a size no robot has: written, it would be loaded as it is
+                    raise InputError(f"{k[:-2]}_mm: {slip}: refusing to export it", self.source)
         if self.pulses_per_wheel_rev is not None:
             object.__setattr__(
                 self, "pulses_per_wheel_rev", _size("pulses_per_wheel_rev", self.pulses_per_wheel_rev, self.source)
