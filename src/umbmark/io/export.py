@@ -477,6 +477,9 @@ def _calibration_from_dict(d: dict, src: str) -> ExportCalibration:
     for k in ("diameter_left_mm", "diameter_right_mm", "wheelbase_mm", "units_per_wheel_rev"):
         if nom.get(k) is not None:
             _pos(f"nominal {k}", nom[k], src)
+            slip = None if k == "units_per_wheel_rev" else unit_slip(k.split("_")[0], nom[k] * 1e-3, "mm")
+            if slip is not None:  # before the factors, which such a size makes absurd
+                raise InputError(f"nominal {k}: {slip}: refusing to export it", source=src)
     if "wheelbase_corrected_mm" in d and ("wheelbase_mm" in d or nom):
         used = nom.get("wheelbase_mm") if nom else d["wheelbase_mm"]
         eb = _pos("wheelbase_corrected_mm", d["wheelbase_corrected_mm"], src) / _pos("wheelbase_mm", used, src)
