@@ -812,7 +812,7 @@ def _firmware_export(
     """The ``firmware`` export: a C header with the millimetres per pulse and the wheelbase."""
     if mmpp is None:
         held = (
-            "this gyro result (replay --imu-topic) holds the wheelbase only; "
+            "this gyro result (`imu_topic`) holds the wheelbase only; "
             if cal.method == "gyro"
             else "this calibration does not hold them; "
             if cal.source and cal.source != "command line"

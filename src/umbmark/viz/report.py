@@ -472,9 +472,9 @@ def replay_analysis(result: dict[str, Any], source: str = "<replay>") -> tuple[A
         made = "replay against a ground truth" if "marker_pose" in result else "self-calibration"
         robot = "mecanum robot" if kind == "mecanum" else kind
         raise InputError(
-            f"a {robot}'s {made} (--kinematics {kind}): the report shows a differential drive's results; the "
-            f"command's table holds its figures, and `umbmark export {Path(source).name if source else 'FILE'} "
-            f"--format ros2` writes the {kind} controller's parameters",
+            f"a {robot}'s {made} (`kinematics={kind}`): the report shows a differential drive's results; the "
+            f"command's table holds its figures, and its export (`fmt=\"ros2\"`) writes the {kind} controller's "
+            "parameters",
             source=source,
         )
     if not isinstance(result, dict) or "before" not in result or "method" not in result:
@@ -483,15 +483,14 @@ def replay_analysis(result: dict[str, Any], source: str = "<replay>") -> tuple[A
         )
     if result.get("kind") != "square":
         gyro = (
-            " and the gyro's check (report a replay --imu-topic without --gt-topic for that)"
+            " and the gyro's check (for that, report a replay with `imu_topic` and without `gt_topic`)"
             if ("gyro" in result)
             else ""
         )
         raise InputError(
             f"a replay along a general path (method {result.get('method')}){gyro}: the report shows UMBmark "
             "square runs; the command's table and JSON hold this one's figures, its calibration exports as it is "
-            f"(`umbmark export {Path(source).name if source else 'FILE'} --format ros2`), or replay square runs "
-            "(--side-mm) and report those",
+            '(`fmt="ros2"`), or replay square runs (`side_mm`) and report those',
             source=source,
         )
     try:
