@@ -412,7 +412,7 @@ def test_report_of_a_replay_result_refuses_what_it_cannot_use(replay_bag, tmp_pa
         assert said in err and len(err.strip().splitlines()) == 1
     d = json.loads(save.read_text())
     for name, broken, said in (
-        ("path.json", {**d, "kind": "path"}, "not square runs"),
+        ("path.json", {**d, "kind": "path"}, "a replay along a general path"),
         ("other.json", {"Ed": 1.0}, "not a result the report can show"),
         (
             "analysis.json",

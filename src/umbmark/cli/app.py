@@ -118,10 +118,15 @@ PARAM_FLAGS = {
     "fmt": "--format",
     "gt_frame": "--gt-frame",
     "gt_scan_topic": "--gt-scan-topic",
+    "gt_topic": "--gt-topic",
+    "imu_topic": "--imu-topic",
     "joints": "--joints",
+    "kinematics": "--kinematics",
     "left_diameter_mm": "--left-diameter-mm",
     "left_field": "--left-field",
+    "left_multiplier": "--left-multiplier",
     "limit": "--limit",
+    "lx_plus_ly_mm": "--lx-plus-ly-mm",
     "max_wheel_gap_s": "--max-wheel-gap-s",
     "method": "--method",
     "odom_topic": "--odom-topic",
@@ -131,11 +136,13 @@ PARAM_FLAGS = {
     "record": "--record",
     "right_diameter_mm": "--right-diameter-mm",
     "right_field": "--right-field",
+    "right_multiplier": "--right-multiplier",
     "robot": "--robot NAME",
     "runs": "--runs",
     "scale": "--scale",
     "scan_delay": "--scan-delay",
     "scan_frame": "--scan-frame",
+    "separation_multiplier": "--separation-multiplier",
     "sensor_pose": "--sensor-pose",
     "side_mm": "--side-mm",
     "speed_m_s": "--speed-m-s",
@@ -152,6 +159,8 @@ PARAM_FLAGS = {
     "wheel_separation_m": "--wheel-separation-m",
     "wheelbase_mm": "--wheelbase-mm",
 }
+# boolean parameters set False by a flag of their own
+PARAM_NO_FLAGS = {"fit_offset": "--no-fit-marker-offset"}
 _PARAM = re.compile(r"`(\w+)(?:=([^`]*))?`")
 
 
@@ -176,6 +185,8 @@ def cli_message(text: str) -> str:
         f = PARAM_FLAGS[name]
         if value is None or value == "True":
             return f
+        if value == "False" and name in PARAM_NO_FLAGS:
+            return PARAM_NO_FLAGS[name]
         return f"{f} {value.strip(chr(34) + chr(39))}"
 
     return _PARAM.sub(flag, text)

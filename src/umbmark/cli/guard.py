@@ -13,10 +13,11 @@
   commands check against tighter limits. NaN and infinities are left to the commands' own
   checks; a failure such a value causes deep in the numbers that those miss is reported as
   that option, in one line, not a traceback.
-* **Wheels and wheelbases are a robot's.** A wheel diameter or radius, a wheelbase or wheel
-  separation option outside what a robot can have (:func:`umbmark.model.geometry.unit_slip`)
-  is refused in one line naming the likely unit slip (``--wheel-diameter-mm 0.15``: given in
-  metres?) before the command reads any data, so no advice about the driving follows.
+* **Wheels and wheelbases are a robot's.** A wheel diameter or radius, a wheelbase, wheel
+  separation or mecanum ``lx + ly`` option outside what a robot can have
+  (:func:`umbmark.model.geometry.unit_slip`) is refused in one line naming the likely unit slip
+  (``--wheel-diameter-mm 0.15``: given in metres?) before the command reads any data, so no
+  advice about the driving follows.
 * **A file whose name starts with a dash** (``-x.csv``) is read by click as options: the
   error says to write ``./-x.csv`` or to put ``--`` before it.
 """
@@ -96,7 +97,12 @@ MAX_SIZE_M = 1e6
 # size options the commands check against their own, tighter, limits (with their own messages)
 _OWN_SIZE_CHECKS = ("side_mm", "resolution_mm")
 # the words that make a size option a wheel's size or the wheelbase (checked by unit_slip)
-_GEOMETRY_WORDS = {"diameter": ("diameter",), "radius": ("radius",), "wheelbase": ("wheelbase", "separation")}
+_GEOMETRY_WORDS = {
+    "diameter": ("diameter",),
+    "radius": ("radius",),
+    "wheelbase": ("wheelbase", "separation"),
+    "lx_plus_ly": ("lx_plus_ly",),
+}
 
 
 def path_roles(command_path: str) -> dict[str, str]:

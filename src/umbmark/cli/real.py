@@ -384,9 +384,10 @@ def _print_stream(rep) -> None:
     help="lsq, sampled mode: poses compared per run.",
 )
 @click.option(
-    "--fit-marker-offset",
-    is_flag=True,
-    help="lsq, sampled mode: also fit where the tracked point sits relative to the axle midpoint.",
+    "--fit-marker-offset/--no-fit-marker-offset",
+    default=None,
+    help="lsq, sampled mode: also fit where the tracked point sits relative to the axle midpoint "
+    "[default: where the data determine it, with a warning saying so].",
 )
 @click.option("--no-heldout", is_flag=True, help="Skip the held-out (leave-one-run-out) figures.")
 @click.option(

@@ -9,6 +9,7 @@ import numpy as np
 
 from umbmark.errors import InputError
 from umbmark.model.dataset import Run, WheelGeometry
+from umbmark.model.geometry import nominal_slip
 
 __all__ = ["wheels_against_truth", "check_tick_mode"]
 
@@ -79,10 +80,16 @@ def wheels_against_truth(
             src,
         )
     lo, hi = _TRAVEL_RATIO
-    if gt_path > 100 * _STILL_M and not lo <= wheel_path / gt_path <= hi:
+    slip = nominal_slip("diameter", gt_path / wheel_path) if wheel_path > 0 and gt_path > 0 else None
+    if gt_path > 100 * _STILL_M and (slip is not None or not lo <= wheel_path / gt_path <= hi):
+        lead = (
+            f"the nominal wheel diameter is {wheel_path / gt_path:.2f} times the one the travel shows: {slip} Else c"
+            if slip
+            else "c"
+        )
         return [
             f"{src}: the wheels travel {wheel_path:.3g} m by the nominal geometry, the ground truth {gt_path:.3g} m: "
-            f"check {travel_hint}"
+            f"{lead}heck {travel_hint}"
         ]
     if max(gt_turn, wheel_turn) < _MIN_TURN_RAD:
         return []
@@ -98,10 +105,16 @@ def wheels_against_truth(
             f"turn in radians: its headings are degrees, read as radians ({degrees_hint})",
             src,
         )
-    if not lo <= wheel_turn / max(gt_turn, 1e-12) <= hi:
+    slip = nominal_slip("wheelbase", wheel_turn / gt_turn) if wheel_turn > 0 and gt_turn > 0 else None
+    if slip is not None or not lo <= wheel_turn / max(gt_turn, 1e-12) <= hi:
+        lead = (
+            f"the nominal wheelbase is {gt_turn / wheel_turn:.2f} times the one the turns show: {slip} Else c"
+            if slip
+            else "c"
+        )
         return [
             f"{src}: the wheels turn the robot by {math.degrees(wheel_turn):.3g} deg in total by the nominal geometry, "
-            f"the ground truth by {math.degrees(gt_turn):.3g} deg: check {turn_hint}"
+            f"the ground truth by {math.degrees(gt_turn):.3g} deg: {lead}heck {turn_hint}"
         ]
     return []
 

@@ -44,6 +44,7 @@ from pathlib import Path
 from umbmark._check import positive
 from umbmark.errors import InputError
 from umbmark.io.atomic import atomic_write
+from umbmark.model.geometry import unit_slip
 
 __all__ = [
     "ExportCalibration",
@@ -61,6 +62,7 @@ __all__ = [
     "scale_note",
     "FACTOR_LIMITS",
     "PLAUSIBLE_FACTORS",
+    "IN_USE_LIMITS",
 ]
 
 FORMATS = ("ros2", "ros1", "json", "firmware", "urdf", "tf")
@@ -79,6 +81,15 @@ FACTOR_LIMITS = (1e-3, 1e3)
 _SIZE_LIMITS = (1e-9, 1e12)
 # factors beyond these are far from any calibration of a real robot: a warning
 PLAUSIBLE_FACTORS = {"c": (0.8, 1.25), "Ed": (0.8, 1.25), "Eb": (0.5, 2.0)}
+# a multiplier in use beyond these corrects a controller's wheel_radius or wheel_separation set an order
+# of magnitude off (a unit slip in its configuration) or is a size typed for the multiplier: refused
+IN_USE_LIMITS = (0.1, 10.0)
+# the multipliers in use: parameter (as messages name it), the controller's name, the factor it scales
+_IN_USE = (
+    ("left_multiplier", "left_wheel_radius_multiplier", "c"),
+    ("right_multiplier", "right_wheel_radius_multiplier", "c"),
+    ("separation_multiplier", "wheel_separation_multiplier", "Eb"),
+)
 
 
 def _plain(text: object) -> str:
@@ -208,6 +219,9 @@ class ExportCalibration:
         for k in ("nominal_diameter_left_m", "nominal_diameter_right_m", "nominal_wheelbase_m"):
             if getattr(self, k) is not None:
                 _size(k[:-2] + "_mm", getattr(self, k) * 1e3, self.source)
+                slip = unit_slip("wheelbase" if "wheelbase" in k else "diameter", getattr(self, k), "mm")
+                if slip is not None:  # a size no robot has: written, it would be loaded as it is
+                    raise InputError(f"{k[:-2]}_mm: {slip}: refusing to export it", self.source)
         if self.pulses_per_wheel_rev is not None:
             object.__setattr__(
                 self, "pulses_per_wheel_rev", _size("pulses_per_wheel_rev", self.pulses_per_wheel_rev, self.source)
@@ -463,6 +477,9 @@ def _calibration_from_dict(d: dict, src: str) -> ExportCalibration:
     for k in ("diameter_left_mm", "diameter_right_mm", "wheelbase_mm", "units_per_wheel_rev"):
         if nom.get(k) is not None:
             _pos(f"nominal {k}", nom[k], src)
+            slip = None if k == "units_per_wheel_rev" else unit_slip(k.split("_")[0], nom[k] * 1e-3, "mm")
+            if slip is not None:  # before the factors, which such a size makes absurd
+                raise InputError(f"nominal {k}: {slip}: refusing to export it", source=src)
     if "wheelbase_corrected_mm" in d and ("wheelbase_mm" in d or nom):
         used = nom.get("wheelbase_mm") if nom else d["wheelbase_mm"]
         eb = _pos("wheelbase_corrected_mm", d["wheelbase_corrected_mm"], src) / _pos("wheelbase_mm", used, src)
@@ -526,8 +543,14 @@ def ros_multipliers(cal: ExportCalibration, left0: float = 1.0, right0: float = 
     InputError
         A multiplier (in use or new) that is not a positive number within :data:`FACTOR_LIMITS`.
     """
-    for n, v in (("left multiplier", left0), ("right multiplier", right0), ("separation multiplier", separation0)):
-        _factor(n, v)
+    for (param, ros, _), v in zip(_IN_USE, (left0, right0, separation0)):
+        _pos(f"the {ros} in use (`{param}`)", v)
+        lo, hi = IN_USE_LIMITS
+        if not lo <= v <= hi:
+            raise InputError(
+                f"the {ros} in use (`{param}`) is {v:g}: no controller runs with a multiplier beyond {lo:g} to "
+                f"{hi:g} (a size given for the multiplier?); give the controller's {ros} (1 unless it was changed)"
+            )
     out = {
         "wheel_separation_multiplier": separation0 * cal.eb,
         "left_wheel_radius_multiplier": left0 * cal.c_left,
@@ -613,11 +636,15 @@ def export_warnings(
     ]
     if (left0, right0, separation0) != (1.0, 1.0, 1.0):
         m = ros_multipliers(cal, left0, right0, separation0)
-        found += [
-            _outside("left_wheel_radius_multiplier", m["left_wheel_radius_multiplier"], "c"),
-            _outside("right_wheel_radius_multiplier", m["right_wheel_radius_multiplier"], "c"),
-            _outside("wheel_separation_multiplier", m["wheel_separation_multiplier"], "Eb"),
-        ]
+        for (param, ros, key), v in zip(_IN_USE, (left0, right0, separation0)):
+            lo, hi = PLAUSIBLE_FACTORS[key]
+            if lo <= v <= hi:
+                found.append(_outside(ros, m[ros], key))
+            else:  # the one in use, not the calibration, is far out
+                found.append(
+                    f"the {ros} in use (`{param}`) is {v:g}, far outside the corrections of real robots ({lo:g} to "
+                    f"{hi:g}): check it is the controller's own value (the written {ros} is {m[ros]:.6g})"
+                )
     if cal.wheels_include_prior and (left0, right0) != (1.0, 1.0):
         found.append(
             "c_left and c_right of this calibration already include the wheel factors the robot ran with "
@@ -784,9 +811,17 @@ def _firmware_export(
 ) -> str:
     """The ``firmware`` export: a C header with the millimetres per pulse and the wheelbase."""
     if mmpp is None:
+        held = (
+            "this gyro result (`imu_topic`) holds the wheelbase only; "
+            if cal.method == "gyro"
+            else "this calibration does not hold them; "
+            if cal.source and cal.source != "command line"
+            else ""
+        )
         raise InputError(
             "the firmware export needs the nominal wheel diameters and encoder pulses per wheel "
-            "revolution (give `wheel_diameter_mm` and `pulses_per_wheel_rev`, or use replay's JSON)"
+            f"revolution ({held}give `wheel_diameter_mm` and `pulses_per_wheel_rev`, or export the JSON of a "
+            "replay of a log that holds them)"
         )
     lines = ["/* " + _c_comment(_header(cal, "").strip()) + " */"]
     lines += ["/* warning: " + _c_comment(w) + " */" for w in notes]

@@ -288,6 +288,11 @@ def format_kinematic_export(
         raise InputError(f"unknown export format {fmt!r} (choose from {', '.join(KINEMATIC_FORMATS)})")
     if not (math.isfinite(steering_offset0_rad) and math.isfinite(steering_reduction0) and steering_reduction0 != 0):
         raise InputError("the steering transmission in use needs a finite offset and a non-zero reduction")
+    if abs(steering_offset0_rad) > math.pi:
+        raise InputError(
+            f"the steering offset in use, {math.degrees(steering_offset0_rad):g} deg ({steering_offset0_rad:g} "
+            "rad), is beyond half a turn: no steering transmission's offset (an angle in another unit?)"
+        )
     noun = "tricycle" if cal.kind == "tricycle" else "mecanum robot"
     head = f"umbmark self-calibration of a {noun} from {cal.source}"
     if fmt == "urdf":

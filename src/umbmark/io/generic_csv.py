@@ -38,6 +38,7 @@ from umbmark.errors import InputError
 from umbmark.io._checks import check_tick_mode, wheels_against_truth
 from umbmark.io._text import csv_rows, csv_writer, header_columns, parse_number, read_text
 from umbmark.model.dataset import Dataset, Run, WheelGeometry, to_start_frame
+from umbmark.model.geometry import unit_slip
 
 __all__ = [
     "read_generic_csv",
@@ -86,6 +87,9 @@ def _geometry_values(line: str, src: str, n: int) -> dict[str, float] | None:
         v = parse_number(out[k], k, src, n)
         if not (math.isfinite(v) and v > 0):
             raise InputError(f"nominal geometry {k} must be a positive number, got {out[k]!r}", src, n)
+        slip = None if k == "pulses_per_wheel_rev" else unit_slip(k.split("_")[-2], v * 1e-3, "mm")
+        if slip is not None:
+            raise InputError(f"nominal geometry {k}: {slip}", src, n)
         vals[k] = v
     return vals
 

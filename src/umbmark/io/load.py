@@ -200,8 +200,6 @@ def load_logs(
     _check_log_numbers(opts)
     if fmt in ("optiodom", "csv"):
         ds = _load_optiodom(paths, opts.side_m) if fmt == "optiodom" else _load_csv(paths, opts)
-        if opts.time_offset is None:
-            return ds
         from umbmark.model.timing import align_truth
 
         return align_truth(ds, opts.time_offset, "optiodom folder" if fmt == "optiodom" else "CSV log")
@@ -338,7 +336,7 @@ def _read_one_bag(path: str | Path, opts: LogOptions) -> Dataset:
             raise
         hint = wheel_source_hint(path)  # no wheel source either: say which the bag offers
         raise InputError(e.message + (f"; and the wheel data{hint}" if hint else ""), source=e.source) from None
-    return read_bag(
+    ds = read_bag(
         path,
         nominal=nominal,
         wheels=opts.wheels,
@@ -351,6 +349,31 @@ def _read_one_bag(path: str | Path, opts: LogOptions) -> Dataset:
         side_m=opts.side_m,
         time_offset=opts.time_offset,
     )
+    return _bag_wheels_against_truth(ds)
+
+
+def _bag_wheels_against_truth(ds: Dataset) -> Dataset:
+    """A bag's runs with a ground-truth track checked against their wheels and the nominal
+    geometry (:func:`umbmark.io._checks.wheels_against_truth`): the warnings added to the data set's."""
+    from umbmark.io._checks import wheels_against_truth
+
+    found: list[str] = []
+    for r in ds.runs:
+        try:
+            found += wheels_against_truth(
+                r,
+                ds.nominal,
+                ds.units_per_wheel_rev,
+                "the ground truth's topic and frame (metres), the wheel diameters and the wheel data's unit",
+                "the wheelbase, and that the ground truth's frame is the robot's",
+                "the ground truth's orientation",
+            )
+        except InputError:
+            continue  # the bag reader's own checks judge a ground truth that does not move
+    if not found:
+        return ds
+    found = list(dict.fromkeys(found))  # the runs of one bag say the same
+    return replace(ds, meta={**ds.meta, "warnings": (*(ds.meta.get("warnings") or ()), *found)})
 
 
 def parse_ranges(text: str) -> list[tuple[float, float]]:

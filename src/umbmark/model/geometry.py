@@ -49,6 +49,8 @@ __all__ = [
     "wrap_angle",
     "ROBOT_SIZES_M",
     "unit_slip",
+    "FAR_FROM_NOMINAL",
+    "nominal_slip",
 ]
 
 # what a wheeled robot's geometry can be (metres): a wheel's diameter (a toy robot's 1 cm to a
@@ -62,7 +64,8 @@ def unit_slip(kind: str, value_m: float, unit: str) -> str | None:
     Parameters
     ----------
     kind : str
-        ``"diameter"``, ``"radius"`` or ``"wheelbase"``.
+        ``"diameter"``, ``"radius"``, ``"wheelbase"`` or ``"lx_plus_ly"`` (a mecanum robot's half
+        wheelbase plus half track, within a wheelbase's range).
     value_m : float
         The size as given, converted to metres with its stated unit.
     unit : str
@@ -75,24 +78,73 @@ def unit_slip(kind: str, value_m: float, unit: str) -> str | None:
         half a diameter); else a sentence such as ``"0.15 mm is no wheel's diameter (...):
         given in metres? 0.15 m is 150 mm"``.
     """
-    if kind not in ("diameter", "radius", "wheelbase"):
+    if kind not in ("diameter", "radius", "wheelbase", "lx_plus_ly"):
         raise ValueError(f"unknown kind {kind!r}")
     if not math.isfinite(value_m) or value_m <= 0:
         return None  # a sign or a NaN is the callers' own check
-    lo, hi = ROBOT_SIZES_M["wheelbase" if kind == "wheelbase" else "diameter"]
+    lo, hi = ROBOT_SIZES_M["diameter" if kind in ("diameter", "radius") else "wheelbase"]
     if kind == "radius":
         lo, hi = lo / 2, hi / 2
     if lo <= value_m <= hi:
         return None
     scale = 1e-3 if unit == "mm" else 1.0
     given = value_m / scale
-    what = "wheelbase" if kind == "wheelbase" else f"wheel's {kind}"
+    what = {"wheelbase": "wheelbase", "lx_plus_ly": "mecanum robot's lx + ly"}.get(kind, f"wheel's {kind}")
     text = f"{given:g} {unit} is no {what} (a robot's is {lo / scale:g} to {hi / scale:g} {unit})"
     if unit == "mm" and value_m < lo:
         return f"{text}: given in metres? {given:g} m is {given * 1000.0:g} mm"
     if unit == "m" and value_m > hi:
         return f"{text}: given in millimetres? {given:g} mm is {given / 1000.0:g} m"
     return text
+
+
+# an estimate outside these factors of its nominal size is no odometry error (corrections of real
+# wheels stay within 0.8 to 1.25; a skid-steer robot's effective wheelbase is up to about twice its
+# track): the nominal size was given in another unit or as another quantity
+FAR_FROM_NOMINAL = {"diameter": (1 / 1.5, 1.5), "wheelbase": (1 / 1.5, 2.5), "lx_plus_ly": (1 / 1.5, 2.0)}
+# the factors a slip gives (the estimate over the nominal), each within 20 %
+_SLIPS = {
+    "diameter": (
+        (0.5, "a diameter given as the radius (`wheel_radius_m` takes half the diameter)?"),
+        (2.0, "a radius given as the diameter (`wheel_diameter_mm` takes twice the radius)?"),
+    ),
+    "wheelbase": ((0.5, "a size twice the wheelbase given (the distance between the wheels' contact points)?"),),
+    "lx_plus_ly": ((0.5, "the wheelbase plus the track given (lx + ly is half of each)?"),),
+}
+_UNIT_SLIPS = (
+    (1e-3, "millimetres given as metres?"),
+    (1e3, "metres given as millimetres?"),
+    (25.4, "inches given as millimetres?"),
+)
+
+
+def nominal_slip(kind: str, ratio: float) -> str | None:
+    """What an estimated size ``ratio`` times its nominal one says of the nominal.
+
+    Parameters
+    ----------
+    kind : str
+        ``"diameter"`` (a wheel's, or the mean of the wheels), ``"wheelbase"`` or
+        ``"lx_plus_ly"`` (a mecanum robot's).
+    ratio : float
+        The estimate (from the data) over the nominal size given.
+
+    Returns
+    -------
+    str or None
+        None within :data:`FAR_FROM_NOMINAL` (a robot's own error); else the likely slip,
+        e.g. ``"a diameter given as the radius (...)?"`` for 0.5 with a diameter, or the
+        unit it is in; ``"the nominal size is in another unit or another quantity"`` otherwise.
+    """
+    if kind not in FAR_FROM_NOMINAL:
+        raise ValueError(f"unknown kind {kind!r}")
+    lo, hi = FAR_FROM_NOMINAL[kind]
+    if not (math.isfinite(ratio) and ratio > 0) or lo <= ratio <= hi:
+        return None
+    for factor, text in (*_SLIPS[kind], *_UNIT_SLIPS):
+        if abs(math.log(ratio / factor)) < math.log(1.2):
+            return text
+    return "the nominal size is in another unit or another quantity?"
 
 
 def wrap_angle(a: Any) -> Any:

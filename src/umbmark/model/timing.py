@@ -1072,6 +1072,31 @@ def _check_truth_coverage(
         )
 
 
+def _unaligned_note(ds, runs: list, found: list, what: str):
+    """The data set as it is, with a warning when every run's ground truth is late (or early) by more than
+    :data:`LARGE_OFFSET_S` and a sample period, by estimates of one sign (``meta["truth_delay_s"]``: their
+    median)."""
+    from dataclasses import replace
+
+    est = [f[0] for f in found]
+    periods = [_median_period(r.t[np.all(np.isfinite(r.gt), axis=1)]) for r in runs]
+    if not est or any(e is None for e in est):
+        return ds
+    late = all(e > max(LARGE_OFFSET_S, p) for e, p in zip(est, periods))
+    early = all(e < -max(LARGE_OFFSET_S, p) for e, p in zip(est, periods))
+    if not (late or early):
+        return ds
+    med = float(np.median(est))
+    corr = min(float(f[1]) for f in found)
+    note = (
+        f"the ground truth of every run of this {what} is {abs(med):.3f} s {'late' if late else 'early'} against the "
+        f"wheels (cross-correlation of the turn rates, correlation {corr:.2f} or more): the calibration is biased by "
+        f"it; give `time_offset=auto` (or `time_offset={med:.3f}`, positive: the ground truth is late) to correct it"
+    )
+    meta = {**ds.meta, "truth_delay_s": med, "warnings": (*(ds.meta.get("warnings") or ()), note)}
+    return replace(ds, meta=meta)
+
+
 def align_truth(ds, time_offset, what: str = "log"):
     """A data set whose ground-truth trajectories are moved in time against the wheels.
 
@@ -1086,8 +1111,9 @@ def align_truth(ds, time_offset, what: str = "log"):
     ----------
     ds : umbmark.model.dataset.Dataset
         The logged runs.
-    time_offset : "auto" or float
-        See :func:`parse_time_offset`.
+    time_offset : None, "auto" or float
+        See :func:`parse_time_offset`. None: the runs are left as they are, with a warning when
+        every run's ground truth is late (or early) by more than :data:`LARGE_OFFSET_S`.
     what : str
         What the runs were read from, for messages.
 
@@ -1109,7 +1135,7 @@ def align_truth(ds, time_offset, what: str = "log"):
     from umbmark.model.dataset import Run
 
     request = parse_time_offset(time_offset)
-    if request is None:
+    if request is None and not any(r.has_trajectory for r in ds.runs):
         return ds
     g = ds.nominal
     mpu_l = math.pi * g.diameter_left_m / ds.units_per_wheel_rev
@@ -1123,6 +1149,8 @@ def align_truth(ds, time_offset, what: str = "log"):
         heading = np.cumsum(r.d_right * mpu_r - r.d_left * mpu_l) / g.wheelbase_m
         found.append(estimate_time_offset(r.t, heading, r.t[ok], r.gt[ok, 2]))
     good = [f[0] for f in found if f[0] is not None]
+    if request is None:
+        return _unaligned_note(ds, runs, found, what)
     if request == "auto":
         if not good:
             why = next(f[3] for f in found if f[3] is not None)

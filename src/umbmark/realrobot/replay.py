@@ -37,12 +37,12 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from umbmark.correct import METHODS, correct_runs
-from umbmark.correct.lsq import LSQ_DEFAULTS, fit_lsq
+from umbmark.correct.lsq import LSQ_DEFAULTS, LsqResult, fit_lsq
 from umbmark.errors import InputError
 from umbmark.io.load import LogOptions
 from umbmark.metrics import umbmark_figures
 from umbmark.model.dataset import Dataset, Run, WheelGeometry, replay_increments
-from umbmark.model.geometry import wrap_angle
+from umbmark.model.geometry import nominal_slip, wrap_angle
 from umbmark.model.runs import RunsTable
 from umbmark.realrobot.results import (
     AcrossHeldOut,
@@ -282,7 +282,8 @@ def calibrate(
     """
     if method == "lsq":
         sets = ds if isinstance(ds, (list, tuple)) else [ds]
-        res = fit_lsq(sets, **{**LSQ_DEFAULTS, **(lsq_options or {})})
+        opts = {**LSQ_DEFAULTS, **(lsq_options or {})}
+        res = fit_lsq(sets, **{**opts, "fit_offset": bool(opts["fit_offset"])})  # None (auto): see auto_offset
         return Calibrated("lsq", res.geometry, res.nominal, lsq=res)
     if method not in METHODS:
         raise InputError(f"unknown method {method!r} (choose from {', '.join(method_names())})")
@@ -437,23 +438,135 @@ def _heldout_loo(ds: Dataset, method: str, lsq_options: dict | None, full: Calib
     return HeldOut(scheme, ErrorSummary(**_summary(errors, runs)), held)
 
 
-# a calibrated wheel size or wheelbase beyond this factor from the nominal one is a nominal
-# size in another unit or quantity (a diameter given as the radius), not an odometry error
-_FAR_FROM_NOMINAL = 1.5
 # the tracked point's lever arm is named when fitting it removes this share of the position
 # residual and it is this far from the axle (and beyond three standard deviations)
 _LEVER_GAIN = 0.3
 _LEVER_MIN_M = 0.01
+# ... and fitted by default (``fit_offset`` None) when it removes this share and is this far: a
+# marker clearly off the axle (the 9 to 23 mm of the OptiOdom sets remove 40 % at most)
+_LEVER_AUTO_GAIN = 0.7
+_LEVER_AUTO_M = 0.03
+
+
+def _truth_delayed(ds: Dataset) -> bool:
+    """True when the ground truth is late or early against the wheels as used (estimated less applied
+    beyond :data:`umbmark.model.timing.LARGE_OFFSET_S`): its lag, not a lever arm, explains the residual."""
+    from umbmark.model.timing import LARGE_OFFSET_S
+
+    if ds.meta.get("truth_delay_s") is not None:
+        return True
+    for o in ds.meta.get("time_offset") or ():
+        est, applied = o.get("estimated_s"), o.get("applied_s") or 0.0
+        if est is not None and abs(est - applied) > max(LARGE_OFFSET_S, o.get("truth_period_s") or 0.0):
+            return True
+    return False
+
+
+def _lever_arm(ds: Dataset, cal: Calibrated, opts: dict) -> tuple[LsqResult, bool] | None:
+    """The ``lsq`` fit repeated with the tracked point's offset, when that offset explains much of the
+    residual (see :data:`_LEVER_GAIN`), and whether it explains most of it (:data:`_LEVER_AUTO_GAIN`);
+    None when it does not, the fit was along the end poses, or the ground truth is delayed."""
+    res = cal.lsq
+    if res is None or res.mode != "sampled" or _truth_delayed(ds):
+        return None
+    try:
+        with_arm = fit_lsq([ds], **{**opts, "fit_offset": True, "start": cal.geometry})
+    except InputError:
+        return None
+    assert with_arm.marker_offset_m is not None and with_arm.marker_offset_std_m is not None
+    off = np.asarray(with_arm.marker_offset_m)
+    sd = np.asarray(with_arm.marker_offset_std_m)
+    arm = float(np.hypot(*off))
+    far = arm >= _LEVER_MIN_M and bool(np.any(np.abs(off) > 3 * sd))
+    if not (far and with_arm.rms_position_m < (1 - _LEVER_GAIN) * res.rms_position_m):
+        return None
+    return with_arm, arm >= _LEVER_AUTO_M and with_arm.rms_position_m < (1 - _LEVER_AUTO_GAIN) * res.rms_position_m
+
+
+def _where(off: np.ndarray) -> str:
+    side = "left" if off[1] >= 0 else "right"
+    return (
+        f"a point {1e3 * abs(off[0]):.0f} mm {'ahead of' if off[0] >= 0 else 'behind'} and {1e3 * abs(off[1]):.0f} "
+        f"mm {side} of the axle midpoint"
+    )
+
+
+def auto_offset(ds: Dataset, cal: Calibrated, lsq_options: dict | None = None) -> tuple[Calibrated, str] | None:
+    """``lsq`` with ``fit_offset`` None (the default): the calibration with the tracked point's offset
+    fitted, when the data determine it (a marker clearly off the axle that explains most of the residual).
+
+    Parameters
+    ----------
+    ds : Dataset
+        The data set calibrated.
+    cal : Calibrated
+        Its ``lsq`` calibration without the offset.
+    lsq_options : dict, optional
+        The options of the fit.
+
+    Returns
+    -------
+    (Calibrated, str) or None
+        The calibration with the offset and a note saying so; None when the offset was given
+        (``fit_offset`` True or False) or the data do not determine it.
+    """
+    opts = {**LSQ_DEFAULTS, **(lsq_options or {})}
+    if (lsq_options or {}).get("fit_offset") is not None:
+        return None
+    found = _lever_arm(ds, cal, {**opts, "fit_offset": False})
+    if found is None or not found[1]:
+        return None
+    with_arm = found[0]
+    assert with_arm.marker_offset_m is not None and cal.lsq is not None
+    note = (
+        f"the ground truth moves as {_where(np.asarray(with_arm.marker_offset_m))} (a motion-capture marker off the "
+        f"axle): its offset is fitted with the geometry, as the data determine it (the position residual falls from "
+        f"{1e3 * cal.lsq.rms_position_m:.1f} to {1e3 * with_arm.rms_position_m:.1f} mm; without it E_b would be "
+        f"{cal.geometry.wheelbase_m / cal.nominal.wheelbase_m:.4f}); `fit_offset=False` fits without it"
+    )
+    return Calibrated("lsq", with_arm.geometry, with_arm.nominal, lsq=with_arm), note
+
+
+def axle_truth(ds: Dataset, offset_m) -> Dataset:
+    """The data set with the ground truth of a tracked point at ``offset_m`` (x, y in the robot frame)
+    moved to the axle midpoint, in the same start frame (as :func:`umbmark.correct.lsq.fit_lsq`
+    models the tracked point): what the replayed odometry is evaluated against once the offset is
+    fitted.
+
+    Parameters
+    ----------
+    ds : Dataset
+        Runs with ground-truth tracks (runs without one are kept as they are).
+    offset_m : (float, float)
+        The tracked point's offset [m].
+
+    Returns
+    -------
+    Dataset
+    """
+    ox, oy = (float(v) for v in offset_m)
+    runs = []
+    for r in ds.runs:
+        if r.gt is None:
+            runs.append(r)
+            continue
+        g = np.asarray(r.gt, dtype=float)
+        c, s = np.cos(g[:, 2]), np.sin(g[:, 2])
+        moved = np.column_stack([g[:, 0] - (c - 1.0) * ox + s * oy, g[:, 1] - s * ox - (c - 1.0) * oy, g[:, 2]])
+        runs.append(replace(r, gt=moved))
+    return replace(ds, runs=tuple(runs))  # the same runs: their directions kept
 
 
 def calibration_notes(ds: Dataset, cal: Calibrated, lsq_options: dict | None = None) -> list[str]:
     """Warnings about what a calibration's numbers say of its inputs.
 
-    * A corrected mean wheel diameter or wheelbase more than :data:`_FAR_FROM_NOMINAL` times
-      from the nominal one: the nominal size was given in another unit or as another quantity.
+    * A corrected mean wheel diameter or wheelbase far from the nominal one
+      (:func:`umbmark.model.geometry.nominal_slip`): the nominal size was given in another unit or
+      as another quantity.
     * ``lsq`` along the path without the tracked point's offset: the fit is repeated with it,
       and an offset that explains much of the residual (a motion-capture marker ahead of the
-      axle biases the wheelbase) is named with how to fit it.
+      axle biases the wheelbase) is named with how to fit it; not when the ground truth is late
+      or early against the wheels (its lag, named by the readers, explains the residual).
 
     Parameters
     ----------
@@ -472,38 +585,28 @@ def calibration_notes(ds: Dataset, cal: Calibrated, lsq_options: dict | None = N
     g, n = cal.geometry, cal.nominal
     d_ratio = g.diameter_avg_m / n.diameter_avg_m
     b_ratio = g.wheelbase_m / n.wheelbase_m
-    for what, ratio, got, nom in (
-        ("mean wheel diameter", d_ratio, g.diameter_avg_m, n.diameter_avg_m),
-        ("wheelbase", b_ratio, g.wheelbase_m, n.wheelbase_m),
+    for what, kind, ratio, got, nom in (
+        ("mean wheel diameter", "diameter", d_ratio, g.diameter_avg_m, n.diameter_avg_m),
+        ("wheelbase", "wheelbase", b_ratio, g.wheelbase_m, n.wheelbase_m),
     ):
-        if not 1 / _FAR_FROM_NOMINAL <= ratio <= _FAR_FROM_NOMINAL:
-            hint = " (a diameter given as the radius?)" if what != "wheelbase" and 0.4 < ratio < 0.6 else ""
+        slip = nominal_slip(kind, ratio)
+        if slip is not None:
             notes.append(
                 f"the calibrated {what} is {1e3 * got:.1f} mm, {ratio:.2f} times the nominal {1e3 * nom:.1f} mm: "
-                f"the nominal size is likely in another unit or another quantity{hint}; give the robot's "
+                f"the nominal size is likely in another unit or another quantity ({slip}); give the robot's "
                 "nominal geometry, or the calibration's correction factors mean little"
             )
-    res = cal.lsq
     opts = {**LSQ_DEFAULTS, **(lsq_options or {})}
-    if res is not None and res.mode == "sampled" and not opts.get("fit_offset"):
-        try:
-            with_arm = fit_lsq([ds], **{**opts, "fit_offset": True, "start": g})
-        except InputError:
-            return notes
-        assert with_arm.marker_offset_m is not None and with_arm.marker_offset_std_m is not None
-        off = np.asarray(with_arm.marker_offset_m)
-        sd = np.asarray(with_arm.marker_offset_std_m)
-        far = float(np.hypot(*off)) >= _LEVER_MIN_M and bool(np.any(np.abs(off) > 3 * sd))
-        if far and with_arm.rms_position_m < (1 - _LEVER_GAIN) * res.rms_position_m:
-            side = "left" if off[1] >= 0 else "right"
-            notes.append(
-                f"the ground truth moves as a point {1e3 * off[0]:.0f} mm {'ahead of' if off[0] >= 0 else 'behind'} "
-                f"and {1e3 * abs(off[1]):.0f} mm {side} of the axle midpoint (a motion-capture marker off the axle?): "
-                f"fitted with that offset the position residual falls from {1e3 * res.rms_position_m:.1f} to "
-                f"{1e3 * with_arm.rms_position_m:.1f} mm and E_b is "
-                f"{with_arm.geometry.wheelbase_m / n.wheelbase_m:.4f} (here {g.wheelbase_m / n.wheelbase_m:.4f}); "
-                "fit the offset (`fit_offset`)"
-            )
+    found = None if opts.get("fit_offset") else _lever_arm(ds, cal, {**opts, "fit_offset": False})
+    if found is not None and cal.lsq is not None:
+        with_arm, res = found[0], cal.lsq
+        assert with_arm.marker_offset_m is not None
+        notes.append(
+            f"the ground truth moves as {_where(np.asarray(with_arm.marker_offset_m))} (a motion-capture marker off "
+            f"the axle?): fitted with that offset the position residual falls from {1e3 * res.rms_position_m:.1f} to "
+            f"{1e3 * with_arm.rms_position_m:.1f} mm and E_b is {with_arm.geometry.wheelbase_m / n.wheelbase_m:.4f} "
+            f"(here {g.wheelbase_m / n.wheelbase_m:.4f}); fit the offset (`fit_offset`)"
+        )
     return notes
 
 
@@ -546,7 +649,9 @@ def replay_report(
     method : str
         The calibration method (:func:`method_names`).
     lsq_options : dict, optional
-        Options of the ``lsq`` fit.
+        Options of the ``lsq`` fit. ``fit_offset`` not given (or None): the tracked point's
+        offset is fitted where the data determine it (:func:`auto_offset`, with a warning saying
+        so); True or False: it is, or is not.
     heldout : bool
         Also compute the held-out figures: leave-one-run-out and, with several data sets,
         across data sets (see the module docstring).
@@ -569,9 +674,16 @@ def replay_report(
     parts = []
     for ds in datasets:
         ds, warnings, turn = prepare(ds)
-        cal = calibrate(ds, method, lsq_options)
-        warnings = [*warnings, *calibration_notes(ds, cal, lsq_options)]
-        loo = _heldout_loo(ds, method, lsq_options, cal) if heldout else None
+        opts = lsq_options
+        cal = calibrate(ds, method, opts)
+        auto = auto_offset(ds, cal, opts) if method == "lsq" else None
+        if auto is not None:
+            cal, opts = auto[0], {**(opts or {}), "fit_offset": True}
+            warnings = [*warnings, auto[1]]
+        warnings = [*warnings, *calibration_notes(ds, cal, opts)]
+        if cal.lsq is not None and cal.lsq.marker_offset_m is not None:  # the odometry is the axle's
+            ds = axle_truth(ds, cal.lsq.marker_offset_m)
+        loo = _heldout_loo(ds, method, opts, cal) if heldout else None
         parts.append((ds, cal, turn, warnings, loo))
     if len(parts) == 1:
         ds, cal, turn, warnings, loo = parts[0]

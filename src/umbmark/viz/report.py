@@ -467,14 +467,30 @@ def replay_analysis(result: dict[str, Any], source: str = "<replay>") -> tuple[A
             "report that",
             source=source,
         )
+    if isinstance(result, dict) and result.get("kinematics") in ("tricycle", "mecanum"):
+        kind = result["kinematics"]
+        made = "replay against a ground truth" if "marker_pose" in result else "self-calibration"
+        robot = "mecanum robot" if kind == "mecanum" else kind
+        raise InputError(
+            f"a {robot}'s {made} (`kinematics={kind}`): the report shows a differential drive's results; the "
+            f"command's table holds its figures, and its export (`fmt=\"ros2\"`) writes the {kind} controller's "
+            "parameters",
+            source=source,
+        )
     if not isinstance(result, dict) or "before" not in result or "method" not in result:
         raise InputError(
             "not a result the report can show (the JSON a replay or a self-calibration saves)", source=source
         )
     if result.get("kind") != "square":
+        gyro = (
+            " and the gyro's check (for that, report a replay with `imu_topic` and without `gt_topic`)"
+            if ("gyro" in result)
+            else ""
+        )
         raise InputError(
-            f"the replay result is of a {result.get('kind', 'general')} path, not square runs: the report needs "
-            "square runs",
+            f"a replay along a general path (method {result.get('method')}){gyro}: the report shows UMBmark "
+            "square runs; the command's table and JSON hold this one's figures, its calibration exports as it is "
+            '(`fmt="ros2"`), or replay square runs (`side_mm`) and report those',
             source=source,
         )
     try:

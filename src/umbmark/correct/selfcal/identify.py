@@ -24,6 +24,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from umbmark.correct.selfcal.model import PARAMETERS
+from umbmark.model.geometry import nominal_slip
 
 __all__ = [
     "Driving",
@@ -310,11 +311,12 @@ def plausibility(p: ArrayLike, wheel_diameter_m: float, wheelbase_m: float) -> l
         ("right wheel diameter", 2 * abs(rr), wheel_diameter_m),
     ):
         ratio = value / nominal
-        if not 0.5 <= ratio <= 2.0:
+        slip = nominal_slip("diameter", ratio)
+        if slip is not None:
             out.append(
                 f"the {name} comes out {ratio:.3g} x the nominal `wheel_diameter_m` ({1e3 * value:.1f} mm against "
-                f"{1e3 * nominal:.1f} mm): wheel angles not in radians (degrees, encoder ticks, a gear ratio), "
-                "a wrong nominal diameter or swapped wheels"
+                f"{1e3 * nominal:.1f} mm): {slip} Else wheel angles not in radians (degrees, encoder ticks, a gear "
+                "ratio), a wrong nominal diameter or swapped wheels"
             )
     ratio = abs(b) / wheelbase_m
     if not 0.5 <= ratio <= 2.0:

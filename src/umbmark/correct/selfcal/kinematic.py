@@ -53,7 +53,7 @@ from umbmark.correct.selfcal.estimate import (
 )
 from umbmark.errors import InputError
 from umbmark.model import se2
-from umbmark.model.geometry import wrap_angle
+from umbmark.model.geometry import nominal_slip, wrap_angle
 from umbmark.model.kinematics import JointIntervals, Kinematics, Mecanum, Tricycle, twist_displacement
 
 __all__ = [
@@ -609,6 +609,33 @@ def _refuse_negative(nominal: Kinematics, g: FloatArray, source: str | None) -> 
     raise InputError(f"the fit needs a negative {' and '.join(bad)} (or the steering half a turn off): {why}", source)
 
 
+# the nominal sizes as the command line names them, by kind of length
+_NOMINAL_FLAGS = {"diameter": "`wheel_diameter_mm`", "wheelbase": "`wheelbase_mm`", "lx_plus_ly": "`lx_plus_ly_mm`"}
+
+
+def _nominal_notes(nominal: Kinematics, g: FloatArray, free: NDArray[np.bool_]) -> list[str]:
+    """A fitted length far from its nominal one (the mean of a mecanum robot's wheels): the nominal
+    size given in another unit or as another quantity (:func:`umbmark.model.geometry.nominal_slip`)."""
+    nom = nominal.vector()
+    groups: dict[str, list[int]] = {}
+    for i, name in enumerate(nominal.parameter_names):
+        kind = "diameter" if "diameter" in name else name.removesuffix("_m") if name.endswith("_m") else None
+        if kind in _NOMINAL_FLAGS and free[i]:
+            groups.setdefault(kind, []).append(i)
+    out = []
+    for kind, idx in groups.items():
+        est, was = float(np.mean(g[idx])), float(np.mean(nom[idx]))
+        slip = nominal_slip(kind, est / was) if was > 0 else None
+        if slip is not None:
+            what = {"diameter": "wheel diameter", "wheelbase": "wheelbase", "lx_plus_ly": "lx + ly"}[kind]
+            out.append(
+                f"the {what} comes out {est / was:.3g} x the nominal {_NOMINAL_FLAGS[kind]} ({1e3 * est:.1f} mm "
+                f"against {1e3 * was:.1f} mm): {slip} The estimate is the robot's; give the nominal size right "
+                "so that the controller's parameters and the factors against it mean what they say"
+            )
+    return out
+
+
 def _result(
     prob: KinematicProblem, fit: Fit, unc: Uncertainty, iv: JointIntervals, nominal: Kinematics
 ) -> KinematicSelfcalResult:
@@ -630,6 +657,7 @@ def _result(
             f"{rejected.size} of {len(iv)} intervals ({100 * rejected.size / len(iv):.0f} %) rejected as outliers: "
             "check the scan matching (and the joint data) of those intervals"
         )
+    warnings += _nominal_notes(nominal, g, prob.free)
     names = tuple(n for n, f in zip(nominal.parameter_names, prob.free) if f) + SENSOR_PARAMETERS
     sd = np.sqrt(np.maximum(np.diag(unc.covariance), 0.0))
     tq = unc.t_quantile
