@@ -777,11 +777,13 @@ def convert(paths, log_format, target, out, **kw):
       umbmark convert run1_bag run2_bag --odom-topic /odom --gt-topic /mocap/pose \\
         --wheel-diameter-mm 100 --wheelbase-mm 300 --out log.csv
     """
+    from umbmark._files import check_distinct_inputs
     from umbmark.io.atomic import atomic_write
     from umbmark.io.generic_csv import format_generic_csv
     from umbmark.io.runs_csv import write_runs_csv
     from umbmark.realrobot.replay import prepare, square_runs
 
+    check_distinct_inputs([p for p in paths if Path(p).exists()])
     sets = _datasets(paths, log_format, kw)
     if len(sets) != 1:
         raise InputError("convert takes one data set (one optiodom folder, or bags, or CSV logs)")
