@@ -22,7 +22,7 @@ from umbmark.cli import (
     selfcal,  # noqa: F401,E402  selfcal
     validate,  # noqa: F401,E402  validate
 )
-from umbmark.cli.app import app, cli_message
+from umbmark.cli.app import app, cli_message, keep_as_given
 from umbmark.errors import UmbmarkError
 
 __all__ = ["app", "main"]
@@ -47,6 +47,7 @@ def main(argv=None) -> int:
     """
     args = sys.argv[1:] if argv is None else list(argv)
     prog = "umbmark"
+    keep_as_given(args, reset=True)
     try:
         rv = app.main(args=args, prog_name=prog, standalone_mode=False)
         code = rv if isinstance(rv, int) else 0
@@ -61,6 +62,7 @@ def main(argv=None) -> int:
         sys.stderr.write(f"{where}: error: {_one_line(e.format_message())}\n")
         code = 2
     except UmbmarkError as e:
+        keep_as_given([str(getattr(e, "source", None) or ""), *getattr(e, "data", ())])
         sys.stderr.write(f"{prog}: error: {_one_line(cli_message(str(e)))}\n")
         code = 2
     except OSError as e:
