@@ -3,6 +3,8 @@ stderr with exit status 2; no traceback for bad input."""
 
 from __future__ import annotations
 
+import errno
+import os
 import sys
 
 import click
@@ -32,6 +34,31 @@ def _one_line(text: str) -> str:
     return " ".join(str(text).split())
 
 
+def _os_error(e: OSError, process: bool) -> str:
+    """The one line of a system error: the file it names, else the standard output a write
+    without a file name goes to (a full disk behind ``> out.json``); ``process``: the console
+    script, whose standard output is then closed."""
+    why = _one_line(e.strerror or str(e))
+    if getattr(e, "filename", None):
+        return f"cannot access {e.filename}: {why}"
+    if e.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO):
+        if process:
+            _silence_stdout()
+        return f"cannot write the standard output: {why}"
+    return f"system error: {why}"
+
+
+def _silence_stdout() -> None:
+    """Drop what is left in the standard output's buffer (it cannot be written: the interpreter
+    would report it again at exit)."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):
+        pass
+
+
 def main(argv=None) -> int:
     """Entry point of the ``umbmark`` console script.
 
@@ -51,6 +78,7 @@ def main(argv=None) -> int:
     try:
         rv = app.main(args=args, prog_name=prog, standalone_mode=False)
         code = rv if isinstance(rv, int) else 0
+        sys.stdout.flush()  # a full disk or a closed pipe behind stdout: reported here
     except click.exceptions.Exit as e:
         code = e.exit_code
     except click.exceptions.Abort:
@@ -68,8 +96,7 @@ def main(argv=None) -> int:
     except OSError as e:
         if isinstance(e, BrokenPipeError):
             return 0
-        name = f" {e.filename}" if getattr(e, "filename", None) else ""
-        sys.stderr.write(f"{prog}: error: cannot access{name}: {_one_line(e.strerror or str(e))}\n")
+        sys.stderr.write(f"{prog}: error: {_os_error(e, argv is None)}\n")
         code = 2
     if argv is None:
         sys.exit(code)
