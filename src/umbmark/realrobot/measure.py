@@ -556,6 +556,31 @@ class MeasuredRuns:
         }
 
 
+# the odometry's end heading after a square: near 0 or, unwrapped, one full turn (degrees)
+_MAX_END_HEADING_DEG = 720.0
+
+
+def _check_odometry(rows: list[MeasuredRun], source: str | None) -> None:
+    """Refuse an odometry end pose no square run ends at: beyond the longest tape from the start
+    (the run returns to where it started), or a heading beyond two turns."""
+    for r in rows:
+        for col, v in (("x_odo", r.x_odo_mm), ("y_odo", r.y_odo_mm)):
+            if not abs(v) <= _MAX_WALL_M * 1e3:
+                raise InputError(
+                    f"column {col}: the odometry's end {v:g} mm from the start: a square run returns to its start "
+                    f"(at most {_MAX_WALL_M * 1e3:g} mm; the file is in millimetres)",
+                    source,
+                    r.line,
+                )
+        if r.theta_odo_deg is not None and not abs(r.theta_odo_deg) <= _MAX_END_HEADING_DEG:
+            raise InputError(
+                f"column theta_odo: an end heading of {r.theta_odo_deg:g} deg: a square run ends within a turn of its "
+                f"start heading (at most {_MAX_END_HEADING_DEG:g} deg; the file is in degrees)",
+                source,
+                r.line,
+            )
+
+
 def measure_runs(
     marks: RobotMarks,
     rows: list[MeasuredRun],
@@ -590,6 +615,7 @@ def measure_runs(
     """
     if not rows:
         raise InputError("no runs to measure", source)
+    _check_odometry(rows, source)
     d = np.array([r.distances_mm for r in rows], dtype=float) * 1e-3
     lines = np.array([r.line if r.line is not None else 0 for r in rows])
     has_lines = any(r.line for r in rows)
