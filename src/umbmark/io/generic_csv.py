@@ -209,6 +209,7 @@ def _ground_truth(g3: np.ndarray, lines: np.ndarray, degrees: bool, src: str):
     if partial.any():
         k = int(np.flatnonzero(partial)[0])
         raise InputError("ground truth x_m, y_m, theta must be all given or all empty", src, int(lines[k]))
+    _check_headings(g3, lines, src, degrees)
     far = np.abs(np.nan_to_num(g3[:, :2])) > _MAX_POSITION_M
     if far.any():
         k = int(np.flatnonzero(far.any(axis=1))[0])
@@ -235,6 +236,23 @@ def _ground_truth(g3: np.ndarray, lines: np.ndarray, degrees: bool, src: str):
 
 _MAX_TICKS = 2.0**63  # beyond any encoder counter
 _MAX_POSITION_M = 1e5  # a ground-truth position beyond this (m) is not of a test track
+# a ground-truth heading beyond this (rad), even unwrapped, is no robot's: 160 000 turns, a day
+# of turning at two turns a second
+_MAX_HEADING_RAD = 1e6
+
+
+def _check_headings(g3: np.ndarray, lines: np.ndarray, src: str, degrees: bool) -> None:
+    """Refuse a ground-truth heading (radians here) beyond :data:`_MAX_HEADING_RAD`."""
+    far = np.abs(np.nan_to_num(g3[:, 2])) > _MAX_HEADING_RAD
+    if far.any():
+        k = int(np.flatnonzero(far)[0])
+        col, v = ("theta_deg", math.degrees(g3[k, 2])) if degrees else ("theta_rad", g3[k, 2])
+        raise InputError(
+            f"ground truth {col} {v:g} is no robot's heading (beyond {_MAX_HEADING_RAD:g} rad even unwrapped): "
+            "a broken value, or another column?",
+            src,
+            int(lines[k]),
+        )
 
 
 def _check_tick_values(ticks_lr: np.ndarray, lines: np.ndarray, src: str, ticks: str) -> None:
@@ -519,6 +537,7 @@ class _StreamedRun:
         if partial.any():
             k = int(np.flatnonzero(partial)[0])
             raise InputError("ground truth x_m, y_m, theta must be all given or all empty", src, int(ln[k]))
+        _check_headings(g, ln, src, "theta_deg" in self.use)
         ok = fin[:, 0]
         if first:
             self.end_only = not ok[0]
