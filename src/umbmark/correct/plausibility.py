@@ -400,6 +400,13 @@ def _candidates(runs: RunsTable) -> list[tuple[str, Callable[[], RunsTable]]]:
     if runs.theta_abs is not None and runs.theta_odo is not None:
         out.append(
             (
+                "the measured headings (theta_abs) have the wrong sign (counter-clockwise is positive; in a "
+                "distances file for umbmark measure: front and rear distances exchanged?)",
+                lambda: _table(runs, theta_abs=-runs.theta_abs),
+            )
+        )
+        out.append(
+            (
                 "the headings look like radians (theta_abs and theta_odo are in degrees)",
                 lambda: _heading_scaled(runs, 180.0 / math.pi),
             )
