@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import errno
 import os
+import re
 import sys
 
 import click
@@ -30,8 +31,14 @@ from umbmark.errors import UmbmarkError
 __all__ = ["app", "main"]
 
 
+_LONG_DIGITS = re.compile(r"\d{40,}")
+
+
 def _one_line(text: str) -> str:
-    return " ".join(str(text).split())
+    """The message on one line; a number of thousands of digits echoed from the input shown by
+    its first digits and its length."""
+    text = _LONG_DIGITS.sub(lambda m: f"{m.group(0)[:12]}...({len(m.group(0))} digits)", str(text))
+    return " ".join(text.split())
 
 
 def _os_error(e: OSError, process: bool) -> str:
@@ -59,6 +66,17 @@ def _silence_stdout() -> None:
         pass
 
 
+def _printable_streams() -> None:
+    """Standard output and error that print any text: a character the terminal's encoding lacks
+    (a robot named in Unicode under ``PYTHONIOENCODING=ascii`` or ``LANG=C``) is written as its
+    ``\\x``/``\\u`` escape instead of failing."""
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.reconfigure(errors="backslashreplace")  # type: ignore[union-attr]
+        except (AttributeError, ValueError, OSError):
+            pass
+
+
 def main(argv=None) -> int:
     """Entry point of the ``umbmark`` console script.
 
@@ -75,6 +93,7 @@ def main(argv=None) -> int:
     args = sys.argv[1:] if argv is None else list(argv)
     prog = "umbmark"
     keep_as_given(args, reset=True)
+    _printable_streams()
     try:
         rv = app.main(args=args, prog_name=prog, standalone_mode=False)
         code = rv if isinstance(rv, int) else 0
