@@ -6,7 +6,9 @@ from __future__ import annotations
 import errno
 import os
 import re
+import signal
 import sys
+import threading
 
 import click
 
@@ -77,6 +79,24 @@ def _printable_streams() -> None:
             pass
 
 
+class _Terminated(BaseException):
+    """SIGTERM: unwinds like Ctrl-C, so every write in progress removes its temporary file."""
+
+
+def _on_sigterm(signum, frame) -> None:
+    raise _Terminated()
+
+
+def _catch_sigterm():
+    """Install the SIGTERM handler (main thread only); the handler it replaces, or None."""
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    try:
+        return signal.signal(signal.SIGTERM, _on_sigterm)
+    except (ValueError, OSError):
+        return None
+
+
 def main(argv=None) -> int:
     """Entry point of the ``umbmark`` console script.
 
@@ -88,12 +108,14 @@ def main(argv=None) -> int:
     Returns
     -------
     int
-        The exit status: 0, 1 (aborted) or 2 (an error, reported in one line on stderr).
+        The exit status: 0, 1 (aborted), 2 (an error, reported in one line on stderr) or 143
+        (terminated by SIGTERM; the temporary files of the writes in progress removed).
     """
     args = sys.argv[1:] if argv is None else list(argv)
     prog = "umbmark"
     keep_as_given(args, reset=True)
     _printable_streams()
+    previous = _catch_sigterm()
     try:
         rv = app.main(args=args, prog_name=prog, standalone_mode=False)
         code = rv if isinstance(rv, int) else 0
@@ -103,6 +125,9 @@ def main(argv=None) -> int:
     except click.exceptions.Abort:
         sys.stderr.write(f"{prog}: aborted\n")
         code = 1
+    except _Terminated:
+        sys.stderr.write(f"{prog}: terminated (SIGTERM); no output file was left half-written\n")
+        code = 143
     except click.exceptions.ClickException as e:
         ctx = getattr(e, "ctx", None)
         where = ctx.command_path if ctx is not None else prog
@@ -117,6 +142,9 @@ def main(argv=None) -> int:
             return 0
         sys.stderr.write(f"{prog}: error: {_os_error(e, argv is None)}\n")
         code = 2
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
     if argv is None:
         sys.exit(code)
     return code
