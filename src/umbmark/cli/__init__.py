@@ -6,9 +6,13 @@ from __future__ import annotations
 import errno
 import os
 import re
+import secrets
+import shutil
 import signal
 import sys
+import tempfile
 import threading
+from pathlib import Path
 
 import click
 
@@ -79,6 +83,38 @@ def _printable_streams() -> None:
             pass
 
 
+def _matplotlib_cache() -> Path:
+    """The folder matplotlib keeps its font cache in when ``MPLCONFIGDIR`` is not set."""
+    if sys.platform.startswith(("linux", "freebsd")):
+        return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "matplotlib"
+    return Path.home() / ".matplotlib"
+
+
+def _private_matplotlib_dir() -> str | None:
+    """Point ``MPLCONFIGDIR`` at a folder of this run's own (made by matplotlib only if it plots,
+    removed at the end) unless the user chose one or matplotlib's cache exists already: a plot
+    creates no cache outside the outputs (its font scan, about half a second, is done again at
+    each plotting run). The folder, or None."""
+    if os.environ.get("MPLCONFIGDIR"):
+        return None
+    try:
+        if _matplotlib_cache().exists():
+            return None
+    except (RuntimeError, OSError):  # no home folder
+        pass
+    folder = os.path.join(tempfile.gettempdir(), f"umbmark-matplotlib-{os.getpid()}-{secrets.token_hex(4)}")
+    os.environ["MPLCONFIGDIR"] = folder
+    return folder
+
+
+def _drop_private_dir(folder: str | None) -> None:
+    if folder is None:
+        return
+    if os.environ.get("MPLCONFIGDIR") == folder:
+        del os.environ["MPLCONFIGDIR"]
+    shutil.rmtree(folder, ignore_errors=True)
+
+
 class _Terminated(BaseException):
     """SIGTERM: unwinds like Ctrl-C, so every write in progress removes its temporary file."""
 
@@ -116,6 +152,7 @@ def main(argv=None) -> int:
     keep_as_given(args, reset=True)
     _printable_streams()
     previous = _catch_sigterm()
+    mpl_dir = _private_matplotlib_dir()
     try:
         rv = app.main(args=args, prog_name=prog, standalone_mode=False)
         code = rv if isinstance(rv, int) else 0
@@ -145,6 +182,7 @@ def main(argv=None) -> int:
     finally:
         if previous is not None:
             signal.signal(signal.SIGTERM, previous)
+        _drop_private_dir(mpl_dir)
     if argv is None:
         sys.exit(code)
     return code
