@@ -60,7 +60,7 @@ def guide_cmd(side_mm, runs, ros2_script, speed_m_s, turn_rate_deg_s, cmd_vel_to
     from umbmark.realrobot.guide import check_run_plan, guide_text, ros2_runs_script
 
     positive("--side-mm", side_mm)
-    check_run_plan(side_mm / 1000.0, speed_m_s, turn_rate_deg_s, pause_s)  # with or without a script
+    check_run_plan(side_mm / 1000.0, speed_m_s, turn_rate_deg_s, pause_s, runs)  # with or without a script
     if ros2_script:
         text = ros2_runs_script(
             side_mm / 1000.0, runs, speed_m_s, turn_rate_deg_s, cmd_vel_topic, odom_topic, stamped, pause_s
