@@ -90,11 +90,11 @@ def console() -> Console:
     """
     from rich.console import Console
 
-    c = Console(highlight=False, soft_wrap=False)
+    c = Console(highlight=False, soft_wrap=False, emoji=False)
     if not c.is_terminal:
         columns = os.environ.get("COLUMNS", "")
         width = int(columns) if columns.isdigit() and int(columns) > 0 else 120
-        c = Console(highlight=False, soft_wrap=False, width=width, no_color=True)
+        c = Console(highlight=False, soft_wrap=False, width=width, no_color=True, emoji=False)
     return c
 
 

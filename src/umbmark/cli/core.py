@@ -478,7 +478,7 @@ def analyze(
             a, *_next_commands(a, runs_file, side_mm, method, c_left, c_right, loss, straight_mm), plausibility
         )
         if plot_path:
-            console().print(f"scatter plot: {plot_path}")
+            console().print(f"scatter plot: {plot_path}", markup=False)
         print_recorded(rec)
 
 
@@ -572,7 +572,7 @@ def _print_demo(r: DemoResult) -> None:
         "umbmark analyze RUNS.csv --wheelbase-mm 340 --side-mm 4000 --json > cal.json",
         "umbmark export cal.json --format ros2 --out params.yaml",
     ):
-        c.print(f"  {line}", soft_wrap=True)
+        c.print(f"  {line}", soft_wrap=True, markup=False)
     c.print(
         "The analysis prints c_left, c_right and the wheelbase to load into the odometry; the export writes "
         "them as ROS 2 diff_drive_controller parameters (or --format ros1, json, firmware)."

@@ -164,14 +164,20 @@ def _all_bags(paths, log_format) -> bool:
     return all(detect_format(p) == "bag" for p in paths)
 
 
+def _escape(text) -> str:
+    from rich.markup import escape
+
+    return escape(str(text))
+
+
 def _print_report(rep) -> None:
     """A :class:`~umbmark.realrobot.results.ReplayReport` as tables."""
     c = console()
     sq = rep.kind == "square"
     c.print(
-        f"[bold]{rep.dataset}[/bold] ({rep.format}, {len(rep.runs)} runs, "
+        f"[bold]{_escape(rep.dataset)}[/bold] ({rep.format}, {len(rep.runs)} runs, "
         f"{'square ' + format(rep.side_m * 1e3, '.0f') + ' mm' if sq else 'general path'}), method "
-        f"[bold]{rep.method}[/bold]"
+        f"[bold]{_escape(rep.method)}[/bold]"
     )
     h = rep.heldout.summary if rep.heldout is not None else None
     rows = []
@@ -311,7 +317,7 @@ def _print_stream(rep) -> None:
         f"{fmt(_mm(rep.path_position_rms_m))} mm"
     )
     if rep.poses_out is not None:
-        c.print(f"wrote {len(rep.kept)} poses to {rep.poses_out}")
+        c.print(f"wrote {len(rep.kept)} poses to {rep.poses_out}", markup=False)
 
 
 @app.command()
@@ -799,11 +805,12 @@ def convert(paths, log_format, target, out, **kw):
         write_runs_csv(square_runs(ds, ds.nominal, ds.directions), out)
     if not is_quiet():
         c = console()
-        c.print(f"wrote {out} ({len(ds.runs)} runs)")
+        c.print(f"wrote {out} ({len(ds.runs)} runs)", markup=False)
         if target == "runs":
             c.print(
                 f"analyze it with: umbmark analyze {out} --wheelbase-mm {ds.nominal.wheelbase_m * 1e3:g} "
-                f"--side-mm {ds.side_m * 1e3:g}"
+                f"--side-mm {ds.side_m * 1e3:g}",
+                markup=False,
             )
     for w in warnings:
         click.echo(f"warning: {cli_message(w)}", err=True)
@@ -1097,7 +1104,7 @@ def _emit_export(text: str, out, warnings) -> None:
     if out:
         write_export(text, out)
         if not is_quiet():
-            console().print(f"wrote {out}")
+            console().print(f"wrote {out}", markup=False)
     else:
         click.echo(text, nl=False)
 
