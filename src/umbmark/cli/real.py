@@ -974,6 +974,11 @@ def export(
     )
 
     flags = (c_left, c_right, eb)
+    for flag, v in (("--left-multiplier", left_multiplier), ("--right-multiplier", right_multiplier),
+                    ("--separation-multiplier", separation_multiplier), ("--wheel-radius-m", wheel_radius_m),
+                    ("--wheel-separation-m", wheel_separation_m)):  # fmt: skip
+        if v is not None and not (math.isfinite(v) and v > 0):
+            raise InputError(f"{flag} must be a positive number, got {v!r}")
     if calibration is not None:
         kd = _kinematic_json(calibration)
         if kd is not None:

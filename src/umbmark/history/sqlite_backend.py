@@ -160,6 +160,10 @@ class History(_Backend):
             return HistoryError(
                 f"cannot use the history database {self.path}: {msg} (the file or its folder is read-only)"
             )
+        if "disk I/O error" in msg:
+            return HistoryError(
+                f"cannot use the history database {self.path}: {msg} (a full disk, or the file system failed)"
+            )
         if "disk is full" in msg:
             return HistoryError(f"cannot write the history database {self.path}: no space left on device ({msg})")
         if "malformed" in msg or "corrupt" in msg:

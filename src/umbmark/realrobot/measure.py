@@ -45,7 +45,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from umbmark.errors import InputError
 from umbmark.io._text import csv_writer
-from umbmark.io.distances_csv import MeasuredRun
+from umbmark.io.distances_csv import MAX_TAPE_MM, MeasuredRun
 from umbmark.model.geometry import wrap_angle
 from umbmark.model.runs import DIRECTIONS, RunsTable
 
@@ -377,7 +377,7 @@ class Measurement:
 # every distance under this (metres): the distances were written in another unit
 _MIN_WALL_M = 0.01
 # a distance beyond this (metres) is no tape's reading
-_MAX_WALL_M = 1000.0
+_MAX_WALL_M = MAX_TAPE_MM * 1e-3  # the longest tape
 
 
 def measure(
