@@ -650,6 +650,35 @@ def test_measure_refuses_absurd_distances_and_odometry(files, tmp_path, column, 
     assert "d.csv:" in line and ("distance" in line or column in line), line
 
 
+MARK_SLIPS = [
+    (["--front", "1e300,0", "--rear", "-150,-120", "--back", "-200,0"], "no robot is that large"),
+    (["--front", "150000,-120", "--rear", "-150,-120", "--back", "-200,0"], "no robot is that large"),
+    (["--front", "0.15,-0.12", "--rear", "-0.15,-0.12", "--back", "-0.2,0"], "metres where millimetres"),
+    (["--front", "-150,-120", "--rear", "150,-120", "--back", "-200,0"], "front and rear exchanged?"),
+    (["--front", "150,-120", "--rear", "-150,-120", "--back", "200,0"], "the sign of its x?"),
+    (["--front", "150,-120", "--rear", "150,-120", "--back", "-200,0"], "at least 1 mm apart"),
+]
+
+
+@pytest.mark.parametrize("marks, cause", MARK_SLIPS, ids=[c for _, c in MARK_SLIPS])
+def test_marks_no_robot_carries_are_named(files, tmp_path, marks, cause):
+    """Reference points beyond any robot, in metres, or with front and rear (or the back mark's
+    sign) exchanged: one line naming it, before any distance is read (also --interactive)."""
+    for how in ([str(files["distances"])], ["--interactive"]):
+        line = refused(*run("measure", *how, *marks, "--out", str(tmp_path / "m.csv")))
+        assert cause in line, line
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("side", ["left", "right"])
+def test_marks_of_either_side_measure_silently(files, tmp_path, side):
+    """Marks on the robot's left side (y > 0) measure as the right's mirror image: no word."""
+    y = "120" if side == "left" else "-120"
+    marks = ["--front", f"150,{y}", "--rear", f"-150,{y}", "--back", "-200,0"]
+    code, _, err = run("measure", str(files["distances"]), *marks, "--out", str(tmp_path / "m.csv"))
+    assert code == 0 and err == "", err
+
+
 # -- SIGTERM, font cache ------------------------------------------------------------------------------
 def test_sigterm_during_a_streaming_write_leaves_no_temporary_file(tmp_path):
     """SIGTERM while replay --stream writes its poses: exit status 143, one line, neither the
@@ -741,7 +770,7 @@ def test_the_campaign_counts_its_cases():
     """This file's share of the campaign of at least 300 cases."""
     n = (
         len(TWICE_CASES) + len(ODD_NAMES) + 2 * len(NAMED_INPUTS) + 4 + len(DB_CASES) + len(WRITE_CASES) + 3
-        + len(CELL_CASES) + 4 + 5 + len(INTERACTIVE) + 4 + len(GUIDE_CASES)
+        + len(CELL_CASES) + 4 + 5 + len(INTERACTIVE) + 4 + len(MARK_SLIPS) + len(GUIDE_CASES)
     )  # fmt: skip
     assert n >= 300, n
 
