@@ -288,6 +288,24 @@ def test_a_history_address_with_a_password_is_refused_unechoed(files, tmp_path, 
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.parametrize("command", ["replay", "selfcal"])
+@pytest.mark.parametrize("db", ["postgresql://u:hunter2@127.0.0.1:1/db", "sqlite:///x.sqlite?token=hunter2"])
+def test_a_config_file_keeps_no_password(files, tmp_path, command, db):
+    """--write-config with a --db holding a password: refused unechoed, no file written; the
+    same URL without the password is written as given."""
+    names = {k: str(v) for k, v in files.items()}
+    argv = [x.format(**names) for x in DB_COMMANDS[command]]
+    cfg = tmp_path / "c.yaml"
+    code, out, err = run(*argv, "--db", db, "--write-config", str(cfg))
+    assert "hunter2" not in out + err
+    assert "holds a password, which a config file does not keep" in refused(code, out, err)
+    assert not cfg.exists()
+    plain = db.replace(":hunter2", "").replace("?token=hunter2", "")
+    code, _, err = run(*argv, "--db", plain, "--write-config", str(cfg))
+    assert code == 0, err
+    assert f"db: {plain}" in cfg.read_text()
+
+
 # -- 4. writers on a full disk or in a read-only folder -------------------------------------------------
 WRITERS = {
     "simulate --out": (["simulate", "--out", "{o}/a.csv"], "a.csv"),
