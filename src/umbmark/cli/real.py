@@ -317,7 +317,7 @@ def _print_stream(rep) -> None:
         f"{fmt(_mm(rep.path_position_rms_m))} mm"
     )
     if rep.poses_out is not None:
-        c.print(f"wrote {len(rep.kept)} poses to {rep.poses_out}", markup=False)
+        c.print(f"wrote {len(rep.kept)} poses to {rep.poses_out}", markup=False, soft_wrap=True)
 
 
 @app.command()
@@ -805,12 +805,13 @@ def convert(paths, log_format, target, out, **kw):
         write_runs_csv(square_runs(ds, ds.nominal, ds.directions), out)
     if not is_quiet():
         c = console()
-        c.print(f"wrote {out} ({len(ds.runs)} runs)", markup=False)
+        c.print(f"wrote {out} ({len(ds.runs)} runs)", markup=False, soft_wrap=True)
         if target == "runs":
             c.print(
                 f"analyze it with: umbmark analyze {out} --wheelbase-mm {ds.nominal.wheelbase_m * 1e3:g} "
                 f"--side-mm {ds.side_m * 1e3:g}",
                 markup=False,
+                soft_wrap=True,
             )
     for w in warnings:
         click.echo(f"warning: {cli_message(w)}", err=True)
@@ -1109,7 +1110,7 @@ def _emit_export(text: str, out, warnings) -> None:
     if out:
         write_export(text, out)
         if not is_quiet():
-            console().print(f"wrote {out}", markup=False)
+            console().print(f"wrote {out}", markup=False, soft_wrap=True)
     else:
         click.echo(text, nl=False)
 

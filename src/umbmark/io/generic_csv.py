@@ -36,7 +36,7 @@ import numpy as np
 
 from umbmark.errors import InputError
 from umbmark.io._checks import check_tick_mode, wheels_against_truth
-from umbmark.io._text import csv_rows, csv_writer, header_columns, parse_number, read_text
+from umbmark.io._text import check_clock, csv_rows, csv_writer, header_columns, parse_number, read_text
 from umbmark.model.dataset import Dataset, Run, WheelGeometry, to_start_frame
 
 __all__ = [
@@ -239,22 +239,6 @@ _MAX_POSITION_M = 1e5  # a ground-truth position beyond this (m) is not of a tes
 # a ground-truth heading beyond this (rad), even unwrapped, is no robot's: 160 000 turns, a day
 # of turning at two turns a second
 _MAX_HEADING_RAD = 1e6
-# a sample time beyond this (s) is on no clock a log is stamped with: 3000 years, past any Unix
-# time in seconds (1.7e9 in 2024); the same time in micro- or nanoseconds is beyond it
-_MAX_TIME_S = 1e11
-
-
-def _check_times(t: np.ndarray, lines: np.ndarray, src: str) -> None:
-    """Refuse a sample time beyond :data:`_MAX_TIME_S` (file and line named)."""
-    far = np.abs(t) > _MAX_TIME_S
-    if far.any():
-        k = int(np.flatnonzero(far)[0])
-        raise InputError(
-            f"column time_s: {t[k]:g} s is on no clock (beyond {_MAX_TIME_S:g} s, 3000 years): microseconds or "
-            "nanoseconds instead of seconds, or a broken value?",
-            src,
-            int(lines[k]),
-        )
 
 
 def _check_headings(g3: np.ndarray, lines: np.ndarray, src: str, degrees: bool) -> None:
@@ -287,7 +271,7 @@ def _batch_run(label: str, rows: list, src: str, where: str, ticks: str, degrees
     a = np.array([v for _, v in rows], dtype=float)
     if len(a) < 2:
         raise InputError("a run needs at least two rows", where, int(lines[0]))
-    _check_times(a[:, 0], lines, src)
+    check_clock(a[:, 0], lines, src, "time_s")
     bad = np.flatnonzero(np.diff(a[:, 0]) <= 0)
     if bad.size:
         k = int(bad[0]) + 1
@@ -524,7 +508,7 @@ class _StreamedRun:
 
     def _wheels(self, a: np.ndarray, ln: np.ndarray, first: bool):
         t, cl, cr = a[:, 0], a[:, 1], a[:, 2]
-        _check_times(t, ln, self.src)
+        check_clock(t, ln, self.src, "time_s")
         prev_t = np.concatenate([[self.t if self.t is not None else -np.inf], t[:-1]])
         bad = np.flatnonzero(t <= prev_t)
         if bad.size:
