@@ -10,13 +10,16 @@ class UmbmarkError(Exception):
 class InputError(UmbmarkError, ValueError):
     """Bad input: a file, a value or a geometry the computation cannot accept.
 
-    ``source`` (a file name) and ``line`` (1-based) locate the problem when it is in a file.
+    ``source`` (a file name) and ``line`` (1-based) locate the problem when it is in a file;
+    ``data`` are the strings of the user's data the message quotes (robot names, paths), which a
+    front end prints as stored.
     """
 
-    def __init__(self, message: str, source: str | None = None, line: int | None = None):
+    def __init__(self, message: str, source: str | None = None, line: int | None = None, data=()):
         self.message = message
         self.source = source
         self.line = line
+        self.data = tuple(str(d) for d in data)
         super().__init__(str(self))
 
     def __str__(self) -> str:

@@ -3,7 +3,16 @@ stderr with exit status 2; no traceback for bad input."""
 
 from __future__ import annotations
 
+import errno
+import os
+import re
+import secrets
+import shutil
+import signal
 import sys
+import tempfile
+import threading
+from pathlib import Path
 
 import click
 
@@ -24,14 +33,106 @@ from umbmark.cli import (
     selfcal,  # noqa: F401,E402  selfcal
     validate,  # noqa: F401,E402  validate
 )
-from umbmark.cli.app import app, cli_message
+from umbmark.cli.app import app, cli_message, keep_as_given
 from umbmark.errors import UmbmarkError
 
 __all__ = ["app", "main"]
 
 
+_LONG_DIGITS = re.compile(r"\d{40,}")
+
+
 def _one_line(text: str) -> str:
-    return " ".join(str(text).split())
+    """The message on one line; a number of thousands of digits echoed from the input shown by
+    its first digits and its length."""
+    text = _LONG_DIGITS.sub(lambda m: f"{m.group(0)[:12]}...({len(m.group(0))} digits)", str(text))
+    return " ".join(text.split())
+
+
+def _os_error(e: OSError, process: bool) -> str:
+    """The one line of a system error: the file it names, else the standard output a write
+    without a file name goes to (a full disk behind ``> out.json``); ``process``: the console
+    script, whose standard output is then closed."""
+    why = _one_line(e.strerror or str(e))
+    if getattr(e, "filename", None):
+        return f"cannot access {e.filename}: {why}"
+    if e.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO):
+        if process:
+            _silence_stdout()
+        return f"cannot write the standard output: {why}"
+    return f"system error: {why}"
+
+
+def _silence_stdout() -> None:
+    """Drop what is left in the standard output's buffer (it cannot be written: the interpreter
+    would report it again at exit)."""
+    try:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        os.close(devnull)
+    except (OSError, ValueError, AttributeError):
+        pass
+
+
+def _printable_streams() -> None:
+    """Standard output and error that print any text: a character the terminal's encoding lacks
+    (a robot named in Unicode under ``PYTHONIOENCODING=ascii`` or ``LANG=C``) is written as its
+    ``\\x``/``\\u`` escape instead of failing."""
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.reconfigure(errors="backslashreplace")  # type: ignore[union-attr]
+        except (AttributeError, ValueError, OSError):
+            pass
+
+
+def _matplotlib_cache() -> Path:
+    """The folder matplotlib keeps its font cache in when ``MPLCONFIGDIR`` is not set."""
+    if sys.platform.startswith(("linux", "freebsd")):
+        return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "matplotlib"
+    return Path.home() / ".matplotlib"
+
+
+def _private_matplotlib_dir() -> str | None:
+    """Point ``MPLCONFIGDIR`` at a folder of this run's own (made by matplotlib only if it plots,
+    removed at the end) unless the user chose one or matplotlib's cache exists already: a plot
+    creates no cache outside the outputs (its font scan, about half a second, is done again at
+    each plotting run). The folder, or None."""
+    if os.environ.get("MPLCONFIGDIR"):
+        return None
+    try:
+        if _matplotlib_cache().exists():
+            return None
+    except (RuntimeError, OSError):  # no home folder
+        pass
+    folder = os.path.join(tempfile.gettempdir(), f"umbmark-matplotlib-{os.getpid()}-{secrets.token_hex(4)}")
+    os.environ["MPLCONFIGDIR"] = folder
+    return folder
+
+
+def _drop_private_dir(folder: str | None) -> None:
+    if folder is None:
+        return
+    if os.environ.get("MPLCONFIGDIR") == folder:
+        del os.environ["MPLCONFIGDIR"]
+    shutil.rmtree(folder, ignore_errors=True)
+
+
+class _Terminated(BaseException):
+    """SIGTERM: unwinds like Ctrl-C, so every write in progress removes its temporary file."""
+
+
+def _on_sigterm(signum, frame) -> None:
+    raise _Terminated()
+
+
+def _catch_sigterm():
+    """Install the SIGTERM handler (main thread only); the handler it replaces, or None."""
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    try:
+        return signal.signal(signal.SIGTERM, _on_sigterm)
+    except (ValueError, OSError):
+        return None
 
 
 def main(argv=None) -> int:
@@ -45,32 +146,45 @@ def main(argv=None) -> int:
     Returns
     -------
     int
-        The exit status: 0, 1 (aborted) or 2 (an error, reported in one line on stderr).
+        The exit status: 0, 1 (aborted), 2 (an error, reported in one line on stderr) or 143
+        (terminated by SIGTERM; the temporary files of the writes in progress removed).
     """
     args = sys.argv[1:] if argv is None else list(argv)
     prog = "umbmark"
+    keep_as_given(args, reset=True)
+    _printable_streams()
+    previous = _catch_sigterm()
+    mpl_dir = _private_matplotlib_dir()
     try:
         rv = app.main(args=args, prog_name=prog, standalone_mode=False)
         code = rv if isinstance(rv, int) else 0
+        sys.stdout.flush()  # a full disk or a closed pipe behind stdout: reported here
     except click.exceptions.Exit as e:
         code = e.exit_code
     except click.exceptions.Abort:
         sys.stderr.write(f"{prog}: aborted\n")
         code = 1
+    except _Terminated:
+        sys.stderr.write(f"{prog}: terminated (SIGTERM); no output file was left half-written\n")
+        code = 143
     except click.exceptions.ClickException as e:
         ctx = getattr(e, "ctx", None)
         where = ctx.command_path if ctx is not None else prog
         sys.stderr.write(f"{where}: error: {_one_line(e.format_message())}\n")
         code = 2
     except UmbmarkError as e:
+        keep_as_given([str(getattr(e, "source", None) or ""), *getattr(e, "data", ())])
         sys.stderr.write(f"{prog}: error: {_one_line(cli_message(str(e)))}\n")
         code = 2
     except OSError as e:
         if isinstance(e, BrokenPipeError):
             return 0
-        name = f" {e.filename}" if getattr(e, "filename", None) else ""
-        sys.stderr.write(f"{prog}: error: cannot access{name}: {_one_line(e.strerror or str(e))}\n")
+        sys.stderr.write(f"{prog}: error: {_os_error(e, argv is None)}\n")
         code = 2
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
+        _drop_private_dir(mpl_dir)
     if argv is None:
         sys.exit(code)
     return code

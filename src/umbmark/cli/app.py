@@ -90,11 +90,11 @@ def console() -> Console:
     """
     from rich.console import Console
 
-    c = Console(highlight=False, soft_wrap=False)
+    c = Console(highlight=False, soft_wrap=False, emoji=False)
     if not c.is_terminal:
         columns = os.environ.get("COLUMNS", "")
         width = int(columns) if columns.isdigit() and int(columns) > 0 else 120
-        c = Console(highlight=False, soft_wrap=False, width=width, no_color=True)
+        c = Console(highlight=False, soft_wrap=False, width=width, no_color=True, emoji=False)
     return c
 
 
@@ -164,19 +164,49 @@ PARAM_NO_FLAGS = {"fit_offset": "--no-fit-marker-offset"}
 _PARAM = re.compile(r"`(\w+)(?:=([^`]*))?`")
 
 
+# the strings of the command line (paths, robot names, topics) and of the data read that hold a
+# backtick: printed as given inside messages, never taken for a library's parameter name
+_GIVEN: list[str] = []
+
+
+def keep_as_given(strings, reset: bool = False) -> None:
+    """Mark strings (the command line's arguments, a file's name) as data: :func:`cli_message`
+    prints them as given.
+
+    Parameters
+    ----------
+    strings : iterable of str
+        Any strings; only those holding a backtick matter.
+    reset : bool
+        Forget the strings marked before (a new command line).
+    """
+    if reset:
+        _GIVEN.clear()
+    for s in strings:
+        for part in (s, s.partition("=")[2]) if isinstance(s, str) else ():
+            if "`" in part and part not in _GIVEN:
+                _GIVEN.append(part)
+    _GIVEN.sort(key=len, reverse=True)
+
+
 def cli_message(text: str) -> str:
     """A library message in the CLI's words: `name` becomes its flag, `name="v"` the flag and v.
 
     Parameters
     ----------
     text : str
-        The message; parameters are named in backticks (see :data:`PARAM_FLAGS`).
+        The message; parameters are named in backticks (see :data:`PARAM_FLAGS`). The data in
+        it that the command line gave (see :func:`keep_as_given`) is kept as given.
 
     Returns
     -------
     str
         The message with each known parameter replaced by its flag (unknown names are kept).
     """
+    for given in _GIVEN:
+        if given in text:
+            head, _, tail = text.partition(given)
+            return cli_message(head) + given + cli_message(tail)
 
     def flag(m: re.Match) -> str:
         name, value = m.group(1), m.group(2)

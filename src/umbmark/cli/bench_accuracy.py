@@ -135,4 +135,8 @@ def _print_accuracy(res: dict, paths: dict) -> None:
             rows,
         )
     )
-    c.print(f"{res['elapsed_s']:.0f} s ({res['backend']}); written: {', '.join(paths.values())}")
+    c.print(
+        f"{res['elapsed_s']:.0f} s ({res['backend']}); written: {', '.join(paths.values())}",
+        markup=False,
+        soft_wrap=True,
+    )

@@ -168,4 +168,4 @@ def _print_speed(res: dict, con, out, stem: str) -> None:
         con.print(f"sweep {x['impl']} ({x['backend']}): {x['experiments_per_s']:.1f} experiments/s")
     for k, v in res["summary"]["targets"].items():
         con.print(f"{k}: {v}")
-    con.print(f"wrote {out / (stem + '.json')} and {out / (stem + '.md')}")
+    con.print(f"wrote {out / (stem + '.json')} and {out / (stem + '.md')}", markup=False, soft_wrap=True)

@@ -76,7 +76,7 @@ def _print_loop(loop, title):
         )
     )
     for p in loop.passes:
-        c.print(f"pass {p.index}: {p.decision}")
+        c.print(f"pass {p.index}: {p.decision}", markup=False)
         if p.correction is not None:
             for w in p.correction.warnings:
                 c.print(f"[yellow]warning:[/yellow] pass {p.index}: {escape(cli_message(w))}")

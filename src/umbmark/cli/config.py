@@ -133,6 +133,17 @@ def config_options(f: Callable[..., Any]) -> Callable[..., Any]:
             and ctx.get_parameter_source(k)
             in (click.core.ParameterSource.COMMANDLINE, click.core.ParameterSource.DEFAULT_MAP)
         }
+        db = given.get("db")
+        if isinstance(db, str):
+            from umbmark.history.base import display_db
+
+            if display_db(db) != db:
+                raise click.BadParameter(
+                    f"--db {display_db(db)} holds a password, which a config file does not keep: give the URL "
+                    "without it (a PostgreSQL password in $PGPASSWORD or ~/.pgpass); nothing was written",
+                    ctx=ctx,
+                    param_hint="'--write-config'",
+                )
         atomic_write(write_config, config_text(ctx.command.name or "", given))
         click.echo(f"wrote the options of umbmark {ctx.command.name} to {write_config} ({len(given)} given)", err=True)
         return None

@@ -367,7 +367,8 @@ def simulate(
         emit_json({"out": str(out), "runs_per_direction": n_runs, "noise": noise, "seed": seed, **res.to_dict()})
     elif not is_quiet():
         c = console()
-        c.print(_stats_table(f"Simulated runs written to {out}", res))
+        c.print(f"Simulated runs written to {out}", markup=False, soft_wrap=True)  # the path on one line
+        c.print(_stats_table("Simulated runs", res))
         c.print(f"E_max,syst = {res.emax_syst * 1e3:.1f} mm")
 
 
@@ -478,7 +479,7 @@ def analyze(
             a, *_next_commands(a, runs_file, side_mm, method, c_left, c_right, loss, straight_mm), plausibility
         )
         if plot_path:
-            console().print(f"scatter plot: {plot_path}")
+            console().print(f"scatter plot: {plot_path}", markup=False, soft_wrap=True)
         print_recorded(rec)
 
 
@@ -572,7 +573,7 @@ def _print_demo(r: DemoResult) -> None:
         "umbmark analyze RUNS.csv --wheelbase-mm 340 --side-mm 4000 --json > cal.json",
         "umbmark export cal.json --format ros2 --out params.yaml",
     ):
-        c.print(f"  {line}", soft_wrap=True)
+        c.print(f"  {line}", soft_wrap=True, markup=False)
     c.print(
         "The analysis prints c_left, c_right and the wheelbase to load into the odometry; the export writes "
         "them as ROS 2 diff_drive_controller parameters (or --format ros1, json, firmware)."

@@ -60,7 +60,7 @@ def guide_cmd(side_mm, runs, ros2_script, speed_m_s, turn_rate_deg_s, cmd_vel_to
     from umbmark.realrobot.guide import check_run_plan, guide_text, ros2_runs_script
 
     positive("--side-mm", side_mm)
-    check_run_plan(side_mm / 1000.0, speed_m_s, turn_rate_deg_s, pause_s)  # with or without a script
+    check_run_plan(side_mm / 1000.0, speed_m_s, turn_rate_deg_s, pause_s, runs)  # with or without a script
     if ros2_script:
         text = ros2_runs_script(
             side_mm / 1000.0, runs, speed_m_s, turn_rate_deg_s, cmd_vel_topic, odom_topic, stamped, pause_s
@@ -91,6 +91,36 @@ class PointType(click.ParamType):
 
 
 POINT = PointType()
+
+
+class TypedNumber(click.ParamType):
+    """A number typed at a prompt: digits only (``1_0`` is not 10), finite, from ``lo`` to ``hi``
+    (``unit`` names the range); a bad answer is asked again."""
+
+    name = "number"
+
+    def __init__(self, lo: float, hi: float, unit: str, empty: bool = False):
+        self.lo, self.hi, self.unit, self.empty = lo, hi, unit, empty
+
+    def convert(self, value, param, ctx):
+        """The number in ``value`` (``""`` for an empty answer where allowed); anything else
+        fails (and click asks again)."""
+        if isinstance(value, float) or (self.empty and not str(value).strip()):
+            return value
+        try:
+            v = strict_float(str(value))
+        except ValueError:
+            self.fail(f"{value!r} is not a number", param, ctx)
+        if not (math.isfinite(v) and self.lo <= v <= self.hi):
+            self.fail(f"{value!r} is not a number from {self.lo:g} to {self.hi:g} {self.unit}", param, ctx)
+        return v
+
+
+# what a tape and an odometry read after a square run (the bounds of the distances file's reader)
+_TAPE_MM = TypedNumber(0.0, 1e6, "mm (a tape's reading)")
+_ODO_MM = TypedNumber(-1e6, 1e6, "mm (the odometry's end, near the start)")
+_ODO_DEG = TypedNumber(-720.0, 720.0, "deg (the odometry's end heading)")
+_ODO_DEG_OR_NONE = TypedNumber(-720.0, 720.0, "deg (the odometry's end heading), or nothing", empty=True)
 
 
 @app.command("measure")
@@ -193,14 +223,29 @@ def measure_cmd(distances_file, front, rear, back, side_wall, resolution_mm, out
 
 
 def _interactive(marks, side_wall, resolution_m, out_path, n_runs):
+    """:func:`_prompt_runs`; the input ending (end of file) before the last run is an error
+    naming the run and the files that hold the runs entered."""
+    raw_path = str(Path(out_path).with_suffix("")) + ".distances.csv"
+    rows: list = []
+    try:
+        return _prompt_runs(marks, side_wall, resolution_m, out_path, n_runs, rows)
+    except click.exceptions.Abort as e:
+        if not isinstance(e.__context__, EOFError):
+            raise  # Ctrl-C: aborted
+        saved = f"the {len(rows)} runs entered are in {out_path} and {raw_path}" if rows else "no run was saved"
+        raise InputError(
+            f"--interactive: the input ended before run {len(rows) + 1} of {2 * n_runs} was complete; {saved}"
+        ) from None
+
+
+def _prompt_runs(marks, side_wall, resolution_m, out_path, n_runs, rows):
     """Prompt for every run; after each run, save the distances (``<out>.distances.csv``) and the
-    runs file so far."""
+    runs file so far (``rows`` grows with the runs entered)."""
     from umbmark.io.atomic import atomic_write
     from umbmark.io.distances_csv import DIST_COLUMNS, MeasuredRun, format_distances_csv
     from umbmark.realrobot.measure import measure_runs
 
     raw_path = str(Path(out_path).with_suffix("")) + ".distances.csv"
-    rows: list[MeasuredRun] = []
     prev = None
     echo = click.echo
     echo(
@@ -225,26 +270,26 @@ def _interactive(marks, side_wall, resolution_m, out_path, n_runs):
             for i, c in enumerate(DIST_COLUMNS):
                 if i == 3:
                     echo("  reset the odometry, drive the square, then:")
-                    x_odo = click.prompt("  odometry x at the end [mm]", type=float)
-                    y_odo = click.prompt("  odometry y at the end [mm]", type=float)
+                    x_odo = click.prompt("  odometry x at the end [mm]", type=_ODO_MM)
+                    y_odo = click.prompt("  odometry y at the end [mm]", type=_ODO_MM)
                     th: str | float
                     if want_theta is None:
                         th = click.prompt(
-                            "  odometry theta at the end [deg] (empty: not read)", default="", show_default=False
+                            "  odometry theta at the end [deg] (empty: not read)",
+                            default="",
+                            show_default=False,
+                            type=_ODO_DEG_OR_NONE,
                         )
                         want_theta = bool(str(th).strip())
                     elif want_theta:
-                        th = click.prompt("  odometry theta at the end [deg]", type=float)
+                        th = click.prompt("  odometry theta at the end [deg]", type=_ODO_DEG)
                     else:
                         th = ""
                 default = prev[i] if (prev is not None and i < 3) else None
-                vals[c] = click.prompt(f"  {labels[c]} [mm]", type=float, default=default)
+                vals[c] = click.prompt(f"  {labels[c]} [mm]", type=_TAPE_MM, default=default)
             theta = None
             if str(th).strip():
-                try:
-                    theta = float(th)
-                except ValueError:
-                    raise InputError(f"odometry theta {th!r} is not a number") from None
+                theta = float(th)
             d = tuple(vals[c] for c in DIST_COLUMNS)
             prev = d
             row = MeasuredRun(str(k), direction, d, x_odo, y_odo, theta)

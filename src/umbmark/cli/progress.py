@@ -31,7 +31,7 @@ __all__ = ["progress", "track", "progress_enabled"]
 def _console() -> Console:
     from rich.console import Console
 
-    return Console(stderr=True)
+    return Console(stderr=True, emoji=False)
 
 
 def progress_enabled(console: Console | None = None) -> bool:

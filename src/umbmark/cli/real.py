@@ -164,14 +164,20 @@ def _all_bags(paths, log_format) -> bool:
     return all(detect_format(p) == "bag" for p in paths)
 
 
+def _escape(text) -> str:
+    from rich.markup import escape
+
+    return escape(str(text))
+
+
 def _print_report(rep) -> None:
     """A :class:`~umbmark.realrobot.results.ReplayReport` as tables."""
     c = console()
     sq = rep.kind == "square"
     c.print(
-        f"[bold]{rep.dataset}[/bold] ({rep.format}, {len(rep.runs)} runs, "
+        f"[bold]{_escape(rep.dataset)}[/bold] ({rep.format}, {len(rep.runs)} runs, "
         f"{'square ' + format(rep.side_m * 1e3, '.0f') + ' mm' if sq else 'general path'}), method "
-        f"[bold]{rep.method}[/bold]"
+        f"[bold]{_escape(rep.method)}[/bold]"
     )
     h = rep.heldout.summary if rep.heldout is not None else None
     rows = []
@@ -311,7 +317,7 @@ def _print_stream(rep) -> None:
         f"{fmt(_mm(rep.path_position_rms_m))} mm"
     )
     if rep.poses_out is not None:
-        c.print(f"wrote {len(rep.kept)} poses to {rep.poses_out}")
+        c.print(f"wrote {len(rep.kept)} poses to {rep.poses_out}", markup=False, soft_wrap=True)
 
 
 @app.command()
@@ -778,11 +784,13 @@ def convert(paths, log_format, target, out, **kw):
       umbmark convert run1_bag run2_bag --odom-topic /odom --gt-topic /mocap/pose \\
         --wheel-diameter-mm 100 --wheelbase-mm 300 --out log.csv
     """
+    from umbmark._files import check_distinct_inputs
     from umbmark.io.atomic import atomic_write
     from umbmark.io.generic_csv import format_generic_csv
     from umbmark.io.runs_csv import write_runs_csv
     from umbmark.realrobot.replay import prepare, square_runs
 
+    check_distinct_inputs([p for p in paths if Path(p).exists()])
     sets = _datasets(paths, log_format, kw)
     if len(sets) != 1:
         raise InputError("convert takes one data set (one optiodom folder, or bags, or CSV logs)")
@@ -798,11 +806,13 @@ def convert(paths, log_format, target, out, **kw):
         write_runs_csv(square_runs(ds, ds.nominal, ds.directions), out)
     if not is_quiet():
         c = console()
-        c.print(f"wrote {out} ({len(ds.runs)} runs)")
+        c.print(f"wrote {out} ({len(ds.runs)} runs)", markup=False, soft_wrap=True)
         if target == "runs":
             c.print(
                 f"analyze it with: umbmark analyze {out} --wheelbase-mm {ds.nominal.wheelbase_m * 1e3:g} "
-                f"--side-mm {ds.side_m * 1e3:g}"
+                f"--side-mm {ds.side_m * 1e3:g}",
+                markup=False,
+                soft_wrap=True,
             )
     for w in warnings:
         click.echo(f"warning: {cli_message(w)}", err=True)
@@ -966,6 +976,11 @@ def export(
     )
 
     flags = (c_left, c_right, eb)
+    for flag, v in (("--left-multiplier", left_multiplier), ("--right-multiplier", right_multiplier),
+                    ("--separation-multiplier", separation_multiplier), ("--wheel-radius-m", wheel_radius_m),
+                    ("--wheel-separation-m", wheel_separation_m)):  # fmt: skip
+        if v is not None and not (math.isfinite(v) and v > 0):
+            raise InputError(f"{flag} must be a positive number, got {v!r}")
     if calibration is not None:
         kd = _kinematic_json(calibration)
         if kd is not None:
@@ -1096,7 +1111,7 @@ def _emit_export(text: str, out, warnings) -> None:
     if out:
         write_export(text, out)
         if not is_quiet():
-            console().print(f"wrote {out}")
+            console().print(f"wrote {out}", markup=False, soft_wrap=True)
     else:
         click.echo(text, nl=False)
 

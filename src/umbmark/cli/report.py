@@ -454,6 +454,7 @@ def _file_analysis(runs_file, wheelbase_mm, side_mm, method, c_left, c_right, ro
 
 def _analysis_page(a: dict, out_path, after_file, attach, n_boot, seed) -> dict:
     """Analyse the runs of ``a``, write the HTML page; the JSON summary."""
+    from umbmark._files import same_inputs
     from umbmark.cli.progress import progress
     from umbmark.correct.analysis import analyze
     from umbmark.io.atomic import atomic_write
@@ -464,6 +465,17 @@ def _analysis_page(a: dict, out_path, after_file, attach, n_boot, seed) -> dict:
     side_m = positive("--side-mm", a["side_mm"]) * 1e-3
     wheelbase_m = positive("--wheelbase-mm", a["wheelbase_mm"]) * 1e-3
     analysis = a.get("analysis") or analyze(runs, side_m, wheelbase_m, method, prior)
+    if (
+        after_file
+        and source
+        and Path(source).is_file()
+        and Path(after_file).is_file()
+        and same_inputs([source, after_file])
+    ):
+        raise InputError(
+            f"--after {after_file} is the same runs file as {source}: the test after calibration is a new test, "
+            "driven with the new parameters"
+        )
     after = read_runs_csv(after_file) if after_file else a.get("after_runs")
     exported = _attached(attach)
     boot, note = None, None

@@ -191,9 +191,9 @@ def _print(study, d):
         f"{tm['layer_thickness_mm']:g} mm on {tm['wheel_diameter_mm']:g} mm wheels (exp 7 E_d "
         f"{tm['exp7']['Ed']:.5f}, exp 8 E_d {tm['exp8']['Ed']:.5f})"
     )
-    c.print(f"re-run: {d['command']}")
+    c.print(f"re-run: {d['command']}", markup=False, soft_wrap=True)
     if "report" in d:
-        c.print(f"report: {d['report']}")
+        c.print(f"report: {d['report']}", markup=False, soft_wrap=True)
 
 
 def _print_table_i(c, d):

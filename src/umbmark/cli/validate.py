@@ -16,6 +16,7 @@ import re
 
 import click
 
+from umbmark._numbers import strict_float
 from umbmark.cli.app import app, cli_message, console, emit_json, fmt, is_quiet, table
 from umbmark.cli.config import config_options
 from umbmark.cli.selfcal import selfcal_cmd
@@ -101,7 +102,7 @@ def _window(text: str | None) -> tuple[float, float] | None:
         return None
     parts = text.split(":")
     try:
-        lo, hi = (float(p) for p in parts)
+        lo, hi = (strict_float(p) for p in parts)
     except ValueError:
         raise InputError(f"--window needs START_S:END_S (seconds from the log's first scan), got {text!r}") from None
     if not (math.isfinite(lo) and math.isfinite(hi) and hi > lo):

@@ -380,6 +380,11 @@ def _heading_scaled(runs: RunsTable, k: float) -> RunsTable:
     return _table(runs, theta_abs=runs.theta_abs * k, theta_odo=runs.theta_odo * k)
 
 
+def _negated_headings(runs: RunsTable) -> RunsTable:
+    assert runs.theta_abs is not None
+    return _table(runs, theta_abs=-runs.theta_abs)
+
+
 def _candidates(runs: RunsTable) -> list[tuple[str, Callable[[], RunsTable]]]:
     """The likely mislabellings: the message naming each, and the runs as they would then be."""
     swap = {"cw": "ccw", "ccw": "cw"}
@@ -398,6 +403,13 @@ def _candidates(runs: RunsTable) -> list[tuple[str, Callable[[], RunsTable]]]:
         ),
     ]
     if runs.theta_abs is not None and runs.theta_odo is not None:
+        out.append(
+            (
+                "the measured headings (theta_abs) have the wrong sign (counter-clockwise is positive; in a "
+                "distances file for umbmark measure: front and rear distances exchanged?)",
+                partial(_negated_headings, runs),
+            )
+        )
         out.append(
             (
                 "the headings look like radians (theta_abs and theta_odo are in degrees)",

@@ -851,7 +851,8 @@ class _Backend:
         rows = self._fetch(robot=robot, limit=1)
         if not rows:
             raise InputError(
-                f"no calibrations of robot {robot!r} in the history database {self.path}" + self._known_hint()
+                f"no calibrations of robot {robot!r} in the history database {self.path}" + self._known_hint(),
+                data=[robot, self.path, *(str(r[0]) for r in self._robot_counts())],
             )
         rec = self._decode(rows[0], strict=strict)
         if rec is None:

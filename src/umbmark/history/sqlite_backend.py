@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import os
 import sqlite3
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -70,10 +71,16 @@ class History(_Backend):
                 raise HistoryError(
                     f"cannot create the folder for the history database {self.path}: {e.strerror or e}"
                 ) from None
+        existed = self.path.exists()
         try:
             self._conn = sqlite3.connect(str(self.path), timeout=timeout_s, isolation_level=None)
         except sqlite3.Error as e:
-            raise HistoryError(f"cannot open the history database {self.path}: {e}") from None
+            why = (
+                ""
+                if existed or os.access(self.path.parent, os.W_OK)
+                else f" (its folder {self.path.parent} is read-only)"
+            )
+            raise HistoryError(f"cannot open the history database {self.path}: {e}{why}") from None
 
         def setup() -> None:
             self._conn.execute("PRAGMA foreign_keys = ON")
@@ -90,10 +97,27 @@ class History(_Backend):
             if not create and _unwritable(e):
                 self._open_read_only(timeout_s)  # a read-only file or folder: reading still works
                 return
+            if not existed:
+                self._remove_new()
             raise self._damaged(e) from None
         except BaseException:
             self._conn.close()
+            if not existed:
+                self._remove_new()
             raise
+
+    def _remove_new(self) -> None:
+        """Remove the file this open created (and SQLite's files beside it): a history that could
+        not be set up leaves nothing behind."""
+        for p in (
+            self.path,
+            self.path.with_name(self.path.name + "-wal"),
+            self.path.with_name(self.path.name + "-shm"),
+        ):
+            try:
+                p.unlink()
+            except OSError:
+                pass
 
     def _open_read_only(self, timeout_s: float) -> None:
         """Open the file for reading only: ``mode=ro``, or ``immutable=1`` when SQLite cannot
@@ -136,6 +160,12 @@ class History(_Backend):
             return HistoryError(
                 f"cannot use the history database {self.path}: {msg} (the file or its folder is read-only)"
             )
+        if "disk I/O error" in msg:
+            return HistoryError(
+                f"cannot use the history database {self.path}: {msg} (a full disk, or the file system failed)"
+            )
+        if "disk is full" in msg:
+            return HistoryError(f"cannot write the history database {self.path}: no space left on device ({msg})")
         if "malformed" in msg or "corrupt" in msg:
             return HistoryError(f"the history database {self.path} is damaged: {msg}")
         return HistoryError(f"{self.path} is not a usable umbmark history database: {msg}")

@@ -266,8 +266,43 @@ def numeric_rows(
     return np.asarray(rows, dtype=float), np.asarray(lines)
 
 
+MAX_TIME_S = 1e11
+"""The latest time stamp of any clock a log is stamped with [s]: 3000 years, past any Unix time
+in seconds (1.7e9 in 2024); the same time in micro- or nanoseconds lies beyond it."""
+
+
+def check_clock(t: NDArray[np.float64], lines: NDArray[np.int_], source: str, column: str = "time") -> None:
+    """Refuse a time stamp beyond :data:`MAX_TIME_S` (file, line and column named).
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        The times [s].
+    lines : numpy.ndarray
+        Their line numbers.
+    source : str
+        The file, for error messages.
+    column : str
+        The column's name, for error messages.
+
+    Raises
+    ------
+    InputError
+        A time beyond any clock (likely micro- or nanoseconds).
+    """
+    far = np.abs(t) > MAX_TIME_S
+    if far.any():
+        k = int(np.flatnonzero(far)[0])
+        raise InputError(
+            f"column {column}: {t[k]:g} s is on no clock (beyond {MAX_TIME_S:g} s, 3000 years): microseconds or "
+            "nanoseconds instead of seconds, or a broken value?",
+            source,
+            int(lines[k]),
+        )
+
+
 def check_increasing_time(t: NDArray[np.float64], lines: NDArray[np.int_], source: str) -> None:
-    """Check that sample times increase.
+    """Check that sample times are on a clock (:func:`check_clock`) and increase.
 
     Parameters
     ----------
@@ -281,8 +316,9 @@ def check_increasing_time(t: NDArray[np.float64], lines: NDArray[np.int_], sourc
     Raises
     ------
     InputError
-        A time that does not increase (file and line named).
+        A time beyond any clock, or one that does not increase (file and line named).
     """
+    check_clock(t, lines, source)
     bad = np.flatnonzero(np.diff(t) <= 0)
     if bad.size:
         k = int(bad[0]) + 1

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import errno
 import os
 import tempfile
 from collections.abc import Iterator
@@ -19,6 +20,9 @@ def _umask() -> int:
     os.umask(mask)
     return mask
 
+
+# the errors of a write that the system reports without a file name (at a write or a close)
+_WRITE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO, errno.EROFS})
 
 # the temporary file of a write to NAME is .NAME.umbmark-tmp.PID.RANDOM.SUFFIX beside it
 _TEMP_TAG = ".umbmark-tmp."
@@ -139,8 +143,10 @@ def atomic_path(path: str | Path) -> Iterator[Path]:
             os.unlink(tmp)
         except FileNotFoundError:
             pass
-        if isinstance(e, OSError) and not isinstance(e, InputError) and str(e.filename) == str(tmp):
-            raise InputError(f"cannot write {path}: {e.strerror or e}") from None  # not the temporary's name
+        if isinstance(e, OSError) and (
+            str(e.filename) == str(tmp) or (e.filename is None and e.errno in _WRITE_ERRNOS)
+        ):  # the user's file, not the temporary's name, nor no name at all (a full disk)
+            raise InputError(f"cannot write {path}: {e.strerror or e}") from None
         raise
 
 

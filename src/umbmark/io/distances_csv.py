@@ -20,6 +20,7 @@ from umbmark.io._text import csv_rows, csv_writer, header_columns, parse_number
 from umbmark.model.runs import DIRECTIONS
 
 __all__ = [
+    "MAX_TAPE_MM",
     "DIST_COLUMNS",
     "START_COLUMNS",
     "END_COLUMNS",
@@ -29,6 +30,8 @@ __all__ = [
     "format_distances_csv",
 ]
 
+MAX_TAPE_MM = 1e6
+"""The longest distance a tape measures to a wall (1 km)."""
 START_COLUMNS = ("start_front", "start_rear", "start_back")
 END_COLUMNS = ("end_front", "end_rear", "end_back")
 DIST_COLUMNS = START_COLUMNS + END_COLUMNS
@@ -159,6 +162,13 @@ def parse_distances_csv(text: str, source: str = "<distances>") -> list[Measured
         for c, v in zip(DIST_COLUMNS, start + end):
             if v < 0:
                 raise InputError(f"column {c}: a distance cannot be negative ({v:g})", source, line)
+            if v > MAX_TAPE_MM:
+                raise InputError(
+                    f"column {c}: a distance of {v:g} mm to a wall: a tape measures at most {MAX_TAPE_MM:g} mm (the "
+                    "file is in millimetres)",
+                    source,
+                    line,
+                )
         prev_start[d] = start
         theta = None
         if "theta_odo" in col and cell("theta_odo"):

@@ -36,7 +36,7 @@ import numpy as np
 
 from umbmark.errors import InputError
 from umbmark.io._checks import check_tick_mode, wheels_against_truth
-from umbmark.io._text import csv_rows, csv_writer, header_columns, parse_number, read_text
+from umbmark.io._text import check_clock, csv_rows, csv_writer, header_columns, parse_number, read_text
 from umbmark.model.dataset import Dataset, Run, WheelGeometry, to_start_frame
 from umbmark.model.geometry import unit_slip
 
@@ -213,6 +213,7 @@ def _ground_truth(g3: np.ndarray, lines: np.ndarray, degrees: bool, src: str):
     if partial.any():
         k = int(np.flatnonzero(partial)[0])
         raise InputError("ground truth x_m, y_m, theta must be all given or all empty", src, int(lines[k]))
+    _check_headings(g3, lines, src, degrees)
     far = np.abs(np.nan_to_num(g3[:, :2])) > _MAX_POSITION_M
     if far.any():
         k = int(np.flatnonzero(far.any(axis=1))[0])
@@ -239,6 +240,23 @@ def _ground_truth(g3: np.ndarray, lines: np.ndarray, degrees: bool, src: str):
 
 _MAX_TICKS = 2.0**63  # beyond any encoder counter
 _MAX_POSITION_M = 1e5  # a ground-truth position beyond this (m) is not of a test track
+# a ground-truth heading beyond this (rad), even unwrapped, is no robot's: 160 000 turns, a day
+# of turning at two turns a second
+_MAX_HEADING_RAD = 1e6
+
+
+def _check_headings(g3: np.ndarray, lines: np.ndarray, src: str, degrees: bool) -> None:
+    """Refuse a ground-truth heading (radians here) beyond :data:`_MAX_HEADING_RAD`."""
+    far = np.abs(np.nan_to_num(g3[:, 2])) > _MAX_HEADING_RAD
+    if far.any():
+        k = int(np.flatnonzero(far)[0])
+        col, v = ("theta_deg", math.degrees(g3[k, 2])) if degrees else ("theta_rad", g3[k, 2])
+        raise InputError(
+            f"ground truth {col} {v:g} is no robot's heading (beyond {_MAX_HEADING_RAD:g} rad even unwrapped): "
+            "a broken value, or another column?",
+            src,
+            int(lines[k]),
+        )
 
 
 def _check_tick_values(ticks_lr: np.ndarray, lines: np.ndarray, src: str, ticks: str) -> None:
@@ -257,6 +275,7 @@ def _batch_run(label: str, rows: list, src: str, where: str, ticks: str, degrees
     a = np.array([v for _, v in rows], dtype=float)
     if len(a) < 2:
         raise InputError("a run needs at least two rows", where, int(lines[0]))
+    check_clock(a[:, 0], lines, src, "time_s")
     bad = np.flatnonzero(np.diff(a[:, 0]) <= 0)
     if bad.size:
         k = int(bad[0]) + 1
@@ -493,6 +512,7 @@ class _StreamedRun:
 
     def _wheels(self, a: np.ndarray, ln: np.ndarray, first: bool):
         t, cl, cr = a[:, 0], a[:, 1], a[:, 2]
+        check_clock(t, ln, self.src, "time_s")
         prev_t = np.concatenate([[self.t if self.t is not None else -np.inf], t[:-1]])
         bad = np.flatnonzero(t <= prev_t)
         if bad.size:
@@ -523,6 +543,7 @@ class _StreamedRun:
         if partial.any():
             k = int(np.flatnonzero(partial)[0])
             raise InputError("ground truth x_m, y_m, theta must be all given or all empty", src, int(ln[k]))
+        _check_headings(g, ln, src, "theta_deg" in self.use)
         ok = fin[:, 0]
         if first:
             self.end_only = not ok[0]

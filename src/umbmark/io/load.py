@@ -13,6 +13,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from pathlib import Path
 
+from umbmark._numbers import strict_float
 from umbmark.errors import InputError
 from umbmark.io.wheels import TICK_MODES, WheelSource
 from umbmark.model.dataset import Dataset, Run, WheelGeometry, check_stop_s
@@ -396,7 +397,7 @@ def parse_ranges(text: str) -> list[tuple[float, float]]:
     out = []
     for part in text.split(","):
         try:
-            a, b = (float(x) for x in part.strip().split("-"))
+            a, b = (strict_float(x) for x in part.strip().split("-"))
         except ValueError:
             raise InputError(f"bad time range {part.strip()!r} (use START-END in seconds, e.g. 0-10,12-30)") from None
         if not b > a >= 0:

@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
+from umbmark._numbers import strict_float
 from umbmark.errors import InputError
 from umbmark.io._checks import wheels_against_truth
 from umbmark.io._text import check_increasing_time, numeric_rows, read_text
@@ -118,7 +119,7 @@ def _num(meta: dict, key: str, source: str, count: int = 1, required: bool = Tru
     out = []
     for v in vals[:count]:
         try:
-            x = float(v)
+            x = strict_float(v)
         except ValueError:
             raise InputError(f"metadata {key}: {v!r} is not a number", source, line) from None
         if not (math.isfinite(x) and x > 0):

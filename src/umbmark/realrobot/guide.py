@@ -41,10 +41,45 @@ def _check_positive(**values: float | None) -> None:
 
 # a rest between runs longer than this (seconds) is no rest between runs
 MAX_PAUSE_S = 600.0
+MAX_TEST_S = 8 * 3600.0
+"""The longest a whole test (every run of both directions, legs, turns and rests) is driven: a
+working day on one charge (the paper's ten runs take about 20 minutes)."""
+
+
+def _test_duration_s(side_m: float, runs: int, speed_m_s: float, turn_rate_deg_s: float, pause_s: float) -> float:
+    one_run_s = 4 * side_m / speed_m_s + 4 * 90.0 / turn_rate_deg_s
+    return 2 * runs * (one_run_s + pause_s)
+
+
+def _check_duration(side_m, runs, speed_m_s, turn_rate_deg_s, pause_s) -> None:
+    """Refuse a plan that drives longer than :data:`MAX_TEST_S`, naming the value that makes it
+    so (a speed or turn rate in another unit, or runs no test has)."""
+    total_s = _test_duration_s(side_m, runs, speed_m_s, turn_rate_deg_s, pause_s)
+    if not total_s > MAX_TEST_S:
+        return
+    legs_s, turns_s = 4 * side_m / speed_m_s, 4 * 90.0 / turn_rate_deg_s
+    hours = f"{total_s / 3600:.3g} h"
+    if legs_s >= MAX_TEST_S / 10:
+        why = (
+            f"`speed_m_s` {speed_m_s:g}: the four {side_m:g} m legs of one run take {legs_s / 3600:.3g} h at this "
+            "speed (the speed is in metres per second; the paper's is 0.2)"
+        )
+    elif turns_s >= MAX_TEST_S / 10:
+        why = (
+            f"`turn_rate_deg_s` {turn_rate_deg_s:g}: the four turns of one run take {turns_s / 3600:.3g} h at this "
+            "rate (the rate is in degrees per second; 30 is usual)"
+        )
+    else:
+        why = f"`runs` {runs}: runs per direction (the paper drives 5)"
+    raise InputError(f"{why}: the test would take {hours}, more than a day's driving ({MAX_TEST_S / 3600:g} h)")
 
 
 def check_run_plan(
-    side_m: float, speed_m_s: float | None = None, turn_rate_deg_s: float | None = None, pause_s: float | None = None
+    side_m: float,
+    speed_m_s: float | None = None,
+    turn_rate_deg_s: float | None = None,
+    pause_s: float | None = None,
+    runs: int | None = None,
 ) -> None:
     """Refuse a plan no calibration run is driven with, naming the likely unit slip.
 
@@ -58,12 +93,15 @@ def check_run_plan(
         Turn rate on the spot [deg/s].
     pause_s : float, optional
         Rest between runs [s].
+    runs : int, optional
+        Runs per direction.
 
     Raises
     ------
     InputError
         A value that is not a positive number, or outside :data:`SIDE_RANGE_M`,
-        :data:`MAX_SPEED_M_S`, :data:`MAX_TURN_RATE_DEG_S` or :data:`MAX_PAUSE_S`.
+        :data:`MAX_SPEED_M_S`, :data:`MAX_TURN_RATE_DEG_S` or :data:`MAX_PAUSE_S`; a plan
+        (with every value given) that drives longer than :data:`MAX_TEST_S`.
     """
     _check_positive(side_m=side_m, speed_m_s=speed_m_s, turn_rate_deg_s=turn_rate_deg_s, pause_s=pause_s)
     if pause_s is not None and pause_s > MAX_PAUSE_S:
@@ -87,6 +125,8 @@ def check_run_plan(
             f"`turn_rate_deg_s` {turn_rate_deg_s:g}: faster than a robot turns on the spot for a calibration run "
             f"(at most {MAX_TURN_RATE_DEG_S:g} deg/s; 30 is usual): the rate is in degrees per second"
         )
+    if runs is not None and speed_m_s is not None and turn_rate_deg_s is not None:
+        _check_duration(side_m, runs, speed_m_s, turn_rate_deg_s, pause_s or 0.0)
 
 
 def guide_text(side_mm: float = 4000.0, runs: int = 5, speed_m_s: float = 0.2) -> str:

@@ -45,8 +45,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from umbmark.errors import InputError
 from umbmark.io._text import csv_writer
-from umbmark.io.distances_csv import MeasuredRun
-from umbmark.model.geometry import wrap_angle
+from umbmark.io.distances_csv import MAX_TAPE_MM, MeasuredRun
+from umbmark.model.geometry import ROBOT_SIZES_M, wrap_angle
 from umbmark.model.runs import DIRECTIONS, RunsTable
 
 __all__ = [
@@ -85,7 +85,10 @@ class RobotMarks:
     Raises
     ------
     InputError
-        A point that is not two finite numbers, front and rear too close, another side.
+        A point that is not two finite numbers, front and rear too close, another side; points
+        beyond the largest robot (:data:`~umbmark.model.geometry.ROBOT_SIZES_M`) or all within
+        the smallest; the front point not ahead of the rear one, the back point not behind the
+        front one.
     """
 
     front: tuple[float, float]
@@ -100,10 +103,42 @@ class RobotMarks:
             p = getattr(self, name)
             if len(p) != 2 or not all(math.isfinite(float(v)) for v in p):
                 raise InputError(f"reference point {name} must be two finite numbers (x, y), got {p!r}")
+        self._check_on_a_robot()
         if math.hypot(self.front[0] - self.rear[0], self.front[1] - self.rear[1]) < 1e-3:
             raise InputError(
                 "the front and rear reference points must be at least 1 mm apart "
                 "(their distances to the side wall give the orientation)"
+            )
+        self._check_order()
+
+    def _check_on_a_robot(self) -> None:
+        """Refuse points no robot carries: beyond the largest robot, or all within the smallest."""
+        lo, hi = ROBOT_SIZES_M["wheelbase"]
+        points = {"front": self.front, "rear": self.rear, "back": self.back}
+        for name, p in points.items():
+            if math.hypot(*p) > hi:
+                raise InputError(
+                    f"reference point {name} ({p[0] * 1e3:g}, {p[1] * 1e3:g}) mm is {math.hypot(*p):g} m from the "
+                    "robot's origin: "
+                    f"no robot is that large (at most {hi:g} m); check the point and its unit"
+                )
+        if max(math.hypot(*p) for p in points.values()) < lo / 2:
+            raise InputError(
+                f"the reference points all lie within {lo / 2 * 1e3:g} mm of the robot's origin: no robot is that "
+                f"small (at least {lo * 1e3:g} mm); check their unit (metres where millimetres are expected?)"
+            )
+
+    def _check_order(self) -> None:
+        """Refuse front and rear (or the back point) in the wrong order along x (forward)."""
+        if self.front[0] <= self.rear[0]:
+            raise InputError(
+                f"the front reference point (x = {self.front[0] * 1e3:g} mm) is not ahead of the rear one (x = "
+                f"{self.rear[0] * 1e3:g} mm; x points forward): front and rear exchanged?"
+            )
+        if self.back[0] >= self.front[0]:
+            raise InputError(
+                f"the back reference point (x = {self.back[0] * 1e3:g} mm) is not behind the front one (x = "
+                f"{self.front[0] * 1e3:g} mm; x points forward): the sign of its x?"
             )
 
     @property
@@ -377,7 +412,7 @@ class Measurement:
 # every distance under this (metres): the distances were written in another unit
 _MIN_WALL_M = 0.01
 # a distance beyond this (metres) is no tape's reading
-_MAX_WALL_M = 1000.0
+_MAX_WALL_M = MAX_TAPE_MM * 1e-3  # the longest tape
 
 
 def measure(
@@ -556,6 +591,31 @@ class MeasuredRuns:
         }
 
 
+# the odometry's end heading after a square: near 0 or, unwrapped, one full turn (degrees)
+_MAX_END_HEADING_DEG = 720.0
+
+
+def _check_odometry(rows: list[MeasuredRun], source: str | None) -> None:
+    """Refuse an odometry end pose no square run ends at: beyond the longest tape from the start
+    (the run returns to where it started), or a heading beyond two turns."""
+    for r in rows:
+        for col, v in (("x_odo", r.x_odo_mm), ("y_odo", r.y_odo_mm)):
+            if not abs(v) <= _MAX_WALL_M * 1e3:
+                raise InputError(
+                    f"column {col}: the odometry's end {v:g} mm from the start: a square run returns to its start "
+                    f"(at most {_MAX_WALL_M * 1e3:g} mm; the file is in millimetres)",
+                    source,
+                    r.line,
+                )
+        if r.theta_odo_deg is not None and not abs(r.theta_odo_deg) <= _MAX_END_HEADING_DEG:
+            raise InputError(
+                f"column theta_odo: an end heading of {r.theta_odo_deg:g} deg: a square run ends within a turn of its "
+                f"start heading (at most {_MAX_END_HEADING_DEG:g} deg; the file is in degrees)",
+                source,
+                r.line,
+            )
+
+
 def measure_runs(
     marks: RobotMarks,
     rows: list[MeasuredRun],
@@ -590,6 +650,7 @@ def measure_runs(
     """
     if not rows:
         raise InputError("no runs to measure", source)
+    _check_odometry(rows, source)
     d = np.array([r.distances_mm for r in rows], dtype=float) * 1e-3
     lines = np.array([r.line if r.line is not None else 0 for r in rows])
     has_lines = any(r.line for r in rows)

@@ -513,12 +513,18 @@ def write_report(study: Study, out_dir, command: str = "umbmark reproduce", exag
     out_dir = Path(out_dir)
     if out_dir.exists() and not out_dir.is_dir():
         raise InputError(f"cannot write the report: {out_dir} exists and is not a folder")
+    made = not out_dir.exists()
     out_dir.mkdir(parents=True, exist_ok=True)
-    figs = study_figures(study, exaggerate)
-    saved = save_study_figures(figs, out_dir)
-    pngs = {k: v["_png"] for k, v in saved.items()}
-    page = out_dir / "index.html"
-    atomic_write(page, render_html(study, pngs, command))
+    try:
+        figs = study_figures(study, exaggerate)
+        saved = save_study_figures(figs, out_dir)
+        pngs = {k: v["_png"] for k, v in saved.items()}
+        page = out_dir / "index.html"
+        atomic_write(page, render_html(study, pngs, command))
+    except BaseException:
+        if made and not any(out_dir.iterdir()):
+            out_dir.rmdir()  # a report that could not be written leaves no empty folder
+        raise
     for p in [page] + [f for v in saved.values() for k, f in v.items() if k != "_png"]:
         _readable(p)
     return page
