@@ -258,6 +258,8 @@ DB_COMMANDS = {
     ],  # fmt: skip
     "replay": ["replay", "{log}", "--method", "lsq", "--no-heldout", *SIM, "--robot", "r", "--record"],
     "report ROBOT": ["report", "--robot", "r", "--out", "x.html"],
+    "drift": ["drift", "r1"],
+    "fleet": ["fleet", "{dir}", "--wheel-diameter-mm", "100", "--wheelbase-mm", "300"],
     "report --id": ["report", "--id", "1", "--out", "x.html"],
 }
 DB_CASES = [(c, db, via) for c in DB_COMMANDS for db in SECRET_DBS for via in ("--db", "UMBMARK_DB")]
@@ -808,4 +810,4 @@ def test_every_writer_option_is_in_the_campaign():
     flags = ("--out", "--save", "--poses-out", "--plot")
     covered = {(w.split()[0], a) for w, (argv, _) in WRITERS.items() for a in argv if a in flags}
     # history --plot draws as analyze --plot does (reading the history needs room for SQLite)
-    assert writers - covered <= {("history", "--plot")}, writers - covered
+    assert writers - covered <= {("history", "--plot"), ("drift", "--plot")}, writers - covered

@@ -122,6 +122,7 @@ BASE = {
     "convert": ["convert", "{paths}"],
     "export": ["export", "{calibration}", "--format", "json", "--db", "{db}"],
     "history": ["history", "r1", "--db", "{db}"],
+    "drift": ["drift", "r1", "--db", "{db}"],
     "measure": [
         "measure",
         "{distances_file}",

@@ -49,6 +49,8 @@ PATH_ROLES: dict[str, dict[str, str]] = {
     "demo": {"out_dir": "output_dir"},
     "export": {"calibration": "input", "dataset": "name", "out": "output", "db": "db"},
     "history": {"robot": "name", "db": "db", "plot_path": "output", "export_path": "output"},
+    "drift": {"robot": "name", "db": "db", "plot_path": "output", "parameters": "name", "kind": "name"},
+    "fleet": {"source": "input", "db": "db"},
     "measure": {"distances_file": "input", "out_path": "output"},
     "replay": {
         "paths": "input",
@@ -78,6 +80,7 @@ PATH_ROLES: dict[str, dict[str, str]] = {
         "intervals_out": "output",
         "db": "db",
         "scan_delay": "name",
+        "window": "name",
         "config": "input",
         "write_config": "output",
     },
@@ -308,7 +311,8 @@ def _refuse_underscored_numbers(command: click.Command, args: list[str], ctx: cl
         for v in values:
             if len(v) > MAX_NUMBER_CHARS:
                 raise click.BadParameter(
-                    f"{v[:12]!r}... ({len(v)} characters) is no number a robot's option takes",
+                    f"{v[:12]!r}... ({len(v)} {'digits' if v.isdigit() else 'characters'}) is no number a robot's "
+                    "option takes",
                     ctx=ctx,
                     param=p,
                 )
