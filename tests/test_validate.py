@@ -437,7 +437,12 @@ def bad(sim, tmp_path_factory):
     (d / "unnormalised.tum").write_text("\n".join(text[:7] + [" ".join(cells[:7] + ["2"])] + text[8:]) + "\n")
     traj = Trajectory(EPOCH_S + 5000.0 + np.arange(10.0), np.zeros((10, 3)))
     (d / "other.tum").write_text(format_tum(traj))
-    (d / "ns.tum").write_text(format_tum(Trajectory(EPOCH_S * 1e9 + np.arange(10.0) * 1e8, np.zeros((10, 3)))))
+    seconds = format_tum(Trajectory(EPOCH_S + np.arange(10.0) * 0.1, np.zeros((10, 3)))).splitlines()
+    ns = [
+        f"{float(r.split()[0]) * 1e9:.0f} " + " ".join(r.split()[1:]) if r and not r.startswith("#") else r
+        for r in seconds
+    ]
+    (d / "ns.tum").write_text("\n".join(ns) + "\n")
     (d / "broken.json").write_text('{"c_left": 1,\n "c_right": }\n')
     (d / "array.json").write_text("[1, 2]\n")
     (d / "other.json").write_text('{"name": "x", "value": 3}\n')

@@ -121,7 +121,9 @@ def fleet_cmd(ctx, source, db, scheduler, workers, as_json):
         mark = {"recorded": f"recorded as #{outcome.record_id}", "skipped": "already recorded"}.get(
             outcome.status, f"FAILED: {outcome.error}"
         )
-        console().print(f"[{done}/{total}] {outcome.robot}: {outcome.path}: {mark}", markup=False, highlight=False)
+        console().print(
+            f"[{done}/{total}] {outcome.robot}: {outcome.path}: {mark}", markup=False, highlight=False, soft_wrap=True
+        )
 
     summary = run_fleet(jobs, _calibrate, _record, path, dask=scheduler, workers=workers, on_outcome=told)
     if as_json:
@@ -132,5 +134,6 @@ def fleet_cmd(ctx, source, db, scheduler, workers, as_json):
             f"{summary.count('failed')} failed ({display_db(path)})",
             markup=False,
             highlight=False,
+            soft_wrap=True,
         )
     return 2 if summary.count("failed") else 0
