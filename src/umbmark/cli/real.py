@@ -920,6 +920,22 @@ def _ros_size_notes(cal, wheel_radius_m: float | None, wheel_separation_m: float
     help="Height of the lidar above the base frame (urdf, tf, json of a self-calibration): default the "
     "bag's /tf_static, else 0 with a warning.",
 )
+@click.option(
+    "--covariance-speed-mps",
+    type=float,
+    default=0.5,
+    show_default=True,
+    help="ros2, ros1, json of a self-calibration that measured the odometry's noise: the speed the "
+    "twist_covariance_diagonal is computed at.",
+)
+@click.option(
+    "--velocity-window-s",
+    type=float,
+    default=0.1,
+    show_default=True,
+    help="The time the controller averages its speeds over (velocity_rolling_window_size / update rate, "
+    "10 / 100 Hz by default) for twist_covariance_diagonal.",
+)
 @click.option("--out", type=click.Path(dir_okay=False), default=None, help="File to write (default: print).")
 @history_options
 def export(
@@ -945,6 +961,8 @@ def export(
     db,
     steering_offset_in_use_deg=0.0,
     steering_reduction_in_use=1.0,
+    covariance_speed_mps=0.5,
+    velocity_window_s=0.1,
 ):
     """Write a calibration as ROS 2 / ROS 1 diff_drive_controller parameters, JSON or a
     firmware header; a lidar self-calibration also as the lidar's URDF origin or a
@@ -965,9 +983,7 @@ def export(
       umbmark export cal.json --format ros2 --out params.yaml
       umbmark export selfcal.json --format urdf
     """
-    from dataclasses import replace
 
-    from umbmark.cli.app import positive
     from umbmark.io.export import (
         ExportCalibration,
         calibration_from_json,
@@ -1006,6 +1022,38 @@ def export(
         if any(v is None for v in flags):
             raise InputError("give CAL.json (from replay/analyze --json) or all of --c-left, --c-right, --eb")
         cal = ExportCalibration(c_left, c_right, eb, source="command line")
+    cal = _with_nominal(cal, wheel_diameter_mm, wheelbase_mm, pulses_per_wheel_rev)
+    cal, notes = _with_sensor_height(cal, sensor_z_mm, out_format)
+    notes += _ros_size_notes(cal, wheel_radius_m, wheel_separation_m)
+    covariances, cov_notes = _export_covariances(
+        cal, out_format, wheel_separation_m, separation_multiplier, covariance_speed_mps, velocity_window_s
+    )
+    text = format_export(
+        cal,
+        out_format,
+        controller,
+        left_multiplier,
+        right_multiplier,
+        separation_multiplier,
+        wheel_radius_m,
+        wheel_separation_m,
+        covariances,
+    )
+    notes += cov_notes
+    rec = _record_selfcal(calibration, robot, record, db) if record else None
+    _emit_export(text, out, notes + export_warnings(cal, left_multiplier, right_multiplier, separation_multiplier))
+    if rec is not None and out:
+        print_recorded(rec)
+    elif rec is not None and not is_quiet():  # the export went to stdout: the note to stderr
+        click.echo(f"recorded as #{rec['record_id']} in the history of {rec['robot']} ({rec['db']})", err=True)
+
+
+def _with_nominal(cal, wheel_diameter_mm, wheelbase_mm, pulses_per_wheel_rev):
+    """The calibration with the nominal geometry and pulses given on the command line."""
+    from dataclasses import replace
+
+    from umbmark.cli.app import positive
+
     for flag, v in (
         ("--wheel-diameter-mm", wheel_diameter_mm),
         ("--wheelbase-mm", wheelbase_mm),
@@ -1021,24 +1069,29 @@ def export(
         cal = replace(cal, nominal_wheelbase_m=wheelbase_mm * 1e-3)
     if pulses_per_wheel_rev is not None:
         cal = replace(cal, pulses_per_wheel_rev=pulses_per_wheel_rev)
-    cal, notes = _with_sensor_height(cal, sensor_z_mm, out_format)
-    notes += _ros_size_notes(cal, wheel_radius_m, wheel_separation_m)
-    text = format_export(
-        cal,
-        out_format,
-        controller,
-        left_multiplier,
-        right_multiplier,
-        separation_multiplier,
-        wheel_radius_m,
-        wheel_separation_m,
-    )
-    rec = _record_selfcal(calibration, robot, record, db) if record else None
-    _emit_export(text, out, notes + export_warnings(cal, left_multiplier, right_multiplier, separation_multiplier))
-    if rec is not None and out:
-        print_recorded(rec)
-    elif rec is not None and not is_quiet():  # the export went to stdout: the note to stderr
-        click.echo(f"recorded as #{rec['record_id']} in the history of {rec['robot']} ({rec['db']})", err=True)
+    return cal
+
+
+def _export_covariances(cal, out_format, wheel_separation_m, separation_multiplier, speed_mps, window_s):
+    """The controller's covariance diagonals for a calibration that measured the odometry's noise
+    (None otherwise), and notes on why none could be written."""
+    for flag, v, top in (("--covariance-speed-mps", speed_mps, 20.0), ("--velocity-window-s", window_s, 10.0)):
+        if not (math.isfinite(v) and 0 < v <= top):
+            raise InputError(f"{flag} must be in (0, {top:g}], got {v:g}")
+    if cal.odometry_noise_m is None or out_format not in ("ros2", "ros1", "json"):
+        return None, []
+    from umbmark.correct.noise import controller_covariances
+
+    if cal.nominal_wheelbase_m is not None:
+        wheelbase_m = cal.nominal_wheelbase_m * cal.eb
+    elif wheel_separation_m is not None:
+        wheelbase_m = wheel_separation_m * separation_multiplier * cal.eb
+    else:
+        return None, [
+            "the calibration holds the odometry's noise but no wheelbase: give --wheel-separation-m for "
+            "pose_covariance_diagonal and twist_covariance_diagonal"
+        ]
+    return controller_covariances(cal.odometry_noise_m, wheelbase_m, speed_mps, window_s), []
 
 
 def _with_sensor_height(cal, sensor_z_mm, out_format):

@@ -9,6 +9,7 @@ imported before the command runs.
 
 from __future__ import annotations
 
+import math
 import shlex
 from contextlib import ExitStack
 from pathlib import Path
@@ -36,6 +37,8 @@ LEGEND = (
     "not cover errors shared by the whole recording (one floor, one day): calibrate on another to see those.",
     "wheel data jitter: how far the wheel data's stamps scatter against the scans' (the errors it puts in the "
     "wheels' rotation at the ends of each interval are part of the fit; --no-wheel-jitter takes them as exact).",
+    "wheel noise: each wheel's random travel error, one standard deviation after rolling 1 m (it grows with the "
+    "square root of the distance); umbmark export writes it as the controller's covariances.",
 )
 
 
@@ -120,6 +123,11 @@ def _print_report(d: dict, again: str, export: str) -> None:
         rows.append([label, fmt(1e3 * delay["applied_s"], 1), how, "0"])
     if d.get("wheel_jitter_ms") is not None:
         rows.append(["wheel data jitter [ms]", fmt(d["wheel_jitter_ms"], 1), "estimated", "0"])
+    for side in ("left", "right") if d.get("odometry_noise") else ():
+        noise = d["odometry_noise"]
+        lo, hi = (1e3 * math.sqrt(max(v, 0.0)) for v in noise[f"wheel_variance_{side}_m2_per_m_ci95"])
+        rows.append([f"{side} wheel noise [mm/sqrt(m)]", fmt(noise[f"wheel_sd_{side}_mm_per_sqrt_m"], 2),
+                     _ci((lo, hi), 2), ""])  # fmt: skip
     c.print(
         table(
             f"Self-calibration from {d['intervals_used']} intervals "

@@ -328,27 +328,33 @@ def nees(errors: ArrayLike, covariances: ArrayLike) -> float:
 
 
 def controller_covariances(
-    noise: OdometryNoise, wheelbase_m: float, speed_mps: float, period_s: float, distance_m: float = 1.0
+    noise: OdometryNoise | tuple[float, float],
+    wheelbase_m: float,
+    speed_mps: float,
+    period_s: float,
+    distance_m: float = 1.0,
 ) -> dict[str, list[float]]:
     """``diff_drive_controller``'s ``pose_covariance_diagonal`` and ``twist_covariance_diagonal``
-    (x, y, z, roll, pitch, yaw) for this noise.
+    (x, y, z, roll, pitch, yaw) for this noise (an :class:`OdometryNoise` or each wheel's
+    variance per metre ``(k_left, k_right)``).
 
-    The twist's: the variance of the speeds over one publishing period at ``speed_mps`` (each
-    wheel rolling ``speed * period``). The pose's: the covariance after driving ``distance_m``
+    The twist's: the variance of the speeds averaged over ``period_s`` at ``speed_mps`` (each
+    wheel rolling ``speed * period``; diff_drive_controller averages its speeds over
+    ``velocity_rolling_window_size`` updates, and the average of the wheel-angle differences is the
+    difference over the whole window). The pose's: the covariance after driving ``distance_m``
     straight (the odometry's pose error grows without bound; robot_localization should fuse the
     twist, or the pose differentially). The unobserved axes get 1e6, ``vy`` and ``y``'s lower
     bound the tiniest of the others (a differential drive cannot slide, but a zero breaks filters).
     """
-    if not (speed_mps > 0 and period_s > 0 and distance_m > 0 and wheelbase_m > 0):
+    if not all(math.isfinite(v) and v > 0 for v in (speed_mps, period_s, distance_m, wheelbase_m)):
         raise InputError("speed, period, distance and wheelbase must be positive")
+    k_left, k_right = (noise.k_left_m, noise.k_right_m) if isinstance(noise, OdometryNoise) else noise
     s = speed_mps * period_s
-    q = step_covariance([s], [s], wheelbase_m, noise.k_left_m, noise.k_right_m)[0]
+    q = step_covariance([s], [s], wheelbase_m, k_left, k_right)[0]
     twist = np.diag(q) / period_s**2
     n = max(1, int(round(distance_m / 0.01)))
     steps = np.tile([distance_m / n, 0.0, 0.0], (n, 1))
-    sc = step_covariance(
-        np.full(n, distance_m / n), np.full(n, distance_m / n), wheelbase_m, noise.k_left_m, noise.k_right_m
-    )
+    sc = step_covariance(np.full(n, distance_m / n), np.full(n, distance_m / n), wheelbase_m, k_left, k_right)
     pose = np.diag(window_covariance(steps, sc, n)[0])
     floor = float(min(v for v in (*twist, *pose) if v > 0)) if np.any(twist > 0) else 1e-9
     big = 1e6

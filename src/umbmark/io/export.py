@@ -38,6 +38,7 @@ import json
 import math
 import re
 import unicodedata
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from pathlib import Path
 
@@ -84,6 +85,8 @@ PLAUSIBLE_FACTORS = {"c": (0.8, 1.25), "Ed": (0.8, 1.25), "Eb": (0.5, 2.0)}
 # a multiplier in use beyond these corrects a controller's wheel_radius or wheel_separation set an order
 # of magnitude off (a unit slip in its configuration) or is a size typed for the multiplier: refused
 IN_USE_LIMITS = (0.1, 10.0)
+# a wheel travel variance per metre beyond this (10 cm after 1 m, one standard deviation) is no odometry
+MAX_WHEEL_VARIANCE_M = 0.01
 # the multipliers in use: parameter (as messages name it), the controller's name, the factor it scales
 _IN_USE = (
     ("left_multiplier", "left_wheel_radius_multiplier", "c"),
@@ -175,6 +178,10 @@ class ExportCalibration:
         Whether the method measured the wheel scale (the mean diameter): False for ``bf`` and
         for ``exact`` without a straight run (a closed square hides it), True for ``lsq`` with
         the scale fitted and for a lidar self-calibration, None when unknown.
+    odometry_noise_m : tuple of float or None
+        Each wheel's travel variance per metre ``(k_left, k_right)`` [m^2/m] (a self-calibration
+        that estimated the odometry's noise): the ``ros2``, ``ros1`` and ``json`` exports then
+        carry ``pose_covariance_diagonal`` and ``twist_covariance_diagonal``.
     sensor_height_known : bool
         Whether ``sensor_z_m`` (and roll, pitch) came from somewhere (``/tf_static``, the
         user): False for a self-calibration whose bag had no ``/tf_static`` for the lidar.
@@ -212,6 +219,7 @@ class ExportCalibration:
     wheels_include_prior: bool = False
     input_warnings: tuple[str, ...] = ()
     sensor_height_known: bool = True
+    odometry_noise_m: tuple[float, float] | None = None
 
     def __post_init__(self) -> None:
         for k in ("c_left", "c_right", "eb"):
@@ -237,6 +245,15 @@ class ExportCalibration:
             object.__setattr__(self, "sensor_pose", pose)
         for k in ("sensor_z_m", "sensor_roll_rad", "sensor_pitch_rad"):
             object.__setattr__(self, k, _finite(k, getattr(self, k), self.source))
+        if self.odometry_noise_m is not None:
+            k2 = tuple(_finite("odometry noise", v, self.source) for v in self.odometry_noise_m)
+            if len(k2) != 2 or min(k2) < 0 or max(k2) > MAX_WHEEL_VARIANCE_M:
+                raise InputError(
+                    f"odometry noise must be two variances per metre in [0, {MAX_WHEEL_VARIANCE_M:g}] m^2/m, "
+                    f"got {self.odometry_noise_m!r}",
+                    self.source,
+                )
+            object.__setattr__(self, "odometry_noise_m", k2)
         for k in ("base_frame", "sensor_frame"):
             v = getattr(self, k)
             if not isinstance(v, str) or not _FRAME.fullmatch(v):
@@ -290,7 +307,19 @@ def _selfcal_calibration(d: dict, src: str) -> ExportCalibration:
         str(d.get("sensor_frame") or "laser"),
         scale_observed=True,
         sensor_height_known=str(nom.get("source") or "").startswith("/tf_static"),
+        odometry_noise_m=_odometry_noise(d.get("odometry_noise"), src),
     )
+
+
+def _odometry_noise(noise: object, src: str) -> tuple[float, float] | None:
+    """Each wheel's variance per metre from a selfcal JSON's ``odometry_noise``, None where absent."""
+    if noise is None:
+        return None
+    keys = ("wheel_variance_left_m2_per_m", "wheel_variance_right_m2_per_m")
+    if not isinstance(noise, dict) or any(k not in noise for k in keys):
+        raise InputError(f"'odometry_noise' must be an object with {' and '.join(keys)}, got {noise!r}", source=src)
+    left, right = (_finite(f"odometry_noise {k}", noise[k], src) for k in keys)
+    return left, right
 
 
 def _scale_observed(d: dict) -> bool | None:
@@ -664,6 +693,7 @@ def format_export(
     separation0: float = 1.0,
     wheel_radius_m: float | None = None,
     wheel_separation_m: float | None = None,
+    covariances: Mapping[str, Sequence[float]] | None = None,
 ) -> str:
     """The text of an export.
 
@@ -679,6 +709,11 @@ def format_export(
         The multipliers in use when the logs were recorded (``ros2``, ``ros1``).
     wheel_radius_m, wheel_separation_m : float, optional
         Also write ``wheel_radius`` / ``wheel_separation`` (``ros2``, ``ros1``).
+    covariances : mapping, optional
+        ``pose_covariance_diagonal`` and ``twist_covariance_diagonal`` (six variances each: x, y,
+        z, roll, pitch, yaw; see :func:`umbmark.correct.noise.controller_covariances`): written
+        as the controller's parameters with the matching robot_localization settings as comments
+        (``ros2``, ``ros1``), as ``odometry_covariances`` (``json``).
 
     Returns
     -------
@@ -702,13 +737,18 @@ def format_export(
     """
     if fmt not in FORMATS:
         raise InputError(f"unknown export format {fmt!r} (choose from {', '.join(FORMATS)})")
+    cov = _covariances(covariances)
     notes = [_PARAM_TICKS.sub(r"\1", w) for w in export_warnings(cal, left0, right0, separation0)]
     if fmt in _SENSOR_FORMATS:
         return _sensor_export(cal, fmt, notes)
     if fmt in ("ros2", "ros1"):
-        return _ros_export(cal, fmt, notes, controller, left0, right0, separation0, wheel_radius_m, wheel_separation_m)
+        return _ros_export(
+            cal, fmt, notes, controller, (left0, right0, separation0), (wheel_radius_m, wheel_separation_m), cov
+        )
     out, mmpp = _corrected_values(cal)
     if fmt == "json":
+        if cov:
+            out["odometry_covariances"] = cov
         return _json_export(cal, out, notes)
     return _firmware_export(cal, out, mmpp, notes)
 
@@ -736,16 +776,16 @@ def _ros_export(
     fmt: str,
     notes: list[str],
     controller: str,
-    left0: float,
-    right0: float,
-    separation0: float,
-    wheel_radius_m: float | None,
-    wheel_separation_m: float | None,
+    in_use: tuple[float, float, float],
+    sizes: tuple[float | None, float | None],
+    covariances: dict[str, list[float]],
 ) -> str:
     """The ``ros2`` or ``ros1`` export: a diff_drive_controller parameter file."""
     if not isinstance(controller, str) or not CONTROLLER_NAME.fullmatch(controller):
         raise InputError(f"bad controller name {controller!r} (letters, digits, _ / ~ . -)")
-    params = ros_multipliers(cal, left0, right0, separation0)
+    left0, right0, separation0 = in_use
+    wheel_radius_m, wheel_separation_m = sizes
+    params: dict[str, object] = {**ros_multipliers(cal, left0, right0, separation0), **covariances}
     if wheel_radius_m is not None:
         params = {"wheel_radius": _size("wheel radius", wheel_radius_m * 1e3) * 1e-3, **params}
     if wheel_separation_m is not None:
@@ -762,7 +802,42 @@ def _ros_export(
         + note
         + yaml.safe_dump(body, sort_keys=False, default_flow_style=False)
     )
-    return text + _sensor_comment(cal, 2 if fmt == "ros2" else 1)
+    return text + _localization_comment(controller, covariances) + _sensor_comment(cal, 2 if fmt == "ros2" else 1)
+
+
+_COVARIANCE_KEYS = ("pose_covariance_diagonal", "twist_covariance_diagonal")
+
+
+def _covariances(covariances: Mapping[str, Sequence[float]] | None) -> dict[str, list[float]]:
+    """The two covariance diagonals checked: six non-negative finite variances each."""
+    if covariances is None:
+        return {}
+    if set(covariances) != set(_COVARIANCE_KEYS):
+        raise InputError(f"covariances must be {' and '.join(_COVARIANCE_KEYS)}, got {sorted(covariances)}")
+    out = {}
+    for k in _COVARIANCE_KEYS:
+        v = [_finite(k, x) for x in covariances[k]]
+        if len(v) != 6 or min(v) < 0:
+            raise InputError(f"{k} must be six non-negative variances (x, y, z, roll, pitch, yaw), got {v}")
+        out[k] = v
+    return out
+
+
+def _localization_comment(controller: str, covariances: dict[str, list[float]]) -> str:
+    """robot_localization's settings for an odometry with these covariances (comments)."""
+    if not covariances:
+        return ""
+    lines = [
+        "the covariances above are the odometry's measured noise (umbmark selfcal: each wheel's variance per "
+        "metre); the pose's after 1 m straight, the twist's at the speed and averaging time given",
+        "robot_localization (ekf_node): fuse the twist, whose covariance holds; the pose's grows without bound:",
+        f"  odom0: /{controller}/odom",
+        "  odom0_config: [false, false, false,  false, false, false,  true, true, false,  false, false, true,  "
+        "false, false, false]",
+        "  odom0_differential: false",
+        "  odom0_relative: false",
+    ]
+    return "".join(f"# {line}\n" for line in lines)  # (the controller's name is checked: no line breaks)
 
 
 def _corrected_values(cal: ExportCalibration) -> tuple[dict[str, object], tuple[float, float] | None]:
