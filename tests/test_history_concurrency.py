@@ -178,3 +178,37 @@ def test_two_writer_processes_in_parallel(db, tmp_path, pause):
     switches = sum(a != b for a, b in zip(by_id, by_id[1:]))
     if pause:
         assert switches >= 2, "the two writers did not overlap in time"
+
+
+OPENER = r"""
+import os, sys, time
+from umbmark.history import open_history
+
+db, go = sys.argv[1], sys.argv[2]
+print("ready", flush=True)
+while not os.path.exists(go):
+    time.sleep(0.0005)
+with open_history(db) as h:
+    h.add("r", kind="analyze", method="bf", results={"emax_syst_mm": 1.0}, parameters={"c_left": 1.0})
+"""
+
+
+def test_processes_opening_one_new_file_at_once_all_take_it_as_a_history(tmp_path):
+    """Five processes opening the same new SQLite file at the same instant, twelve times over: one
+    creates the schema, the others wait for it; none takes the half-seen file (the schema's
+    version read before the creator's commit, its tables after) for another application's."""
+    for round_ in range(12):
+        db, go = tmp_path / f"h{round_}.sqlite", tmp_path / f"go{round_}"
+        ps = [
+            subprocess.Popen([sys.executable, "-c", OPENER, str(db), str(go)], stdout=subprocess.PIPE,
+                             stderr=subprocess.PIPE, text=True)
+            for _ in range(5)
+        ]  # fmt: skip
+        for p in ps:
+            _read_until(p, "ready")
+        go.touch()
+        for p in ps:
+            _, err = p.communicate(timeout=60)
+            assert p.returncode == 0, err
+        with open_history(db) as h:
+            assert h.count() == 5

@@ -238,15 +238,24 @@ class History(_Backend):
 
     def _refuse_foreign(self) -> None:
         """Raise for a file of a newer umbmark, another application's database or a damaged
-        schema, reading only."""
-        v = self.schema_version
-        if v > SCHEMA_VERSION:
-            raise HistoryError(self._newer(v))
-        if v == 0:
-            if self._conn.execute("SELECT count(*) FROM sqlite_master WHERE type = 'table'").fetchone()[0]:
-                raise HistoryError(f"{self.path} is an SQLite database but not an umbmark history")
-        else:
-            self._check_schema(self._conn, v)
+        schema, reading only.
+
+        The version and the tables are read in one read transaction: another process creating
+        the schema of the same new file commits both at once, and reads outside a transaction
+        could see the version before its commit and the tables after it."""
+        self._conn.execute("BEGIN")
+        try:
+            v = self.schema_version
+            if v > SCHEMA_VERSION:
+                raise HistoryError(self._newer(v))
+            if v == 0:
+                if self._conn.execute("SELECT count(*) FROM sqlite_master WHERE type = 'table'").fetchone()[0]:
+                    raise HistoryError(f"{self.path} is an SQLite database but not an umbmark history")
+            else:
+                self._check_schema(self._conn, v)
+        finally:
+            if self._conn.in_transaction:  # (a read transaction: nothing to keep)
+                self._conn.execute("ROLLBACK")
 
     def _migrate(self) -> None:
         v = self.schema_version
