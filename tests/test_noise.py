@@ -159,3 +159,25 @@ def test_controller_covariances():
     assert pose[2] == twist[2] == 1e6
     with pytest.raises(InputError):
         controller_covariances(noise, 0.34, 0.0, 0.02)
+
+
+def test_a_real_log_s_halves_agree_that_its_wheels_hide_under_the_matching_noise(capsys):
+    """ACES (data/slam2d): each half self-calibrated on its own. The scan matching's noise (1 to 2
+    cm per interval) hides the wheels': each wheel's variance is below 1e-5 m^2/m in both halves,
+    the intervals start at 0 and overlap, and the matching noise agrees between the halves."""
+    import json
+    from pathlib import Path
+
+    from umbmark.cli import main
+
+    bag = Path(__file__).resolve().parents[1] / "data" / "slam2d" / "aces.bag"
+    args = ["selfcal", str(bag), "--odom-topic", "/odom", "--wheel-diameter-mm", "200", "--wheelbase-mm", "400"]
+    assert main([*args, "--window", "683s", "--json"]) == 0
+    halves = [w["result"]["odometry_noise"] for w in json.loads(capsys.readouterr().out)["windows"]]
+    assert len(halves) == 2
+    for side in ("left", "right"):
+        lo, hi = zip(*(h[f"wheel_variance_{side}_m2_per_m_ci95"] for h in halves))
+        assert max(hi) < 1e-5 and max(lo) < min(hi)
+    for axis in ("dx_mm", "dy_mm"):
+        a, b = (h["sensor_sd"][axis] for h in halves)
+        assert 5.0 < a < 30.0 and 5.0 < b < 30.0 and abs(a - b) < 0.3 * max(a, b)
