@@ -59,6 +59,7 @@ PATH_ROLES: dict[str, dict[str, str]] = {
         "poses_out": "output",
         "db": "db",
         "time_offset": "name",
+        "window": "name",
         "imu_topic": "name",
         "config": "input",
         "write_config": "output",

@@ -397,6 +397,14 @@ def _print_stream(rep) -> None:
 )
 @click.option("--no-heldout", is_flag=True, help="Skip the held-out (leave-one-run-out) figures.")
 @click.option(
+    "--window",
+    metavar="DURATION",
+    default=None,
+    help="Also group the runs of a long recording (a bag or CSV log cut into runs) into windows of about "
+    "DURATION (10min, 600s, 1h) by the recording's clock and calibrate each (JSON key windows); with "
+    "--record, each window is recorded with its own date (for `umbmark drift`).",
+)
+@click.option(
     "--save",
     type=click.Path(dir_okay=False),
     default=None,
@@ -432,6 +440,7 @@ def replay(
     no_heldout,
     save,
     as_json,
+    window=None,
     robot=None,
     record=False,
     db=None,
@@ -468,6 +477,7 @@ def replay(
     if not (math.isfinite(heading_weight_m) and heading_weight_m >= 0):
         raise InputError(f"--heading-weight-m must be >= 0, got {heading_weight_m!r}")
     kinematics = kw.pop("kinematics", "diff_drive")
+    window_s = _window_s(window, kinematics, pool, stream)
     if kinematics != "diff_drive":
         from umbmark.cli.kinematic import kinematic_replay_cmd
 
@@ -488,12 +498,14 @@ def replay(
             raise InputError("--poses-out needs --decimate N (keep the pose after every N-th sample)")
         _stream(paths, log_format, decimate, poses_out, as_json, kw)
         return
-    from umbmark.realrobot.replay import pooled_report, replay_report
-
     gyro = None
     if kw.get("imu_topic") is not None or kw.get("full_turns"):
         gyro = _gyro(paths, log_format, kw)
         if kw.get("gt_topic") is None and (kw.get("gt_scan_topic") is None or kw.get("side_mm") is None):
+            if window_s is not None:
+                raise InputError(
+                    "--window needs runs with a ground truth (--gt-topic, or --gt-scan-topic and --side-mm)"
+                )
             _emit_gyro(gyro, save, as_json, (robot, record, db), list(paths))
             return
     scan_truth = None
@@ -508,37 +520,68 @@ def replay(
         "points_per_run": points_per_run,
         "fit_offset": fit_marker_offset,
     }
-    rep: ReplayReport | MultiReplayReport | PooledReport
-    if pool:
-        if method != "lsq":
-            raise InputError("--pool works with --method lsq")
-        with progress("fitting and replaying"):
-            rep = pooled_report(sets, lsq_opts, heldout=not no_heldout)
-        for w in (w for ds in sets for w in ds.meta.get("warnings") or ()):  # the readers' (a pooled report has none)
-            click.echo(f"warning: {cli_message(w)}", err=True)
-    else:
-        with progress("replaying and calibrating"):
-            rep = replay_report(sets, method, lsq_opts, heldout=not no_heldout)
+    rep = _calibrate_sets(sets, method, pool, lsq_opts, not no_heldout)
     if scan_truth is not None:
         rep = _with_warnings(rep, scan_truth.warnings)
+    d = _report_dict(rep, scan_truth, gyro)
+    rec: list | None = None
+    if window_s is not None:
+        from umbmark.cli.replay_windows import replay_windows_cmd
+
+        with progress("calibrating the windows"):
+            d["windows"], rec = replay_windows_cmd(
+                sets, window_s, method, lsq_opts, not no_heldout, list(paths), (robot, record, db)
+            )
     if save:
         from umbmark.io.atomic import write_json
 
-        write_json(save, _report_dict(rep, scan_truth, gyro))
-    rec = record_report_if_requested(robot, record, db, rep, list(paths), kind="replay", method=method)
+        write_json(save, d)
+    if window_s is None:
+        rec = record_report_if_requested(robot, record, db, rep, list(paths), kind="replay", method=method)
     if as_json:
-        d = _report_dict(rep, scan_truth, gyro)
         for w in dict.fromkeys(_json_warnings(d)):  # on stderr too, as every command's warnings
             click.echo(f"warning: {cli_message(w)}", err=True)
         emit_json(d if rec is None else {**d, "history": rec})
         return
     if not is_quiet():
-        _print_replay(rep, rec, scan_truth, gyro)
+        _print_replay(rep, rec, scan_truth, gyro, d.get("windows"))
 
 
-def _print_replay(rep, rec, scan_truth, gyro) -> None:
+def _calibrate_sets(sets, method, pool, lsq_opts, heldout) -> ReplayReport | MultiReplayReport | PooledReport:
+    """The data sets replayed and calibrated: pooled (``--pool``, lsq) or each on its own."""
+    from umbmark.realrobot.replay import pooled_report, replay_report
+
+    if not pool:
+        with progress("replaying and calibrating"):
+            return replay_report(sets, method, lsq_opts, heldout=heldout)
+    if method != "lsq":
+        raise InputError("--pool works with --method lsq")
+    with progress("fitting and replaying"):
+        rep = pooled_report(sets, lsq_opts, heldout=heldout)
+    for w in (w for ds in sets for w in ds.meta.get("warnings") or ()):  # the readers' (a pooled report has none)
+        click.echo(f"warning: {cli_message(w)}", err=True)
+    return rep
+
+
+def _window_s(window, kinematics, pool, stream) -> float | None:
+    """``--window``'s length [s], or None; refused with the options it does not go with."""
+    if window is None:
+        return None
+    from umbmark.cli.selfcal_windows import window_seconds
+
+    for given, flag in (
+        (kinematics != "diff_drive", f"--kinematics {kinematics}"),
+        (pool, "--pool"),
+        (stream, "--stream"),
+    ):
+        if given:
+            raise InputError(f"--window does not go with {flag}")
+    return window_seconds(window)
+
+
+def _print_replay(rep, rec, scan_truth, gyro, windows=None) -> None:
     """A replay's report as tables: a pooled fit, one data set's or several's; the lidar's and
-    the gyro's lines."""
+    the gyro's lines; the windows' table."""
     from umbmark.realrobot.results import MultiReplayReport, PooledReport
 
     if isinstance(rep, PooledReport):
@@ -556,6 +599,10 @@ def _print_replay(rep, rec, scan_truth, gyro) -> None:
         _print_scan_truth(scan_truth)
     if gyro is not None:
         _print_gyro(gyro)
+    if windows is not None:
+        from umbmark.cli.replay_windows import print_replay_windows
+
+        print_replay_windows(windows)
 
 
 def _json_warnings(d) -> list[str]:

@@ -285,7 +285,7 @@ def _batch_run(label: str, rows: list, src: str, where: str, ticks: str, degrees
     gt = gt_end = None
     if a.shape[1] > 3:
         gt, gt_end = _ground_truth(a[:, 3:6], lines, degrees, src)
-    return Run(label, a[:, 0] - a[0, 0], dl, dr, gt, gt_end, where)
+    return Run(label, a[:, 0] - a[0, 0], dl, dr, gt, gt_end, where, float(a[0, 0]))
 
 
 def read_generic_csv(

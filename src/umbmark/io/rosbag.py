@@ -605,7 +605,7 @@ def _whole_run(t, pl, pr, gt, src: str) -> Run:
             [np.interp(t, g[:, 0], g[:, 1]), np.interp(t, g[:, 0], g[:, 2]), np.interp(t, g[:, 0], th)]
         )
         _truth_at_rest(t, dl, dr, g[:, 0], np.column_stack([g[:, 1], g[:, 2], th]), gtk)
-    return Run("bag", t - t[0], dl, dr, gtk, None, src)
+    return Run("bag", t - t[0], dl, dr, gtk, None, src, float(t[0]))
 
 
 def _truth_at_rest(t, dl, dr, tg, poses, gtk) -> None:

@@ -72,11 +72,14 @@ class Run:
         A measured end pose ``(x, y, theta)`` instead of a trajectory.
     source : str, optional
         Where the run was read from (for messages).
+    clock_s : float, optional
+        The recording's clock at the run's first sample [s] (``t`` starts at 0): a bag's header
+        stamp, a CSV log's first time; None when the log keeps no clock of its own.
 
     Raises
     ------
     InputError
-        On fewer than two samples, arrays of different lengths or non-finite increments.
+        On fewer than two samples, arrays of different lengths, non-finite increments or clock.
     """
 
     name: str
@@ -86,6 +89,7 @@ class Run:
     gt: np.ndarray | None = None
     gt_end: np.ndarray | None = None
     source: str | None = None
+    clock_s: float | None = None
 
     def __post_init__(self) -> None:
         k = len(self.t)
@@ -99,6 +103,8 @@ class Run:
                 raise InputError("wheel increments must be finite numbers", source=where)
         if self.gt is not None and self.gt.shape != (k, 3):
             raise InputError("ground truth must have one (x, y, theta) row per sample", source=where)
+        if self.clock_s is not None and not math.isfinite(self.clock_s):
+            raise InputError("a run's clock must be a finite time", source=where)
 
     def __len__(self) -> int:
         return len(self.t)
@@ -142,7 +148,9 @@ class Run:
         if self.gt is not None:
             g = self.gt[sl]
             gt = None if not np.all(np.isfinite(g[0])) else np.column_stack(to_start_frame(*g.T))
-        return Run(name or f"{self.name}[{start}:{stop}]", self.t[sl] - self.t[start], d_l, d_r, gt, None, self.source)
+        clock = None if self.clock_s is None else self.clock_s + float(self.t[start])
+        name = name or f"{self.name}[{start}:{stop}]"
+        return Run(name, self.t[sl] - self.t[start], d_l, d_r, gt, None, self.source, clock)
 
 
 @dataclass(frozen=True)

@@ -1132,8 +1132,6 @@ def align_truth(ds, time_offset, what: str = "log"):
     """
     from dataclasses import replace
 
-    from umbmark.model.dataset import Run
-
     request = parse_time_offset(time_offset)
     if request is None and not any(r.has_trajectory for r in ds.runs):
         return ds
@@ -1189,7 +1187,7 @@ def align_truth(ds, time_offset, what: str = "log"):
         for c in range(3):
             gt[inside, c] = np.interp(tt[inside], r.t[ok], r.gt[ok, c])
         a, b = np.flatnonzero(inside)[[0, -1]]
-        moved = Run(r.name, r.t, r.d_left, r.d_right, gt, None, r.source).slice(int(a), int(b) + 1, name=r.name)
+        moved = replace(r, gt=gt, gt_end=None).slice(int(a), int(b) + 1, name=r.name)
         new_runs.append(moved)
         off = TimeOffset(
             None if est is None else round(est, 6) + 0.0,

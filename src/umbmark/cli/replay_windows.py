@@ -1,0 +1,78 @@
+"""``umbmark replay --window DURATION``: the runs of a long recording grouped into windows of
+time, each replayed and calibrated (and recorded with its own date)."""
+
+from __future__ import annotations
+
+from datetime import datetime
+from typing import Any
+
+from umbmark.cli.app import console, fmt, table
+from umbmark.cli.history import _when, record_if_requested
+from umbmark.errors import InputError
+
+__all__ = ["replay_windows_cmd", "print_replay_windows"]
+
+
+def replay_windows_cmd(
+    sets: list, window_s: float, method: str, lsq_opts: dict, heldout: bool, paths: list, history: tuple
+) -> tuple[list[dict], list]:
+    """Replay the windows of each data set; record each calibrated one when asked.
+
+    Returns
+    -------
+    tuple
+        The windows' JSON (each with its ``history`` record when recorded), and the records.
+    """
+    from umbmark.history import file_sha256
+    from umbmark.realrobot.replay import history_fields
+    from umbmark.realrobot.replay_windows import replay_windows
+
+    robot, record, db = history
+    when = _when()
+    base = datetime.fromisoformat(when) if when else None
+    wins = [w for ds in sets for w in replay_windows(ds, window_s, method, lsq_opts, heldout)]
+    if not any(w.report is not None for w in wins):
+        raise InputError(f"no window of {window_s:g} s could be calibrated: {wins[0].error}")
+    out, recs = [], []
+    for w in wins:
+        d = w.to_dict(base)
+        if record and w.report is not None:
+            (fields,) = history_fields(w.report, paths, kind="replay", method=method, file_hash=file_sha256)
+            fields["when"] = w.time(base)
+            fields["note"] = f"window {w.index + 1} ({w.start_s:.0f}-{w.end_s:.0f} s) of {w.dataset}"
+            rec = record_if_requested(robot, record, db, **fields)
+            d["history"] = rec
+            recs.append(rec)
+        out.append(d)
+    return out, recs
+
+
+def print_replay_windows(windows: list[dict[str, Any]]) -> None:
+    """The windows as a table: when, the runs, E_d, E_b, the wheelbase, the errors before and after."""
+    rows = []
+    for w in windows:
+        r = w["result"]
+        when = w["start_utc"][:19].replace("T", " ")
+        if r is None:
+            rows.append([w["window"] + 1, when, len(w["runs"]), "-", "-", "-", w["error"]])
+            continue
+        before, after = r.get("before") or {}, r.get("after") or {}
+        err = "emax_syst_mm" if before.get("emax_syst_mm") is not None else "end_position_rms_mm"
+        rows.append(
+            [
+                w["window"] + 1,
+                when,
+                len(w["runs"]),
+                fmt(r.get("Ed"), 6),
+                fmt(r.get("Eb"), 6),
+                fmt(r.get("wheelbase_corrected_mm"), 2),
+                f"{fmt(before.get(err), 1)} -> {fmt(after.get(err), 1)} mm",
+            ]
+        )
+    console().print(
+        table(
+            "Windows (each calibrated on its own runs)",
+            ["#", "start (UTC)", "runs", "E_d", "E_b", "wheelbase [mm]", "error before -> after / why not"],
+            rows,
+        )
+    )
