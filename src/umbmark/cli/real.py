@@ -397,6 +397,14 @@ def _print_stream(rep) -> None:
 )
 @click.option("--no-heldout", is_flag=True, help="Skip the held-out (leave-one-run-out) figures.")
 @click.option(
+    "--noise",
+    is_flag=True,
+    help="Also estimate the odometry's random error (each wheel's variance per metre) from the ground "
+    "truth's residuals over intervals of 0.1, 0.25, 0.5 and 1 s, with the ground truth's timing and each "
+    "run's time offset (JSON odometry_noise_strides); where the per-metre model holds at every length, "
+    "odometry_noise (export's covariances), else a warning.",
+)
+@click.option(
     "--window",
     metavar="DURATION",
     default=None,
@@ -441,6 +449,7 @@ def replay(
     save,
     as_json,
     window=None,
+    noise=False,
     robot=None,
     record=False,
     db=None,
@@ -477,7 +486,7 @@ def replay(
     if not (math.isfinite(heading_weight_m) and heading_weight_m >= 0):
         raise InputError(f"--heading-weight-m must be >= 0, got {heading_weight_m!r}")
     kinematics = kw.pop("kinematics", "diff_drive")
-    window_s = _window_s(window, kinematics, pool, stream)
+    window_s = _window_s(window, kinematics, pool, stream, noise)
     if kinematics != "diff_drive":
         from umbmark.cli.kinematic import kinematic_replay_cmd
 
@@ -524,14 +533,9 @@ def replay(
     if scan_truth is not None:
         rep = _with_warnings(rep, scan_truth.warnings)
     d = _report_dict(rep, scan_truth, gyro)
-    rec: list | None = None
-    if window_s is not None:
-        from umbmark.cli.replay_windows import replay_windows_cmd
-
-        with progress("calibrating the windows"):
-            d["windows"], rec = replay_windows_cmd(
-                sets, window_s, method, lsq_opts, not no_heldout, list(paths), (robot, record, db)
-            )
+    rec, noise_fits = _replay_extras(
+        d, sets, rep, (window_s, noise), (method, lsq_opts, not no_heldout), list(paths), (robot, record, db)
+    )
     if save:
         from umbmark.io.atomic import write_json
 
@@ -544,7 +548,7 @@ def replay(
         emit_json(d if rec is None else {**d, "history": rec})
         return
     if not is_quiet():
-        _print_replay(rep, rec, scan_truth, gyro, d.get("windows"))
+        _print_replay(rep, rec, scan_truth, gyro, d.get("windows"), noise_fits)
 
 
 def _calibrate_sets(sets, method, pool, lsq_opts, heldout) -> ReplayReport | MultiReplayReport | PooledReport:
@@ -563,25 +567,45 @@ def _calibrate_sets(sets, method, pool, lsq_opts, heldout) -> ReplayReport | Mul
     return rep
 
 
-def _window_s(window, kinematics, pool, stream) -> float | None:
-    """``--window``'s length [s], or None; refused with the options it does not go with."""
+def _window_s(window, kinematics, pool, stream, noise=False) -> float | None:
+    """``--window``'s length [s], or None; ``--window`` and ``--noise`` refused with the options
+    they do not go with."""
+    for asked, name in ((window is not None, "--window"), (noise, "--noise")):
+        for given, flag in (
+            (kinematics != "diff_drive", f"--kinematics {kinematics}"),
+            (pool, "--pool"),
+            (stream, "--stream"),
+        ):
+            if asked and given:
+                raise InputError(f"{name} does not go with {flag}")
     if window is None:
         return None
     from umbmark.cli.selfcal_windows import window_seconds
 
-    for given, flag in (
-        (kinematics != "diff_drive", f"--kinematics {kinematics}"),
-        (pool, "--pool"),
-        (stream, "--stream"),
-    ):
-        if given:
-            raise InputError(f"--window does not go with {flag}")
     return window_seconds(window)
 
 
-def _print_replay(rep, rec, scan_truth, gyro, windows=None) -> None:
+def _replay_extras(d, sets, rep, asked, calibration, paths, history) -> tuple[list | None, list | None]:
+    """``--window`` and ``--noise``: the windows calibrated (recorded when asked) and the noise
+    estimated, into the JSON ``d``; the windows' records and the noise's fits (or None)."""
+    (window_s, noise), (method, lsq_opts, heldout) = asked, calibration
+    rec, fits = None, None
+    if noise:
+        from umbmark.cli.replay_noise import replay_noise_cmd
+
+        with progress("estimating the odometry's noise"):
+            fits = replay_noise_cmd(sets, rep, d)
+    if window_s is not None:
+        from umbmark.cli.replay_windows import replay_windows_cmd
+
+        with progress("calibrating the windows"):
+            d["windows"], rec = replay_windows_cmd(sets, window_s, method, lsq_opts, heldout, paths, history)
+    return rec, fits
+
+
+def _print_replay(rep, rec, scan_truth, gyro, windows=None, noise_fits=None) -> None:
     """A replay's report as tables: a pooled fit, one data set's or several's; the lidar's and
-    the gyro's lines; the windows' table."""
+    the gyro's lines; the noise's and the windows' tables."""
     from umbmark.realrobot.results import MultiReplayReport, PooledReport
 
     if isinstance(rep, PooledReport):
@@ -599,6 +623,10 @@ def _print_replay(rep, rec, scan_truth, gyro, windows=None) -> None:
         _print_scan_truth(scan_truth)
     if gyro is not None:
         _print_gyro(gyro)
+    if noise_fits:
+        from umbmark.cli.replay_noise import print_replay_noise
+
+        print_replay_noise(noise_fits)
     if windows is not None:
         from umbmark.cli.replay_windows import print_replay_windows
 

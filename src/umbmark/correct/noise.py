@@ -19,6 +19,23 @@ error turns the robot one way, the right's the other). Each interval ends where 
 has dropped by 1.92 (chi^2 of one degree of freedom at 95 %), the other parameters held at their
 best values; a lower end of 0 says the data cannot tell the wheel's noise from none.
 
+Timing (optional): when the reference is a trajectory sampled at points in time (a motion
+capture's poses against the wheels' ticks), each end of an interval is off by a random time
+error ``delta`` (standard deviation ``sigma_t``, independent between ends): the reference's end
+pose moves by the robot's twist there times ``delta``. The residual then has the covariance
+``R + k_L A_i + k_R B_i + sigma_t^2 C_i`` with ``C_i = J_L xi_a xi_a^T J_L^T + J_R xi_b xi_b^T
+J_R^T`` (:func:`timing_covariance`: ``xi_a``, ``xi_b`` the twists at the interval's start and end,
+``J_L``, ``J_R`` the derivatives of the motion's coordinates by a perturbation at its start and
+at its end, the far end's twist so brought into the start frame). Its variance grows with the
+speed squared and not with the interval's length, so it is told apart from the wheels' (which
+grow with the distance rolled) and from ``R`` (which does not grow with speed). A reference late
+by a constant offset moves every residual by ``J_L xi_a - J_R xi_b`` times the offset: zero at
+constant twist, so it only shows where the robot speeds up, slows down or turns more or less
+(:func:`timing_direction`); such an offset, or any mean linear in unknowns, is fitted with the noise
+(profiled out by generalised least squares: :func:`estimate_interval_noise`'s ``mean_design``,
+:func:`gls_mean`). With the timing or a mean, the 95 % intervals are the profile likelihood's (the
+other parameters at their best for each value), as those parameters trade off against the wheels'.
+
 Checking: the normalised estimation error squared (NEES) of held-out stretches of odometry
 against a reference, ``e^T P^-1 e / 3`` averaged, is 1 when the covariance is right.
 """
@@ -39,7 +56,12 @@ from umbmark.model.intervals import sensor_motion
 __all__ = [
     "OdometryNoise",
     "travel_jacobians",
+    "timing_covariance",
+    "timing_direction",
+    "estimate_interval_noise",
     "estimate_odometry_noise",
+    "residual_covariance",
+    "gls_mean",
     "step_covariance",
     "window_covariance",
     "window_errors",
@@ -67,6 +89,11 @@ class OdometryNoise:
         The intervals fitted.
     travel_m : float
         The distance the wheels rolled in them (mean of the two).
+    timing_sd_s : float or None
+        The reference's random time error at each interval end (standard deviation) [s], when
+        it was estimated (see the module docstring); None otherwise.
+    timing_sd_ci95_s : tuple of float or None
+        Its 95 % interval [s].
     """
 
     k_left_m: float
@@ -76,10 +103,13 @@ class OdometryNoise:
     sensor_sd: tuple[float, float, float]
     intervals: int
     travel_m: float
+    timing_sd_s: float | None = None
+    timing_sd_ci95_s: tuple[float, float] | None = None
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-able: variances per metre in m^2/m and standard deviations per square-root metre in mm."""
-        return {
+        """JSON-able: variances per metre in m^2/m and standard deviations per square-root metre in mm
+        (the timing's standard deviation in ms, only when it was estimated)."""
+        out = {
             "wheel_variance_left_m2_per_m": self.k_left_m,
             "wheel_variance_left_m2_per_m_ci95": list(self.k_left_ci95),
             "wheel_variance_right_m2_per_m": self.k_right_m,
@@ -94,6 +124,11 @@ class OdometryNoise:
             "intervals": self.intervals,
             "travel_m": self.travel_m,
         }
+        if self.timing_sd_s is not None:
+            out["timing_sd_ms"] = 1e3 * self.timing_sd_s
+            ci = self.timing_sd_ci95_s or (0.0, math.inf)
+            out["timing_sd_ms_ci95"] = [1e3 * ci[0], 1e3 * ci[1]]
+        return out
 
 
 def travel_jacobians(
@@ -134,27 +169,109 @@ def _residuals(meas: FloatArray, pred: FloatArray) -> FloatArray:
     return e
 
 
-def _nll(theta: FloatArray, e: FloatArray, a: FloatArray, b: FloatArray) -> float:
-    """Negative log-likelihood (up to a constant) of residuals ``e`` with covariances
-    ``diag(exp(theta[2:])) + exp(theta[0]) A + exp(theta[1]) B`` (``A``, ``B`` as the six
-    distinct entries of symmetric 3 x 3 matrices: xx, yy, tt, xy, xt, yt)."""
-    kl, kr = math.exp(theta[0]), math.exp(theta[1])
-    m = kl * a + kr * b
-    sxx, syy, stt = m[:, 0] + math.exp(theta[2]), m[:, 1] + math.exp(theta[3]), m[:, 2] + math.exp(theta[4])
-    sxy, sxt, syt = m[:, 3], m[:, 4], m[:, 5]
-    # the adjugate and the determinant of each symmetric matrix
-    cxx = syy * stt - syt * syt
-    cyy = sxx * stt - sxt * sxt
-    ctt = sxx * syy - sxy * sxy
-    cxy = sxt * syt - sxy * stt
-    cxt = sxy * syt - sxt * syy
-    cyt = sxy * sxt - sxx * syt
-    det = sxx * cxx + sxy * cxy + sxt * cxt
+def _adjugate6(c: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Symmetric 3 x 3 matrices as their six distinct entries ``(K, 6)`` (xx, yy, tt, xy, xt, yt):
+    their adjugates (the same six) and determinants ``(K,)``."""
+    sxx, syy, stt, sxy, sxt, syt = c.T
+    adj = np.column_stack(
+        [
+            syy * stt - syt * syt,
+            sxx * stt - sxt * sxt,
+            sxx * syy - sxy * sxy,
+            sxt * syt - sxy * stt,
+            sxy * syt - sxt * syy,
+            sxy * sxt - sxx * syt,
+        ]
+    )
+    return adj, sxx * adj[:, 0] + sxy * adj[:, 3] + sxt * adj[:, 4]
+
+
+def _inverse6(theta: FloatArray, terms: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """The covariances ``diag(exp(theta[M:])) + sum_m exp(theta[m]) terms[m]`` (``terms`` ``(M, K, 6)``)
+    as their adjugates and determinants (:func:`_adjugate6`)."""
+    n = len(terms)
+    m = np.tensordot(np.exp(theta[:n]), terms, axes=1)
+    m[:, :3] += np.exp(theta[n : n + 3])
+    return _adjugate6(m)
+
+
+def _quad(adj: FloatArray, u: FloatArray, w: FloatArray) -> FloatArray:
+    """``u^T adj w`` of each row (``adj`` as six entries)."""
+    return (
+        adj[:, 0] * u[:, 0] * w[:, 0]
+        + adj[:, 1] * u[:, 1] * w[:, 1]
+        + adj[:, 2] * u[:, 2] * w[:, 2]
+        + adj[:, 3] * (u[:, 0] * w[:, 1] + u[:, 1] * w[:, 0])
+        + adj[:, 4] * (u[:, 0] * w[:, 2] + u[:, 2] * w[:, 0])
+        + adj[:, 5] * (u[:, 1] * w[:, 2] + u[:, 2] * w[:, 1])
+    )
+
+
+def _mean_fit(adj: FloatArray, det: FloatArray, e: FloatArray, design: FloatArray | None) -> FloatArray:
+    """The generalised-least-squares coefficients ``(P,)`` of a mean ``design`` (``(3, K, P)``: each
+    residual component's change per unit of each coefficient) under the covariances ``adj / det``."""
+    if design is None:
+        return np.zeros(0)
+    a = adj / det[:, None]
+    x, y, t = design
+    wx = a[:, 0:1] * x + a[:, 3:4] * y + a[:, 4:5] * t  # the covariances' inverses times the design
+    wy = a[:, 3:4] * x + a[:, 1:2] * y + a[:, 5:6] * t
+    wt = a[:, 4:5] * x + a[:, 5:6] * y + a[:, 2:3] * t
+    normal = x.T @ wx + y.T @ wy + t.T @ wt
+    rhs = e[:, 0] @ wx + e[:, 1] @ wy + e[:, 2] @ wt
+    scale = np.sqrt(np.maximum(np.diag(normal), 1e-300))
+    sol = np.linalg.lstsq(normal / np.outer(scale, scale), rhs / scale, rcond=1e-12)[0]
+    return sol / scale
+
+
+def _split_design(design: ArrayLike, k: int) -> FloatArray:
+    """A design ``(K, 3, P)`` as three contiguous ``(K, P)`` blocks ``(3, K, P)``."""
+    return np.ascontiguousarray(np.moveaxis(np.asarray(design, dtype=float).reshape(k, 3, -1), 1, 0))
+
+
+def _nll(theta: FloatArray, e: FloatArray, terms: FloatArray, design: FloatArray | None = None) -> float:
+    """Negative log-likelihood (up to a constant) of residuals ``e`` with the covariances of
+    :func:`_inverse6`, a linear mean ``design`` (``(3, K, P)``, see :func:`_mean_fit`) profiled out."""
+    adj, det = _inverse6(theta, terms)
     if np.any(det <= 0):
         return 1e300
-    ex, ey, et = e[:, 0], e[:, 1], e[:, 2]
-    quad = cxx * ex * ex + cyy * ey * ey + ctt * et * et + 2 * (cxy * ex * ey + cxt * ex * et + cyt * ey * et)
-    return 0.5 * float(np.sum(np.log(det)) + np.sum(quad / det))
+    if design is not None:
+        c = _mean_fit(adj, det, e, design)
+        e = e - np.column_stack([design[0] @ c, design[1] @ c, design[2] @ c])
+    return 0.5 * float(np.sum(np.log(det)) + np.sum(_quad(adj, e, e) / det))
+
+
+def _nll_grad(
+    theta: FloatArray, e: FloatArray, terms: FloatArray, design: FloatArray | None = None
+) -> tuple[float, FloatArray]:
+    """:func:`_nll` and its gradient by ``theta`` (the mean held at its profiled value: by the envelope
+    theorem its own change does not move the likelihood)."""
+    adj, det = _inverse6(theta, terms)
+    if np.any(det <= 0):
+        return 1e300, np.zeros(len(theta))
+    if design is not None:
+        c = _mean_fit(adj, det, e, design)
+        e = e - np.column_stack([design[0] @ c, design[1] @ c, design[2] @ c])
+    inv = adj / det[:, None]
+    u = np.column_stack(
+        [
+            inv[:, 0] * e[:, 0] + inv[:, 3] * e[:, 1] + inv[:, 4] * e[:, 2],
+            inv[:, 3] * e[:, 0] + inv[:, 1] * e[:, 1] + inv[:, 5] * e[:, 2],
+            inv[:, 4] * e[:, 0] + inv[:, 5] * e[:, 1] + inv[:, 2] * e[:, 2],
+        ]
+    )
+    f = 0.5 * float(np.sum(np.log(det)) + np.sum(u * e))
+    unit = np.zeros((3, 1, 6))
+    unit[np.arange(3), 0, np.arange(3)] = 1.0
+    weights = np.array([1.0, 1.0, 1.0, 2.0, 2.0, 2.0])  # off-diagonal entries count twice in a trace
+    uu = np.column_stack(
+        [u[:, 0] ** 2, u[:, 1] ** 2, u[:, 2] ** 2, u[:, 0] * u[:, 1], u[:, 0] * u[:, 2], u[:, 1] * u[:, 2]]
+    )
+    grad = np.empty(len(theta))
+    for m, shape in enumerate([*terms, *unit]):
+        total = np.sum(np.broadcast_to(shape, inv.shape) * (inv - uu) * weights)
+        grad[m] = 0.5 * math.exp(theta[m]) * float(total)
+    return f, grad
 
 
 def _sym6(g: FloatArray, w: FloatArray) -> FloatArray:
@@ -164,15 +281,32 @@ def _sym6(g: FloatArray, w: FloatArray) -> FloatArray:
     )
 
 
-def _interval95(f: Any, theta: FloatArray, j: int, best: float) -> tuple[float, float]:
+def _six(m: FloatArray) -> FloatArray:
+    """Symmetric ``(K, 3, 3)`` matrices as their six distinct entries ``(K, 6)``."""
+    return np.column_stack([m[:, 0, 0], m[:, 1, 1], m[:, 2, 2], m[:, 0, 1], m[:, 0, 2], m[:, 1, 2]])
+
+
+def _interval95(f: Any, theta: FloatArray, j: int, best: float, fg: Any = None) -> tuple[float, float]:
     """Where the likelihood of parameter ``j`` (in the log) drops by 1.92 either side of its
-    best value, the others held: the ends of its 95 % interval, 0 when the fit cannot tell it
-    from nothing."""
-    from scipy.optimize import brentq
+    best value, the others held (or, given ``fg`` (the likelihood and its gradient), at their best
+    for each value of it, the profile likelihood: wider when the parameters trade off against each
+    other): the ends of its 95 % interval, 0 when the fit cannot tell it from nothing."""
+    from scipy.optimize import brentq, minimize
+
+    others = [i for i in range(len(theta)) if i != j]
 
     def g(x: float) -> float:
         t = theta.copy()
         t[j] = x
+        if fg is not None:  # the others at their best for this value (searched from the fit's best)
+
+            def h(u: FloatArray) -> tuple[float, FloatArray]:
+                t[others] = u
+                val, grad = fg(t)
+                return val, grad[others]
+
+            res = minimize(h, theta[others], jac=True, method="L-BFGS-B", bounds=[(-40.0, 5.0)] * len(others))
+            return float(res.fun) - best - 0.5 * 3.841458820694124
         return f(t) - best - 0.5 * 3.841458820694124
 
     x0 = theta[j]
@@ -186,8 +320,228 @@ def _interval95(f: Any, theta: FloatArray, j: int, best: float) -> tuple[float, 
         if abs(y - x0) >= 60:
             ends.append(0.0 if direction < 0 else math.inf)
             continue
-        ends.append(math.exp(brentq(g, min(x, y), max(x, y), xtol=1e-4)))
+        lo, hi = min(x, y), max(x, y)
+        if (g(lo) < 0) == (g(hi) < 0):  # a profile's inner search landing elsewhere: the outer end
+            ends.append(math.exp(y))
+            continue
+        ends.append(math.exp(brentq(g, lo, hi, xtol=1e-3 if fg is not None else 1e-4)))
     return ends[0], ends[1]
+
+
+def _moments_start(e: FloatArray, terms: FloatArray) -> FloatArray:
+    """A starting point of the likelihood's search: the non-negative least squares of the residuals'
+    products on the terms and a diagonal (each of the six entries scaled to its residuals' size),
+    every value floored at a hundredth of what would explain the residuals alone."""
+    from scipy.optimize import nnls
+
+    y = _sym6(e, np.ones(len(e)))
+    scale = np.sqrt(
+        np.maximum(np.mean(y[:, [0, 1, 2, 0, 0, 1]], axis=0) * np.mean(y[:, [0, 1, 2, 1, 2, 2]], axis=0), 1e-30)
+    )
+    diag = np.zeros((3, len(e), 6))
+    for j in range(3):
+        diag[j, :, j] = 1.0
+    cols = np.concatenate([terms, diag])
+    design = (cols / scale).transpose(1, 2, 0).reshape(-1, len(cols))
+    sol = nnls(design, (y / scale).reshape(-1), maxiter=50 * len(cols))[0]
+    alone = np.array([np.sum(y[:, :3] / scale[:3]) / max(np.sum(c[:, :3] / scale[:3]), 1e-300) for c in cols])
+    return np.log(np.clip(np.maximum(sol, 0.01 * alone), 1e-17, 1e2))
+
+
+def _fit_terms(
+    e: FloatArray,
+    terms: FloatArray,
+    starts: list[FloatArray],
+    design: FloatArray | None = None,
+    profile: bool = False,
+    intervals: bool = True,
+) -> tuple[FloatArray, float, list]:
+    """The maximum-likelihood multipliers of ``terms`` and the diagonal (in the log), from the best of
+    several starts, and the 95 % intervals of the multipliers (see :func:`_interval95`)."""
+    from scipy.optimize import minimize
+
+    def f(t: FloatArray) -> float:
+        return _nll(t, e, terms, design)
+
+    def fg(t: FloatArray) -> tuple[float, FloatArray]:
+        return _nll_grad(t, e, terms, design)
+
+    best = None
+    for theta0 in starts:
+        bounds = [(-40.0, 5.0)] * len(theta0)
+        if profile:
+            res = minimize(fg, theta0, jac=True, method="L-BFGS-B", bounds=bounds)
+        else:
+            res = minimize(f, theta0, method="L-BFGS-B", bounds=bounds)
+        if best is None or res.fun < best.fun:
+            best = res
+    assert best is not None
+    theta = best.x
+    if not intervals:
+        return theta, float(best.fun), [(math.nan, math.nan)] * len(terms)
+    cis = [_interval95(f, theta, j, float(best.fun), fg if profile else None) for j in range(len(terms))]
+    return theta, float(best.fun), cis
+
+
+def timing_covariance(motion: ArrayLike, twist_start: ArrayLike, twist_end: ArrayLike) -> FloatArray:
+    """The covariance per second squared of each interval's motion when the reference is off in
+    time at either end (independent errors).
+
+    Parameters
+    ----------
+    motion : array_like
+        ``(K, 3)`` each interval's motion ``(dx_m, dy_m, dyaw_rad)`` in its start frame.
+    twist_start, twist_end : array_like
+        ``(K, 3)`` the frame's twist ``(vx_mps, vy_mps, omega_radps)`` at the interval's start and
+        at its end, each in the frame at that time.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(K, 3, 3)``: ``J_L xi_a xi_a^T J_L^T + J_R xi_b xi_b^T J_R^T`` [(m/s)^2, (m/s)(rad/s),
+        (rad/s)^2]; times ``sigma_t^2`` it is the residual's covariance from the timing.
+    """
+    ja, jb = _end_twists(motion, twist_start, twist_end)
+    return ja[:, :, None] * ja[:, None, :] + jb[:, :, None] * jb[:, None, :]
+
+
+def timing_direction(motion: ArrayLike, twist_start: ArrayLike, twist_end: ArrayLike) -> FloatArray:
+    """How each interval's measured motion moves when the reference is late by a constant offset (its
+    pose stamped ``t`` is the one at ``t - offset``): ``d motion / d offset`` ``(K, 3)`` [m/s, m/s,
+    rad/s] (zero at constant twist). Arguments as :func:`timing_covariance`."""
+    ja, jb = _end_twists(motion, twist_start, twist_end)
+    return ja - jb
+
+
+def _end_twists(motion: ArrayLike, twist_start: ArrayLike, twist_end: ArrayLike) -> tuple[FloatArray, FloatArray]:
+    """The start's twist and the end's, as changes of the motion's coordinates (``J_L xi_a``, ``J_R xi_b``)."""
+    d = np.asarray(motion, dtype=float).reshape(-1, 3)
+    xa = np.asarray(twist_start, dtype=float).reshape(-1, 3)
+    xb = np.asarray(twist_end, dtype=float).reshape(-1, 3)
+    if not (len(d) == len(xa) == len(xb)):
+        raise InputError("the motions and the twists at their ends differ in number")
+    ja = np.column_stack([xa[:, 0] - d[:, 1] * xa[:, 2], xa[:, 1] + d[:, 0] * xa[:, 2], xa[:, 2]])
+    c, s = np.cos(d[:, 2]), np.sin(d[:, 2])
+    jb = np.column_stack([c * xb[:, 0] - s * xb[:, 1], s * xb[:, 0] + c * xb[:, 1], xb[:, 2]])
+    return ja, jb
+
+
+def estimate_interval_noise(
+    residuals: ArrayLike,
+    left_cov: ArrayLike,
+    right_cov: ArrayLike,
+    travel_m: float,
+    timing_cov: ArrayLike | None = None,
+    mean_design: ArrayLike | None = None,
+    ci95: bool = True,
+) -> OdometryNoise:
+    """Each wheel's travel variance per metre (and the reference's timing) from residuals whose
+    covariance shapes are given: the general form of :func:`estimate_odometry_noise`, for
+    intervals whose odometry is composed of many steps.
+
+    Parameters
+    ----------
+    residuals : array_like
+        ``(K, 3)`` measured minus predicted motion ``(dx_m, dy_m, dyaw_rad)``, heading wrapped.
+    left_cov, right_cov : array_like
+        ``(K, 3, 3)`` each residual's covariance per unit of the left (right) wheel's variance per
+        metre (``sum_j |s_j| g_j g_j^T`` over the interval's steps) [m].
+    travel_m : float
+        The distance the wheels rolled in all intervals (mean of the two) [m].
+    timing_cov : array_like, optional
+        ``(K, 3, 3)`` :func:`timing_covariance`: the reference's timing error is fitted too.
+    mean_design : array_like, optional
+        ``(K, 3, P)`` a mean of the residuals linear in ``P`` unknowns (each residual's change per
+        unit of each: e.g. a constant time offset of each run, :func:`timing_direction` in that
+        run's column), profiled out at every step of the fit by generalised least squares
+        (:func:`gls_mean` gives them afterwards).
+    ci95 : bool
+        Compute the 95 % intervals (profile likelihood when the timing or a mean is fitted: each
+        value's likelihood with the other parameters at their best); NaN when False (faster).
+
+    Returns
+    -------
+    OdometryNoise
+        With ``timing_sd_s`` when ``timing_cov`` was given.
+
+    Raises
+    ------
+    InputError
+        Fewer than 20 intervals, wheels that hardly rolled, or shapes that do not match.
+    """
+    e = np.asarray(residuals, dtype=float).reshape(-1, 3)
+    if len(e) < 20:
+        raise InputError(f"the odometry's noise needs at least 20 intervals, got {len(e)}")
+    if not travel_m >= 1.0:
+        raise InputError(f"the wheels rolled {travel_m:.2f} m: the odometry's noise needs a drive of metres")
+    mats = [left_cov, right_cov] + ([] if timing_cov is None else [timing_cov])
+    terms = np.stack([_six(np.asarray(m, dtype=float).reshape(-1, 3, 3)) for m in mats])
+    if terms.shape[1] != len(e) or not np.all(np.isfinite(terms)) or not np.all(np.isfinite(e)):
+        raise InputError("the residuals and their covariance shapes must be finite and as many")
+    design = None
+    if mean_design is not None:
+        raw = np.asarray(mean_design, dtype=float)
+        if raw.ndim != 3 or raw.shape[:2] != (len(e), 3) or not np.all(np.isfinite(raw)):
+            raise InputError("the mean's design must be finite, one (3, P) block per residual")
+        design = _split_design(raw, len(e))
+    var0 = np.maximum(np.var(e, axis=0), 1e-16)
+    e0 = e
+    if mean_design is not None:
+        e0 = e - np.asarray(mean_design) @ gls_mean(e, np.broadcast_to(np.diag(var0), (len(e), 3, 3)), mean_design)
+    legacy = np.log(np.array([1e-5, 1e-5, *([2.5e-5] if timing_cov is not None else []), *(0.5 * var0)]))
+    profile = timing_cov is not None or design is not None  # the new terms trade off against the others
+    theta, _, cis = _fit_terms(e, terms, [legacy, _moments_start(e0, terms)], design, profile, ci95)
+    k = np.exp(theta[:2])
+    sd3 = np.sqrt(np.exp(theta[len(terms) :]))
+    timing = None if timing_cov is None else math.sqrt(math.exp(theta[2]))
+    timing_ci = None if timing_cov is None else (math.sqrt(cis[2][0]), math.sqrt(cis[2][1]))
+    return OdometryNoise(
+        float(k[0]),
+        float(k[1]),
+        cis[0],
+        cis[1],
+        (float(sd3[0]), float(sd3[1]), float(sd3[2])),
+        len(e),
+        float(travel_m),
+        timing,
+        timing_ci,
+    )
+
+
+def gls_mean(residuals: ArrayLike, covariances: ArrayLike, design: ArrayLike) -> FloatArray:
+    """The generalised-least-squares coefficients of a linear mean of residuals.
+
+    Parameters
+    ----------
+    residuals : array_like
+        ``(K, 3)``.
+    covariances : array_like
+        ``(K, 3, 3)`` theirs.
+    design : array_like
+        ``(K, 3, P)`` each residual's change per unit of each coefficient.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(P,)`` (a coefficient the residuals do not determine is 0).
+    """
+    e = np.asarray(residuals, dtype=float).reshape(-1, 3)
+    cov = np.asarray(covariances, dtype=float).reshape(-1, 3, 3)
+    x = _split_design(design, len(e))
+    adj, det = _adjugate6(_six(cov))
+    return _mean_fit(adj, det, e, x)
+
+
+def residual_covariance(
+    noise: OdometryNoise, left_cov: ArrayLike, right_cov: ArrayLike, timing_cov: ArrayLike | None = None
+) -> FloatArray:
+    """The covariance a fitted noise gives each residual, ``R + k_L A + k_R B (+ sigma_t^2 C)``
+    ``(K, 3, 3)`` (arguments as :func:`estimate_interval_noise`; the timing's only when both the
+    noise has it and ``timing_cov`` is given): what a held-out NEES checks."""
+    out = noise.k_left_m * np.asarray(left_cov, dtype=float) + noise.k_right_m * np.asarray(right_cov, dtype=float)
+    if timing_cov is not None and noise.timing_sd_s is not None:
+        out = out + noise.timing_sd_s**2 * np.asarray(timing_cov, dtype=float)
+    return out + np.diag(np.square(noise.sensor_sd))
 
 
 def estimate_odometry_noise(
@@ -198,6 +552,8 @@ def estimate_odometry_noise(
     r_right_m: float,
     wheelbase_m: float,
     sensor_pose: ArrayLike = (0.0, 0.0, 0.0),
+    twist_start: ArrayLike | None = None,
+    twist_end: ArrayLike | None = None,
 ) -> OdometryNoise:
     """Each wheel's travel variance per metre from the residuals of calibrated intervals.
 
@@ -211,6 +567,10 @@ def estimate_odometry_noise(
         The calibrated geometry.
     sensor_pose : array_like
         The calibrated sensor pose on the robot.
+    twist_start, twist_end : array_like, optional
+        ``(K, 3)`` the sensor frame's twist ``(vx_mps, vy_mps, omega_radps)`` at each interval's
+        start and end (each in the frame at that time): given both, the reference's random time
+        error at the interval ends is fitted too (:func:`timing_covariance`; ``timing_sd_s``).
 
     Returns
     -------
@@ -219,38 +579,22 @@ def estimate_odometry_noise(
     Raises
     ------
     InputError
-        Fewer than 20 intervals, or wheels that hardly rolled.
+        Fewer than 20 intervals, wheels that hardly rolled, or only one of the twists.
     """
-    from scipy.optimize import minimize
-
     left = np.asarray(left_rad, dtype=float)
     right = np.asarray(right_rad, dtype=float)
     meas = np.asarray(sensor, dtype=float).reshape(-1, 3)
     if len(left) < 20:
         raise InputError(f"the odometry's noise needs at least 20 intervals, got {len(left)}")
+    if (twist_start is None) != (twist_end is None):
+        raise InputError("the timing needs the twists at both ends of the intervals")
     pred = sensor_motion(left, right, r_left_m, r_right_m, wheelbase_m, sensor_pose)
     e = _residuals(meas, pred)
     gl, gr, sl, sr = travel_jacobians(left, right, r_left_m, r_right_m, wheelbase_m, sensor_pose)
     travel = 0.5 * float(np.sum(np.abs(sl)) + np.sum(np.abs(sr)))
-    if travel < 1.0:
-        raise InputError(f"the wheels rolled {travel:.2f} m: the odometry's noise needs a drive of metres")
-    a = _sym6(gl, np.abs(sl))
-    b = _sym6(gr, np.abs(sr))
-    var0 = np.maximum(np.var(e, axis=0), 1e-16)
-    k0 = 1e-5
-    theta0 = np.log(np.array([k0, k0, *(0.5 * var0)]))
-
-    def f(t: FloatArray) -> float:
-        return _nll(t, e, a, b)
-
-    res = minimize(f, theta0, method="L-BFGS-B", bounds=[(-40.0, 5.0)] * 5)
-    theta = res.x
-    k = np.exp(theta[:2])
-    cis = [_interval95(f, theta, j, float(res.fun)) for j in (0, 1)]
-    sd3 = np.sqrt(np.exp(theta[2:]))
-    return OdometryNoise(
-        float(k[0]), float(k[1]), cis[0], cis[1], (float(sd3[0]), float(sd3[1]), float(sd3[2])), len(left), travel
-    )
+    outer = lambda g, w: w[:, None, None] * g[:, :, None] * g[:, None, :]  # noqa: E731
+    timing = None if twist_start is None else timing_covariance(pred, twist_start, twist_end)  # type: ignore[arg-type]
+    return estimate_interval_noise(e, outer(gl, np.abs(sl)), outer(gr, np.abs(sr)), travel, timing)
 
 
 def step_covariance(

@@ -312,7 +312,7 @@ def _selfcal_calibration(d: dict, src: str) -> ExportCalibration:
 
 
 def _odometry_noise(noise: object, src: str) -> tuple[float, float] | None:
-    """Each wheel's variance per metre from a selfcal JSON's ``odometry_noise``, None where absent."""
+    """Each wheel's variance per metre from a selfcal (or replay) JSON's ``odometry_noise``, None where absent."""
     if noise is None:
         return None
     keys = ("wheel_variance_left_m2_per_m", "wheel_variance_right_m2_per_m")
@@ -529,6 +529,7 @@ def _calibration_from_dict(d: dict, src: str) -> ExportCalibration:
         d.get("method"),
         scale_observed=_scale_observed(d),
         wheels_include_prior=_includes_prior(d),
+        odometry_noise_m=_odometry_noise(d.get("odometry_noise"), src),  # replay --noise, where it holds
     )
 
 
