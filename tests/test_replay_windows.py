@@ -20,7 +20,8 @@ from hypothesis import strategies as st
 from umbmark.cli import main
 from umbmark.errors import InputError
 from umbmark.model.geometry import ErrorParams
-from umbmark.realrobot.replay_windows import replay_windows, run_clocks, window_of_runs
+from umbmark.realrobot.replay_windows import replay_windows, run_clocks
+from umbmark.realrobot.selfcal_windows import window_edges
 
 BAG = ["--joints", "left_wheel_joint,right_wheel_joint", "--gt-topic", "/mocap/pose", "--split-stops"]
 GEOMETRY = ["--wheel-diameter-mm", "100", "--wheelbase-mm", "300", "--side-mm", "2000"]
@@ -167,7 +168,7 @@ def test_every_run_in_one_window_in_time_order(gaps, lengths, window_s):
     start = np.cumsum(np.array(gaps) + np.array(lengths[: len(gaps)])) - gaps[0] - lengths[0]
     start -= start[0]
     length = float(start[-1] + lengths[len(gaps) - 1])
-    edges, which = window_of_runs(start, length, window_s)
+    edges, which = window_edges(start, length, window_s)
     count = len(edges) - 1
     assert count == max(1, round(length / window_s))
     assert edges[0] == 0.0 and edges[-1] == pytest.approx(length)

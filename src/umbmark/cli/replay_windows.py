@@ -3,12 +3,10 @@ time, each replayed and calibrated (and recorded with its own date)."""
 
 from __future__ import annotations
 
-from datetime import datetime
 from typing import Any
 
 from umbmark.cli.app import console, fmt, table
-from umbmark.cli.history import _when, record_if_requested
-from umbmark.errors import InputError
+from umbmark.cli.selfcal_windows import record_windows
 
 __all__ = ["replay_windows_cmd", "print_replay_windows"]
 
@@ -27,24 +25,12 @@ def replay_windows_cmd(
     from umbmark.realrobot.replay import history_fields
     from umbmark.realrobot.replay_windows import replay_windows
 
-    robot, record, db = history
-    when = _when()
-    base = datetime.fromisoformat(when) if when else None
+    def fields_of(w: Any) -> tuple[dict, str]:
+        (fields,) = history_fields(w.report, paths, kind="replay", method=method, file_hash=file_sha256)
+        return fields, w.dataset
+
     wins = [w for ds in sets for w in replay_windows(ds, window_s, method, lsq_opts, heldout)]
-    if not any(w.report is not None for w in wins):
-        raise InputError(f"no window of {window_s:g} s could be calibrated: {wins[0].error}")
-    out, recs = [], []
-    for w in wins:
-        d = w.to_dict(base)
-        if record and w.report is not None:
-            (fields,) = history_fields(w.report, paths, kind="replay", method=method, file_hash=file_sha256)
-            fields["when"] = w.time(base)
-            fields["note"] = f"window {w.index + 1} ({w.start_s:.0f}-{w.end_s:.0f} s) of {w.dataset}"
-            rec = record_if_requested(robot, record, db, **fields)
-            d["history"] = rec
-            recs.append(rec)
-        out.append(d)
-    return out, recs
+    return record_windows(wins, window_s, "calibrated", fields_of, history)
 
 
 def print_replay_windows(windows: list[dict[str, Any]]) -> None:

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Callable
 from datetime import datetime
 from typing import Any
 
@@ -14,7 +15,7 @@ from umbmark.cli.app import console, fmt, table
 from umbmark.cli.history import _when, record_if_requested
 from umbmark.errors import InputError
 
-__all__ = ["window_seconds", "selfcal_windows_cmd"]
+__all__ = ["window_seconds", "selfcal_windows_cmd", "record_windows"]
 
 _UNITS = {"": 1.0, "s": 1.0, "sec": 1.0, "min": 60.0, "m": 60.0, "h": 3600.0, "hr": 3600.0}
 
@@ -46,18 +47,57 @@ def selfcal_windows_cmd(rep: Any, window_s: float, opts: dict, robot, record, db
     """
     from umbmark.realrobot.selfcal_windows import selfcal_windows
 
+    wins = selfcal_windows(rep, window_s, **opts)
+    return record_windows(
+        wins,
+        window_s,
+        "self-calibrated",
+        lambda w: (w.report.history_fields(kind="selfcal"), w.input),
+        (robot, record, db),
+    )
+
+
+def record_windows(
+    wins: list, window_s: float, done: str, fields_of: Callable[[Any], tuple[dict, str]], history: tuple
+) -> tuple[list[dict], list]:
+    """The windows' JSON, each calibrated one recorded with its own date when ``--record`` was given.
+
+    Parameters
+    ----------
+    wins : list
+        Windows with ``report`` (None: not calibrated, ``error`` says why), ``index``, ``start_s``,
+        ``end_s``, ``time(base)`` and ``to_dict(base)``.
+    window_s : float
+        The asked length [s] (for the error).
+    done : str
+        What a window's calibration is called (for the error): ``self-calibrated``, ``calibrated``.
+    fields_of : callable
+        A calibrated window -> its history fields and the name of what it is a window of.
+    history : tuple
+        ``--robot``, ``--record`` and ``--db``.
+
+    Returns
+    -------
+    tuple
+        The windows' JSON (each with its ``history`` record when recorded), and the records.
+
+    Raises
+    ------
+    InputError
+        No window could be calibrated.
+    """
+    robot, record, db = history
     when = _when()
     base = datetime.fromisoformat(when) if when else None
-    wins = selfcal_windows(rep, window_s, **opts)
     if not any(w.report is not None for w in wins):
-        raise InputError(f"no window of {window_s:g} s could be self-calibrated: {wins[0].error}")
+        raise InputError(f"no window of {window_s:g} s could be {done}: {wins[0].error}")
     out, recs = [], []
     for w in wins:
         d = w.to_dict(base)
         if record and w.report is not None:
-            fields = w.report.history_fields(kind="selfcal")
+            fields, of = fields_of(w)
             fields["when"] = w.time(base)
-            fields["note"] = f"window {w.index + 1} ({w.start_s:.0f}-{w.end_s:.0f} s) of {w.input}"
+            fields["note"] = f"window {w.index + 1} ({w.start_s:.0f}-{w.end_s:.0f} s) of {of}"
             rec = record_if_requested(robot, record, db, **fields)
             d["history"] = rec
             recs.append(rec)

@@ -224,6 +224,15 @@ def _mean_fit(adj: FloatArray, det: FloatArray, e: FloatArray, design: FloatArra
     return sol / scale
 
 
+def _demeaned(adj: FloatArray, det: FloatArray, e: FloatArray, design: FloatArray | None) -> FloatArray:
+    """The residuals less their mean ``design`` (``(3, K, P)``) fitted under the covariances ``adj / det``
+    (:func:`_mean_fit`); as they are without a design."""
+    if design is None:
+        return e
+    c = _mean_fit(adj, det, e, design)
+    return e - np.column_stack([design[0] @ c, design[1] @ c, design[2] @ c])
+
+
 def _split_design(design: ArrayLike, k: int) -> FloatArray:
     """A design ``(K, 3, P)`` as three contiguous ``(K, P)`` blocks ``(3, K, P)``."""
     return np.ascontiguousarray(np.moveaxis(np.asarray(design, dtype=float).reshape(k, 3, -1), 1, 0))
@@ -235,9 +244,7 @@ def _nll(theta: FloatArray, e: FloatArray, terms: FloatArray, design: FloatArray
     adj, det = _inverse6(theta, terms)
     if np.any(det <= 0):
         return 1e300
-    if design is not None:
-        c = _mean_fit(adj, det, e, design)
-        e = e - np.column_stack([design[0] @ c, design[1] @ c, design[2] @ c])
+    e = _demeaned(adj, det, e, design)
     return 0.5 * float(np.sum(np.log(det)) + np.sum(_quad(adj, e, e) / det))
 
 
@@ -249,9 +256,7 @@ def _nll_grad(
     adj, det = _inverse6(theta, terms)
     if np.any(det <= 0):
         return 1e300, np.zeros(len(theta))
-    if design is not None:
-        c = _mean_fit(adj, det, e, design)
-        e = e - np.column_stack([design[0] @ c, design[1] @ c, design[2] @ c])
+    e = _demeaned(adj, det, e, design)
     inv = adj / det[:, None]
     u = np.column_stack(
         [

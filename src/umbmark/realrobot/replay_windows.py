@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, replace
-from datetime import datetime, timedelta, timezone
+from datetime import datetime
 from typing import Any, cast
 
 import numpy as np
@@ -24,9 +24,9 @@ from umbmark.errors import InputError
 from umbmark.model.dataset import Dataset
 from umbmark.realrobot.replay import replay_report
 from umbmark.realrobot.results import ReplayReport
-from umbmark.realrobot.selfcal_windows import MIN_WINDOW_S, WALL_CLOCK_FROM_S
+from umbmark.realrobot.selfcal_windows import MIN_WINDOW_S, WALL_CLOCK_FROM_S, window_edges, window_start
 
-__all__ = ["ReplayWindow", "replay_windows", "run_clocks", "window_of_runs"]
+__all__ = ["ReplayWindow", "replay_windows", "run_clocks"]
 
 
 @dataclass(frozen=True)
@@ -45,11 +45,8 @@ class ReplayWindow:
     error: str | None = None
 
     def time(self, base: datetime | None = None) -> datetime:
-        """The window's start as a date: its wall-clock stamp, else ``base`` (default now) plus
-        its start in the recording."""
-        if self.stamp_s is not None:
-            return datetime.fromtimestamp(self.stamp_s, tz=timezone.utc)
-        return (base or datetime.now(timezone.utc)) + timedelta(seconds=self.start_s)
+        """The window's start as a date (:func:`~umbmark.realrobot.selfcal_windows.window_start`)."""
+        return window_start(self.stamp_s, self.start_s, base)
 
     def to_dict(self, base: datetime | None = None) -> dict[str, Any]:
         """The window and its replay's JSON, or its error (``result`` None)."""
@@ -105,32 +102,6 @@ def run_clocks(ds: Dataset) -> tuple[np.ndarray, np.ndarray]:
     return start, end
 
 
-def window_of_runs(start_s: np.ndarray, length_s: float, window_s: float) -> tuple[np.ndarray, np.ndarray]:
-    """The windows' edges over a recording and the window each run starts in.
-
-    Parameters
-    ----------
-    start_s : numpy.ndarray
-        ``(R,)`` the runs' starts, from the recording's first run's start [s].
-    length_s : float
-        The recording's span, to its last run's end [s].
-    window_s : float
-        The asked length [s]: the span is cut into ``round(length_s / window_s)`` equal windows
-        (at least one).
-
-    Returns
-    -------
-    edges : numpy.ndarray
-        ``(W + 1,)`` from 0 to ``length_s``.
-    which : numpy.ndarray
-        ``(R,)`` each run's window, 0 .. W - 1.
-    """
-    count = max(1, int(round(length_s / window_s)))
-    edges = np.linspace(0.0, length_s, count + 1)
-    which = np.clip(np.searchsorted(edges, start_s, side="right") - 1, 0, count - 1)
-    return edges, which
-
-
 def replay_windows(
     ds: Dataset,
     window_s: float,
@@ -164,7 +135,7 @@ def replay_windows(
         raise InputError(f"a window of {window_s:g} s: windows are at least {MIN_WINDOW_S:g} s long")
     start, end = run_clocks(ds)
     t0 = float(start.min())
-    edges, which = window_of_runs(start - t0, float(end.max()) - t0, window_s)
+    edges, which = window_edges(start - t0, float(end.max()) - t0, window_s)
     out: list[ReplayWindow] = []
     for k in range(len(edges) - 1):
         sel = [i for i in np.argsort(start, kind="stable") if which[i] == k]

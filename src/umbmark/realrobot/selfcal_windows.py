@@ -19,12 +19,46 @@ import numpy as np
 from umbmark.errors import InputError
 from umbmark.realrobot.selfcal import ScanIntervals, SelfcalReport, selfcal_report
 
-__all__ = ["SelfcalWindow", "selfcal_windows", "MIN_WINDOW_S", "WALL_CLOCK_FROM_S"]
+__all__ = ["SelfcalWindow", "selfcal_windows", "window_edges", "window_start", "MIN_WINDOW_S", "WALL_CLOCK_FROM_S"]
 
 # the shortest window asked for [s]
 MIN_WINDOW_S = 10.0
 # stamps from this on are wall-clock times (2001-09-09); below, a recording's own clock (a simulation)
 WALL_CLOCK_FROM_S = 1e9
+
+
+def window_start(stamp_s: float | None, start_s: float, base: datetime | None = None) -> datetime:
+    """A window's start as a date: its wall-clock stamp when the recording has one, else ``base``
+    (default now) plus its start in the recording ``start_s``."""
+    if stamp_s is not None:
+        return datetime.fromtimestamp(stamp_s, tz=timezone.utc)
+    return (base or datetime.now(timezone.utc)) + timedelta(seconds=start_s)
+
+
+def window_edges(start_s: np.ndarray, length_s: float, window_s: float) -> tuple[np.ndarray, np.ndarray]:
+    """The windows' edges over a recording and the window each item (an interval, a run) starts in.
+
+    Parameters
+    ----------
+    start_s : numpy.ndarray
+        ``(R,)`` the items' starts, from the recording's start [s].
+    length_s : float
+        The recording's span [s].
+    window_s : float
+        The asked length [s]: the span is cut into ``round(length_s / window_s)`` equal windows
+        (at least one).
+
+    Returns
+    -------
+    edges : numpy.ndarray
+        ``(W + 1,)`` from 0 to ``length_s``.
+    which : numpy.ndarray
+        ``(R,)`` each item's window, 0 .. W - 1.
+    """
+    count = max(1, int(round(length_s / window_s)))
+    edges = np.linspace(0.0, length_s, count + 1)
+    which = np.clip(np.searchsorted(edges, start_s, side="right") - 1, 0, count - 1)
+    return edges, which
 
 
 @dataclass(frozen=True)
@@ -41,11 +75,8 @@ class SelfcalWindow:
     error: str | None = None
 
     def time(self, base: datetime | None = None) -> datetime:
-        """The window's start as a date: its wall-clock stamp, else ``base`` (default now) plus
-        its start in the input."""
-        if self.stamp_s is not None:
-            return datetime.fromtimestamp(self.stamp_s, tz=timezone.utc)
-        return (base or datetime.now(timezone.utc)) + timedelta(seconds=self.start_s)
+        """The window's start as a date (:func:`window_start`)."""
+        return window_start(self.stamp_s, self.start_s, base)
 
     def to_dict(self, base: datetime | None = None) -> dict[str, Any]:
         """The window and its self-calibration's JSON (without the figures), or its error."""
@@ -110,10 +141,8 @@ def selfcal_windows(report: SelfcalReport, window_s: float, **options: Any) -> l
         name = part.intervals.source if isinstance(part, ScanIntervals) else str(part)
         t, stamp0 = _times(part, n, np.asarray(iv.dt_s, dtype=float))
         length = float(t[-1] + iv.dt_s[-1]) if n else 0.0
-        count = max(1, int(round(length / window_s)))
-        edges = np.linspace(0.0, length, count + 1)
-        which = np.minimum(np.searchsorted(edges, t, side="right") - 1, count - 1)
-        for k in range(count):
+        edges, which = window_edges(t, length, window_s)
+        for k in range(len(edges) - 1):
             sel = np.flatnonzero(which == k)
             a, b = float(edges[k]), float(edges[k + 1])
             stamp = None if stamp0 is None else stamp0 + a
