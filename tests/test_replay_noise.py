@@ -7,13 +7,16 @@ variance per metre within 20 %, the jitter and the offsets, and its estimates do
 stride; without the timing term the per-metre noise falls with the stride (it takes up the
 timing's variance, which grows with speed and not with the distance). The robot is simulated at
 100 Hz and its wheels read at 20 Hz (ticks counted over 50 ms, as the OptiOdom logs), so its speed
-changes smoothly at the samples. On a real OptiOdom data set: what the table of the report found.
+changes smoothly at the samples. With a ground-truth heading that is noisier while the robot
+turns, the heading jitter is recovered with the wheels. On a real OptiOdom data set: the heading
+jitter is what made the per-metre noise fall with the stride.
 """
 
 from __future__ import annotations
 
 import json
 import math
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -23,8 +26,10 @@ from hypothesis import strategies as st
 
 from umbmark.correct.noise import (
     OdometryNoise,
+    estimate_interval_noise,
     estimate_odometry_noise,
     gls_mean,
+    heading_jitter_covariance,
     timing_covariance,
     timing_direction,
 )
@@ -36,6 +41,7 @@ from umbmark.model.drive import EXAMPLE_ROBOT, Command, Program, WheelNoise, mix
 from umbmark.realrobot.replay_noise import (
     align_offsets,
     fit_intervals,
+    heldout_nees,
     replay_noise,
     run_offsets,
     shift_wheels,
@@ -47,6 +53,7 @@ K_LEFT, K_RIGHT = 4e-5, 6e-5  # each wheel's travel variance per metre [m^2/m]
 TIMING_SD_S = 0.005  # the ground truth's jitter at each sample
 TRUTH_SD = (0.0005, 0.0005, 0.002)  # its position noise per sample: 0.5 mm, 0.5 mm, 2 mrad
 OFFSETS_S = (0.03, -0.02, 0.0, 0.05)  # each run's ground truth late by this
+HEADING_Q = 1e-4  # a turning robot's ground-truth heading: 10 mrad per sample at 1 rad/s [rad^2 s]
 
 
 def _ramped(program: Program, ramp_s: float = 0.5, step_s: float = 0.05) -> Program:
@@ -65,9 +72,11 @@ def _ramped(program: Program, ramp_s: float = 0.5, step_s: float = 0.05) -> Prog
     return Program(tuple(out), program.start_pose)
 
 
-def simulated_replay(offsets_s=OFFSETS_S, minutes=4.0, seed=0, timing_sd_s=TIMING_SD_S) -> Dataset:
+def simulated_replay(offsets_s=OFFSETS_S, minutes=4.0, seed=0, timing_sd_s=TIMING_SD_S, heading_q=0.0) -> Dataset:
     """Runs of a robot with known wheel noise, read at 20 Hz (simulated at 100 Hz), against a ground
-    truth late by each run's offset, jittered and noisy (in radians: 2 pi units per revolution)."""
+    truth late by each run's offset, jittered and noisy (in radians: 2 pi units per revolution);
+    ``heading_q``: the ground truth's heading also off by a variance of ``heading_q`` per rad/s of
+    turn rate (over the samples either side) at each sample."""
     runs = []
     noise = WheelNoise(slip_m_per_sqrt_m=math.sqrt(K_LEFT), slip_right_m_per_sqrt_m=math.sqrt(K_RIGHT))
     for i, off in enumerate(offsets_s):
@@ -84,6 +93,12 @@ def simulated_replay(offsets_s=OFFSETS_S, minutes=4.0, seed=0, timing_sd_s=TIMIN
         t = log.t_s[::5]
         taken = np.clip(t - off + rng.normal(0.0, timing_sd_s, t.shape), 0.0, log.duration_s)
         truth = np.column_stack(to_start_frame(*log.true_pose_at(taken).T)) + rng.normal(0.0, TRUTH_SD, (len(t), 3))
+        if heading_q:
+            # the turn rate over the samples either side, as the estimator takes it from the wheels
+            ahead = log.true_pose_at(np.minimum(taken + 0.05, log.duration_s))
+            behind = log.true_pose_at(np.maximum(taken - 0.05, 0.0))
+            omega = np.abs(np.angle(np.exp(1j * (ahead[:, 2] - behind[:, 2])))) / 0.1
+            truth[:, 2] += rng.normal(0.0, 1.0, len(t)) * np.sqrt(heading_q * omega)
         left, right = (np.diff(a[::5], prepend=0.0) for a in (log.left_rad, log.right_rad))
         runs.append(Run(f"run{i}", t, left, right, truth))
     return Dataset("simulated", EXAMPLE_ROBOT.true_wheels, 2 * math.pi, tuple(runs))
@@ -116,6 +131,38 @@ def test_recovers_the_wheels_and_the_timing_within_20_percent(sim, stride):
         assert stride > 0.5 or ci[0] < truth < ci[1]
     # the ground truth's own noise at the two ends of an interval
     assert noise.sensor_sd == pytest.approx(np.sqrt(2) * np.array(TRUTH_SD), rel=0.2)
+
+
+def test_without_a_heading_jitter_none_is_found(sim):
+    for stride in (0.1, 1.0):
+        noise = sim[3][stride][0]
+        assert math.sqrt(noise.heading_jitter_var_rad_s) < 0.003  # under 3 mrad at 1 rad/s
+
+
+@pytest.fixture(scope="module")
+def turning():
+    """The simulated runs with a ground truth whose heading is noisier while the robot turns, their
+    intervals at two strides (offsets moved out)."""
+    ds = simulated_replay(heading_q=HEADING_Q)
+    geometry = EXAMPLE_ROBOT.true_wheels
+    aligned = shift_wheels(ds, align_offsets(ds, geometry, 0.1))
+    return {stride: truth_intervals(aligned, geometry, stride) for stride in (0.25, 1.0)}
+
+
+def test_the_heading_jitter_and_the_wheels_are_recovered_at_every_stride(turning):
+    fits = {stride: fit_intervals(iv) for stride, iv in turning.items()}
+    for noise in fits.values():
+        assert noise.k_left_m == pytest.approx(K_LEFT, rel=0.25)
+        assert noise.k_right_m == pytest.approx(K_RIGHT, rel=0.25)
+        assert noise.heading_jitter_var_rad_s == pytest.approx(HEADING_Q, rel=0.25)
+        assert noise.timing_sd_s == pytest.approx(TIMING_SD_S, rel=0.2)
+    for key in ("k_left_ci95", "k_right_ci95", "heading_jitter_var_ci95_rad_s"):
+        cis = [getattr(f, key) for f in fits.values()]
+        assert max(lo for lo, _ in cis) < min(hi for _, hi in cis)
+    # the heading jitter's share of the residuals is what the held-out intervals need
+    train, test = (turning[0.25].subset(turning[0.25].run % 2 == i) for i in (0, 1))
+    noise = fit_intervals(train, ci95=False)
+    assert 0.8 <= heldout_nees(test, noise) <= 1.25
 
 
 def test_the_runs_offsets_are_recovered(sim):
@@ -214,6 +261,29 @@ def test_the_timing_terms_are_the_derivatives_of_the_late_reference(x, y, th, va
     assert np.allclose(cov, np.outer(ja, ja) + np.outer(jb, jb), atol=1e-6)
 
 
+@settings(max_examples=60, deadline=None)
+@given(
+    x=st.floats(-2.0, 2.0),
+    y=st.floats(-2.0, 2.0),
+    th=st.floats(-3.0, 3.0),
+    wa=st.floats(-2.0, 2.0),
+    wb=st.floats(-2.0, 2.0),
+)
+def test_the_heading_jitter_term_is_the_derivative_of_the_ends_headings(x, y, th, wa, wb):
+    motion = np.array([x, y, th])
+
+    def measured(ea, eb):
+        m = se2.between(np.array([0.0, 0.0, ea]), se2.compose(motion, np.array([0.0, 0.0, eb])))
+        m[2] = motion[2] + math.remainder(m[2] - motion[2], 2 * math.pi)
+        return m
+
+    h = 1e-6
+    ja = (measured(h, 0.0) - measured(-h, 0.0)) / (2 * h)
+    jb = (measured(0.0, h) - measured(0.0, -h)) / (2 * h)
+    cov = heading_jitter_covariance(motion[None], np.array([[0.3, 0.0, wa]]), np.array([[0.1, 0.0, wb]]))[0]
+    assert np.allclose(cov, abs(wa) * np.outer(ja, ja) + abs(wb) * np.outer(jb, jb), atol=1e-6)
+
+
 def test_estimate_odometry_noise_with_the_twists_recovers_the_timing():
     # single-arc intervals at random constant twists: wheel noise, a jittered reference, sensor noise
     rng = np.random.default_rng(4)
@@ -246,6 +316,10 @@ def test_the_json_keeps_its_keys_without_the_timing():
     t = timed.to_dict()
     assert set(t) - set(d) == {"timing_sd_ms", "timing_sd_ms_ci95"}
     assert t["timing_sd_ms"] == pytest.approx(4.0) and t["timing_sd_ms_ci95"] == pytest.approx([3.0, 5.0])
+    turned = replace(timed, heading_jitter_var_rad_s=1e-4, heading_jitter_var_ci95_rad_s=(4e-5, 2.25e-4)).to_dict()
+    assert set(turned) - set(t) == {"heading_jitter_mrad_at_1radps", "heading_jitter_mrad_at_1radps_ci95"}
+    assert turned["heading_jitter_mrad_at_1radps"] == pytest.approx(10.0)
+    assert turned["heading_jitter_mrad_at_1radps_ci95"] == pytest.approx([math.sqrt(40.0), 15.0])
 
 
 def test_gls_mean_recovers_a_linear_mean():
@@ -278,18 +352,34 @@ def test_optiodom_runs_have_time_offsets_of_their_own():
     assert max(abs(v) for v in rest.values()) < 0.01
 
 
-def test_optiodom_the_timing_does_not_explain_the_stride_dependence():
-    """circular/231220200121 (a circle at 0.1 m/s): with the timing term and the runs' offsets the
-    per-metre noise still falls with the stride, about as 1 / stride (what grows with speed here is
-    the ground truth's heading noise, which the timing, v and omega times a time error, cannot take
-    up: it stays under 1.5 ms), and each wheel's 95 % intervals at 0.1 s and 1 s do not overlap."""
+def test_optiodom_the_heading_jitter_explains_the_stride_dependence():
+    """circular/231220200121 (a circle at 0.1 m/s): without the ground truth's heading jitter the
+    per-metre noise falls with the stride, about as 1 / stride (the timing, v and omega times a time
+    error, cannot take it up: it stays under 1.5 ms), and each wheel's 95 % intervals at 0.1 s and
+    1 s do not overlap. With it, each wheel's intervals at the two strides share a value and the
+    jitter is about the same at both (15-17 mrad at 1 rad/s)."""
     ds, geometry = _calibrated("circular/231220200121")
     aligned = shift_wheels(ds, align_offsets(ds, geometry, 0.1))
-    short, long = (fit_intervals(truth_intervals(aligned, geometry, s)) for s in (0.1, 1.0))
+    ivs = [truth_intervals(aligned, geometry, s) for s in (0.1, 1.0)]
+    plain = [
+        estimate_interval_noise(
+            iv.residual, iv.left_cov, iv.right_cov, float(np.sum(iv.travel_m)), iv.timing_cov, iv.offset_design()
+        )
+        for iv in ivs
+    ]
+    short, long = plain
     assert short.timing_sd_s < 0.0015
     for a, b in ((short.k_left_m, long.k_left_m), (short.k_right_m, long.k_right_m)):
         assert a > 4 * b
     assert short.k_left_ci95[0] > long.k_left_ci95[1] and short.k_right_ci95[0] > long.k_right_ci95[1]
+    fits = [fit_intervals(iv) for iv in ivs]
+    for key in ("k_left_ci95", "k_right_ci95"):
+        cis = [getattr(f, key) for f in fits]
+        assert max(lo for lo, _ in cis) <= min(hi for _, hi in cis)
+    jitter = [math.sqrt(f.heading_jitter_var_rad_s) for f in fits]
+    assert 0.010 < min(jitter) and max(jitter) < 0.025 and max(jitter) < 1.25 * min(jitter)
+    for f in fits:
+        assert f.k_left_m < 0.1 * short.k_left_m and f.k_right_m < 0.1 * short.k_right_m
 
 
 def _write_csv_log(ds: Dataset, path: Path) -> Path:

@@ -26,8 +26,8 @@ def _verdict(name: str, fit: dict[str, Any]) -> str | None:
     first, last = fit["fits"][0], fit["fits"][-1]
     return (
         f"{name}: the odometry's noise from the ground truth depends on the interval length (left / right "
-        f"wheel {at(first)}, {at(last)}): the residuals are not a random walk in distance (the ground "
-        "truth's own noise grows with speed, or errors persist over seconds); no odometry_noise is given "
+        f"wheel {at(first)}, {at(last)}): the residuals are not a random walk in distance (errors that "
+        "persist over seconds, or a ground truth noisier than its fitted jitter); no odometry_noise is given "
         "for export (self-calibrate with the lidar for covariances)"
     )
 
@@ -77,28 +77,35 @@ def replay_noise_cmd(sets: list, rep: Any, d: dict[str, Any]) -> list[tuple[str,
 
 
 def print_replay_noise(fits: list[tuple[str, dict[str, Any]]]) -> None:
-    """Each data set's noise at every interval length: the wheels, the timing, the held-out NEES."""
+    """Each data set's noise at every interval length: the wheels, the ground truth's timing and heading
+    jitter, the held-out NEES at that length."""
     for name, fit in fits:
         if "fits" not in fit:
             click.echo(f"warning: {cli_message(fit['warning'])}", err=True)
             continue
         rows = []
-        for f in fit["fits"]:
+        for i, f in enumerate(fit["fits"]):
             n = f["noise"]
-            nees = [x for x in f["heldout_nees"] if x is not None]
             rows.append(
                 [
                     fmt(f["stride_s"], 2),
                     f"{fmt(n['wheel_sd_left_mm_per_sqrt_m'], 2)} / {fmt(n['wheel_sd_right_mm_per_sqrt_m'], 2)}",
                     fmt(n.get("timing_sd_ms"), 1),
-                    "-" if not nees else f"{min(nees):.2f} - {max(nees):.2f}",
+                    fmt(n.get("heading_jitter_mrad_at_1radps"), 1),
+                    fmt(f["heldout_nees"][i], 2),
                 ]
             )
         holds = "holds at every length" if fit["consistent"] else "does NOT hold across lengths"
         console().print(
             table(
                 f"{name}: odometry noise from the ground truth (per-metre model {holds})",
-                ["interval [s]", "wheel noise L / R [mm/sqrt(m)]", "timing [ms]", "held-out NEES"],
+                [
+                    "interval [s]",
+                    "wheel noise L / R [mm/sqrt(m)]",
+                    "timing [ms]",
+                    "heading jitter [mrad at 1 rad/s]",
+                    "held-out NEES",
+                ],
                 rows,
             )
         )

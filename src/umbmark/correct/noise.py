@@ -36,6 +36,15 @@ constant twist, so it only shows where the robot speeds up, slows down or turns 
 :func:`gls_mean`). With the timing or a mean, the 95 % intervals are the profile likelihood's (the
 other parameters at their best for each value), as those parameters trade off against the wheels'.
 
+Heading jitter (optional, with the timing): a motion capture's heading can be noisier while the
+body turns than its position and its timing say (the markers' fit blurs with the rotation). Each
+end's heading is then off by an independent error of variance ``q |omega|`` (``omega`` the turn
+rate there): the residual gains ``q H_i`` with ``H_i = |omega_a| u_a u_a^T + |omega_b| e_3 e_3^T``
+(:func:`heading_jitter_covariance`; ``u_a = (-dy, dx, 1)`` the motion's change per turn of its
+start frame, ``e_3`` its heading). It grows with the turn rate and not with the interval's length,
+so it is told apart from the wheels' noise; unmodelled, it shows as a per-metre noise that falls
+as the intervals grow.
+
 Checking: the normalised estimation error squared (NEES) of held-out stretches of odometry
 against a reference, ``e^T P^-1 e / 3`` averaged, is 1 when the covariance is right.
 """
@@ -58,6 +67,7 @@ __all__ = [
     "travel_jacobians",
     "timing_covariance",
     "timing_direction",
+    "heading_jitter_covariance",
     "estimate_interval_noise",
     "estimate_odometry_noise",
     "residual_covariance",
@@ -94,6 +104,11 @@ class OdometryNoise:
         it was estimated (see the module docstring); None otherwise.
     timing_sd_ci95_s : tuple of float or None
         Its 95 % interval [s].
+    heading_jitter_var_rad_s : float or None
+        The reference's heading variance at each interval end per rad/s of turn rate [rad^2 s/rad],
+        when it was estimated (see the module docstring); None otherwise.
+    heading_jitter_var_ci95_rad_s : tuple of float or None
+        Its 95 % interval.
     """
 
     k_left_m: float
@@ -105,10 +120,13 @@ class OdometryNoise:
     travel_m: float
     timing_sd_s: float | None = None
     timing_sd_ci95_s: tuple[float, float] | None = None
+    heading_jitter_var_rad_s: float | None = None
+    heading_jitter_var_ci95_rad_s: tuple[float, float] | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-able: variances per metre in m^2/m and standard deviations per square-root metre in mm
-        (the timing's standard deviation in ms, only when it was estimated)."""
+        (the timing's standard deviation in ms and the heading jitter's in mrad at 1 rad/s, only when
+        estimated)."""
         out = {
             "wheel_variance_left_m2_per_m": self.k_left_m,
             "wheel_variance_left_m2_per_m_ci95": list(self.k_left_ci95),
@@ -128,6 +146,10 @@ class OdometryNoise:
             out["timing_sd_ms"] = 1e3 * self.timing_sd_s
             ci = self.timing_sd_ci95_s or (0.0, math.inf)
             out["timing_sd_ms_ci95"] = [1e3 * ci[0], 1e3 * ci[1]]
+        if self.heading_jitter_var_rad_s is not None:
+            out["heading_jitter_mrad_at_1radps"] = 1e3 * math.sqrt(self.heading_jitter_var_rad_s)
+            ci = self.heading_jitter_var_ci95_rad_s or (0.0, math.inf)
+            out["heading_jitter_mrad_at_1radps_ci95"] = [1e3 * math.sqrt(ci[0]), 1e3 * math.sqrt(ci[1])]
         return out
 
 
@@ -418,6 +440,21 @@ def timing_direction(motion: ArrayLike, twist_start: ArrayLike, twist_end: Array
     return ja - jb
 
 
+def heading_jitter_covariance(motion: ArrayLike, twist_start: ArrayLike, twist_end: ArrayLike) -> FloatArray:
+    """The covariance per unit of the reference's heading jitter (variance per rad/s of turn rate) of
+    each interval's motion: ``|omega_a| u_a u_a^T + |omega_b| e_3 e_3^T`` ``(K, 3, 3)`` [rad/s, with
+    the motion's units] (see the module docstring). Arguments as :func:`timing_covariance`."""
+    d = np.asarray(motion, dtype=float).reshape(-1, 3)
+    wa = np.abs(np.asarray(twist_start, dtype=float).reshape(-1, 3)[:, 2])
+    wb = np.abs(np.asarray(twist_end, dtype=float).reshape(-1, 3)[:, 2])
+    if not (len(d) == len(wa) == len(wb)):
+        raise InputError("the motions and the twists at their ends differ in number")
+    u = np.column_stack([-d[:, 1], d[:, 0], np.ones(len(d))])
+    out = wa[:, None, None] * u[:, :, None] * u[:, None, :]
+    out[:, 2, 2] += wb
+    return out
+
+
 def _end_twists(motion: ArrayLike, twist_start: ArrayLike, twist_end: ArrayLike) -> tuple[FloatArray, FloatArray]:
     """The start's twist and the end's, as changes of the motion's coordinates (``J_L xi_a``, ``J_R xi_b``)."""
     d = np.asarray(motion, dtype=float).reshape(-1, 3)
@@ -439,6 +476,8 @@ def estimate_interval_noise(
     timing_cov: ArrayLike | None = None,
     mean_design: ArrayLike | None = None,
     ci95: bool = True,
+    *,
+    heading_cov: ArrayLike | None = None,
 ) -> OdometryNoise:
     """Each wheel's travel variance per metre (and the reference's timing) from residuals whose
     covariance shapes are given: the general form of :func:`estimate_odometry_noise`, for
@@ -461,13 +500,17 @@ def estimate_interval_noise(
         run's column), profiled out at every step of the fit by generalised least squares
         (:func:`gls_mean` gives them afterwards).
     ci95 : bool
-        Compute the 95 % intervals (profile likelihood when the timing or a mean is fitted: each
-        value's likelihood with the other parameters at their best); NaN when False (faster).
+        Compute the 95 % intervals (profile likelihood when the timing, the heading jitter or a
+        mean is fitted: each value's likelihood with the other parameters at their best); NaN when
+        False (faster).
+    heading_cov : array_like, optional
+        ``(K, 3, 3)`` :func:`heading_jitter_covariance`: the reference's heading jitter is fitted too.
 
     Returns
     -------
     OdometryNoise
-        With ``timing_sd_s`` when ``timing_cov`` was given.
+        With ``timing_sd_s`` when ``timing_cov`` was given, ``heading_jitter_var_rad_s`` when
+        ``heading_cov`` was.
 
     Raises
     ------
@@ -479,7 +522,8 @@ def estimate_interval_noise(
         raise InputError(f"the odometry's noise needs at least 20 intervals, got {len(e)}")
     if not travel_m >= 1.0:
         raise InputError(f"the wheels rolled {travel_m:.2f} m: the odometry's noise needs a drive of metres")
-    mats = [left_cov, right_cov] + ([] if timing_cov is None else [timing_cov])
+    extra = [m for m in (timing_cov, heading_cov) if m is not None]
+    mats = [left_cov, right_cov, *extra]
     terms = np.stack([_six(np.asarray(m, dtype=float).reshape(-1, 3, 3)) for m in mats])
     if terms.shape[1] != len(e) or not np.all(np.isfinite(terms)) or not np.all(np.isfinite(e)):
         raise InputError("the residuals and their covariance shapes must be finite and as many")
@@ -493,13 +537,17 @@ def estimate_interval_noise(
     e0 = e
     if mean_design is not None:
         e0 = e - np.asarray(mean_design) @ gls_mean(e, np.broadcast_to(np.diag(var0), (len(e), 3, 3)), mean_design)
-    legacy = np.log(np.array([1e-5, 1e-5, *([2.5e-5] if timing_cov is not None else []), *(0.5 * var0)]))
-    profile = timing_cov is not None or design is not None  # the new terms trade off against the others
+    start = [2.5e-5] * (timing_cov is not None) + [1e-5] * (heading_cov is not None)
+    legacy = np.log(np.array([1e-5, 1e-5, *start, *(0.5 * var0)]))
+    profile = bool(extra) or design is not None  # the new terms trade off against the others
     theta, _, cis = _fit_terms(e, terms, [legacy, _moments_start(e0, terms)], design, profile, ci95)
     k = np.exp(theta[:2])
     sd3 = np.sqrt(np.exp(theta[len(terms) :]))
-    timing = None if timing_cov is None else math.sqrt(math.exp(theta[2]))
-    timing_ci = None if timing_cov is None else (math.sqrt(cis[2][0]), math.sqrt(cis[2][1]))
+    timing = timing_ci = heading = heading_ci = None
+    if timing_cov is not None:
+        timing, timing_ci = math.sqrt(math.exp(theta[2])), (math.sqrt(cis[2][0]), math.sqrt(cis[2][1]))
+    if heading_cov is not None:
+        heading, heading_ci = math.exp(theta[len(terms) - 1]), cis[len(terms) - 1]
     return OdometryNoise(
         float(k[0]),
         float(k[1]),
@@ -510,6 +558,8 @@ def estimate_interval_noise(
         float(travel_m),
         timing,
         timing_ci,
+        heading,
+        heading_ci,
     )
 
 
@@ -538,14 +588,20 @@ def gls_mean(residuals: ArrayLike, covariances: ArrayLike, design: ArrayLike) ->
 
 
 def residual_covariance(
-    noise: OdometryNoise, left_cov: ArrayLike, right_cov: ArrayLike, timing_cov: ArrayLike | None = None
+    noise: OdometryNoise,
+    left_cov: ArrayLike,
+    right_cov: ArrayLike,
+    timing_cov: ArrayLike | None = None,
+    heading_cov: ArrayLike | None = None,
 ) -> FloatArray:
-    """The covariance a fitted noise gives each residual, ``R + k_L A + k_R B (+ sigma_t^2 C)``
-    ``(K, 3, 3)`` (arguments as :func:`estimate_interval_noise`; the timing's only when both the
-    noise has it and ``timing_cov`` is given): what a held-out NEES checks."""
+    """The covariance a fitted noise gives each residual, ``R + k_L A + k_R B (+ sigma_t^2 C + q H)``
+    ``(K, 3, 3)`` (arguments as :func:`estimate_interval_noise`; the timing's and the heading
+    jitter's only when both the noise has it and its shape is given): what a held-out NEES checks."""
     out = noise.k_left_m * np.asarray(left_cov, dtype=float) + noise.k_right_m * np.asarray(right_cov, dtype=float)
     if timing_cov is not None and noise.timing_sd_s is not None:
         out = out + noise.timing_sd_s**2 * np.asarray(timing_cov, dtype=float)
+    if heading_cov is not None and noise.heading_jitter_var_rad_s is not None:
+        out = out + noise.heading_jitter_var_rad_s * np.asarray(heading_cov, dtype=float)
     return out + np.diag(np.square(noise.sensor_sd))
 
 

@@ -4,10 +4,12 @@ residuals of the calibrated odometry against a ground-truth trajectory (motion c
 Each run is cut into consecutive intervals of a time stride; an interval's residual is the
 ground truth's motion over it minus the calibrated odometry's (its samples' exact arcs composed),
 in its start frame. Its covariance (:func:`umbmark.correct.noise.estimate_interval_noise`) is
-``R + k_L A_i + k_R B_i + sigma_t^2 C_i``: the wheels' (each sample's travel error propagated to
-the interval's end), the ground truth's own noise (``R``, constant) and its random time error
-against the wheels at each end (``C_i``, from the twists at the ends: a motion capture's pose at a
-point in time against ticks counted over a sample). Each run's constant time offset between its
+``R + k_L A_i + k_R B_i + sigma_t^2 C_i + q H_i``: the wheels' (each sample's travel error
+propagated to the interval's end), the ground truth's own noise (``R``, constant), its random time
+error against the wheels at each end (``C_i``, from the twists at the ends: a motion capture's pose
+at a point in time against ticks counted over a sample) and its heading's jitter while the robot
+turns (``H_i``, variance proportional to the turn rate at each end: on OptiOdom's motion capture
+it is what made the per-metre noise fall with the stride). Each run's constant time offset between its
 ground truth and its wheels (runs synchronised one by one are off by different amounts) moves the
 residuals by :func:`umbmark.correct.noise.timing_direction` times it: it is fitted with the noise
 (profiled out), one offset per run; :func:`replay_noise` moves each run's wheels by its offset
@@ -34,6 +36,7 @@ from umbmark.correct.noise import (
     OdometryNoise,
     estimate_interval_noise,
     gls_mean,
+    heading_jitter_covariance,
     nees,
     residual_covariance,
     timing_covariance,
@@ -80,6 +83,9 @@ class TruthIntervals:
         ``(K, 3, 3)`` the residual's covariance per unit of each wheel's variance per metre [m].
     timing_cov : numpy.ndarray
         ``(K, 3, 3)`` its covariance per second squared of the ground truth's time error at the ends.
+    heading_cov : numpy.ndarray
+        ``(K, 3, 3)`` its covariance per unit of the ground truth's heading jitter (variance per
+        rad/s of turn rate) at the ends.
     offset_dir : numpy.ndarray
         ``(K, 3)`` its change per second of a constant time offset (the ground truth late).
     run : numpy.ndarray
@@ -95,6 +101,7 @@ class TruthIntervals:
     left_cov: FloatArray
     right_cov: FloatArray
     timing_cov: FloatArray
+    heading_cov: FloatArray
     offset_dir: FloatArray
     run: NDArray[np.int64]
     travel_m: FloatArray
@@ -131,8 +138,8 @@ def _twists(sl: FloatArray, sr: FloatArray, t: FloatArray, wheelbase_m: float) -
 
 
 def _run_intervals(run: Run, m: int, left_m: float, right_m: float, wheelbase_m: float) -> tuple | None:
-    """One run's intervals of ``m`` samples: residual, motion, the two wheels' and the timing's
-    covariance shapes, the offset's direction and the travel (the intervals with a ground truth at
+    """One run's intervals of ``m`` samples: residual, motion, the two wheels', the timing's and the
+    heading jitter's covariance shapes, the offset's direction and the travel (the intervals with a ground truth at
     both ends); None without a whole interval."""
     assert run.gt is not None
     nw = (len(run.t) - 1) // m
@@ -163,7 +170,8 @@ def _run_intervals(run: Run, m: int, left_m: float, right_m: float, wheelbase_m:
     e[:, 2] = np.arctan2(np.sin(e[:, 2]), np.cos(e[:, 2]))
     ok = np.all(np.isfinite(e), axis=1)
     travel = 0.5 * np.sum(np.abs(sl[1:][steps]) + np.abs(sr[1:][steps]), axis=1)
-    out = (e, d, *covs, timing_covariance(d, xi[a], xi[b]), timing_direction(d, xi[a], xi[b]), travel)
+    ends = (d, xi[a], xi[b])
+    out = (e, d, *covs, timing_covariance(*ends), heading_jitter_covariance(*ends), timing_direction(*ends), travel)
     return tuple(v[ok] for v in out)
 
 
@@ -212,8 +220,8 @@ def truth_intervals(ds: Dataset, geometry: WheelGeometry, stride_s: float) -> Tr
             "needs one",
             source=ds.source,
         )
-    e, d, left, right, tcov, tdir, travel = (np.concatenate(v) for v in zip(*parts))
-    return TruthIntervals(e, d, left, right, tcov, tdir, np.concatenate(runs), travel, float(stride_s))
+    e, d, left, right, tcov, hcov, tdir, travel = (np.concatenate(v) for v in zip(*parts))
+    return TruthIntervals(e, d, left, right, tcov, hcov, tdir, np.concatenate(runs), travel, float(stride_s))
 
 
 def fit_intervals(iv: TruthIntervals, timing: bool = True, offsets: bool = True, ci95: bool = True) -> OdometryNoise:
@@ -224,7 +232,8 @@ def fit_intervals(iv: TruthIntervals, timing: bool = True, offsets: bool = True,
     iv : TruthIntervals
         The intervals.
     timing : bool
-        Fit the ground truth's random time error at the interval ends (``timing_sd_s``).
+        Fit the ground truth's random errors at the interval ends: its time error (``timing_sd_s``)
+        and its heading jitter while turning (``heading_jitter_var_rad_s``).
     offsets : bool
         Fit each run's constant time offset with it (profiled out: :func:`run_offsets` gives them).
     ci95 : bool
@@ -247,11 +256,12 @@ def fit_intervals(iv: TruthIntervals, timing: bool = True, offsets: bool = True,
         iv.timing_cov if timing else None,
         iv.offset_design() if offsets else None,
         ci95,
+        heading_cov=iv.heading_cov if timing else None,
     )
 
 
 def _covariance(iv: TruthIntervals, noise: OdometryNoise) -> FloatArray:
-    return residual_covariance(noise, iv.left_cov, iv.right_cov, iv.timing_cov)
+    return residual_covariance(noise, iv.left_cov, iv.right_cov, iv.timing_cov, iv.heading_cov)
 
 
 def run_offsets(iv: TruthIntervals, noise: OdometryNoise) -> dict[int, float]:
@@ -313,7 +323,7 @@ def align_offsets(
     stride_s : float
         The stride of the intervals the offsets are estimated on [s].
     timing : bool
-        Fit the ground truth's jitter with them.
+        Fit the ground truth's timing and heading jitter with them.
     rounds : int
         Estimates (the first on the runs as they are).
 
@@ -399,6 +409,7 @@ def refine_geometry(
             iv.timing_cov if timing else None,
             x,
             False,
+            heading_cov=iv.heading_cov if timing else None,
         )
         beta = gls_mean(iv.residual, _covariance(iv, noise), x)[-3:]
         geometry = _scaled(geometry, 1.0 - beta)  # the residuals' mean, x beta, removed
@@ -429,9 +440,9 @@ class StrideFit:
     noise : OdometryNoise
         With the ground truth's timing (when asked) and each run's time offset fitted.
     plain : OdometryNoise
-        Without the timing (the runs' offsets as in ``noise``): its per-metre noise takes up the
-        timing's variance, which grows with speed and not with the interval's length, so it
-        falls with the stride.
+        Without the ground truth's timing and heading jitter (the runs' offsets as in ``noise``):
+        its per-metre noise takes up their variance, which grows with speed and turn rate and not
+        with the interval's length, so it falls with the stride.
     offsets_s : dict
         Run index -> its time offset [s] (empty when not fitted).
     heldout_nees : tuple of float or None
