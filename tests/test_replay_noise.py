@@ -39,8 +39,10 @@ from umbmark.model import se2
 from umbmark.model.dataset import Dataset, Run, to_start_frame
 from umbmark.model.drive import EXAMPLE_ROBOT, Command, Program, WheelNoise, mixed_program, simulate_drive
 from umbmark.realrobot.replay_noise import (
+    HEADING_LR_95,
     align_offsets,
     fit_intervals,
+    heading_test,
     heldout_nees,
     replay_noise,
     run_offsets,
@@ -163,6 +165,42 @@ def test_the_heading_jitter_and_the_wheels_are_recovered_at_every_stride(turning
     train, test = (turning[0.25].subset(turning[0.25].run % 2 == i) for i in (0, 1))
     noise = fit_intervals(train, ci95=False)
     assert 0.8 <= heldout_nees(test, noise) <= 1.25
+
+
+def test_the_turning_ground_truth_s_heading_jitter_passes_the_likelihood_ratio_test(turning):
+    assert heading_test(turning[0.25]) > 100.0
+
+
+def _straight_replay(runs: int = 3, seed: int = 0) -> Dataset:
+    """Runs back and forth along a line (a minute each, 0.3 m/s) with the wheels' noise, against a
+    ground truth with position noise only."""
+    noise = WheelNoise(slip_m_per_sqrt_m=math.sqrt(K_LEFT), slip_right_m_per_sqrt_m=math.sqrt(K_RIGHT))
+    out = []
+    for i in range(runs):
+        program = Program(tuple(Command(5.0, 0.3 if k % 2 == 0 else -0.3, 0.0) for k in range(12)))
+        log = simulate_drive(program, EXAMPLE_ROBOT, seed=seed + i, noise=noise, wheel_rate_hz=100.0, scan_rate_hz=0.1)
+        t = log.t_s[::5]
+        truth = np.column_stack(to_start_frame(*log.true_pose_at(t).T))
+        truth += np.random.default_rng(seed + i).normal(0.0, TRUTH_SD, (len(t), 3))
+        left, right = (np.diff(a[::5], prepend=0.0) for a in (log.left_rad, log.right_rad))
+        out.append(Run(f"run{i}", t, left, right, truth))
+    return Dataset("straight", EXAMPLE_ROBOT.true_wheels, 2 * math.pi, tuple(out))
+
+
+def test_a_straight_drive_does_not_take_the_wheels_noise_for_the_heading_jitter():
+    # at a constant turn rate the jitter's term has the shape of the wheels' heading noise: forced
+    # in, it takes a share of it; the likelihood-ratio test leaves it out
+    ds = _straight_replay()
+    iv = truth_intervals(ds, EXAMPLE_ROBOT.true_wheels, 0.1)
+    forced = fit_intervals(iv, ci95=False, heading=True)
+    assert forced.k_left_m < 0.6 * K_LEFT
+    rep = replay_noise(ds, EXAMPLE_ROBOT.true_wheels, strides_s=(0.1, 1.0))
+    assert rep.heading_lr < HEADING_LR_95 and rep.to_dict()["heading_jitter_fitted"] is False
+    for f in rep.fits:
+        assert f.noise.heading_jitter_var_rad_s is None
+        assert f.noise.k_left_m == pytest.approx(K_LEFT, rel=0.2)
+        assert f.noise.k_right_m == pytest.approx(K_RIGHT, rel=0.2)
+    assert rep.consistent
 
 
 def test_the_runs_offsets_are_recovered(sim):
@@ -425,6 +463,7 @@ def test_replay_noise_command_and_its_export(tmp_path):
     fit = d["odometry_noise_strides"]
     assert fit["consistent"], err
     assert [f["stride_s"] for f in fit["fits"]] == [0.1, 0.25, 0.5, 1.0]
+    assert fit["heading_jitter_fitted"] is (fit["heading_jitter_lr"] >= HEADING_LR_95)
     k = d["odometry_noise"]
     assert k["wheel_variance_left_m2_per_m"] == pytest.approx(K_LEFT, rel=0.2)
     assert k["wheel_variance_right_m2_per_m"] == pytest.approx(K_RIGHT, rel=0.2)

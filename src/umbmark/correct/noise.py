@@ -52,7 +52,7 @@ against a reference, ``e^T P^-1 e / 3`` averaged, is 1 when the covariance is ri
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -109,6 +109,9 @@ class OdometryNoise:
         when it was estimated (see the module docstring); None otherwise.
     heading_jitter_var_ci95_rad_s : tuple of float or None
         Its 95 % interval.
+    neg_log_likelihood : float or None
+        The fit's negative log-likelihood (up to a constant; fits of the same residuals with and
+        without a term compare by it: twice the difference is the likelihood-ratio statistic).
     """
 
     k_left_m: float
@@ -122,6 +125,7 @@ class OdometryNoise:
     timing_sd_ci95_s: tuple[float, float] | None = None
     heading_jitter_var_rad_s: float | None = None
     heading_jitter_var_ci95_rad_s: tuple[float, float] | None = None
+    neg_log_likelihood: float | None = field(default=None, compare=False)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-able: variances per metre in m^2/m and standard deviations per square-root metre in mm
@@ -540,7 +544,7 @@ def estimate_interval_noise(
     start = [2.5e-5] * (timing_cov is not None) + [1e-5] * (heading_cov is not None)
     legacy = np.log(np.array([1e-5, 1e-5, *start, *(0.5 * var0)]))
     profile = bool(extra) or design is not None  # the new terms trade off against the others
-    theta, _, cis = _fit_terms(e, terms, [legacy, _moments_start(e0, terms)], design, profile, ci95)
+    theta, nll, cis = _fit_terms(e, terms, [legacy, _moments_start(e0, terms)], design, profile, ci95)
     k = np.exp(theta[:2])
     sd3 = np.sqrt(np.exp(theta[len(terms) :]))
     timing = timing_ci = heading = heading_ci = None
@@ -560,6 +564,7 @@ def estimate_interval_noise(
         timing_ci,
         heading,
         heading_ci,
+        nll,
     )
 
 

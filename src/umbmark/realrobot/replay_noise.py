@@ -18,6 +18,8 @@ first (:func:`align_offsets`: the linearisation holds for small offsets) and fit
 * :func:`truth_intervals`: the residuals and their covariance shapes at one stride.
 * :func:`fit_intervals`: the noise of such intervals; :func:`run_offsets`: each run's offset;
   :func:`shift_wheels`: the wheels moved in time by them; :func:`align_offsets`: both, repeated.
+* :func:`heading_test`: whether the data show the ground truth's heading jitter (a likelihood
+  ratio): on a straight drive its term has the shape of the wheels' heading noise and is left out.
 * :func:`heldout_nees`: the normalised error of other runs' residuals under a fitted noise.
 * :func:`replay_noise`: the fit at several strides, whether they agree, and the held-out NEES (fit
   on half the runs, checked on the other half at every stride).
@@ -55,6 +57,7 @@ __all__ = [
     "ReplayNoise",
     "truth_intervals",
     "fit_intervals",
+    "heading_test",
     "run_offsets",
     "shift_wheels",
     "align_offsets",
@@ -66,6 +69,7 @@ __all__ = [
 ]
 
 DEFAULT_STRIDES_S = (0.1, 0.25, 0.5, 1.0)
+HEADING_LR_95 = 3.841458820694124  # chi^2 of one degree of freedom at 95 %
 FloatArray = NDArray[np.float64]
 
 
@@ -224,7 +228,9 @@ def truth_intervals(ds: Dataset, geometry: WheelGeometry, stride_s: float) -> Tr
     return TruthIntervals(e, d, left, right, tcov, hcov, tdir, np.concatenate(runs), travel, float(stride_s))
 
 
-def fit_intervals(iv: TruthIntervals, timing: bool = True, offsets: bool = True, ci95: bool = True) -> OdometryNoise:
+def fit_intervals(
+    iv: TruthIntervals, timing: bool = True, offsets: bool = True, ci95: bool = True, heading: bool | None = None
+) -> OdometryNoise:
     """The noise of intervals (:func:`umbmark.correct.noise.estimate_interval_noise`).
 
     Parameters
@@ -232,12 +238,14 @@ def fit_intervals(iv: TruthIntervals, timing: bool = True, offsets: bool = True,
     iv : TruthIntervals
         The intervals.
     timing : bool
-        Fit the ground truth's random errors at the interval ends: its time error (``timing_sd_s``)
-        and its heading jitter while turning (``heading_jitter_var_rad_s``).
+        Fit the ground truth's random time error at the interval ends (``timing_sd_s``).
     offsets : bool
         Fit each run's constant time offset with it (profiled out: :func:`run_offsets` gives them).
     ci95 : bool
         Compute the 95 % intervals (NaN when False).
+    heading : bool, optional
+        Fit the ground truth's heading jitter while turning (``heading_jitter_var_rad_s``); by
+        default when the timing is fitted.
 
     Returns
     -------
@@ -256,8 +264,20 @@ def fit_intervals(iv: TruthIntervals, timing: bool = True, offsets: bool = True,
         iv.timing_cov if timing else None,
         iv.offset_design() if offsets else None,
         ci95,
-        heading_cov=iv.heading_cov if timing else None,
+        heading_cov=iv.heading_cov if (timing if heading is None else heading) else None,
     )
+
+
+def heading_test(iv: TruthIntervals, timing: bool = True, offsets: bool = True) -> float:
+    """The likelihood-ratio statistic of the ground truth's heading jitter: twice the gain in
+    log-likelihood when it is fitted with the rest (:func:`fit_intervals`). The term is told from
+    the wheels' noise only where the turn rate varies apart from the travel: on a straight drive
+    it takes a share of the wheels' heading noise and gains little (under 3.84, chi^2 of one degree
+    of freedom at 95 %, says the data do not show it)."""
+    with_it = fit_intervals(iv, timing, offsets, ci95=False, heading=True)
+    without = fit_intervals(iv, timing, offsets, ci95=False, heading=False)
+    assert with_it.neg_log_likelihood is not None and without.neg_log_likelihood is not None
+    return max(0.0, 2.0 * (without.neg_log_likelihood - with_it.neg_log_likelihood))
 
 
 def _covariance(iv: TruthIntervals, noise: OdometryNoise) -> FloatArray:
@@ -485,12 +505,16 @@ class ReplayNoise:
     geometry : WheelGeometry or None
         The geometry fitted to the intervals (:func:`refine_geometry`) the noise is of, or None
         when the given one was kept.
+    heading_lr : float or None
+        :func:`heading_test` at the shortest stride (None without the timing): the ground truth's
+        heading jitter is fitted at every stride when it is at least 3.84.
     """
 
     fits: tuple[StrideFit, ...]
     consistent: bool
     halves: str
     geometry: WheelGeometry | None = None
+    heading_lr: float | None = None
 
     @property
     def strides_s(self) -> tuple[float, ...]:
@@ -510,6 +534,9 @@ class ReplayNoise:
             "halves": self.halves,
             "fits": [f.to_dict() for f in self.fits],
         }
+        if self.heading_lr is not None:
+            out["heading_jitter_lr"] = self.heading_lr
+            out["heading_jitter_fitted"] = self.heading_lr >= HEADING_LR_95
         if self.geometry is not None:
             g = self.geometry
             out["geometry"] = {
@@ -547,7 +574,7 @@ def _halved(ds: Dataset) -> tuple[Dataset, str]:
     return replace(ds, runs=tuple(runs), directions=None), "time"
 
 
-def _heldout(ivs: list[TruthIntervals], i: int, timing: bool, offsets: bool) -> tuple[float | None, ...]:
+def _heldout(ivs: list[TruthIntervals], i: int, timing: bool, offsets: bool, heading: bool) -> tuple[float | None, ...]:
     """The held-out NEES of every stride's intervals under the noise fitted at stride ``i`` on the other
     half of the runs (every other run with a trajectory), averaged over the two halves."""
     present = np.unique(np.concatenate([iv.run for iv in ivs]))
@@ -556,7 +583,7 @@ def _heldout(ivs: list[TruthIntervals], i: int, timing: bool, offsets: bool) -> 
     for fold in (True, False):
         train = ivs[i].subset(np.isin(ivs[i].run, list(first)) == fold)
         try:
-            noise = fit_intervals(train, timing, offsets, ci95=False)
+            noise = fit_intervals(train, timing, offsets, ci95=False, heading=heading)
         except InputError:
             return tuple(None for _ in ivs)
         for j, iv in enumerate(ivs):
@@ -588,7 +615,8 @@ def replay_noise(
     strides_s : tuple of float
         The intervals' lengths [s].
     timing : bool
-        Fit the ground truth's random time error at the interval ends.
+        Fit the ground truth's random time error at the interval ends, and its heading jitter while
+        turning where the data show it (:func:`heading_test` at the shortest stride).
     offsets : bool
         Fit each run's constant time offset between its ground truth and its wheels.
     refine : bool
@@ -614,9 +642,11 @@ def replay_noise(
         geometry = refine_geometry(shift_wheels(work, moved), geometry, min(strides), timing, offsets)
         moved = align_offsets(work, geometry, min(strides), timing) if offsets else {}
     ivs = [truth_intervals(shift_wheels(work, moved), geometry, s) for s in sorted(strides)]
+    lr = heading_test(ivs[0], timing, offsets) if timing else None
+    heading = lr is not None and lr >= HEADING_LR_95
     fits = []
     for i, iv in enumerate(ivs):
-        noise = fit_intervals(iv, timing, offsets)
+        noise = fit_intervals(iv, timing, offsets, heading=heading)
         rest = run_offsets(iv, noise) if offsets else {}
         fits.append(
             StrideFit(
@@ -624,10 +654,10 @@ def replay_noise(
                 noise,
                 fit_intervals(iv, False, offsets),
                 {r: moved.get(r, 0.0) + v for r, v in rest.items()},
-                _heldout(ivs, i, timing, offsets),
+                _heldout(ivs, i, timing, offsets, heading),
             )
         )
-    return ReplayNoise(tuple(fits), _consistent(fits, timing), halves, geometry if refine else None)
+    return ReplayNoise(tuple(fits), _consistent(fits, timing), halves, geometry if refine else None, lr)
 
 
 def report_noise(ds: Dataset, report: ReplayReport, strides_s: tuple[float, ...] = DEFAULT_STRIDES_S) -> ReplayNoise:
