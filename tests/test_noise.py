@@ -109,14 +109,17 @@ def test_too_little_data_is_refused():
     b=st.floats(0.2, 1.0),
 )
 def test_step_covariance_is_the_linearised_arc(s, turn, kl, kr, b):
-    # against sampling: many wheel errors pushed through the exact arc
+    # against sampling: many wheel errors, each a random walk along the step (m pieces, each off on
+    # its own), pushed through the exact arcs
     sl, sr = s - turn * b / 2, s + turn * b / 2
     q = step_covariance([sl], [sr], b, kl, kr)[0]
     rng = np.random.default_rng(0)
-    n = 20000
-    el = rng.standard_normal(n) * math.sqrt(kl * abs(sl))
-    er = rng.standard_normal(n) * math.sqrt(kr * abs(sr))
-    samples = se2.arc(sl + el, sr + er, b)
+    n, m = 20000, 40
+    samples = np.zeros((n, 3))
+    for _ in range(m):
+        el = rng.standard_normal(n) * math.sqrt(kl * abs(sl) / m)
+        er = rng.standard_normal(n) * math.sqrt(kr * abs(sr) / m)
+        samples = se2.compose(samples, se2.arc(sl / m + el, sr / m + er, b))
     emp = np.cov(samples.T)
     scale = np.sqrt(np.outer(np.diag(q), np.diag(q)))
     assert np.all(np.abs(emp - q) <= 0.08 * scale + 1e-12)

@@ -330,7 +330,10 @@ def test_estimate_odometry_noise_with_the_twists_recovers_the_timing():
     twist = np.column_stack([rng.uniform(0.0, 0.6, n), np.zeros(n), rng.uniform(-1.0, 1.0, n)])
     sl, sr = ((twist[:, 0] + sign * 0.5 * b * twist[:, 2]) * dt for sign in (-1.0, 1.0))
     kl, kr, sd_t, sd = 5e-5, 1e-4, 0.01, (0.0005, 0.0005, 0.001)
-    true = se2.arc(sl + rng.normal(0.0, np.sqrt(kl * np.abs(sl))), sr + rng.normal(0.0, np.sqrt(kr * np.abs(sr))), b)
+    true = np.zeros((n, 3))
+    for _ in range(10):  # each wheel's slip a random walk along the arc
+        pieces = [s / 10 + rng.normal(0.0, np.sqrt(k * np.abs(s) / 10)) for s, k in ((sl, kl), (sr, kr))]
+        true = se2.compose(true, se2.arc(*pieces, b))
     da, db = rng.normal(0.0, sd_t, (2, n))
     meas = se2.between(_exp(twist.T, -da, b), se2.compose(true, _exp(twist.T, -db, b)))
     meas += rng.normal(0.0, sd, (n, 3))

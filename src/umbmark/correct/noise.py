@@ -9,9 +9,10 @@ error of a stretch follows by linearising the arc, and of a path by propagating 
 
 Estimation: the residuals of a calibration's intervals (the sensor's measured motion minus the
 motion the calibrated odometry predicts, in the sensor frame) have the covariance
-``R + k_L A_i + k_R B_i``, where ``A_i = |s_L| g_L g_L^T`` with ``g_L`` the derivative of the
-interval's predicted sensor motion by the left wheel's travel (likewise right), and ``R`` the
-sensor's own noise (diagonal, the same for every interval). ``k_L``, ``k_R`` and ``R`` are the
+``R + k_L A_i + k_R B_i``, where ``A_i = |s_L| Q_L`` with ``Q_L`` the mean of ``g_L g_L^T`` over
+the arc, ``g_L`` the derivative of the interval's predicted sensor motion by a travel error of the
+left wheel at a point of the arc (:func:`travel_shapes`; likewise right), and ``R`` the sensor's own
+noise (diagonal, the same for every interval). ``k_L``, ``k_R`` and ``R`` are the
 maximum-likelihood fit of the residuals, with 95 % intervals from the curvature of the likelihood.
 The wheel terms grow with each interval's travel and the sensor's do not, and the correlation of
 a residual's heading with its forward component tells the two wheels apart (the left wheel's
@@ -65,6 +66,7 @@ from umbmark.model.intervals import sensor_motion
 __all__ = [
     "OdometryNoise",
     "travel_jacobians",
+    "travel_shapes",
     "timing_covariance",
     "timing_direction",
     "heading_jitter_covariance",
@@ -187,6 +189,55 @@ def travel_jacobians(
         d[:, 2] = np.arctan2(np.sin(d[:, 2]), np.cos(d[:, 2]))
         g.append(d / (2 * h))
     return g[0], g[1], sl, sr
+
+
+def travel_shapes(
+    s_left_m: ArrayLike, s_right_m: ArrayLike, wheelbase_m: float, sensor_pose: ArrayLike = (0.0, 0.0, 0.0)
+) -> tuple[FloatArray, FloatArray]:
+    """Each arc's motion covariance per unit of a wheel's slip variance ``k |s|``, the slip spread
+    along the arc as a random walk: ``integral over u of h(u) h(u)^T`` ``(K, 3, 3)`` per wheel.
+
+    ``h(u)`` is the derivative of the sensor's motion by a travel error of the wheel a fraction
+    ``u`` along the arc (the robot turned and pushed there, the rest of the arc carried on from
+    it), integrated by four-point Gauss-Legendre quadrature. A slip early in the arc has a longer
+    lever to its end than the arc's mean derivative ``g`` says, a late one a shorter: across the
+    arc the integral exceeds ``g g^T`` by about 1/12 of its displacement squared over the
+    wheelbase squared.
+
+    Parameters
+    ----------
+    s_left_m, s_right_m : array_like
+        ``(K,)`` each wheel's travel over the arc [m].
+    wheelbase_m : float
+        The wheelbase [m].
+    sensor_pose : array_like
+        The sensor's pose on the robot ``(x_m, y_m, yaw_rad)`` (the motion is the sensor's).
+
+    Returns
+    -------
+    tuple of numpy.ndarray
+        The left wheel's and the right wheel's ``(K, 3, 3)``.
+    """
+    sl = np.asarray(s_left_m, dtype=float).reshape(-1)
+    sr = np.asarray(s_right_m, dtype=float).reshape(-1)
+    mount = np.broadcast_to(np.asarray(sensor_pose, dtype=float), (len(sl), 3))
+    nodes, weights = np.polynomial.legendre.leggauss(4)
+    h = 1e-6
+    out = []
+    for push in ((h, 0.0), (0.0, h)):
+        acc = np.zeros((len(sl), 3, 3))
+        for x, w in zip(0.5 * (nodes + 1.0), 0.5 * weights):
+            first, rest = se2.arc(x * sl, x * sr, wheelbase_m), se2.arc((1 - x) * sl, (1 - x) * sr, wheelbase_m)
+            ends = []
+            for sign in (1.0, -1.0):
+                kick = se2.arc(np.full(len(sl), sign * push[0]), np.full(len(sl), sign * push[1]), wheelbase_m)
+                robot = se2.compose(se2.compose(first, kick), rest)
+                ends.append(se2.between(mount, se2.compose(robot, mount)))
+            g = (ends[0] - ends[1]) / (2 * h)
+            g[:, 2] = np.arctan2(np.sin(ends[0][:, 2] - ends[1][:, 2]), np.cos(ends[0][:, 2] - ends[1][:, 2])) / (2 * h)
+            acc += w * g[:, :, None] * g[:, None, :]
+        out.append(acc)
+    return out[0], out[1]
 
 
 def _residuals(meas: FloatArray, pred: FloatArray) -> FloatArray:
@@ -656,11 +707,11 @@ def estimate_odometry_noise(
         raise InputError("the timing needs the twists at both ends of the intervals")
     pred = sensor_motion(left, right, r_left_m, r_right_m, wheelbase_m, sensor_pose)
     e = _residuals(meas, pred)
-    gl, gr, sl, sr = travel_jacobians(left, right, r_left_m, r_right_m, wheelbase_m, sensor_pose)
+    sl, sr = r_left_m * left, r_right_m * right
     travel = 0.5 * float(np.sum(np.abs(sl)) + np.sum(np.abs(sr)))
-    outer = lambda g, w: w[:, None, None] * g[:, :, None] * g[:, None, :]  # noqa: E731
+    ql, qr = travel_shapes(sl, sr, wheelbase_m, sensor_pose)
     timing = None if twist_start is None else timing_covariance(pred, twist_start, twist_end)  # type: ignore[arg-type]
-    return estimate_interval_noise(e, outer(gl, np.abs(sl)), outer(gr, np.abs(sr)), travel, timing)
+    return estimate_interval_noise(e, np.abs(sl)[:, None, None] * ql, np.abs(sr)[:, None, None] * qr, travel, timing)
 
 
 def step_covariance(
@@ -668,10 +719,10 @@ def step_covariance(
 ) -> FloatArray:
     """The covariance of each step's robot motion ``(dx, dy, dyaw)`` (in the robot frame at the
     step's start) from its wheels' travel errors, ``(K, 3, 3)``."""
-    gl, gr, sl, sr = travel_jacobians(s_left_m, s_right_m, 1.0, 1.0, wheelbase_m)
-    return (k_left_m * np.abs(sl))[:, None, None] * gl[:, :, None] * gl[:, None, :] + (k_right_m * np.abs(sr))[
-        :, None, None
-    ] * gr[:, :, None] * gr[:, None, :]
+    sl = np.asarray(s_left_m, dtype=float).reshape(-1)
+    sr = np.asarray(s_right_m, dtype=float).reshape(-1)
+    ql, qr = travel_shapes(sl, sr, wheelbase_m)
+    return (k_left_m * np.abs(sl))[:, None, None] * ql + (k_right_m * np.abs(sr))[:, None, None] * qr
 
 
 def _adjoint(p: FloatArray) -> FloatArray:

@@ -43,7 +43,7 @@ from umbmark.correct.noise import (
     residual_covariance,
     timing_covariance,
     timing_direction,
-    travel_jacobians,
+    travel_shapes,
 )
 from umbmark.errors import InputError
 from umbmark.model import se2
@@ -155,18 +155,19 @@ def _run_intervals(run: Run, m: int, left_m: float, right_m: float, wheelbase_m:
     idx = np.arange(nw)[:, None] * m + np.arange(m + 1)[None, :]  # (nw, m + 1) sample indices
     q = se2.between(poses[idx[:, :1]], poses[idx])  # the poses in each interval's start frame
     d = q[:, -1]
-    gl, gr, _, _ = travel_jacobians(sl[1:], sr[1:], 1.0, 1.0, wheelbase_m)
+    ql, qr = travel_shapes(sl[1:], sr[1:], wheelbase_m)
     steps = idx[:, 1:] - 1  # each interval's steps (indices into sl[1:])
     c, s = np.cos(q[:, :-1, 2]), np.sin(q[:, :-1, 2])
     lx, ly = q[:, 1:, 1] - d[:, None, 1], d[:, None, 0] - q[:, 1:, 0]  # a step's turn moves the end by these
-    covs = []
-    for g, w in ((gl[steps], sl[1:][steps]), (gr[steps], sr[1:][steps])):
-        # each step's derivative in its own frame, as a change of the interval's motion
-        h = np.stack(
-            [c * g[..., 0] - s * g[..., 1] + lx * g[..., 2], s * g[..., 0] + c * g[..., 1] + ly * g[..., 2], g[..., 2]],
-            axis=-1,
-        )
-        covs.append(np.einsum("nj,nja,njb->nab", np.abs(w), h, h))
+    # a change of a step's motion (in its own frame) as a change of the interval's motion
+    move = np.zeros((*steps.shape, 3, 3))
+    move[..., 0, 0], move[..., 0, 1], move[..., 0, 2] = c, -s, lx
+    move[..., 1, 0], move[..., 1, 1], move[..., 1, 2] = s, c, ly
+    move[..., 2, 2] = 1.0
+    covs = [
+        np.einsum("nj,njab,njbc,njdc->nad", np.abs(w), move, shape[steps], move)
+        for shape, w in ((ql, sl[1:][steps]), (qr, sr[1:][steps]))
+    ]
     xi = _twists(sl, sr, np.asarray(run.t, dtype=float), wheelbase_m)
     a, b = idx[:, 0], idx[:, -1]
     gt = np.asarray(run.gt, dtype=float)
