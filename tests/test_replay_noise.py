@@ -74,7 +74,9 @@ def _ramped(program: Program, ramp_s: float = 0.5, step_s: float = 0.05) -> Prog
     return Program(tuple(out), program.start_pose)
 
 
-def simulated_replay(offsets_s=OFFSETS_S, minutes=4.0, seed=0, timing_sd_s=TIMING_SD_S, heading_q=0.0) -> Dataset:
+def simulated_replay(
+    offsets_s=OFFSETS_S, minutes=4.0, seed=0, timing_sd_s=TIMING_SD_S, heading_q=0.0, truth_sd=TRUTH_SD
+) -> Dataset:
     """Runs of a robot with known wheel noise, read at 20 Hz (simulated at 100 Hz), against a ground
     truth late by each run's offset, jittered and noisy (in radians: 2 pi units per revolution);
     ``heading_q``: the ground truth's heading also off by a variance of ``heading_q`` per rad/s of
@@ -94,7 +96,7 @@ def simulated_replay(offsets_s=OFFSETS_S, minutes=4.0, seed=0, timing_sd_s=TIMIN
         rng = np.random.default_rng(s + 2)
         t = log.t_s[::5]
         taken = np.clip(t - off + rng.normal(0.0, timing_sd_s, t.shape), 0.0, log.duration_s)
-        truth = np.column_stack(to_start_frame(*log.true_pose_at(taken).T)) + rng.normal(0.0, TRUTH_SD, (len(t), 3))
+        truth = np.column_stack(to_start_frame(*log.true_pose_at(taken).T)) + rng.normal(0.0, truth_sd, (len(t), 3))
         if heading_q:
             # the turn rate over the samples either side, as the estimator takes it from the wheels
             ahead = log.true_pose_at(np.minimum(taken + 0.05, log.duration_s))
@@ -236,6 +238,19 @@ def test_replay_noise_report(sim):
     assert d["consistent"] is True
     assert d["fits"][0]["noise"]["timing_sd_ms"] == pytest.approx(1e3 * rep.fits[0].noise.timing_sd_s)
     assert "timing_sd_ms" not in d["fits"][0]["plain"]
+
+
+def test_an_exact_ground_truth_gives_the_wheels_at_every_length():
+    # nothing but the wheels' slips, spread along each sample's arc (the robot simulated at 100 Hz,
+    # read at 20 Hz): the fit is as sharp as it gets, and the slips' spread along the arcs matters
+    ds = simulated_replay(offsets_s=(0.0,) * 4, minutes=2.0, seed=11, timing_sd_s=0.0, truth_sd=(0.0, 0.0, 0.0))
+    rep = replay_noise(ds, EXAMPLE_ROBOT.true_wheels)
+    assert rep.consistent
+    for f in rep.fits:
+        assert f.noise.k_left_m == pytest.approx(K_LEFT, rel=0.15)
+        assert f.noise.k_right_m == pytest.approx(K_RIGHT, rel=0.15)
+    for i, f in enumerate(rep.fits):
+        assert 0.8 <= f.heldout_nees[i] <= 1.25
 
 
 def test_a_single_run_is_halved_in_time():
