@@ -450,11 +450,7 @@ def _fit_terms(
 
     best = None
     for theta0 in starts:
-        bounds = [(-40.0, 5.0)] * len(theta0)
-        if profile:
-            res = minimize(fg, theta0, jac=True, method="L-BFGS-B", bounds=bounds)
-        else:
-            res = minimize(f, theta0, method="L-BFGS-B", bounds=bounds)
+        res = minimize(fg, theta0, jac=True, method="L-BFGS-B", bounds=[(-40.0, 5.0)] * len(theta0))
         if best is None or res.fun < best.fun:
             best = res
     assert best is not None
