@@ -489,7 +489,7 @@ def test_replay_noise_command_and_its_export(tmp_path):
     assert code == 0, err
     assert "pose_covariance_diagonal" in out and "twist_covariance_diagonal" in out
     # a data set where the model does not hold across lengths: a warning and no odometry_noise
-    real = OPTIODOM / "square" / "230620202144"
+    real = OPTIODOM / "circular" / "231220200150"
     code, out, err = run("replay", real, "--method", "lsq", "--noise", "--no-heldout", "--json")
     assert code == 0, err
     d = json.loads(out)

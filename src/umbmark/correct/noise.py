@@ -377,7 +377,14 @@ def _interval95(f: Any, theta: FloatArray, j: int, best: float, fg: Any = None) 
 
     others = [i for i in range(len(theta)) if i != j]
 
+    seen: dict[float, float] = {}
+
     def g(x: float) -> float:
+        if x not in seen:
+            seen[x] = _drop(x)
+        return seen[x]
+
+    def _drop(x: float) -> float:
         t = theta.copy()
         t[j] = x
         if fg is not None:  # the others at their best for this value (searched from the fit's best)
