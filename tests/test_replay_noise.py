@@ -337,6 +337,15 @@ def test_the_heading_jitter_term_is_the_derivative_of_the_ends_headings(x, y, th
     assert np.allclose(cov, abs(wa) * np.outer(ja, ja) + abs(wb) * np.outer(jb, jb), atol=1e-6)
 
 
+def test_a_robot_that_never_turned_says_nothing_of_the_heading_jitter():
+    rng = np.random.default_rng(2)
+    n = 200
+    e = rng.normal(0.0, 1e-3, (n, 3))
+    shape = np.broadcast_to(np.diag([0.25, 0.0, 25.0]) * 0.05, (n, 3, 3))
+    noise = estimate_interval_noise(e, shape, shape, 10.0, heading_cov=np.zeros((n, 3, 3)), ci95=False)
+    assert noise.heading_jitter_var_rad_s is None and "heading_jitter_mrad_at_1radps" not in noise.to_dict()
+
+
 def test_estimate_odometry_noise_with_the_twists_recovers_the_timing():
     # single-arc intervals at random constant twists: wheel noise, a jittered reference, sensor noise
     rng = np.random.default_rng(4)

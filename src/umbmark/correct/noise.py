@@ -37,7 +37,7 @@ constant twist, so it only shows where the robot speeds up, slows down or turns 
 :func:`gls_mean`). With the timing or a mean, the 95 % intervals are the profile likelihood's (the
 other parameters at their best for each value), as those parameters trade off against the wheels'.
 
-Heading jitter (optional, with the timing): a motion capture's heading can be noisier while the
+Heading jitter (optional): a motion capture's heading can be noisier while the
 body turns than its position and its timing say (the markers' fit blurs with the rotation). Each
 end's heading is then off by an independent error of variance ``q |omega|`` (``omega`` the turn
 rate there): the residual gains ``q H_i`` with ``H_i = |omega_a| u_a u_a^T + |omega_b| e_3 e_3^T``
@@ -501,7 +501,9 @@ def timing_direction(motion: ArrayLike, twist_start: ArrayLike, twist_end: Array
 def heading_jitter_covariance(motion: ArrayLike, twist_start: ArrayLike, twist_end: ArrayLike) -> FloatArray:
     """The covariance per unit of the reference's heading jitter (variance per rad/s of turn rate) of
     each interval's motion: ``|omega_a| u_a u_a^T + |omega_b| e_3 e_3^T`` ``(K, 3, 3)`` [rad/s, with
-    the motion's units] (see the module docstring). Arguments as :func:`timing_covariance`."""
+    the motion's units] (see the module docstring). Arguments as :func:`timing_covariance`. The
+    heading error turns the reference about its own tracked point: a trajectory carried from a
+    marker off the axle to the axle moves with it too, which this leaves out."""
     d = np.asarray(motion, dtype=float).reshape(-1, 3)
     wa = np.abs(np.asarray(twist_start, dtype=float).reshape(-1, 3)[:, 2])
     wb = np.abs(np.asarray(twist_end, dtype=float).reshape(-1, 3)[:, 2])
@@ -537,7 +539,7 @@ def estimate_interval_noise(
     *,
     heading_cov: ArrayLike | None = None,
 ) -> OdometryNoise:
-    """Each wheel's travel variance per metre (and the reference's timing) from residuals whose
+    """Each wheel's travel variance per metre (and the reference's timing and heading jitter) from residuals whose
     covariance shapes are given: the general form of :func:`estimate_odometry_noise`, for
     intervals whose odometry is composed of many steps.
 
@@ -547,7 +549,8 @@ def estimate_interval_noise(
         ``(K, 3)`` measured minus predicted motion ``(dx_m, dy_m, dyaw_rad)``, heading wrapped.
     left_cov, right_cov : array_like
         ``(K, 3, 3)`` each residual's covariance per unit of the left (right) wheel's variance per
-        metre (``sum_j |s_j| g_j g_j^T`` over the interval's steps) [m].
+        metre (``sum_j |s_j| Q_j`` over the interval's steps, each step's :func:`travel_shapes`
+        carried into the interval's start frame) [m].
     travel_m : float
         The distance the wheels rolled in all intervals (mean of the two) [m].
     timing_cov : array_like, optional
@@ -562,7 +565,8 @@ def estimate_interval_noise(
         mean is fitted: each value's likelihood with the other parameters at their best); NaN when
         False (faster).
     heading_cov : array_like, optional
-        ``(K, 3, 3)`` :func:`heading_jitter_covariance`: the reference's heading jitter is fitted too.
+        ``(K, 3, 3)`` :func:`heading_jitter_covariance`: the reference's heading jitter is fitted too
+        (not when it is all zero: a robot that never turned).
 
     Returns
     -------
@@ -580,6 +584,8 @@ def estimate_interval_noise(
         raise InputError(f"the odometry's noise needs at least 20 intervals, got {len(e)}")
     if not travel_m >= 1.0:
         raise InputError(f"the wheels rolled {travel_m:.2f} m: the odometry's noise needs a drive of metres")
+    if heading_cov is not None and not np.any(np.asarray(heading_cov, dtype=float)):
+        heading_cov = None  # a robot that never turned: the data say nothing of the jitter
     extra = [m for m in (timing_cov, heading_cov) if m is not None]
     mats = [left_cov, right_cov, *extra]
     terms = np.stack([_six(np.asarray(m, dtype=float).reshape(-1, 3, 3)) for m in mats])

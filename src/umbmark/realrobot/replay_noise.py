@@ -459,7 +459,8 @@ class StrideFit:
     stride_s : float
         The intervals' length [s].
     noise : OdometryNoise
-        With the ground truth's timing (when asked) and each run's time offset fitted.
+        With the ground truth's timing and heading jitter (when asked) and each run's time offset
+        fitted.
     plain : OdometryNoise
         Without the ground truth's timing and heading jitter (the runs' offsets as in ``noise``):
         its per-metre noise takes up their variance, which grows with speed and turn rate and not
