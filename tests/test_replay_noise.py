@@ -277,6 +277,11 @@ def test_bad_input_is_refused():
 
 
 # ---------------------------------------------------------------- the timing term (umbmark.correct.noise)
+def _end_derivatives(measured, h=1e-6):
+    """The central differences of ``measured(a, b)`` by its first argument and by its second, at 0."""
+    return (measured(h, 0.0) - measured(-h, 0.0)) / (2 * h), (measured(0.0, h) - measured(0.0, -h)) / (2 * h)
+
+
 def _exp(twist, dt, b=0.4):
     """The pose after moving at a constant twist ``(v, 0, omega)`` for ``dt`` (a differential drive's arc)."""
     d, dth = twist[0] * dt, twist[2] * dt
@@ -305,9 +310,7 @@ def test_the_timing_terms_are_the_derivatives_of_the_late_reference(x, y, th, va
         m[2] = motion[2] + math.remainder(m[2] - motion[2], 2 * math.pi)
         return m
 
-    h = 1e-6
-    ja = (measured(h, 0.0) - measured(-h, 0.0)) / (2 * h)
-    jb = (measured(0.0, h) - measured(0.0, -h)) / (2 * h)
+    ja, jb = _end_derivatives(measured)
     direction = timing_direction(motion[None], xa[None], xb[None])[0]
     cov = timing_covariance(motion[None], xa[None], xb[None])[0]
     assert np.allclose(direction, ja + jb, atol=1e-6)
@@ -330,9 +333,7 @@ def test_the_heading_jitter_term_is_the_derivative_of_the_ends_headings(x, y, th
         m[2] = motion[2] + math.remainder(m[2] - motion[2], 2 * math.pi)
         return m
 
-    h = 1e-6
-    ja = (measured(h, 0.0) - measured(-h, 0.0)) / (2 * h)
-    jb = (measured(0.0, h) - measured(0.0, -h)) / (2 * h)
+    ja, jb = _end_derivatives(measured)
     cov = heading_jitter_covariance(motion[None], np.array([[0.3, 0.0, wa]]), np.array([[0.1, 0.0, wb]]))[0]
     assert np.allclose(cov, abs(wa) * np.outer(ja, ja) + abs(wb) * np.outer(jb, jb), atol=1e-6)
 

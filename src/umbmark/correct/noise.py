@@ -65,7 +65,6 @@ from umbmark.model.intervals import sensor_motion
 
 __all__ = [
     "OdometryNoise",
-    "travel_jacobians",
     "travel_shapes",
     "timing_covariance",
     "timing_direction",
@@ -157,38 +156,6 @@ class OdometryNoise:
             ci = self.heading_jitter_var_ci95_rad_s or (0.0, math.inf)
             out["heading_jitter_mrad_at_1radps_ci95"] = [1e3 * math.sqrt(ci[0]), 1e3 * math.sqrt(ci[1])]
         return out
-
-
-def travel_jacobians(
-    left_rad: ArrayLike,
-    right_rad: ArrayLike,
-    r_left_m: float,
-    r_right_m: float,
-    wheelbase_m: float,
-    sensor_pose: ArrayLike = (0.0, 0.0, 0.0),
-) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
-    """The derivatives of each interval's sensor motion by each wheel's travel.
-
-    Returns
-    -------
-    g_left, g_right : numpy.ndarray
-        ``(K, 3)``: d(dx, dy, dyaw) / d(travel) [m/m, m/m, rad/m].
-    s_left, s_right : numpy.ndarray
-        ``(K,)``: each wheel's travel [m].
-    """
-    sl = r_left_m * np.asarray(left_rad, dtype=float)
-    sr = r_right_m * np.asarray(right_rad, dtype=float)
-    h = 1e-6
-    g = []
-    for dl, dr in ((h, 0.0), (0.0, h)):
-        plus = sensor_motion((sl + dl) / r_left_m, (sr + dr) / r_right_m, r_left_m, r_right_m, wheelbase_m, sensor_pose)
-        minus = sensor_motion(
-            (sl - dl) / r_left_m, (sr - dr) / r_right_m, r_left_m, r_right_m, wheelbase_m, sensor_pose
-        )
-        d = plus - minus
-        d[:, 2] = np.arctan2(np.sin(d[:, 2]), np.cos(d[:, 2]))
-        g.append(d / (2 * h))
-    return g[0], g[1], sl, sr
 
 
 def travel_shapes(

@@ -230,7 +230,12 @@ def truth_intervals(ds: Dataset, geometry: WheelGeometry, stride_s: float) -> Tr
 
 
 def fit_intervals(
-    iv: TruthIntervals, timing: bool = True, offsets: bool = True, ci95: bool = True, heading: bool | None = None
+    iv: TruthIntervals,
+    timing: bool = True,
+    offsets: bool = True,
+    ci95: bool = True,
+    heading: bool | None = None,
+    design: FloatArray | None = None,
 ) -> OdometryNoise:
     """The noise of intervals (:func:`umbmark.correct.noise.estimate_interval_noise`).
 
@@ -247,6 +252,8 @@ def fit_intervals(
     heading : bool, optional
         Fit the ground truth's heading jitter while turning (``heading_jitter_var_rad_s``); by
         default when the timing is fitted.
+    design : numpy.ndarray, optional
+        ``(K, 3, P)`` more of the residuals' mean to profile out, after the offsets' columns.
 
     Returns
     -------
@@ -257,13 +264,14 @@ def fit_intervals(
     InputError
         Fewer than 20 intervals or less than a metre rolled.
     """
+    parts = ([iv.offset_design()] if offsets else []) + ([design] if design is not None else [])
     return estimate_interval_noise(
         iv.residual,
         iv.left_cov,
         iv.right_cov,
         float(np.sum(iv.travel_m)),
         iv.timing_cov if timing else None,
-        iv.offset_design() if offsets else None,
+        np.concatenate(parts, axis=2) if parts else None,
         ci95,
         heading_cov=iv.heading_cov if (timing if heading is None else heading) else None,
     )
@@ -420,18 +428,9 @@ def refine_geometry(
     for _ in range(max(1, rounds)):
         iv = truth_intervals(ds, geometry, stride_s)
         x = geometry_design(ds, geometry, stride_s, iv)
+        noise = fit_intervals(iv, timing, offsets, ci95=False, design=x)
         if offsets:
             x = np.concatenate([iv.offset_design(), x], axis=2)
-        noise = estimate_interval_noise(
-            iv.residual,
-            iv.left_cov,
-            iv.right_cov,
-            float(np.sum(iv.travel_m)),
-            iv.timing_cov if timing else None,
-            x,
-            False,
-            heading_cov=iv.heading_cov if timing else None,
-        )
         beta = gls_mean(iv.residual, _covariance(iv, noise), x)[-3:]
         geometry = _scaled(geometry, 1.0 - beta)  # the residuals' mean, x beta, removed
         if float(np.max(np.abs(beta))) < 1e-7:
