@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import math
 from contextlib import ExitStack
-from pathlib import Path
 
 import click
 
@@ -53,29 +52,11 @@ def float_list(text: str, n: int, flag: str, meta: str) -> list[float]:
 
 
 def kind_of(paths) -> str:
-    """``bags`` or ``intervals`` (CSV files): all inputs must be of one kind."""
-    from umbmark.io.rosbag import is_bag
+    """``bags`` or ``intervals`` (CSV files): all inputs must be of one kind
+    (:func:`umbmark.realrobot.selfcal_settings.recording_kind`)."""
+    from umbmark.realrobot.selfcal_settings import recording_kind
 
-    kinds = set()
-    for p in paths:
-        q = Path(p)
-        if not q.exists():
-            raise InputError("not found", source=str(p))
-        if q.is_file() and q.suffix.lower() == ".csv":
-            kinds.add("intervals")
-        elif is_bag(q):
-            kinds.add("bags")
-        else:
-            raise InputError(
-                "not a ROS bag (.bag, .mcap, .db3, or a folder with metadata.yaml) nor an intervals file (.csv)",
-                source=str(p),
-            )
-    if len(kinds) > 1:
-        raise InputError("give bags or intervals files, not both")
-    from umbmark._files import check_distinct_inputs
-
-    check_distinct_inputs(paths)
-    return kinds.pop()
+    return recording_kind(paths)
 
 
 class Bars:

@@ -9,9 +9,10 @@ imported before the command runs.
 
 from __future__ import annotations
 
+import functools
 import math
 import shlex
-from contextlib import ExitStack
+from collections.abc import Callable, Collection
 from pathlib import Path
 
 import click
@@ -21,10 +22,9 @@ from umbmark.cli.bags import Bars, interval_options, kind_of, start_kernels
 from umbmark.cli.config import config_options
 from umbmark.cli.history import history_options, print_recorded, record_if_requested
 from umbmark.cli.kinematic import kinematic_options
-from umbmark.cli.progress import progress
 from umbmark.errors import InputError
 
-__all__ = ["selfcal_cmd", "LEGEND"]
+__all__ = ["selfcal_cmd", "selfcal_settings", "LEGEND"]
 
 LEGEND = (
     "D_L, D_R: the wheel diameters, and wheelbase: the effective distance between the wheels, that make the "
@@ -295,8 +295,6 @@ def selfcal_cmd(
       umbmark selfcal drive_bag --odom-topic /odom --wheel-radius-m 0.075 --wheel-separation-m 0.34 --save cal.json
       umbmark export cal.json --format urdf
     """
-    from umbmark.cli.options import nominal_m
-
     window = kw.pop("window", None)
     window_s = None
     if window is not None:
@@ -319,35 +317,21 @@ def selfcal_cmd(
         )
         kinematic_selfcal_cmd(kinematics, paths, min_intervals, keep_outliers, save, as_json, record, {**kw, **sizes})
         return
-    for flag in ("drive_joint", "steer_joint", "lx_plus_ly_mm"):
-        if kw.get(flag) is not None:
-            raise InputError(f"--{flag.replace('_', '-')} needs --kinematics tricycle or mecanum")
-    if kw.get("fit_steering_scale"):
-        raise InputError("--fit-steering-scale needs --kinematics tricycle")
-    d_m, b_m = nominal_m(
-        dict(
-            wheel_diameter_mm=wheel_diameter_mm,
-            wheel_radius_m=wheel_radius_m,
-            wheelbase_mm=wheelbase_mm,
-            wheel_separation_m=wheel_separation_m,
-        )
+    params = dict(
+        kw,
+        wheel_diameter_mm=wheel_diameter_mm,
+        wheel_radius_m=wheel_radius_m,
+        wheelbase_mm=wheelbase_mm,
+        wheel_separation_m=wheel_separation_m,
+        min_intervals=min_intervals,
+        keep_outliers=keep_outliers,
+        wheel_jitter=wheel_jitter,
     )
-    kind = kind_of(paths)
-    opts = {"reject_outliers": not keep_outliers, "time_jitter": wheel_jitter}
-    if kind == "intervals":
-        from umbmark.realrobot.selfcal import selfcal_from_intervals
-
-        given = _bag_flags(kw)
-        if given:
-            raise InputError(f"{given[0].split()[0]} reads bags; the inputs are intervals files")
-        with ExitStack() as stack:
-            if not as_json:
-                stack.enter_context(progress("self-calibrating"))
-            rep = selfcal_from_intervals(list(paths), d_m, b_m, **opts)
-        flags: list[str] = []
-    else:
-        rep = _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json)
-        flags = _bag_flags(kw)
+    kind = functools.cache(lambda: kind_of(paths))
+    settings = selfcal_settings(params, lambda: {kind()})
+    rep = _selfcal(paths, settings, kind() == "bags", kw["intervals_out"], as_json)
+    opts = settings.fit_options
+    flags = _bag_flags(kw) if kind() == "bags" else []
     if keep_outliers:
         flags.append("--keep-outliers")
     if min_intervals != 10:
@@ -372,6 +356,7 @@ def selfcal_cmd(
         return
     if is_quiet():
         return
+    d_m, b_m = settings.wheel_diameter_m, settings.wheelbase_m
     _print_report(d, *_next_command(paths, save, d_m, b_m, flags + ([] if wheel_jitter else ["--no-wheel-jitter"])))
     if window_s is not None:
         from umbmark.cli.selfcal_windows import print_windows
@@ -416,31 +401,65 @@ def _bag_flags(kw) -> list[str]:
     return out
 
 
-def _from_bags(paths, d_m, b_m, min_intervals, opts, kw, as_json):
-    """The self-calibration of the bags (:func:`umbmark.realrobot.selfcal.selfcal_from_bags`), with
-    progress bars; the matched intervals written when ``--intervals-out`` asks."""
-    from umbmark.cli.options import wheel_source
-    from umbmark.realrobot.selfcal import selfcal_from_bags
+# the options of a differential drive's self-calibration that only bags take (the flags shown
+# as the next step are :func:`_bag_flags`)
+def selfcal_settings(kw: dict, kinds: Collection[str] | Callable[[], Collection[str]]):
+    """The :class:`~umbmark.realrobot.selfcal_settings.SelfcalSettings` of selfcal's options for
+    a differential drive, checked before anything is read: no option of another kind, the
+    nominal geometry, no bag option when every input is an intervals file, the interval options
+    and the wheel data's source when one is a bag.
 
-    options = interval_options(kw, min_intervals)
+    Parameters
+    ----------
+    kw : dict
+        The parsed options (``wheel_diameter_mm``, ..., ``min_intervals``, ``keep_outliers``,
+        ``wheel_jitter`` and the bag options).
+    kinds : collection of str, or a callable returning one
+        The inputs' kinds (``bags``, ``intervals``); a callable is asked once the geometry is
+        checked.
+    """
+    from umbmark.cli.options import nominal_m, wheel_source
+    from umbmark.realrobot.selfcal_settings import SelfcalSettings
+
+    for flag in ("drive_joint", "steer_joint", "lx_plus_ly_mm"):
+        if kw.get(flag) is not None:
+            raise InputError(f"--{flag.replace('_', '-')} needs --kinematics tricycle or mecanum")
+    if kw.get("fit_steering_scale"):
+        raise InputError("--fit-steering-scale needs --kinematics tricycle")
+    d_m, b_m = nominal_m(kw)
+    given = set(kinds() if callable(kinds) else kinds)
+    common = dict(reject_outliers=not kw["keep_outliers"], time_jitter=kw["wheel_jitter"])
+    if "bags" not in given:
+        flags = _bag_flags(kw)
+        if flags:
+            raise InputError(f"{flags[0].split()[0]} reads bags; the inputs are intervals files")
+        return SelfcalSettings(d_m, b_m, **common)
+    options = interval_options(kw, kw["min_intervals"])
     wheels = wheel_source(kw)
     if wheels.given:
         wheels.check()  # before anything is compiled or read
-    start_kernels()
+    return SelfcalSettings(
+        d_m,
+        b_m,
+        wheels=wheels,
+        scan_topic=kw["scan_topic"],
+        scan_frame=kw["scan_frame"],
+        intervals=options,
+        **common,
+    )
+
+
+def _selfcal(paths, settings, bags: bool, intervals_out, as_json):
+    """The self-calibration (:func:`umbmark.realrobot.selfcal_settings.selfcal_recordings`) with
+    progress bars; the matched intervals written when ``--intervals-out`` asks."""
+    from umbmark.realrobot.selfcal_settings import selfcal_recordings
+
+    if bags:
+        start_kernels()
     with Bars(enabled=not as_json) as bars:
-        rep = selfcal_from_bags(
-            list(paths),
-            d_m,
-            b_m,
-            wheels=wheels,
-            scan_topic=kw["scan_topic"],
-            scan_frame=kw["scan_frame"],
-            options=options,
-            selfcal_options=opts,
-            progress=bars,
-        )
-    if kw["intervals_out"]:
+        rep = selfcal_recordings(list(paths), settings, progress=bars)
+    if bags and intervals_out:
         from umbmark.io.intervals_csv import write_intervals_csv
 
-        write_intervals_csv(rep.intervals, kw["intervals_out"])
+        write_intervals_csv(rep.intervals, intervals_out)
     return rep
