@@ -50,7 +50,9 @@ _RECORDED_AT = "umbmark.recorded_at"
 
 def _recorded_at(text: str) -> str:
     """``--recorded-at`` checked: an ISO 8601 time, not in the future (UTC when no zone)."""
-    from datetime import datetime, timedelta, timezone
+    from datetime import datetime, timezone
+
+    from umbmark.history.base import session_time_problem
 
     try:
         when = datetime.fromisoformat(text.strip().replace("Z", "+00:00"))
@@ -61,12 +63,13 @@ def _recorded_at(text: str) -> str:
         ) from None
     if when.tzinfo is None:
         when = when.replace(tzinfo=timezone.utc)
-    if when > datetime.now(timezone.utc) + timedelta(minutes=5):
+    problem = session_time_problem(when)
+    if problem == "is in the future":
         raise click.BadParameter(
             f"{text} is in the future (a record dates a session that happened)", param_hint="'--recorded-at'"
         )
-    if when.year < 1970:
-        raise click.BadParameter(f"{text} is before 1970: a year typed wrong?", param_hint="'--recorded-at'")
+    if problem is not None:
+        raise click.BadParameter(f"{text} {problem}: a year typed wrong?", param_hint="'--recorded-at'")
     return when.isoformat()
 
 

@@ -16,7 +16,7 @@ import time
 from collections.abc import Callable, Sequence
 from contextlib import AbstractContextManager
 from dataclasses import dataclass
-from datetime import datetime, timezone
+from datetime import datetime, timedelta, timezone
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, NoReturn, Protocol, TypeVar
 
@@ -125,6 +125,16 @@ class AnalysisLike(Protocol):
 
 class HistoryError(UmbmarkError):
     """The history database cannot be used (locked for too long, newer schema, not a database)."""
+
+
+class AlreadyRecorded(HistoryError):
+    """The robot's history already holds a record of this recording (the same content, by the
+    same method): :meth:`_Backend.add` with ``once``. ``record_id`` is that record's."""
+
+    def __init__(self, robot: str, record_id: int, db: str | Path) -> None:
+        self.robot = robot
+        self.record_id = record_id
+        super().__init__(f"robot {robot!r} has this recording already (record #{record_id} in {display_db(db)})")
 
 
 def default_db_path() -> Path:
@@ -374,6 +384,22 @@ def resolve_db_path(db: str | Path | None = None) -> Path:
     if isinstance(r, str):
         raise InputError(f"{display_db(r)!r} is a database URL, not a file")
     return r
+
+
+CLOCK_SKEW = timedelta(minutes=5)
+"""How far in the future a session's time may be (clocks a little apart) and still date a record."""
+
+
+def session_time_problem(when: datetime) -> str | None:
+    """Why ``when`` cannot date a record of a session: ``"is in the future"`` (beyond
+    :data:`CLOCK_SKEW`) or ``"is before 1970"``; None when it can (UTC when it has no zone)."""
+    if when.tzinfo is None:
+        when = when.replace(tzinfo=timezone.utc)
+    if when > datetime.now(timezone.utc) + CLOCK_SKEW:
+        return "is in the future"
+    if when.year < 1970:
+        return "is before 1970"
+    return None
 
 
 def _now_utc() -> str:
@@ -691,6 +717,11 @@ class _Backend:
         """Name, number of records, first and last time of each robot, by name."""
         raise NotImplementedError
 
+    def _same_recording(self, conn: Any, robot: str, input_sha256: str, method: str) -> int | None:
+        """Inside :meth:`transaction`: the id of a record of ``robot`` with this content hash and
+        method, or None."""
+        raise NotImplementedError
+
     @property
     def warnings(self) -> list[str]:
         """The damaged records reading skipped (one message each, naming the record, the
@@ -727,6 +758,7 @@ class _Backend:
         note: str | None = None,
         when: str | datetime | None = None,
         software_version: str | None = None,
+        once: bool = False,
     ) -> int:
         """Store one calibration in one transaction.
 
@@ -736,6 +768,10 @@ class _Backend:
             As for :func:`umbmark.history.record_result`.
         software_version : str, optional
             The umbmark version that made the result (default: this one).
+        once : bool
+            Refuse a recording the robot's history holds already (the same ``input_sha256`` by
+            the same ``method``), checked in the transaction of the insert: of two writers
+            recording it at once (two fleets on one history), one records it.
 
         Returns
         -------
@@ -748,6 +784,8 @@ class _Backend:
             For a missing robot name, an unknown kind or a bad time.
         HistoryError
             If the database cannot be written (read-only, damaged).
+        AlreadyRecorded
+            With ``once``, for a recording the robot's history holds already.
         """
         row = self._row(
             robot,
@@ -764,6 +802,10 @@ class _Backend:
             software_version,
         )
         with self.transaction() as c:
+            if once and input_sha256:
+                prior = self._same_recording(c, row["robot"], input_sha256, row["method"])
+                if prior is not None:
+                    raise AlreadyRecorded(row["robot"], prior, self.path)
             return self._insert(c, row)
 
     @staticmethod

@@ -329,6 +329,17 @@ class SQLAlchemyHistory(_Backend):
         assert pk is not None  # set by the single-row INSERT just made
         return int(pk[0])
 
+    def _same_recording(self, conn: Connection, robot: str, input_sha256: str, method: str) -> int | None:
+        c, r = self._cal.c, self._robots.c
+        q = (
+            self._sa.select(c.id)
+            .select_from(self._cal.join(self._robots))
+            .where(r.name == robot, c.input_sha256 == input_sha256, c.method == method)
+            .limit(1)
+        )
+        found = conn.execute(q).scalar()
+        return None if found is None else int(found)
+
     def _select(self) -> Select:
         sa = self._sa
         c, r = self._cal.c, self._robots.c

@@ -332,6 +332,14 @@ class History(_Backend):
         assert cur.lastrowid is not None  # set by the INSERT just made
         return int(cur.lastrowid)
 
+    def _same_recording(self, c: sqlite3.Connection, robot: str, input_sha256: str, method: str) -> int | None:
+        row = c.execute(
+            """SELECT c.id FROM calibrations c JOIN robots r ON r.id = c.robot_id
+               WHERE r.name = ? AND c.input_sha256 = ? AND c.method = ? LIMIT 1""",
+            (robot, input_sha256, method),
+        ).fetchone()
+        return None if row is None else int(row[0])
+
     # -- reading -------------------------------------------------------------------------------
     def _fetch(self, robot: str | None = None, limit: int | None = None, record_id: int | None = None) -> list[Any]:
         """The rows of ``_SELECT``, newest first (the robot's name and the id matched exactly)."""
