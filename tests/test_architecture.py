@@ -4,8 +4,9 @@ including those inside functions):
 * a layer imports only the layers listed for it in ``ALLOWED`` (lower ones);
 * only ``umbmark.cli`` imports click or names command-line flags;
 * no import cycle between modules;
-* the real-robot commands (replay, selfcal, validate, export, bag-info) import nothing from
-  ``umbmark.studies``, lazily or not, directly or through another module;
+* the real-robot commands (replay, selfcal, validate, export, bag-info) and the fleet import
+  nothing from ``umbmark.studies``, lazily or not, directly or through another module; the fleet's
+  command calls the library, not the command line's ``main``;
 * no module reads a key of a result's ``extra`` dict (results are typed);
 * no function is longer than :data:`MAX_FUNCTION_LINES` but the numba kernels (compiled whole);
 * the top-level ``umbmark`` package loads its public names lazily (importing it imports no layer).
@@ -35,7 +36,8 @@ ALLOWED: dict[str, set[str]] = {
     "realrobot": {"model", "metrics", "io", "correct"},
     "viz": {"model", "metrics", "io", "correct", "realrobot", "history"},
     "studies": {"model", "metrics", "io", "correct", "realrobot", "history", "viz"},
-    "cli": {"model", "metrics", "io", "correct", "realrobot", "history", "viz", "studies"},
+    "fleet": {"model", "metrics", "io", "correct", "realrobot", "history"},
+    "cli": {"model", "metrics", "io", "correct", "realrobot", "history", "viz", "studies", "fleet"},
 }
 FLAG = re.compile(r"(?<![\w-])--[a-z][a-z0-9]*(?:-[a-z0-9]+)*")
 
@@ -186,7 +188,7 @@ def test_no_import_cycles():
     assert not cycles, "\n".join(cycles)
 
 
-REAL_ROBOT_COMMANDS = ("umbmark.cli.real", "umbmark.cli.selfcal", "umbmark.cli.validate")
+REAL_ROBOT_COMMANDS = ("umbmark.cli.real", "umbmark.cli.selfcal", "umbmark.cli.validate", "umbmark.cli.fleet")
 
 
 def _closure(start: str) -> dict[str, str]:
@@ -211,6 +213,21 @@ def test_the_real_robot_commands_import_nothing_from_the_studies(command):
     reached = _closure(command)
     studies = {m: by for m, by in reached.items() if layer_of(m) == "studies"}
     assert not studies, f"{command} reaches {', '.join(f'{m} (from {by})' for m, by in sorted(studies.items()))}"
+
+
+def test_the_fleet_command_calls_the_library_not_the_command_line():
+    """``umbmark fleet`` calls :mod:`umbmark.fleet` (which calls the self-calibration's library
+    function), not ``umbmark.cli.main`` with its output redirected."""
+    path = MODULES["umbmark.cli.fleet"]
+    imported = {t for _, t in imports_of(path)}
+    assert "umbmark.cli" not in imported and "umbmark.fleet" in imported
+    calls = {
+        n.func.id
+        for n in ast.walk(ast.parse(path.read_text()))
+        if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)
+    }
+    assert "main" not in calls
+    assert "umbmark.realrobot.selfcal_settings" in _closure("umbmark.fleet.run")
 
 
 def test_the_closure_sees_a_study():

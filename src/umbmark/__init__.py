@@ -18,6 +18,7 @@ Layers, lowest first (each imports only lower ones):
 * :mod:`umbmark.history`: the calibration history per robot
 * :mod:`umbmark.viz`: figures and HTML reports
 * :mod:`umbmark.studies`: the paper's reproduction, accuracy and speed benchmarks, the demo
+* :mod:`umbmark.fleet`: a fleet's recordings self-calibrated on Dask into one history
 * :mod:`umbmark.cli`: the command line
 """
 
