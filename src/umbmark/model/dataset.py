@@ -268,6 +268,14 @@ def to_start_frame(x: ArrayLike, y: ArrayLike, theta: ArrayLike) -> tuple[np.nda
     -------
     tuple of numpy.ndarray
         ``(x, y, theta)`` with (0, 0, 0) at sample 0; theta unwrapped.
+
+    Examples
+    --------
+    A robot logged at (1, 2) facing +y, driving along +y: in its start frame, along +x.
+
+    >>> x, y, theta = to_start_frame([1.0, 1.0, 1.0], [2.0, 3.0, 4.0], [np.pi / 2] * 3)
+    >>> print(np.round(x, 9) + 0.0, np.round(y, 9) + 0.0, theta)
+    [0. 1. 2.] [0. 0. 0.] [0. 0. 0.]
     """
     x = np.asarray(x, dtype=float)
     y = np.asarray(y, dtype=float)
@@ -303,6 +311,16 @@ def wheel_travel_from_poses(
     -------
     tuple of numpy.ndarray
         ``(d_left, d_right)`` [m], arrays (..., K); sample 0 gets zero travel.
+
+    Examples
+    --------
+    The inverse of the odometry: the poses of 10 cm and 12 cm steps give those steps back.
+
+    >>> from umbmark.model.odometry import integrate
+    >>> poses = integrate([0.0, 0.1, 0.1, 0.1], [0.0, 0.12, 0.12, 0.12], 0.3)
+    >>> d_left, d_right = wheel_travel_from_poses(*poses, 0.3)
+    >>> print(np.round(d_left, 9) + 0.0, np.round(d_right, 9) + 0.0)
+    [0.  0.1 0.1 0.1] [0.   0.12 0.12 0.12]
     """
     x, y, th = (np.asarray(a, dtype=float) for a in (x, y, theta))
     dth = np.diff(th, prepend=th[..., :1], axis=-1)

@@ -77,6 +77,15 @@ def unit_slip(kind: str, value_m: float, unit: str) -> str | None:
         None when the size is one a robot can have (see :data:`ROBOT_SIZES_M`, a radius being
         half a diameter); else a sentence such as ``"0.15 mm is no wheel's diameter (...):
         given in metres? 0.15 m is 150 mm"``.
+
+    Examples
+    --------
+    A 150 mm wheel typed as 0.15 with a millimetre flag:
+
+    >>> unit_slip("diameter", 0.15e-3, "mm")
+    "0.15 mm is no wheel's diameter (a robot's is 10 to 3000 mm): given in metres? 0.15 m is 150 mm"
+    >>> unit_slip("wheelbase", 0.34, "m") is None
+    True
     """
     if kind not in ("diameter", "radius", "wheelbase", "lx_plus_ly"):
         raise ValueError(f"unknown kind {kind!r}")
@@ -135,6 +144,18 @@ def nominal_slip(kind: str, ratio: float) -> str | None:
         None within :data:`FAR_FROM_NOMINAL` (a robot's own error); else the likely slip,
         e.g. ``"a diameter given as the radius (...)?"`` for 0.5 with a diameter, or the
         unit it is in; ``"the nominal size is in another unit or another quantity"`` otherwise.
+
+    Examples
+    --------
+    A wheel a self-calibration finds 1 % larger is the robot's own error; one half the size
+    given is the radius given for the diameter:
+
+    >>> nominal_slip("diameter", 1.01) is None
+    True
+    >>> nominal_slip("diameter", 0.5)
+    'a diameter given as the radius (`wheel_radius_m` takes half the diameter)?'
+    >>> nominal_slip("wheelbase", 1e-3)
+    'millimetres given as metres?'
     """
     if kind not in FAR_FROM_NOMINAL:
         raise ValueError(f"unknown kind {kind!r}")
@@ -161,6 +182,13 @@ def wrap_angle(a: Any) -> Any:
         ``a`` plus the multiple of 2 pi that brings it into (-pi, pi]: a scalar for a scalar
         input, else an array of the same shape. An angle of exactly -pi (or any odd multiple
         of pi) maps to +pi.
+
+    Examples
+    --------
+    >>> float(wrap_angle(3 * np.pi / 2)) == -np.pi / 2, float(wrap_angle(-np.pi)) == np.pi
+    (True, True)
+    >>> print(np.round(wrap_angle([4.0, -4.0, 0.5]), 6))
+    [-2.283185  2.283185  0.5     ]
     """
     w = np.mod(np.asarray(a, dtype=float) + np.pi, 2.0 * np.pi) - np.pi
     # the modulo maps +pi to -pi; the half-open interval (-pi, pi] keeps +pi
@@ -210,7 +238,15 @@ class Geometry:
 
     @property
     def m_per_pulse(self) -> float:
-        """Eq. 2.1: c_m, metres of wheel travel per encoder pulse."""
+        """Eq. 2.1: c_m, metres of wheel travel per encoder pulse.
+
+        Examples
+        --------
+        The paper's LabMate (150 mm wheels, 500 pulses per motor revolution, 20:1 gear):
+
+        >>> round(LABMATE.m_per_pulse * 1e3, 6), LABMATE.pulses_per_wheel_rev
+        (0.047124, 10000.0)
+        """
         return math.pi * self.wheel_diameter_m / (self.gear_ratio * self.pulses_per_motor_rev)
 
     @property
@@ -268,6 +304,14 @@ class OdometryParams:
         OdometryParams
             ``c_L * c_m``, ``c_R * c_m`` and the calibration's wheelbase (the nominal one when
             it has none).
+
+        Examples
+        --------
+        >>> p = OdometryParams.from_geometry(LABMATE, Calibration(0.999, 1.001, 0.336))
+        >>> round(p.right_m_per_pulse / p.left_m_per_pulse, 6), p.wheelbase_m
+        (1.002002, 0.336)
+        >>> OdometryParams.from_geometry(LABMATE).wheelbase_m  # no calibration: the nominal odometry
+        0.34
         """
         cal = calibration or Calibration()
         cm = geometry.m_per_pulse
@@ -293,7 +337,13 @@ class Calibration:
 
     @property
     def ed(self) -> float:
-        """The diameter ratio D_R / D_L this calibration assumes, ``c_right / c_left``."""
+        """The diameter ratio D_R / D_L this calibration assumes, ``c_right / c_left``.
+
+        Examples
+        --------
+        >>> round(Calibration(0.999, 1.001).ed, 6)
+        1.002002
+        """
         return self.c_right / self.c_left
 
 
@@ -365,6 +415,15 @@ class WheelGeometry:
         dict
             ``Ed``, ``Eb``, ``Es``, ``c_left``, ``c_right`` (ratios) and
             ``wheelbase_corrected_mm``, ``diameter_left_mm``, ``diameter_right_mm``.
+
+        Examples
+        --------
+        The paper's robot of Fig. 11 after calibration, against the LabMate's nominal wheels:
+
+        >>> found = WheelGeometry(0.1499, 0.1501, 0.33617)
+        >>> r = found.relative_to(LABMATE.wheels())
+        >>> round(r["Ed"], 6), round(r["Eb"], 6), round(r["Es"], 6)
+        (1.001334, 0.988735, 1.0)
         """
         return {
             "Ed": self.ed,
@@ -403,6 +462,17 @@ class WheelGeometry:
         Returns
         -------
         Calibration
+
+        Examples
+        --------
+        The factors that make the nominal wheels the measured ones, and back:
+
+        >>> nominal, found = LABMATE.wheels(), WheelGeometry(0.1499, 0.1501, 0.33617)
+        >>> cal = found.calibration_from(nominal)
+        >>> round(cal.c_left, 6), round(cal.c_right, 6), cal.wheelbase_m
+        (0.999333, 1.000667, 0.33617)
+        >>> nominal.calibrated(cal) == found
+        True
         """
         return Calibration(
             self.diameter_left_m / nominal.diameter_left_m,
@@ -460,6 +530,14 @@ class ErrorParams:
         -------
         tuple of float
             ``(D_L, D_R)`` [m].
+
+        Examples
+        --------
+        A right wheel 0.2 % larger than the left, their mean the nominal 150 mm:
+
+        >>> d_left, d_right = ErrorParams(ed=1.002).diameters_m(LABMATE)
+        >>> round(d_left * 1e3, 4), round(d_right * 1e3, 4), round((d_left + d_right) / 2 * 1e3, 9)
+        (149.8501, 150.1499, 150.0)
         """
         d_avg = self.es * geometry.wheel_diameter_m
         d_left = 2.0 * d_avg / (1.0 + self.ed)
@@ -510,6 +588,12 @@ class ErrorParams:
         -------
         Calibration
             ``c_L = 2 / (E_d + 1)``, ``c_R = E_d c_L`` and the true wheelbase.
+
+        Examples
+        --------
+        >>> cal = ErrorParams(ed=1.002, eb=0.99).ideal_calibration(LABMATE)
+        >>> round(cal.c_left, 6), round(cal.c_right, 6), round(cal.wheelbase_m, 6), round(cal.ed, 6)
+        (0.999001, 1.000999, 0.3366, 1.002)
         """
         c_left = 2.0 / (self.ed + 1.0)
         return Calibration(c_left, c_left * self.ed, self.eb * geometry.wheelbase_m)

@@ -169,6 +169,12 @@ def noise_preset(name: str) -> NoiseModel:
     ------
     InputError
         On an unknown name.
+
+    Examples
+    --------
+    >>> paper = noise_preset("paper")
+    >>> paper.slip_m_per_sqrt_m, paper.quantise, paper.needs_rng, noise_preset("none").needs_rng
+    (0.000335, True, True, False)
     """
     try:
         return NOISE_PRESETS[name]
@@ -268,6 +274,15 @@ def square_program(direction: str, side_m: float, turns: int = 4) -> tuple[Segme
     ------
     InputError
         On an unknown direction or a non-positive side.
+
+    Examples
+    --------
+    A clockwise square: four legs, each followed by a quarter turn to the right.
+
+    >>> [(s.kind, round(s.amount, 4)) for s in square_program("cw", 4.0)][:2]
+    [('straight', 4.0), ('turn', -1.5708)]
+    >>> len(square_program("ccw", 4.0)), len(square_program("ccw", 4.0, turns=3))
+    (8, 7)
     """
     if direction not in ("cw", "ccw"):
         raise InputError(f"direction must be 'cw' or 'ccw', got {direction!r}")
@@ -909,6 +924,37 @@ def simulate_umbmark(
     -------
     RunsTable
         The runs, SI units.
+
+    Examples
+    --------
+    A robot without errors and without noise returns to where its odometry says it did (the
+    return errors, absolute minus odometry, vanish):
+
+    >>> runs = simulate_umbmark(ErrorParams(), n_runs=1)
+    >>> print(runs.direction, np.allclose(runs.eps_x, 0), np.allclose(runs.eps_y, 0))
+    ['cw' 'ccw'] True True
+
+    A right wheel 0.2 % larger (E_d > 1) bends every leg to the left: the two directions end
+    on opposite sides in x, on the same side in y (mm):
+
+    >>> runs = simulate_umbmark(ErrorParams(ed=1.002), n_runs=1)
+    >>> print(np.round(runs.eps_x * 1e3, 1), np.round(runs.eps_y * 1e3, 1))
+    [-181.1  194.3] [-199.  -176.9]
+
+    A wheelbase 1 % longer (E_b > 1) turns every corner short: the same side in x, opposite
+    sides in y:
+
+    >>> runs = simulate_umbmark(ErrorParams(eb=1.01), n_runs=1)
+    >>> print(np.round(runs.eps_x * 1e3, 1), np.round(runs.eps_y * 1e3, 1))
+    [-122.4 -122.4] [-128.3  128.3]
+
+    The paper's robot of Fig. 11 before calibration: the larger of the two directions' return
+    errors is about the 317 mm measured.
+
+    >>> from umbmark.model.geometry import FIG11_ERRORS
+    >>> runs = simulate_umbmark(FIG11_ERRORS, n_runs=1)
+    >>> round(float(np.hypot(runs.eps_x, runs.eps_y).max()) * 1e3)
+    311
     """
     cw_ss, ccw_ss = child_seeds(seed, 2)
     parts = []
