@@ -250,11 +250,16 @@ def test_a_scheduler_s_password_is_never_printed(tmp_path):
     assert code == 2 and "tcp://host:8786" in err
 
 
-def test_the_history_keeps_a_recording_once_when_asked(tmp_path):
+@pytest.mark.parametrize("backend", ["sqlite", "sqlalchemy"])
+def test_the_history_keeps_a_recording_once_when_asked(tmp_path, backend):
+    """Both backends (SQLAlchemy on an SQLite URL here; PostgreSQL through the fleet's test)."""
     from umbmark.history.base import AlreadyRecorded
 
+    if backend == "sqlalchemy":
+        pytest.importorskip("sqlalchemy")
+    db = tmp_path / "h.sqlite"
     fields = dict(kind="selfcal", method="selfcal", results={}, parameters={"Ed": 1.0}, input_sha256="ab" * 32)
-    with open_history(tmp_path / "h.sqlite") as h:
+    with open_history(f"sqlite:///{db}" if backend == "sqlalchemy" else db) as h:
         first = h.add("r1", once=True, **fields)
         with pytest.raises(AlreadyRecorded) as e:
             h.add("r1", once=True, **fields)
