@@ -213,6 +213,8 @@ def test_manifest_mistakes_are_named_by_line(tmp_path):
         "robot:\n  r1:\n" + rec: (1, "unknown key `robot:`"),
         "robots:\n  r1:\n" + rec + "  r2:\n" + rec: (5, "recording fleet/robot-00/s000.csv is listed already (line 3"),
         "robots:\n  r1:\n    args: [--wheelbase-mm, 300]\n": (2, "needs `recordings:`"),
+        "robots: {}\n": (1, "names no robot"),
+        "robots:\n  r1:\n\trecordings: []\n": (3, "not a readable YAML manifest"),
     }
     manifest = tmp_path / "m.yaml"
     for text, (line, message) in cases.items():

@@ -164,7 +164,9 @@ class _Manifest:
                 raise self.fail(f"more than {MAX_MANIFEST_BYTES // 2**20} MB: not a manifest")
             node = yaml.compose(raw.decode("utf-8"), Loader=yaml.SafeLoader)
         except (OSError, UnicodeDecodeError, yaml.YAMLError) as e:
-            raise self.fail(f"not a readable YAML manifest ({type(e).__name__})") from None
+            mark = getattr(e, "problem_mark", None)
+            line = None if mark is None else mark.line + 1
+            raise InputError(f"not a readable YAML manifest ({type(e).__name__})", str(self.path), line) from None
         if node is None:
             raise self.fail("empty: a manifest holds `robots:` mapping each robot's name to its `recordings:`")
         return node
@@ -233,9 +235,12 @@ def read_manifest(path: str | Path, file_hash: Callable[[str | Path], str] | Non
     robots = dict((k, v) for k, _, v in top).get("robots")
     if robots is None:
         raise m.fail("a manifest holds `robots:` mapping each robot's name to its `recordings:`")
+    entries = m.mapping(robots, "`robots:`", None)
+    if not entries:
+        raise m.fail("`robots:` names no robot (each robot's name, then its `recordings:`)", robots)
     listed: dict[Path, tuple[str, int]] = {}
     jobs = []
-    for name, key, spec in m.mapping(robots, "`robots:`", None):
+    for name, key, spec in entries:
         robot = check_robot(name)
         entry = {k: v for k, _, v in m.mapping(spec, f"robot {robot!r}", ROBOT_KEYS)}
         if "recordings" not in entry:
