@@ -159,7 +159,7 @@ def test_stamps_jumping_back_are_an_error_naming_topic_and_message(clean, tmp_pa
 
 
 @pytest.mark.parametrize("same_content", [True, False])
-def test_every_stamp_duplicated_is_warned_about(clean, clean_cal, tmp_path, same_content):
+def test_every_message_recorded_twice_or_stamped_in_pairs_is_warned_about(clean, clean_cal, tmp_path, same_content):
     def dup(msgs):
         if same_content:  # every message recorded twice
             return [x for ns, m in msgs for x in ((ns, m), (ns + 1, m))]
@@ -168,7 +168,10 @@ def test_every_stamp_duplicated_is_warned_about(clean, clean_cal, tmp_path, same
 
     bag = edit_bag(clean, tmp_path / "dup", joint_states=dup)
     ds = read_bag(bag, **READ)
-    (w,) = [w for w in ds.meta["warnings"] if "repeat the stamp" in w]
+    # copies are dropped; a stamp kept for two messages of new content is a stream stamped in
+    # bursts (each message's sample time recovered)
+    said = "repeat the message before (the same stamp and content" if same_content else "arrive in bursts ("
+    (w,) = [w for w in ds.meta["warnings"] if said in w]
     assert w.startswith(f"{ds.source}: ")  # the bag is named
     assert "/joint_states" in w and "joint states" in w
     ed, eb, _ = _cal(ds)
@@ -215,16 +218,27 @@ def test_a_1e300_spike_in_a_joint_position_is_dropped_with_a_warning(clean, clea
     assert ed == pytest.approx(clean_cal[0], abs=1e-6) and eb == pytest.approx(clean_cal[1], abs=1e-5)
 
 
-def test_a_jump_that_stays_is_an_error(clean, tmp_path, capsys):
-    def jump(msgs):
-        k = len(msgs) // 3
-        return [(ns, _with_position(m, m.position[0] + 1e6) if i >= k else m) for i, (ns, m) in enumerate(msgs)]
+def _jump(msgs):
+    """Joint-state edit: the left wheel's counter jumps by 1e6 from a third of the recording on."""
+    k = len(msgs) // 3
+    return [(ns, _with_position(m, m.position[0] + 1e6) if i >= k else m) for i, (ns, m) in enumerate(msgs)]
 
-    bag = edit_bag(clean, tmp_path / "jump", joint_states=jump)
-    with pytest.raises(InputError, match=r"/joint_states jump by 1e\+06 at t=.*do not come back"):
-        read_bag(bag, **READ)
+
+def test_a_jump_that_stays_cuts_the_log_there(clean, tmp_path, capsys):
+    """A counter reset (a jump that stays) is not a reason to refuse the recording: it is cut
+    there with a warning, and the longer part is used."""
+    ref = read_bag(clean, **READ)
+    bag = edit_bag(clean, tmp_path / "jump", joint_states=_jump)
+    ds = read_bag(bag, **READ)
+    (w,) = [w for w in ds.meta["warnings"] if "do not come back" in w]
+    assert w.startswith(f"{ds.source}: ") and "/joint_states jump by 1e+06 at t=" in w
+    assert "a counter reset" in w and "only the longer part" in w
+    # the cw square is cut at the jump, the ccw square after it is whole
+    assert ds.runs[0].t.size < ref.runs[0].t.size and ds.runs[1].t.size == ref.runs[1].t.size
+    # a square cut short is no UMBmark run: replay says so in one line
     assert main(["replay", str(bag), *CLI]) == 2
-    assert len(capsys.readouterr().err.strip().splitlines()) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "does not close" in err[0]
 
 
 def test_ground_truth_2_s_late_is_warned_about(clean, clean_cal, tmp_path, capsys):
@@ -328,9 +342,9 @@ def test_convert_says_the_ground_truth_is_late_and_can_correct_it(clean, clean_c
     assert len(err.splitlines()) == 1 and "--time-offset" in err and "--stream" in err
 
 
-def test_selfcal_bag_spike_is_dropped_and_a_jump_is_an_error(clean, tmp_path):
+def test_selfcal_bag_spike_is_dropped_and_a_jump_cuts_the_stream(clean, tmp_path):
     """The lidar self-calibration's reader: a 1e300 joint position in one message is dropped
-    with a warning naming topic and time; a jump that stays is an error."""
+    with a warning naming topic and time; a jump that stays cuts the wheel data there."""
     from umbmark.io.rosbag import read_selfcal_bag
 
     ref = read_selfcal_bag(clean, wheels=WheelSource(joints=JOINT_NAMES))
@@ -348,12 +362,14 @@ def test_selfcal_bag_spike_is_dropped_and_a_jump_is_an_error(clean, tmp_path):
     assert len(got.wheel_t_s) == len(ref.wheel_t_s) - 1
     assert np.array_equal(np.delete(ref.left_rad, len(ref.left_rad) // 3), got.left_rad)
 
-    def jump(msgs):
-        k = len(msgs) // 3
-        return [(ns, _with_position(m, m.position[0] + 1e6) if i >= k else m) for i, (ns, m) in enumerate(msgs)]
-
-    with pytest.raises(InputError, match="/joint_states jump by 1e\\+06 at t=.*do not come back"):
-        read_selfcal_bag(edit_bag(clean, tmp_path / "jump", joint_states=jump), wheels=WheelSource(joints=JOINT_NAMES))
+    cut = read_selfcal_bag(
+        edit_bag(clean, tmp_path / "jump", joint_states=_jump), wheels=WheelSource(joints=JOINT_NAMES)
+    )
+    (w,) = [w for w in cut.warnings if "do not come back" in w]
+    assert "/joint_states jump by 1e+06 at t=" in w
+    k = len(ref.wheel_t_s) // 3
+    assert np.array_equal(cut.wheel_t_s, ref.wheel_t_s[k:])  # the longer part, after the jump
+    assert cut.wheel_stream is not None and cut.wheel_stream.resets == 1
 
 
 def test_selfcal_scan_delay_auto_and_seconds(tmp_path, capsys):

@@ -66,6 +66,13 @@ def _delay_text(d: dict) -> str:
     )
 
 
+def _stream_text(d: dict) -> str:
+    """One line of what the check of the wheel data found and did (its JSON block ``wheel_stream``)."""
+    from umbmark.model.wheel_stream import StreamReport
+
+    return StreamReport.from_dict(d).summary()
+
+
 def _ci(lo_hi, digits: int) -> str:
     return f"{lo_hi[0]:.{digits}f} to {lo_hi[1]:.{digits}f}"
 
@@ -89,6 +96,8 @@ def _print_report(d: dict, again: str, export: str) -> None:
                     f"{b['intervals_still']} without wheel motion set aside"
                 )
             )
+            if b.get("wheel_stream"):
+                c.print(escape(f"  wheel data: {_stream_text(b['wheel_stream'])}"))
             if b["failure_reasons"]:
                 why = "; ".join(f"{n} {r}" for r, n in b["failure_reasons"].items())
                 c.print(escape(f"  failed matches: {why}"))

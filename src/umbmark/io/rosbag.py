@@ -42,6 +42,7 @@ import numpy as np
 from umbmark.errors import InputError
 from umbmark.io.wheels import ONE_WHEEL_SOURCE, WheelData, WheelSource
 from umbmark.model.dataset import Dataset, Run, WheelGeometry, replay_increments, split_at_stops
+from umbmark.model.wheel_stream import StreamReport
 
 __all__ = [
     "read_bag",
@@ -524,6 +525,7 @@ class _WheelMessages:
             cumulative=w.cumulative,
             wrapped_turn=2.0 * math.pi if w.kind == "joints" else None,
             poses=odom,
+            heading=np.asarray(self.yaw, dtype=float) if odom else None,
             what=w.what,
             topic=w.topic,
             source=src,
@@ -539,13 +541,13 @@ class _WheelMessages:
         if not odom:
             joints = p if w.kind == "joints" else None
             if not w.two_wheels:
-                return WheelData(w, chk.t, None, None, warnings=tuple(warnings), joints=joints)
-            return WheelData(w, chk.t, p[:, 0], p[:, 1], warnings=tuple(warnings), joints=joints)
+                return WheelData(w, chk.t, None, None, warnings=tuple(warnings), joints=joints, stream=chk.report)
+            return WheelData(w, chk.t, p[:, 0], p[:, 1], warnings=tuple(warnings), joints=joints, stream=chk.report)
         pose = np.column_stack([p[:, 0], p[:, 1], np.asarray(self.yaw, dtype=float)[chk.kept]])
         if not np.all(np.isfinite(pose)):
             raise InputError(f"the odometry poses on {w.topic} contain NaN or infinite values", src)
         child = sorted(self.child_frames)[0] if len(self.child_frames) == 1 else None
-        return WheelData(w, chk.t, None, None, pose, child, tuple(warnings))
+        return WheelData(w, chk.t, None, None, pose, child, tuple(warnings), stream=chk.report)
 
 
 def _wheel_hint(reader) -> str:
@@ -852,6 +854,8 @@ class SelfcalBag:
         cumulative, steering joints their angle).
     joint_names : tuple of str
         Their names (empty without joint states).
+    wheel_stream : StreamReport or None
+        What the check of the wheel data found and did (rate, bursts, messages dropped and why).
     """
 
     source: str
@@ -873,6 +877,7 @@ class SelfcalBag:
     warnings: tuple[str, ...] = ()
     joint_positions: np.ndarray | None = None
     joint_names: tuple[str, ...] = ()
+    wheel_stream: StreamReport | None = None
 
     @property
     def n_scans(self) -> int:
@@ -1131,6 +1136,7 @@ def read_selfcal_bag(
         warnings=tuple(warnings) + wd.warnings,
         joint_positions=wd.joints,
         joint_names=tuple(wheels.joints or ()),
+        wheel_stream=wd.stream,
     )
 
 

@@ -20,7 +20,9 @@ imports no other layer of umbmark.
 * :mod:`~umbmark.model.sensors`: the room, the lidar and the gyro;
 * :mod:`~umbmark.model.intervals`: the intervals of a self-calibration;
 * :mod:`~umbmark.model.se2`: planar poses (compose, inverse, between);
-* :mod:`~umbmark.model.timing`: the stamps of logged streams, their checks and time offsets.
+* :mod:`~umbmark.model.timing`: the stamps of logged streams, their checks and time offsets
+  (with :mod:`~umbmark.model.stamps`, :mod:`~umbmark.model.arrival` for streams stamped on
+  arrival, and :mod:`~umbmark.model.wheel_stream` for the wheel data's one check).
 
 The names below are importable from here (``from umbmark.model import simulate_batch``); each
 module is imported when one of its names is first used, so importing a submodule costs only
@@ -162,6 +164,7 @@ _LAZY = {
             "check_joint_stream",
             "JointStream",
             "StreamCheck",
+            "StreamReport",
             "check_streams",
             "check_truth_stream",
             "align_truth",

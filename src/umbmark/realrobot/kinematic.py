@@ -237,6 +237,7 @@ class JointScanIntervals:
             "failure_reasons": dict(self.failure_reasons),
             "match_rms_mm": self.match_rms_m * 1e3,
             "time_span_s": self.time_span_s,
+            "wheel_stream": None if self.bag.wheel_stream is None else self.bag.wheel_stream.to_dict(),
             "scan_delay": delay,
             "nominal_sensor_pose": {
                 "x_mm": x * 1e3,
