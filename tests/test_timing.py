@@ -137,7 +137,7 @@ def test_incremental_counts_at_a_repeated_stamp_are_added():
     )
     # the kept counts summed into positions: 0, 1 + 2, 3, 4 (once)
     assert list(chk.t) == [0.0, 0.01, 0.02, 0.03] and list(chk.left) == [0.0, 3.0, 6.0, 10.0]
-    assert "1 of the 6 wheel positions on /ticks repeat the message before (the same stamp and content" in chk.warnings[0]
+    assert "1 of the 6 wheel positions on /ticks repeat the message before (the same stamp" in chk.warnings[0]
     assert "1 of the 5 wheel positions on /ticks repeat the stamp" in chk.warnings[1]
 
 
