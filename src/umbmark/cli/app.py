@@ -144,6 +144,7 @@ PARAM_FLAGS = {
     "scan_frame": "--scan-frame",
     "separation_multiplier": "--separation-multiplier",
     "sensor_pose": "--sensor-pose",
+    "skip_checks": "--skip-check",
     "side_mm": "--side-mm",
     "speed_m_s": "--speed-m-s",
     "split_stops": "--split-stops",

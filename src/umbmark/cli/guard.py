@@ -351,9 +351,13 @@ class GuardedCommand(click.Command):
 
     def invoke(self, ctx: click.Context):
         absurd = self.check_params(ctx)
-        if not absurd:
-            return super().invoke(ctx)
-        return self._invoke_absurd(ctx, absurd)
+        skip = ctx.params.pop("skip_check", None) or ()
+        from umbmark._check import skipping_checks
+
+        with skipping_checks(skip):
+            if not absurd:
+                return super().invoke(ctx)
+            return self._invoke_absurd(ctx, absurd)
 
     def check_params(self, ctx: click.Context) -> list[tuple[click.Parameter, float]]:
         """The checks of the parsed options before the command runs (paths, the history's
@@ -406,3 +410,20 @@ class GuardedGroup(click.Group):
 
     command_class = GuardedCommand
     group_class = type  # subgroups are GuardedGroups too
+
+
+def skip_check_option(f):
+    """Add ``--skip-check CHECK`` (repeatable) to a command that reads recordings: the named
+    plausibility checks (:data:`umbmark._check.CHECKS`) let the data through
+    (:class:`GuardedCommand` applies it around the command)."""
+    from umbmark._check import CHECKS
+
+    return click.option(
+        "--skip-check",
+        "skip_check",
+        multiple=True,
+        type=click.Choice(sorted(CHECKS)),
+        metavar="CHECK",
+        help="Let the data through a plausibility check that refuses this recording (its message names the "
+        f"check), if you know the recording is right; repeatable. Checks: {', '.join(sorted(CHECKS))}.",
+    )(f)

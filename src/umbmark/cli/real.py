@@ -18,6 +18,7 @@ if TYPE_CHECKING:
 
 from umbmark.cli.app import LOG_FORMAT_CHOICES, app, cli_message, console, emit_json, fmt, is_quiet, table
 from umbmark.cli.config import config_options
+from umbmark.cli.guard import skip_check_option
 from umbmark.cli.history import history_options, print_recorded, record_if_requested, record_report_if_requested
 from umbmark.cli.kinematic import kinematic_options
 from umbmark.cli.progress import progress, track
@@ -126,6 +127,7 @@ def log_options(f):
             "key time_offset and warned about when over 50 ms; auto subtracts the estimate; SECONDS "
             "subtracts that (positive: ground truth late). CSV logs, optiodom: applied when given.",
         ),
+        skip_check_option,
     ]
     for o in reversed(opts):
         f = o(f)

@@ -19,6 +19,7 @@ import click
 from umbmark.cli.app import app, cli_message, console, emit_json, fmt, is_quiet, table
 from umbmark.cli.bags import Bars, interval_options, kind_of, start_kernels
 from umbmark.cli.config import config_options
+from umbmark.cli.guard import skip_check_option
 from umbmark.cli.history import history_options, print_recorded, record_if_requested
 from umbmark.cli.kinematic import kinematic_options
 from umbmark.cli.progress import progress
@@ -269,6 +270,7 @@ def _print_report(d: dict, again: str, export: str) -> None:
     "(JSON key windows); with --record, each window is recorded with its own date (for `umbmark drift`).",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+@skip_check_option
 @history_options
 @config_options
 def selfcal_cmd(

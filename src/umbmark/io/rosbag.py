@@ -39,6 +39,7 @@ from pathlib import Path
 
 import numpy as np
 
+from umbmark._check import refusal
 from umbmark.errors import InputError
 from umbmark.io.wheels import ONE_WHEEL_SOURCE, WheelData, WheelSource
 from umbmark.model.dataset import Dataset, Run, WheelGeometry, replay_increments, split_at_stops
@@ -1000,14 +1001,20 @@ class _Scans:
         med = float(np.median(fin)) if fin.size else math.nan
         raw = float(np.median(self.raw_medians)) if self.raw_medians else math.nan
         unit = "millimetres (or centimetres)"
-        if med > MAX_MEDIAN_RANGE_M:
-            raise InputError(
+        err = (
+            refusal(
+                "scan_units",
                 f"the ranges on {self.topic} look like {unit}, not metres: their median is {med:.6g} "
                 f"(range_max {hi:g}), where a lidar sees the walls around it within tens of metres "
                 f"(no 2D lidar's median beyond {MAX_MEDIAN_RANGE_M:g} m); LaserScan ranges are in metres: "
                 "publish them in metres",
                 self.src,
             )
+            if med > MAX_MEDIAN_RANGE_M
+            else None
+        )
+        if err is not None:
+            raise err
         if not fin.size and raw >= hi and lo <= raw / 1000.0 < hi:
             raise InputError(
                 f"every range on {self.topic} is at or beyond range_max {hi:g}: their median is {raw:.6g}, "

@@ -15,12 +15,15 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike
 
+from umbmark._check import refusal
 from umbmark.errors import InputError
 from umbmark.model.arrival import steady_period
 
 __all__ = [
     "MAX_WHEEL_SPEED_MPS",
     "MAX_REORDER_S",
+    "MAX_LATE_RUN",
+    "MAX_LATE_S",
     "ordered_stamps",
     "in_stamp_order",
     "wheel_spikes",
@@ -37,6 +40,51 @@ MAX_REORDER_S = 0.1
 them are put in stamp order; a longer step back is an error (a clock that jumped)."""
 
 
+MAX_LATE_RUN = 3
+"""Messages in a row stamped before the ones received before them that are late deliveries (put
+in stamp order), not a clock that jumped back."""
+
+MAX_LATE_S = 2.0
+"""The most a late delivery is stamped before the messages received before it [s]."""
+
+
+def _late_stamps_only(t: np.ndarray) -> bool:
+    """The messages out of stamp order are single deliveries out of turn, not a clock gone back:
+    beside the longest run of the stream in stamp order (its longest non-decreasing
+    subsequence), the others come at most :data:`MAX_LATE_RUN` in a row, each stamped within
+    :data:`MAX_LATE_S` of the messages received around it."""
+    from bisect import bisect_right
+
+    tails: list[float] = []  # the smallest last stamp of an ordered run of each length
+    ends: list[int] = []  # ... its message
+    prev = np.full(t.size, -1)
+    for i, v in enumerate(t.tolist()):
+        j = bisect_right(tails, v)
+        if j > 0:
+            prev[i] = ends[j - 1]
+        if j == len(tails):
+            tails.append(v)
+            ends.append(i)
+        else:
+            tails[j], ends[j] = v, i
+    member = np.zeros(t.size, dtype=bool)
+    k = ends[-1]
+    while k >= 0:
+        member[k] = True
+        k = int(prev[k])
+    edges = np.diff(np.concatenate([[0], (~member).astype(np.int8), [0]]))
+    runs = np.flatnonzero(edges == -1) - np.flatnonzero(edges == 1)
+    if runs.size and runs.max() > MAX_LATE_RUN:
+        return False
+    idx = np.flatnonzero(member)
+    out = np.flatnonzero(~member)
+    pos = np.searchsorted(idx, out)  # the ordered messages received around each out of turn
+    before = t[idx[np.clip(pos - 1, 0, idx.size - 1)]]
+    after = t[idx[np.clip(pos, 0, idx.size - 1)]]
+    lag = np.minimum(np.abs(t[out] - before), np.abs(t[out] - after))
+    return bool(np.all(lag <= MAX_LATE_S))
+
+
 def median_period(t: np.ndarray) -> float:
     """The median of a stream's positive gaps [s] (0 without one)."""
     d = np.diff(t)
@@ -50,8 +98,10 @@ def ordered_stamps(
     """Check that a stream's stamps do not jump backwards; find the repeated ones.
 
     Messages a little out of order (each step back shorter than :data:`MAX_REORDER_S` and five
-    sample periods: delivered late over a network) are put in stamp order; a longer step back is
-    a clock that jumped, an error.
+    sample periods: delivered late over a network) are put in stamp order, and so are single
+    messages delivered late with the stamp they were made at (at most :data:`MAX_LATE_RUN` in a
+    row behind the stamps before them, by at most :data:`MAX_LATE_S`); a longer step back is a
+    clock that jumped, an error (the check ``stamp_order``).
 
     Parameters
     ----------
@@ -92,15 +142,19 @@ def ordered_stamps(
     if back.size:
         longest = -float(d.min())
         period = max(median_period(t), steady_period(t) or 0.0)  # (a stream in bursts: its rate's)
-        if longest > min(MAX_REORDER_S, 5 * period):
+        if longest > min(MAX_REORDER_S, 5 * period) and not _late_stamps_only(t):
             i = int(back[0])
-            raise InputError(
+            err = refusal(
+                "stamp_order",
                 f"the stamps of the {what} on {topic} go backwards at message {i + 2} of {t.size}: "
                 f"{t[i + 1] - t[0]:.6f} s after {t[i] - t[0]:.6f} s (from the first stamp; "
                 f"{'once' if back.size == 1 else f'{back.size} times'} in all, by up to {longest:.3f} s): "
-                "record with one clock, or cut the bag there",
+                "a clock that jumped back (or messages stamped far out of turn); record with one clock, or cut "
+                "the bag there",
                 source,
             )
+            if err is not None:
+                raise err
         order = np.argsort(t, kind="stable")
         reordered = (int(back.size), longest)
     ts = t[order]

@@ -34,6 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from umbmark._check import refusal
 from umbmark._numbers import strict_float
 from umbmark.errors import InputError
 from umbmark.model.stamps import MAX_REORDER_S, MAX_WHEEL_SPEED_MPS, ordered_stamps, wheel_spikes
@@ -589,13 +590,15 @@ def _refuse_degree_turns(
     if turn_g < 0.5:
         return
     ratio = turn_w / turn_g
-    if 0.5 <= ratio / math.degrees(1.0) <= 2.0:
-        raise InputError(
-            f"the wheel data on {wheel_topic} turn {ratio:.3g} times as far as the ground truth on {truth_topic} "
-            "(the nominal geometry): the wheel angles look like degrees (JointState positions are radians; encoder "
-            "counts: `pulses_per_wheel_rev` 57.3 times too small)",
-            source,
-        )
+    err = refusal(
+        "degree_turns",
+        f"the wheel data on {wheel_topic} turn {ratio:.3g} times as far as the ground truth on {truth_topic} "
+        "(the nominal geometry): the wheel angles look like degrees (JointState positions are radians; encoder "
+        "counts: `pulses_per_wheel_rev` 57.3 times too small)",
+        source,
+    )
+    if err is not None and 0.5 <= ratio / math.degrees(1.0) <= 2.0:
+        raise err
 
 
 def _truth_offset(

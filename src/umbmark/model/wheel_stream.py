@@ -34,6 +34,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
+from umbmark._check import refusal
 from umbmark.errors import InputError
 from umbmark.model.arrival import (
     HEADING_LEVER_M,
@@ -550,12 +551,15 @@ def _summed(t: np.ndarray, wheels: np.ndarray, metres_per_unit: float, what: str
     summed = np.cumsum(wheels, axis=0)
     counter_jumps = spikes(t, summed, metres_per_unit)[0]
     if counter_jumps.size and not spikes(t, wheels, metres_per_unit)[0].size:
-        raise InputError(
+        err = refusal(
+            "running_counters",
             f"summed as counts per message, the {what} on {topic} jump faster than {MAX_WHEEL_SPEED_MPS:g} m/s "
             f"at the wheel rim at t={t[int(counter_jumps[0])] - t[0]:.3f} s, while as a running counter they "
             'move as a wheel does: the counts look cumulative, running counters (`ticks="cumulative"`)',
             source,
         )
+        if err is not None:
+            raise err
     return summed
 
 
@@ -651,9 +655,11 @@ def _refuse_running_counters(t, wheels, metres_per_unit: float, what: str, topic
         return
     dt = float(np.median(np.diff(t)))
     speed = float(np.median(np.abs(wheels).max(axis=1))) * metres_per_unit / dt if dt > 0 else 0.0
-    if speed > MAX_WHEEL_SPEED_MPS:
-        raise InputError(
-            f"read as counts per message, the {what} on {topic} would turn the wheel rims at {speed:.3g} m/s "
-            f'(median): the counts look cumulative, they look like running counters (`ticks="cumulative"`)',
-            source,
-        )
+    err = refusal(
+        "running_counters",
+        f"read as counts per message, the {what} on {topic} would turn the wheel rims at {speed:.3g} m/s "
+        f'(median): the counts look cumulative, they look like running counters (`ticks="cumulative"`)',
+        source,
+    )
+    if err is not None and speed > MAX_WHEEL_SPEED_MPS:
+        raise err

@@ -27,6 +27,7 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from umbmark._check import refusal
 from umbmark.errors import InputError
 from umbmark.io.rosbag import SelfcalBag
 from umbmark.model import se2
@@ -169,13 +170,15 @@ def _check_turn_signs(wheel: FloatArray, seen: FloatArray, kind: str, bag: Selfc
             "mecanum": "the wheels' joints turn backwards when the robot drives forward, or the joints are in "
             "another order (FL,FR,RL,RR)",
         }.get(kind, "the wheels count backwards")
-        raise InputError(f"{where}, and it moves back where they drive forward: {backwards}", bag.source)
+        _refuse("turn_direction", f"{where}, and it moves back where they drive forward: {backwards}", bag.source)
+        return
     swap = {
         "diff_drive": "the wheels given right before left (`joints`)",
         "tricycle": "the steering joint's angle clockwise positive (it must be counter-clockwise positive)",
         "mecanum": "the wheels' joints given in another order (`joints` FL,FR,RL,RR)",
     }.get(kind, "the wheels exchanged")
-    raise InputError(
+    _refuse(
+        "turn_direction",
         f"{where}: a lidar mounted upside down (its scans mirrored: its frame's z axis down; turn it over in the "
         f"URDF or the driver), or {swap}",
         bag.source,
@@ -213,8 +216,16 @@ def _check_scale(wheel: FloatArray, seen: FloatArray, bag: SelfcalBag, alternati
         if 1.0 / bound <= ratio <= bound:
             return
         cause = _unit_cause(ratio, bag.wheel_kind)
-    raise InputError(
+    _refuse(
+        "wheel_units",
         f"the wheels {what} {ratio:.3g} times as far as the lidar sees the robot {what} ({seen_text} over "
         f"{len(seen)} pairs of consecutive scans): {cause}",
         bag.source,
     )
+
+
+def _refuse(check: str, message: str, source: str) -> None:
+    """Raise the named check's refusal unless it is skipped."""
+    err = refusal(check, message, source)
+    if err is not None:
+        raise err
