@@ -18,8 +18,7 @@ import numpy as np
 import pytest
 
 pytest.importorskip("rosbags")
-from rosbags.rosbag2 import Reader, Writer  # noqa: E402
-from rosbags.typesys import Stores, get_typestore  # noqa: E402
+from bagedit import edit_bag, restamp, stamp_ns  # noqa: E402
 
 from umbmark.cli import main  # noqa: E402
 from umbmark.errors import InputError  # noqa: E402
@@ -32,7 +31,6 @@ from umbmark.model.sensors import Lidar  # noqa: E402
 from umbmark.realrobot.replay import replay_report  # noqa: E402
 
 SIDE_M = 2.0
-TS = get_typestore(Stores.ROS2_HUMBLE)
 ROBOT = dataclasses.replace(
     EXAMPLE_ROBOT, errors=ErrorParams(ed=1.004, eb=1.02, es=0.99), lidar=Lidar(n_beams=4, range_noise_m=0.0)
 )
@@ -74,41 +72,8 @@ def clean(tmp_path_factory):
     return write_drive_bag(log, tmp_path_factory.mktemp("bags") / "clean", truth=True, odom=False)
 
 
-def _stamp_ns(msg) -> int:
-    s = msg.header.stamp
-    return int(s.sec) * 10**9 + int(s.nanosec)
-
-
-def _restamp(msg, ns: int):
-    stamp = TS.types["builtin_interfaces/msg/Time"](sec=int(ns // 10**9), nanosec=int(ns % 10**9))
-    return dataclasses.replace(msg, header=dataclasses.replace(msg.header, stamp=stamp))
-
-
 def _later(msg, dt_s: float):
-    return _restamp(msg, _stamp_ns(msg) + int(round(dt_s * 1e9)))
-
-
-def edit_bag(src, dst, **edits):
-    """Copy the bag ``src`` to ``dst``; ``edits[key]`` (key: a topic without its slash) turns the
-    list of that topic's ``(bag_ns, message)`` into the list to write (the other topics are
-    copied as they are)."""
-    with Reader(src) as r:
-        topics = {c.topic: c for c in r.connections}
-        streams: dict[str, list] = {t: [] for t in topics}
-        for c, ns, raw in r.messages():
-            edit = c.topic.strip("/") in edits
-            streams[c.topic].append((ns, TS.deserialize_cdr(raw, c.msgtype) if edit else bytes(raw)))
-    out = []
-    for topic, msgs in streams.items():
-        f = edits.get(topic.strip("/"))
-        for ns, msg in f(msgs) if f else msgs:
-            out.append((ns, topic, msg if f is None else TS.serialize_cdr(msg, topics[topic].msgtype)))
-    out.sort(key=lambda m: m[0])
-    with Writer(dst, version=9) as w:
-        conns = {t: w.add_connection(t, c.msgtype, typestore=TS) for t, c in topics.items()}
-        for ns, topic, raw in out:
-            w.write(conns[topic], ns, raw)
-    return dst
+    return restamp(msg, stamp_ns(msg) + int(round(dt_s * 1e9)))
 
 
 def delayed(tau_s: float, every: int = 1):
@@ -164,7 +129,7 @@ def test_every_message_recorded_twice_or_stamped_in_pairs_is_warned_about(clean,
         if same_content:  # every message recorded twice
             return [x for ns, m in msgs for x in ((ns, m), (ns + 1, m))]
         # the stamp is updated every second message only
-        return [(ns, _restamp(m, _stamp_ns(msgs[k - k % 2][1]))) for k, (ns, m) in enumerate(msgs)]
+        return [(ns, restamp(m, stamp_ns(msgs[k - k % 2][1]))) for k, (ns, m) in enumerate(msgs)]
 
     bag = edit_bag(clean, tmp_path / "dup", joint_states=dup)
     ds = read_bag(bag, **READ)

@@ -277,14 +277,17 @@ def _late_runs(x: FloatArray) -> list[LateRun]:
 
 
 def _granularity(x: FloatArray) -> float:
-    """The content's resolution: the largest over its columns of the smallest change between
-    messages (an encoder's count; next to nothing for floating-point values)."""
-    d = np.abs(np.diff(x, axis=0))
+    """The content's resolution: the largest over its columns of the count an encoder's column
+    changes by (each change a whole number of its smallest); 0 for values that are not counts."""
     out = 0.0
-    for col in d.T:
+    for col in np.abs(np.diff(x, axis=0)).T:
         nz = col[col > 0]
-        if nz.size:
-            out = max(out, float(nz.min()))
+        if nz.size < 3:
+            continue
+        q = float(nz.min())
+        ratio = nz / q
+        if np.mean(np.abs(ratio - np.round(ratio)) < 0.01) > 0.9:
+            out = max(out, q)
     return out
 
 
