@@ -128,10 +128,11 @@ def hole(start_s: float, length_s: float):
     return f
 
 
-def wireless_odometry(rate_hz: float = 10.0, late_share: float = 0.01, seed: int = 3):
+def wireless_odometry(rate_hz: float = 10.0, late_share: float = 0.01, seed: int = 3, bursts: bool = True):
     """An odometry sent over a wireless link: thinned to ``rate_hz``, arriving in bursts (mostly
-    pairs, sometimes 3 to 7 messages, the last up to 5 ms after it was made) and stamped on
-    arrival; ``late_share`` of the messages followed by a copy of one made 0.2 to 1 s earlier."""
+    pairs, sometimes 3 to 7 messages, the last up to 5 ms after it was made; ``bursts`` False:
+    each as made) and stamped on arrival; ``late_share`` of the messages followed by a copy of
+    one made 0.2 to 1 s earlier."""
 
     def f(msgs):
         rng = np.random.default_rng(seed)
@@ -143,8 +144,9 @@ def wireless_odometry(rate_hz: float = 10.0, late_share: float = 0.01, seed: int
                 nxt += step
         out, k = [], 0
         while k < len(thin):
-            group = thin[k : k + (2 if rng.random() < 0.8 else int(rng.integers(3, 8)))]
-            arrival = stamp_ns(group[-1]) + int(rng.uniform(0, 5e6))
+            size = (2 if rng.random() < 0.8 else int(rng.integers(3, 8))) if bursts else 1
+            group = thin[k : k + size]
+            arrival = stamp_ns(group[-1]) + (int(rng.uniform(0, 5e6)) if bursts else 0)
             for j, m in enumerate(group):
                 ns = arrival + j * 200_000
                 out.append((ns, restamp(m, ns)))
