@@ -32,7 +32,7 @@ from pathlib import Path
 import click
 
 from umbmark.errors import UmbmarkError
-from umbmark.model.geometry import unit_slip
+from umbmark.model.geometry import Quantity, unit_slip
 
 __all__ = ["MAX_SIZE_M", "PATH_ROLES", "ROLES", "GuardedCommand", "GuardedGroup", "check_paths", "path_roles"]
 
@@ -100,12 +100,12 @@ PATH_ROLES: dict[str, dict[str, str]] = {
 MAX_SIZE_M = 1e6
 # size options the commands check against their own, tighter, limits (with their own messages)
 _OWN_SIZE_CHECKS = ("side_mm", "resolution_mm")
-# the words that make a size option a wheel's size or the wheelbase (checked by unit_slip)
+# the words that make a size option a wheel's size or the wheelbase (checked by unit_slip); a
+# kind's own sizes (a mecanum robot's lx + ly) are found by their option (umbmark.kinds)
 _GEOMETRY_WORDS = {
     "diameter": ("diameter",),
     "radius": ("radius",),
     "wheelbase": ("wheelbase", "separation"),
-    "lx_plus_ly": ("lx_plus_ly",),
 }
 
 
@@ -259,10 +259,19 @@ def _slip(p: click.Parameter, v: float) -> str | None:
     """Why a wheel size or wheelbase option cannot be a robot's (a unit slip), or None."""
     name = p.name or ""
     unit = "mm" if name.endswith("_mm") else "m" if name.endswith("_m") else None
-    kind = next((k for k, words in _GEOMETRY_WORDS.items() if any(w in name for w in words)), None)
+    kind: str | Quantity | None = next((s.quantity for s in _kind_sizes() if s.option == name), None)
+    if kind is None:
+        kind = next((k for k, words in _GEOMETRY_WORDS.items() if any(w in name for w in words)), None)
     if unit is None or kind is None:
         return None
     return unit_slip(kind, v * (1e-3 if unit == "mm" else 1.0), unit)
+
+
+def _kind_sizes():
+    """Every kind's nominal sizes (:attr:`umbmark.kinds.Kind.sizes`)."""
+    from umbmark.kinds import KINDS
+
+    return [s for k in KINDS.values() for s in k.sizes]
 
 
 def _size_message(p: click.Parameter, v: float) -> str:

@@ -13,10 +13,10 @@ imports no other layer of umbmark.
 * :mod:`~umbmark.model.batch`: the same simulation for many robots at once;
 * :mod:`~umbmark.model.drive`: a robot driving a program of commands in a room, with its
   wheel data, lidar scans and gyro (the simulated recordings of the real-robot tools);
-* :mod:`~umbmark.model.kinematics`: the differential drive, tricycle and mecanum kinematics behind
-  one interface, and the joints' steps of a self-calibration;
-* :mod:`~umbmark.model.kinematic_drive`: a tricycle or mecanum robot driving in a room (its joint
-  states, lidar scans and true poses);
+* :mod:`~umbmark.model.kinematics`: the one interface of every kind of robot's kinematics (the
+  kinds are :mod:`umbmark.kinds`), and the joints' steps of a self-calibration;
+* :mod:`~umbmark.model.kinematic_drive`: a robot of any kind (a tricycle, a mecanum robot)
+  driving in a room (its joint states, lidar scans and true poses);
 * :mod:`~umbmark.model.sensors`: the room, the lidar and the gyro;
 * :mod:`~umbmark.model.intervals`: the intervals of a self-calibration;
 * :mod:`~umbmark.model.se2`: planar poses (compose, inverse, between);
@@ -123,11 +123,7 @@ _LAZY = {
     ),
     **dict.fromkeys(
         (
-            "KINEMATICS",
             "Kinematics",
-            "DiffDrive",
-            "Tricycle",
-            "Mecanum",
             "JointSteps",
             "JointIntervals",
             "joint_intervals_from_motion",
