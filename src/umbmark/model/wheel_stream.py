@@ -15,7 +15,9 @@ are what every reader of wheel data runs on them. In this order:
    next message continues from before it, a message stamped on arrival long after it was made,
    is dropped; so is a spike that goes out and back to no earlier content.
 5. **Sample clock**: a stream in bursts gets the times its device sampled at back (the lower
-   envelope of stamp against message index, :func:`umbmark.model.arrival.sample_clock`).
+   envelope of stamp against message index, :func:`umbmark.model.arrival.sample_clock`), kept
+   at the recorded stamps' mean (a stream's constant delay is not in its stamps: the clock keeps
+   the recording's, so that the scans' delay against it holds against the stamps as recorded).
 6. **Running counters** read as increments: an error.
 7. **Jumps faster than any wheel** (:data:`umbmark.model.stamps.MAX_WHEEL_SPEED_MPS`): an
    isolated spike is dropped; a jump that stays (a counter reset, an odometry started again)
@@ -74,6 +76,10 @@ class StreamReport:
         messages it moved [s].
     clock_moved : int
         Messages whose time the recovered clock moved.
+    clock_anchor_s : float
+        The recovered clock is the lower envelope moved later by this (the mean of the shifts),
+        so that on average it keeps the recorded stamps: a delay of another stream measured
+        against it (the scans') holds against the stamps as recorded too [s].
     reordered : int
         Messages put in stamp order.
     duplicates : int
@@ -105,6 +111,7 @@ class StreamReport:
     clock_shift_max_s: float = 0.0
     clock_shift_median_s: float = 0.0
     clock_moved: int = 0
+    clock_anchor_s: float = 0.0
     reordered: int = 0
     duplicates: int = 0
     repeated_stamps: int = 0
@@ -133,6 +140,7 @@ class StreamReport:
             "clock_moved": self.clock_moved,
             "clock_shift_max_s": round(self.clock_shift_max_s, 6),
             "clock_shift_median_s": round(self.clock_shift_median_s, 6),
+            "clock_anchor_s": round(self.clock_anchor_s, 6),
             "reordered": self.reordered,
             "duplicates": self.duplicates,
             "repeated_stamps": self.repeated_stamps,
@@ -373,8 +381,9 @@ def check_joint_stream(
         _repeated_stamps(s, keep, nrep, int(s.kept[first - 1]) + 1, bursty, cumulative, rep, warnings)
     raw_t = s.t
     if bursty and period is not None:
-        s.t = sample_clock(raw_t, PERIOD_MARGIN * period)
-        _clock_note(raw_t, s.t, rep, warnings)
+        tau = sample_clock(raw_t, PERIOD_MARGIN * period)
+        _clock_note(raw_t, tau, rep, warnings)
+        s.t = tau + rep.clock_anchor_s
     wheels = s.pos[:, roll]
     if not cumulative:
         wheels = _summed(s.t, wheels, metres_per_unit, what, topic, source)
@@ -534,12 +543,14 @@ def _clock_note(raw: np.ndarray, tau: np.ndarray, rep: StreamReport, warnings: l
     rep.clock_moved = int(moved.sum())
     rep.clock_shift_max_s = float(shift.max()) if shift.size else 0.0
     rep.clock_shift_median_s = float(np.median(shift[moved])) if moved.any() else 0.0
+    rep.clock_anchor_s = float(np.mean(shift))
     share = rep.burst_gaps / max(raw.size - 1, 1)
     rate = f"{rep.rate_hz:.3g} Hz" if rep.rate_hz else "its rate"
     warnings.append(
         f"the {rep.what} on {rep.topic} arrive in bursts ({100 * share:.0f} % of consecutive stamps closer than a "
         f"fifth of the period, at {rate}): stamped on arrival; each message's sample time is recovered from the "
-        f"lower envelope of the stamps ({rep.clock_moved} moved back, by up to {rep.clock_shift_max_s:.3f} s)"
+        f"lower envelope of the stamps ({rep.clock_moved} moved back, by up to {rep.clock_shift_max_s:.3f} s; the "
+        f"clock then kept at the stamps' mean, {1e3 * rep.clock_anchor_s:.0f} ms later)"
     )
 
 
