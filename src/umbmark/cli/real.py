@@ -260,6 +260,11 @@ def _print_report(rep) -> None:
             f"ground truth late by: {est}, {o['applied_s'] * 1e3:.1f} ms subtracted from its stamps "
             f"({escape(str(where))})"
         )
+    from umbmark.cli.bags import stream_text
+
+    for o in rep.wheel_stream:
+        if o["clock"] != "as recorded" or o["kept"] != o["messages"]:
+            c.print(escape(f"wheel data ({o['bag']}): {stream_text(o)}"))
     for w in rep.warnings:
         c.print(f"[yellow]warning:[/yellow] {escape(cli_message(w))}")
 

@@ -17,7 +17,7 @@ from pathlib import Path
 import click
 
 from umbmark.cli.app import app, cli_message, console, emit_json, fmt, is_quiet, table
-from umbmark.cli.bags import Bars, interval_options, kind_of, start_kernels
+from umbmark.cli.bags import Bars, interval_options, kind_of, start_kernels, stream_text
 from umbmark.cli.config import config_options
 from umbmark.cli.guard import skip_check_option
 from umbmark.cli.history import history_options, print_recorded, record_if_requested
@@ -68,13 +68,6 @@ def _delay_text(d: dict) -> str:
     )
 
 
-def _stream_text(d: dict) -> str:
-    """One line of what the check of the wheel data found and did (its JSON block ``wheel_stream``)."""
-    from umbmark.model.wheel_stream import StreamReport
-
-    return StreamReport.from_dict(d).summary()
-
-
 def _ci(lo_hi, digits: int) -> str:
     return f"{lo_hi[0]:.{digits}f} to {lo_hi[1]:.{digits}f}"
 
@@ -99,7 +92,7 @@ def _print_report(d: dict, again: str, export: str) -> None:
                 )
             )
             if b.get("wheel_stream"):
-                c.print(escape(f"  wheel data: {_stream_text(b['wheel_stream'])}"))
+                c.print(escape(f"  wheel data: {stream_text(b['wheel_stream'])}"))
             if b["failure_reasons"]:
                 why = "; ".join(f"{n} {r}" for r, n in b["failure_reasons"].items())
                 c.print(escape(f"  failed matches: {why}"))

@@ -785,6 +785,8 @@ def read_bag(
     meta: dict[str, object] = {"format": "bag", "warnings": tuple(warnings)}
     if chk.time_offset is not None:
         meta["time_offset"] = ({"bag": src, **chk.time_offset.to_dict()},)
+    if wd.stream is not None:
+        meta["wheel_stream"] = ({"bag": src, **wd.stream.to_dict()},)
     return Dataset(name or Path(path).stem, nominal, upr, tuple(runs), side_m, src, meta=meta)
 
 
