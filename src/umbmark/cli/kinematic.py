@@ -259,6 +259,10 @@ def _print(d: dict, save) -> None:
                 f"matched, {b['pairs_failed']} failed; scans' delay {1e3 * b['scan_delay']['applied_s']:.1f} ms"
             )
         )
+        if b.get("wheel_stream"):
+            from umbmark.cli.bags import stream_text
+
+            c.print(escape(f"  joint data: {stream_text(b['wheel_stream'])}"))
     rows = _rows(d) + _pose_rows("lidar", d["sensor_pose"])
     c.print(
         table(
