@@ -43,7 +43,6 @@ from numpy.typing import ArrayLike, NDArray
 
 from umbmark.correct.selfcal.estimate import (
     BLOCK_S,
-    LOSSES,
     MAX_BLOCKS,
     Fit,
     Problem,
@@ -54,6 +53,7 @@ from umbmark.correct.selfcal.estimate import (
     time_blocks,
     uncertainty,
 )
+from umbmark.correct.selfcal.loss import ROBUST_START, loss_named
 from umbmark.errors import InputError
 from umbmark.kinds import kind_of
 from umbmark.model import se2
@@ -500,8 +500,7 @@ def kinematic_selfcal(
     if not isinstance(intervals, JointIntervals):
         raise InputError(f"`intervals` must be JointIntervals, got {type(intervals).__name__}")
     src = intervals.source
-    if loss not in LOSSES:
-        raise InputError(f"`loss` must be one of {', '.join(LOSSES)}, got {loss!r}")
+    noise = loss_named(loss)
     if not 0 < outlier_tail < 1:
         raise InputError(f"`outlier_tail` must be a probability between 0 and 1, got {outlier_tail!r}")
     if intervals.steps.joints != len(nominal.joint_roles):
@@ -528,16 +527,15 @@ def kinematic_selfcal(
     if labels.shape != (k,):
         raise InputError(f"`blocks` must hold one label per interval ({k}), got shape {labels.shape}", src)
     prob = KinematicProblem(intervals, nominal, free)
-    student = loss == "student"
     l0 = _start_pose(prob, None if sensor_pose is None else np.asarray(sensor_pose, dtype=float).reshape(3))
     p0 = np.concatenate([nominal.vector()[prob.free], l0])
     w0 = diag_whitener(robust_sd(prob.res(p0, prob.all)))
-    p0 = prob.fit(p0, prob.all, w0, loss="cauchy")
+    p0 = prob.fit(p0, prob.all, w0, loss=ROBUST_START)  # the nominal start: refined robustly whatever the loss
     if not np.all(np.isfinite(p0)):
         raise InputError("the fit did not converge to finite values: check the units and the joint order", src)
-    result: Fit = fit_and_reject(prob, p0, student, reject_outliers, outlier_tail, max_rounds)
+    result: Fit = fit_and_reject(prob, p0, noise, reject_outliers, outlier_tail, max_rounds)
     unc: Uncertainty = uncertainty(
-        prob, result, student, labels, _judge(prob, driving(intervals, nominal), limits or KinematicLimits())
+        prob, result, noise, labels, _judge(prob, driving(intervals, nominal), limits or KinematicLimits())
     )
     return _result(prob, result, unc, intervals, nominal)
 
