@@ -329,3 +329,25 @@ def test_a_killed_worker_s_recording_is_done_again_and_recorded_once(tmp_path, f
     assert summary.count("recorded") == 100 and summary.count("failed") == 0
     counts = _hashes(fleet_db)
     assert len(counts) == 100 and set(counts.values()) == {1}
+
+
+def test_skipped_checks_reach_the_workers_self_calibration(tmp_path, monkeypatch):
+    """``--skip-check`` among the options travels in the settings and is applied on the worker."""
+    import umbmark.realrobot.selfcal as selfcal
+    from umbmark._check import skipped
+    from umbmark.cli.fleet import _jobs as fleet_jobs
+    from umbmark.fleet import calibrate_job
+
+    root = _fleet_dir(tmp_path / "fleet", 1, 1, n=40)
+    (job,) = fleet_jobs(str(root), (*GEO, "--skip-check", "wheel_units"))
+    assert job.settings.skip_checks == {"wheel_units"}
+    seen = []
+    real = selfcal.selfcal_from_intervals
+
+    def spy(*args, **kwargs):
+        seen.append(skipped("wheel_units"))
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(selfcal, "selfcal_from_intervals", spy)
+    assert calibrate_job(job).fields is not None and seen == [True]
+    assert not skipped("wheel_units")  # only inside the job

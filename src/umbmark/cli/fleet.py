@@ -53,10 +53,12 @@ def _parse(args: tuple[str, ...], path: str, where: str) -> click.Context:
     for name, why in NOT_FOR_THE_FLEET.items():
         if ctx.get_parameter_source(name) not in (default, None):
             raise InputError(f"{_flag(selfcal, name)} among the self-calibration's options{where}: {why}")
-    if ctx.params["kinematics"] != "diff_drive":
+    from umbmark.kinds import kind_named
+
+    if not kind_named(ctx.params["kinematics"]).differential:
         raise InputError(
             f"--kinematics {ctx.params['kinematics']} among the self-calibration's options{where}: the fleet "
-            "records differential drives' calibrations (save a tricycle's or mecanum robot's with umbmark selfcal)"
+            "records differential drives' calibrations (another kind's self-calibration: umbmark selfcal with --save)"
         )
     extra = [p for p in ctx.params["paths"] if p != path]
     if extra:

@@ -13,16 +13,13 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from umbmark._check import positive
+from umbmark._check import CHECKS, positive, skipping_checks
 from umbmark.errors import InputError
 from umbmark.io.wheels import WheelSource
+from umbmark.kinds import DEFAULT_KIND, kind_named
 from umbmark.realrobot.selfcal import IntervalOptions, SelfcalReport, StageProgress
 
-__all__ = ["SelfcalSettings", "recording_kind", "selfcal_recordings", "KINDS"]
-
-KINDS = ("diff_drive",)
-"""The kinds of robot :func:`selfcal_recordings` self-calibrates (a tricycle's and a mecanum
-robot's are :func:`umbmark.realrobot.kinematic.kinematic_selfcal_from_bags`)."""
+__all__ = ["SelfcalSettings", "recording_kind", "selfcal_recordings"]
 
 
 @dataclass(frozen=True)
@@ -46,13 +43,17 @@ class SelfcalSettings:
         Reject outlying intervals (:func:`umbmark.correct.selfcal.selfcal`).
     time_jitter : bool
         Model the wheel data's stamp jitter against the scans'.
+    skip_checks : frozenset of str
+        The plausibility checks (:data:`umbmark._check.CHECKS`) that let the recordings through.
     kind : str
-        The kind of robot (:data:`KINDS`).
+        The kind of robot (:func:`umbmark.kinds.kind_named`): one calibrated by the differential
+        drive's pipeline (a tricycle's and a mecanum robot's self-calibration is
+        :func:`umbmark.realrobot.kinematic.kinematic_selfcal_from_bags`).
 
     Raises
     ------
     InputError
-        A nominal size that is not a positive number, a kind not in :data:`KINDS`.
+        A nominal size that is not a positive number, an unknown check, a kind of another pipeline.
     """
 
     wheel_diameter_m: float
@@ -63,15 +64,18 @@ class SelfcalSettings:
     intervals: IntervalOptions = field(default_factory=IntervalOptions)
     reject_outliers: bool = True
     time_jitter: bool = True
-    kind: str = "diff_drive"
+    skip_checks: frozenset[str] = frozenset()
+    kind: str = DEFAULT_KIND
 
     def __post_init__(self) -> None:
         positive("`wheel_diameter_m`", self.wheel_diameter_m)
         positive("`wheelbase_m`", self.wheelbase_m)
-        if self.kind not in KINDS:
-            raise InputError(
-                f"a self-calibration of recordings is a differential drive's ({', '.join(KINDS)}), not {self.kind!r}"
-            )
+        object.__setattr__(self, "skip_checks", frozenset(self.skip_checks))
+        unknown = sorted(self.skip_checks - set(CHECKS))
+        if unknown:
+            raise InputError(f"`skip_checks`: no check named {unknown[0]!r} (checks: {', '.join(CHECKS)})")
+        if not kind_named(self.kind).differential:
+            raise InputError(f"`kind` {self.kind!r}: these settings are a differential drive's self-calibration")
 
     @property
     def fit_options(self) -> dict[str, bool]:
@@ -142,18 +146,19 @@ def selfcal_recordings(
 
     items = [paths] if isinstance(paths, (str, Path)) else list(paths)
     d, b = settings.wheel_diameter_m, settings.wheelbase_m
-    if recording_kind(items) == "intervals":
-        if progress is not None:
-            progress("self-calibrating", 0, 0)
-        return selfcal_from_intervals(items, d, b, **settings.fit_options)
-    return selfcal_from_bags(
-        items,
-        d,
-        b,
-        wheels=settings.wheels,
-        scan_topic=settings.scan_topic,
-        scan_frame=settings.scan_frame,
-        options=settings.intervals,
-        selfcal_options=settings.fit_options,
-        progress=progress,
-    )
+    with skipping_checks(settings.skip_checks):
+        if recording_kind(items) == "intervals":
+            if progress is not None:
+                progress("self-calibrating", 0, 0)
+            return selfcal_from_intervals(items, d, b, **settings.fit_options)
+        return selfcal_from_bags(
+            items,
+            d,
+            b,
+            wheels=settings.wheels,
+            scan_topic=settings.scan_topic,
+            scan_frame=settings.scan_frame,
+            options=settings.intervals,
+            selfcal_options=settings.fit_options,
+            progress=progress,
+        )

@@ -135,9 +135,10 @@ def robust_sd(v: ArrayLike) -> float:
 
 
 def _noise(d: dict[str, Any], res: dict[str, NDArray[Any]] | None) -> str:
+    from umbmark.correct.selfcal.loss import noise_words
+
     nsd = d.get("noise_sd") or {}
-    dof = d.get("noise_dof")
-    tail = "Gaussian" if dof is None or dof > 100 else f"heavy-tailed (Student t, {fmt(dof, 3)} degrees of freedom)"
+    tail = noise_words(d.get("noise_dof"))
     out = ""
     if res is not None and len(res["t_s"]):
         ok = ~np.asarray(res["rejected"], dtype=bool)

@@ -5,9 +5,11 @@
 1. Start: the paper's closed form (:mod:`umbmark.correct.selfcal.closed_form`), or the
    sensor pose fitted with the nominal odometry, whichever leaves the smaller residuals (per
    component, robustly); refined first with a robust (Cauchy) loss, so that failed scan
-   matches do not pull it.
+   matches do not pull it (when the loss is heavy-tailed or outliers are rejected).
 2. Maximum likelihood of all six parameters on the residuals ``s_k - l^-1 (+) arc_k (+) l``
-   (``scipy.optimize.least_squares`` inside). By default the noise is **Student t**: its
+   (``scipy.optimize.least_squares`` inside). What depends on the noise model (the weights,
+   the degrees of freedom, the information factor, the outlier threshold, the robust start)
+   the loss says (:mod:`umbmark.correct.selfcal.loss`). By default the noise is **Student t**: its
    3 x 3 scatter matrix and its degrees of freedom ``nu`` are estimated with the parameters
    (expectation maximisation: each interval weighs ``(nu + 3) / (nu + d_k^2)``, ``d_k`` its
    Mahalanobis distance). Real recordings have heavy tails (wheel data stamped a little off
@@ -26,7 +28,7 @@
    exact makes wheels and turns come out small (regression dilution), the more so the
    shorter the intervals.
 3. Outliers: an interval beyond the ``1 - outlier_tail`` quantile of the fitted noise (the
-   F distribution of ``d_k^2 / 3`` for Student t, with at least :data:`OUTLIER_DOF_MIN`
+   F distribution of ``d_k^2 / 3`` for Student t, with at least :data:`~umbmark.correct.selfcal.loss.OUTLIER_DOF_MIN`
    degrees of freedom; chi-square with 3 degrees of freedom for
    Gaussian noise, with a robust scale in the first round) is set aside (a failed scan
    match). 2 and 3 repeat until the set is stable; set-aside intervals are judged again every
@@ -68,6 +70,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from umbmark.correct.selfcal import identify
 from umbmark.correct.selfcal.closed_form import ClosedFormFailed, closed_form, closed_form_fixed_scale
+from umbmark.correct.selfcal.loss import Loss, loss_named
 from umbmark.correct.selfcal.model import jacobian, residuals, time_shift_derivatives, whiten, whitener
 from umbmark.correct.selfcal.result import SelfcalResult
 from umbmark.errors import InputError
@@ -80,14 +83,10 @@ __all__ = [
     "time_blocks",
     "merge_blocks",
     "loewner_max",
-    "LOSSES",
-    "DOF_MIN",
-    "DOF_MAX",
     "BLOCK_S",
     "MAX_BLOCKS",
     "LONG_BLOCKS",
     "MIN_BLOCKS",
-    "OUTLIER_DOF_MIN",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -96,17 +95,6 @@ FloatArray = NDArray[np.float64]
 _SD_FLOOR = 1e-10
 _EM_ROUNDS = 500  # expectation-maximisation rounds of the Student t fit at most
 _S_STEPS = 10  # EM steps of the scatter matrix per round when the jitter is modelled
-
-LOSSES = ("student", "gaussian")
-"""The noise models of :func:`selfcal`."""
-
-DOF_MIN, DOF_MAX = 1.0, 1000.0
-"""The bounds of the Student t degrees of freedom (1: Cauchy; 1000: Gaussian to all purposes)."""
-
-OUTLIER_DOF_MIN = 5.0
-"""The outliers of Student t noise are judged with at least these degrees of freedom: a few gross
-failures (a scan match in the wrong place) would otherwise make the fitted tails so heavy that
-nothing lies beyond them."""
 
 BLOCK_S = 20.0
 """The shortest block of time of the covariance of shared errors [s] (:func:`time_blocks`)."""
@@ -345,25 +333,6 @@ def _gaussian_fit(prob: Problem, p0: FloatArray, idx: NDArray[np.intp]) -> tuple
     return p, diag_whitener(sd)
 
 
-def _t_loglik(nu: float, d2: FloatArray) -> float:
-    """The log-likelihood of squared Mahalanobis distances under a 3-variate Student t (up to the scatter)."""
-    from scipy.special import gammaln
-
-    return float(
-        np.sum(gammaln(0.5 * (nu + 3)) - gammaln(0.5 * nu) - 1.5 * np.log(nu) - 0.5 * (nu + 3) * np.log1p(d2 / nu))
-    )
-
-
-def _fit_dof(d2: FloatArray) -> float:
-    """The Student t degrees of freedom of most likelihood for these distances, within the bounds."""
-    from scipy.optimize import minimize_scalar
-
-    sol = minimize_scalar(
-        lambda u: -_t_loglik(math.exp(u), d2), bounds=(math.log(DOF_MIN), math.log(DOF_MAX)), method="bounded"
-    )
-    return float(math.exp(sol.x))
-
-
 def _param_scale(p: FloatArray) -> FloatArray:
     """The scale of each parameter for relative steps: the radii, the wheelbase (for the
     sensor position too) and 1 rad."""
@@ -397,22 +366,23 @@ def _fit_jitter(base: FloatArray, g: FloatArray, r: FloatArray, wt: FloatArray) 
     return 0.0 if nll(0.0) <= nll(sd) else sd * sd
 
 
-def _student_fit(
-    prob: Problem, p0: FloatArray, idx: NDArray[np.intp], student: bool = True
+def _em_fit(
+    prob: Problem, p0: FloatArray, idx: NDArray[np.intp], loss: Loss
 ) -> tuple[FloatArray, FloatArray | None, float, FloatArray, FloatArray | None, float]:
-    """Maximum likelihood for Student t noise on the intervals ``idx`` (expectation maximisation).
+    """Maximum likelihood for the noise of ``loss`` on the intervals ``idx`` (expectation maximisation).
 
     The noise of interval k has the scatter matrix ``S`` (estimated), plus the interval's own
     covariance when the intervals carry one (the scan matcher's: ``S + Sigma_k``, ``S`` then
     the residuals' weighted scatter less the intervals' mean covariance). With the wheel
     data's jitter (``prob.jitter``) each interval's covariance also holds ``sigma^2 G_k``
     (``sigma`` estimated, ``G_k`` from :func:`time_shift_derivatives`) and each step solves
-    the score corrected for the errors such jitter puts in the wheel data. ``student=False``:
-    Gaussian noise (no weights, ``nu`` infinite).
+    the score corrected for the errors such jitter puts in the wheel data. The weights, the
+    degrees of freedom and when they have settled are the loss's (:mod:`umbmark.correct.selfcal.loss`:
+    for Gaussian noise no weights and ``nu`` infinite).
 
     Returns the parameters, the whitener (``(3, 3)``; ``(K, 3, 3)`` with the intervals' own
     covariances; ``None`` with given covariances), the degrees of freedom, the weight of each
-    interval ``(nu + 3) / (nu + d^2)``, ``S`` (``None`` with given covariances) and the
+    interval (:meth:`~umbmark.correct.selfcal.loss.Loss.weights`), ``S`` (``None`` with given covariances) and the
     jitter's variance ``sigma^2`` [s^2].
     """
     p = p0
@@ -424,14 +394,14 @@ def _student_fit(
     w3 = None
     if scatter is not None:
         w3 = _scatter_whitener(scatter) if own is None else prob.whiteners(scatter, own)
-    nu = 5.0 if student else math.inf
+    nu = loss.start_dof
     p_terms = p.copy()  # where the jitter's terms were last computed
     for rounds in range(_EM_ROUNDS):
         z = prob.white(r, idx, w3)
         d2 = (z * z).sum(axis=1)
         sig2_old = sig2
         if scatter is not None:
-            wt = (nu + 3) / (nu + d2) if student else np.ones(len(idx))
+            wt = loss.weights(nu, d2)
             if own is None:
                 scatter = (wt[:, None] * r).T @ r / len(idx)
                 w3 = _scatter_whitener(scatter)
@@ -464,8 +434,8 @@ def _student_fit(
                 w3 = prob.whiteners(scatter, own)
             z = prob.white(r, idx, w3)
             d2 = (z * z).sum(axis=1)
-        nu_new = _fit_dof(d2) if student else math.inf
-        wt = (nu_new + 3) / (nu_new + d2) if student else np.ones(len(idx))
+        nu_new = loss.fit_dof(d2)
+        wt = loss.weights(nu_new, d2)
         corr = None
         if d is not None and sig2 > 0:
             corr = (wt[:, None] * prob.score_correction(d, idx, w3, sig2)).sum(axis=0)
@@ -476,9 +446,7 @@ def _student_fit(
         # degrees of freedom move by less than 1e-4 of themselves and the jitter by 10 us
         loose = prob.jitter or prob.settle_by_sd
         nu_tol = 1e-4 if loose else 1e-7
-        settled = (not student or abs(math.log(nu_new / nu)) < nu_tol) and abs(
-            math.sqrt(sig2) - math.sqrt(sig2_old)
-        ) < 1e-5
+        settled = loss.dof_settled(nu_new, nu, nu_tol) and abs(math.sqrt(sig2) - math.sqrt(sig2_old)) < 1e-5
         # and the parameters once they move by 1e-9 of themselves, or by 1e-3 of their
         # standard deviations: far below their uncertainty
         tol = 1e-9 if sig2 > 0 else 1e-11
@@ -502,7 +470,7 @@ def _student_fit(
         if done:
             break
     z = prob.white(r, idx, w3)
-    wt = (nu + 3) / (nu + (z * z).sum(axis=1)) if student else np.ones(len(idx))
+    wt = loss.weights(nu, (z * z).sum(axis=1))
     return p, w3, nu, wt, scatter, sig2
 
 
@@ -666,7 +634,8 @@ def selfcal(
     loss : str
         ``"student"`` (the default): the noise is Student t, its scatter and degrees of freedom
         estimated with the parameters (heavy tails, e.g. wheel data that lag the scans now and
-        then, weigh less); ``"gaussian"``: Gaussian noise, independent per component.
+        then, weigh less); ``"gaussian"``: Gaussian noise, independent per component. A name
+        of :data:`umbmark.correct.selfcal.loss.LOSS_TABLE`.
     outlier_tail : float
         The tail probability of the fitted noise distribution beyond which an interval is an
         outlier.
@@ -701,23 +670,21 @@ def selfcal(
         information matrix; the message names the parameters, the cause and what to drive).
     """
     _check_nominal(wheel_diameter_m, wheelbase_m)
-    if loss not in LOSSES:
-        raise InputError(f"`loss` must be one of {', '.join(LOSSES)}, got {loss!r}")
+    noise = loss_named(loss)
     if not 0 < outlier_tail < 1:
         raise InputError(f"`outlier_tail` must be a probability between 0 and 1, got {outlier_tail!r}")
     prob, labels = _problem(intervals, sensor_covariance, blocks, block_s, max_blocks, time_jitter)
     lim = limits or identify.Limits()
     r_nom = 0.5 * float(wheel_diameter_m)
     b_nom = float(wheelbase_m)
-    student = loss == "student"
     # 1. the better start, refined robustly when outliers are rejected or the loss is robust
-    p0 = _start(prob, r_nom, b_nom, robust=reject_outliers or student)
+    p0 = _start(prob, r_nom, b_nom, noise.start_loss(reject_outliers))
     # 2-3. maximum likelihood and outliers, until the inliers settle
-    fit = fit_and_reject(prob, p0, student, reject_outliers, outlier_tail, max_rounds)
+    fit = fit_and_reject(prob, p0, noise, reject_outliers, outlier_tail, max_rounds)
     # 4. the physical one of the mirror pair
     fit = replace(fit, p=_physical(fit.p))
     # 5-6. uncertainty, identifiability, plausibility
-    unc = uncertainty(prob, fit, student, labels, _drive_identify(prob, r_nom, b_nom, lim))
+    unc = uncertainty(prob, fit, noise, labels, _drive_identify(prob, r_nom, b_nom, lim))
     return _result(intervals, fit, unc, float(wheel_diameter_m), b_nom, prob.jitter)
 
 
@@ -793,9 +760,10 @@ def _problem(
     return Problem(intervals, given_w, jitter=time_jitter), labels
 
 
-def _start(prob: Problem, r_nom: float, b_nom: float, robust: bool) -> FloatArray:
+def _start(prob: Problem, r_nom: float, b_nom: float, refine: str | None) -> FloatArray:
     """Step 1: of the closed form and the fixed-scale closed form (the nominal geometry where both
-    fail), the start with the smaller robust residuals, refined with a Cauchy loss when ``robust``."""
+    fail), the start with the smaller robust residuals, refined with the loss ``refine`` of
+    ``scipy.optimize.least_squares`` (:meth:`~umbmark.correct.selfcal.loss.Loss.start_loss`) unless None."""
     idx = prob.all
     fl, fr, s = prob.fl, prob.fr, prob.s
     starts = []
@@ -811,9 +779,9 @@ def _start(prob: Problem, r_nom: float, b_nom: float, robust: bool) -> FloatArra
         starts.append(np.array([r_nom, r_nom, b_nom, 0.0, 0.0, 0.0]))
     p0 = min(starts, key=lambda q: _score(prob, q, idx))
     p = p0
-    if robust:
+    if refine is not None:
         w0 = diag_whitener(robust_sd(prob.res(p0, idx))) if prob.given_w is None else None
-        p = prob.fit(p0, idx, w0, loss="cauchy")
+        p = prob.fit(p0, idx, w0, loss=refine)
     if not np.all(np.isfinite(p)):
         raise InputError("the fit did not converge to finite values: check the units and the wheel order", prob.source)
     return p
@@ -832,49 +800,54 @@ class Fit:
     sig2: float
 
 
-def _fit_on(prob: Problem, mask: NDArray[np.bool_], start: FloatArray, student: bool) -> Fit:
-    """The maximum-likelihood fit on the intervals of ``mask`` from ``start``."""
+def _fit_on(prob: Problem, mask: NDArray[np.bool_], start: FloatArray, loss: Loss) -> Fit:
+    """The maximum-likelihood fit on the intervals of ``mask`` from ``start``: by expectation
+    maximisation where the loss's scatter is a full matrix or the intervals have noise of their own."""
     sel = np.flatnonzero(mask)
-    if student or prob.sig is not None or prob.jitter:
-        q, w, dof, _, sc, j2 = _student_fit(prob, start, sel, student)
+    if _em(prob, loss):
+        q, w, dof, _, sc, j2 = _em_fit(prob, start, sel, loss)
         return Fit(q, mask, w, dof, sc, j2)
     q, w = _gaussian_fit(prob, start, sel)
     return Fit(q, mask, w, math.inf, None, 0.0)
 
 
-def _outside(prob: Problem, fit: Fit, student: bool, tail: float, first_round: bool) -> NDArray[np.bool_]:
-    """Step 3: the intervals within the ``1 - tail`` quantile of the fitted noise (the inliers)."""
-    from umbmark._stats import chi2_isf, f_isf
+def _em(prob: Problem, loss: Loss) -> bool:
+    """Whether the fit is the expectation maximisation of :func:`_em_fit`: the loss's scatter is a
+    full matrix, or the intervals carry covariances of their own or the wheel data's jitter."""
+    return loss.full_scatter or prob.sig is not None or prob.jitter
 
+
+def _outside(prob: Problem, fit: Fit, loss: Loss, tail: float, first_round: bool) -> NDArray[np.bool_]:
+    """Step 3: the intervals within the ``1 - tail`` quantile of the fitted noise (the inliers)."""
     every = prob.all
     e = prob.res(fit.p, every)
-    if student or prob.sig is not None or prob.jitter:
+    thr = loss.outlier_threshold(tail, fit.nu)
+    if _em(prob, loss):
         z = prob.white(e, every, fit.w3)
-        thr = 3.0 * f_isf(tail, 3, max(fit.nu, OUTLIER_DOF_MIN)) if student else chi2_isf(tail, 3)
         return np.asarray((z * z).sum(axis=1) <= thr)
     if prob.given_w is not None:
         e = whiten(prob.given_w, e)
     # first round robust (the outliers are still in); then the scale of the inliers
     ei = e[fit.inliers]
     scale = robust_sd(ei) if first_round else np.maximum(np.sqrt((ei * ei).mean(axis=0)), _SD_FLOOR)
-    return np.asarray(((e / scale) ** 2).sum(axis=1) <= chi2_isf(tail, 3))
+    return np.asarray(((e / scale) ** 2).sum(axis=1) <= thr)
 
 
-def fit_and_reject(prob: Problem, p: FloatArray, student: bool, reject: bool, tail: float, max_rounds: int) -> Fit:
+def fit_and_reject(prob: Problem, p: FloatArray, loss: Loss, reject: bool, tail: float, max_rounds: int) -> Fit:
     """Steps 2-3: the fit on the inliers and the outliers set aside, until the inliers settle (a
     set-aside interval is judged again every round)."""
     inl = np.ones(len(prob.all), dtype=bool)
     fit: Fit | None = None
     for rnd in range(max_rounds):
-        fit = _fit_on(prob, inl, p if fit is None else fit.p, student)
+        fit = _fit_on(prob, inl, p if fit is None else fit.p, loss)
         if not reject:
             return fit
-        new = _outside(prob, fit, student, tail, first_round=rnd == 0)
+        new = _outside(prob, fit, loss, tail, first_round=rnd == 0)
         if new.sum() < 3 or np.array_equal(new, inl):
             return fit
         inl = new
     # the rounds ran out just after the inliers changed
-    return _fit_on(prob, inl, p if fit is None else fit.p, student)
+    return _fit_on(prob, inl, p if fit is None else fit.p, loss)
 
 
 @dataclass(frozen=True)
@@ -909,17 +882,19 @@ def _drive_identify(prob: Problem, r_nom: float, b_nom: float, lim: identify.Lim
     return judge
 
 
-def uncertainty(prob: Problem, fit: Fit, student: bool, labels: NDArray[Any], judge: Identify) -> Uncertainty:
-    """Steps 5-6 of the module docstring at the fit's answer (``judge``: the kind's identifiability)."""
+def uncertainty(prob: Problem, fit: Fit, loss: Loss, labels: NDArray[Any], judge: Identify) -> Uncertainty:
+    """Steps 5-6 of the module docstring at the fit's answer (``judge``: the kind's identifiability;
+    the weights and the information factor: the loss's)."""
     from umbmark._stats import t_ppf
 
     p, w3, nu, idx = fit.p, fit.w3, fit.nu, np.flatnonzero(fit.inliers)
     jw = prob.whitened_jacobian(p, idx, w3)
     z = prob.white(prob.res(p, idx), idx, w3)
     d2 = (z * z).sum(axis=1)
-    wt = (nu + 3) / (nu + d2) if student else np.ones(len(idx))
+    wt = loss.weights(nu, d2)
+    factor = loss.information_factor(nu)
     flat = jw.reshape(-1, prob.n)
-    info = (flat.T @ flat) * ((nu + 3) / (nu + 5) if student else 1.0)
+    info = (flat.T @ flat) * factor
     if prob.given_w is None:
         assert w3 is not None
         scatter = np.linalg.inv(w3.T @ w3) if fit.scatter is None else fit.scatter
@@ -940,7 +915,7 @@ def uncertainty(prob: Problem, fit: Fit, student: bool, labels: NDArray[Any], ju
         scores = wt[:, None] * (np.swapaxes(jw, 1, 2) @ z[:, :, None])[:, :, 0]
         if prob.jitter and fit.sig2 > 0:
             scores = scores + wt[:, None] * prob.score_correction(prob.jitter_terms(p)[1], idx, w3, fit.sig2)
-        hessians = np.swapaxes(jw, 1, 2) @ jw * ((nu + 3) / (nu + 5) if student else 1.0)
+        hessians = np.swapaxes(jw, 1, 2) @ jw * factor
         cov, n_blocks = _block_covariance(info, hessians, scores, labels[idx])
         tq = t_ppf(0.975, n_blocks - 1)
         # errors shared over longer stretches: the same over LONG_BLOCKS merged blocks, its
