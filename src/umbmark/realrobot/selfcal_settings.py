@@ -123,7 +123,8 @@ def selfcal_recordings(
     progress: StageProgress | None = None,
 ) -> SelfcalReport:
     """Self-calibrate bags (:func:`umbmark.realrobot.selfcal.selfcal_from_bags`) or intervals
-    files (:func:`umbmark.realrobot.selfcal.selfcal_from_intervals`), pooled, with ``settings``.
+    files (:func:`umbmark.realrobot.selfcal.selfcal_from_intervals`), pooled, with ``settings``
+    (its skipped checks skipped, besides those the caller skips already).
 
     Parameters
     ----------
