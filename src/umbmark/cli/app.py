@@ -158,6 +158,7 @@ PARAM_FLAGS = {
     "wheel_radius_m": "--wheel-radius-m",
     "wheel_separation_m": "--wheel-separation-m",
     "wheelbase_mm": "--wheelbase-mm",
+    "when": "--recorded-at",
 }
 # boolean parameters set False by a flag of their own
 PARAM_NO_FLAGS = {"fit_offset": "--no-fit-marker-offset"}

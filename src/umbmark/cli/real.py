@@ -18,7 +18,13 @@ if TYPE_CHECKING:
 
 from umbmark.cli.app import LOG_FORMAT_CHOICES, app, cli_message, console, emit_json, fmt, is_quiet, table
 from umbmark.cli.config import config_options
-from umbmark.cli.history import history_options, print_recorded, record_if_requested, record_report_if_requested
+from umbmark.cli.history import (
+    history_options,
+    print_recorded,
+    record_if_requested,
+    record_report_if_requested,
+    refuse_if_recorded,
+)
 from umbmark.cli.kinematic import kinematic_options
 from umbmark.cli.progress import progress, track
 from umbmark.errors import InputError
@@ -500,6 +506,8 @@ def replay(
     from umbmark._files import check_distinct_inputs
 
     check_distinct_inputs([p for p in paths if Path(p).exists()])
+    if window_s is None and not stream:
+        refuse_if_recorded(robot, record, db, kind="replay", method=method, paths=paths, each=True)
     if stream or decimate or poses_out:
         if not stream:
             raise InputError("--decimate and --poses-out work with --stream")

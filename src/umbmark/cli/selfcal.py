@@ -19,7 +19,7 @@ import click
 from umbmark.cli.app import app, cli_message, console, emit_json, fmt, is_quiet, table
 from umbmark.cli.bags import Bars, interval_options, kind_of, start_kernels
 from umbmark.cli.config import config_options
-from umbmark.cli.history import history_options, print_recorded, record_if_requested
+from umbmark.cli.history import history_options, print_recorded, record_if_requested, refuse_if_recorded
 from umbmark.cli.kinematic import kinematic_options
 from umbmark.cli.progress import progress
 from umbmark.errors import InputError
@@ -333,6 +333,8 @@ def selfcal_cmd(
         )
     )
     kind = kind_of(paths)
+    if window_s is None:
+        refuse_if_recorded(robot, record, db, kind="selfcal", method="selfcal", paths=paths)
     opts = {"reject_outliers": not keep_outliers, "time_jitter": wheel_jitter}
     if kind == "intervals":
         from umbmark.realrobot.selfcal import selfcal_from_intervals
@@ -365,7 +367,7 @@ def selfcal_cmd(
     if record and window_s is None:
         from umbmark.history import file_sha256
 
-        fields = rep.history_fields(kind="selfcal", file_hash=file_sha256 if len(paths) == 1 else None)
+        fields = rep.history_fields(kind="selfcal", file_hash=file_sha256)
         rec = record_if_requested(robot, record, db, **fields)
     if as_json:
         emit_json(d if rec is None else {**d, "history": rec})
