@@ -1254,18 +1254,13 @@ def _emit_export(text: str, out, warnings) -> None:
 
 def _record_selfcal(calibration, robot, record, db):
     """Record the self-calibration in CAL.json in the robot's history (``export --record``)."""
-    import json
-
     from umbmark.history import file_sha256
-    from umbmark.io._text import read_text
+    from umbmark.io._text import parse_json, read_text
     from umbmark.realrobot.selfcal import selfcal_history_fields
 
     if calibration is None:
         raise InputError("--record stores the self-calibration of a CAL.json (from `umbmark selfcal --json`)")
-    try:
-        d = json.loads(read_text(calibration))
-    except ValueError as e:
-        raise InputError(f"{calibration}: not JSON ({e})") from None
+    d = parse_json(read_text(calibration), str(calibration))
     if not isinstance(d, dict) or d.get("method", "selfcal") != "selfcal" or "sensor_pose" not in d:
         raise InputError(
             f"{calibration}: --record stores self-calibrations; record this calibration with the command "

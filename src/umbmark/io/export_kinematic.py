@@ -336,6 +336,6 @@ def read_kinematic_json(path: str | Path) -> dict | None:
     (the file unread or another JSON: the differential drive's export reads and judges it)."""
     try:
         d = json.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError):
+    except (OSError, ValueError, RecursionError):  # ValueError: not UTF-8, not JSON, a number of 5000 digits
         return None
     return d if isinstance(d, dict) and d.get("kinematics") in CONTROLLERS else None

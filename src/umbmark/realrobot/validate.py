@@ -58,7 +58,6 @@ calibration readers) and :mod:`umbmark.realrobot.selfcal` (the odometry's wheel 
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -70,7 +69,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from umbmark._check import positive
 from umbmark.errors import InputError
-from umbmark.io._text import read_text
+from umbmark.io._text import parse_json, read_text
 from umbmark.io.relations import Relations, read_relations
 from umbmark.io.rosbag import SelfcalBag
 from umbmark.io.tum import Trajectory, read_tum
@@ -576,13 +575,7 @@ class CheckedCalibration:
 
 def _load_json(path: str | Path) -> dict:
     src = str(path)
-    text = read_text(path)
-    try:
-        d = json.loads(text)
-    except json.JSONDecodeError as e:
-        raise InputError(f"not valid JSON: {e.msg}; {_EXPECTED}", src, e.lineno) from None
-    except RecursionError:
-        raise InputError(f"JSON nested too deeply; {_EXPECTED}", src) from None
+    d = parse_json(read_text(path), src, _EXPECTED)
     if not isinstance(d, dict):
         raise InputError(f"a JSON {type(d).__name__}, not an object; {_EXPECTED}", src)
     return d
