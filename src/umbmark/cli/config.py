@@ -14,7 +14,10 @@ would be typed::
     replay:
       joints: left_wheel_joint,right_wheel_joint
 
-The file gives the options' defaults: an option given on the command line wins. Its values go
+The file gives the options' defaults: an option given on the command line wins. A section
+named like no command that reads a configuration, a section given twice and an option given
+twice are refused naming the lines (YAML would keep the last and drop the rest without a word);
+the file is read no further than :data:`MAX_CONFIG_BYTES`. Its values go
 through the same checks as the flags' (a number with ``_`` in it, a size in the other unit, a
 path that an output would replace), and from there into the library's configuration types
 (:class:`umbmark.io.wheels.WheelSource`, :class:`umbmark.io.load.LogOptions`,
