@@ -102,8 +102,13 @@ def test_the_windows_of_a_recording_are_recorded_once(sessions, tmp_path):
         recs = h.records("r")
     assert len({r.input_sha256 for r in recs}) == 1 and recs[0].inputs["window_s"][0] == 0
     line = refused(*run(*argv, "--recorded-at", "2026-02-02T08:00"))
-    assert "holds this recording of 0-" in line and "record #1 " in line
-    assert len(_ids(db, "r")) == n
+    assert "holds 0-" in line and " s of this recording already: record #1 " in line
+    # the whole recording overlaps its windows: refused as well, and windows of a recorded whole
+    assert "holds 0-" in refused(*run(*argv[:6], *argv[8:]))
+    assert run("selfcal", sessions / "s1.csv", *SIZES, "--robot", "r", "--record", "--db", db)[0] == 0
+    line = refused(*run("selfcal", sessions / "s1.csv", *argv[2:]))
+    assert f"holds this recording already: record #{n + 1} " in line
+    assert len(_ids(db, "r")) == n + 1
 
 
 def test_a_self_calibration_recorded_by_export_after_selfcal_is_refused(sessions, tmp_path):

@@ -50,6 +50,7 @@ __all__ = [
     "make_row",
     "mask_secrets",
     "parameters_from_analysis",
+    "parts_overlap",
     "recording_part",
     "resolve_db",
     "resolve_db_path",
@@ -531,7 +532,7 @@ class DamagedRecord(HistoryError):
 
 class SameRecording(HistoryError):
     """A robot's history holds a record of this recording already: the same content (its
-    ``input_sha256``), kind and method, and the same part of it (:func:`recording_part`).
+    ``input_sha256``), kind and method, and a part of it that overlaps (:func:`parts_overlap`).
 
     Attributes
     ----------
@@ -545,10 +546,10 @@ class SameRecording(HistoryError):
         self.record_id = record.id
         self.data = (robot, str(db))
         part = recording_part(record.inputs)
-        of = "" if part is None else f" of {part[0]:g}-{part[1]:g} s"
+        of = "this recording" if part is None else f"{part[0]:g}-{part[1]:g} s of this recording"
         source = f", {record.source}" if record.source else ""
         super().__init__(
-            f"the history of robot {robot!r} in {db} holds this recording{of} already: record #{record.id} "
+            f"the history of robot {robot!r} in {db} holds {of} already: record #{record.id} "
             f"({record.kind}, method {record.method}, {record.created_utc[:16].replace('T', ' ')} UTC{source}, "
             "the same content); nothing was recorded (one recording twice would count as two sessions of the "
             "robot, and a drift would be judged on it twice)"
@@ -573,6 +574,22 @@ def recording_part(inputs: Any) -> tuple[float, float] | None:
         return None
     a, b = (_num(v) for v in w)
     return None if a is None or b is None else (round(a, 3), round(b, 3))
+
+
+def parts_overlap(a: tuple[float, float] | None, b: tuple[float, float] | None) -> bool:
+    """Whether two parts of one recording (:func:`recording_part`; None: the whole) share data:
+    the whole recording overlaps any window of it, two windows overlap when their spans do.
+
+    Parameters
+    ----------
+    a, b : tuple of float or None
+        ``(start_s, end_s)``, or None.
+
+    Returns
+    -------
+    bool
+    """
+    return a is None or b is None or (a[0] < b[1] and b[0] < a[1])
 
 
 def _short(v: object) -> str:
@@ -831,8 +848,9 @@ class _Backend:
     def same_recording(
         self, robot: str, *, kind: str, method: str, input_sha256: str | None, inputs: dict[str, Any] | None = None
     ) -> Record | None:
-        """The robot's record of this recording, if it holds one: the same content hash, kind,
-        method and part (:func:`recording_part` of ``inputs``). :meth:`add` refuses a second one.
+        """The robot's record of this recording, if it holds one: the same content hash, kind and
+        method, and a part that overlaps this one (:func:`parts_overlap`: the whole recording, or
+        the window of ``inputs``). :meth:`add` refuses a second one.
 
         Parameters
         ----------
@@ -854,7 +872,7 @@ class _Backend:
         part = recording_part(inputs)
         for row in self._same_rows(conn, robot, sha, kind, method):
             rec = self._decode(row)
-            if rec is not None and recording_part(rec.inputs) == part:
+            if rec is not None and parts_overlap(recording_part(rec.inputs), part):
                 return rec
         return None
 

@@ -18,11 +18,11 @@ false alarms from it. A segment between two steps holds at least two sessions (o
 in the middle of a history is an outlier, not a change); the latest session alone may follow a
 step (a change on the last day is what a daily check is for).
 
-A recording counts once: a record of the same content, kind, method and part as an older one
-(:meth:`umbmark.history.base._Backend.same_recording`, which a history refuses to add now) is
-left out, with a note. Sessions that span less than :data:`MIN_RATE_SPAN_DAYS` (recorded in one
-go, without their dates) give no wear rate per day: their trend is fitted in the order of the
-sessions, and a note says why.
+A recording counts once: a record of the same content, kind and method as an older one, of a
+part of the recording that overlaps it (:func:`umbmark.history.base.parts_overlap`; a history
+refuses to add such a record now), is left out, with a note. Sessions that span less than
+:data:`MIN_RATE_SPAN_DAYS` (recorded in one go, without their dates) give no wear rate per day:
+their trend is fitted in the order of the sessions, and a note says why.
 """
 
 from __future__ import annotations
@@ -36,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from umbmark.errors import InputError
-from umbmark.history.base import KINDS, Record, recording_part
+from umbmark.history.base import KINDS, Record, parts_overlap, recording_part
 
 __all__ = [
     "DEFAULT_FALSE_ALARM",
@@ -453,19 +453,20 @@ def _check_kind(records: Sequence[Record], robot: str, kind: str | None) -> str:
 
 
 def _one_per_recording(records: Sequence[Record]) -> tuple[list[Record], list[str]]:
-    """The records, each recording once: a later record of the same content, kind, method and
-    part as an earlier one is left out (a note names it)."""
-    seen: dict[tuple[Any, ...], int] = {}
+    """The records, each stretch of a recording once: a later record of the same content, kind
+    and method as an earlier one, of a part that overlaps it, is left out (a note names it)."""
+    seen: dict[tuple[str, str, str], list[tuple[Any, int]]] = {}
     kept, notes = [], []
     for r in sorted(records, key=lambda r: (r.time, r.id)):
-        key = None if not r.input_sha256 else (r.kind, r.method, r.input_sha256, recording_part(r.inputs))
-        if key is not None and key in seen:
+        part = recording_part(r.inputs)
+        earlier = seen.setdefault((r.kind, r.method, r.input_sha256), []) if r.input_sha256 else []
+        first = next((rid for p, rid in earlier if parts_overlap(p, part)), None)
+        if first is not None:
             notes.append(
-                f"record #{r.id} holds the recording of record #{seen[key]} again (the same content): counted once"
+                f"record #{r.id} holds the recording of record #{first} again (the same content): counted once"
             )
             continue
-        if key is not None:
-            seen[key] = r.id
+        earlier.append((part, r.id))
         kept.append(r)
     return kept, notes
 
