@@ -1,6 +1,6 @@
 """A campaign of older cases, run through the command line: the standard output closed, a
-calibration JSON holding a number of 5001 digits, the cw and ccw labels of a distances file
-exchanged, a runs file whose measured column is a copy of the odometry's.
+calibration or result JSON holding a number of 5001 digits, the cw and ccw labels of a distances
+file exchanged, a runs file whose measured column is a copy of the odometry's.
 
 Each case asserts no traceback, a refusal in one line naming the cause (exit status 2), or a
 warning naming the mistake where the data can still be used; and that the right data draw no
@@ -87,6 +87,14 @@ def test_a_5001_digit_factor_in_a_calibration_is_one_line(tmp_path, fmt):
     cal.write_text(f'{{"c_left": {DIGITS}, "c_right": 1.0, "Ed": 1.0, "Eb": 1.0}}\n')
     line = refused(*run("export", cal, "--format", fmt))
     assert "cal.json: a number of 5001 digits: no value a robot's file holds" in line, line
+
+
+def test_a_5001_digit_number_in_a_result_to_report_is_one_line(tmp_path):
+    res = tmp_path / "replay.json"
+    res.write_text(f'{{"dataset": "d", "Ed": {DIGITS}}}\n')
+    line = refused(*run("report", res, "--out", tmp_path / "r.html"))
+    assert "replay.json: a number of 5001 digits: no value a robot's file holds; not a replay result" in line
+    assert not (tmp_path / "r.html").exists()
 
 
 def test_a_5001_digit_size_in_a_calibration_to_validate_is_one_line(tmp_path):

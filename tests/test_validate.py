@@ -454,8 +454,11 @@ def bad(sim, tmp_path_factory):
     (d / "report.json").write_text('{"log": "b", "reference": {}, "calibration": {}, "spans": []}\n')
     # well formed, and meaning something else: each relation's stamps exchanged, a trajectory mirrored
     write_relations(Relations(rel.t2_s, rel.t1_s, rel.pose), d / "exchanged.relations")
+    write_relations(Relations(rel.t1_s, rel.t2_s, rel.pose * [1, -1, -1]), d / "mirrored.relations")
     base = read_tum(sim / "base.tum")
     write_tum(Trajectory(base.t_s, base.pose[:, [1, 0, 2]]), d / "mirrored.tum")
+    write_tum(Trajectory(base.t_s, base.pose * [1, -1, 1]), d / "y_negated.tum")
+    write_tum(Trajectory(base.t_s, base.pose * [1, -1, -1]), d / "right_handed.tum")
     # calibrations with a size no robot has, or no correction makes
     true = json.loads((sim / "true.json").read_text())
     for name, key, k in (
@@ -465,6 +468,7 @@ def bad(sim, tmp_path_factory):
         ("nominal_metres", "nominal_wheel_diameter_mm", 1e-3),
     ):
         (d / f"{name}.json").write_text(json.dumps({**true, key: 1e308 if k is None else true[key] * k}))
+    (d / "far_lidar.json").write_text(json.dumps({**true, "sensor_pose": {**true["sensor_pose"], "x_mm": 1e308}}))
     return d
 
 
@@ -557,6 +561,31 @@ BAD_CASES = {
         ["{sim}/drive.bag", CAL, "--reference", "{bad}/mirrored.tum"],
         "mirrored.tum",
         "than made with x and y exchanged (RMS over 3528 short relations): the trajectory's x and y look exchanged",
+    ),
+    "a trajectory with y negated": (
+        ["{sim}/drive.bag", CAL, "--reference", "{bad}/y_negated.tum"],
+        "y_negated.tum",
+        "than made with y negated (RMS over 3528 short relations): the trajectory's y looks negated",
+    ),
+    "a trajectory in a frame with y to the right": (
+        ["{sim}/drive.bag", CAL, "--reference", "{bad}/right_handed.tum"],
+        "right_handed.tum",
+        "than made mirrored back (RMS over 3528 short relations): the trajectory looks mirrored: y and the heading",
+    ),
+    "mirrored relations": (
+        ["{sim}/drive.bag", CAL, "--relations", "{bad}/mirrored.relations"],
+        "mirrored.relations",
+        "than mirrored (RMS over 593 short relations): they look mirrored: y and the yaw negated",
+    ),
+    "a lidar 1e308 mm ahead": (
+        ["{sim}/drive.bag", "{bad}/far_lidar.json", "--relations", REL],
+        "far_lidar.json",
+        "'sensor_pose' x_mm is 1e+308 mm: no lidar is mounted beyond 10000 mm from the robot's origin",
+    ),
+    "a stamp tolerance of 1e9 s": (
+        ["{sim}/drive.bag", CAL, "--relations", REL, "--stamp-tolerance-s", "1e9"],
+        "--stamp-tolerance-s",
+        "--stamp-tolerance-s is 1e+09 s, more than half the scans' period (0.1 s)",
     ),
     "a base frame's trajectory given as the sensor's": (
         ["{sim}/drive.bag", CAL, "--reference", "{sim}/base.tum", "--reference-frame", "sensor"],

@@ -483,15 +483,27 @@ _EXPECTED = (
 )
 
 
+# a lidar further than this from the robot's origin [mm], or turned beyond a turn [deg], is no mounting
+_MAX_SENSOR_MM = 1e4
+_MAX_SENSOR_DEG = 360.0
+
+
 def _pose_mm_deg(d: Any, key: str, src: str) -> Pose:
     """``(x_m, y_m, yaw_rad)`` of a JSON object ``{x_mm, y_mm, yaw_deg}``."""
     if not isinstance(d, dict):
         raise InputError(f"{key!r} must be an object with x_mm, y_mm, yaw_deg, got {d!r}", src)
     vals = []
-    for k in ("x_mm", "y_mm", "yaw_deg"):
+    for k, most, unit in (
+        ("x_mm", _MAX_SENSOR_MM, "mm"),
+        ("y_mm", _MAX_SENSOR_MM, "mm"),
+        ("yaw_deg", _MAX_SENSOR_DEG, "deg"),
+    ):
         v = d.get(k)
         if not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)):
             raise InputError(f"{key!r} {k} must be a finite number, got {v!r}", src)
+        if abs(v) > most:
+            what = f"{most:g} mm from the robot's origin" if unit == "mm" else f"a turn, {most:g} deg"
+            raise InputError(f"{key!r} {k} is {v:g} {unit}: no lidar is mounted beyond {what} ({unit} expected)", src)
         vals.append(float(v))
     return (vals[0] * 1e-3, vals[1] * 1e-3, math.radians(vals[2]))
 
@@ -1567,7 +1579,12 @@ def _alternatives(
                 "timestamp1 and timestamp2 look exchanged (a relation is the pose at timestamp2 in the frame of the "
                 "pose at timestamp1)",
                 se2.inverse(rel.pose),
-            )
+            ),
+            (
+                "mirrored",
+                "they look mirrored: y and the yaw negated (a frame with y to the right?)",
+                rel.pose * np.array([1.0, -1.0, -1.0]),
+            ),
         ]
     lp = np.asarray(nominal_pose, dtype=float)
     other = "sensor" if reference_frame == "base" else "base"
@@ -1579,22 +1596,29 @@ def _alternatives(
             in_sensor_frame(rel.pose, se2.inverse(lp) if reference_frame == "base" else lp),
         )
     ]
-    swapped = Trajectory(reference.t_s, reference.pose[:, [1, 0, 2]], reference.source)
-    alt, _, _ = relations_from_trajectory(
-        swapped,
-        scan_t_s,
-        sensor_pose=lp if reference_frame == "base" else None,
-        short_max_s=short_max_s,
-        tolerance_s=tolerance_s,
-    )
-    if len(alt) == len(rel) and np.array_equal(alt.t1_s, rel.t1_s) and np.array_equal(alt.t2_s, rel.t2_s):
-        out.append(
-            (
-                "made with x and y exchanged",
-                "the trajectory's x and y look exchanged (it is mirrored; a TUM line is timestamp x y z qx qy qz qw)",
-                alt.pose,
-            )
+    p = reference.pose
+    for undone, mistake, pose in (
+        (
+            "made with x and y exchanged",
+            "the trajectory's x and y look exchanged (it is mirrored; a TUM line is timestamp x y z qx qy qz qw)",
+            p[:, [1, 0, 2]],
+        ),
+        ("made with y negated", "the trajectory's y looks negated (it is mirrored)", p * np.array([1.0, -1.0, 1.0])),
+        (
+            "made mirrored back",
+            "the trajectory looks mirrored: y and the heading negated (a frame with y to the right?)",
+            p * np.array([1.0, -1.0, -1.0]),
+        ),
+    ):
+        alt, _, _ = relations_from_trajectory(
+            Trajectory(reference.t_s, pose, reference.source),
+            scan_t_s,
+            sensor_pose=lp if reference_frame == "base" else None,
+            short_max_s=short_max_s,
+            tolerance_s=tolerance_s,
         )
+        if len(alt) == len(rel) and np.array_equal(alt.t1_s, rel.t1_s) and np.array_equal(alt.t2_s, rel.t2_s):
+            out.append((undone, mistake, alt.pose))
     return out
 
 
@@ -1863,6 +1887,12 @@ def validate(
     warnings: list[str] = list(bag.warnings) + list(calibration.warnings)
     st = np.asarray(bag.scan_t_s, dtype=float)
     origin = float(st[0])
+    period = float(np.median(np.diff(st))) if len(st) > 1 else math.inf
+    if tol > 0.5 * period:
+        raise InputError(
+            f"`tolerance_s` is {tol:g} s, more than half the scans' period ({period:.3g} s): a relation's stamp would "
+            "match a scan it is not at; it is in seconds (1 ms is 0.001)"
+        )
     lo, hi, in_win, w = _scans_in_window(st, window_s, src)
     warnings += w
     delay, delay_src, w = _scan_delay(calibration, scan_delay_s, float(st[-1] - st[0]))
