@@ -14,9 +14,10 @@ from umbmark.errors import InputError
 
 __all__ = ["check_distinct_inputs", "file_sha256", "inputs_sha256", "same_inputs"]
 
-# the digests of the files hashed in this process, by (path, size, modification time): a command
-# that checks a recording against the history before it runs and records it after hashes it once
-_DIGESTS: dict[tuple[str, int, int], str] = {}
+# the digests of the files and folders hashed in this process, by path and each file's size and
+# modification time: a command that checks a recording against the history before it runs and
+# records it after hashes it once
+_DIGESTS: dict[tuple[str, tuple[tuple[str, int, int], ...]], str] = {}
 
 
 def file_sha256(path) -> str:
@@ -33,13 +34,12 @@ def file_sha256(path) -> str:
         The hexadecimal digest.
     """
     p = Path(path)
-    if p.is_file():
-        st = p.stat()
-        key = (str(p.resolve()), st.st_size, st.st_mtime_ns)
-        if key not in _DIGESTS:
-            _DIGESTS[key] = _sha256(p)
-        return _DIGESTS[key]
-    return _sha256(p)
+    files = sorted(q for q in p.rglob("*") if q.is_file()) if p.is_dir() else [p]
+    stats = tuple((str(f), f.stat().st_size, f.stat().st_mtime_ns) for f in files)
+    key = (str(p.resolve()), stats)
+    if key not in _DIGESTS:
+        _DIGESTS[key] = _sha256(p)
+    return _DIGESTS[key]
 
 
 def inputs_sha256(paths: Sequence[str | Path], file_hash: Callable[[str], str] | None = None) -> str:
