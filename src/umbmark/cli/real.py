@@ -506,7 +506,7 @@ def replay(
     from umbmark._files import check_distinct_inputs
 
     check_distinct_inputs([p for p in paths if Path(p).exists()])
-    if window_s is None and not stream:
+    if not stream:  # the windows of a recording cover it: refused with it
         refuse_if_recorded(robot, record, db, kind="replay", method=method, paths=paths, each=True)
     if stream or decimate or poses_out:
         if not stream:

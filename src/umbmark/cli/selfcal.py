@@ -333,8 +333,7 @@ def selfcal_cmd(
         )
     )
     kind = kind_of(paths)
-    if window_s is None:
-        refuse_if_recorded(robot, record, db, kind="selfcal", method="selfcal", paths=paths)
+    refuse_if_recorded(robot, record, db, kind="selfcal", method="selfcal", paths=paths)  # windows too: they cover it
     opts = {"reject_outliers": not keep_outliers, "time_jitter": wheel_jitter}
     if kind == "intervals":
         from umbmark.realrobot.selfcal import selfcal_from_intervals
