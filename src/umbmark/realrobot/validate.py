@@ -1404,6 +1404,16 @@ def _window(st: FloatArray, window_s: tuple[float, float] | None, src: str) -> t
     return max(lo, 0.0), min(hi, end), warnings
 
 
+def _check_tolerance(st: FloatArray, tol: float) -> None:
+    """Refuse a stamp tolerance beyond half the scans' period: a stamp would match a scan it is not at."""
+    period = float(np.median(np.diff(st))) if len(st) > 1 else math.inf
+    if tol > 0.5 * period:
+        raise InputError(
+            f"`tolerance_s` is {tol:g} s, more than half the scans' period ({period:.3g} s): a relation's stamp would "
+            "match a scan it is not at; it is in seconds (1 ms is 0.001)"
+        )
+
+
 def _check_number(name: str, v: Any, positive: bool = True) -> float:
     ok = isinstance(v, (int, float, np.floating)) and not isinstance(v, bool) and math.isfinite(v)
     if not ok or (positive and not v > 0):
@@ -1887,12 +1897,7 @@ def validate(
     warnings: list[str] = list(bag.warnings) + list(calibration.warnings)
     st = np.asarray(bag.scan_t_s, dtype=float)
     origin = float(st[0])
-    period = float(np.median(np.diff(st))) if len(st) > 1 else math.inf
-    if tol > 0.5 * period:
-        raise InputError(
-            f"`tolerance_s` is {tol:g} s, more than half the scans' period ({period:.3g} s): a relation's stamp would "
-            "match a scan it is not at; it is in seconds (1 ms is 0.001)"
-        )
+    _check_tolerance(st, tol)
     lo, hi, in_win, w = _scans_in_window(st, window_s, src)
     warnings += w
     delay, delay_src, w = _scan_delay(calibration, scan_delay_s, float(st[-1] - st[0]))
@@ -1912,16 +1917,9 @@ def validate(
     sel = inside & odo.short
     what = "relations" if kind == "relations" else "relations made from the trajectory"
     alternatives = _alternatives(reference, rel, st[in_win], reference_frame, poses.nominal, short_max, tol)
-    _refuse_mistakes(odo, sel, alternatives, what, rel.source)
+    _refuse_mistakes(odo, sel, alternatives, what, rel.source)  # a likely mistake in the reference, named
     warnings += _plausibility(
-        odo.before,
-        k1[sel],
-        k2[sel],
-        rel.pose[sel],
-        poses.nominal,
-        odo.figures(inside)[0],
-        "relations" if kind == "relations" else "relations made from the trajectory",
-        rel.source,
+        odo.before, k1[sel], k2[sel], rel.pose[sel], poses.nominal, odo.figures(inside)[0], what, rel.source
     )
     # the spans
     whole = "whole log" if window_s is None else "window"
