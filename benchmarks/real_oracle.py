@@ -79,16 +79,25 @@ def selfcal_delay(part) -> float:
 class RelationFit:
     """The odometry at the scans of a log and its relations, for fitting a geometry to them."""
 
-    def __init__(self, bag, rel, delay_s: float):
+    def __init__(self, left_rad: np.ndarray, right_rad: np.ndarray, scan_t_s: np.ndarray, rel):
+        """From the cumulative wheel angles at the scans (over the nominal radius), the scans' stamps
+        and the relations."""
+        self.left, self.right = np.asarray(left_rad, dtype=float), np.asarray(right_rad, dtype=float)
+        self.i1, self.i2 = rel.indices(scan_t_s, 1e-3)
+        self.t = scan_t_s - scan_t_s[0]
+        self.rel = rel
+
+    @classmethod
+    def from_bag(cls, bag, rel, delay_s: float) -> RelationFit:
+        """The recorded odometry of a bag read by umbmark at ``scan stamp - delay_s``, turned into
+        wheel angles through the nominal geometry as ``umbmark validate`` does."""
         from umbmark.model.dataset import wheel_angles_from_poses
         from umbmark.model.geometry import WheelGeometry
         from umbmark.realrobot.validate import recorded_odometry_at_scans
 
         nominal = WheelGeometry(D_NOM, D_NOM, B_NOM)
-        self.left, self.right = wheel_angles_from_poses(recorded_odometry_at_scans(bag, delay_s), nominal)
-        self.i1, self.i2 = rel.indices(bag.scan_t_s, 1e-3)
-        self.t = bag.scan_t_s - bag.scan_t_s[0]
-        self.rel = rel
+        left, right = wheel_angles_from_poses(recorded_odometry_at_scans(bag, delay_s), nominal)
+        return cls(left, right, np.asarray(bag.scan_t_s, dtype=float), rel)
 
     def select(self, window: tuple[float, float], short_only: bool) -> np.ndarray:
         """The relations with both scans inside the window [s after the first scan] (and short)."""
@@ -174,7 +183,7 @@ def run_log(name: str) -> dict:
     out: dict = {"log": name, "split_s": split_s, "delays_s": delays, "fits": []}
     for label, window in windows.items():
         other = next(k for k in windows if k != label)
-        rf = RelationFit(bag, rel, delays[label])
+        rf = RelationFit.from_bag(bag, rel, delays[label])
         m = rf.select(window, short_only=True)
         p = rf.fit(m)
         out["fits"].append(
@@ -190,7 +199,7 @@ def run_log(name: str) -> dict:
             }
         )
     delay = float(np.mean(list(delays.values())))
-    rf = RelationFit(bag, rel, delay)
+    rf = RelationFit.from_bag(bag, rel, delay)
     for what, short_only in (("whole log, short relations", True), ("whole log, every relation", False)):
         m = rf.select((0.0, 1e9), short_only=short_only)
         p = rf.fit(m)

@@ -14,8 +14,8 @@ import dataclasses
 import math
 
 from umbmark.io.rosbag_write import write_drive_bag
+from umbmark.kinds import Mecanum, Tricycle
 from umbmark.model.kinematic_drive import JointNoise, KinematicRobot, kinematic_program, simulate_kinematic_drive
-from umbmark.model.kinematics import Mecanum, Tricycle
 from umbmark.model.sensors import Lidar, SensorPose
 
 ROBOTS = {

@@ -28,14 +28,15 @@ SRC = REPO / "src" / "umbmark"
 BASE = {"errors", "jsonutil", "_version", "_numba", "_lazy", "_stats", "_files", "_numbers", "_check"}
 ALLOWED: dict[str, set[str]] = {
     "model": set(),
+    "kinds": {"model"},
     "metrics": {"model"},
-    "io": {"model"},
-    "correct": {"model", "metrics"},
-    "history": {"model"},
-    "realrobot": {"model", "metrics", "io", "correct"},
-    "viz": {"model", "metrics", "io", "correct", "realrobot", "history"},
-    "studies": {"model", "metrics", "io", "correct", "realrobot", "history", "viz"},
-    "cli": {"model", "metrics", "io", "correct", "realrobot", "history", "viz", "studies"},
+    "io": {"model", "kinds"},
+    "correct": {"model", "kinds", "metrics"},
+    "history": {"model", "kinds"},
+    "realrobot": {"model", "kinds", "metrics", "io", "correct"},
+    "viz": {"model", "kinds", "metrics", "io", "correct", "realrobot", "history"},
+    "studies": {"model", "kinds", "metrics", "io", "correct", "realrobot", "history", "viz"},
+    "cli": {"model", "kinds", "metrics", "io", "correct", "realrobot", "history", "viz", "studies"},
 }
 FLAG = re.compile(r"(?<![\w-])--[a-z][a-z0-9]*(?:-[a-z0-9]+)*")
 
@@ -306,3 +307,82 @@ def test_importing_is_light(statement):
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout.strip()
     assert out == "", f"{statement} imports {out}"
+
+
+# ---------------------------------------------------------------- the kinds of robot
+def _kind_names() -> set[str]:
+    from umbmark.kinds import KINDS
+
+    return set(KINDS)
+
+
+def _kind_branches(source: str, names: set[str]) -> list[int]:
+    """Lines that branch on a kind of robot's name: a string constant equal to a kind's name in a
+    comparison (``== "tricycle"``, ``in ("tricycle", "mecanum")``), as a dict's key (``{"tricycle":
+    ...}``, ``dict(tricycle=...)``), or looked up by it (``d["tricycle"]``, ``d.get("tricycle")``)."""
+
+    def named(node: ast.AST | None) -> bool:
+        if isinstance(node, ast.Constant) and node.value in names:
+            return True
+        if isinstance(node, (ast.Tuple, ast.List, ast.Set)):
+            return any(named(e) for e in node.elts)
+        return False
+
+    lines = []
+    for node in ast.walk(ast.parse(source)):
+        hit = False
+        if isinstance(node, ast.Compare):
+            hit = any(named(x) for x in [node.left, *node.comparators])
+        elif isinstance(node, ast.Dict):
+            hit = any(named(k) for k in node.keys)
+        elif isinstance(node, ast.Subscript):
+            hit = named(node.slice)
+        elif isinstance(node, ast.Call):
+            func = node.func
+            if isinstance(func, ast.Attribute) and func.attr in ("get", "pop", "setdefault") and node.args:
+                hit = named(node.args[0])
+            elif isinstance(func, ast.Name) and func.id == "dict":
+                hit = any(k.arg in names for k in node.keywords)
+        elif isinstance(node, ast.match_case):
+            hit = any(named(n) for n in ast.walk(node.pattern) if isinstance(n, ast.Constant))
+        if hit:
+            lines.append(node.lineno if hasattr(node, "lineno") else node.pattern.lineno)
+    return sorted(set(lines))
+
+
+def test_no_module_branches_on_a_kinds_name():
+    """Only ``umbmark.kinds`` knows its kinds by name: the rest of the package asks the kind
+    (:func:`umbmark.kinds.kind_named`), so that a new kind is one module."""
+    names = _kind_names()
+    found = [
+        f"{p.relative_to(REPO)}:{line}"
+        for m, p in MODULES.items()
+        if layer_of(m) != "kinds"
+        for line in _kind_branches(p.read_text(), names)
+    ]
+    assert not found, "ask the kind (umbmark.kinds), do not compare its name:\n" + "\n".join(found)
+
+
+def test_the_kind_rule_sees_a_violation():
+    source = (
+        'if kind == "tricycle":\n'
+        '    x = kind in ("a", "mecanum")\n'
+        'NOUN = {"mecanum": "mecanum robot"}\n'
+        'y = JOINTS["tricycle"]\n'
+        'z = CONTROLLERS.get("mecanum")\n'
+        "w = dict(tricycle=1)\n"
+        'match kind:\n    case "mecanum":\n        pass\n'
+        'print("a tricycle", "tricycle")\n'
+        'ok = kind == "straight"\n'
+    )
+    assert _kind_branches(source, {"tricycle", "mecanum"}) == [1, 2, 3, 4, 5, 6, 8]
+
+
+def test_the_kinds_sit_above_the_model_only():
+    """The kinds' package is a layer: it imports the model (and the base modules), and every layer
+    that asks a kind imports it."""
+    assert ALLOWED["kinds"] == {"model"}
+    assert all(
+        "kinds" in ALLOWED[layer] for layer in ("io", "correct", "history", "realrobot", "viz", "studies", "cli")
+    )
+    assert "kinds" not in ALLOWED["model"] and "kinds" not in ALLOWED["metrics"]

@@ -18,8 +18,7 @@ import numpy as np
 import pytest
 
 pytest.importorskip("rosbags")
-from rosbags.rosbag2 import Reader, Writer  # noqa: E402
-from rosbags.typesys import Stores, get_typestore  # noqa: E402
+from bagedit import edit_bag, restamp, stamp_ns  # noqa: E402
 
 from umbmark.cli import main  # noqa: E402
 from umbmark.errors import InputError  # noqa: E402
@@ -32,7 +31,6 @@ from umbmark.model.sensors import Lidar  # noqa: E402
 from umbmark.realrobot.replay import replay_report  # noqa: E402
 
 SIDE_M = 2.0
-TS = get_typestore(Stores.ROS2_HUMBLE)
 ROBOT = dataclasses.replace(
     EXAMPLE_ROBOT, errors=ErrorParams(ed=1.004, eb=1.02, es=0.99), lidar=Lidar(n_beams=4, range_noise_m=0.0)
 )
@@ -74,41 +72,8 @@ def clean(tmp_path_factory):
     return write_drive_bag(log, tmp_path_factory.mktemp("bags") / "clean", truth=True, odom=False)
 
 
-def _stamp_ns(msg) -> int:
-    s = msg.header.stamp
-    return int(s.sec) * 10**9 + int(s.nanosec)
-
-
-def _restamp(msg, ns: int):
-    stamp = TS.types["builtin_interfaces/msg/Time"](sec=int(ns // 10**9), nanosec=int(ns % 10**9))
-    return dataclasses.replace(msg, header=dataclasses.replace(msg.header, stamp=stamp))
-
-
 def _later(msg, dt_s: float):
-    return _restamp(msg, _stamp_ns(msg) + int(round(dt_s * 1e9)))
-
-
-def edit_bag(src, dst, **edits):
-    """Copy the bag ``src`` to ``dst``; ``edits[key]`` (key: a topic without its slash) turns the
-    list of that topic's ``(bag_ns, message)`` into the list to write (the other topics are
-    copied as they are)."""
-    with Reader(src) as r:
-        topics = {c.topic: c for c in r.connections}
-        streams: dict[str, list] = {t: [] for t in topics}
-        for c, ns, raw in r.messages():
-            edit = c.topic.strip("/") in edits
-            streams[c.topic].append((ns, TS.deserialize_cdr(raw, c.msgtype) if edit else bytes(raw)))
-    out = []
-    for topic, msgs in streams.items():
-        f = edits.get(topic.strip("/"))
-        for ns, msg in f(msgs) if f else msgs:
-            out.append((ns, topic, msg if f is None else TS.serialize_cdr(msg, topics[topic].msgtype)))
-    out.sort(key=lambda m: m[0])
-    with Writer(dst, version=9) as w:
-        conns = {t: w.add_connection(t, c.msgtype, typestore=TS) for t, c in topics.items()}
-        for ns, topic, raw in out:
-            w.write(conns[topic], ns, raw)
-    return dst
+    return restamp(msg, stamp_ns(msg) + int(round(dt_s * 1e9)))
 
 
 def delayed(tau_s: float, every: int = 1):
@@ -159,17 +124,25 @@ def test_stamps_jumping_back_are_an_error_naming_topic_and_message(clean, tmp_pa
 
 
 @pytest.mark.parametrize("same_content", [True, False])
-def test_every_stamp_duplicated_is_warned_about(clean, clean_cal, tmp_path, same_content):
+def test_every_message_recorded_twice_or_stamped_in_pairs_is_warned_about(clean, clean_cal, tmp_path, same_content):
     def dup(msgs):
         if same_content:  # every message recorded twice
             return [x for ns, m in msgs for x in ((ns, m), (ns + 1, m))]
         # the stamp is updated every second message only
-        return [(ns, _restamp(m, _stamp_ns(msgs[k - k % 2][1]))) for k, (ns, m) in enumerate(msgs)]
+        return [(ns, restamp(m, stamp_ns(msgs[k - k % 2][1]))) for k, (ns, m) in enumerate(msgs)]
 
     bag = edit_bag(clean, tmp_path / "dup", joint_states=dup)
     ds = read_bag(bag, **READ)
-    (w,) = [w for w in ds.meta["warnings"] if "repeat the stamp" in w]
+    # copies are dropped; a stamp kept for two messages of new content is a stream stamped in
+    # bursts (each message's sample time recovered)
+    said = "repeat the message before (the same stamp and content" if same_content else "arrive in bursts ("
+    (w,) = [w for w in ds.meta["warnings"] if said in w]
     assert w.startswith(f"{ds.source}: ")  # the bag is named
+    (stream,) = ds.meta["wheel_stream"]  # also in replay's JSON, per bag
+    assert stream["bag"] == str(bag)
+    if same_content:  # every message twice: half of them dropped
+        assert 2 * stream["duplicates"] == stream["messages"] == 2 * stream["kept"]
+    assert stream["clock"] == ("as recorded" if same_content else "recovered")
     assert "/joint_states" in w and "joint states" in w
     ed, eb, _ = _cal(ds)
     if same_content:  # nothing lost: the same calibration
@@ -215,16 +188,27 @@ def test_a_1e300_spike_in_a_joint_position_is_dropped_with_a_warning(clean, clea
     assert ed == pytest.approx(clean_cal[0], abs=1e-6) and eb == pytest.approx(clean_cal[1], abs=1e-5)
 
 
-def test_a_jump_that_stays_is_an_error(clean, tmp_path, capsys):
-    def jump(msgs):
-        k = len(msgs) // 3
-        return [(ns, _with_position(m, m.position[0] + 1e6) if i >= k else m) for i, (ns, m) in enumerate(msgs)]
+def _jump(msgs):
+    """Joint-state edit: the left wheel's counter jumps by 1e6 from a third of the recording on."""
+    k = len(msgs) // 3
+    return [(ns, _with_position(m, m.position[0] + 1e6) if i >= k else m) for i, (ns, m) in enumerate(msgs)]
 
-    bag = edit_bag(clean, tmp_path / "jump", joint_states=jump)
-    with pytest.raises(InputError, match=r"/joint_states jump by 1e\+06 at t=.*do not come back"):
-        read_bag(bag, **READ)
+
+def test_a_jump_that_stays_cuts_the_log_there(clean, tmp_path, capsys):
+    """A counter reset (a jump that stays) is not a reason to refuse the recording: it is cut
+    there with a warning, and the longer part is used."""
+    ref = read_bag(clean, **READ)
+    bag = edit_bag(clean, tmp_path / "jump", joint_states=_jump)
+    ds = read_bag(bag, **READ)
+    (w,) = [w for w in ds.meta["warnings"] if "do not come back" in w]
+    assert w.startswith(f"{ds.source}: ") and "/joint_states jump by 1e+06 at t=" in w
+    assert "a counter reset" in w and "only the longer part" in w
+    # the cw square is cut at the jump, the ccw square after it is whole
+    assert ds.runs[0].t.size < ref.runs[0].t.size and ds.runs[1].t.size == ref.runs[1].t.size
+    # a square cut short is no UMBmark run: replay says so in one line
     assert main(["replay", str(bag), *CLI]) == 2
-    assert len(capsys.readouterr().err.strip().splitlines()) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "does not close" in err[0]
 
 
 def test_ground_truth_2_s_late_is_warned_about(clean, clean_cal, tmp_path, capsys):
@@ -328,9 +312,9 @@ def test_convert_says_the_ground_truth_is_late_and_can_correct_it(clean, clean_c
     assert len(err.splitlines()) == 1 and "--time-offset" in err and "--stream" in err
 
 
-def test_selfcal_bag_spike_is_dropped_and_a_jump_is_an_error(clean, tmp_path):
+def test_selfcal_bag_spike_is_dropped_and_a_jump_cuts_the_stream(clean, tmp_path):
     """The lidar self-calibration's reader: a 1e300 joint position in one message is dropped
-    with a warning naming topic and time; a jump that stays is an error."""
+    with a warning naming topic and time; a jump that stays cuts the wheel data there."""
     from umbmark.io.rosbag import read_selfcal_bag
 
     ref = read_selfcal_bag(clean, wheels=WheelSource(joints=JOINT_NAMES))
@@ -348,12 +332,14 @@ def test_selfcal_bag_spike_is_dropped_and_a_jump_is_an_error(clean, tmp_path):
     assert len(got.wheel_t_s) == len(ref.wheel_t_s) - 1
     assert np.array_equal(np.delete(ref.left_rad, len(ref.left_rad) // 3), got.left_rad)
 
-    def jump(msgs):
-        k = len(msgs) // 3
-        return [(ns, _with_position(m, m.position[0] + 1e6) if i >= k else m) for i, (ns, m) in enumerate(msgs)]
-
-    with pytest.raises(InputError, match="/joint_states jump by 1e\\+06 at t=.*do not come back"):
-        read_selfcal_bag(edit_bag(clean, tmp_path / "jump", joint_states=jump), wheels=WheelSource(joints=JOINT_NAMES))
+    cut = read_selfcal_bag(
+        edit_bag(clean, tmp_path / "jump", joint_states=_jump), wheels=WheelSource(joints=JOINT_NAMES)
+    )
+    (w,) = [w for w in cut.warnings if "do not come back" in w]
+    assert "/joint_states jump by 1e+06 at t=" in w
+    k = len(ref.wheel_t_s) // 3
+    assert np.array_equal(cut.wheel_t_s, ref.wheel_t_s[k:])  # the longer part, after the jump
+    assert cut.wheel_stream is not None and cut.wheel_stream.resets == 1
 
 
 def test_selfcal_scan_delay_auto_and_seconds(tmp_path, capsys):

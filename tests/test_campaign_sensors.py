@@ -220,6 +220,20 @@ def test_wheel_angles_in_degrees_against_a_ground_truth_are_named(bags):
     assert "turn 5" in line and "times as far as the ground truth" in line and "look like degrees" in line
 
 
+def test_a_refusal_names_its_check_and_the_flag_that_lets_the_recording_through(bags):
+    """A plausibility check judges from evidence: its refusal names it, and --skip-check lets a
+    recording its owner knows to be right through (here wheel angles that are degrees indeed)."""
+    line = refused("replay", str(bags["degrees"]), *GEO, *JOINTS, *REPLAY)
+    assert "(the check degree_turns; if the recording is right, --skip-check degree_turns lets it through)" in line
+    # skipped, the degrees go on as radians (as asked) and the fit then fails on its own terms
+    line = refused("replay", str(bags["degrees"]), *GEO, *JOINTS, *REPLAY, "--skip-check", "degree_turns")
+    assert "degree_turns" not in line and "did not converge" in line
+    line = refused("selfcal", str(bags["mirrored"]), *GEO, *JOINTS)
+    assert "--skip-check turn_direction lets it through" in line
+    line = refused("replay", str(bags["ok"]), *GEO, *JOINTS, *REPLAY, "--skip-check", "no_such_check")
+    assert "--skip-check" in line and "degree_turns" in line  # the choices listed
+
+
 def test_wheels_exchanged_against_a_ground_truth_are_named(bags):
     d = accepted("replay", str(bags["swapped"]), *GEO, *JOINTS, *REPLAY)
     assert any("the wheels turn the other way from the ground truth" in w and "swapped" in w for w in d["warnings"])

@@ -34,6 +34,7 @@ from test_campaign import _one_line_refusal, base_commands, files, run  # noqa: 
 
 from umbmark.cli.app import app
 from umbmark.io.generic_csv import format_generic_csv
+from umbmark.kinds import quantity_named
 from umbmark.model.dataset import to_start_frame
 from umbmark.model.geometry import ROBOT_SIZES_M, ErrorParams, Geometry, nominal_slip
 
@@ -294,7 +295,7 @@ def test_a_bags_squares_with_a_nominal_wheel_twice_the_robots_are_named(squares_
 def test_nominal_slip_names_the_quantity_and_stays_silent_for_real_errors(kind, ratio):
     """An estimate twice, half, a thousand times or 25.4 times the nominal is named; the corrections
     of real robots (0.8 to 1.25, and a skid-steer's wheelbase up to twice its track) are not."""
-    text = nominal_slip(kind, ratio)
+    text = nominal_slip(quantity_named(kind), ratio)
     if ratio in (1.0, 1.2, 0.8) or (kind != "diameter" and ratio == 2.0):
         assert text is None
         return

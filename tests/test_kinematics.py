@@ -12,15 +12,13 @@ from hypothesis import strategies as st
 from umbmark.correct.selfcal import selfcal
 from umbmark.correct.selfcal.kinematic import KinematicProblem, kinematic_selfcal
 from umbmark.errors import InputError
+from umbmark.kinds import DiffDrive, Mecanum, Tricycle
 from umbmark.model import se2
 from umbmark.model.intervals import Intervals
 from umbmark.model.kinematic_drive import JointNoise, KinematicRobot, kinematic_program, simulate_kinematic_drive
 from umbmark.model.kinematics import (
-    DiffDrive,
     JointIntervals,
     JointSteps,
-    Mecanum,
-    Tricycle,
     compose_steps,
     integrate_steps,
     joint_intervals_from_motion,

@@ -12,6 +12,7 @@ import simlogs
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from umbmark._check import skipping_checks
 from umbmark.errors import InputError
 from umbmark.model.dataset import Dataset, Run
 from umbmark.model.timing import (
@@ -74,9 +75,19 @@ def test_ordered_stamps():
     # a message delivered late (a step back of 15 ms at 100 Hz): put in stamp order
     keep, rep, first, moved = ordered_stamps([0.0, 0.01, 0.03, 0.015, 0.04], "joint states", "/js")
     assert list(keep) == [0, 1, 3, 2, 4] and rep == 0 and moved == (1, pytest.approx(0.015))
-    # a clock that jumps back: an error naming the message
-    with pytest.raises(InputError, match=r"joint states on /js go backwards at message 5 of 6: 0.030000 s after "):
-        ordered_stamps([0.0, 0.01, 0.02, 0.5, 0.03, 0.04], "joint states", "/js", "x.bag")
+    # single messages delivered late with the stamp they were made at: put in stamp order
+    t = np.arange(100) * 0.01
+    late = np.concatenate([t[:50], t[10:11], t[50:60], t[20:23], t[60:]])  # 0.1 s and 0.2 s old, 1 and 3
+    keep, rep, _, moved = ordered_stamps(late, "joint states", "/js")
+    assert rep == 4 and moved[0] == 2 and np.all(np.diff(late[keep]) > 0)
+    # a clock that jumps back (the messages after it go on from 0.5 s earlier): an error naming
+    # the message, the check and its override
+    jumped = np.concatenate([t, t[50:] + 0.001])
+    msg = r"joint states on /js go backwards at message 101 of 150: 0.501000 s after .*`skip_checks=stamp_order`"
+    with pytest.raises(InputError, match=msg):
+        ordered_stamps(jumped, "joint states", "/js", "x.bag")
+    with skipping_checks(["stamp_order"]):  # skipped: put in stamp order
+        assert ordered_stamps(jumped, "joint states", "/js", "x.bag")[3][0] == 1
     with pytest.raises(InputError, match="not a number at message 2"):
         ordered_stamps([0.0, math.nan], "joint states", "/js")
 
@@ -137,7 +148,8 @@ def test_incremental_counts_at_a_repeated_stamp_are_added():
     )
     # the kept counts summed into positions: 0, 1 + 2, 3, 4 (once)
     assert list(chk.t) == [0.0, 0.01, 0.02, 0.03] and list(chk.left) == [0.0, 3.0, 6.0, 10.0]
-    assert "2 of the 6 wheel positions on /ticks repeat the stamp" in chk.warnings[0]
+    assert "1 of the 6 wheel positions on /ticks repeat the message before (the same stamp" in chk.warnings[0]
+    assert "1 of the 5 wheel positions on /ticks repeat the stamp" in chk.warnings[1]
 
 
 def _padded_squares(still_s: float = 3.0, dt: float = 0.02) -> Dataset:

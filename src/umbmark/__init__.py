@@ -11,6 +11,7 @@ The main entry points, loaded when first used (``import umbmark`` itself stays l
 Layers, lowest first (each imports only lower ones):
 
 * :mod:`umbmark.model`: geometry, error parameters, calibration types, odometry, simulation
+* :mod:`umbmark.kinds`: the kinds of robot (differential drive, tricycle, mecanum), one module each
 * :mod:`umbmark.metrics`: the UMBmark figures of a runs table
 * :mod:`umbmark.io`: readers and writers (runs CSV, logs, bags, export)
 * :mod:`umbmark.correct`: the correction methods behind one interface (bf, exact, lsq)

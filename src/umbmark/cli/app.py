@@ -15,6 +15,7 @@ from umbmark._version import __version__
 from umbmark.cli.guard import GuardedGroup
 from umbmark.errors import InputError
 from umbmark.jsonutil import dumps
+from umbmark.kinds import KINDS
 from umbmark.viz.text import fmt
 
 if TYPE_CHECKING:
@@ -126,7 +127,6 @@ PARAM_FLAGS = {
     "left_field": "--left-field",
     "left_multiplier": "--left-multiplier",
     "limit": "--limit",
-    "lx_plus_ly_mm": "--lx-plus-ly-mm",
     "max_wheel_gap_s": "--max-wheel-gap-s",
     "method": "--method",
     "odom_topic": "--odom-topic",
@@ -144,6 +144,7 @@ PARAM_FLAGS = {
     "scan_frame": "--scan-frame",
     "separation_multiplier": "--separation-multiplier",
     "sensor_pose": "--sensor-pose",
+    "skip_checks": "--skip-check",
     "side_mm": "--side-mm",
     "speed_m_s": "--speed-m-s",
     "split_stops": "--split-stops",
@@ -160,6 +161,10 @@ PARAM_FLAGS = {
     "wheelbase_mm": "--wheelbase-mm",
     "when": "--recorded-at",
 }
+# every kind's own options (umbmark.kinds: --lx-plus-ly-mm, --drive-joint, ...)
+PARAM_FLAGS.update(
+    {n: "--" + n.replace("_", "-") for k in KINDS.values() for n in k.option_names() if n not in PARAM_FLAGS}
+)
 # boolean parameters set False by a flag of their own
 PARAM_NO_FLAGS = {"fit_offset": "--no-fit-marker-offset"}
 _PARAM = re.compile(r"`(\w+)(?:=([^`]*))?`")

@@ -17,7 +17,7 @@ from umbmark.cli.app import cli_message, is_quiet
 from umbmark.cli.progress import progress
 from umbmark.errors import InputError
 
-__all__ = ["float_list", "kind_of", "Bars", "start_kernels", "interval_options"]
+__all__ = ["float_list", "kind_of", "Bars", "start_kernels", "interval_options", "stream_text"]
 
 
 KEYFRAME_BOUNDS = {
@@ -191,3 +191,10 @@ def interval_options(kw, min_intervals: int):
         min_intervals=min_intervals,
         scan_delay=scan_delay,
     )
+
+
+def stream_text(d: dict) -> str:
+    """One line of what the check of the wheel data found and did (its JSON block ``wheel_stream``)."""
+    from umbmark.model.wheel_stream import StreamReport
+
+    return StreamReport.from_dict(d).summary()

@@ -32,7 +32,7 @@ from pathlib import Path
 import click
 
 from umbmark.errors import UmbmarkError
-from umbmark.model.geometry import unit_slip
+from umbmark.model.geometry import Quantity, unit_slip
 
 __all__ = ["MAX_SIZE_M", "PATH_ROLES", "ROLES", "GuardedCommand", "GuardedGroup", "check_paths", "path_roles"]
 
@@ -100,12 +100,12 @@ PATH_ROLES: dict[str, dict[str, str]] = {
 MAX_SIZE_M = 1e6
 # size options the commands check against their own, tighter, limits (with their own messages)
 _OWN_SIZE_CHECKS = ("side_mm", "resolution_mm")
-# the words that make a size option a wheel's size or the wheelbase (checked by unit_slip)
+# the words that make a size option a wheel's size or the wheelbase (checked by unit_slip); a
+# kind's own sizes (a mecanum robot's lx + ly) are found by their option (umbmark.kinds)
 _GEOMETRY_WORDS = {
     "diameter": ("diameter",),
     "radius": ("radius",),
     "wheelbase": ("wheelbase", "separation"),
-    "lx_plus_ly": ("lx_plus_ly",),
 }
 
 
@@ -259,10 +259,19 @@ def _slip(p: click.Parameter, v: float) -> str | None:
     """Why a wheel size or wheelbase option cannot be a robot's (a unit slip), or None."""
     name = p.name or ""
     unit = "mm" if name.endswith("_mm") else "m" if name.endswith("_m") else None
-    kind = next((k for k, words in _GEOMETRY_WORDS.items() if any(w in name for w in words)), None)
+    kind: str | Quantity | None = next((s.quantity for s in _kind_sizes() if s.option == name), None)
+    if kind is None:
+        kind = next((k for k, words in _GEOMETRY_WORDS.items() if any(w in name for w in words)), None)
     if unit is None or kind is None:
         return None
     return unit_slip(kind, v * (1e-3 if unit == "mm" else 1.0), unit)
+
+
+def _kind_sizes():
+    """Every kind's nominal sizes (:attr:`umbmark.kinds.Kind.sizes`)."""
+    from umbmark.kinds import KINDS
+
+    return [s for k in KINDS.values() for s in k.sizes]
 
 
 def _size_message(p: click.Parameter, v: float) -> str:
@@ -351,9 +360,13 @@ class GuardedCommand(click.Command):
 
     def invoke(self, ctx: click.Context):
         absurd = self.check_params(ctx)
-        if not absurd:
-            return super().invoke(ctx)
-        return self._invoke_absurd(ctx, absurd)
+        skip = ctx.params.pop("skip_check", None) or ()
+        from umbmark._check import skipping_checks
+
+        with skipping_checks(skip):
+            if not absurd:
+                return super().invoke(ctx)
+            return self._invoke_absurd(ctx, absurd)
 
     def check_params(self, ctx: click.Context) -> list[tuple[click.Parameter, float]]:
         """The checks of the parsed options before the command runs (paths, the history's
@@ -406,3 +419,20 @@ class GuardedGroup(click.Group):
 
     command_class = GuardedCommand
     group_class = type  # subgroups are GuardedGroups too
+
+
+def skip_check_option(f):
+    """Add ``--skip-check CHECK`` (repeatable) to a command that reads recordings: the named
+    plausibility checks (:data:`umbmark._check.CHECKS`) let the data through
+    (:class:`GuardedCommand` applies it around the command)."""
+    from umbmark._check import CHECKS
+
+    return click.option(
+        "--skip-check",
+        "skip_check",
+        multiple=True,
+        type=click.Choice(sorted(CHECKS)),
+        metavar="CHECK",
+        help="Let the data through a plausibility check that refuses this recording (its message names the "
+        f"check), if you know the recording is right; repeatable. Checks: {', '.join(sorted(CHECKS))}.",
+    )(f)

@@ -1,70 +1,166 @@
-"""``umbmark selfcal --kinematics tricycle|mecanum`` and ``umbmark replay --kinematics ...``: a
-tricycle's or mecanum robot's geometry from its lidar (and the lidar's mounting pose), or against
-a ground truth (and the tracked marker's pose), from ROS bags.
+"""``umbmark selfcal --kinematics KIND`` and ``umbmark replay --kinematics KIND``: the geometry of a
+robot of a kind with a module of its own (:mod:`umbmark.kinds`: a tricycle, a mecanum robot) from
+its lidar (and the lidar's mounting pose), or against a ground truth (and the tracked marker's
+pose), from ROS bags.
 
 The library does the work (:mod:`umbmark.realrobot.kinematic`,
-:mod:`umbmark.realrobot.kinematic_replay`); this module checks the flags of the kind, calls it
-with progress bars and prints the result's ``to_dict()`` or a table made from it.
+:mod:`umbmark.realrobot.kinematic_replay`); this module makes the kinds' options from the
+registry (:data:`umbmark.kinds.KINDS`: ``--kinematics``'s choices, each kind's joints, sizes and
+fit flags), checks the flags of the kind, calls the library with progress bars and prints the
+result's ``to_dict()`` or a table made from it.
 """
 
 from __future__ import annotations
 
 import shlex
+from typing import Any
 
 import click
 
 from umbmark.cli.app import cli_message, console, emit_json, fmt, is_quiet, table
+from umbmark.cli.options import flag
 from umbmark.errors import InputError
+from umbmark.kinds import DEFAULT_KIND, KINDS, Kind, kind_named
 
-__all__ = ["kinematic_selfcal_cmd", "kinematic_replay_cmd", "kinematic_options", "LEGEND"]
+__all__ = [
+    "kinematic_selfcal_cmd",
+    "kinematic_replay_cmd",
+    "kinematic_options",
+    "kind_options",
+    "refuse_kind_options",
+    "joints_help",
+    "export_formats",
+    "own_kinds",
+    "own_controllers",
+    "steered_titles",
+    "LEGEND",
+]
+
+
+def _nouns(kinds, possessive: bool = False) -> str:
+    """``a tricycle or mecanum robot`` (``a tricycle's or mecanum robot's``)."""
+    s = "'s" if possessive else ""
+    return "a " + " or ".join(f"{k.noun}{s}" for k in kinds)
+
+
+def kind_options() -> dict[str, tuple[Kind, ...]]:
+    """The options of the kinds that the default kind (the differential drive) has not: option ->
+    the kinds that have it, in the registry's order."""
+    own = set(KINDS[DEFAULT_KIND].option_names())
+    out: dict[str, list[Kind]] = {}
+    for k in KINDS.values():
+        for name in k.option_names():
+            if name not in own:
+                out.setdefault(name, []).append(k)
+    return {name: tuple(ks) for name, ks in out.items()}
+
+
+def _kind_help() -> str:
+    parts = []
+    for k in KINDS.values():
+        if k.differential:
+            parts.append(f"a {k.noun} (or skid steer)")
+            continue
+        own = [f"{flag(j.option)} {j.metavar}" if len(j.roles) > 1 else flag(j.option) for j in k.joints]
+        common = set.intersection(*(set(s.option for s in x.sizes) for x in KINDS.values()))
+        own += [flag(s.option) for s in k.sizes if s.option not in common]
+        parts.append(f"a {k.noun} ({', '.join(own)})")
+    return f"The kind of robot: {', '.join(parts[:-1])} or {parts[-1]}."
+
+
+def _option(name: str, kinds: tuple[Kind, ...]):
+    """The click option of a kind's own option (its help prefixed by the kinds that have it)."""
+    who = ", ".join(k.title for k in kinds)
+    k = kinds[0]
+    for j in k.joints:
+        if j.option == name:
+            return click.option(flag(name), default=None, metavar=j.metavar, help=f"{who}: {j.help}")
+    for f in k.fits:
+        if f.option == name:
+            return click.option(flag(name), is_flag=True, help=f"{who}: {f.help}")
+    for s in k.sizes:
+        if s.option == name:
+            return click.option(flag(name), type=float, default=None, help=f"{who}: {s.help}")
+        if s.alternative is not None and s.alternative.option == name:
+            return click.option(flag(name), type=float, default=None, help=f"{who}: {s.label} [m].")
+    raise AssertionError(name)  # an option the kind does not describe
 
 
 def kinematic_options(f):
-    """The options of the kind of robot (``selfcal`` and ``replay``): ``--kinematics``,
-    ``--drive-joint``, ``--steer-joint``, ``--lx-plus-ly-mm``, ``--fit-steering-scale``."""
+    """The options of the kind of robot (``selfcal`` and ``replay``): ``--kinematics`` (a choice of
+    :data:`umbmark.kinds.KINDS`) and each kind's options the differential drive has not
+    (``--drive-joint``, ``--steer-joint``, ``--lx-plus-ly-mm``, ``--fit-steering-scale``)."""
     options = [
         click.option(
             "--kinematics",
-            type=click.Choice(["diff_drive", "tricycle", "mecanum"]),
-            default="diff_drive",
+            type=click.Choice(list(KINDS)),
+            default=DEFAULT_KIND,
             show_default=True,
-            help="The kind of robot: a differential drive (or skid steer), a tricycle (--drive-joint, "
-            "--steer-joint, --wheelbase-mm) or a mecanum robot (--joints FL,FR,RL,RR, --lx-plus-ly-mm).",
+            help=_kind_help(),
         ),
-        click.option("--drive-joint", default=None, help="Tricycle: JointState name of the traction wheel."),
-        click.option(
-            "--steer-joint",
-            default=None,
-            help="Tricycle: JointState name of the steering joint (radians, counter-clockwise positive, 0 straight).",
-        ),
-        click.option(
-            "--lx-plus-ly-mm",
-            type=float,
-            default=None,
-            help="Mecanum: nominal half wheelbase plus half track (sum_of_robot_center_projection_on_X_Y_axis).",
-        ),
-        click.option(
-            "--fit-steering-scale",
-            is_flag=True,
-            help="Tricycle: also estimate the steering scale (true over measured angle; needs large steering angles).",
-        ),
+        *(_option(name, kinds) for name, kinds in kind_options().items()),
     ]
     for option in reversed(options):
         f = option(f)
     return f
 
 
-LEGEND = {
-    "tricycle": (
-        "wheel diameter: the traction wheel's; wheelbase: from the rear axle's midpoint to the steered wheel; "
-        "steering offset: the true steering angle less the measured one (counter-clockwise positive), the "
-        "number that makes a measured 0 drive straight.",
-    ),
-    "mecanum": (
-        "wheel diameters: each wheel's effective rolling diameter; lx + ly: half the wheelbase plus half the "
-        "track (mecanum_drive_controller's sum_of_robot_center_projection_on_X_Y_axis).",
-    ),
-}
+def joints_help(text: str) -> str:
+    """``--joints``'s help: ``text`` and the order each other kind that names its joints with it wants."""
+    other = [
+        f"{k.name}: {j.metavar}" for k in KINDS.values() if not k.differential for j in k.joints if j.option == "joints"
+    ]
+    return f"{text} ({'; '.join(other)})." if other else f"{text}."
+
+
+def refuse_kind_options(kw: dict, pop: bool = False) -> None:
+    """Refuse the options of other kinds given to the default kind's command (``--steer-joint`` with
+    no ``--kinematics``): one line naming the kinds that have it.
+
+    Raises
+    ------
+    InputError
+        The first such option given.
+    """
+    for name, kinds in kind_options().items():
+        v = kw.pop(name, None) if pop else kw.get(name)
+        if v is not None and v is not False:
+            raise InputError(f"{flag(name)} needs --kinematics {' or '.join(k.name for k in kinds)}")
+
+
+def _fit(kind: Kind, kw: dict) -> tuple[str, ...] | None:
+    """The parameters to estimate: the kind's default ones and those its fit flags free."""
+    for name, kinds in kind_options().items():
+        if kw.get(name) is True and kind not in kinds:
+            raise InputError(f"{flag(name)} is {_nouns(kinds, True)}")
+    return kind.fit_of(f.option for f in kind.fits if kw.get(f.option))
+
+
+def export_formats() -> tuple[str, ...]:
+    """``umbmark export``'s formats: every kind's (:attr:`umbmark.kinds.Kind.export_formats`), the
+    default kind's first."""
+    return tuple(dict.fromkeys(f for k in KINDS.values() for f in k.export_formats))
+
+
+def own_kinds(possessive: bool = True, steered: bool = False) -> str:
+    """The kinds with a module of their own, as the help names them: ``a tricycle's or mecanum
+    robot's`` (only those with a steering joint: ``steered``)."""
+    return _nouns([k for k in KINDS.values() if not k.differential and (k.steered or not steered)], possessive)
+
+
+def own_controllers() -> str:
+    """Their controllers: ``tricycle_controller or mecanum_drive_controller``."""
+    return " or ".join(k.controller for k in KINDS.values() if not k.differential)
+
+
+def steered_titles() -> str:
+    """How an option's help names the kinds with a steering joint (``Tricycle``)."""
+    return ", ".join(k.title for k in KINDS.values() if k.steered)
+
+
+LEGEND = {k.name: k.legend for k in KINDS.values() if not k.differential}
+"""What the rows of each kind's table mean (:attr:`umbmark.kinds.Kind.legend`)."""
+
 _COMMON = (
     "lidar x, y, yaw: where the lidar sits on the robot (x forward, y left of the robot's origin; yaw "
     "counter-clockwise from its heading).",
@@ -72,9 +168,7 @@ _COMMON = (
     "does not cover errors shared by the whole recording: calibrate on another to see those.",
 )
 
-_NOUN = {"tricycle": "tricycle", "mecanum": "mecanum robot"}
-
-# flags of the differential drive's calibration a tricycle or mecanum robot has no use for
+# flags of the differential drive's calibration the other kinds have no use for
 _REFUSED = {
     "ticks_topic": "--ticks-topic",
     "odom_topic": "--odom-topic",
@@ -83,25 +177,21 @@ _REFUSED = {
 
 
 def kinematic_selfcal_cmd(kind: str, paths, min_intervals: int, keep_outliers: bool, save, as_json, record, kw) -> None:
-    """Run the self-calibration of a tricycle or mecanum robot for ``umbmark selfcal``."""
+    """Run the self-calibration of a robot of a kind of its own for ``umbmark selfcal``."""
     from umbmark.cli.bags import Bars, interval_options, kind_of, start_kernels
     from umbmark.cli.options import kinematic_joints, kinematic_nominal
     from umbmark.realrobot.kinematic import kinematic_selfcal_from_bags
 
-    for key, flag in _REFUSED.items():
+    for key, refused in _REFUSED.items():
         if kw.get(key):
-            raise InputError(f"{flag} is not for --kinematics {kind}")
+            raise InputError(f"{refused} is not for --kinematics {kind}")
     if record:
         raise InputError(f"--record keeps differential drives' calibrations; save a {kind}'s with --save")
     if kind_of(paths) != "bags":
         raise InputError(f"--kinematics {kind} reads ROS bags (joint states and laser scans), not intervals files")
     nominal = kinematic_nominal(kind, kw)
     joints = kinematic_joints(kind, kw)
-    fit = None
-    if kind != "tricycle" and kw.get("fit_steering_scale"):
-        raise InputError("--fit-steering-scale is a tricycle's")
-    if kind == "tricycle" and kw.get("fit_steering_scale"):
-        fit = ("wheel_diameter_m", "wheelbase_m", "steering_offset_rad", "steering_scale")
+    fit = _fit(kind_named(kind), kw)
     options = interval_options(kw, min_intervals)
     start_kernels()
     with Bars(enabled=not as_json) as bars:
@@ -141,34 +231,20 @@ def _pose_rows(what: str, pose: dict) -> list[list[str]]:
     ]
 
 
+def _at(d: dict, key: tuple[str, ...]) -> Any:
+    v: Any = d
+    for k in key:
+        v = v[k]
+    return v
+
+
 def _rows(d: dict) -> list[list[str]]:
+    """The table's rows of the kind's geometry (:attr:`umbmark.kinds.Kind.parameters`)."""
     n = d["nominal"]
-    if d["kinematics"] == "tricycle":
-        return [
-            [
-                "wheel diameter [mm]",
-                fmt(d["wheel_diameter_mm"], 3),
-                _ci(d["wheel_diameter_mm_ci95"], 3),
-                f"{n['wheel_diameter_mm']:g}",
-            ],
-            ["wheelbase [mm]", fmt(d["wheelbase_mm"], 3), _ci(d["wheelbase_mm_ci95"], 3), f"{n['wheelbase_mm']:g}"],
-            ["steering offset [deg]", fmt(d["steering_offset_deg"], 3), _ci(d["steering_offset_deg_ci95"], 3), "0"],
-            ["steering scale", fmt(d["steering_scale"], 5), _ci(d["steering_scale_ci95"], 5), "1"],
-        ]
-    rows = []
-    for role, label in (("front_left", "FL"), ("front_right", "FR"), ("rear_left", "RL"), ("rear_right", "RR")):
-        rows.append(
-            [
-                f"wheel diameter {label} [mm]",
-                fmt(d["wheel_diameters_mm"][role], 3),
-                _ci(d["wheel_diameters_mm_ci95"][role], 3),
-                f"{n['wheel_diameters_mm'][role]:g}",
-            ]
-        )
-    rows.append(
-        ["lx + ly [mm]", fmt(d["lx_plus_ly_mm"], 3), _ci(d["lx_plus_ly_mm_ci95"], 3), f"{n['lx_plus_ly_mm']:g}"]
-    )
-    return rows
+    return [
+        [p.table_label, fmt(_at(d, p.key), p.digits), _ci(_at(d, p.ci_key), p.digits), f"{_at(n, p.key):g}"]
+        for p in kind_named(d["kinematics"]).parameters
+    ]
 
 
 def _print(d: dict, save) -> None:
@@ -183,16 +259,20 @@ def _print(d: dict, save) -> None:
                 f"matched, {b['pairs_failed']} failed; scans' delay {1e3 * b['scan_delay']['applied_s']:.1f} ms"
             )
         )
+        if b.get("wheel_stream"):
+            from umbmark.cli.bags import stream_text
+
+            c.print(escape(f"  joint data: {stream_text(b['wheel_stream'])}"))
     rows = _rows(d) + _pose_rows("lidar", d["sensor_pose"])
     c.print(
         table(
-            f"Self-calibration of a {_NOUN[d['kinematics']]} from {d['intervals_used']} intervals "
+            f"Self-calibration of a {kind_named(d['kinematics']).noun} from {d['intervals_used']} intervals "
             f"({len(d['intervals_rejected'])} rejected as outliers)",
             ["", "estimate", "95 % interval", "nominal"],
             rows,
         )
     )
-    for line in LEGEND[d["kinematics"]] + _COMMON:
+    for line in kind_named(d["kinematics"]).legend + _COMMON:
         c.print(f"[dim]{escape(line)}[/dim]")
     for w in d["warnings"]:
         c.print(f"[yellow]warning:[/yellow] {escape(cli_message(w))}")
@@ -204,16 +284,21 @@ def _print(d: dict, save) -> None:
     c.print(f"  {escape(f'umbmark export {cal} --format urdf')}", soft_wrap=True)
 
 
-# the replay flags a tricycle or mecanum robot against a ground truth has use for
+# the replay flags a robot of a kind of its own against a ground truth has use for (and every
+# kind's own options, :func:`_replay_keep`)
 _REPLAY_KEEP = {
-    "joints", "joint_topic", "drive_joint", "steer_joint", "wheel_diameter_mm", "wheel_radius_m", "wheelbase_mm",
-    "wheel_separation_m", "lx_plus_ly_mm", "fit_steering_scale", "gt_topic", "gt_frame", "gt_parent", "time_offset",
+    "joints", "joint_topic", "wheel_diameter_mm", "wheel_radius_m", "wheelbase_mm", "wheel_separation_m", "gt_topic",
+    "gt_frame", "gt_parent", "time_offset",
 }  # fmt: skip
 
 
+def _replay_keep() -> set[str]:
+    return _REPLAY_KEEP | {name for k in KINDS.values() for name in k.option_names()}
+
+
 def kinematic_replay_cmd(kind: str, paths, method: str, save, as_json, record, kw) -> None:
-    """Run ``umbmark replay --kinematics tricycle|mecanum``: the geometry and the marker's pose
-    against the bag's ground truth (least squares along the path)."""
+    """Run ``umbmark replay --kinematics KIND``: the geometry and the marker's pose against the
+    bag's ground truth (least squares along the path)."""
     from umbmark.cli.options import kinematic_joints, kinematic_nominal
     from umbmark.model.timing import parse_time_offset
     from umbmark.realrobot.kinematic_replay import kinematic_replay_from_bag
@@ -225,23 +310,20 @@ def kinematic_replay_cmd(kind: str, paths, method: str, save, as_json, record, k
     if len(paths) != 1:
         raise InputError(f"--kinematics {kind} replays one bag at a time, got {len(paths)}")
     ctx = click.get_current_context(silent=True)
+    keep = _replay_keep()
     for key in kw:
         given = ctx is not None and ctx.get_parameter_source(key) not in (
             None,
             click.core.ParameterSource.DEFAULT,
             click.core.ParameterSource.DEFAULT_MAP,
         )
-        if given and key not in _REPLAY_KEEP:
+        if given and key not in keep:
             raise InputError(f"--{key.replace('_', '-')} is not for --kinematics {kind}")
     if not kw.get("gt_topic"):
         raise InputError(f"--kinematics {kind} replays against a ground truth: give --gt-topic TOPIC")
     nominal = kinematic_nominal(kind, kw)
     joints = kinematic_joints(kind, kw)
-    fit = None
-    if kind != "tricycle" and kw.get("fit_steering_scale"):
-        raise InputError("--fit-steering-scale is a tricycle's")
-    if kw.get("fit_steering_scale"):
-        fit = ("wheel_diameter_m", "wheelbase_m", "steering_offset_rad", "steering_scale")
+    fit = _fit(kind_named(kind), kw)
     offset = parse_time_offset(kw.get("time_offset"))
     rep = kinematic_replay_from_bag(
         paths[0],
@@ -277,7 +359,7 @@ def kinematic_replay_cmd(kind: str, paths, method: str, save, as_json, record, k
     rows = _rows(d) + _pose_rows("marker", d["marker_pose"])
     c.print(
         table(
-            f"Geometry of a {_NOUN[d['kinematics']]} against the ground truth",
+            f"Geometry of a {kind_named(d['kinematics']).noun} against the ground truth",
             ["", "estimate", "95 % interval", "nominal"],
             rows,
         )

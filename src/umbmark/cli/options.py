@@ -12,7 +12,12 @@ import math
 from umbmark._check import positive_or_none
 from umbmark.errors import InputError
 
-__all__ = ["wheel_source", "read_options", "length_m", "given_nominal_m", "nominal_m", "parse_joints"]
+__all__ = ["flag", "wheel_source", "read_options", "length_m", "given_nominal_m", "nominal_m", "parse_joints"]
+
+
+def flag(option: str) -> str:
+    """The command line's flag of a library's option name (``drive_joint`` -> ``--drive-joint``)."""
+    return "--" + option.replace("_", "-")
 
 
 def parse_joints(text: str) -> tuple[str, str]:
@@ -138,63 +143,75 @@ def read_options(kw: dict):
 
 
 def kinematic_nominal(kind: str, kw: dict):
-    """The nominal geometry of a tricycle or mecanum robot from ``--wheel-diameter-mm`` (or
-    ``--wheel-radius-m``) and ``--wheelbase-mm`` (a tricycle) or ``--lx-plus-ly-mm`` (mecanum).
+    """The nominal geometry of a robot of a kind of its own from its sizes' flags
+    (:attr:`umbmark.kinds.Kind.sizes`: ``--wheel-diameter-mm`` or ``--wheel-radius-m``, a
+    tricycle's ``--wheelbase-mm``, a mecanum robot's ``--lx-plus-ly-mm``).
 
     Raises
     ------
     InputError
-        A missing or non-positive size, or one that belongs to another kind.
+        A size of another kind, a missing or non-positive size.
     """
-    from umbmark.model.kinematics import Mecanum, Tricycle
+    from umbmark.kinds import KINDS, kind_named, kinds_with
 
-    d = length_m(kw, "wheel_diameter_mm", "wheel_radius_m", 2.0, both="refuse")
-    if d is None:
-        raise InputError("give the nominal wheel size: --wheel-diameter-mm D or --wheel-radius-m R (one of them)")
-    if kw.get("wheel_separation_m") is not None:
-        raise InputError(f"--wheel-separation-m is a differential drive's; a {kind} has none")
-    if kind == "tricycle":
-        if kw.get("lx_plus_ly_mm") is not None:
-            raise InputError("--lx-plus-ly-mm is a mecanum robot's; a tricycle has --wheelbase-mm")
-        positive_or_none("--wheelbase-mm", kw.get("wheelbase_mm"))
-        if kw.get("wheelbase_mm") is None:
-            raise InputError(
-                "give the nominal wheelbase of the tricycle: --wheelbase-mm L (rear axle to steered wheel)"
-            )
-        return Tricycle(d, kw["wheelbase_mm"] * 1e-3)
-    if kw.get("wheelbase_mm") is not None:
-        raise InputError("--wheelbase-mm is a tricycle's or differential drive's; a mecanum robot has --lx-plus-ly-mm")
-    positive_or_none("--lx-plus-ly-mm", kw.get("lx_plus_ly_mm"))
-    if kw.get("lx_plus_ly_mm") is None:
-        raise InputError(
-            "give the nominal --lx-plus-ly-mm S (half the wheelbase plus half the track) of the mecanum robot"
-        )
-    return Mecanum.uniform(d, kw["lx_plus_ly_mm"] * 1e-3)
+    k = kind_named(kind)
+    own = {s.option for s in k.sizes} | {s.alternative.option for s in k.sizes if s.alternative is not None}
+    common = set.intersection(*({s.option for s in x.sizes} for x in KINDS.values()))
+    mine = " and ".join(flag(s.option) for s in k.sizes if s.option not in common) or "none"
+    for x in KINDS.values():
+        for s in x.sizes:
+            for name in (s.option, *(() if s.alternative is None else (s.alternative.option,))):
+                if name not in own and kw.get(name) is not None:
+                    owners = " or ".join(f"{o.noun}'s" for o in kinds_with(name))
+                    raise InputError(f"{flag(name)} is a {owners}; a {k.noun} has {mine}")
+    sizes: dict[str, float] = {}
+    for s in k.sizes:
+        alt = s.alternative
+        if alt is not None:
+            v = length_m(kw, s.option, alt.option, alt.factor, both="refuse")
+        else:
+            positive_or_none(flag(s.option), kw.get(s.option))
+            v = None if kw.get(s.option) is None else kw[s.option] * 1e-3
+        if v is None:
+            other = "" if alt is None else f" or {flag(alt.option)} {alt.metavar} (one of them)"
+            what = f" ({s.describe})" if s.describe else ""
+            raise InputError(f"give the nominal {s.label} of the {k.noun}: {flag(s.option)} {s.metavar}{other}{what}")
+        sizes[s.option] = v
+    return k.nominal(sizes)
 
 
 def kinematic_joints(kind: str, kw: dict) -> tuple[str, ...]:
-    """The joint names of a tricycle (``--drive-joint``, ``--steer-joint``) or a mecanum robot
-    (``--joints FL,FR,RL,RR``), in the kind's roles' order.
+    """The joint names of a robot of a kind of its own from its joints' flags
+    (:attr:`umbmark.kinds.Kind.joints`: a tricycle's ``--drive-joint`` and ``--steer-joint``, a
+    mecanum robot's ``--joints FL,FR,RL,RR``), in the kind's roles' order.
 
     Raises
     ------
     InputError
         Missing names, or flags of another kind.
     """
+    from umbmark.kinds import KINDS, kind_named, kinds_with
+
     if kw.get("ticks_topic") or kw.get("odom_topic"):
         raise InputError(f"a {kind} is read from its joint states (JointState), not --ticks-topic or --odom-topic")
-    if kind == "tricycle":
-        if kw.get("joints"):
-            raise InputError("a tricycle's joints are --drive-joint NAME and --steer-joint NAME, not --joints")
-        if not kw.get("drive_joint") or not kw.get("steer_joint"):
-            raise InputError("a tricycle needs --drive-joint NAME (the traction wheel) and --steer-joint NAME")
-        return (str(kw["drive_joint"]), str(kw["steer_joint"]))
-    if kw.get("drive_joint") or kw.get("steer_joint"):
-        raise InputError("--drive-joint and --steer-joint are a tricycle's; a mecanum robot has --joints FL,FR,RL,RR")
-    names = [p.strip() for p in str(kw.get("joints") or "").split(",")]
-    if len(names) != 4 or not all(names):
-        raise InputError(
-            "a mecanum robot needs --joints FL,FR,RL,RR (front left, front right, rear left, rear right), "
-            f"got {kw.get('joints')!r}"
-        )
+    k = kind_named(kind)
+    own = [j.option for j in k.joints]
+    wanted = " and ".join(
+        f"{flag(j.option)} {j.metavar}" + (f" ({j.describe})" if j.describe else "") for j in k.joints
+    )
+    foreign = dict.fromkeys(
+        j.option for x in KINDS.values() for j in x.joints if j.option not in own and kw.get(j.option)
+    )
+    if foreign:
+        first = next(iter(foreign))
+        owners = " or ".join(f"{o.noun}'s" for o in kinds_with(first))
+        listed = " and ".join(f"{flag(j.option)} {j.metavar}" for j in k.joints)
+        raise InputError(f"a {k.noun}'s joints are {listed}, not {' or '.join(map(flag, foreign))} (a {owners})")
+    names: list[str] = []
+    for j in k.joints:
+        v = kw.get(j.option)
+        parts = [p.strip() for p in str(v or "").split(",")] if len(j.roles) > 1 else [str(v or "")]
+        if len(parts) != len(j.roles) or not all(parts):
+            raise InputError(f"a {k.noun} needs {wanted}" + (f", got {v!r}" if len(j.roles) > 1 else ""))
+        names += parts
     return tuple(names)

@@ -18,6 +18,7 @@ if TYPE_CHECKING:
 
 from umbmark.cli.app import LOG_FORMAT_CHOICES, app, cli_message, console, emit_json, fmt, is_quiet, table
 from umbmark.cli.config import config_options
+from umbmark.cli.guard import skip_check_option
 from umbmark.cli.history import (
     history_options,
     print_recorded,
@@ -25,9 +26,17 @@ from umbmark.cli.history import (
     record_report_if_requested,
     refuse_if_recorded,
 )
-from umbmark.cli.kinematic import kinematic_options
+from umbmark.cli.kinematic import (
+    export_formats,
+    kinematic_options,
+    own_controllers,
+    own_kinds,
+    refuse_kind_options,
+    steered_titles,
+)
 from umbmark.cli.progress import progress, track
 from umbmark.errors import InputError
+from umbmark.kinds import DEFAULT_KIND, kind_named
 
 __all__ = ["REPLAY_METHOD_CHOICES", "log_options", "replay", "bag_info_cmd", "convert", "export"]
 
@@ -132,6 +141,7 @@ def log_options(f):
             "key time_offset and warned about when over 50 ms; auto subtracts the estimate; SECONDS "
             "subtracts that (positive: ground truth late). CSV logs, optiodom: applied when given.",
         ),
+        skip_check_option,
     ]
     for o in reversed(opts):
         f = o(f)
@@ -256,6 +266,11 @@ def _print_report(rep) -> None:
             f"ground truth late by: {est}, {o['applied_s'] * 1e3:.1f} ms subtracted from its stamps "
             f"({escape(str(where))})"
         )
+    from umbmark.cli.bags import stream_text
+
+    for o in rep.wheel_stream:
+        if o["clock"] != "as recorded" or o["kept"] != o["messages"]:
+            c.print(escape(f"wheel data ({o['bag']}): {stream_text(o)}"))
     for w in rep.warnings:
         c.print(f"[yellow]warning:[/yellow] {escape(cli_message(w))}")
 
@@ -491,18 +506,14 @@ def replay(
     """
     if not (math.isfinite(heading_weight_m) and heading_weight_m >= 0):
         raise InputError(f"--heading-weight-m must be >= 0, got {heading_weight_m!r}")
-    kinematics = kw.pop("kinematics", "diff_drive")
+    kinematics = kw.pop("kinematics", DEFAULT_KIND)
     window_s = _window_s(window, kinematics, pool, stream, noise)
-    if kinematics != "diff_drive":
+    if not kind_named(kinematics).differential:
         from umbmark.cli.kinematic import kinematic_replay_cmd
 
         kinematic_replay_cmd(kinematics, paths, method, save, as_json, record, kw)
         return
-    for flag in ("drive_joint", "steer_joint", "lx_plus_ly_mm"):
-        if kw.pop(flag, None) is not None:
-            raise InputError(f"--{flag.replace('_', '-')} needs --kinematics tricycle or mecanum")
-    if kw.pop("fit_steering_scale", False):
-        raise InputError("--fit-steering-scale needs --kinematics tricycle")
+    refuse_kind_options(kw, pop=True)
     from umbmark._files import check_distinct_inputs
 
     check_distinct_inputs([p for p in paths if Path(p).exists()])
@@ -580,7 +591,7 @@ def _window_s(window, kinematics, pool, stream, noise=False) -> float | None:
     they do not go with."""
     for asked, name in ((window is not None, "--window"), (noise, "--noise")):
         for given, flag in (
-            (kinematics != "diff_drive", f"--kinematics {kinematics}"),
+            (not kind_named(kinematics).differential, f"--kinematics {kinematics}"),
             (pool, "--pool"),
             (stream, "--stream"),
         ):
@@ -940,10 +951,10 @@ def _ros_size_notes(cal, wheel_radius_m: float | None, wheel_separation_m: float
 @click.option(
     "--format",
     "out_format",
-    type=click.Choice(["ros2", "ros1", "json", "firmware", "urdf", "tf"]),
+    type=click.Choice(export_formats()),
     required=True,
-    help="ros2/ros1: diff_drive_controller parameters (a tricycle's or mecanum robot's self-calibration: "
-    "tricycle_controller or mecanum_drive_controller, ros2 only); json; firmware: C header (mm per pulse); "
+    help=f"ros2/ros1: diff_drive_controller parameters ({own_kinds()} self-calibration: "
+    f"{own_controllers()}, ros2 only); json; firmware: C header (mm per pulse); "
     "urdf, tf: the lidar pose of a self-calibration (URDF origin, static_transform_publisher).",
 )
 @click.option("--dataset", default=None, help="Data set to take from a replay JSON of several.")
@@ -953,22 +964,22 @@ def _ros_size_notes(cal, wheel_radius_m: float | None, wheel_separation_m: float
 @click.option(
     "--controller",
     default=None,
-    help="Controller name (ros) [default: diff_drive_controller; tricycle_controller or mecanum_drive_controller "
-    "for those kinds].",
+    help=f"Controller name (ros) [default: diff_drive_controller; {own_controllers()} for those kinds].",
 )
 @click.option(
     "--steering-offset-in-use-deg",
     type=float,
     default=0.0,
     show_default=True,
-    help="Tricycle: the offset of the steering joint's transmission when the bag was recorded.",
+    help=f"{steered_titles()}: the offset of the steering joint's transmission when the bag was recorded.",
 )
 @click.option(
     "--steering-reduction-in-use",
     type=float,
     default=1.0,
     show_default=True,
-    help="Tricycle: the mechanical_reduction of the steering joint's transmission when the bag was recorded.",
+    help=f"{steered_titles()}: the mechanical_reduction of the steering joint's transmission when the bag was "
+    "recorded.",
 )
 @click.option(
     "--left-multiplier",
@@ -1096,7 +1107,7 @@ def export(
             return
     controller = "diff_drive_controller" if controller is None else controller
     if (steering_offset_in_use_deg, steering_reduction_in_use) != (0.0, 1.0):
-        raise InputError("--steering-offset-in-use-deg and --steering-reduction-in-use are a tricycle's")
+        raise InputError(f"--steering-offset-in-use-deg and --steering-reduction-in-use are {own_kinds(steered=True)}")
     if calibration is not None:
         if any(v is not None for v in flags):
             raise InputError("give CAL.json or --c-left/--c-right/--eb, not both")
@@ -1202,14 +1213,14 @@ def _with_sensor_height(cal, sensor_z_mm, out_format):
 
 
 def _kinematic_json(path) -> dict | None:
-    """The JSON of a tricycle's or mecanum robot's self-calibration, else None."""
+    """The JSON of the self-calibration of a robot of a kind of its own (a tricycle's), else None."""
     from umbmark.io.export_kinematic import read_kinematic_json
 
     return read_kinematic_json(path)
 
 
 def _export_kinematic(d, src, out_format, controller, sensor_z_mm, out, record, steering, given) -> None:
-    """``umbmark export`` of a tricycle's or mecanum robot's self-calibration."""
+    """``umbmark export`` of the self-calibration of a robot of a kind of its own (:mod:`umbmark.kinds`)."""
     from dataclasses import replace
 
     from umbmark.io.export_kinematic import format_kinematic_export, kinematic_calibration_from_dict
@@ -1226,8 +1237,10 @@ def _export_kinematic(d, src, out_format, controller, sensor_z_mm, out, record, 
         x, y, _, roll, pitch, yaw = cal.sensor_pose
         cal = replace(cal, sensor_pose=(x, y, sensor_z_mm * 1e-3, roll, pitch, yaw), sensor_height_known=True)
     offset_deg, reduction = steering
-    if cal.kind != "tricycle" and (offset_deg, reduction) != (0.0, 1.0):
-        raise InputError("--steering-offset-in-use-deg and --steering-reduction-in-use are a tricycle's", src)
+    if not kind_named(cal.kind).steered and (offset_deg, reduction) != (0.0, 1.0):
+        raise InputError(
+            f"--steering-offset-in-use-deg and --steering-reduction-in-use are {own_kinds(steered=True)}", src
+        )
     text = format_kinematic_export(
         cal,
         out_format,

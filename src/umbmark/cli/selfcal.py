@@ -17,12 +17,14 @@ from pathlib import Path
 import click
 
 from umbmark.cli.app import app, cli_message, console, emit_json, fmt, is_quiet, table
-from umbmark.cli.bags import Bars, interval_options, kind_of, start_kernels
+from umbmark.cli.bags import Bars, interval_options, kind_of, start_kernels, stream_text
 from umbmark.cli.config import config_options
+from umbmark.cli.guard import skip_check_option
 from umbmark.cli.history import history_options, print_recorded, record_if_requested, refuse_if_recorded
-from umbmark.cli.kinematic import kinematic_options
+from umbmark.cli.kinematic import joints_help, kinematic_options, refuse_kind_options
 from umbmark.cli.progress import progress
 from umbmark.errors import InputError
+from umbmark.kinds import kind_named
 
 __all__ = ["selfcal_cmd", "LEGEND"]
 
@@ -89,6 +91,8 @@ def _print_report(d: dict, again: str, export: str) -> None:
                     f"{b['intervals_still']} without wheel motion set aside"
                 )
             )
+            if b.get("wheel_stream"):
+                c.print(escape(f"  wheel data: {stream_text(b['wheel_stream'])}"))
             if b["failure_reasons"]:
                 why = "; ".join(f"{n} {r}" for r, n in b["failure_reasons"].items())
                 c.print(escape(f"  failed matches: {why}"))
@@ -158,7 +162,7 @@ def _print_report(d: dict, again: str, export: str) -> None:
     "--joints",
     default=None,
     metavar="LEFT,RIGHT",
-    help="Bag: JointState names of the wheels (mecanum: FL,FR,RL,RR).",
+    help=joints_help("Bag: JointState names of the wheels"),
 )
 @click.option("--joint-topic", default="/joint_states", show_default=True, help="Bag: JointState topic.")
 @click.option("--ticks-topic", default=None, help="Bag: topic with encoder counts (instead of --joints).")
@@ -260,6 +264,7 @@ def _print_report(d: dict, again: str, export: str) -> None:
     "(JSON key windows); with --record, each window is recorded with its own date (for `umbmark drift`).",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+@skip_check_option
 @history_options
 @config_options
 def selfcal_cmd(
@@ -303,7 +308,7 @@ def selfcal_cmd(
         from umbmark.cli.selfcal_windows import window_seconds
 
         window_s = window_seconds(window)
-    if kinematics != "diff_drive":
+    if not kind_named(kinematics).differential:
         from umbmark.cli.kinematic import kinematic_selfcal_cmd
 
         if window_s is not None:
@@ -319,11 +324,7 @@ def selfcal_cmd(
         )
         kinematic_selfcal_cmd(kinematics, paths, min_intervals, keep_outliers, save, as_json, record, {**kw, **sizes})
         return
-    for flag in ("drive_joint", "steer_joint", "lx_plus_ly_mm"):
-        if kw.get(flag) is not None:
-            raise InputError(f"--{flag.replace('_', '-')} needs --kinematics tricycle or mecanum")
-    if kw.get("fit_steering_scale"):
-        raise InputError("--fit-steering-scale needs --kinematics tricycle")
+    refuse_kind_options(kw)
     d_m, b_m = nominal_m(
         dict(
             wheel_diameter_mm=wheel_diameter_mm,

@@ -19,6 +19,7 @@ import click
 from umbmark._numbers import strict_float
 from umbmark.cli.app import app, cli_message, console, emit_json, fmt, is_quiet, table
 from umbmark.cli.config import config_options
+from umbmark.cli.guard import skip_check_option
 from umbmark.cli.selfcal import selfcal_cmd
 from umbmark.errors import InputError
 
@@ -222,6 +223,7 @@ def _print_report(d: dict) -> None:
 )
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @config_options
+@skip_check_option
 def validate_cmd(
     log,
     calibration,

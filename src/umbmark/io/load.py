@@ -323,6 +323,7 @@ def _load_bag(paths: list, opts: LogOptions) -> Dataset:
             "warnings": tuple(warnings),
             "sources": tuple(str(p) for p in paths),
             "time_offset": tuple(o for ds in sets for o in ds.meta.get("time_offset") or ()),
+            "wheel_stream": tuple(o for ds in sets for o in ds.meta.get("wheel_stream") or ()),
         },
     )
 

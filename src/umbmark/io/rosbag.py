@@ -39,9 +39,11 @@ from pathlib import Path
 
 import numpy as np
 
+from umbmark._check import refusal
 from umbmark.errors import InputError
 from umbmark.io.wheels import ONE_WHEEL_SOURCE, WheelData, WheelSource
 from umbmark.model.dataset import Dataset, Run, WheelGeometry, replay_increments, split_at_stops
+from umbmark.model.wheel_stream import StreamReport
 
 __all__ = [
     "read_bag",
@@ -524,6 +526,7 @@ class _WheelMessages:
             cumulative=w.cumulative,
             wrapped_turn=2.0 * math.pi if w.kind == "joints" else None,
             poses=odom,
+            heading=np.asarray(self.yaw, dtype=float) if odom else None,
             what=w.what,
             topic=w.topic,
             source=src,
@@ -539,13 +542,13 @@ class _WheelMessages:
         if not odom:
             joints = p if w.kind == "joints" else None
             if not w.two_wheels:
-                return WheelData(w, chk.t, None, None, warnings=tuple(warnings), joints=joints)
-            return WheelData(w, chk.t, p[:, 0], p[:, 1], warnings=tuple(warnings), joints=joints)
+                return WheelData(w, chk.t, None, None, warnings=tuple(warnings), joints=joints, stream=chk.report)
+            return WheelData(w, chk.t, p[:, 0], p[:, 1], warnings=tuple(warnings), joints=joints, stream=chk.report)
         pose = np.column_stack([p[:, 0], p[:, 1], np.asarray(self.yaw, dtype=float)[chk.kept]])
         if not np.all(np.isfinite(pose)):
             raise InputError(f"the odometry poses on {w.topic} contain NaN or infinite values", src)
         child = sorted(self.child_frames)[0] if len(self.child_frames) == 1 else None
-        return WheelData(w, chk.t, None, None, pose, child, tuple(warnings))
+        return WheelData(w, chk.t, None, None, pose, child, tuple(warnings), stream=chk.report)
 
 
 def _wheel_hint(reader) -> str:
@@ -782,6 +785,8 @@ def read_bag(
     meta: dict[str, object] = {"format": "bag", "warnings": tuple(warnings)}
     if chk.time_offset is not None:
         meta["time_offset"] = ({"bag": src, **chk.time_offset.to_dict()},)
+    if wd.stream is not None:
+        meta["wheel_stream"] = ({"bag": src, **wd.stream.to_dict()},)
     return Dataset(name or Path(path).stem, nominal, upr, tuple(runs), side_m, src, meta=meta)
 
 
@@ -852,6 +857,8 @@ class SelfcalBag:
         cumulative, steering joints their angle).
     joint_names : tuple of str
         Their names (empty without joint states).
+    wheel_stream : StreamReport or None
+        What the check of the wheel data found and did (rate, bursts, messages dropped and why).
     """
 
     source: str
@@ -873,6 +880,7 @@ class SelfcalBag:
     warnings: tuple[str, ...] = ()
     joint_positions: np.ndarray | None = None
     joint_names: tuple[str, ...] = ()
+    wheel_stream: StreamReport | None = None
 
     @property
     def n_scans(self) -> int:
@@ -995,14 +1003,20 @@ class _Scans:
         med = float(np.median(fin)) if fin.size else math.nan
         raw = float(np.median(self.raw_medians)) if self.raw_medians else math.nan
         unit = "millimetres (or centimetres)"
-        if med > MAX_MEDIAN_RANGE_M:
-            raise InputError(
+        err = (
+            refusal(
+                "scan_units",
                 f"the ranges on {self.topic} look like {unit}, not metres: their median is {med:.6g} "
                 f"(range_max {hi:g}), where a lidar sees the walls around it within tens of metres "
                 f"(no 2D lidar's median beyond {MAX_MEDIAN_RANGE_M:g} m); LaserScan ranges are in metres: "
                 "publish them in metres",
                 self.src,
             )
+            if med > MAX_MEDIAN_RANGE_M
+            else None
+        )
+        if err is not None:
+            raise err
         if not fin.size and raw >= hi and lo <= raw / 1000.0 < hi:
             raise InputError(
                 f"every range on {self.topic} is at or beyond range_max {hi:g}: their median is {raw:.6g}, "
@@ -1131,6 +1145,7 @@ def read_selfcal_bag(
         warnings=tuple(warnings) + wd.warnings,
         joint_positions=wd.joints,
         joint_names=tuple(wheels.joints or ()),
+        wheel_stream=wd.stream,
     )
 
 

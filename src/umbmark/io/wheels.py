@@ -32,6 +32,7 @@ from numpy.typing import NDArray
 from umbmark.errors import InputError
 from umbmark.model.dataset import wheel_angles_from_poses
 from umbmark.model.geometry import WheelGeometry
+from umbmark.model.wheel_stream import StreamReport
 
 __all__ = ["WheelSource", "WheelData", "TICK_MODES", "WHEEL_KINDS", "MAX_PULSES_PER_WHEEL_REV", "ONE_WHEEL_SOURCE"]
 
@@ -262,6 +263,8 @@ class WheelData:
         ``(K, J)`` every joint's position [rad] in the order of :attr:`WheelSource.joints`
         (rolling joints cumulative, steering joints their angle); None for encoder counts and
         odometry.
+    stream : StreamReport or None
+        What the check of the stream found and did (rate, bursts, messages dropped and why).
     """
 
     source: WheelSource
@@ -272,6 +275,7 @@ class WheelData:
     odom_child_frame: str | None = None
     warnings: tuple[str, ...] = ()
     joints: FloatArray | None = None
+    stream: StreamReport | None = None
 
     @property
     def kind(self) -> str:

@@ -13,14 +13,16 @@ imports no other layer of umbmark.
 * :mod:`~umbmark.model.batch`: the same simulation for many robots at once;
 * :mod:`~umbmark.model.drive`: a robot driving a program of commands in a room, with its
   wheel data, lidar scans and gyro (the simulated recordings of the real-robot tools);
-* :mod:`~umbmark.model.kinematics`: the differential drive, tricycle and mecanum kinematics behind
-  one interface, and the joints' steps of a self-calibration;
-* :mod:`~umbmark.model.kinematic_drive`: a tricycle or mecanum robot driving in a room (its joint
-  states, lidar scans and true poses);
+* :mod:`~umbmark.model.kinematics`: the one interface of every kind of robot's kinematics (the
+  kinds are :mod:`umbmark.kinds`), and the joints' steps of a self-calibration;
+* :mod:`~umbmark.model.kinematic_drive`: a robot of any kind (a tricycle, a mecanum robot)
+  driving in a room (its joint states, lidar scans and true poses);
 * :mod:`~umbmark.model.sensors`: the room, the lidar and the gyro;
 * :mod:`~umbmark.model.intervals`: the intervals of a self-calibration;
 * :mod:`~umbmark.model.se2`: planar poses (compose, inverse, between);
-* :mod:`~umbmark.model.timing`: the stamps of logged streams, their checks and time offsets.
+* :mod:`~umbmark.model.timing`: the stamps of logged streams, their checks and time offsets
+  (with :mod:`~umbmark.model.stamps`, :mod:`~umbmark.model.arrival` for streams stamped on
+  arrival, and :mod:`~umbmark.model.wheel_stream` for the wheel data's one check).
 
 The names below are importable from here (``from umbmark.model import simulate_batch``); each
 module is imported when one of its names is first used, so importing a submodule costs only
@@ -121,11 +123,7 @@ _LAZY = {
     ),
     **dict.fromkeys(
         (
-            "KINEMATICS",
             "Kinematics",
-            "DiffDrive",
-            "Tricycle",
-            "Mecanum",
             "JointSteps",
             "JointIntervals",
             "joint_intervals_from_motion",
@@ -162,6 +160,7 @@ _LAZY = {
             "check_joint_stream",
             "JointStream",
             "StreamCheck",
+            "StreamReport",
             "check_streams",
             "check_truth_stream",
             "align_truth",

@@ -48,6 +48,8 @@ __all__ = [
     "LABMATE",
     "wrap_angle",
     "ROBOT_SIZES_M",
+    "Quantity",
+    "QUANTITIES",
     "unit_slip",
     "FAR_FROM_NOMINAL",
     "nominal_slip",
@@ -58,14 +60,89 @@ __all__ = [
 ROBOT_SIZES_M: dict[str, tuple[float, float]] = {"diameter": (0.01, 3.0), "wheelbase": (0.02, 10.0)}
 
 
-def unit_slip(kind: str, value_m: float, unit: str) -> str | None:
+@dataclass(frozen=True)
+class Quantity:
+    """A size of a robot's geometry as the checks of a given value know it: what it is called, the
+    sizes a robot can have, how far an estimate may stray from it, the slips that give other factors.
+
+    The built-in ones (:data:`QUANTITIES`) are a wheel's diameter and radius and the wheelbase; a
+    kind of robot with a size of its own declares it (:mod:`umbmark.kinds`, e.g. a mecanum robot's
+    ``lx + ly``).
+
+    Parameters
+    ----------
+    name : str
+        Its name (``"wheelbase"``).
+    what : str
+        How a message names it (``"wheelbase"``, ``"wheel's diameter"``).
+    range_m : tuple of float
+        ``(low, high)`` the sizes a robot can have [m].
+    far : tuple of float, optional
+        ``(low, high)``: an estimate outside these factors of the nominal is no odometry error
+        (None: the quantity is not estimated).
+    slips : tuple
+        ``(factor, text)``: an estimate about ``factor`` times the nominal (within 20 %) is
+        likely the slip ``text`` says.
+    """
+
+    name: str
+    what: str
+    range_m: tuple[float, float]
+    far: tuple[float, float] | None = None
+    slips: tuple[tuple[float, str], ...] = ()
+
+
+# an estimate outside these factors of its nominal size is no odometry error (corrections of real
+# wheels stay within 0.8 to 1.25; a skid-steer robot's effective wheelbase is up to about twice its
+# track): the nominal size was given in another unit or as another quantity
+QUANTITIES: dict[str, Quantity] = {
+    "diameter": Quantity(
+        "diameter",
+        "wheel's diameter",
+        ROBOT_SIZES_M["diameter"],
+        (1 / 1.5, 1.5),
+        (
+            (0.5, "a diameter given as the radius (`wheel_radius_m` takes half the diameter)?"),
+            (2.0, "a radius given as the diameter (`wheel_diameter_mm` takes twice the radius)?"),
+        ),
+    ),
+    "radius": Quantity(
+        "radius", "wheel's radius", (ROBOT_SIZES_M["diameter"][0] / 2, ROBOT_SIZES_M["diameter"][1] / 2)
+    ),
+    "wheelbase": Quantity(
+        "wheelbase",
+        "wheelbase",
+        ROBOT_SIZES_M["wheelbase"],
+        (1 / 1.5, 2.5),
+        ((0.5, "a size twice the wheelbase given (the distance between the wheels' contact points)?"),),
+    ),
+}
+"""The sizes every kind of robot has, by name."""
+
+FAR_FROM_NOMINAL = {k: q.far for k, q in QUANTITIES.items() if q.far is not None}
+_UNIT_SLIPS = (
+    (1e-3, "millimetres given as metres?"),
+    (1e3, "metres given as millimetres?"),
+    (25.4, "inches given as millimetres?"),
+)
+
+
+def _quantity(kind: str | Quantity) -> Quantity:
+    if isinstance(kind, Quantity):
+        return kind
+    if kind not in QUANTITIES:
+        raise ValueError(f"unknown kind {kind!r}")
+    return QUANTITIES[kind]
+
+
+def unit_slip(kind: str | Quantity, value_m: float, unit: str) -> str | None:
     """Why a wheel size or wheelbase cannot be a robot's, naming the unit mistake it shows.
 
     Parameters
     ----------
-    kind : str
-        ``"diameter"``, ``"radius"``, ``"wheelbase"`` or ``"lx_plus_ly"`` (a mecanum robot's half
-        wheelbase plus half track, within a wheelbase's range).
+    kind : str or Quantity
+        ``"diameter"``, ``"radius"``, ``"wheelbase"`` (:data:`QUANTITIES`), or a kind's own
+        :class:`Quantity` (a mecanum robot's half wheelbase plus half track).
     value_m : float
         The size as given, converted to metres with its stated unit.
     unit : str
@@ -78,19 +155,15 @@ def unit_slip(kind: str, value_m: float, unit: str) -> str | None:
         half a diameter); else a sentence such as ``"0.15 mm is no wheel's diameter (...):
         given in metres? 0.15 m is 150 mm"``.
     """
-    if kind not in ("diameter", "radius", "wheelbase", "lx_plus_ly"):
-        raise ValueError(f"unknown kind {kind!r}")
+    q = _quantity(kind)
     if not math.isfinite(value_m) or value_m <= 0:
         return None  # a sign or a NaN is the callers' own check
-    lo, hi = ROBOT_SIZES_M["diameter" if kind in ("diameter", "radius") else "wheelbase"]
-    if kind == "radius":
-        lo, hi = lo / 2, hi / 2
+    lo, hi = q.range_m
     if lo <= value_m <= hi:
         return None
     scale = 1e-3 if unit == "mm" else 1.0
     given = value_m / scale
-    what = {"wheelbase": "wheelbase", "lx_plus_ly": "mecanum robot's lx + ly"}.get(kind, f"wheel's {kind}")
-    text = f"{given:g} {unit} is no {what} (a robot's is {lo / scale:g} to {hi / scale:g} {unit})"
+    text = f"{given:g} {unit} is no {q.what} (a robot's is {lo / scale:g} to {hi / scale:g} {unit})"
     if unit == "mm" and value_m < lo:
         return f"{text}: given in metres? {given:g} m is {given * 1000.0:g} mm"
     if unit == "m" and value_m > hi:
@@ -98,50 +171,32 @@ def unit_slip(kind: str, value_m: float, unit: str) -> str | None:
     return text
 
 
-# an estimate outside these factors of its nominal size is no odometry error (corrections of real
-# wheels stay within 0.8 to 1.25; a skid-steer robot's effective wheelbase is up to about twice its
-# track): the nominal size was given in another unit or as another quantity
-FAR_FROM_NOMINAL = {"diameter": (1 / 1.5, 1.5), "wheelbase": (1 / 1.5, 2.5), "lx_plus_ly": (1 / 1.5, 2.0)}
-# the factors a slip gives (the estimate over the nominal), each within 20 %
-_SLIPS = {
-    "diameter": (
-        (0.5, "a diameter given as the radius (`wheel_radius_m` takes half the diameter)?"),
-        (2.0, "a radius given as the diameter (`wheel_diameter_mm` takes twice the radius)?"),
-    ),
-    "wheelbase": ((0.5, "a size twice the wheelbase given (the distance between the wheels' contact points)?"),),
-    "lx_plus_ly": ((0.5, "the wheelbase plus the track given (lx + ly is half of each)?"),),
-}
-_UNIT_SLIPS = (
-    (1e-3, "millimetres given as metres?"),
-    (1e3, "metres given as millimetres?"),
-    (25.4, "inches given as millimetres?"),
-)
-
-
-def nominal_slip(kind: str, ratio: float) -> str | None:
+def nominal_slip(kind: str | Quantity, ratio: float) -> str | None:
     """What an estimated size ``ratio`` times its nominal one says of the nominal.
 
     Parameters
     ----------
-    kind : str
-        ``"diameter"`` (a wheel's, or the mean of the wheels), ``"wheelbase"`` or
-        ``"lx_plus_ly"`` (a mecanum robot's).
+    kind : str or Quantity
+        ``"diameter"`` (a wheel's, or the mean of the wheels), ``"wheelbase"``, or a kind's own
+        :class:`Quantity` (a mecanum robot's ``lx + ly``).
     ratio : float
         The estimate (from the data) over the nominal size given.
 
     Returns
     -------
     str or None
-        None within :data:`FAR_FROM_NOMINAL` (a robot's own error); else the likely slip,
-        e.g. ``"a diameter given as the radius (...)?"`` for 0.5 with a diameter, or the
-        unit it is in; ``"the nominal size is in another unit or another quantity"`` otherwise.
+        None within the quantity's ``far`` factors (:data:`FAR_FROM_NOMINAL`: a robot's own
+        error); else the likely slip, e.g. ``"a diameter given as the radius (...)?"`` for 0.5
+        with a diameter, or the unit it is in; ``"the nominal size is in another unit or another
+        quantity"`` otherwise.
     """
-    if kind not in FAR_FROM_NOMINAL:
-        raise ValueError(f"unknown kind {kind!r}")
-    lo, hi = FAR_FROM_NOMINAL[kind]
+    q = _quantity(kind)
+    if q.far is None:
+        raise ValueError(f"unknown kind {q.name!r}")
+    lo, hi = q.far
     if not (math.isfinite(ratio) and ratio > 0) or lo <= ratio <= hi:
         return None
-    for factor, text in (*_SLIPS[kind], *_UNIT_SLIPS):
+    for factor, text in (*q.slips, *_UNIT_SLIPS):
         if abs(math.log(ratio / factor)) < math.log(1.2):
             return text
     return "the nominal size is in another unit or another quantity?"

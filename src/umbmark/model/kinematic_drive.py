@@ -1,4 +1,4 @@
-"""A simulated tricycle or mecanum robot (any :mod:`~umbmark.model.kinematics`) with a lidar, driving in a room.
+"""A simulated robot of any kind (:mod:`umbmark.kinds`: a tricycle, a mecanum robot) with a lidar, driving in a room.
 
 Pure numpy: imports numpy and the lower modules of :mod:`umbmark.model`. SI units, world frame
 of the room. The differential drive's own simulator is :mod:`umbmark.model.drive`; this one
@@ -15,8 +15,9 @@ rolling joint (not seen), steering-angle reading noise and encoder quantisation.
 from the exact true pose (the sample's constant twist, a fraction of the way along).
 
 :func:`kinematic_program` plans moves that keep the robot in the room and excite every
-parameter of its kind; :func:`simulate_kinematic_drive` drives them into a
-:class:`JointDriveLog`.
+parameter of its kind (the moves its geometry names,
+:attr:`~umbmark.model.kinematics.Kinematics.moves`); :func:`simulate_kinematic_drive` drives
+them into a :class:`JointDriveLog`.
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from umbmark.errors import InputError
 from umbmark.model.drive import default_start
-from umbmark.model.kinematics import JointSteps, Kinematics, Mecanum, Tricycle, integrate_steps, twist_displacement
+from umbmark.model.kinematics import JointSteps, Kinematics, integrate_steps, twist_displacement
 from umbmark.model.se2 import Pose, between, compose
 from umbmark.model.sensors import Lidar, Room, SensorPose
 from umbmark.model.simulate import child_seeds
@@ -42,7 +43,7 @@ __all__ = [
     "JointDriveLog",
     "simulate_kinematic_drive",
     "kinematic_program",
-    "PROGRAM_KINDS",
+    "MOVES",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -311,21 +312,12 @@ def _sample_joints(
             if noise.steer_sd_rad > 0 and rng is not None:
                 reported[:, j] = path + noise.steer_sd_rad * rng.standard_normal(big_n + 1)
     if noise.slip_m_per_sqrt_m > 0 and rng is not None:
-        radii = 0.5 * _rolling_diameters(robot.true)
+        radii = 0.5 * np.asarray(robot.true.rolling_diameters_m(), dtype=float)
         cols = np.flatnonzero(rolling)
         travel = ground[:, cols] * radii
         travel = travel + noise.slip_m_per_sqrt_m * np.sqrt(np.abs(travel)) * rng.standard_normal(travel.shape)
         ground[:, cols] = travel / radii
     return reported, ground, end
-
-
-def _rolling_diameters(k: Kinematics) -> FloatArray:
-    if isinstance(k, Tricycle):
-        return np.array([k.wheel_diameter_m])
-    if isinstance(k, Mecanum):
-        return np.asarray(k.wheel_diameters_m, dtype=float)
-    v = k.vector()
-    return np.asarray(v[:2], dtype=float)
 
 
 def simulate_kinematic_drive(
@@ -427,12 +419,10 @@ def simulate_kinematic_drive(
 
 
 # ---------------------------------------------------------------- programs
-PROGRAM_KINDS = {
-    "tricycle": ("straight", "back", "arc+", "arc-", "spin+", "spin-"),
-    "mecanum": ("straight", "back", "left", "right", "diagonal", "arc+", "arc-", "spin+", "spin-"),
-    "diff_drive": ("straight", "back", "arc+", "arc-", "spin+", "spin-"),
-}
-"""The moves :func:`kinematic_program` draws for each kind of robot."""
+MOVES = ("straight", "back", "left", "right", "diagonal", "arc+", "arc-", "spin+", "spin-")
+"""The moves :func:`kinematic_program` can draw: forward, backward, sideways left and right, in
+any direction, arcs and spins counter-clockwise (``+``) and clockwise (``-``). Each kind of robot
+names those it can make (:attr:`~umbmark.model.kinematics.Kinematics.moves`)."""
 
 
 def _draw(kind: str, rng: np.random.Generator) -> Move:
@@ -476,7 +466,8 @@ def kinematic_program(
 ) -> tuple[tuple[Move, ...], Pose]:
     """Random moves of every kind the robot can make that keep it in the room.
 
-    Moves are drawn in rounds of :data:`PROGRAM_KINDS` (each round in a random order; a
+    Moves are drawn in rounds of the robot's moves (its geometry's
+    :attr:`~umbmark.model.kinematics.Kinematics.moves`, each round in a random order; a
     tricycle that cannot spin is given ``kinds`` without ``spin+`` / ``spin-``), each followed
     by a pause long enough for the steering to reach the next move's angle. A candidate is
     driven noise free with the robot's TRUE geometry from where the moves before left it, and
@@ -493,7 +484,7 @@ def kinematic_program(
     room : Room, optional
     start_pose : array_like, optional
     kinds : sequence of str, optional
-        The moves to draw from (default the robot's kind's :data:`PROGRAM_KINDS`).
+        The moves to draw from (some of :data:`MOVES`; default the robot's own).
     clearance_m : float
         Least distance to any wall [m].
     wheel_rate_hz : float
@@ -512,8 +503,8 @@ def kinematic_program(
         An unknown move kind, a start near a wall, or no move fits.
     """
     room = Room.default() if room is None else room
-    pool = tuple(PROGRAM_KINDS[robot.kind] if kinds is None else kinds)
-    known = set(PROGRAM_KINDS["mecanum"])
+    pool = tuple(robot.nominal.moves if kinds is None else kinds)
+    known = set(MOVES)
     if not pool or not set(pool) <= known:
         raise InputError(f"`kinds` must be some of {', '.join(sorted(known))}, got {pool!r}")
     if not (math.isfinite(duration_s) and duration_s > 0):

@@ -1,4 +1,4 @@
-"""Wheeled-robot kinematics: what the joints' motion makes the robot do, for three kinds of robot.
+"""Wheeled-robot kinematics: what the joints' motion makes the robot do, for any kind of robot.
 
 Pure numpy: this module imports numpy, :mod:`umbmark.errors` and :mod:`umbmark.model.se2`.
 SI units; the robot frame: x forward, y to the left, angles counter-clockwise positive.
@@ -10,33 +10,15 @@ step). Within a step the joints' rates are constant, so the robot moves at a con
 twist (:func:`twist_displacement`); the steps of an interval compose into its motion
 (:func:`compose_steps`).
 
-The kinds (one interface, :class:`Kinematics`):
-
-* :class:`DiffDrive`, joints ``(left, right)``: ``v_x = (r_L dphi_L + r_R dphi_R) / 2``,
-  ``omega = (r_R dphi_R - r_L dphi_L) / b``.
-* :class:`Tricycle` (ros2 ``tricycle_controller``), joints ``(drive, steer)``: one steered and
-  driven wheel at ``(L, 0)``, ``L`` the wheelbase ahead of the rear axle's midpoint (the
-  robot's origin). The true steering angle is ``gamma = scale * measured + offset`` (0
-  straight ahead, counter-clockwise positive); the wheel rolls ``s = r dphi``; the rear axle
-  does not slip sideways, so ``v_x = s cos gamma``, ``v_y = 0``, ``omega = s sin gamma / L``.
-* :class:`Mecanum` (ros2 ``mecanum_drive_controller``), joints ``(front_left, front_right,
-  rear_left, rear_right)``, rollers at 45 deg: with ``u_i = r_i dphi_i`` and
-  ``k = l_x + l_y`` (the controller's ``sum_of_robot_center_projection_on_X_Y_axis``)::
-
-      v_x   = ( u_FL + u_FR + u_RL + u_RR) / 4
-      v_y   = (-u_FL + u_FR + u_RL - u_RR) / 4
-      omega = (-u_FL + u_FR - u_RL + u_RR) / (4 k)
-
-  (the controller's forward kinematics with a radius per wheel; a bigger front-right wheel
-  drifts the robot left and turns it left).
-
-Each kind's :meth:`~Kinematics.joint_motion` is its inverse: the joint steps a controller of
-that geometry commands for a twist (the simulator drives with the nominal geometry's).
+Every kind of robot offers one interface, :class:`Kinematics`: its forward kinematics (the
+twist of a step of its joints, as its ros2 controller computes it) and their inverse (the joint
+steps a controller of that geometry commands for a twist: the simulator drives with the nominal
+geometry's). The kinds themselves, each in a module of its own, are in :mod:`umbmark.kinds`
+(the differential drive, the tricycle, the mecanum robot).
 """
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import ClassVar, Protocol
 
@@ -47,26 +29,16 @@ from umbmark.errors import InputError
 from umbmark.model import se2
 
 __all__ = [
-    "KINEMATICS",
     "Kinematics",
-    "DiffDrive",
-    "Tricycle",
-    "Mecanum",
     "JointSteps",
     "twist_displacement",
     "compose_steps",
     "integrate_steps",
-    "kinematics_class",
-    "MAX_STEERING_RAD",
     "JointIntervals",
     "joint_intervals_from_motion",
 ]
 
 FloatArray = NDArray[np.float64]
-
-MAX_STEERING_RAD = math.radians(100.0)
-"""The largest steering angle a tricycle's steering joint may read (beyond a quarter turn for
-robots that spin about the rear axle, with room for an offset)."""
 
 
 def twist_displacement(twist: ArrayLike) -> FloatArray:
@@ -148,25 +120,28 @@ def integrate_steps(local: ArrayLike, start_pose: ArrayLike = (0.0, 0.0, 0.0)) -
     return out
 
 
-def _positive(name: str, v: float) -> float:
-    if not (isinstance(v, (int, float, np.integer, np.floating)) and math.isfinite(v) and v > 0):
-        raise InputError(f"`{name}` must be a positive number, got {v!r}")
-    return float(v)
-
-
-def _finite(name: str, v: float) -> float:
-    if not (isinstance(v, (int, float, np.integer, np.floating)) and math.isfinite(v)):
-        raise InputError(f"`{name}` must be a finite number, got {v!r}")
-    return float(v)
-
-
 class Kinematics(Protocol):
-    """What every kind of robot offers (:class:`DiffDrive`, :class:`Tricycle`, :class:`Mecanum`)."""
+    """What every kind of robot's geometry offers (the kinds are in :mod:`umbmark.kinds`).
+
+    Attributes
+    ----------
+    kind : str
+        The kind's name (:data:`umbmark.kinds.KINDS`).
+    joint_roles : tuple of str
+        The joints, in the order of a step's values.
+    rolling : tuple of bool
+        Per joint: a rolling joint (its steps are increments) or a steering one (angles).
+    parameter_names : tuple of str
+        The geometry's parameters (SI), in the order of :meth:`vector`.
+    moves : tuple of str
+        The moves the simulator draws for it (:data:`umbmark.model.kinematic_drive.MOVES`).
+    """
 
     kind: ClassVar[str]
     joint_roles: ClassVar[tuple[str, ...]]
     rolling: ClassVar[tuple[bool, ...]]
     parameter_names: ClassVar[tuple[str, ...]]
+    moves: ClassVar[tuple[str, ...]]
 
     def vector(self) -> FloatArray:
         """The parameters as a vector, in :attr:`parameter_names` order (SI)."""
@@ -174,6 +149,10 @@ class Kinematics(Protocol):
 
     def with_vector(self, p: ArrayLike) -> Kinematics:
         """The same kind with the parameters ``p``."""
+        ...
+
+    def rolling_diameters_m(self) -> FloatArray:
+        """The diameters of the rolling joints' wheels [m], in their order."""
         ...
 
     def twist(self, values: ArrayLike, p: ArrayLike | None = None) -> FloatArray:
@@ -184,219 +163,6 @@ class Kinematics(Protocol):
     def joint_motion(self, vx_mps: ArrayLike, vy_mps: ArrayLike, omega_radps: ArrayLike, dt_s: float) -> FloatArray:
         """``(S, J)`` the joint steps this geometry commands for twists held ``dt_s`` each."""
         ...
-
-
-@dataclass(frozen=True)
-class DiffDrive:
-    """A differential drive: two wheels on one axle, the robot's origin midway between them.
-
-    Parameters
-    ----------
-    diameter_left_m, diameter_right_m : float
-        The wheels' diameters [m].
-    wheelbase_m : float
-        The distance between their contact points [m].
-    """
-
-    diameter_left_m: float
-    diameter_right_m: float
-    wheelbase_m: float
-
-    kind: ClassVar[str] = "diff_drive"
-    joint_roles: ClassVar[tuple[str, ...]] = ("left", "right")
-    rolling: ClassVar[tuple[bool, ...]] = (True, True)
-    parameter_names: ClassVar[tuple[str, ...]] = ("diameter_left_m", "diameter_right_m", "wheelbase_m")
-
-    def __post_init__(self) -> None:
-        for n in self.parameter_names:
-            object.__setattr__(self, n, _positive(n, getattr(self, n)))
-
-    def vector(self) -> FloatArray:
-        return np.array([self.diameter_left_m, self.diameter_right_m, self.wheelbase_m])
-
-    def with_vector(self, p: ArrayLike) -> DiffDrive:
-        q = np.asarray(p, dtype=float)
-        return DiffDrive(float(q[0]), float(q[1]), float(q[2]))
-
-    def twist(self, values: ArrayLike, p: ArrayLike | None = None) -> FloatArray:
-        q = self.vector() if p is None else np.asarray(p, dtype=float)
-        v = np.asarray(values, dtype=float)
-        ul, ur = 0.5 * q[0] * v[..., 0], 0.5 * q[1] * v[..., 1]
-        return np.stack([0.5 * (ul + ur), np.zeros_like(ul), (ur - ul) / q[2]], axis=-1)
-
-    def joint_motion(self, vx_mps: ArrayLike, vy_mps: ArrayLike, omega_radps: ArrayLike, dt_s: float) -> FloatArray:
-        vx, vy, w = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (vx_mps, vy_mps, omega_radps)))
-        if np.any(vy != 0):
-            raise InputError("a differential drive cannot move sideways (`vy_mps` must be 0)")
-        half = 0.5 * self.wheelbase_m
-        left = (vx - w * half) / (0.5 * self.diameter_left_m)
-        right = (vx + w * half) / (0.5 * self.diameter_right_m)
-        return np.stack([left, right], axis=-1) * dt_s
-
-
-@dataclass(frozen=True)
-class Tricycle:
-    """A tricycle: one steered and driven wheel ahead of a passive rear axle (see the module docstring).
-
-    Parameters
-    ----------
-    wheel_diameter_m : float
-        The traction wheel's diameter [m].
-    wheelbase_m : float
-        From the rear axle's midpoint (the robot's origin) to the steered wheel [m].
-    steering_offset_rad : float
-        True steering angle less the measured one at a measured 0 [rad].
-    steering_scale : float
-        True over measured steering angle (1: the steering joint reads true angles).
-    """
-
-    wheel_diameter_m: float
-    wheelbase_m: float
-    steering_offset_rad: float = 0.0
-    steering_scale: float = 1.0
-
-    kind: ClassVar[str] = "tricycle"
-    joint_roles: ClassVar[tuple[str, ...]] = ("drive", "steer")
-    rolling: ClassVar[tuple[bool, ...]] = (True, False)
-    parameter_names: ClassVar[tuple[str, ...]] = (
-        "wheel_diameter_m",
-        "wheelbase_m",
-        "steering_offset_rad",
-        "steering_scale",
-    )
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "wheel_diameter_m", _positive("wheel_diameter_m", self.wheel_diameter_m))
-        object.__setattr__(self, "wheelbase_m", _positive("wheelbase_m", self.wheelbase_m))
-        off = _finite("steering_offset_rad", self.steering_offset_rad)
-        if abs(off) > 0.5 * math.pi:
-            raise InputError(f"`steering_offset_rad` must be within a quarter turn, got {off!r}")
-        object.__setattr__(self, "steering_offset_rad", off)
-        object.__setattr__(self, "steering_scale", _positive("steering_scale", self.steering_scale))
-
-    def vector(self) -> FloatArray:
-        return np.array([self.wheel_diameter_m, self.wheelbase_m, self.steering_offset_rad, self.steering_scale])
-
-    def with_vector(self, p: ArrayLike) -> Tricycle:
-        q = np.asarray(p, dtype=float)
-        return Tricycle(float(q[0]), float(q[1]), float(q[2]), float(q[3]))
-
-    def twist(self, values: ArrayLike, p: ArrayLike | None = None) -> FloatArray:
-        q = self.vector() if p is None else np.asarray(p, dtype=float)
-        v = np.asarray(values, dtype=float)
-        s = 0.5 * q[0] * v[..., 0]
-        g = q[3] * v[..., 1] + q[2]
-        return np.stack([s * np.cos(g), np.zeros_like(s), s * np.sin(g) / q[1]], axis=-1)
-
-    def steering_for(self, vx_mps: ArrayLike, omega_radps: ArrayLike) -> tuple[FloatArray, FloatArray]:
-        """The true steering angle and the traction wheel's ground speed for a twist.
-
-        Parameters
-        ----------
-        vx_mps, omega_radps : array_like
-            Forward speed [m/s] and turn rate [rad/s] of the robot's origin.
-
-        Returns
-        -------
-        tuple of numpy.ndarray
-            ``(gamma_rad, speed_mps)``: the angle in ``[-pi/2, pi/2]`` (a quarter turn for a spin
-            on the spot, towards the turn) and the wheel's signed speed (negative: rolling back).
-        """
-        vx, w = np.broadcast_arrays(np.asarray(vx_mps, dtype=float), np.asarray(omega_radps, dtype=float))
-        sign = np.where(vx < 0, -1.0, 1.0)
-        lat = w * self.wheelbase_m  # the steered wheel's sideways speed
-        g = np.arctan2(sign * lat, np.abs(vx))
-        return g, sign * np.hypot(vx, lat)
-
-    def joint_motion(self, vx_mps: ArrayLike, vy_mps: ArrayLike, omega_radps: ArrayLike, dt_s: float) -> FloatArray:
-        vx, vy, w = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (vx_mps, vy_mps, omega_radps)))
-        if np.any(vy != 0):
-            raise InputError("a tricycle cannot move sideways (`vy_mps` must be 0)")
-        g, speed = self.steering_for(vx, w)
-        measured = (g - self.steering_offset_rad) / self.steering_scale
-        return np.stack([speed * dt_s / (0.5 * self.wheel_diameter_m), measured], axis=-1)
-
-
-@dataclass(frozen=True)
-class Mecanum:
-    """A mecanum robot: four wheels with rollers at 45 deg (see the module docstring).
-
-    Parameters
-    ----------
-    wheel_diameters_m : tuple of float
-        ``(front_left, front_right, rear_left, rear_right)`` [m].
-    lx_plus_ly_m : float
-        Half the wheelbase plus half the track [m] (``kinematics.sum_of_robot_center_projection_on_X_Y_axis``).
-    """
-
-    wheel_diameters_m: tuple[float, float, float, float]
-    lx_plus_ly_m: float
-
-    kind: ClassVar[str] = "mecanum"
-    joint_roles: ClassVar[tuple[str, ...]] = ("front_left", "front_right", "rear_left", "rear_right")
-    rolling: ClassVar[tuple[bool, ...]] = (True, True, True, True)
-    parameter_names: ClassVar[tuple[str, ...]] = (
-        "diameter_front_left_m",
-        "diameter_front_right_m",
-        "diameter_rear_left_m",
-        "diameter_rear_right_m",
-        "lx_plus_ly_m",
-    )
-
-    # the signs of each wheel's travel in (v_x, v_y, omega k)
-    _SIGNS: ClassVar[FloatArray] = np.array([[1.0, 1.0, 1.0, 1.0], [-1.0, 1.0, 1.0, -1.0], [-1.0, 1.0, -1.0, 1.0]])
-
-    def __post_init__(self) -> None:
-        d = tuple(self.wheel_diameters_m)
-        if len(d) != 4:
-            raise InputError(f"`wheel_diameters_m` needs four diameters (FL, FR, RL, RR), got {len(d)}")
-        object.__setattr__(
-            self, "wheel_diameters_m", tuple(_positive(f"wheel_diameters_m[{i}]", v) for i, v in enumerate(d))
-        )
-        object.__setattr__(self, "lx_plus_ly_m", _positive("lx_plus_ly_m", self.lx_plus_ly_m))
-
-    @classmethod
-    def uniform(cls, wheel_diameter_m: float, lx_plus_ly_m: float) -> Mecanum:
-        """Four wheels of one diameter."""
-        return cls((wheel_diameter_m, wheel_diameter_m, wheel_diameter_m, wheel_diameter_m), lx_plus_ly_m)
-
-    def vector(self) -> FloatArray:
-        return np.array([*self.wheel_diameters_m, self.lx_plus_ly_m])
-
-    def with_vector(self, p: ArrayLike) -> Mecanum:
-        q = np.asarray(p, dtype=float)
-        return Mecanum((float(q[0]), float(q[1]), float(q[2]), float(q[3])), float(q[4]))
-
-    def twist(self, values: ArrayLike, p: ArrayLike | None = None) -> FloatArray:
-        q = self.vector() if p is None else np.asarray(p, dtype=float)
-        u = 0.5 * q[:4] * np.asarray(values, dtype=float)
-        t = u @ self._SIGNS.T * 0.25
-        t[..., 2] = t[..., 2] / q[4]
-        return np.asarray(t, dtype=float)
-
-    def joint_motion(self, vx_mps: ArrayLike, vy_mps: ArrayLike, omega_radps: ArrayLike, dt_s: float) -> FloatArray:
-        vx, vy, w = np.broadcast_arrays(*(np.asarray(a, dtype=float) for a in (vx_mps, vy_mps, omega_radps)))
-        tw = np.stack([vx, vy, w * self.lx_plus_ly_m], axis=-1)
-        travel = tw @ self._SIGNS  # each wheel's rim speed
-        return np.asarray(travel * dt_s / (0.5 * np.asarray(self.wheel_diameters_m)), dtype=float)
-
-
-KINEMATICS = {"diff_drive": DiffDrive, "tricycle": Tricycle, "mecanum": Mecanum}
-"""The kinds of robot by name."""
-
-
-def kinematics_class(kind: str) -> type:
-    """The class of a kind of robot (:data:`KINEMATICS`).
-
-    Raises
-    ------
-    InputError
-        An unknown kind (the known ones named).
-    """
-    try:
-        return KINEMATICS[kind]
-    except KeyError:
-        raise InputError(f"unknown kinematics {kind!r} (choose from {', '.join(KINEMATICS)})") from None
 
 
 @dataclass(frozen=True)

@@ -1,18 +1,18 @@
-"""Time stamps of logged streams: order, repeats, spikes, coverage, and the time offset between
-the wheel data and the ground truth.
+"""Time stamps of logged streams: coverage, and the time offset between the wheel data and the
+ground truth; the checks of both streams.
 
-* :func:`ordered_stamps`: refuse stamps that go backwards (naming the message), and find the
-  messages that repeat the stamp of the one before.
-* :func:`wheel_spikes`: samples whose wheel positions jump by more than a wheel can turn
-  between two messages (a corrupt message), and whether each is an isolated spike (the next
-  sample comes back) or a jump that stays.
+The checks of one stream live in :mod:`umbmark.model.stamps` (order, repeats, spikes),
+:mod:`umbmark.model.arrival` (bursts, late messages, the sample clock) and
+:mod:`umbmark.model.wheel_stream` (the wheel data's one check); their names are importable
+from here too.
+
 * :func:`coverage`: the part of the wheel data's time span a ground truth covers, and its
   longest gap.
 * :func:`estimate_time_offset`: how late the ground truth's stamps are against the wheels',
   from the cross-correlation of the turn rates both give (refined between samples by
   parabolic interpolation of the correlation's peak).
-* :func:`check_wheel_stream`: the order, repeats, values and spikes of a log's wheel data (what
-  every reader of wheel data runs on them, once).
+* :func:`check_wheel_stream`: the order, repeats, bursts, late messages, values, spikes and
+  resets of a log's wheel data (what every reader of wheel data runs on them, once).
 * :func:`check_truth_stream`: the same for its ground truth, and the offset between the two,
   applied when asked (``time_offset``: ``None``, ``"auto"`` or seconds);
   :func:`check_streams`: both.
@@ -23,8 +23,7 @@ Sign of the offset: ``offset_s`` is the ground truth's stamp minus the wheels' s
 same instant; positive when the ground truth is late (a motion-capture or localisation stream
 delivered after the fact). Correcting it subtracts ``offset_s`` from the ground truth's stamps.
 
-Pure numpy: imports only numpy, :mod:`umbmark.errors` and (for :func:`align_truth`)
-:mod:`umbmark.model.dataset`.
+Pure numpy: imports only numpy, :mod:`umbmark.errors` and the model's stamp modules.
 """
 
 from __future__ import annotations
@@ -35,8 +34,19 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from umbmark._check import refusal
 from umbmark._numbers import strict_float
 from umbmark.errors import InputError
+from umbmark.model.stamps import MAX_REORDER_S, MAX_WHEEL_SPEED_MPS, ordered_stamps, wheel_spikes
+from umbmark.model.stamps import in_stamp_order as _in_stamp_order
+from umbmark.model.stamps import median_period as _median_period
+from umbmark.model.wheel_stream import (
+    JointStream,
+    StreamReport,
+    WheelStream,
+    check_joint_stream,
+    check_wheel_stream,
+)
 
 __all__ = [
     "MAX_WHEEL_SPEED_MPS",
@@ -55,14 +65,12 @@ __all__ = [
     "check_wheel_stream",
     "check_joint_stream",
     "JointStream",
+    "StreamReport",
     "StreamCheck",
     "check_streams",
     "check_truth_stream",
     "align_truth",
 ]
-
-MAX_WHEEL_SPEED_MPS = 30.0
-"""A wheel rim faster than this between two samples [m/s] is a corrupt message, not motion."""
 
 MIN_COVERAGE = 0.9
 """A ground truth covering less of the wheel data's time span than this is warned about."""
@@ -73,133 +81,7 @@ LARGE_OFFSET_S = 0.05
 MIN_CORRELATION = 0.5
 """Below this peak correlation of the turn rates the offset estimate is not trusted."""
 
-MAX_REORDER_S = 0.1
-"""Messages stamped up to this much (and five sample periods) before the one received before
-them are put in stamp order; a longer step back is an error (a clock that jumped)."""
-
 _MAX_GRID = 400_000  # samples of the common time grid of the cross-correlation
-
-
-def ordered_stamps(
-    t: ArrayLike, what: str, topic: str, source: str | None = None
-) -> tuple[np.ndarray, int, int, tuple[int, float]]:
-    """Check that a stream's stamps do not jump backwards; find the repeated ones.
-
-    Messages a little out of order (each step back shorter than :data:`MAX_REORDER_S` and five
-    sample periods: delivered late over a network) are put in stamp order; a longer step back is
-    a clock that jumped, an error.
-
-    Parameters
-    ----------
-    t : array_like
-        ``(N,)`` stamps [s] in the order the messages were recorded.
-    what : str
-        What the messages are (``joint states``, ``ground-truth poses``), for messages.
-    topic : str
-        Their topic, for messages.
-    source : str, optional
-        The log, for messages.
-
-    Returns
-    -------
-    keep : numpy.ndarray
-        Indices of the messages kept, in stamp order: the last of each run of equal stamps.
-    repeated : int
-        How many messages repeat the stamp of the one before (not kept).
-    first_repeat : int
-        The 1-based index of the first such message (0: none).
-    reordered : (int, float)
-        How many messages were out of order, and the longest step back [s].
-
-    Raises
-    ------
-    InputError
-        A step back longer than that (the message, both stamps, how often and by how much in
-        all), or a stamp that is not finite.
-    """
-    t = np.asarray(t, dtype=float)
-    if not np.all(np.isfinite(t)):
-        k = int(np.flatnonzero(~np.isfinite(t))[0])
-        raise InputError(f"the {what} on {topic} have a stamp that is not a number at message {k + 1}", source)
-    d = np.diff(t)
-    back = np.flatnonzero(d < 0)
-    order = np.arange(t.size)
-    reordered = (0, 0.0)
-    if back.size:
-        longest = -float(d.min())
-        if longest > min(MAX_REORDER_S, 5 * _median_period(t)):
-            i = int(back[0])
-            raise InputError(
-                f"the stamps of the {what} on {topic} go backwards at message {i + 2} of {t.size}: "
-                f"{t[i + 1] - t[0]:.6f} s after {t[i] - t[0]:.6f} s (from the first stamp; "
-                f"{'once' if back.size == 1 else f'{back.size} times'} in all, by up to {longest:.3f} s): "
-                "record with one clock, or cut the bag there",
-                source,
-            )
-        order = np.argsort(t, kind="stable")
-        reordered = (int(back.size), longest)
-    ts = t[order]
-    same = np.diff(ts) == 0
-    keep = order[np.concatenate([~same, [True]])]
-    first = int(order[np.flatnonzero(same)[0] + 1]) + 1 if same.any() else 0
-    return keep, int(same.sum()), first, reordered
-
-
-def wheel_spikes(t: ArrayLike, left: ArrayLike, right: ArrayLike, metres_per_unit: float) -> tuple[np.ndarray, bool]:
-    """Samples at which cumulative wheel positions jump faster than a wheel can turn.
-
-    Parameters
-    ----------
-    t : array_like
-        ``(N,)`` increasing stamps [s].
-    left, right : array_like
-        ``(N,)`` cumulative wheel positions in log units.
-    metres_per_unit : float
-        Rim travel per log unit [m] (the nominal wheel radius for radians).
-
-    Returns
-    -------
-    bad : numpy.ndarray
-        Indices of the implausible samples: for an isolated spike the sample itself; for a jump
-        that stays, the first sample after it.
-    isolated : bool
-        True when every one is an isolated spike (the samples before and after it agree, so
-        dropping it loses nothing).
-    """
-    pos = np.column_stack([np.asarray(left, dtype=float), np.asarray(right, dtype=float)])
-    return _spikes(np.asarray(t, dtype=float), pos, metres_per_unit)
-
-
-def _spikes(t: np.ndarray, pos: np.ndarray, metres_per_unit: float) -> tuple[np.ndarray, bool]:
-    """:func:`wheel_spikes` of ``(N, J)`` positions (no joint: none)."""
-    if len(t) < 2 or pos.shape[1] == 0:
-        return np.array([], dtype=int), True
-    dt = np.diff(t)
-    with np.errstate(over="ignore", invalid="ignore"):
-        speed = np.abs(np.diff(pos, axis=0)).max(axis=1) * metres_per_unit / dt
-    fast = ~(speed <= MAX_WHEEL_SPEED_MPS)  # NaN and inf count as fast
-    if not fast.any():
-        return np.array([], dtype=int), True
-    bad: list[int] = []
-    isolated = True
-    n = len(dt)
-    i = 0
-    while i < n:
-        if not fast[i]:
-            i += 1
-            continue
-        k = i + 1  # the sample the fast step leads to
-        if k < n and fast[k]:
-            with np.errstate(over="ignore", invalid="ignore"):
-                across = np.abs(pos[k + 1] - pos[k - 1]).max() * metres_per_unit / (t[k + 1] - t[k - 1])
-            if across <= MAX_WHEEL_SPEED_MPS:
-                bad.append(k)
-                i += 2
-                continue
-        bad.append(k)
-        isolated = False
-        i += 1
-    return np.asarray(bad, dtype=int), isolated
 
 
 def coverage(t_wheels: ArrayLike, t_truth: ArrayLike) -> tuple[float, float, float]:
@@ -278,12 +160,6 @@ class TimeOffset:
             "method": "cross-correlation of the turn rates of the wheels and of the ground truth",
             "reason": self.reason,
         }
-
-
-def _median_period(t: np.ndarray) -> float:
-    d = np.diff(t)
-    d = d[d > 0]
-    return float(np.median(d)) if d.size else 0.0
 
 
 def estimate_time_offset(
@@ -489,267 +365,6 @@ def parse_time_offset(value) -> float | str | None:
     if not math.isfinite(num) or abs(num) > 3600:
         raise InputError(f"`time_offset` must be 'auto' or a finite number of seconds (within an hour), got {value!r}")
     return num
-
-
-@dataclass(frozen=True)
-class WheelStream:
-    """A log's wheel data, checked (see :func:`check_wheel_stream`).
-
-    Attributes
-    ----------
-    t : numpy.ndarray
-        ``(K,)`` the stamps kept, in time order [s].
-    left, right : numpy.ndarray
-        ``(K,)`` the cumulative positions kept (log units; incremental counts summed).
-    warnings : tuple of str
-        What was found and done (messages put in order, repeated stamps, wrapped positions
-        unwrapped, spikes dropped).
-    kept : numpy.ndarray or None
-        ``(K,)`` the index of each sample kept in the stream as given (of incremental counts
-        added up at one stamp, the last).
-    """
-
-    t: np.ndarray
-    left: np.ndarray
-    right: np.ndarray
-    warnings: tuple[str, ...] = ()
-    kept: np.ndarray | None = None
-
-
-def _in_stamp_order(t: np.ndarray, values: list[np.ndarray], what: str, topic: str, source: str | None, warnings):
-    """The stream put in stamp order (a little out of order: sorted, with a warning; a clock that
-    jumped back: an error) and the indices of the last message of each stamp."""
-    keep, rep, first, (moved, back_s) = ordered_stamps(t, what, topic, source)
-    if moved:
-        warnings.append(
-            f"{moved} of the {t.size} {what} on {topic} arrive out of stamp order (by up to "
-            f"{back_s * 1e3:.1f} ms): put in stamp order"
-        )
-        order = np.argsort(t, kind="stable")
-        t, values = t[order], [v[order] for v in values]
-        keep, rep, first, _ = ordered_stamps(t, what, topic, source)
-    return t, values, keep, rep, first
-
-
-def check_wheel_stream(
-    t,
-    left,
-    right,
-    *,
-    metres_per_unit: float,
-    cumulative: bool = True,
-    wrapped_turn: float | None = None,
-    poses: bool = False,
-    what: str = "wheel positions",
-    topic: str = "the wheel topic",
-    source: str | None = None,
-) -> WheelStream:
-    """Check the stamps and values of a log's wheel data (every reader's one check of them).
-
-    * Stamps that go backwards: messages a little out of order are put in stamp order with a
-      warning; a longer step back is an error naming the message (:func:`ordered_stamps`).
-    * Repeated stamps: the last message of each stamp is kept, with a warning (incremental
-      counts: identical copies count once, different counts of one stamp are added up, so no
-      travel is lost).
-    * Incremental counts that are running counters (read per message, their median would turn
-      a wheel rim faster than :data:`MAX_WHEEL_SPEED_MPS`): an error; else they are summed.
-    * Values that are not finite: an error naming the message.
-    * Positions that jump faster than any wheel turns (:func:`wheel_spikes`): an isolated spike
-      of cumulative positions is dropped with a warning naming its time; a jump that stays, or
-      one in incremental counts, is an error.
-    * Positions wrapped to one turn (``wrapped_turn``, e.g. ``2 pi`` for joint angles): jumps of
-      more than half a turn between samples are unwrapped, with a warning.
-
-    Parameters
-    ----------
-    t, left, right : array_like
-        Wheel stamps [s] as recorded and the positions (cumulative, or incremental counts, in
-        log units).
-    metres_per_unit : float
-        Rim travel per log unit [m] (the larger wheel's, nominal geometry).
-    cumulative : bool
-        The positions are cumulative (else per-message increments).
-    wrapped_turn : float, optional
-        One turn in log units, where the positions may be wrapped to one turn.
-    poses : bool
-        ``left`` and ``right`` are the x and y [m] of an odometry's poses (its spikes: the
-        robot faster than :data:`MAX_WHEEL_SPEED_MPS`; ``metres_per_unit`` 1).
-    what, topic : str
-        Names for messages.
-    source : str, optional
-        The log, for messages.
-
-    Returns
-    -------
-    WheelStream
-
-    Raises
-    ------
-    InputError
-        Stamps that go backwards, running counters read as increments, non-finite values, a
-        jump that stays.
-    """
-    pos = np.column_stack([np.asarray(left, dtype=float).reshape(-1), np.asarray(right, dtype=float).reshape(-1)])
-    chk = check_joint_stream(
-        t,
-        pos,
-        (True, True),
-        metres_per_unit=metres_per_unit,
-        cumulative=cumulative,
-        wrapped_turn=wrapped_turn,
-        poses=poses,
-        what=what,
-        topic=topic,
-        source=source,
-    )
-    return WheelStream(chk.t, chk.positions[:, 0], chk.positions[:, 1], chk.warnings, chk.kept)
-
-
-@dataclass(frozen=True)
-class JointStream:
-    """A log's joint data, checked (see :func:`check_joint_stream`).
-
-    Attributes
-    ----------
-    t : numpy.ndarray
-        ``(K,)`` the stamps kept, in time order [s].
-    positions : numpy.ndarray
-        ``(K, J)`` the positions kept (rolling joints cumulative, incremental counts summed).
-    warnings : tuple of str
-        What was found and done.
-    kept : numpy.ndarray
-        ``(K,)`` the index of each sample kept in the stream as given.
-    """
-
-    t: np.ndarray
-    positions: np.ndarray
-    warnings: tuple[str, ...]
-    kept: np.ndarray
-
-
-def check_joint_stream(
-    t,
-    positions,
-    rolling,
-    *,
-    metres_per_unit: float,
-    cumulative: bool = True,
-    wrapped_turn: float | None = None,
-    poses: bool = False,
-    what: str = "joint positions",
-    topic: str = "the joint topic",
-    source: str | None = None,
-) -> JointStream:
-    """Check the stamps and values of any number of joints (:func:`check_wheel_stream`'s checks).
-
-    Stamp order, repeated stamps and finite values concern every joint; running counters,
-    spikes and wrapped turns only the rolling ones (a steering joint holds an angle).
-
-    Parameters
-    ----------
-    t : array_like
-        ``(K,)`` stamps [s] as recorded.
-    positions : array_like
-        ``(K, J)`` the joints' values (log units).
-    rolling : sequence of bool
-        ``(J,)`` which joints roll (a wheel) rather than hold an angle (a steering joint).
-    metres_per_unit, cumulative, wrapped_turn, poses, what, topic, source
-        As for :func:`check_wheel_stream`.
-
-    Returns
-    -------
-    JointStream
-
-    Raises
-    ------
-    InputError
-        As :func:`check_wheel_stream`.
-    """
-    warnings: list[str] = []
-    t = np.asarray(t, dtype=float)
-    pos = np.asarray(positions, dtype=float).reshape(t.size, -1)
-    roll = np.asarray(rolling, dtype=bool)
-    kept = np.arange(t.size)
-    t, (pos, kept), keep, rep, first = _in_stamp_order(t, [pos, kept], what, topic, source, warnings)
-    if rep:
-        if cumulative:
-            note = "the last of each stamp is kept"
-        else:  # incremental: identical copies count once, different counts of one stamp add up
-            groups = np.concatenate([[0], keep[:-1] + 1])
-            same = np.all(np.maximum.reduceat(pos, groups) == np.minimum.reduceat(pos, groups), axis=1)
-            pos = np.where(same[:, None], pos[keep], np.add.reduceat(pos, groups))
-            note = "identical copies are counted once, different counts of one stamp are added up"
-        warnings.append(
-            f"{rep} of the {t.size} {what} on {topic} repeat the stamp of the message before "
-            f"(first at message {first}): {note}; check the publisher's stamps"
-        )
-        t, kept = t[keep], kept[keep]
-        if cumulative:
-            pos = pos[keep]
-    if not np.all(np.isfinite(pos)):
-        k = int(np.flatnonzero(~np.isfinite(pos).all(axis=1))[0])
-        raise InputError(
-            f"the {what} on {topic} are not finite at t={t[k] - t[0]:.3f} s (message {k + 1} kept)",
-            source,
-        )
-    wheels = pos[:, roll]
-    if not cumulative:
-        _refuse_running_counters(t, wheels, metres_per_unit, what, topic, source)
-        summed = np.cumsum(wheels, axis=0)
-        counter_jumps = _spikes(t, summed, metres_per_unit)[0]
-        if counter_jumps.size and not _spikes(t, wheels, metres_per_unit)[0].size:
-            raise InputError(
-                f"summed as counts per message, the {what} on {topic} jump faster than {MAX_WHEEL_SPEED_MPS:g} m/s "
-                f"at the wheel rim at t={t[int(counter_jumps[0])] - t[0]:.3f} s, while as a running counter they "
-                'move as a wheel does: the counts look cumulative, running counters (`ticks="cumulative"`)',
-                source,
-            )
-        wheels = summed
-    bad, isolated = _spikes(t, wheels, metres_per_unit)
-    if bad.size:
-        k = int(bad[0])
-        jump = float(np.abs(wheels[k] - wheels[k - 1]).max())
-        where = f"at t={t[k] - t[0]:.3f} s (sample {k + 1})"
-        if not (isolated and cumulative):
-            at = "" if poses else " at the wheel rim"
-            raise InputError(
-                f"the {what} on {topic} jump by {jump:.3g}{' m' if poses else ''} {where}: faster than "
-                f"{MAX_WHEEL_SPEED_MPS:g} m/s{at}, and they do not come back: a counter reset or a "
-                "corrupt message; cut the log there",
-                source,
-            )
-        warnings.append(
-            f"{bad.size} spike(s) in the {what} on {topic}, the first {where} (a jump of {jump:.3g} and back): dropped"
-        )
-        ok = np.ones(t.size, dtype=bool)
-        ok[bad] = False
-        t, pos, wheels, kept = t[ok], pos[ok], wheels[ok], kept[ok]
-    if wrapped_turn is not None and t.size > 1:
-        jumps = int((np.abs(np.diff(wheels, axis=0)) > 0.5 * wrapped_turn).sum())
-        if jumps:
-            warnings.append(
-                f"the {what} on {topic} jump by more than half a turn {jumps} times between messages (wrapped to "
-                "one turn?): unwrapped"
-            )
-            wheels = np.unwrap(wheels, period=wrapped_turn, axis=0)
-    pos = pos.copy()
-    pos[:, roll] = wheels
-    return JointStream(t, pos, tuple(warnings), kept)
-
-
-def _refuse_running_counters(t, wheels, metres_per_unit: float, what: str, topic: str, source: str | None) -> None:
-    """Refuse incremental counts whose median would turn a wheel rim faster than any wheel: they
-    are running counters read per message (``wheels``: ``(K, J)``)."""
-    if t.size <= 2:
-        return
-    dt = float(np.median(np.diff(t)))
-    speed = float(np.median(np.abs(wheels).max(axis=1))) * metres_per_unit / dt if dt > 0 else 0.0
-    if speed > MAX_WHEEL_SPEED_MPS:
-        raise InputError(
-            f"read as counts per message, the {what} on {topic} would turn the wheel rims at {speed:.3g} m/s "
-            f'(median): the counts look cumulative, they look like running counters (`ticks="cumulative"`)',
-            source,
-        )
 
 
 @dataclass(frozen=True)
@@ -975,13 +590,15 @@ def _refuse_degree_turns(
     if turn_g < 0.5:
         return
     ratio = turn_w / turn_g
-    if 0.5 <= ratio / math.degrees(1.0) <= 2.0:
-        raise InputError(
-            f"the wheel data on {wheel_topic} turn {ratio:.3g} times as far as the ground truth on {truth_topic} "
-            "(the nominal geometry): the wheel angles look like degrees (JointState positions are radians; encoder "
-            "counts: `pulses_per_wheel_rev` 57.3 times too small)",
-            source,
-        )
+    err = refusal(
+        "degree_turns",
+        f"the wheel data on {wheel_topic} turn {ratio:.3g} times as far as the ground truth on {truth_topic} "
+        "(the nominal geometry): the wheel angles look like degrees (JointState positions are radians; encoder "
+        "counts: `pulses_per_wheel_rev` 57.3 times too small)",
+        source,
+    )
+    if err is not None and 0.5 <= ratio / math.degrees(1.0) <= 2.0:
+        raise err
 
 
 def _truth_offset(

@@ -1,4 +1,5 @@
-"""From a ROS bag to a lidar self-calibration of a tricycle or mecanum robot (any :mod:`~umbmark.model.kinematics`).
+"""From a ROS bag to a lidar self-calibration of a robot of any kind (:mod:`umbmark.kinds`: a tricycle, a
+mecanum robot).
 
 The steps of :mod:`umbmark.realrobot.selfcal` with the joints of any kind of robot in place of
 two wheels:
@@ -47,8 +48,6 @@ from umbmark.model.kinematics import (
     JointIntervals,
     JointSteps,
     Kinematics,
-    Mecanum,
-    Tricycle,
     integrate_steps,
     twist_displacement,
 )
@@ -107,14 +106,6 @@ def joint_source(nominal: Kinematics, joints: Sequence[str], topic: str = "/join
         raise InputError(f"a {nominal.kind} needs {len(roles)} joints ({', '.join(roles)}), got {len(names)}")
     steer = tuple(n for n, rolls in zip(names, nominal.rolling) if not rolls)
     return WheelSource.robot_joints(names, steer, topic)
-
-
-def _rolling_radii(k: Kinematics) -> FloatArray:
-    if isinstance(k, Tricycle):
-        return np.array([0.5 * k.wheel_diameter_m])
-    if isinstance(k, Mecanum):
-        return 0.5 * np.asarray(k.wheel_diameters_m, dtype=float)
-    return 0.5 * np.asarray(k.vector()[:2], dtype=float)
 
 
 @dataclass(frozen=True, eq=False)
@@ -237,6 +228,7 @@ class JointScanIntervals:
             "failure_reasons": dict(self.failure_reasons),
             "match_rms_mm": self.match_rms_m * 1e3,
             "time_span_s": self.time_span_s,
+            "wheel_stream": None if self.bag.wheel_stream is None else self.bag.wheel_stream.to_dict(),
             "scan_delay": delay,
             "nominal_sensor_pose": {
                 "x_mm": x * 1e3,
@@ -252,7 +244,8 @@ class JointScanIntervals:
 
 def _moving(grid: _Grid, pairs: NDArray[np.int64], nominal: Kinematics) -> NDArray[np.bool_]:
     roll = np.array(nominal.rolling)
-    d = np.abs(grid.at_scans[pairs[:, 1]][:, roll] - grid.at_scans[pairs[:, 0]][:, roll]) * _rolling_radii(nominal)
+    radii = 0.5 * np.asarray(nominal.rolling_diameters_m(), dtype=float)
+    d = np.abs(grid.at_scans[pairs[:, 1]][:, roll] - grid.at_scans[pairs[:, 0]][:, roll]) * radii
     return np.asarray(np.any(d > STILL_M, axis=1))
 
 

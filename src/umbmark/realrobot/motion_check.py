@@ -16,7 +16,8 @@ odometry's over the same scans.
   spins: a skid-steer robot turns less than its wheels say): the factor is named, 57.3 as
   degrees, a factor near nothing as counts per message read as a counter.
 
-SI units. Imports numpy, :mod:`umbmark.model.se2` and the scan matcher.
+SI units. Imports numpy, :mod:`umbmark.model.se2`, :mod:`umbmark.kinds` (the causes each kind
+names) and the scan matcher.
 """
 
 from __future__ import annotations
@@ -27,8 +28,10 @@ from collections.abc import Mapping
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from umbmark._check import refusal
 from umbmark.errors import InputError
 from umbmark.io.rosbag import SelfcalBag
+from umbmark.kinds import DEFAULT_KIND, kind_named
 from umbmark.model import se2
 from umbmark.realrobot.scanmatch import ICPConfig, match_scan_pairs
 
@@ -97,7 +100,7 @@ def check_wheels_against_scans(
     odometry: ArrayLike,
     sensor_pose: ArrayLike,
     *,
-    kind: str = "diff_drive",
+    kind: str = DEFAULT_KIND,
     alternatives: Mapping[str, ArrayLike] | None = None,
 ) -> None:
     """Refuse wheel data whose motion the lidar contradicts (module docstring).
@@ -115,7 +118,7 @@ def check_wheels_against_scans(
     sensor_pose : array_like
         ``(3,)`` the lidar's nominal mounting pose ``(x_m, y_m, yaw_rad)``.
     kind : str
-        ``diff_drive``, ``tricycle`` or ``mecanum``: the wording of a mirror's causes.
+        The kind of robot (:data:`umbmark.kinds.KINDS`): the wording of a mirror's causes.
     alternatives : dict, optional
         Other readings of the wheel data (how they would be read, in words -> their ``(M, 3)``
         odometry at the scans): the one the lidar agrees with is named as the cause.
@@ -162,22 +165,15 @@ def _check_turn_signs(wheel: FloatArray, seen: FloatArray, kind: str, bag: Selfc
     ahead = (np.abs(seen[:, 0]) > _STEP_M) & (np.abs(wheel[:, 0]) > 0.1 * _STEP_M)
     back = int(np.sum(np.sign(seen[ahead, 0]) != np.sign(wheel[ahead, 0])))
     where = f"the lidar turns the other way from the wheels in {against} of {n} scan pairs that turn"
+    causes = kind_named(kind)
     if ahead.sum() >= 5 and back >= _AGAINST * ahead.sum():
-        backwards = {
-            "diff_drive": "both wheels' angles count backwards when the robot drives forward (negate them)",
-            "tricycle": "the traction joint turns backwards when the robot drives forward",
-            "mecanum": "the wheels' joints turn backwards when the robot drives forward, or the joints are in "
-            "another order (FL,FR,RL,RR)",
-        }.get(kind, "the wheels count backwards")
-        raise InputError(f"{where}, and it moves back where they drive forward: {backwards}", bag.source)
-    swap = {
-        "diff_drive": "the wheels given right before left (`joints`)",
-        "tricycle": "the steering joint's angle clockwise positive (it must be counter-clockwise positive)",
-        "mecanum": "the wheels' joints given in another order (`joints` FL,FR,RL,RR)",
-    }.get(kind, "the wheels exchanged")
-    raise InputError(
+        backwards = causes.turn_backwards
+        _refuse("turn_direction", f"{where}, and it moves back where they drive forward: {backwards}", bag.source)
+        return
+    _refuse(
+        "turn_direction",
         f"{where}: a lidar mounted upside down (its scans mirrored: its frame's z axis down; turn it over in the "
-        f"URDF or the driver), or {swap}",
+        f"URDF or the driver), or {causes.turn_mirrored}",
         bag.source,
     )
 
@@ -213,8 +209,16 @@ def _check_scale(wheel: FloatArray, seen: FloatArray, bag: SelfcalBag, alternati
         if 1.0 / bound <= ratio <= bound:
             return
         cause = _unit_cause(ratio, bag.wheel_kind)
-    raise InputError(
+    _refuse(
+        "wheel_units",
         f"the wheels {what} {ratio:.3g} times as far as the lidar sees the robot {what} ({seen_text} over "
         f"{len(seen)} pairs of consecutive scans): {cause}",
         bag.source,
     )
+
+
+def _refuse(check: str, message: str, source: str) -> None:
+    """Raise the named check's refusal unless it is skipped."""
+    err = refusal(check, message, source)
+    if err is not None:
+        raise err

@@ -634,6 +634,7 @@ def _report(
         warnings=tuple(warnings),
         heldout=heldout,
         time_offset=tuple(ds.meta.get("time_offset") or ()),
+        wheel_stream=tuple(ds.meta.get("wheel_stream") or ()),
     )
 
 

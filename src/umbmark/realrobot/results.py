@@ -499,6 +499,10 @@ class ReplayReport:
         Per bag with a ground truth: the time offset between its wheels and its ground truth,
         estimated and applied (:meth:`umbmark.model.timing.TimeOffset.to_dict` and ``bag``);
         the JSON key ``time_offset`` when not empty.
+    wheel_stream : tuple of dict
+        Per bag: what the check of its wheel data found and did
+        (:meth:`umbmark.model.wheel_stream.StreamReport.to_dict` and ``bag``); the JSON key
+        ``wheel_stream`` when not empty.
     """
 
     dataset: str
@@ -516,6 +520,7 @@ class ReplayReport:
     warnings: tuple[str, ...] = ()
     heldout: HeldOut | None = None
     time_offset: tuple[dict, ...] = ()
+    wheel_stream: tuple[dict, ...] = ()
 
     @property
     def improvement(self) -> float | None:
@@ -549,6 +554,8 @@ class ReplayReport:
         }
         if self.time_offset:
             d["time_offset"] = [dict(o) for o in self.time_offset]
+        if self.wheel_stream:
+            d["wheel_stream"] = [dict(o) for o in self.wheel_stream]
         if self.heldout is not None:
             d["heldout"] = self.heldout.to_dict()
             if self.calibration.lsq is not None and "jackknife_std" in d["heldout"]:

@@ -851,7 +851,9 @@ class ScanIntervals:
             ``path``, ``kind`` (``bag``), ``scan_topic``, ``scan_frame``, ``base_frame``,
             ``wheel_data``, ``scans_read``, ``scans_usable``, ``keyframes``, ``intervals_still``,
             ``pairs_matched``, ``pairs_chained``, ``pairs_failed``, ``failure_reasons``, ``match_rms_mm``,
-            ``time_span_s``, ``scan_delay`` (:meth:`delay_dict`), ``nominal_sensor_pose``
+            ``time_span_s``, ``wheel_stream`` (what the check of the wheel data found and did:
+            :meth:`umbmark.model.wheel_stream.StreamReport.to_dict`), ``scan_delay``
+            (:meth:`delay_dict`), ``nominal_sensor_pose``
             (``x_mm``, ``y_mm``, ``z_mm``, ``roll_deg``, ``pitch_deg``, ``yaw_deg``, ``source``).
         """
         p = self.plan
@@ -873,6 +875,7 @@ class ScanIntervals:
             "failure_reasons": dict(self.failure_reasons),
             "match_rms_mm": self.match_rms_m * 1e3,
             "time_span_s": p.time_span_s,
+            "wheel_stream": None if p.bag.wheel_stream is None else p.bag.wheel_stream.to_dict(),
             "scan_delay": self.delay_dict(),
             "nominal_sensor_pose": {
                 "x_mm": x * 1e3,

@@ -1,13 +1,15 @@
-"""Simulated tricycle and mecanum robots with a lidar: random robots and drives that meet a known truth.
+"""Simulated robots of the drawable kinds (:mod:`umbmark.kinds`: tricycle, mecanum) with a lidar:
+random robots and drives that meet a known truth.
 
-:func:`draw_robot` draws a seeded robot of a kind (nominal geometry, a true geometry off it, a
-lidar pose and the URDF's guess of it, noise); :func:`simulated_bag` drives it in the test room
+:func:`draw_robot` draws a seeded robot of a kind (nominal geometry, a true geometry off it,
+:meth:`umbmark.kinds.Kind.draw`; a lidar pose and the URDF's guess of it, noise);
+:func:`simulated_bag` drives it in the test room
 (:func:`umbmark.model.kinematic_drive.kinematic_program`, every move the kind can make both ways)
 and writes the bag that the self-calibration of its kind reads
 (:func:`umbmark.cli.kinematic_args.selfcal_args` gives the command's arguments). The coverage
 benchmark (``benchmarks/kinematic_coverage.py``) and the tests share them.
 
-Imports numpy, :mod:`umbmark.model` and :mod:`umbmark.io` (the bag writer).
+Imports numpy, :mod:`umbmark.model`, :mod:`umbmark.kinds` and :mod:`umbmark.io` (the bag writer).
 """
 
 from __future__ import annotations
@@ -19,7 +21,10 @@ from pathlib import Path
 
 import numpy as np
 
+from umbmark.errors import InputError
 from umbmark.io.rosbag_write import write_drive_bag
+from umbmark.kinds import KINDS as _ALL_KINDS
+from umbmark.kinds import kind_named, kind_of
 from umbmark.model.kinematic_drive import (
     JointDriveLog,
     JointNoise,
@@ -27,7 +32,6 @@ from umbmark.model.kinematic_drive import (
     kinematic_program,
     simulate_kinematic_drive,
 )
-from umbmark.model.kinematics import Kinematics, Mecanum, Tricycle
 from umbmark.model.sensors import Lidar, SensorPose
 
 __all__ = [
@@ -41,14 +45,12 @@ __all__ = [
     "estimate_of",
 ]
 
-KINDS = ("tricycle", "mecanum")
-"""The kinds of robot drawn."""
+KINDS = tuple(k.name for k in _ALL_KINDS.values() if k.drawable)
+"""The kinds of robot drawn (:attr:`umbmark.kinds.Kind.drawable`, in the registry's order)."""
 
-JOINTS = {
-    "tricycle": ("traction_wheel_joint", "steering_joint"),
-    "mecanum": ("front_left_wheel_joint", "front_right_wheel_joint", "rear_left_wheel_joint", "rear_right_wheel_joint"),
-}
-"""The joint names the simulated bags carry, in each kind's roles' order."""
+JOINTS = {name: _ALL_KINDS[name].sim_joints for name in KINDS}
+"""The joint names the simulated bags carry, in each kind's roles' order
+(:attr:`umbmark.kinds.Kind.sim_joints`)."""
 
 
 @dataclass(frozen=True)
@@ -75,17 +77,18 @@ class DrawnRobot:
 
     @property
     def kind(self) -> str:
-        """``tricycle`` or ``mecanum``."""
+        """The kind's name (one of :data:`KINDS`)."""
         return self.robot.kind
 
 
 def draw_robot(kind: str, seed: int, *, range_noise_m: float = 0.005, n_beams: int = 360) -> DrawnRobot:
     """A seeded random robot of a kind.
 
-    Tricycle: nominal traction wheel 150-300 mm and wheelbase 400-1000 mm (whole millimetres);
-    the true diameter off by up to +-3 %, the wheelbase by +-5 %, the steering offset up to +-3
-    deg. Mecanum: nominal wheels 70-150 mm and ``lx + ly`` 200-500 mm; each true diameter off by
-    up to +-2 %, ``lx + ly`` by +-5 %. Both: the lidar at x +-200 mm, y +-100 mm, yaw +-5 deg, the
+    The geometries as the kind draws them (:meth:`umbmark.kinds.Kind.draw`; a tricycle: nominal
+    traction wheel 150-300 mm and wheelbase 400-1000 mm (whole millimetres); the true diameter
+    off by up to +-3 %, the wheelbase by +-5 %, the steering offset up to +-3 deg; a mecanum
+    robot: nominal wheels 70-150 mm and ``lx + ly`` 200-500 mm; each true diameter off by up to
+    +-2 %, ``lx + ly`` by +-5 %). Every kind: the lidar at x +-200 mm, y +-100 mm, yaw +-5 deg, the
     URDF's guess off by up to +-20 mm and +-2 deg; a 360-beam lidar at 10 Hz with
     ``range_noise_m`` noise and 0.5 % dropouts; 0.5-2 % joint-speed jitter, slip of 1e-4 to 3e-4
     m per sqrt(m), steering readings with 0.05 deg noise; 2-3 minutes of driving.
@@ -93,7 +96,7 @@ def draw_robot(kind: str, seed: int, *, range_noise_m: float = 0.005, n_beams: i
     Parameters
     ----------
     kind : str
-        ``tricycle`` or ``mecanum``.
+        One of :data:`KINDS`.
     seed : int
     range_noise_m : float
         The lidar's range noise [m].
@@ -104,19 +107,12 @@ def draw_robot(kind: str, seed: int, *, range_noise_m: float = 0.005, n_beams: i
     -------
     DrawnRobot
     """
+    which = kind_named(kind)
+    if kind not in KINDS:
+        raise InputError(f"the studies draw no random {which.noun} (they draw {', '.join(KINDS)})")
     rng = np.random.default_rng([seed, KINDS.index(kind)])
     u = lambda a, b: float(rng.uniform(a, b))  # noqa: E731
-    nominal: Kinematics
-    true: Kinematics
-    if kind == "tricycle":
-        d, length = round(u(150, 300)) * 1e-3, round(u(400, 1000)) * 1e-3
-        nominal = Tricycle(d, length)
-        true = Tricycle(d * (1 + u(-0.03, 0.03)), length * (1 + u(-0.05, 0.05)), math.radians(u(-3, 3)))
-    else:
-        d, k = round(u(70, 150)) * 1e-3, round(u(200, 500)) * 1e-3
-        nominal = Mecanum.uniform(d, k)
-        dd = tuple(d * (1 + u(-0.02, 0.02)) for _ in range(4))
-        true = Mecanum((dd[0], dd[1], dd[2], dd[3]), k * (1 + u(-0.05, 0.05)))
+    nominal, true = which.draw(u)
     pose = SensorPose(u(-0.2, 0.2), u(-0.1, 0.1), math.radians(u(-5, 5)))
     urdf = (pose.x_m + u(-0.02, 0.02), pose.y_m + u(-0.02, 0.02), pose.yaw_rad + math.radians(u(-2, 2)))
     lidar = Lidar(n_beams=n_beams, range_noise_m=range_noise_m, dropout_prob=0.005)
@@ -141,21 +137,11 @@ def simulated_bag(drawn: DrawnRobot, path: str | Path, kinds: Sequence[str] | No
 
 def truth_of(drawn: DrawnRobot) -> dict[str, float]:
     """The true values under the JSON keys of ``umbmark selfcal --kinematics`` (mm, deg): the
-    kind's geometry and ``sensor_x_mm``, ``sensor_y_mm``, ``sensor_yaw_deg``."""
+    kind's geometry as its self-calibration estimates it by default (:meth:`umbmark.kinds.Kind.truth`)
+    and ``sensor_x_mm``, ``sensor_y_mm``, ``sensor_yaw_deg``."""
     t = drawn.robot.true
     p = drawn.robot.sensor_pose
-    out: dict[str, float] = {}
-    if isinstance(t, Tricycle):
-        out.update(
-            wheel_diameter_mm=t.wheel_diameter_m * 1e3,
-            wheelbase_mm=t.wheelbase_m * 1e3,
-            steering_offset_deg=math.degrees(t.steering_offset_rad),
-        )
-    else:
-        assert isinstance(t, Mecanum)
-        for role, dia in zip(("front_left", "front_right", "rear_left", "rear_right"), t.wheel_diameters_m):
-            out[f"wheel_diameters_mm.{role}"] = dia * 1e3
-        out["lx_plus_ly_mm"] = t.lx_plus_ly_m * 1e3
+    out = kind_of(t).truth(t)
     out.update(sensor_x_mm=p.x_m * 1e3, sensor_y_mm=p.y_m * 1e3, sensor_yaw_deg=math.degrees(p.yaw_rad))
     return out
 
@@ -166,7 +152,7 @@ def estimate_of(d: dict, key: str) -> tuple[float, list[float]]:
     Parameters
     ----------
     d : dict
-        The JSON of the self-calibration of a tricycle or mecanum robot.
+        The JSON of the self-calibration of a robot of a drawable kind.
     key : str
         A key of :func:`truth_of` (``sensor_x_mm``: ``sensor_pose.x_mm``; ``a.b``: nested).
 

@@ -445,6 +445,7 @@ def replay_analysis(result: dict[str, Any], source: str = "<replay>") -> tuple[A
     from umbmark.correct.analysis import Analysis
     from umbmark.correct.result import CorrectionResult
     from umbmark.errors import InputError
+    from umbmark.kinds import KINDS
     from umbmark.metrics import umbmark_figures
 
     if isinstance(result, dict) and {"cw", "ccw", "emax_syst_mm"} <= result.keys():
@@ -467,10 +468,12 @@ def replay_analysis(result: dict[str, Any], source: str = "<replay>") -> tuple[A
             "report that",
             source=source,
         )
-    if isinstance(result, dict) and result.get("kinematics") in ("tricycle", "mecanum"):
-        kind = result["kinematics"]
+    named = result.get("kinematics") if isinstance(result, dict) else None
+    own = KINDS.get(named) if isinstance(named, str) else None
+    if own is not None and not own.differential:
+        kind = own.name
         made = "replay against a ground truth" if "marker_pose" in result else "self-calibration"
-        robot = "mecanum robot" if kind == "mecanum" else kind
+        robot = own.noun
         raise InputError(
             f"a {robot}'s {made} (`kinematics={kind}`): the report shows a differential drive's results; the "
             f"command's table holds its figures, and its export (`fmt=\"ros2\"`) writes the {kind} controller's "

@@ -1,12 +1,15 @@
-"""Self-calibration of any kind of robot (tricycle, mecanum, differential drive) from sensor displacements.
+"""Self-calibration of any kind of robot (:mod:`umbmark.kinds`: tricycle, mecanum, differential drive) from
+sensor displacements.
 
 The formulation of Censi, Franchi, Marchionni, Oriolo (IEEE T-RO 2013) with the kind's own
-prediction (:mod:`umbmark.model.kinematics`) in place of the differential drive's arc: for
+prediction (its geometry's twist, :mod:`umbmark.model.kinematics`) in place of the differential drive's arc: for
 interval ``k`` the joints' steps move the robot by ``q_k(g)`` (the steps' exact constant-twist
 displacements composed, ``g`` the geometry), and the sensor at ``l = (l_x, l_y, l_yaw)`` on it
 sees ``h_k = l^-1 (+) q_k (+) l``. The parameters are the geometry's free ones (a tricycle's
 wheel diameter, wheelbase, steering offset and, on request, steering scale; a mecanum robot's
-four diameters and ``l_x + l_y``) and the sensor pose.
+four diameters and ``l_x + l_y``) and the sensor pose. What depends on the kind (the parameters
+estimated by default, the JSON keys, the advice on the driving, what a negative size means) the
+kind says (:class:`umbmark.kinds.Kind`).
 
 :func:`kinematic_selfcal` runs the steps of :func:`umbmark.correct.selfcal.selfcal`:
 
@@ -25,7 +28,7 @@ The Jacobian is exact but for each step's own derivative by the geometry, taken 
 differences (the composition of the steps and the sensor's frame are differentiated in closed
 form).
 
-Imports numpy, scipy (when it runs), :mod:`umbmark.model` and this package.
+Imports numpy, scipy (when it runs), :mod:`umbmark.model`, :mod:`umbmark.kinds` and this package.
 """
 
 from __future__ import annotations
@@ -52,9 +55,10 @@ from umbmark.correct.selfcal.estimate import (
     uncertainty,
 )
 from umbmark.errors import InputError
+from umbmark.kinds import kind_of
 from umbmark.model import se2
 from umbmark.model.geometry import nominal_slip, wrap_angle
-from umbmark.model.kinematics import JointIntervals, Kinematics, Mecanum, Tricycle, twist_displacement
+from umbmark.model.kinematics import JointIntervals, Kinematics, twist_displacement
 
 __all__ = [
     "KinematicSelfcalResult",
@@ -110,10 +114,11 @@ class KinematicProblem(Problem):
         return g
 
     def param_scale(self, p: FloatArray) -> FloatArray:
+        # the lengths (names in metres) scale with their nominal size, angles and ratios by 1
         g = np.abs(self.base[self.free])
         names = np.array(self.kin.parameter_names)[self.free]
-        scale = np.array([1.0 if n.endswith("_rad") or n == "steering_scale" else v for n, v in zip(names, g)])
-        length = float(np.max(np.abs(self.base[[not n.endswith(("_rad", "scale")) for n in self.kin.parameter_names]])))
+        scale = np.array([v if n.endswith("_m") else 1.0 for n, v in zip(names, g)])
+        length = float(np.max(np.abs(self.base[[n.endswith("_m") for n in self.kin.parameter_names]])))
         return np.concatenate([scale, [length, length, 1.0]])
 
     def _local(self, g: FloatArray) -> FloatArray:
@@ -222,7 +227,8 @@ class DrivingCoverage:
     turn_ccw_rad, turn_cw_rad : float
         Heading turned each way [rad].
     steer_left_m, steer_right_m : float
-        A tricycle's wheel travel with the steering beyond 5 deg to the left and to the right [m].
+        A steered robot's wheel travel with the steering beyond 5 deg to the left and to the
+        right [m] (:meth:`umbmark.kinds.Kind.steering_travel`).
     """
 
     travel_m: float
@@ -231,9 +237,6 @@ class DrivingCoverage:
     turn_cw_rad: float
     steer_left_m: float = 0.0
     steer_right_m: float = 0.0
-
-
-_STEER_SIDE_RAD = math.radians(5.0)
 
 
 def driving(iv: JointIntervals, nominal: Kinematics) -> DrivingCoverage:
@@ -250,11 +253,7 @@ def driving(iv: JointIntervals, nominal: Kinematics) -> DrivingCoverage:
     """
     tw = nominal.twist(iv.steps.values)
     travel = float(np.hypot(tw[:, 0], tw[:, 1]).sum())
-    left = right = 0.0
-    if isinstance(nominal, Tricycle):
-        s = np.abs(0.5 * nominal.wheel_diameter_m * iv.steps.values[:, 0])
-        g = iv.steps.values[:, 1]
-        left, right = float(s[g > _STEER_SIDE_RAD].sum()), float(s[g < -_STEER_SIDE_RAD].sum())
+    left, right = kind_of(nominal).steering_travel(nominal, np.asarray(iv.steps.values, dtype=float))
     th = tw[:, 2]
     return DrivingCoverage(
         travel_m=travel,
@@ -267,24 +266,13 @@ def driving(iv: JointIntervals, nominal: Kinematics) -> DrivingCoverage:
 
 
 def _advice(cov: DrivingCoverage, nominal: Kinematics) -> list[str]:
-    """What the driving lacks, each with what to drive."""
+    """What the driving lacks, each with what to drive: turns both ways, then the kind's own
+    (:meth:`umbmark.kinds.Kind.advice`)."""
     out = []
     if min(cov.turn_ccw_rad, cov.turn_cw_rad) < math.radians(90.0):
         side = "clockwise" if cov.turn_cw_rad < cov.turn_ccw_rad else "counter-clockwise"
         out.append(f"the robot hardly turns {side}: drive turns both ways")
-    if isinstance(nominal, Tricycle) and min(cov.steer_left_m, cov.steer_right_m) < 0.05 * max(cov.travel_m, 1e-9):
-        side = "right" if cov.steer_right_m < cov.steer_left_m else "left"
-        out.append(
-            f"the steering hardly turns to the {side}: the steering offset then rests on the steering scale "
-            "being right; steer both ways (arcs left and right)"
-        )
-    if isinstance(nominal, Mecanum) and cov.sideways_m < 0.05 * max(cov.travel_m, 1e-9):
-        out.append(
-            "the robot never moves sideways: the wheel diameters' front-rear and diagonal differences cannot be "
-            "told from the lidar's position and yaw, nor `lx + ly` from the radii with them; drive sideways "
-            "both ways (and diagonally)"
-        )
-    return out
+    return out + kind_of(nominal).advice(cov)
 
 
 def _label(name: str) -> str:
@@ -330,8 +318,8 @@ def _judge(prob: KinematicProblem, cover: DrivingCoverage, limits: KinematicLimi
 
 @dataclass(frozen=True, eq=False)
 class KinematicSelfcalResult:
-    """A self-calibration of a tricycle or mecanum robot (or a differential drive): geometry, sensor
-    pose, their covariance and 95 % intervals.
+    """A self-calibration of a robot of any kind (a tricycle, a mecanum robot, a differential drive):
+    geometry, sensor pose, their covariance and 95 % intervals.
 
     Attributes
     ----------
@@ -378,7 +366,7 @@ class KinematicSelfcalResult:
 
     @property
     def kind(self) -> str:
-        """``tricycle``, ``mecanum`` or ``diff_drive``."""
+        """The kind's name (:data:`umbmark.kinds.KINDS`)."""
         return self.kinematics.kind
 
     @property
@@ -400,12 +388,13 @@ class KinematicSelfcalResult:
         Returns
         -------
         dict
-            ``kinematics``; a tricycle's ``wheel_diameter_mm``, ``wheelbase_mm``,
-            ``steering_offset_deg``, ``steering_scale`` (``_ci95`` null when it was not
-            estimated); a mecanum robot's ``wheel_diameters_mm`` (``front_left``,
-            ``front_right``, ``rear_left``, ``rear_right``) and ``lx_plus_ly_mm``; a
-            differential drive's ``wheel_diameter_left_mm``, ``wheel_diameter_right_mm``,
-            ``wheelbase_mm``; then ``sensor_pose`` (``x_mm``, ``y_mm``, ``yaw_deg`` and their
+            ``kinematics``; the kind's geometry under its keys (:attr:`umbmark.kinds.Parameter.key`,
+            each with its ``_ci95``, null when it was not estimated): a tricycle's
+            ``wheel_diameter_mm``, ``wheelbase_mm``, ``steering_offset_deg``, ``steering_scale``;
+            a mecanum robot's ``wheel_diameters_mm`` (``front_left``, ``front_right``,
+            ``rear_left``, ``rear_right``) and ``lx_plus_ly_mm``; a differential drive's
+            ``wheel_diameter_left_mm``, ``wheel_diameter_right_mm``, ``wheelbase_mm``; then
+            ``sensor_pose`` (``x_mm``, ``y_mm``, ``yaw_deg`` and their
             ``_ci95``), ``intervals_used``, ``intervals_rejected``, ``warnings``, the nominal
             geometry (``nominal``), ``noise_sd``, ``noise_dof``, ``covariance_blocks``,
             ``parameters``, ``sd`` and ``covariance`` (SI).
@@ -413,7 +402,7 @@ class KinematicSelfcalResult:
         deg = math.degrees(1.0)
         g = self.kinematics
         out: dict[str, Any] = {"kinematics": self.kind}
-        out.update(_geometry_dict(g, self._ci))
+        out.update(kind_of(g).geometry_json(g, self._ci))
         x, y, yaw = self.sensor_pose
         out["sensor_pose"] = {
             "x_mm": x * 1e3,
@@ -426,7 +415,7 @@ class KinematicSelfcalResult:
         out["intervals_used"] = int(self.intervals_used)
         out["intervals_rejected"] = [int(i) for i in self.intervals_rejected]
         out["warnings"] = list(self.warnings)
-        out["nominal"] = _geometry_dict(self.nominal, lambda name, k: None, intervals=False)
+        out["nominal"] = kind_of(self.nominal).geometry_json(self.nominal)
         out["noise_sd"] = {
             "dx_mm": self.noise_sd[0] * 1e3,
             "dy_mm": self.noise_sd[1] * 1e3,
@@ -438,35 +427,6 @@ class KinematicSelfcalResult:
         out["sd"] = [float(v) for v in self.sd]
         out["covariance"] = [[float(v) for v in row] for row in self.covariance]
         return out
-
-
-def _geometry_dict(g: Kinematics, ci, intervals: bool = True) -> dict[str, Any]:
-    """A geometry's JSON keys (mm, deg), each with its ``_ci95`` from ``ci(name, factor)``."""
-    deg = math.degrees(1.0)
-    out: dict[str, Any] = {}
-
-    def put(key: str, value: float, name: str, k: float) -> None:
-        out[key] = value * k
-        if intervals:
-            out[f"{key}_ci95"] = ci(name, k)
-
-    if isinstance(g, Tricycle):
-        put("wheel_diameter_mm", g.wheel_diameter_m, "wheel_diameter_m", 1e3)
-        put("wheelbase_mm", g.wheelbase_m, "wheelbase_m", 1e3)
-        put("steering_offset_deg", g.steering_offset_rad, "steering_offset_rad", deg)
-        put("steering_scale", g.steering_scale, "steering_scale", 1.0)
-    elif isinstance(g, Mecanum):
-        roles = ("front_left", "front_right", "rear_left", "rear_right")
-        out["wheel_diameters_mm"] = {r: d * 1e3 for r, d in zip(roles, g.wheel_diameters_m)}
-        if intervals:
-            out["wheel_diameters_mm_ci95"] = {r: ci(f"diameter_{r}_m", 1e3) for r in roles}
-        put("lx_plus_ly_mm", g.lx_plus_ly_m, "lx_plus_ly_m", 1e3)
-    else:
-        v = g.vector()
-        put("wheel_diameter_left_mm", float(v[0]), "diameter_left_m", 1e3)
-        put("wheel_diameter_right_mm", float(v[1]), "diameter_right_m", 1e3)
-        put("wheelbase_mm", float(v[2]), "wheelbase_m", 1e3)
-    return out
 
 
 def _start_pose(prob: KinematicProblem, sensor_pose: FloatArray | None) -> FloatArray:
@@ -517,8 +477,8 @@ def kinematic_selfcal(
         The nominal geometry (the start, the scale of the checks, the values of parameters not
         fitted).
     fit : sequence of str, optional
-        The geometry parameters to estimate (names of ``nominal.parameter_names``); default all
-        but a tricycle's ``steering_scale``.
+        The geometry parameters to estimate (names of ``nominal.parameter_names``); default the
+        kind's (:meth:`umbmark.kinds.Kind.default_fit`: all but a tricycle's ``steering_scale``).
     sensor_pose : array_like, optional
         A start for the sensor pose ``(x_m, y_m, yaw_rad)`` (default: found from the data).
     reject_outliers, loss, outlier_tail, max_rounds, blocks, block_s, max_blocks
@@ -551,7 +511,7 @@ def kinematic_selfcal(
             src,
         )
     names = nominal.parameter_names
-    wanted = tuple(n for n in names if n != "steering_scale") if fit is None else tuple(fit)
+    wanted = kind_of(nominal).default_fit() if fit is None else tuple(fit)
     unknown = [n for n in wanted if n not in names]
     if unknown:
         raise InputError(f"unknown parameter(s) {', '.join(unknown)} of a {nominal.kind} (it has {', '.join(names)})")
@@ -584,52 +544,32 @@ def kinematic_selfcal(
 
 def _refuse_negative(nominal: Kinematics, g: FloatArray, source: str | None) -> None:
     """A fitted diameter or length that is not positive (or a tricycle's steering half a turn off) is
-    a joint read backwards or joints in another order: an error saying which."""
+    a joint read backwards or joints in another order: an error saying which
+    (:meth:`umbmark.kinds.Kind.negative`)."""
     names = nominal.parameter_names
-    bad = [n for n, v in zip(names, g) if not n.endswith(("_rad", "scale")) and not v > 0]
-    if isinstance(nominal, Tricycle) and abs(wrap_angle(g[2])) > 0.5 * math.pi:
-        # a steering offset of half a turn is a wheel rolling the other way
-        bad = ["wheel_diameter_m"] if g[0] > 0 else bad
+    bad = [n for n, v in zip(names, g) if n.endswith("_m") and not v > 0]
+    bad, why = kind_of(nominal).negative(g, bad)
     if not bad:
         return
-    if isinstance(nominal, Tricycle):
-        why = (
-            "the traction joint turns backwards when the robot drives forward"
-            if "wheel_diameter_m" in bad
-            else "the steering joint's angle is clockwise positive (it must be counter-clockwise positive)"
-        )
-    elif isinstance(nominal, Mecanum) and "lx_plus_ly_m" not in bad:
-        wheels = ", ".join(n.removeprefix("diameter_").removesuffix("_m").replace("_", " ") for n in bad)
-        why = (
-            f"the {wheels} wheel's joint turns backwards when the robot drives forward, or the joints are in "
-            "another order (FL,FR,RL,RR)"
-        )
-    else:
-        why = "the joints are in another order or turn backwards"
     raise InputError(f"the fit needs a negative {' and '.join(bad)} (or the steering half a turn off): {why}", source)
 
 
-# the nominal sizes as the command line names them, by kind of length
-_NOMINAL_FLAGS = {"diameter": "`wheel_diameter_mm`", "wheelbase": "`wheelbase_mm`", "lx_plus_ly": "`lx_plus_ly_mm`"}
-
-
 def _nominal_notes(nominal: Kinematics, g: FloatArray, free: NDArray[np.bool_]) -> list[str]:
-    """A fitted length far from its nominal one (the mean of a mecanum robot's wheels): the nominal
-    size given in another unit or as another quantity (:func:`umbmark.model.geometry.nominal_slip`)."""
+    """A fitted size far from its nominal one (the mean of the wheels it gives): the nominal size
+    given in another unit or as another quantity (:func:`umbmark.model.geometry.nominal_slip`),
+    for each of the kind's nominal sizes (:attr:`umbmark.kinds.Kind.sizes`)."""
     nom = nominal.vector()
-    groups: dict[str, list[int]] = {}
-    for i, name in enumerate(nominal.parameter_names):
-        kind = "diameter" if "diameter" in name else name.removesuffix("_m") if name.endswith("_m") else None
-        if kind in _NOMINAL_FLAGS and free[i]:
-            groups.setdefault(kind, []).append(i)
+    names = nominal.parameter_names
     out = []
-    for kind, idx in groups.items():
+    for size in kind_of(nominal).sizes:
+        idx = [names.index(p) for p in size.parameters if free[names.index(p)]]
+        if not idx:
+            continue
         est, was = float(np.mean(g[idx])), float(np.mean(nom[idx]))
-        slip = nominal_slip(kind, est / was) if was > 0 else None
+        slip = nominal_slip(size.quantity, est / was) if was > 0 else None
         if slip is not None:
-            what = {"diameter": "wheel diameter", "wheelbase": "wheelbase", "lx_plus_ly": "lx + ly"}[kind]
             out.append(
-                f"the {what} comes out {est / was:.3g} x the nominal {_NOMINAL_FLAGS[kind]} ({1e3 * est:.1f} mm "
+                f"the {size.label} comes out {est / was:.3g} x the nominal `{size.option}` ({1e3 * est:.1f} mm "
                 f"against {1e3 * was:.1f} mm): {slip} The estimate is the robot's; give the nominal size right "
                 "so that the controller's parameters and the factors against it mean what they say"
             )

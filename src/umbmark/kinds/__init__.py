@@ -1,0 +1,112 @@
+"""The kinds of robot umbmark calibrates, one module each, and their registry.
+
+* :mod:`~umbmark.kinds.diff_drive`: the differential drive (the default kind);
+* :mod:`~umbmark.kinds.tricycle`: the tricycle (``tricycle_controller``);
+* :mod:`~umbmark.kinds.mecanum`: the mecanum robot (``mecanum_drive_controller``).
+
+Each module holds its geometry (the forward kinematics as its ros2 controller computes them)
+and a :class:`~umbmark.kinds._base.Kind` that describes it to the rest of the package: its
+parameters and their JSON keys, the nominal sizes and joints the command line gives, the
+self-calibration's advice, the exports, the table's legend, the random robots of the studies.
+The rest of the package asks the kind (:func:`kind_named`, :func:`kind_of`) and never compares
+a kind's name. The command line's choices (``--kinematics``, the kinds' own options, the export
+formats) are made from :data:`KINDS`.
+
+To add a kind: write its module (a geometry class and ``KIND``), append it to ``_MODULES``
+below, give it its tests and a docs page (see the developers' page of the documentation).
+
+Imports numpy and :mod:`umbmark.model`: the layer above the model, below every layer that uses
+a kind.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from types import MappingProxyType
+
+from umbmark.errors import InputError
+from umbmark.kinds import diff_drive, mecanum, tricycle
+from umbmark.kinds._base import Alternative, FitOption, JointOption, Kind, Parameter, Size
+from umbmark.kinds.diff_drive import DiffDrive
+from umbmark.kinds.mecanum import Mecanum
+from umbmark.kinds.tricycle import Tricycle
+from umbmark.model.geometry import QUANTITIES, Quantity
+from umbmark.model.kinematics import Kinematics
+
+__all__ = [
+    "KINDS",
+    "DEFAULT_KIND",
+    "Kind",
+    "Parameter",
+    "Size",
+    "Alternative",
+    "JointOption",
+    "FitOption",
+    "DiffDrive",
+    "Tricycle",
+    "Mecanum",
+    "kind_named",
+    "kind_of",
+    "kinds_with",
+    "quantity_named",
+]
+
+# the kinds' modules, in the order the command line lists them (append a new kind at the end:
+# the studies' random robots are seeded by their kind's place among the drawable ones)
+_MODULES = (diff_drive, tricycle, mecanum)
+
+_REGISTRY: dict[str, Kind] = {m.KIND.name: m.KIND for m in _MODULES}
+KINDS: Mapping[str, Kind] = MappingProxyType(_REGISTRY)
+"""Every kind of robot by name (the command line's choices of a kind, in this order): a read-only
+view of the registry."""
+
+DEFAULT_KIND: str = diff_drive.KIND.name
+"""The kind a command reads when none is named: the differential drive."""
+
+
+def kind_named(name: str) -> Kind:
+    """The kind of robot of a name.
+
+    Raises
+    ------
+    InputError
+        An unknown name (the known ones named).
+    """
+    try:
+        return KINDS[name]
+    except (KeyError, TypeError):
+        raise InputError(f"unknown kinematics {name!r} (choose from {', '.join(KINDS)})") from None
+
+
+def kind_of(geometry: Kinematics) -> Kind:
+    """The kind of a geometry (its ``kind``).
+
+    Raises
+    ------
+    InputError
+        A geometry of no known kind.
+    """
+    return kind_named(getattr(geometry, "kind", None))  # type: ignore[arg-type]
+
+
+def kinds_with(option: str) -> tuple[Kind, ...]:
+    """The kinds that have an option of their own (:meth:`~umbmark.kinds._base.Kind.option_names`)."""
+    return tuple(k for k in KINDS.values() if option in k.option_names())
+
+
+def quantity_named(name: str) -> Quantity:
+    """A size's :class:`~umbmark.model.geometry.Quantity` by name: the built-in ones (a wheel's
+    diameter and radius, the wheelbase) and every kind's own (a mecanum robot's ``lx_plus_ly``).
+
+    Raises
+    ------
+    InputError
+        An unknown name.
+    """
+    if name in QUANTITIES:
+        return QUANTITIES[name]
+    for k in KINDS.values():
+        for s in k.sizes:
+            if s.quantity.name == name:
+                return s.quantity
+    raise InputError(f"unknown size {name!r}")
