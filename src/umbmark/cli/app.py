@@ -159,6 +159,7 @@ PARAM_FLAGS = {
     "wheel_radius_m": "--wheel-radius-m",
     "wheel_separation_m": "--wheel-separation-m",
     "wheelbase_mm": "--wheelbase-mm",
+    "when": "--recorded-at",
 }
 # every kind's own options (umbmark.kinds: --lx-plus-ly-mm, --drive-joint, ...)
 PARAM_FLAGS.update(

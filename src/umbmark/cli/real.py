@@ -19,7 +19,13 @@ if TYPE_CHECKING:
 from umbmark.cli.app import LOG_FORMAT_CHOICES, app, cli_message, console, emit_json, fmt, is_quiet, table
 from umbmark.cli.config import config_options
 from umbmark.cli.guard import skip_check_option
-from umbmark.cli.history import history_options, print_recorded, record_if_requested, record_report_if_requested
+from umbmark.cli.history import (
+    history_options,
+    print_recorded,
+    record_if_requested,
+    record_report_if_requested,
+    refuse_if_recorded,
+)
 from umbmark.cli.kinematic import (
     export_formats,
     kinematic_options,
@@ -511,6 +517,8 @@ def replay(
     from umbmark._files import check_distinct_inputs
 
     check_distinct_inputs([p for p in paths if Path(p).exists()])
+    if not stream:  # the windows of a recording cover it: refused with it
+        refuse_if_recorded(robot, record, db, kind="replay", method=method, paths=paths, each=True)
     if stream or decimate or poses_out:
         if not stream:
             raise InputError("--decimate and --poses-out work with --stream")
@@ -1259,18 +1267,13 @@ def _emit_export(text: str, out, warnings) -> None:
 
 def _record_selfcal(calibration, robot, record, db):
     """Record the self-calibration in CAL.json in the robot's history (``export --record``)."""
-    import json
-
     from umbmark.history import file_sha256
-    from umbmark.io._text import read_text
+    from umbmark.io._text import parse_json, read_text
     from umbmark.realrobot.selfcal import selfcal_history_fields
 
     if calibration is None:
         raise InputError("--record stores the self-calibration of a CAL.json (from `umbmark selfcal --json`)")
-    try:
-        d = json.loads(read_text(calibration))
-    except ValueError as e:
-        raise InputError(f"{calibration}: not JSON ({e})") from None
+    d = parse_json(read_text(calibration), str(calibration))
     if not isinstance(d, dict) or d.get("method", "selfcal") != "selfcal" or "sensor_pose" not in d:
         raise InputError(
             f"{calibration}: --record stores self-calibrations; record this calibration with the command "

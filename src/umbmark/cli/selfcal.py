@@ -20,7 +20,7 @@ from umbmark.cli.app import app, cli_message, console, emit_json, fmt, is_quiet,
 from umbmark.cli.bags import Bars, interval_options, kind_of, start_kernels, stream_text
 from umbmark.cli.config import config_options
 from umbmark.cli.guard import skip_check_option
-from umbmark.cli.history import history_options, print_recorded, record_if_requested
+from umbmark.cli.history import history_options, print_recorded, record_if_requested, refuse_if_recorded
 from umbmark.cli.kinematic import joints_help, kinematic_options, refuse_kind_options
 from umbmark.cli.progress import progress
 from umbmark.errors import InputError
@@ -334,6 +334,7 @@ def selfcal_cmd(
         )
     )
     kind = kind_of(paths)
+    refuse_if_recorded(robot, record, db, kind="selfcal", method="selfcal", paths=paths)  # windows too: they cover it
     opts = {"reject_outliers": not keep_outliers, "time_jitter": wheel_jitter}
     if kind == "intervals":
         from umbmark.realrobot.selfcal import selfcal_from_intervals
@@ -366,7 +367,7 @@ def selfcal_cmd(
     if record and window_s is None:
         from umbmark.history import file_sha256
 
-        fields = rep.history_fields(kind="selfcal", file_hash=file_sha256 if len(paths) == 1 else None)
+        fields = rep.history_fields(kind="selfcal", file_hash=file_sha256)
         rec = record_if_requested(robot, record, db, **fields)
     if as_json:
         emit_json(d if rec is None else {**d, "history": rec})

@@ -243,6 +243,6 @@ def read_kinematic_json(path: str | Path) -> dict | None:
     drive's export reads and judges it)."""
     try:
         d = json.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError):
+    except (OSError, ValueError, RecursionError):  # ValueError: not UTF-8, not JSON, a number of 5000 digits
         return None
     return d if isinstance(d, dict) and _exported(d.get("kinematics")) is not None else None
