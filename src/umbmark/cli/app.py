@@ -164,6 +164,8 @@ PARAM_FLAGS = {
 PARAM_FLAGS.update(
     {n: "--" + n.replace("_", "-") for k in KINDS.values() for n in k.option_names() if n not in PARAM_FLAGS}
 )
+# the parameter files of the robots' own software an export edits (umbmark.kinds: --vesc-config)
+PARAM_FLAGS.update({e.option: "--" + e.option.replace("_", "-") for k in KINDS.values() for e in k.edited_files})
 # boolean parameters set False by a flag of their own
 PARAM_NO_FLAGS = {"fit_offset": "--no-fit-marker-offset"}
 _PARAM = re.compile(r"`(\w+)(?:=([^`]*))?`")
