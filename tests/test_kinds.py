@@ -17,9 +17,9 @@ import umbmark.kinds as kinds
 from umbmark.errors import InputError
 from umbmark.kinds import (
     DEFAULT_KIND,
+    KINDS,
     Ackermann,
     Bicycle,
-    KINDS,
     DiffDrive,
     JointOption,
     Kind,

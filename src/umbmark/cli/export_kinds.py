@@ -109,7 +109,8 @@ def export_kinematic(d, src, out_format, controller, sensor_z_mm, out, record, s
 
         text, lines = format_edited_file(cal, out_format, read_text(path), path)
         for line in lines:
-            click.echo(cli_message(line), err=True)
+            if line.startswith("warning: ") or not is_quiet():
+                click.echo(cli_message(line), err=True)
         emit_export(text, out, cal.warnings)
         return
     text = format_kinematic_export(

@@ -240,7 +240,7 @@ def format_kinematic_export(
     head = f"umbmark self-calibration of a {kind.noun} from {cal.source}"
     edited = [e for e in kind.edited_files if e.format == fmt]
     if edited:
-        raise InputError(f"--format {fmt} edits {edited[0].describe}: give it (`{edited[0].option}`)")
+        raise InputError(f"`fmt={fmt}` edits {edited[0].describe}: give it (`{edited[0].option}`)")
     if fmt == "urdf":
         warn = "".join(f"<!-- warning: {xml_comment(w)} -->\n" for w in cal.warnings)
         return f"<!-- {xml_comment(head)} -->\n{warn}{origin_element(cal.sensor_pose)}\n"
@@ -331,6 +331,7 @@ def format_edited_file(cal: KinematicCalibration, fmt: str, text: str, source: s
     lines = [
         f"{e.key}{f' ({e.block})' if e.block else ''}: {number_text(e.old)} -> {number_text(e.new)}" for e in edits
     ]
+    lines += [f"note: {n}" for n in kind.edited_notes(fmt, cal.geometry, cal.ci95)]
     if cal.joints is not None and spec.from_joints:
         lines.append(f"warning: {spec.from_joints}")
     return new, lines

@@ -166,12 +166,12 @@ def edit_parameter_file(
     new_blocks = dict(parameter_blocks(new_data))
     edits: list[ParameterEdit] = []
     for name, block in blocks:
-        where = f" of {name}" if name else ""
+        where = f" ({name}'s parameters)" if name else ""
         in_use = {}
         for k in keys:
             v = block.get(k)
             if k not in block:
-                raise InputError(f"`{k}` missing from the parameters{where}: the value in use is needed", source)
+                raise InputError(f"`{k}` missing{where}: the value in use is needed", source)
             number = _number(v)
             if number is None:
                 raise InputError(f"`{k}`{where} must be a number, got {v!r}", source)

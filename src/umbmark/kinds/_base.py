@@ -593,6 +593,11 @@ class Kind:
         """
         raise InputError(f"a {self.noun}'s calibration edits no {fmt} file")
 
+    def edited_notes(self, fmt: str, g: Kinematics, ci95: Mapping[str, Interval | None]) -> list[str]:
+        """What else the user's parameter file of ``fmt`` should change that the export does not write
+        (a value in another node's block, an estimate the file's keys do not hold)."""
+        return []
+
     def ros2_parameters(self, g: Kinematics) -> dict[str, Any]:
         """The controller's ``ros__parameters`` of a geometry (ros2_controllers' names and types)."""
         raise InputError(f"no ros2 controller's parameters of a {self.noun}")

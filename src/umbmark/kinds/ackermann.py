@@ -262,13 +262,13 @@ class _AckermannKind(Kind):
             "fit_wheelbase",
             "wheelbase_m",
             "also estimate the wheelbase (it separates from the steering scale only through tan at large "
-            "steering angles: drive near full lock; else held at --wheelbase-mm).",
+            "steering angles: drive near full lock; else held at the nominal wheelbase).",
         ),
     )
     held = ("traction_track_m", "steering_track_m")
     legend = (
         "wheel diameter: the traction (rear) wheels'; wheelbase: rear axle to front axle (held at the nominal one "
-        "unless --fit-wheelbase); track widths: held at the nominal ones; steering offset: each steering joint's "
+        "unless asked to estimate it); track widths: held at the nominal ones; steering offset: each steering joint's "
         "true angle less the measured one (counter-clockwise positive); steering scale: true over measured angle.",
     )
     sim_joints = (

@@ -351,7 +351,7 @@ class _BicycleKind(Kind):
             "fit_wheelbase",
             "wheelbase_m",
             "also estimate the wheelbase (it separates from the steering scale only through tan at large "
-            "steering angles: drive near full lock; else held at --wheelbase-mm).",
+            "steering angles: drive near full lock; else held at the nominal wheelbase).",
         ),
     )
     edited_files = (
@@ -369,7 +369,7 @@ class _BicycleKind(Kind):
     )
     legend = (
         "wheel diameter: the traction (rear) wheels'; wheelbase: rear axle to front axle (held at the nominal one "
-        "unless --fit-wheelbase); steering offset: the true steering angle less the measured one (counter-"
+        "unless asked to estimate it); steering offset: the true steering angle less the measured one (counter-"
         "clockwise positive), the number that makes a measured 0 drive straight; steering scale: true over "
         "measured angle.",
     )
@@ -421,7 +421,7 @@ class _BicycleKind(Kind):
                 "and steering_joints_names of your car",
                 humble,
                 "the steering offset and scale belong to what turns the steering command into an angle (a vesc: "
-                "umbmark export CAL.json --format vesc --vesc-config vesc.yaml)",
+                "umbmark's vesc export edits its vesc.yaml)",
             ]
         assert isinstance(g, Bicycle)
         scaled = ci95.get("steering_scale") is not None
@@ -438,6 +438,15 @@ class _BicycleKind(Kind):
             return super().edited_values(fmt, g, nominal, in_use)
         assert isinstance(g, Bicycle) and isinstance(nominal, Bicycle)
         return vesc_values(g, nominal, in_use)
+
+    def edited_notes(self, fmt: str, g: Kinematics, ci95: Mapping[str, Interval | None]) -> list[str]:
+        assert isinstance(g, Bicycle)
+        if ci95.get("wheelbase_m") is None:
+            return []
+        return [
+            f"the wheelbase was estimated too ({1e3 * g.wheelbase_m:.1f} mm): set vesc_to_odom's wheelbase to "
+            f"{g.wheelbase_m:.4f} (the steering gains above are for it)"
+        ]
 
     def draw(self, u: Uniform) -> tuple[Kinematics, Kinematics]:
         """A nominal wheel of 80-250 mm and wheelbase of 250-900 mm (whole millimetres); the true

@@ -462,8 +462,9 @@ MOVES = (
     "reverse+", "reverse-",
 )  # fmt: skip
 """The moves :func:`kinematic_program` can draw: forward, backward, sideways left and right, in
-any direction, arcs and spins counter-clockwise (``+``) and clockwise (``-``); a car's loops (90 to
-330 deg forward) and reversing arcs (30 to 120 deg backward) at 0.6 to 1 times its tightest turn
+any direction, arcs and spins counter-clockwise (``+``) and clockwise (``-``); a car's loops (150 to
+330 deg forward, 0.4 to 1 m/s; drawn as figure-eights, one way then the other) and reversing arcs
+(30 to 90 deg backward) at 0.8 to 1 and 0.6 to 1 times its tightest turn
 (:attr:`KinematicRobot.turn_limit_per_m`). Each kind of robot names those it can make
 (:attr:`~umbmark.model.kinematics.Kinematics.moves`)."""
 
@@ -471,11 +472,12 @@ any direction, arcs and spins counter-clockwise (``+``) and clockwise (``-``); a
 def _draw_car(kind: str, rng: np.random.Generator, limit: float) -> Move:
     """A random loop or reversing arc of a car whose tightest turn is ``limit`` [1/m]."""
     sign = 1.0 if kind.endswith("+") else -1.0
-    curvature = rng.uniform(0.6, 1.0) * limit
     if kind.startswith("loop"):
-        v, turn = rng.uniform(0.3, 0.8), math.radians(rng.uniform(90.0, 330.0))
+        curvature = rng.uniform(0.8, 1.0) * limit
+        v, turn = rng.uniform(0.4, 1.0), math.radians(rng.uniform(150.0, 330.0))
     else:
-        v, turn = -rng.uniform(0.15, 0.35), math.radians(rng.uniform(30.0, 120.0))
+        curvature = rng.uniform(0.6, 1.0) * limit
+        v, turn = -rng.uniform(0.2, 0.4), math.radians(rng.uniform(30.0, 90.0))
     omega = sign * abs(v) * curvature
     return Move(turn / abs(omega), v, 0.0, omega)
 
@@ -575,7 +577,7 @@ def kinematic_program(
     queue: list[str] = []
     while used < duration_s:
         if not queue:
-            queue = [pool[i] for i in rng.permutation(len(pool))]
+            queue = _figure_eights([pool[i] for i in rng.permutation(len(pool))])
         first = queue.pop(0)
         chosen = None
         for kind in [first] + [k for k in pool if k != first]:
@@ -597,6 +599,16 @@ def kinematic_program(
         moves += seq
         used += sum(m.duration_s for m in seq)
     return tuple(moves), (float(start[0]), float(start[1]), float(start[2]))
+
+
+def _figure_eights(queue: list[str]) -> list[str]:
+    """A round of moves with a car's second loop right after its first (a figure-eight)."""
+    loops = [k for k in queue if k.startswith("loop")]
+    if len(loops) < 2:
+        return queue
+    rest = [k for k in queue if k != loops[1]]
+    at = rest.index(loops[0]) + 1
+    return rest[:at] + [loops[1]] + rest[at:]
 
 
 def _steer_first(pause: Move, nxt: Move) -> Move:
