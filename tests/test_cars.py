@@ -186,8 +186,11 @@ def _edit(text: str):
         "steering_angle_to_servo_offset: 0.5304, port: /dev/vesc}}\n",
         VESC_NODE + "other_node:\n  ros__parameters:\n    speed_to_erpm_gain: 4000.0\n"
         "    steering_angle_to_servo_gain: -1.0\n    steering_angle_to_servo_offset: 0.5\n",
+        "# ROS 1, loaded under the vesc namespace\nspeed_to_erpm_gain: -2000\nspeed_to_erpm_offset: 0.0\n"
+        "steering_angle_to_servo_gain: -1.2135\nsteering_angle_to_servo_offset: 0.55\n"
+        "vesc_to_odom/publish_tf: true\nwheelbase: .225\nvesc_driver:\n  port: /dev/vesc\n  servo_min: 0.15\n",
     ],
-    ids=["node", "wildcard", "ros1", "flow", "two-nodes"],
+    ids=["node", "wildcard", "ros1", "flow", "two-nodes", "mushr"],
 )
 def test_a_vesc_yaml_keeps_every_other_line(text):
     new, edits = _edit(text)

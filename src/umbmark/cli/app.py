@@ -63,8 +63,9 @@ CONTEXT = dict(help_option_names=["-h", "--help"], max_content_width=100)
 @click.option("-q", "--quiet", is_flag=True, help="Print only errors (and --json output).")
 @click.pass_context
 def app(ctx, quiet):
-    """Measure and correct the systematic odometry errors of differential-drive robots
-    (UMBmark, Borenstein & Feng).
+    """Measure and correct the systematic odometry errors of wheeled robots of every kind:
+    differential drives (UMBmark, Borenstein & Feng), tricycles, mecanum robots and cars
+    (selfcal --kinematics tricycle|mecanum|bicycle|ackermann).
 
     \b
     Start with:

@@ -283,7 +283,7 @@ def _print(d: dict, save) -> None:
     c.print(f"  {escape(f'umbmark export {cal} --format urdf')}", soft_wrap=True)
     for e in kind_named(d["kinematics"]).edited_files:
         line = f"umbmark export {cal} --format {e.format} {flag(e.option)} {e.metavar} --out calibrated.yaml"
-        c.print(f"  {escape(line)}  ({escape(e.describe)})", soft_wrap=True)
+        c.print(f"  {escape(line)}", soft_wrap=True)
 
 
 # the replay flags a robot of a kind of its own against a ground truth has use for (and every

@@ -2,7 +2,8 @@
 line kept (F1TENTH's and MuSHR's ``vesc.yaml`` with its gains calibrated).
 
 A parameter file is YAML: ROS 2's ``NODE: ros__parameters: {...}`` (``NODE`` a node's name or a
-wildcard such as ``/**``, inside namespaces too) or ROS 1's flat mapping of names to values. Its
+wildcard such as ``/**``, inside namespaces too) or ROS 1's mapping of names to values (MuSHR's
+``vesc.yaml``: the gains at the top, the driver's own in ``vesc_driver``). Its
 **blocks** are the mappings that hold parameters (:func:`parameter_blocks`); every block that
 holds one of the values asked for must hold them all, each a number.
 
@@ -63,22 +64,23 @@ def parameter_blocks(data: Any) -> list[tuple[str, dict]]:
     -------
     list of (str, dict)
         ROS 2: each ``ros__parameters`` mapping with the path of its node (``/**``,
-        ``ns/node``); a file without any: the whole mapping as one block named ``""`` (ROS 1).
+        ``ns/node``); a file without any (ROS 1): the whole mapping (named ``""``) and every
+        mapping in it (named by its namespace, ``vesc_driver``).
     """
-    out: list[tuple[str, dict]] = []
+    ros2: list[tuple[str, dict]] = []
+    every: list[tuple[str, dict]] = []
 
     def walk(d: dict, path: tuple[str, ...]) -> None:
+        every.append(("/".join(path), d))
         for k, v in d.items():
             if k == _ROS2 and isinstance(v, dict):
-                out.append(("/".join(path), v))
+                ros2.append(("/".join(path), v))
             elif isinstance(v, dict):
                 walk(v, (*path, str(k)))
 
     if isinstance(data, dict):
         walk(data, ())
-        if not out:
-            out.append(("", data))
-    return out
+    return ros2 or every
 
 
 def number_text(v: float) -> str:

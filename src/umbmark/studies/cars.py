@@ -31,7 +31,7 @@ from umbmark.model.kinematic_drive import JointNoise, KinematicRobot, kinematic_
 from umbmark.model.kinematics import Kinematics
 from umbmark.model.sensors import Lidar, Room, SensorPose
 
-__all__ = ["Car", "CARS", "VESC_IN_USE", "car_bag", "car_named", "truth", "vesc_truth", "SOURCES"]
+__all__ = ["Car", "CARS", "VESC_IN_USE", "VESC_YAML", "car_bag", "car_named", "truth", "vesc_truth", "SOURCES"]
 
 SOURCES = ("joints", "odom")
 """What a car's calibration reads: its joint states, or its own odometry (``/odom``)."""
@@ -126,6 +126,29 @@ VESC_IN_USE = {
     "steering_angle_to_servo_offset": 0.5304,
 }
 """The vesc driver's gains of F1TENTH's stock parameter file (the values in use of the examples)."""
+
+VESC_YAML = """\
+/**:
+  # the parameters every vesc node reads
+  ros__parameters:
+    # erpm = speed_to_erpm_gain * speed [m/s] + speed_to_erpm_offset
+    speed_to_erpm_gain: 4614.0
+    speed_to_erpm_offset: 0.0
+    # servo position (0 to 1) = steering_angle_to_servo_gain * angle [rad] + steering_angle_to_servo_offset
+    steering_angle_to_servo_gain: -1.2135
+    steering_angle_to_servo_offset: 0.5304
+    port: /dev/sensors/vesc
+    servo_min: 0.15
+    servo_max: 0.85
+
+vesc_to_odom_node:
+  ros__parameters:
+    odom_frame: odom
+    base_frame: base_link
+    use_servo_cmd_to_calc_angular_velocity: true   # the odometry turns with the steering
+    wheelbase: 0.33
+"""
+"""A vesc driver's parameter file of the examples (ROS 2), with :data:`VESC_IN_USE`."""
 
 _NOISE = JointNoise(speed_rel_sd=0.01, slip_m_per_sqrt_m=2e-4, steer_sd_rad=math.radians(0.05))
 
