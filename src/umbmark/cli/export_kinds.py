@@ -70,6 +70,8 @@ def _edited_path(kind: Kind, out_format: str, files: dict, src: str) -> str | No
                 f"{flag(option)} is for --format {edited_files()[option][0].format}, not {out_format}", src
             )
     if spec is None:
+        if out_format not in kind.export_formats:
+            _refuse_edited_format(out_format)
         return None
     if files.get(spec.option) is None:
         raise InputError(f"--format {out_format} edits {spec.describe}: give it, {flag(spec.option)} {spec.metavar}")
@@ -123,8 +125,18 @@ def export_kinematic(d, src, out_format, controller, sensor_z_mm, out, record, s
     emit_export(text, out, cal.warnings)
 
 
-def refuse_edited_files(files: dict) -> None:
-    """Refuse a parameter file to edit given with a calibration whose kind edits none (a differential drive's)."""
+def _refuse_edited_format(out_format: str) -> None:
+    """Refuse a format that edits a parameter file of another kind's."""
+    for e, kinds in edited_files().values():
+        if e.format == out_format:
+            nouns = " or ".join(f"{k.noun}'s" for k in kinds)
+            raise InputError(f"--format {out_format} edits {e.describe} from a {nouns} self-calibration")
+
+
+def refuse_edited_files(files: dict, out_format: str) -> None:
+    """Refuse a parameter file to edit, or its format, with a calibration whose kind edits none (a
+    differential drive's)."""
+    _refuse_edited_format(out_format)
     for option, v in files.items():
         if v is not None:
             e, kinds = edited_files()[option]

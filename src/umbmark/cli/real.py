@@ -1106,7 +1106,7 @@ def export(
                 (steering_offset_in_use_deg, steering_reduction_in_use), diff_drive_flags, edited,
             )  # fmt: skip
             return
-    refuse_edited_files(edited)
+    refuse_edited_files(edited, out_format)
     controller = "diff_drive_controller" if controller is None else controller
     if (steering_offset_in_use_deg, steering_reduction_in_use) != (0.0, 1.0):
         raise InputError(f"--steering-offset-in-use-deg and --steering-reduction-in-use are {own_kinds(steered=True)}")
