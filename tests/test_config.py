@@ -5,6 +5,7 @@ values go through the flags' checks, and a bad file is one line naming the file 
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import click
 import pytest
@@ -69,6 +70,16 @@ def test_the_command_line_wins_and_other_sections_are_left_alone(tmp_path, capsy
         ("replay: {method: bf\n", "not YAML"),
         ("replay:\n  method: nonsense\n", "'nonsense' is not one of"),
         ("replay:\n  wheel-diameter-mm: 0.084\n", "0.084 mm is no wheel's diameter"),
+        (
+            "replay:\n  method: exact\nselfcal:\n  keyframe-mm: 300\nreplay:\n  method: bf\n",
+            "line 5: two replay: sections (lines 1 and 5): give each command's options in one",
+        ),
+        (
+            "selfcall:\n  keyframe-mm: 300\n",
+            "line 1: no command 'selfcall' (selfcal?): the sections are replay, selfcal",
+        ),
+        ("replay:\n  method: exact\n  method: bf\n", "line 3: --method given twice (lines 2 and 3)"),
+        ("replay:\n  no-heldout: true\n  no_heldout: false\n", "line 3: --no-heldout given twice (lines 2 and 3)"),
     ],
 )
 def test_a_bad_config_is_one_line_naming_the_file(tmp_path, capsys, text, message):
@@ -78,6 +89,19 @@ def test_a_bad_config_is_one_line_naming_the_file(tmp_path, capsys, text, messag
     assert message in err
     if "line" in message or "mapping" in message or "YAML" in message:
         assert str(cfg) in err
+
+
+@pytest.mark.skipif(not Path("/dev/zero").exists(), reason="needs /dev/zero")
+def test_an_endless_config_is_read_no_further_than_a_configuration_goes(tmp_path, capsys):
+    """--config /dev/zero (or a file of megabytes): refused after a megabyte, not read until the
+    memory is gone."""
+    err = _error(capsys, ["replay", OPTIODOM, "--config", "/dev/zero"])
+    assert "/dev/zero: longer than 1,048,576 bytes (a device or a pipe, not a file)" in err
+    big = tmp_path / "big.yaml"
+    big.write_text("replay:\n" + "# padding\n" * 120_000)
+    assert "big.yaml: longer than 1,048,576 bytes: not the file expected here" in _error(
+        capsys, ["replay", OPTIODOM, "--config", str(big)]
+    )
 
 
 def test_a_missing_config_and_a_config_replaced_by_its_own_output(tmp_path, capsys):

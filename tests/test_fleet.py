@@ -252,26 +252,6 @@ def test_a_scheduler_s_password_is_never_printed(tmp_path):
     assert code == 2 and "tcp://host:8786" in err
 
 
-@pytest.mark.parametrize("backend", ["sqlite", "sqlalchemy"])
-def test_the_history_keeps_a_recording_once_when_asked(tmp_path, backend):
-    """Both backends (SQLAlchemy on an SQLite URL here; PostgreSQL through the fleet's test)."""
-    from umbmark.history.base import AlreadyRecorded
-
-    if backend == "sqlalchemy":
-        pytest.importorskip("sqlalchemy")
-    db = tmp_path / "h.sqlite"
-    fields = dict(kind="selfcal", method="selfcal", results={}, parameters={"Ed": 1.0}, input_sha256="ab" * 32)
-    with open_history(f"sqlite:///{db}" if backend == "sqlalchemy" else db) as h:
-        first = h.add("r1", once=True, **fields)
-        with pytest.raises(AlreadyRecorded) as e:
-            h.add("r1", once=True, **fields)
-        assert e.value.record_id == first and "#1" in str(e.value)
-        h.add("r2", once=True, **fields)  # another robot's
-        h.add("r1", once=True, **{**fields, "method": "replay"})  # another method's
-        h.add("r1", **fields)  # not asked: kept (a user's own --record)
-        assert len(h.records()) == 4
-
-
 def test_two_fleets_at_once_on_one_history_record_each_recording_once(tmp_path, monkeypatch, client):
     """Both fleets look up the history before either records (held at their first record): each
     then sends every recording, and the history's guard keeps one record of each."""

@@ -109,8 +109,10 @@ def test_a_gyro_result_is_recorded_reported_and_listed(skid_bag, tmp_path):
     assert f"{1e3 * d['gyro']['wheelbase_m']:.2f}" in text and "The turns" in text
     run(["-q", "report", "--robot", "r1", "--db", db, "--out", str(tmp_path / "h.html")])
     assert "gyro" in (tmp_path / "h.html").read_text()
-    # printed, the record is named
-    assert f"recorded as #{rid + 1} in the history of r1" in run([*base, "--robot", "r1", "--record", "--db", db])
+    # printed, the record is named; the same bag again in r1's history is refused, naming the record
+    assert f"recorded as #{rid + 1} in the history of r2" in run([*base, "--robot", "r2", "--record", "--db", db])
+    line = run([*base, "--robot", "r1", "--record", "--db", db], code=2)
+    assert f"holds this recording already: record #{rid} (gyro" in line
 
 
 def test_a_turn_is_named_by_its_time_in_its_bag(tmp_path):

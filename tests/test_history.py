@@ -12,6 +12,7 @@ from umbmark.history import (
     SCHEMA_VERSION,
     History,
     HistoryError,
+    SameRecording,
     default_db_path,
     export_parameters,
     record_result,
@@ -294,9 +295,11 @@ def test_record_a_replay_report(tmp_path, optiodom, capsys):
         assert r.ed == pytest.approx(part["Ed"]) and r.wheelbase_mm == pytest.approx(part["wheelbase_corrected_mm"])
         assert r.emax_syst_mm == pytest.approx(part["before"]["emax_syst_mm"])
         assert r.parameters_in_use == part["nominal"] and r.parameters_in_use["wheelbase_mm"] > 0
-    # a single-data-set report
+    # a single-data-set report: of a recording this robot's history holds already (refused), and of another robot
     assert main(["-q", "replay", str(sets[1]), "--method", "bf", "--no-heldout", "--save", str(save)]) == 0
-    one = record_report_if_requested("opti", True, db, json.loads(save.read_text()), [sets[1]])
+    with pytest.raises(SameRecording, match="holds this recording already: record #2 "):
+        record_report_if_requested("opti", True, db, json.loads(save.read_text()), [sets[1]])
+    one = record_report_if_requested("opti-2", True, db, json.loads(save.read_text()), [sets[1]])
     assert one[0]["record_id"] == 3
     with History(db) as h:
         assert h.get(3).ed == pytest.approx(stored[1].ed)

@@ -443,7 +443,7 @@ def test_benchmark_script_runs(tmp_path):
 
 
 def test_kernel_state_says_whether_the_matcher_is_compiled(monkeypatch):
-    import umbmark.realrobot.scanmatch as sm
+    import umbmark.realrobot.scanmatch_kernel as sm
 
     lidar = Lidar(range_noise_m=0.005, n_beams=90)
     ref, cur, truth = draw_pairs(lidar, 1, seed=16)
@@ -487,11 +487,11 @@ def test_a_machine_without_the_kernels_compiles_them_in_two_processes(tmp_path):
     m = match_scan_pairs(ref, cur, lidar.angles_rad, truth)
     code = (
         "import json, sys, numpy as np\n"
-        "from umbmark.realrobot import scanmatch as sm\n"
+        "from umbmark.realrobot import scanmatch_kernel as k, scanmatch as sm\n"
         "a = json.loads(sys.stdin.read())\n"
         "before = sm.kernel_state()\n"
         "sm.start_compiling()\n"
-        "helper = sm._helper[0]\n"
+        "helper = k._helper[0]\n"
         "m = sm.match_scan_pairs(np.array(a['ref']), np.array(a['cur']), np.array(a['angles']), np.array(a['init']))\n"
         "print(json.dumps([before, helper.returncode, sm.kernel_state(), m.poses.tolist(), m.iterations.tolist()]))\n"
     )
@@ -507,5 +507,5 @@ def test_a_machine_without_the_kernels_compiles_them_in_two_processes(tmp_path):
     assert (before, helper_rc, after) == ("compile", 0, "ready")
     written = {p.name.split("-")[0] for p in cache.rglob("*.nbi")}
     kernels = ("_icp", "_prepare_scan", "_prepare_kernel", "_pairs_kernel")
-    assert {f"scanmatch.{k}" for k in kernels} <= written
+    assert {f"scanmatch_kernel.{k}" for k in kernels} <= written
     assert np.allclose(poses, m.poses, rtol=0, atol=1e-12) and iterations == m.iterations.tolist()

@@ -21,10 +21,11 @@ from hypothesis import strategies as st
 
 pytest.importorskip("rosbags")
 from umbmark.cli import main  # noqa: E402
+from umbmark.errors import InputError  # noqa: E402
 from umbmark.io.relations import Relations, read_relations, write_relations  # noqa: E402
 from umbmark.io.rosbag import read_selfcal_bag  # noqa: E402
 from umbmark.io.rosbag_write import EPOCH_S, JOINT_NAMES, write_drive_bag  # noqa: E402
-from umbmark.io.tum import Trajectory, format_tum, write_tum  # noqa: E402
+from umbmark.io.tum import Trajectory, format_tum, read_tum, write_tum  # noqa: E402
 from umbmark.io.wheels import WheelSource  # noqa: E402
 from umbmark.jsonutil import dumps  # noqa: E402
 from umbmark.model import se2  # noqa: E402
@@ -224,11 +225,14 @@ def test_a_trajectory_of_the_base_frame_at_the_scans_and_of_the_lidar_at_its_own
     )
     assert (v.reference.mode, v.reference.frame) == ("interpolated", "sensor")
     check_truth(after(v), tol_mse=1e-7)
-    # the same trajectory read as the base frame's is not the truth
-    v = validate_log(
-        sim / "drive.bag", sim / "true.json", reference_path=sim / "lidar.tum", wheels=WheelSource(joints=JOINT_NAMES)
-    )
-    assert after(v).short.mse_translation_m2 > 1e-6
+    # the same trajectory read as the base frame's is not the truth: named, not scored
+    with pytest.raises(InputError, match="the trajectory looks like the sensor frame's, not the base frame's"):
+        validate_log(
+            sim / "drive.bag",
+            sim / "true.json",
+            reference_path=sim / "lidar.tum",
+            wheels=WheelSource(joints=JOINT_NAMES),
+        )
 
 
 def test_halves_and_a_window(sim):
@@ -448,6 +452,23 @@ def bad(sim, tmp_path_factory):
     (d / "other.json").write_text('{"name": "x", "value": 3}\n')
     (d / "baginfo.json").write_text('{"bag": "b", "duration_s": 1, "messages": 3, "topics": []}\n')
     (d / "report.json").write_text('{"log": "b", "reference": {}, "calibration": {}, "spans": []}\n')
+    # well formed, and meaning something else: each relation's stamps exchanged, a trajectory mirrored
+    write_relations(Relations(rel.t2_s, rel.t1_s, rel.pose), d / "exchanged.relations")
+    write_relations(Relations(rel.t1_s, rel.t2_s, rel.pose * [1, -1, -1]), d / "mirrored.relations")
+    base = read_tum(sim / "base.tum")
+    write_tum(Trajectory(base.t_s, base.pose[:, [1, 0, 2]]), d / "mirrored.tum")
+    write_tum(Trajectory(base.t_s, base.pose * [1, -1, 1]), d / "y_negated.tum")
+    write_tum(Trajectory(base.t_s, base.pose * [1, -1, -1]), d / "right_handed.tum")
+    # calibrations with a size no robot has, or no correction makes
+    true = json.loads((sim / "true.json").read_text())
+    for name, key, k in (
+        ("metres", "wheelbase_mm", 1e-3),
+        ("huge", "wheel_diameter_left_mm", None),
+        ("tripled", "wheelbase_mm", 3.0),
+        ("nominal_metres", "nominal_wheel_diameter_mm", 1e-3),
+    ):
+        (d / f"{name}.json").write_text(json.dumps({**true, key: 1e308 if k is None else true[key] * k}))
+    (d / "far_lidar.json").write_text(json.dumps({**true, "sensor_pose": {**true["sensor_pose"], "x_mm": 1e308}}))
     return d
 
 
@@ -531,6 +552,76 @@ BAD_CASES = {
         "not both",
     ),
     "a missing topic": (["{sim}/drive.bag", CAL, "--relations", REL, "--odom-topic", "/nope"], "drive.bag", "/nope"),
+    "relations with their stamps exchanged": (
+        ["{sim}/drive.bag", CAL, "--relations", "{bad}/exchanged.relations"],
+        "exchanged.relations",
+        "times more as given than inverted (RMS over 593 short relations): timestamp1 and timestamp2 look exchanged",
+    ),
+    "a mirrored trajectory": (
+        ["{sim}/drive.bag", CAL, "--reference", "{bad}/mirrored.tum"],
+        "mirrored.tum",
+        "than made with x and y exchanged (RMS over 3528 short relations): the trajectory's x and y look exchanged",
+    ),
+    "a trajectory with y negated": (
+        ["{sim}/drive.bag", CAL, "--reference", "{bad}/y_negated.tum"],
+        "y_negated.tum",
+        "than made with y negated (RMS over 3528 short relations): the trajectory's y looks negated",
+    ),
+    "a trajectory in a frame with y to the right": (
+        ["{sim}/drive.bag", CAL, "--reference", "{bad}/right_handed.tum"],
+        "right_handed.tum",
+        "than made mirrored back (RMS over 3528 short relations): the trajectory looks mirrored: y and the heading",
+    ),
+    "mirrored relations": (
+        ["{sim}/drive.bag", CAL, "--relations", "{bad}/mirrored.relations"],
+        "mirrored.relations",
+        "than mirrored (RMS over 593 short relations): they look mirrored: y and the yaw negated",
+    ),
+    "a lidar 1e308 mm ahead": (
+        ["{sim}/drive.bag", "{bad}/far_lidar.json", "--relations", REL],
+        "far_lidar.json",
+        "'sensor_pose' x_mm is 1e+308 mm: no lidar is mounted beyond 10000 mm from the robot's origin",
+    ),
+    "a stamp tolerance of 1e9 s": (
+        ["{sim}/drive.bag", CAL, "--relations", REL, "--stamp-tolerance-s", "1e9"],
+        "--stamp-tolerance-s",
+        "--stamp-tolerance-s is 1e+09 s, more than half the scans' period (0.1 s)",
+    ),
+    "a base frame's trajectory given as the sensor's": (
+        ["{sim}/drive.bag", CAL, "--reference", "{sim}/base.tum", "--reference-frame", "sensor"],
+        "base.tum",
+        "the trajectory looks like the base frame's, not the sensor frame's: give --reference-frame base",
+    ),
+    "a sensor's trajectory read as the base frame's": (
+        ["{sim}/drive.bag", CAL, "--reference", "{sim}/lidar.tum"],
+        "lidar.tum",
+        "the trajectory looks like the sensor frame's, not the base frame's: give --reference-frame sensor",
+    ),
+    "a wheelbase in metres": (
+        ["{sim}/drive.bag", "{bad}/metres.json", "--relations", REL],
+        "metres.json",
+        "'wheelbase_mm': 0.3502 mm is no wheelbase (a robot's is 20 to 10000 mm): given in metres?",
+    ),
+    "a nominal diameter in metres": (
+        ["{sim}/drive.bag", "{bad}/nominal_metres.json", "--relations", REL],
+        "nominal_metres.json",
+        "'nominal_wheel_diameter_mm': 0.15 mm is no wheel's diameter",
+    ),
+    "a diameter of 1e308": (
+        ["{sim}/drive.bag", "{bad}/huge.json", "--relations", REL],
+        "huge.json",
+        "'wheel_diameter_left_mm': 1e+308 mm is no wheel's diameter",
+    ),
+    "a wheelbase three times the nominal": (
+        ["{sim}/drive.bag", "{bad}/tripled.json", "--relations", REL],
+        "tripled.json",
+        "the calibrated wheelbase is 3.09 times the calibration's nominal one: no calibration corrects",
+    ),
+    "a scan delay of 1e9 s": (
+        ["{sim}/drive.bag", CAL, "--relations", REL, "--scan-delay", "1e9"],
+        "--scan-delay",
+        "a scan delay of 1e+09 s is longer than the log (89.9 s of scans)",
+    ),
 }
 
 
@@ -567,6 +658,20 @@ def test_well_formed_input_that_likely_means_something_else_is_a_warning(sim, tm
     d = json.loads(out)
     assert code == 0 and any("distance scale against the relations is 0.33" in w for w in d["warnings"])
     assert any("--wheel-diameter-mm" in w for w in d["warnings"])  # flags, not the library's names
+
+
+def test_the_real_relations_of_the_mit_csail_log_with_their_stamps_exchanged_are_refused(tmp_path, capsys):
+    """The benchmark's own relations are taken as given (test below); exchanged, each relation
+    inverted, they disagree with the robot's odometry ten times more than inverted: refused."""
+    rel = read_relations(MIT / "mit-csail.relations")
+    write_relations(Relations(rel.t2_s, rel.t1_s, rel.pose), tmp_path / "exchanged.relations")
+    cal = tmp_path / "nominal.json"
+    assert main(["-q", "export", "--c-left", "1", "--c-right", "1", "--eb", "1", "--wheel-diameter-mm", "200",
+                 "--wheelbase-mm", "400", "--format", "json", "--out", str(cal)]) == 0  # fmt: skip
+    code, out, err = run(capsys, "validate", MIT / "mit-csail.bag", cal, "--odom-topic", "/odom", "--relations",
+                         tmp_path / "exchanged.relations")  # fmt: skip
+    assert code == 2 and out == "" and "Traceback" not in err
+    assert "exchanged.relations: the relations disagree with the odometry 10 times more as given than inverted" in err
 
 
 # -- the maths --------------------------------------------------------------------------------------

@@ -7,12 +7,17 @@ from __future__ import annotations
 
 import hashlib
 import os
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 from umbmark.errors import InputError
 
-__all__ = ["check_distinct_inputs", "file_sha256", "same_inputs"]
+__all__ = ["check_distinct_inputs", "file_sha256", "inputs_sha256", "same_inputs"]
+
+# the digests of the files and folders hashed in this process, by path and each file's size and
+# modification time: a command that checks a recording against the history before it runs and
+# records it after hashes it once
+_DIGESTS: dict[tuple[str, tuple[tuple[str, int, int], ...]], str] = {}
 
 
 def file_sha256(path) -> str:
@@ -29,6 +34,37 @@ def file_sha256(path) -> str:
         The hexadecimal digest.
     """
     p = Path(path)
+    files = sorted(q for q in p.rglob("*") if q.is_file()) if p.is_dir() else [p]
+    stats = tuple((str(f), f.stat().st_size, f.stat().st_mtime_ns) for f in files)
+    key = (str(p.resolve()), stats)
+    if key not in _DIGESTS:
+        _DIGESTS[key] = _sha256(p)
+    return _DIGESTS[key]
+
+
+def inputs_sha256(paths: Sequence[str | Path], file_hash: Callable[[str], str] | None = None) -> str:
+    """The content hash of the inputs of one result: one input's :func:`file_sha256`, or for
+    several the SHA-256 of their hashes (one a line, in the order given).
+
+    Parameters
+    ----------
+    paths : sequence of str or Path
+        Files or folders that exist (at least one).
+    file_hash : callable, optional
+        The hash of one input (default :func:`file_sha256`).
+
+    Returns
+    -------
+    str
+        The hexadecimal digest.
+    """
+    shas = [(file_hash or file_sha256)(str(p)) for p in paths]
+    if len(shas) == 1:
+        return shas[0]
+    return hashlib.sha256("\n".join(shas).encode()).hexdigest()
+
+
+def _sha256(p: Path) -> str:
     h = hashlib.sha256()
     if p.is_dir():
         for f in sorted(q for q in p.rglob("*") if q.is_file()):

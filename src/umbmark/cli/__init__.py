@@ -4,6 +4,7 @@ stderr with exit status 2; no traceback for bad input."""
 from __future__ import annotations
 
 import errno
+import io
 import os
 import re
 import secrets
@@ -56,11 +57,38 @@ def _os_error(e: OSError, process: bool) -> str:
     why = _one_line(e.strerror or str(e))
     if getattr(e, "filename", None):
         return f"cannot access {e.filename}: {why}"
-    if e.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO):
+    if e.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG, errno.EIO, errno.EBADF):
         if process:
             _silence_stdout()
         return f"cannot write the standard output: {why}"
     return f"system error: {why}"
+
+
+class _ClosedStream(io.TextIOBase):
+    """The standard output or error of a process started with it closed (``>&-``): Python leaves
+    ``sys.stdout`` None; writing to this one raises the error a closed file gives, reported in
+    one line like a full disk's (a command that prints nothing runs as usual)."""
+
+    def __init__(self, name: str) -> None:
+        super().__init__()
+        self.name = name
+
+    def writable(self) -> bool:
+        return True
+
+    def write(self, s: str) -> int:
+        if s:
+            raise OSError(errno.EBADF, "it is closed (>&-): give it a file, or /dev/null")
+        return 0
+
+
+def _open_streams() -> None:
+    """Stand-ins for a closed standard output (see :class:`_ClosedStream`) and error (where no
+    message can go: dropped)."""
+    if sys.stdout is None:
+        sys.stdout = _ClosedStream("standard output")
+    if sys.stderr is None:
+        sys.stderr = io.StringIO()
 
 
 def _silence_stdout() -> None:
@@ -152,6 +180,7 @@ def main(argv=None) -> int:
     args = sys.argv[1:] if argv is None else list(argv)
     prog = "umbmark"
     keep_as_given(args, reset=True)
+    _open_streams()
     _printable_streams()
     previous = _catch_sigterm()
     mpl_dir = _private_matplotlib_dir()

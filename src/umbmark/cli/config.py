@@ -14,7 +14,10 @@ would be typed::
     replay:
       joints: left_wheel_joint,right_wheel_joint
 
-The file gives the options' defaults: an option given on the command line wins. Its values go
+The file gives the options' defaults: an option given on the command line wins. A section
+named like no command that reads a configuration, a section given twice and an option given
+twice are refused naming the lines (YAML would keep the last and drop the rest without a word);
+the file is read no further than :data:`MAX_CONFIG_BYTES`. Its values go
 through the same checks as the flags' (a number with ``_`` in it, a size in the other unit, a
 path that an output would replace), and from there into the library's configuration types
 (:class:`umbmark.io.wheels.WheelSource`, :class:`umbmark.io.load.LogOptions`,
@@ -41,15 +44,31 @@ def _options_of(command: click.Command) -> dict[str, click.Option]:
     return {p.name: p for p in command.params if isinstance(p, click.Option) and p.name and p.name not in _OWN}
 
 
-def read_config(path: str, command: click.Command, section: str) -> dict[str, Any]:
+# a configuration is a few lines of YAML; a longer file is not one (read no further)
+MAX_CONFIG_BYTES = 1 << 20
+
+
+def read_config(path: str, command: click.Command, section: str, sections: tuple[str, ...] = ()) -> dict[str, Any]:
     """The options of ``section`` in the configuration file ``path``, by parameter name, as
     strings (booleans for flags).
+
+    Parameters
+    ----------
+    path : str
+        The file.
+    command : click.Command
+        The command whose options the section holds.
+    section : str
+        The command's name.
+    sections : tuple of str
+        Every section a configuration may hold (the commands with ``--config``); empty: not checked.
 
     Raises
     ------
     click.BadParameter
-        An unreadable file, not YAML, no mapping of commands, a key that is no option of the
-        command (file and line named), a value that is not a scalar or a number with ``_``.
+        An unreadable file (or one longer than :data:`MAX_CONFIG_BYTES`), not YAML, no mapping of
+        commands, a section given twice or named like no command, a key given twice or that is no
+        option of the command (file and line named), a value that is not a scalar or a number with ``_``.
     """
     import yaml
 
@@ -62,7 +81,8 @@ def read_config(path: str, command: click.Command, section: str) -> dict[str, An
     from umbmark.errors import InputError
 
     try:
-        root = yaml.compose(read_text(path), Loader=yaml.BaseLoader)  # every scalar a string: no 1_0 read as 10
+        text = read_text(path, max_bytes=MAX_CONFIG_BYTES)
+        root = yaml.compose(text, Loader=yaml.BaseLoader)  # every scalar a string: no 1_0 read as 10
     except InputError as e:
         raise bad(e.message) from None
     except OSError as e:
@@ -74,9 +94,11 @@ def read_config(path: str, command: click.Command, section: str) -> dict[str, An
         return {}
     if not isinstance(root, yaml.MappingNode):
         raise bad("a configuration is a mapping of commands to their options (selfcal: ...)", root.start_mark.line + 1)
+    _check_sections(root, sections, bad)
     options = _options_of(command)
     by_flag = {k.replace("_", "-"): k for k in options}
     out: dict[str, Any] = {}
+    first_line: dict[str, int] = {}
     for key_node, value_node in root.value:
         if key_node.value != section:
             continue
@@ -87,15 +109,35 @@ def read_config(path: str, command: click.Command, section: str) -> dict[str, An
             name = by_flag.get(str(k.value).strip().lstrip("-").replace("_", "-"))
             if name is None:
                 raise bad(f"no option --{str(k.value).lstrip('-')} of umbmark {section}", line)
+            flag = f"--{name.replace('_', '-')}"
+            if name in first_line:
+                raise bad(f"{flag} given twice (lines {first_line[name]} and {line}): give each option once", line)
+            first_line[name] = line
             if not isinstance(v, yaml.ScalarNode):
-                raise bad(f"--{name.replace('_', '-')} takes one value, not a list or a mapping", line)
+                raise bad(f"{flag} takes one value, not a list or a mapping", line)
             p, value = options[name], str(v.value)
             if isinstance(p.type, (click.types.FloatParamType, click.types.IntParamType)) and "_" in value:
-                raise bad(f"--{name.replace('_', '-')}: {value!r} is not a number: '_' is not a digit", line)
+                raise bad(f"{flag}: {value!r} is not a number: '_' is not a digit", line)
             if p.is_flag and value.lower() not in ("true", "false", "yes", "no", "on", "off", "1", "0"):
-                raise bad(f"--{name.replace('_', '-')} is a flag: true or false, not {value!r}", line)
+                raise bad(f"{flag} is a flag: true or false, not {value!r}", line)
             out[name] = value.lower() in ("true", "yes", "on", "1") if p.is_flag else value
     return out
+
+
+def _check_sections(root: Any, sections: tuple[str, ...], bad: Callable[..., click.BadParameter]) -> None:
+    """Each section once, and each named like a command that reads a configuration."""
+    import difflib
+
+    seen: dict[str, int] = {}
+    for key_node, _ in root.value:
+        name, line = str(key_node.value), key_node.start_mark.line + 1
+        if sections and name not in sections:
+            near = difflib.get_close_matches(name, sections, n=1)
+            hint = f" ({near[0]}?)" if near else ""
+            raise bad(f"no command {name!r}{hint}: the sections are {', '.join(sections)}", line)
+        if name in seen:
+            raise bad(f"two {name}: sections (lines {seen[name]} and {line}): give each command's options in one", line)
+        seen[name] = line
 
 
 def config_text(section: str, values: dict[str, Any]) -> str:
@@ -112,7 +154,10 @@ def _load(ctx: click.Context, param: click.Parameter, value: str | None) -> str 
     if value is not None:
         assert ctx.command is not None
         section = ctx.command.name or ""
-        ctx.default_map = {**(ctx.default_map or {}), **read_config(value, ctx.command, section)}
+        root = ctx.find_root().command
+        commands = getattr(root, "commands", {})
+        sections = tuple(sorted(n for n, c in commands.items() if any(p.name == "config" for p in c.params)))
+        ctx.default_map = {**(ctx.default_map or {}), **read_config(value, ctx.command, section, sections)}
     return value
 
 

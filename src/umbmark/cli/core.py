@@ -27,7 +27,7 @@ from umbmark.cli.app import (
     prior_options,
     table,
 )
-from umbmark.cli.history import history_options, print_recorded, record_if_requested
+from umbmark.cli.history import history_options, print_recorded, record_if_requested, refuse_if_recorded
 from umbmark.cli.progress import progress
 
 if TYPE_CHECKING:
@@ -459,6 +459,7 @@ def analyze(
 
         raise InputError("--loss and --straight-mm need --method exact")
     runs = read_runs_csv(runs_file)
+    refuse_if_recorded(robot, record, db, kind="analyze", method=method, paths=[runs_file])
     prior = _prior(c_left, c_right)
     plausibility += runs_warnings(runs, side_m)
     a = analyze_runs(runs, side_m, wheelbase_m, method, prior, check=False, **options)

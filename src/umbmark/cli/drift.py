@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import click
 
-from umbmark.cli.app import app, console, emit_json, fmt, is_quiet, table
+from umbmark.cli.app import app, cli_message, console, emit_json, fmt, is_quiet, table
 
 __all__ = ["drift_cmd", "ALARM_STATUS"]
 
@@ -96,6 +96,8 @@ def drift_cmd(robot, db, kind, parameters, false_alarm, plot_path, as_json):
 def _print(rep, plot_path) -> None:
     from rich.markup import escape
 
+    from umbmark.history.drift import MIN_SESSIONS
+
     c = console()
     rows = []
     for name, t in rep.trends.items():
@@ -115,8 +117,10 @@ def _print(rep, plot_path) -> None:
         )
     )
     for n in rep.notes:
-        c.print(escape(f"note: {n}"))
-    if not rep.changes:
+        c.print(escape(f"note: {cli_message(n)}"))
+    if not rep.trends:
+        c.print(f"no test yet: a parameter needs {MIN_SESSIONS} sessions of {rep.kind} records for a trend and a test")
+    elif not rep.changes:
         c.print("no change: the history is one trend within its intervals")
     for ch in rep.changes:
         c.print(

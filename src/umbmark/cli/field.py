@@ -12,6 +12,7 @@ import click
 from umbmark._numbers import strict_float
 from umbmark.cli.app import (
     app,
+    cli_message,
     console,
     emit_json,
     fmt,
@@ -192,6 +193,8 @@ def measure_cmd(distances_file, front, rear, back, side_wall, resolution_mm, out
         rows = read_distances_csv(distances_file)
         source = distances_file
     res = measure_runs(marks, rows, resolution_m, source=source, side_wall=side_wall).write(out_path)
+    for w in res.warnings if as_json or not is_quiet() else ():
+        click.echo(f"warning: {cli_message(w)}", err=True)
     if as_json:
         emit_json(res.to_dict())
         return

@@ -41,7 +41,14 @@ from umbmark.cli.app import (
     table,
 )
 
-__all__ = ["history_options", "record_if_requested", "record_report_if_requested", "print_recorded", "print_warnings"]
+__all__ = [
+    "history_options",
+    "record_if_requested",
+    "record_report_if_requested",
+    "refuse_if_recorded",
+    "print_recorded",
+    "print_warnings",
+]
 
 
 # -- the options other commands attach --------------------------------------------------------------
@@ -159,6 +166,15 @@ def record_if_requested(
             fields["when"] = _when()
         rid = record_result(robot, kind=kind, db=path, source=source, note=note, **fields)
     return {"record_id": rid, "robot": robot, "db": display_db(path)}
+
+
+def refuse_if_recorded(robot, record, db, *, kind: str, method: str, paths, each: bool = False) -> None:
+    """With ``--record``: refuse, before the command computes anything, inputs the robot's history
+    holds already (:func:`umbmark.history.refuse_recorded`; ``each``: one record per input)."""
+    if record:
+        from umbmark.history import refuse_recorded, resolve_db
+
+        refuse_recorded(robot, kind=kind, method=method, paths=list(paths), each=each, db=resolve_db(db))
 
 
 def record_report_if_requested(

@@ -169,7 +169,7 @@ def _result_input(runs_file, record_id, db) -> dict | None:
         return None
     try:
         d = json.loads(Path(runs_file).read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError, RecursionError):
+    except (OSError, ValueError, RecursionError):  # not UTF-8, not JSON, a number of thousands of digits
         return None  # the replay reader says what is wrong with it
     kinds = (("selfcal", is_selfcal_result), ("calibrate", is_calibrate_result), ("gyro", is_gyro_result))
     found = next((k for k, is_kind in kinds if is_kind(d)), None)
@@ -384,18 +384,18 @@ def _geometry_flags(wheelbase_mm, side_mm, c_left, c_right) -> list[str]:
 
 def _replay_file_analysis(runs_file, wheelbase_mm, side_mm, method, c_left, c_right, robot) -> dict:
     """What a report of a replay result (``replay --save``) needs (as :func:`_record_analysis`)."""
-    import json
-
     from umbmark.history import file_sha256
+    from umbmark.io._text import parse_json
     from umbmark.viz.report import replay_analysis
 
     given = _geometry_flags(wheelbase_mm, side_mm, c_left, c_right)
     if given:
         raise click.UsageError(f"a replay result holds its geometry and calibration: drop {', '.join(given)}")
     try:
-        d = json.loads(Path(runs_file).read_text(encoding="utf-8"))
-    except (UnicodeDecodeError, json.JSONDecodeError) as e:
+        text = Path(runs_file).read_text(encoding="utf-8")
+    except UnicodeDecodeError as e:
         raise InputError(f"not a replay result: {e}", source=str(runs_file)) from None
+    d = parse_json(text, str(runs_file), "not a replay result")
     analysis, after = replay_analysis(d, str(runs_file))
     ctx = click.get_current_context(silent=True)
     explicit = ctx is not None and ctx.get_parameter_source("method") != click.core.ParameterSource.DEFAULT

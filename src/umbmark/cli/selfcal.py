@@ -21,7 +21,7 @@ from umbmark.cli.app import app, cli_message, console, emit_json, fmt, is_quiet,
 from umbmark.cli.bags import Bars, interval_options, kind_of, start_kernels, stream_text
 from umbmark.cli.config import config_options
 from umbmark.cli.guard import skip_check_option
-from umbmark.cli.history import history_options, print_recorded, record_if_requested
+from umbmark.cli.history import history_options, print_recorded, record_if_requested, refuse_if_recorded
 from umbmark.cli.kinematic import joints_help, kinematic_options, refuse_kind_options
 from umbmark.errors import InputError
 from umbmark.kinds import kind_named
@@ -292,7 +292,8 @@ def selfcal_cmd(
     sensor_dyaw_rad). Drive straights, arcs and spins both ways near walls for a few minutes.
     The wheel data: --joints (JointState), --ticks-topic (encoder counts) or --odom-topic
     (nav_msgs/Odometry). The result exports with `umbmark export` (diff_drive_controller
-    parameters, the URDF origin of the lidar, a static_transform_publisher line).
+    parameters, the URDF origin of the lidar, a static_transform_publisher line). Tricycles,
+    mecanum robots and cars: --kinematics with their joints (a car also from its --odom-topic).
 
     \b
     Example:
@@ -334,6 +335,7 @@ def selfcal_cmd(
     )
     kind = functools.cache(lambda: kind_of(paths))
     settings = selfcal_settings(params, lambda: {kind()})
+    refuse_if_recorded(robot, record, db, kind="selfcal", method="selfcal", paths=paths)  # windows too: they cover it
     rep = _selfcal(paths, settings, kind() == "bags", kw["intervals_out"], as_json)
     opts = settings.fit_options
     flags = _bag_flags(kw) if kind() == "bags" else []
@@ -354,7 +356,7 @@ def selfcal_cmd(
     if record and window_s is None:
         from umbmark.history import file_sha256
 
-        fields = rep.history_fields(kind="selfcal", file_hash=file_sha256 if len(paths) == 1 else None)
+        fields = rep.history_fields(kind="selfcal", file_hash=file_sha256)
         rec = record_if_requested(robot, record, db, **fields)
     if as_json:
         emit_json(d if rec is None else {**d, "history": rec})
@@ -406,8 +408,6 @@ def _bag_flags(kw) -> list[str]:
     return out
 
 
-# the options of a differential drive's self-calibration that only bags take (the flags shown
-# as the next step are :func:`_bag_flags`)
 def selfcal_settings(kw: dict, kinds: Collection[str] | Callable[[], Collection[str]]):
     """The :class:`~umbmark.realrobot.selfcal_settings.SelfcalSettings` of selfcal's options for
     a differential drive, checked before anything is read: no option of another kind, the

@@ -7,6 +7,7 @@ import math
 import re
 from collections.abc import Callable
 from datetime import datetime
+from pathlib import Path
 from typing import Any
 
 import click
@@ -45,16 +46,17 @@ def selfcal_windows_cmd(rep: Any, window_s: float, opts: dict, robot, record, db
     tuple
         The windows' JSON (each with its ``history`` record when recorded), and the records.
     """
+    from umbmark.history import file_sha256
     from umbmark.realrobot.selfcal_windows import selfcal_windows
 
+    def fields_of(w: Any) -> tuple[dict, str]:
+        fields = w.report.history_fields(kind="selfcal")
+        if Path(w.input).exists():  # the window's recording: its content and where it is
+            fields.update(input_sha256=file_sha256(w.input), source=str(Path(w.input).resolve()))
+        return fields, w.input
+
     wins = selfcal_windows(rep, window_s, **opts)
-    return record_windows(
-        wins,
-        window_s,
-        "self-calibrated",
-        lambda w: (w.report.history_fields(kind="selfcal"), w.input),
-        (robot, record, db),
-    )
+    return record_windows(wins, window_s, "self-calibrated", fields_of, (robot, record, db))
 
 
 def record_windows(
@@ -98,6 +100,7 @@ def record_windows(
             fields, of = fields_of(w)
             fields["when"] = w.time(base)
             fields["note"] = f"window {w.index + 1} ({w.start_s:.0f}-{w.end_s:.0f} s) of {of}"
+            fields["inputs"] = {**(fields.get("inputs") or {}), "window_s": [w.start_s, w.end_s]}
             rec = record_if_requested(robot, record, db, **fields)
             d["history"] = rec
             recs.append(rec)

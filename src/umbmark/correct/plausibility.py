@@ -46,6 +46,8 @@ __all__ = [
     "check_units",
     "geometry_warnings",
     "runs_warnings",
+    "copied_columns",
+    "fits_lines_better",
     "consistency",
     "square_error",
     "FALSE_ALARM",
@@ -471,6 +473,76 @@ def _scatter_warnings(runs: RunsTable, side_m: float) -> list[str]:
     return out
 
 
+def copied_columns(runs: RunsTable) -> str | None:
+    """A warning when a measured column equals the odometry's in every run, while another does
+    not: ``x_abs`` a copy of ``x_odo`` (a measured position never meets the odometry's to the
+    micrometre in every run; a perfect robot's runs meet it in every column).
+
+    Parameters
+    ----------
+    runs : RunsTable
+        The runs (SI units).
+
+    Returns
+    -------
+    str or None
+    """
+    pairs = [("x", runs.x_abs, runs.x_odo, NO_SCATTER_M), ("y", runs.y_abs, runs.y_odo, NO_SCATTER_M)]
+    if runs.theta_abs is not None and runs.theta_odo is not None:
+        pairs.append(("theta", runs.theta_abs, runs.theta_odo, MODEL_FLOOR_RAD * 1e-3))
+    same = [name for name, a, o, tol in pairs if np.all(np.abs(np.asarray(a) - np.asarray(o)) <= tol)]
+    if len(runs) < 2 or not same or len(same) == len(pairs):
+        return None
+    cols = " and ".join(f"{n}_abs equals {n}_odo" for n in same)
+    return (
+        f"{cols} in every run, to the micrometre: a column copied? (x_abs, y_abs, theta_abs are the measured "
+        "return pose, x_odo, y_odo, theta_odo the odometry's; a measured pose never meets the odometry's exactly)"
+    )
+
+
+def _line_chi2(runs: RunsTable) -> float | None:
+    """How far each direction's centre of gravity is from its line (cw: x = y, ccw: x = -y, to first
+    order, whatever the side): the sum of the squared t statistics (None: fewer than
+    :data:`SCATTER_MIN_RUNS` runs in a direction)."""
+    chi2 = 0.0
+    for d, sign in (("cw", 1.0), ("ccw", -1.0)):
+        rows = runs.direction_rows(d)
+        if len(rows) < SCATTER_MIN_RUNS:
+            return None
+        u = rows.eps_x - sign * rows.eps_y
+        centre = math.hypot(float(np.mean(rows.eps_x)), float(np.mean(rows.eps_y)))
+        se2 = float(np.var(u, ddof=1)) / len(u) + (MODEL_REL * centre) ** 2 + MODEL_FLOOR_M**2
+        chi2 += float(np.mean(u)) ** 2 / se2
+    return chi2
+
+
+# the centres of gravity of runs as some mistake would have them fit the square this much better
+# (the drop of the sum of squared t statistics: chi-square of 2 at 5e-5) than as given: named
+LINES_BETTER_CHI2 = 20.0
+
+
+def fits_lines_better(given: RunsTable, candidate: RunsTable) -> bool:
+    """Whether ``candidate`` (the runs as a mislabelling undone would have them) fits the
+    square's first-order lines decisively better than ``given`` (by :data:`LINES_BETTER_CHI2`)
+    and within the false-alarm limit (:data:`FALSE_ALARM`). Needs no side: for the runs of
+    ``umbmark measure``, before any side is known.
+
+    Parameters
+    ----------
+    given, candidate : RunsTable
+        The runs as given, and as they would be.
+
+    Returns
+    -------
+    bool
+    """
+    a, b = _line_chi2(given), _line_chi2(candidate)
+    if a is None or b is None:
+        return False
+    dof = len(given) - 2
+    return a - b > LINES_BETTER_CHI2 and b <= t_limit(dof) ** 2
+
+
 def _judged(runs: RunsTable) -> bool:
     """Whether both directions have the 2 runs the model check needs."""
     return all(len(runs.direction_rows(d)) >= 2 for d in ("cw", "ccw"))
@@ -504,7 +576,8 @@ def runs_warnings(runs: RunsTable, side_m: float) -> list[str]:
     list of str
         Each names the likely cause and what to check; empty for runs that fit the square.
     """
-    out = _scatter_warnings(runs, side_m)
+    copied = copied_columns(runs)
+    out = ([copied] if copied else []) + _scatter_warnings(runs, side_m)
     c = consistency(runs, side_m)
     if c is None and runs.theta_abs is not None and runs.theta_odo is not None and _judged(runs):
         # beyond the errors the model judges as given; rescaled, the positions may fit the headings

@@ -4,9 +4,10 @@ recording once, dated when its file was last written.
 Each job runs on a worker (:func:`calibrate_job`: the self-calibration of ``umbmark selfcal``,
 :func:`~umbmark.realrobot.selfcal_settings.selfcal_recordings`); the results come back to this
 process, which alone writes the history. A recording whose content (SHA-256) the robot's history
-holds is skipped before it is sent, and each record is added with the history's guard
-(:meth:`~umbmark.history.History.add` with ``once``): of two fleets recording one recording at
-once into one history, one records it and the other finds it recorded. A job a lost worker had
+holds is skipped before it is sent, and the history itself refuses a second record of one
+recording (:class:`~umbmark.history.SameRecording`, checked in the transaction of the insert):
+of two fleets recording one recording at once into one history, one records it and the other
+finds it recorded. A job a lost worker had
 is run again by the scheduler and recorded once. A recording that fails, or whose file time
 cannot date a record (in the future, before 1970), is reported by name and the others go on. At
 most ``2 x workers`` jobs are in flight, so memory stays bounded however many recordings there
@@ -277,14 +278,14 @@ def _to_send(history: Any, jobs: Sequence[FleetJob], done: Callable[[FleetOutcom
 
 def _record(history: Any, job: FleetJob, result: JobResult) -> FleetOutcome:
     """A worker's result into the history (once per recording and robot)."""
-    from umbmark.history.base import AlreadyRecorded
+    from umbmark.history import SameRecording
 
     if result.fields is None:
         return FleetOutcome(job.robot, job.path, "failed", error=str(result.error))
     fields = {**result.fields, "input_sha256": job.sha256, "source": job.path, "when": job.when}
     try:
-        return FleetOutcome(job.robot, job.path, "recorded", int(history.add(job.robot, once=True, **fields)))
-    except AlreadyRecorded:
+        return FleetOutcome(job.robot, job.path, "recorded", int(history.add(job.robot, **fields)))
+    except SameRecording:
         return FleetOutcome(job.robot, job.path, "skipped")
     except UmbmarkError as e:
         return FleetOutcome(job.robot, job.path, "failed", error=str(e))

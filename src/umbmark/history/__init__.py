@@ -24,6 +24,7 @@ for a fleet sharing one PostgreSQL server.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from datetime import datetime
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -35,7 +36,9 @@ from umbmark.history.base import (
     SCHEMA_VERSION,
     AnalysisLike,
     HistoryError,
+    NoHistory,
     Record,
+    SameRecording,
     check_robot,
     default_db_path,
     display_db,
@@ -63,6 +66,8 @@ __all__ = [
     "KINDS",
     "Record",
     "HistoryError",
+    "NoHistory",
+    "SameRecording",
     "default_db_path",
     "resolve_db_path",
     "resolve_db",
@@ -79,6 +84,7 @@ __all__ = [
     "open_history",
     "record_result",
     "record_analysis",
+    "refuse_recorded",
 ]
 
 
@@ -259,3 +265,54 @@ def record_analysis(
         note=note,
         when=when,
     )
+
+
+def refuse_recorded(
+    robot: str,
+    *,
+    kind: str,
+    method: str,
+    paths: Sequence[str | Path],
+    each: bool = False,
+    db: str | Path | None = None,
+) -> None:
+    """Refuse, before a command computes anything, a recording the robot's history holds already
+    (the same content, kind and method): recorded again it would count as a second session.
+    :meth:`History.add` checks again in its write transaction (two writers at once).
+
+    Parameters
+    ----------
+    robot : str
+        The robot's name.
+    kind, method : str
+        The record's kind and method.
+    paths : sequence of str or Path
+        The inputs (those that do not exist are left out).
+    each : bool
+        Each input is a record of its own (a replay's data sets); else the inputs make one record
+        (their hash: :func:`umbmark._files.inputs_sha256`).
+    db : str or Path, optional
+        The database (see :func:`open_history`); a database that does not exist yet holds nothing.
+
+    Raises
+    ------
+    SameRecording
+        Naming the record that holds the recording.
+    HistoryError
+        If the database cannot be read (but for one that does not exist yet).
+    """
+    from umbmark._files import inputs_sha256
+
+    robot = check_robot(robot)
+    given = [p for p in paths if Path(p).exists()]
+    if not given:
+        return
+    try:
+        h = open_history(db, create=False)
+    except NoHistory:
+        return  # no history yet: nothing recorded in it
+    with h:
+        for group in ([p] for p in given) if each else [given]:
+            rec = h.same_recording(robot, kind=kind, method=method, input_sha256=inputs_sha256(group))
+            if rec is not None:
+                raise SameRecording(robot, rec, h.path)

@@ -38,6 +38,8 @@ __all__ = [
     "SCHEMA_VERSION",
     "DamagedRecord",
     "HistoryError",
+    "NoHistory",
+    "SameRecording",
     "Record",
     "default_db_path",
     "display_db",
@@ -48,6 +50,8 @@ __all__ = [
     "make_row",
     "mask_secrets",
     "parameters_from_analysis",
+    "parts_overlap",
+    "recording_part",
     "resolve_db",
     "resolve_db_path",
     "retry_while_locked",
@@ -127,14 +131,9 @@ class HistoryError(UmbmarkError):
     """The history database cannot be used (locked for too long, newer schema, not a database)."""
 
 
-class AlreadyRecorded(HistoryError):
-    """The robot's history already holds a record of this recording (the same content, by the
-    same method): :meth:`_Backend.add` with ``once``. ``record_id`` is that record's."""
-
-    def __init__(self, robot: str, record_id: int, db: str | Path) -> None:
-        self.robot = robot
-        self.record_id = record_id
-        super().__init__(f"robot {robot!r} has this recording already (record #{record_id} in {display_db(db)})")
+class NoHistory(HistoryError):
+    """There is no history at the address yet: no file, an empty one, a database without tables
+    (reading needs one; recording creates it)."""
 
 
 def default_db_path() -> Path:
@@ -547,6 +546,68 @@ class DamagedRecord(HistoryError):
         super().__init__(f"record #{record_id} in the history database {db} is damaged: {problem}")
 
 
+class SameRecording(HistoryError):
+    """A robot's history holds a record of this recording already: the same content (its
+    ``input_sha256``), kind and method, and a part of it that overlaps (:func:`parts_overlap`).
+
+    Attributes
+    ----------
+    record_id : int
+        The record that holds it.
+    data : tuple of str
+        The robot's name and the database, as stored (a front end prints them as they are).
+    """
+
+    def __init__(self, robot: str, record: Record, db: object) -> None:
+        self.record_id = record.id
+        self.data = (robot, str(db))
+        part = recording_part(record.inputs)
+        of = "this recording" if part is None else f"{part[0]:g}-{part[1]:g} s of this recording"
+        source = f", {record.source}" if record.source else ""
+        super().__init__(
+            f"the history of robot {robot!r} in {db} holds {of} already: record #{record.id} "
+            f"({record.kind}, method {record.method}, {record.created_utc[:16].replace('T', ' ')} UTC{source}, "
+            "the same content); nothing was recorded (one recording twice would count as two sessions of the "
+            "robot, and a drift would be judged on it twice)"
+        )
+
+
+def recording_part(inputs: Any) -> tuple[float, float] | None:
+    """The part of its recording a record was made from: a window's ``window_s`` (start and end,
+    seconds into the recording) in its inputs, else None (the whole recording).
+
+    Parameters
+    ----------
+    inputs : dict
+        A record's inputs.
+
+    Returns
+    -------
+    tuple of float or None
+    """
+    w = inputs.get("window_s") if isinstance(inputs, dict) else None
+    if not (isinstance(w, (list, tuple)) and len(w) == 2):
+        return None
+    a, b = (_num(v) for v in w)
+    return None if a is None or b is None else (round(a, 3), round(b, 3))
+
+
+def parts_overlap(a: tuple[float, float] | None, b: tuple[float, float] | None) -> bool:
+    """Whether two parts of one recording (:func:`recording_part`; None: the whole) share data:
+    the whole recording overlaps any window of it, two windows overlap when their spans do.
+
+    Parameters
+    ----------
+    a, b : tuple of float or None
+        ``(start_s, end_s)``, or None.
+
+    Returns
+    -------
+    bool
+    """
+    return a is None or b is None or (a[0] < b[1] and b[0] < a[1])
+
+
 def _short(v: object) -> str:
     r = repr(v)
     return r if len(r) <= 40 else r[:37] + "..."
@@ -713,13 +774,13 @@ class _Backend:
         """The rows of :data:`_SELECT`, newest first (the robot's name and the id matched exactly)."""
         raise NotImplementedError
 
-    def _robot_counts(self) -> Sequence[Sequence[Any]]:
-        """Name, number of records, first and last time of each robot, by name."""
+    def _same_rows(self, conn: Any, robot: str, input_sha256: str, kind: str, method: str) -> Sequence[Sequence[Any]]:
+        """The rows of :data:`_SELECT` of the robot's records of one content, kind and method, on
+        ``conn`` (a write transaction's connection, or None: a connection of its own)."""
         raise NotImplementedError
 
-    def _same_recording(self, conn: Any, robot: str, input_sha256: str, method: str) -> int | None:
-        """Inside :meth:`transaction`: the id of a record of ``robot`` with this content hash and
-        method, or None."""
+    def _robot_counts(self) -> Sequence[Sequence[Any]]:
+        """Name, number of records, first and last time of each robot, by name."""
         raise NotImplementedError
 
     @property
@@ -758,7 +819,6 @@ class _Backend:
         note: str | None = None,
         when: str | datetime | None = None,
         software_version: str | None = None,
-        once: bool = False,
     ) -> int:
         """Store one calibration in one transaction.
 
@@ -768,10 +828,6 @@ class _Backend:
             As for :func:`umbmark.history.record_result`.
         software_version : str, optional
             The umbmark version that made the result (default: this one).
-        once : bool
-            Refuse a recording the robot's history holds already (the same ``input_sha256`` by
-            the same ``method``), checked in the transaction of the insert: of two writers
-            recording it at once (two fleets on one history), one records it.
 
         Returns
         -------
@@ -784,8 +840,6 @@ class _Backend:
             For a missing robot name, an unknown kind or a bad time.
         HistoryError
             If the database cannot be written (read-only, damaged).
-        AlreadyRecorded
-            With ``once``, for a recording the robot's history holds already.
         """
         row = self._row(
             robot,
@@ -802,11 +856,41 @@ class _Backend:
             software_version,
         )
         with self.transaction() as c:
-            if once and input_sha256:
-                prior = self._same_recording(c, row["robot"], input_sha256, row["method"])
-                if prior is not None:
-                    raise AlreadyRecorded(row["robot"], prior, self.path)
+            same = self._same(c, row["robot"], row["input_sha256"], row["kind"], row["method"], inputs)
+            if same is not None:
+                raise SameRecording(row["robot"], same, self.path)
             return self._insert(c, row)
+
+    def same_recording(
+        self, robot: str, *, kind: str, method: str, input_sha256: str | None, inputs: dict[str, Any] | None = None
+    ) -> Record | None:
+        """The robot's record of this recording, if it holds one: the same content hash, kind and
+        method, and a part that overlaps this one (:func:`parts_overlap`: the whole recording, or
+        the window of ``inputs``). :meth:`add` refuses a second one.
+
+        Parameters
+        ----------
+        robot, kind, method, input_sha256, inputs
+            As for :meth:`add`.
+
+        Returns
+        -------
+        Record or None
+            None also without a content hash (nothing to compare).
+        """
+        return self._same(None, check_robot(robot), input_sha256, kind, mask_secrets(str(method)), inputs)
+
+    def _same(
+        self, conn: Any, robot: str, sha: str | None, kind: str, method: str, inputs: dict[str, Any] | None
+    ) -> Record | None:
+        if not sha:
+            return None
+        part = recording_part(inputs)
+        for row in self._same_rows(conn, robot, sha, kind, method):
+            rec = self._decode(row)
+            if rec is not None and parts_overlap(recording_part(rec.inputs), part):
+                return rec
+        return None
 
     @staticmethod
     def _row(*args: Any) -> dict[str, Any]:

@@ -17,6 +17,12 @@ not (the scale ``max(1, chi^2 / dof)``), so a robot whose intervals are too narr
 false alarms from it. A segment between two steps holds at least two sessions (one odd session
 in the middle of a history is an outlier, not a change); the latest session alone may follow a
 step (a change on the last day is what a daily check is for).
+
+A recording counts once: a record of the same content, kind and method as an older one, of a
+part of the recording that overlaps it (:func:`umbmark.history.base.parts_overlap`; a history
+refuses to add such a record now), is left out, with a note. Sessions that span less than
+:data:`MIN_RATE_SPAN_DAYS` (recorded in one go, without their dates) give no wear rate per day:
+their trend is fitted in the order of the sessions, and a note says why.
 """
 
 from __future__ import annotations
@@ -30,7 +36,7 @@ from typing import Any
 import numpy as np
 
 from umbmark.errors import InputError
-from umbmark.history.base import Record
+from umbmark.history.base import KINDS, Record, parts_overlap, recording_part
 
 __all__ = [
     "DEFAULT_FALSE_ALARM",
@@ -47,6 +53,8 @@ __all__ = [
 DEFAULT_FALSE_ALARM = 1e-3
 # a series needs this many sessions for a trend and a test
 MIN_SESSIONS = 4
+# sessions spanning less than this give no wear rate per day (recorded in one go, without dates)
+MIN_RATE_SPAN_DAYS = 1.0
 _Z95 = 1.959963984540054
 _SECONDS_PER_DAY = 86400.0
 
@@ -158,7 +166,7 @@ class DriftReport:
         """The fitted model (levels between the changes, the common trend) at each session of a
         parameter, in the order of ``series[parameter].points``."""
         fit = self.fits[parameter]
-        return np.asarray(_design(fit["t"], fit["cuts"], fit["span_days"] > 0) @ fit["coef"])
+        return np.asarray(_design(fit["t"], fit["cuts"], fit["slope"]) @ fit["coef"])
 
     @property
     def alarm(self) -> bool:
@@ -265,18 +273,21 @@ def _allowed(k: int, cuts: Sequence[int], n: int) -> bool:
     return bool(np.all(lengths[:-1] >= 2) and lengths[-1] >= 1)
 
 
-def _fit_series(s: Series, alpha: float) -> dict[str, Any]:
-    """Forward selection of steps in one series (see the module's description)."""
+def _fit_series(s: Series, alpha: float, by_order: bool = False) -> dict[str, Any]:
+    """Forward selection of steps in one series (see the module's description); ``by_order``:
+    the trend in the order of the sessions (their dates too close for a rate per day)."""
     from scipy import stats
 
     days, y = s.days, s.values
     span = float(np.ptp(days))
-    t = days / span if span > 0 else days  # a slope per span, for conditioning
     n = len(y)
+    if by_order:
+        t, slope = np.arange(n) / max(n - 1, 1), n > 1
+    else:
+        t, slope = (days / span if span > 0 else days), span > 0  # a slope per span, for conditioning
     sds = [p.sd for p in s.points]
     trusted = all(sd is not None for sd in sds)
     w = np.array([1.0 / sd**2 for sd in sds]) if trusted else np.ones(n)  # type: ignore[operator]
-    slope = span > 0
     cuts: list[int] = []
     p_values: dict[int, float] = {}
     while True:
@@ -321,6 +332,8 @@ def _fit_series(s: Series, alpha: float) -> dict[str, Any]:
         "dof": dof,
         "scale": scale,
         "span_days": span,
+        "slope": slope,
+        "per_day": slope and not by_order,
     }
 
 
@@ -362,7 +375,7 @@ def _trend(s: Series, fit: dict[str, Any]) -> Trend:
     q = _quantile(dof)
     has_slope = len(coef) > len(fit["cuts"]) + 1
     rate = ci = None
-    if has_slope and dof > 0:
+    if has_slope and dof > 0 and fit["per_day"]:
         rate = float(coef[-1]) / fit["span_days"]
         half = q * math.sqrt(max(cov[-1, -1], 0.0)) / fit["span_days"]
         ci = (rate - half, rate + half)
@@ -394,6 +407,76 @@ def _kind_of(records: Sequence[Record]) -> str | None:
     if not counts:
         return None
     return max(counts, key=lambda k: (counts[k], k == "selfcal"))
+
+
+def _kinds_held(records: Sequence[Record]) -> str:
+    """``12 selfcal, 3 replay``: the kinds of a robot's records and how many of each."""
+    counts: dict[str, int] = {}
+    for r in records:
+        counts[r.kind] = counts.get(r.kind, 0) + 1
+    return ", ".join(f"{n} {k}" for k, n in sorted(counts.items(), key=lambda kv: -kv[1])) or "none"
+
+
+def _check_kind(records: Sequence[Record], robot: str, kind: str | None) -> str:
+    """The kind to follow: the one given (known, and held by some of the records), else the
+    kind with the most records holding intervals.
+
+    Raises
+    ------
+    InputError
+        A kind no record can have (a typo), a kind the robot has no records of, or no record
+        holding a parameter with its interval.
+    """
+    import difflib
+
+    held = _kinds_held(records)
+    if kind is not None and kind not in KINDS:
+        near = difflib.get_close_matches(kind, KINDS, n=1)
+        raise InputError(
+            f"no record is of the kind {kind!r}{f' ({near[0]}?)' if near else ''}: the kinds are "
+            f"{', '.join(KINDS)}; the records of robot {robot!r}: {held}",
+            data=(robot, kind),
+        )
+    if kind is not None and not any(r.kind == kind for r in records):
+        raise InputError(
+            f"robot {robot!r} has no {kind} records: no drift of them to follow (its records: {held})", data=(robot,)
+        )
+    found = kind if kind is not None else _kind_of(records)
+    if found is None or not series_of(records, found):
+        what = f"{kind} records" if kind is not None else "records"
+        raise InputError(
+            f"the {what} of robot {robot!r} hold no parameter with its 95 % interval: no drift to follow (its "
+            f"records: {held}; a self-calibration records its intervals)",
+            data=(robot,),
+        )
+    return found
+
+
+def _one_per_recording(records: Sequence[Record]) -> tuple[list[Record], list[str]]:
+    """The records, each stretch of a recording once: a later record of the same content, kind
+    and method as an earlier one, of a part that overlaps it, is left out (a note names it)."""
+    seen: dict[tuple[str, str, str], list[tuple[Any, int]]] = {}
+    kept, notes = [], []
+    for r in sorted(records, key=lambda r: (r.time, r.id)):
+        part = recording_part(r.inputs)
+        earlier = seen.setdefault((r.kind, r.method, r.input_sha256), []) if r.input_sha256 else []
+        first = next((rid for p, rid in earlier if parts_overlap(p, part)), None)
+        if first is not None:
+            notes.append(
+                f"record #{r.id} holds the recording of record #{first} again (the same content): counted once"
+            )
+            continue
+        earlier.append((part, r.id))
+        kept.append(r)
+    return kept, notes
+
+
+def _span_text(seconds: float) -> str:
+    if seconds < 120:
+        return f"{seconds:.0f} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
 
 
 def detect_drift(
@@ -428,29 +511,41 @@ def detect_drift(
     Raises
     ------
     InputError
-        A false-alarm rate outside (0, 0.5), or a parameter the records do not hold.
+        A false-alarm rate outside (0, 0.5); a kind no record can have, or one the robot has no
+        records of; records that hold no parameter with its interval; a parameter the records do
+        not hold.
     """
     if not (0.0 < false_alarm < 0.5):
         raise InputError(f"the false-alarm rate must be above 0 and below 0.5, got {false_alarm}")
-    kind = kind if kind is not None else _kind_of(records)
-    all_series = series_of(records, kind)
+    kind = _check_kind(records, robot, kind)
+    once, notes = _one_per_recording([r for r in records if r.kind == kind])
+    all_series = series_of(once, kind)
     if parameters:
         missing = [p for p in parameters if p not in all_series]
         if missing:
             known = ", ".join(sorted(all_series)) or "none"
             raise InputError(
-                f"{robot}'s {kind or ''} records hold no {', '.join(missing)} with intervals (they hold: {known})"
+                f"{robot}'s {kind} records hold no {', '.join(missing)} with intervals (they hold: {known})",
+                data=(robot,),
             )
         all_series = {p: all_series[p] for p in parameters}
+    times = [r.time for r in once]
+    span_s = (max(times) - min(times)).total_seconds() if times else 0.0
+    by_order = len(once) > 1 and span_s < MIN_RATE_SPAN_DAYS * _SECONDS_PER_DAY
+    if by_order:
+        notes.append(
+            f"the {len(once)} sessions span {_span_text(span_s)}: too short a time for a wear rate per day "
+            "(recorded in one go? give each session its date, `when`); the trends and steps are taken in the "
+            "order of the sessions"
+        )
     changes: list[Change] = []
     trends: dict[str, Trend] = {}
     fits: dict[str, Any] = {}
-    notes = []
     for name, s in all_series.items():
         if len(s.points) < MIN_SESSIONS:
             notes.append(f"{name}: {len(s.points)} sessions, {MIN_SESSIONS} needed for a trend and a test")
             continue
-        fit = _fit_series(s, false_alarm)
+        fit = _fit_series(s, false_alarm, by_order)
         fits[name] = fit
         changes += _changes(s, fit)
         trends[name] = _trend(s, fit)

@@ -23,6 +23,7 @@ from umbmark.history.base import (
     SCHEMA_VERSION,
     TABLE_COLUMNS,
     HistoryError,
+    NoHistory,
     _Backend,
     _split_userinfo,
     display_db,
@@ -150,7 +151,7 @@ class SQLAlchemyHistory(_Backend):
                 and not (Path(f).is_file() and Path(f).stat().st_size > 0)
             ):
                 # reading must not create the file (SQLite would, on connecting)
-                raise HistoryError(
+                raise NoHistory(
                     f"no umbmark history in {self._shown}: no such file, or an empty one "
                     "(record a calibration with `robot` and `record=True`)"
                 )
@@ -259,7 +260,7 @@ class SQLAlchemyHistory(_Backend):
                                 "(record a calibration with `robot` and `record=True`)"
                             )
                         if not create and not names:
-                            raise HistoryError(
+                            raise NoHistory(
                                 f"no umbmark history in {self._shown} "
                                 "(record a calibration with `robot` and `record=True`)"
                             )
@@ -329,17 +330,6 @@ class SQLAlchemyHistory(_Backend):
         assert pk is not None  # set by the single-row INSERT just made
         return int(pk[0])
 
-    def _same_recording(self, conn: Connection, robot: str, input_sha256: str, method: str) -> int | None:
-        c, r = self._cal.c, self._robots.c
-        q = (
-            self._sa.select(c.id)
-            .select_from(self._cal.join(self._robots))
-            .where(r.name == robot, c.input_sha256 == input_sha256, c.method == method)
-            .limit(1)
-        )
-        found = conn.execute(q).scalar()
-        return None if found is None else int(found)
-
     def _select(self) -> Select:
         sa = self._sa
         c, r = self._cal.c, self._robots.c
@@ -359,6 +349,19 @@ class SQLAlchemyHistory(_Backend):
         if limit is not None:
             q = q.limit(int(limit))
         return self._run(lambda conn: [tuple(x) for x in conn.execute(q).all()])
+
+    def _same_rows(
+        self, conn: Connection | None, robot: str, input_sha256: str, kind: str, method: str
+    ) -> list[tuple[Any, ...]]:
+        c = self._cal.c
+        q = (
+            self._select()
+            .where(self._robots.c.name == robot, c.input_sha256 == input_sha256, c.kind == kind, c.method == method)
+            .order_by(c.id)
+        )
+        if conn is None:
+            return self._run(lambda cn: [tuple(x) for x in cn.execute(q).all()])
+        return [tuple(x) for x in conn.execute(q).all()]
 
     def _robot_counts(self) -> Sequence[Sequence[Any]]:
         sa = self._sa

@@ -18,6 +18,7 @@ from umbmark.history.base import (
     SCHEMA_VERSION,
     TABLE_COLUMNS,
     HistoryError,
+    NoHistory,
     _Backend,
     resolve_db_path,
     retry_while_locked,
@@ -54,13 +55,11 @@ class History(_Backend):
         self.path = resolve_db_path(path)
         self.read_only = False
         if not create and not self.path.exists():
-            raise HistoryError(
-                f"no history database at {self.path} (record a calibration with `robot` and `record=True`)"
-            )
+            raise NoHistory(f"no history database at {self.path} (record a calibration with `robot` and `record=True`)")
         if self.path.is_dir():
             raise HistoryError(f"{self.path} is a folder, not a history database")
         if not create and self.path.stat().st_size == 0:  # reading does not make it a history
-            raise HistoryError(
+            raise NoHistory(
                 f"no umbmark history in {self.path}: the file is empty "
                 "(record a calibration with `robot` and `record=True`)"
             )
@@ -332,14 +331,6 @@ class History(_Backend):
         assert cur.lastrowid is not None  # set by the INSERT just made
         return int(cur.lastrowid)
 
-    def _same_recording(self, c: sqlite3.Connection, robot: str, input_sha256: str, method: str) -> int | None:
-        row = c.execute(
-            """SELECT c.id FROM calibrations c JOIN robots r ON r.id = c.robot_id
-               WHERE r.name = ? AND c.input_sha256 = ? AND c.method = ? LIMIT 1""",
-            (robot, input_sha256, method),
-        ).fetchone()
-        return None if row is None else int(row[0])
-
     # -- reading -------------------------------------------------------------------------------
     def _fetch(self, robot: str | None = None, limit: int | None = None, record_id: int | None = None) -> list[Any]:
         """The rows of ``_SELECT``, newest first (the robot's name and the id matched exactly)."""
@@ -356,6 +347,13 @@ class History(_Backend):
             q += " LIMIT ?"
             args.append(int(limit))
         return self._query(q, args)
+
+    def _same_rows(self, conn: Any, robot: str, input_sha256: str, kind: str, method: str) -> list[Any]:
+        sql = _SELECT + " WHERE r.name = ? AND c.input_sha256 = ? AND c.kind = ? AND c.method = ? ORDER BY c.id"
+        args = (robot, input_sha256, kind, method)
+        if conn is None:
+            return self._query(sql, args)
+        return conn.execute(sql, args).fetchall()
 
     def _robot_counts(self) -> list[Any]:
         return self._query(

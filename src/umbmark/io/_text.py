@@ -4,10 +4,12 @@ from __future__ import annotations
 
 import csv
 import io
+import json
 import math
+import re
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
-from typing import TextIO
+from typing import Any, TextIO
 
 import numpy as np
 from numpy.typing import NDArray
@@ -21,18 +23,21 @@ __all__ = [
     "csv_writer",
     "header_columns",
     "numeric_rows",
+    "parse_json",
     "parse_number",
     "read_text",
 ]
 
 
-def read_text(path: str | Path) -> str:
+def read_text(path: str | Path, max_bytes: int | None = None) -> str:
     """The text of a UTF-8 file (a byte-order mark dropped).
 
     Parameters
     ----------
     path : str or Path
         The file.
+    max_bytes : int, optional
+        Read no more than this: a longer file (or an endless one, ``/dev/zero``) is refused.
 
     Returns
     -------
@@ -41,7 +46,7 @@ def read_text(path: str | Path) -> str:
     Raises
     ------
     InputError
-        A missing file, a folder, not UTF-8, unreadable.
+        A missing file, a folder, not UTF-8, unreadable, longer than ``max_bytes``.
     """
     p = Path(path)
     if not p.exists():
@@ -49,11 +54,53 @@ def read_text(path: str | Path) -> str:
     if p.is_dir():
         raise InputError("is a folder, not a file", source=str(path))
     try:
-        return p.read_text(encoding="utf-8-sig")
+        if max_bytes is None:
+            return p.read_text(encoding="utf-8-sig")
+        with open(p, "rb") as fh:
+            data = fh.read(max_bytes + 1)
+        if len(data) > max_bytes:
+            what = "" if p.is_file() else " (a device or a pipe, not a file)"
+            raise InputError(f"longer than {max_bytes:,} bytes{what}: not the file expected here", source=str(path))
+        return data.decode("utf-8-sig")
     except UnicodeDecodeError:
         raise InputError("not a text (UTF-8) file", source=str(path)) from None
     except OSError as e:
         raise InputError(f"cannot read: {e.strerror}", source=str(path)) from None
+
+
+def parse_json(text: str, source: str, expected: str = "") -> Any:
+    """The value of a JSON text, or one line saying why there is none.
+
+    Parameters
+    ----------
+    text : str
+        The JSON.
+    source : str
+        Its file, for messages.
+    expected : str
+        What the file should be, appended to a message (``"a calibration is ..."``).
+
+    Returns
+    -------
+    object
+
+    Raises
+    ------
+    InputError
+        Not JSON (the line named), nested too deeply, or a number of more digits than Python
+        reads (thousands: no value of a robot's).
+    """
+    tail = f"; {expected}" if expected else ""
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError as e:
+        raise InputError(f"not valid JSON: {e.msg}{tail}", source, e.lineno) from None
+    except RecursionError:
+        raise InputError(f"JSON nested too deeply{tail}", source) from None
+    except ValueError as e:  # Python's limit on the digits of an integer (4300 by default)
+        m = re.search(r"value has (\d+) digits", str(e))
+        digits = f"{m.group(1)} digits" if m else "thousands of digits"
+        raise InputError(f"a number of {digits}: no value a robot's file holds{tail}", source) from None
 
 
 def csv_rows(text: str, source: str) -> Iterator[tuple[int, list[str]]]:

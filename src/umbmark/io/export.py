@@ -44,6 +44,7 @@ from pathlib import Path
 
 from umbmark._check import positive
 from umbmark.errors import InputError
+from umbmark.io._text import parse_json
 from umbmark.io.atomic import atomic_write
 from umbmark.model.geometry import unit_slip
 
@@ -432,13 +433,10 @@ def calibration_from_json(path: str | Path, dataset: str | None = None) -> Expor
     if not p.is_file():
         raise InputError("file not found" if not p.exists() else "not a file", source=src)
     try:
-        d = json.loads(p.read_text(encoding="utf-8"))
+        text = p.read_text(encoding="utf-8")
     except UnicodeDecodeError:
         raise InputError("not a text (UTF-8) file", source=src) from None
-    except json.JSONDecodeError as e:
-        raise InputError(f"not valid JSON: {e.msg}", source=src, line=e.lineno) from None
-    except RecursionError:
-        raise InputError("JSON nested too deeply: not the JSON of umbmark replay or analyze", source=src) from None
+    d = parse_json(text, src)
     if not isinstance(d, dict):
         raise InputError("expected a JSON object", source=src)
     if "datasets" in d and isinstance(d["datasets"], list) and d["datasets"] and isinstance(d["datasets"][0], dict):

@@ -537,6 +537,8 @@ class MeasuredRuns:
         How the side wall was placed (``auto``, ``left``, ``right``; None: as the marks say).
     out : str or None
         The runs file written (:meth:`write`).
+    warnings : tuple of str
+        What the runs show of a mistake in the distances file (cw and ccw labels exchanged).
     """
 
     runs: RunsTable
@@ -544,6 +546,7 @@ class MeasuredRuns:
     resolution_m: float
     side_wall: str | None = None
     out: str | None = None
+    warnings: tuple[str, ...] = ()
 
     def write(self, path: str | Path) -> MeasuredRuns:
         """Write the runs file with the standard deviations (:func:`format_measured_csv`), atomically.
@@ -572,6 +575,7 @@ class MeasuredRuns:
             "out": self.out,
             "resolution_mm": self.resolution_m * 1e3,
             "side_wall": self.side_wall,
+            "warnings": list(self.warnings),
             "runs": [
                 {
                     "run": str(runs.run[i]),
@@ -683,7 +687,37 @@ def measure_runs(
         np.radians(theta_odo_deg) if has_theta else None,
         np.array([r.run for r in rows]),
     )
-    return MeasuredRuns(runs, m, resolution_m, side_wall)
+    return MeasuredRuns(runs, m, resolution_m, side_wall, warnings=tuple(_label_warnings(runs, side_wall)))
+
+
+def _label_warnings(runs: RunsTable, side_wall: str | None) -> list[str]:
+    """A warning when the measured return poses fit the square with the cw and ccw labels
+    exchanged far better than as labelled (:func:`umbmark.correct.plausibility.fits_lines_better`):
+    with ``side_wall`` auto, a label also mirrors the marks, so the runs as the other label would
+    have them are mirrored (y and the heading negated) as well."""
+    from umbmark.correct.plausibility import fits_lines_better
+
+    out: list[str] = []
+    swap = {"cw": "ccw", "ccw": "cw"}
+    mirrored = side_wall == "auto"
+    th = runs.theta_abs
+    other = RunsTable.from_columns(
+        [swap[d] for d in runs.direction],
+        runs.x_abs,
+        -runs.y_abs if mirrored else runs.y_abs,
+        runs.x_odo,
+        runs.y_odo,
+        None if th is None else (-th if mirrored else th),
+        runs.theta_odo,
+        runs.run,
+    )
+    if fits_lines_better(runs, other):
+        how = " (and with them the side of the side wall)" if mirrored else ""
+        out.append(
+            f"the runs fit the square far better with the cw and ccw labels exchanged{how}: check the direction "
+            "column (cw turns right after the first leg)"
+        )
+    return out
 
 
 def format_measured_csv(runs: RunsTable, m: Measurement) -> str:

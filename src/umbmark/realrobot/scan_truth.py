@@ -32,7 +32,6 @@ warning. SI units; imports numpy, :mod:`umbmark.model`, :mod:`umbmark.io` and th
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
@@ -199,12 +198,9 @@ def read_sensor_pose(path: str | Path) -> tuple[float, float, float]:
     InputError
         Not JSON, or without a ``sensor_pose`` holding ``x_mm``, ``y_mm``, ``yaw_deg``.
     """
-    from umbmark.io._text import read_text
+    from umbmark.io._text import parse_json, read_text
 
-    try:
-        d = json.loads(read_text(path))
-    except ValueError as e:
-        raise InputError(f"not JSON ({e})", source=str(path)) from None
+    d = parse_json(read_text(path), str(path))
     sp: Any = d.get("sensor_pose") if isinstance(d, dict) else None  # any JSON value: a bad one raises below
     try:
         vals = (float(sp["x_mm"]) * 1e-3, float(sp["y_mm"]) * 1e-3, math.radians(float(sp["yaw_deg"])))

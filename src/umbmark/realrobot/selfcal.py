@@ -55,7 +55,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from umbmark._check import positive
-from umbmark._files import check_distinct_inputs
+from umbmark._files import check_distinct_inputs, inputs_sha256
 from umbmark._numbers import strict_float
 from umbmark.correct.noise import OdometryNoise
 from umbmark.correct.selfcal import SelfcalResult, selfcal
@@ -1570,8 +1570,8 @@ class SelfcalReport:
         kind : str
             The record's kind.
         file_hash : callable, optional
-            The content hash of an input file or folder (:func:`umbmark.history.file_sha256`),
-            applied to the first input; None: no hash.
+            The content hash of an input file or folder (:func:`umbmark.history.file_sha256`);
+            several inputs are hashed together (:func:`umbmark._files.inputs_sha256`); None: no hash.
 
         Returns
         -------
@@ -1597,7 +1597,8 @@ def selfcal_history_fields(
     kind : str
         The record's kind.
     file_hash : callable, optional
-        The content hash of an input file or folder, applied to the first input; None: no hash.
+        The content hash of an input file or folder; several inputs are hashed together
+        (:func:`umbmark._files.inputs_sha256`); None: no hash.
 
     Returns
     -------
@@ -1633,7 +1634,9 @@ def selfcal_history_fields(
             "sensor_pose": d.get("nominal_sensor_pose"),
         },
         "source": None if first is None else str(first.resolve() if first.exists() else first),
-        "input_sha256": file_hash(str(first)) if first is not None and first.exists() and file_hash else None,
+        "input_sha256": (
+            inputs_sha256(paths, file_hash) if paths and file_hash and all(Path(p).exists() for p in paths) else None
+        ),
         "inputs": {"paths": paths},
     }
 

@@ -58,7 +58,6 @@ calibration readers) and :mod:`umbmark.realrobot.selfcal` (the odometry's wheel 
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -70,7 +69,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from umbmark._check import positive
 from umbmark.errors import InputError
-from umbmark.io._text import read_text
+from umbmark.io._text import parse_json, read_text
 from umbmark.io.relations import Relations, read_relations
 from umbmark.io.rosbag import SelfcalBag
 from umbmark.io.tum import Trajectory, read_tum
@@ -78,7 +77,7 @@ from umbmark.io.wheels import WheelSource
 from umbmark.model import se2
 from umbmark.model.dataset import wheel_angles_from_poses
 from umbmark.model.drive import integrate_wheels
-from umbmark.model.geometry import WheelGeometry
+from umbmark.model.geometry import WheelGeometry, nominal_slip, unit_slip
 from umbmark.model.se2 import Pose
 from umbmark.realrobot.selfcal import nominal_sensor_pose_of
 from umbmark.realrobot.wheels import scan_wheel_angles
@@ -484,27 +483,66 @@ _EXPECTED = (
 )
 
 
+# a lidar further than this from the robot's origin [mm], or turned beyond a turn [deg], is no mounting
+_MAX_SENSOR_MM = 1e4
+_MAX_SENSOR_DEG = 360.0
+
+
 def _pose_mm_deg(d: Any, key: str, src: str) -> Pose:
     """``(x_m, y_m, yaw_rad)`` of a JSON object ``{x_mm, y_mm, yaw_deg}``."""
     if not isinstance(d, dict):
         raise InputError(f"{key!r} must be an object with x_mm, y_mm, yaw_deg, got {d!r}", src)
     vals = []
-    for k in ("x_mm", "y_mm", "yaw_deg"):
+    for k, most, unit in (
+        ("x_mm", _MAX_SENSOR_MM, "mm"),
+        ("y_mm", _MAX_SENSOR_MM, "mm"),
+        ("yaw_deg", _MAX_SENSOR_DEG, "deg"),
+    ):
         v = d.get(k)
         if not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v)):
             raise InputError(f"{key!r} {k} must be a finite number, got {v!r}", src)
+        if abs(v) > most:
+            what = f"{most:g} mm from the robot's origin" if unit == "mm" else f"a turn, {most:g} deg"
+            raise InputError(f"{key!r} {k} is {v:g} {unit}: no lidar is mounted beyond {what} ({unit} expected)", src)
         vals.append(float(v))
     return (vals[0] * 1e-3, vals[1] * 1e-3, math.radians(vals[2]))
 
 
 def _positive_mm(d: dict, key: str, src: str) -> float | None:
-    """The value of ``key`` [mm] in metres (None when absent)."""
+    """The value of ``key`` [mm] in metres (None when absent); a size no robot has is refused."""
     v = d.get(key)
     if v is None:
         return None
     if not (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v > 0):
         raise InputError(f"{key!r} must be a positive number of millimetres, got {v!r}", src)
+    slip = unit_slip("wheelbase" if "wheelbase" in key else "diameter", float(v) * 1e-3, "mm")
+    if slip is not None:
+        raise InputError(f"{key!r}: {slip}", src)
     return float(v) * 1e-3
+
+
+_SIZE_KINDS = (("left wheel diameter", "diameter"), ("right wheel diameter", "diameter"), ("wheelbase", "wheelbase"))
+
+
+def _check_sizes(
+    factors: tuple[float, float, float], nominal: WheelGeometry, calibrated: WheelGeometry, src: str
+) -> None:
+    """Refuse sizes no robot has, and a calibration whose factor on its own nominal size no
+    correction makes (:func:`umbmark.model.geometry.nominal_slip`: a size in another unit, a
+    radius for a diameter)."""
+    sizes = lambda g: (g.diameter_left_m, g.diameter_right_m, g.wheelbase_m)  # noqa: E731
+    for (name, kind), f, n, c in zip(_SIZE_KINDS, factors, sizes(nominal), sizes(calibrated)):
+        for what, v in (("nominal", n), ("calibrated", c)):
+            slip = unit_slip(kind, v, "mm")
+            if slip is not None:
+                raise InputError(f"the {what} {name}: {slip}", src)
+        slip = nominal_slip(kind, f)
+        if slip is not None:
+            raise InputError(
+                f"the calibrated {name} is {f:.3g} times the calibration's nominal one: no calibration corrects a "
+                f"robot's size that much ({slip})",
+                src,
+            )
 
 
 @dataclass(frozen=True)
@@ -576,13 +614,7 @@ class CheckedCalibration:
 
 def _load_json(path: str | Path) -> dict:
     src = str(path)
-    text = read_text(path)
-    try:
-        d = json.loads(text)
-    except json.JSONDecodeError as e:
-        raise InputError(f"not valid JSON: {e.msg}; {_EXPECTED}", src, e.lineno) from None
-    except RecursionError:
-        raise InputError(f"JSON nested too deeply; {_EXPECTED}", src) from None
+    d = parse_json(read_text(path), src, _EXPECTED)
     if not isinstance(d, dict):
         raise InputError(f"a JSON {type(d).__name__}, not an object; {_EXPECTED}", src)
     return d
@@ -777,6 +809,7 @@ def read_calibration(
         pose, npose, nsrc, delay, delay_src, warnings = cal.sensor_pose, None, None, 0.0, "none", []
         method = cal.method
     nom_g, cal_g, geo_warnings = _geometry(kind, src, factors, nominal, cal_w, wheel_diameter_m, wheelbase_m)
+    _check_sizes(factors, nom_g, cal_g, src)
     return CheckedCalibration(
         kind=kind,
         nominal=nom_g,
@@ -1371,6 +1404,16 @@ def _window(st: FloatArray, window_s: tuple[float, float] | None, src: str) -> t
     return max(lo, 0.0), min(hi, end), warnings
 
 
+def _check_tolerance(st: FloatArray, tol: float) -> None:
+    """Refuse a stamp tolerance beyond half the scans' period: a stamp would match a scan it is not at."""
+    period = float(np.median(np.diff(st))) if len(st) > 1 else math.inf
+    if tol > 0.5 * period:
+        raise InputError(
+            f"`tolerance_s` is {tol:g} s, more than half the scans' period ({period:.3g} s): a relation's stamp would "
+            "match a scan it is not at; it is in seconds (1 ms is 0.001)"
+        )
+
+
 def _check_number(name: str, v: Any, positive: bool = True) -> float:
     ok = isinstance(v, (int, float, np.floating)) and not isinstance(v, bool) and math.isfinite(v)
     if not ok or (positive and not v > 0):
@@ -1431,12 +1474,21 @@ def _scans_in_window(
     return lo, hi, in_win, warnings
 
 
-def _scan_delay(calibration: CheckedCalibration, scan_delay_s: float | None) -> tuple[float, str, list[str]]:
-    """The scans' delay (given, else the calibration's), where it came from, and a warning for an unlikely one."""
+def _scan_delay(
+    calibration: CheckedCalibration, scan_delay_s: float | None, log_s: float = math.inf
+) -> tuple[float, str, list[str]]:
+    """The scans' delay (given, else the calibration's), where it came from, and a warning for an
+    unlikely one; one longer than the log (``log_s``) is refused."""
     if scan_delay_s is not None:
         delay, delay_src = _check_number("scan_delay_s", scan_delay_s, positive=False), "given"
     else:
         delay, delay_src = calibration.scan_delay_s, calibration.scan_delay_source
+    if abs(delay) > log_s:
+        where = "`scan_delay_s`" if delay_src == "given" else f"the calibration's scan delay ({calibration.source})"
+        raise InputError(
+            f"{where}: a scan delay of {delay:g} s is longer than the log ({log_s:.1f} s of scans): no scan would "
+            "have wheel data; the delay is in seconds (50 ms is 0.05)"
+        )
     warnings: list[str] = []
     if abs(delay) > _MAX_DELAY_S:
         warnings.append(
@@ -1510,6 +1562,107 @@ def _reference_relations(
             f"the trajectory covers {covered:.1f} s of the {span_s:.1f} s checked: the rest has no relations"
         )
     return rel, mode, with_pose, "trajectory", warnings
+
+
+# a reference that agrees with the odometry this many times better (mean squared error of the
+# short relations, translation plus rotation at 1 m per radian) after undoing a likely mistake
+# than as given, and misses it by more than MISTAKE_FLOOR_M2 as given, is refused as that mistake
+MISTAKE_RATIO = 10.0
+MISTAKE_FLOOR_M2 = 1e-4
+
+
+def _alternatives(
+    reference: Relations | Trajectory,
+    rel: Relations,
+    scan_t_s: FloatArray,
+    reference_frame: str,
+    nominal_pose: Pose,
+    short_max_s: float,
+    tolerance_s: float,
+) -> list[tuple[str, str, FloatArray]]:
+    """The relations (the same pairs) as the likely mistakes would have them: what was undone,
+    the mistake, the relations' poses."""
+    if isinstance(reference, Relations):
+        return [
+            (
+                "inverted",
+                "timestamp1 and timestamp2 look exchanged (a relation is the pose at timestamp2 in the frame of the "
+                "pose at timestamp1)",
+                se2.inverse(rel.pose),
+            ),
+            (
+                "mirrored",
+                "they look mirrored: y and the yaw negated (a frame with y to the right?)",
+                rel.pose * np.array([1.0, -1.0, -1.0]),
+            ),
+        ]
+    lp = np.asarray(nominal_pose, dtype=float)
+    other = "sensor" if reference_frame == "base" else "base"
+    out = [
+        (
+            f"made as the {other} frame's poses",
+            f"the trajectory looks like the {other} frame's, not the {reference_frame} frame's: give "
+            f"`reference_frame` {other}",
+            in_sensor_frame(rel.pose, se2.inverse(lp) if reference_frame == "base" else lp),
+        )
+    ]
+    p = reference.pose
+    for undone, mistake, pose in (
+        (
+            "made with x and y exchanged",
+            "the trajectory's x and y look exchanged (it is mirrored; a TUM line is timestamp x y z qx qy qz qw)",
+            p[:, [1, 0, 2]],
+        ),
+        ("made with y negated", "the trajectory's y looks negated (it is mirrored)", p * np.array([1.0, -1.0, 1.0])),
+        (
+            "made mirrored back",
+            "the trajectory looks mirrored: y and the heading negated (a frame with y to the right?)",
+            p * np.array([1.0, -1.0, -1.0]),
+        ),
+    ):
+        alt, _, _ = relations_from_trajectory(
+            Trajectory(reference.t_s, pose, reference.source),
+            scan_t_s,
+            sensor_pose=lp if reference_frame == "base" else None,
+            short_max_s=short_max_s,
+            tolerance_s=tolerance_s,
+        )
+        if len(alt) == len(rel) and np.array_equal(alt.t1_s, rel.t1_s) and np.array_equal(alt.t2_s, rel.t2_s):
+            out.append((undone, mistake, alt.pose))
+    return out
+
+
+def _refuse_mistakes(
+    odo: _Odometries,
+    sel: NDArray[np.bool_],
+    alternatives: list[tuple[str, str, FloatArray]],
+    what: str,
+    src: str | None,
+) -> None:
+    """Refuse a reference that agrees with the odometry (before or after the calibration,
+    whichever agrees better) :data:`MISTAKE_RATIO` times better with a likely mistake undone."""
+    if int(sel.sum()) < 5:
+        return
+
+    def mse(reference: FloatArray) -> float:
+        best = math.inf
+        for o, pose in ((odo.before, odo.poses.nominal), (odo.after, odo.poses.after)):
+            q = in_sensor_frame(se2.between(o[odo.k1[sel]], o[odo.k2[sel]]), pose)
+            et, er = relation_errors(q, reference[sel])
+            best = min(best, float(np.mean(et**2 + er**2)))
+        return best
+
+    given = mse(odo.reference)
+    if not given > MISTAKE_FLOOR_M2:
+        return
+    for undone, mistake, alt in alternatives:
+        other = mse(alt)
+        if MISTAKE_RATIO * other < given:
+            raise InputError(
+                f"the {what} disagree with the odometry {math.sqrt(given / max(other, 1e-300)):,.0f} times more as "
+                f"given than {undone} (RMS over {int(sel.sum())} short relations): {mistake}",
+                src,
+            )
 
 
 @dataclass(frozen=True)
@@ -1744,9 +1897,10 @@ def validate(
     warnings: list[str] = list(bag.warnings) + list(calibration.warnings)
     st = np.asarray(bag.scan_t_s, dtype=float)
     origin = float(st[0])
+    _check_tolerance(st, tol)
     lo, hi, in_win, w = _scans_in_window(st, window_s, src)
     warnings += w
-    delay, delay_src, w = _scan_delay(calibration, scan_delay_s)
+    delay, delay_src, w = _scan_delay(calibration, scan_delay_s, float(st[-1] - st[0]))
     warnings += w
     poses, w = _sensor_poses(bag, calibration, base_frame)
     warnings += w
@@ -1761,15 +1915,11 @@ def validate(
     odo = _odometries(bag, calibration, delay, poses, matched, rel, short_max)
     k1, k2, inside = matched.k1, matched.k2, matched.inside
     sel = inside & odo.short
+    what = "relations" if kind == "relations" else "relations made from the trajectory"
+    alternatives = _alternatives(reference, rel, st[in_win], reference_frame, poses.nominal, short_max, tol)
+    _refuse_mistakes(odo, sel, alternatives, what, rel.source)  # a likely mistake in the reference, named
     warnings += _plausibility(
-        odo.before,
-        k1[sel],
-        k2[sel],
-        rel.pose[sel],
-        poses.nominal,
-        odo.figures(inside)[0],
-        "relations" if kind == "relations" else "relations made from the trajectory",
-        rel.source,
+        odo.before, k1[sel], k2[sel], rel.pose[sel], poses.nominal, odo.figures(inside)[0], what, rel.source
     )
     # the spans
     whole = "whole log" if window_s is None else "window"

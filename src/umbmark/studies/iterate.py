@@ -16,7 +16,6 @@ The results are dataclasses in SI units (:class:`LoopResult` of :class:`Pass`); 
 
 from __future__ import annotations
 
-import hashlib
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -381,12 +380,12 @@ def _runs_files_fields(sources: list[str]) -> dict:
     """The hashes of the runs files of the passes: ``runs_files`` (path and SHA-256 of each),
     ``input_sha256`` (one file: its hash; several: the hash of their hashes, in pass order) and
     ``source`` (the last pass's file)."""
-    from umbmark.history import file_sha256
+    from umbmark._files import file_sha256, inputs_sha256
 
     shas = [file_sha256(f) for f in sources]
     return {
         "runs_files": [{"path": str(Path(f).resolve()), "sha256": h} for f, h in zip(sources, shas)],
-        "input_sha256": shas[0] if len(shas) == 1 else hashlib.sha256("\n".join(shas).encode()).hexdigest(),
+        "input_sha256": inputs_sha256(sources),
         "source": str(Path(sources[-1]).resolve()),
     }
 

@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from umbmark._version import __version__
-from umbmark.errors import CorrectionUndefined
+from umbmark.errors import CorrectionUndefined, InputError
 from umbmark.viz.text import fmt, interval95
 
 if TYPE_CHECKING:
@@ -834,7 +834,10 @@ def _drift_section(records: Sequence[Record]) -> list[str]:
     from umbmark.history.drift import detect_drift
     from umbmark.viz.drift_plot import drift_figure
 
-    rep = detect_drift(records, robot=records[0].robot)
+    try:
+        rep = detect_drift(records, robot=records[0].robot)
+    except InputError:
+        return []  # no record holds a parameter with its interval: nothing to follow
     if not rep.trends:
         return []
     out = [
