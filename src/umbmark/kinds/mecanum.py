@@ -199,6 +199,12 @@ class _MecanumKind(Kind):
         "(FL,FR,RL,RR)"
     )
     turn_mirrored = "the wheels' joints given in another order (`joints` FL,FR,RL,RR)"
+    role_words = {
+        "front_left": (("front", "left"), ("fl",), ("lf",)),
+        "front_right": (("front", "right"), ("fr",), ("rf",)),
+        "rear_left": (("rear", "left"), ("rl",), ("lr",), ("bl",), ("lb",)),
+        "rear_right": (("rear", "right"), ("rr",), ("br",), ("rb",)),
+    }
 
     def advice(self, coverage: Coverage) -> list[str]:
         if coverage.sideways_m >= 0.05 * max(coverage.travel_m, 1e-9):
@@ -230,8 +236,17 @@ class _MecanumKind(Kind):
             }
         }
 
+    def ros2_joint_parameters(self, names: Sequence[str]) -> dict[str, str]:
+        """mecanum_drive_controller's ``<wheel>_wheel_command_joint_name`` of each wheel (strings,
+        required; its state joints are the command joints unless named otherwise)."""
+        return {f"{r}_wheel_command_joint_name": str(n) for r, n in zip(ROLES, names)}
+
     def ros2_notes(
-        self, g: Kinematics, ci95: Mapping[str, Interval | None], steering_in_use: tuple[float, float]
+        self,
+        g: Kinematics,
+        ci95: Mapping[str, Interval | None],
+        steering_in_use: tuple[float, float],
+        joints: Sequence[str] | None = None,
     ) -> list[str]:
         diameters, cis = _wheels(g, ci95)
         factors, apart = wheel_factors(diameters, cis)

@@ -19,7 +19,7 @@ Imports numpy, :mod:`umbmark.model` and :mod:`umbmark.kinds._base`.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -35,6 +35,7 @@ from umbmark.kinds._base import (
     JointOption,
     Kind,
     Parameter,
+    Reading,
     Size,
     Uniform,
     finite_parameter,
@@ -145,11 +146,14 @@ class Tricycle:
         return np.stack([speed * dt_s / (0.5 * self.wheel_diameter_m), measured], axis=-1)
 
 
-def steering_note(g: Tricycle, scale_estimated: bool, offset0: float, reduction0: float) -> list[str]:
+def steering_note(
+    g: Tricycle, scale_estimated: bool, offset0: float, reduction0: float, joint: str | None = None
+) -> list[str]:
     """The steering joint's transmission that makes its angle the true one, composed with the one in use.
 
     ``true = scale (actuator / reduction0 + offset0) + offset = actuator / (reduction0 / scale) +
-    (scale offset0 + offset)`` (the scale 1 unless it was estimated).
+    (scale offset0 + offset)`` (the scale 1 unless it was estimated). ``joint``: the steering
+    joint's name (None: a placeholder, ``STEERING_JOINT``, said so).
     """
     scale = g.steering_scale if scale_estimated else 1.0
     off = scale * offset0 + g.steering_offset_rad
@@ -159,11 +163,26 @@ def steering_note(g: Tricycle, scale_estimated: bool, offset0: float, reduction0
         f"({g.steering_offset_rad:.6f} rad: true angle = measured + offset) belongs to the steering joint's",
         "transmission in the ros2_control hardware description (SimpleTransmission: joint = actuator /",
         f"mechanical_reduction + offset), composed with the one in use ({offset0:g} rad, reduction {reduction0:g}):",
-        '  <joint name="STEERING_JOINT" role="joint1">',
+        f'  <joint name="{joint or "STEERING_JOINT"}" role="joint1">',
         f"    <mechanical_reduction>{red:.9g}</mechanical_reduction>",
         f"    <offset>{off:.9g}</offset>",
         "  </joint>",
-    ]
+    ] + ([] if joint else ["(the calibration names no steering joint: put its name for STEERING_JOINT)"])
+
+
+_EXCHANGED = "the drive and steering joints look exchanged"
+
+
+def _zero_off(shift: float, joint: str = "") -> str:
+    """The words of a steering zero ``-shift`` off (the reading that adds ``shift`` fits)."""
+    side = "right" if shift > 0 else "left"
+    name = f" {joint}" if joint else ""
+    return (
+        f"the steering joint{name} reads {math.degrees(-shift):+.0f} deg (a quarter turn to the {side}) with the "
+        "wheel straight ahead: its zero is a quarter turn off (an offset, not degrees); move the zero where the "
+        f"angle is made (the steering joint's transmission: its <offset> {shift:+.6f} rad more, or the driver) "
+        "and record again"
+    )
 
 
 class _TricycleKind(Kind):
@@ -214,6 +233,19 @@ class _TricycleKind(Kind):
     sim_joints = ("traction_wheel_joint", "steering_joint")
     turn_backwards = "the traction joint turns backwards when the robot drives forward"
     turn_mirrored = "the steering joint's angle clockwise positive (it must be counter-clockwise positive)"
+    role_words = {"drive": (("traction",), ("drive",), ("wheel",)), "steer": (("steer",), ("steering",))}
+
+    def readings(self) -> tuple[Reading, ...]:
+        """The drive and steering joints exchanged, and the steering joint's zero a quarter turn
+        off either way (the reading adds the turn back)."""
+        exchanged = tuple(Reading(r.order, words=_EXCHANGED) for r in super().readings())
+        quarter = 0.5 * math.pi
+        return exchanged + tuple(Reading((0, 1), (0.0, s * quarter), _zero_off(s * quarter)) for s in (1.0, -1.0))
+
+    def reading_cause(self, reading: Reading, names: Sequence[str]) -> str:
+        if any(reading.shift_rad):
+            return _zero_off(reading.shift_rad[1], names[1])
+        return super().reading_cause(reading, names)
 
     def steering_travel(self, nominal: Kinematics, values: FloatArray) -> tuple[float, float]:
         assert isinstance(nominal, Tricycle)
@@ -247,11 +279,20 @@ class _TricycleKind(Kind):
         assert isinstance(g, Tricycle)
         return {"wheelbase": float(g.wheelbase_m), "wheel_radius": float(0.5 * g.wheel_diameter_m)}
 
+    def ros2_joint_parameters(self, names: Sequence[str]) -> dict[str, str]:
+        """tricycle_controller's ``traction_joint_name`` and ``steering_joint_name`` (strings, required)."""
+        return {"traction_joint_name": str(names[0]), "steering_joint_name": str(names[1])}
+
     def ros2_notes(
-        self, g: Kinematics, ci95: Mapping[str, Interval | None], steering_in_use: tuple[float, float]
+        self,
+        g: Kinematics,
+        ci95: Mapping[str, Interval | None],
+        steering_in_use: tuple[float, float],
+        joints: Sequence[str] | None = None,
     ) -> list[str]:
         assert isinstance(g, Tricycle)
-        return steering_note(g, ci95.get("steering_scale") is not None, *steering_in_use)
+        steer = None if joints is None else joints[1]
+        return steering_note(g, ci95.get("steering_scale") is not None, *steering_in_use, joint=steer)
 
     def export_json(self, g: Kinematics, ci95: Mapping[str, Interval | None]) -> dict[str, float]:
         assert isinstance(g, Tricycle)

@@ -15,6 +15,13 @@ odometry's over the same scans.
   :data:`TRAVEL_RATIO` either way (the turns' beyond :data:`TURN_RATIO` when the robot only
   spins: a skid-steer robot turns less than its wheels say): the factor is named, 57.3 as
   degrees, a factor near nothing as counts per message read as a counter.
+* **The joints read otherwise** (:func:`check_readings`): the joints given in another order,
+  a drive and a steering joint exchanged, a steering zero a quarter turn off. Each reading's
+  odometry is set against the lidar's motion (:func:`disagreement`: what is left of the lidar's
+  travel and turn once each is scaled to fit best, so that a nominal size off does not count);
+  a reading far closer to the lidar than the joints as given names itself.
+
+The lidar's motion is matched once (:func:`lidar_motion`) and serves every check.
 
 SI units. Imports numpy, :mod:`umbmark.model.se2`, :mod:`umbmark.kinds` (the causes each kind
 names) and the scan matcher.
@@ -23,7 +30,8 @@ names) and the scan matcher.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -35,7 +43,17 @@ from umbmark.kinds import DEFAULT_KIND, kind_named
 from umbmark.model import se2
 from umbmark.realrobot.scanmatch import ICPConfig, match_scan_pairs
 
-__all__ = ["check_wheels_against_scans", "TRAVEL_RATIO", "TURN_RATIO", "DEGREE"]
+__all__ = [
+    "check_wheels_against_scans",
+    "check_readings",
+    "lidar_motion",
+    "disagreement",
+    "LidarMotion",
+    "TRAVEL_RATIO",
+    "TURN_RATIO",
+    "DEGREE",
+    "READING_FAR",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -57,6 +75,13 @@ _STRAIGHT_RAD = math.radians(1.0)  # a pair turning less counts for the travel r
 _TURN_STEP_RAD = math.radians(0.5)  # a pair turning less is left out of the sign count
 _STEP_M = 0.005  # a pair moving less than this forward is left out of the direction count
 _AGAINST = 0.8  # the share of turning pairs turning the other way that names a mirror
+
+READING_FAR = 2.5
+"""Another reading of the joints names itself when the joints as given are this many times
+further from the lidar's motion (:func:`disagreement`) and it agrees with the lidar."""
+_READING_MARGIN = 0.12  # ... and further by at least this much
+_READING_AGREES = 0.25  # ... and it is at most this far from the lidar
+_READING_TIE = 1.25  # readings within this factor of the closest are as close (the driving cannot tell them)
 
 
 def _pairs(usable: NDArray[np.bool_]) -> NDArray[np.int64]:
@@ -93,6 +118,65 @@ def _unit_cause(ratio: float, wheel_kind: str) -> str:
     )
 
 
+@dataclass(frozen=True, eq=False)
+class LidarMotion:
+    """The lidar's own motion between consecutive scans, matched from no motion at all.
+
+    Attributes
+    ----------
+    index : numpy.ndarray
+        ``(P,)`` the first scan of each pair that matched (the second is the next).
+    seen : numpy.ndarray
+        ``(P, 3)`` the robot's motion over each pair as the lidar saw it (at its nominal pose;
+        pairs that hardly turn: the sensor's own travel, whatever its nominal position).
+    mirrored : numpy.ndarray
+        ``(P, 3)`` the same of the scans mirrored (what a lidar mounted upside down would have seen).
+    """
+
+    index: NDArray[np.int64]
+    seen: FloatArray
+    mirrored: FloatArray
+
+
+def _robot_motion(raw: FloatArray, lidar: FloatArray) -> FloatArray:
+    seen = se2.compose(lidar, se2.compose(raw, se2.inverse(lidar)))
+    # the travel of pairs that hardly turn is the sensor's own, whatever its nominal pose
+    c, si = math.cos(lidar[2]), math.sin(lidar[2])
+    own = np.column_stack([c * raw[:, 0] - si * raw[:, 1], si * raw[:, 0] + c * raw[:, 1]])
+    seen[:, :2] = np.where(np.abs(raw[:, 2:3]) < _STRAIGHT_RAD, own, seen[:, :2])
+    return np.asarray(seen, dtype=float)
+
+
+def lidar_motion(bag: SelfcalBag, usable: ArrayLike, sensor_pose: ArrayLike) -> LidarMotion | None:
+    """Up to :data:`_PAIRS` consecutive usable scans (spread over the recording) matched from no
+    motion (the coarse matcher), in the robot's frame.
+
+    Parameters
+    ----------
+    bag : SelfcalBag
+        The recording (its scans).
+    usable : array_like
+        ``(M,)`` the scans with wheel data around them.
+    sensor_pose : array_like
+        ``(3,)`` the lidar's nominal mounting pose ``(x_m, y_m, yaw_rad)``.
+
+    Returns
+    -------
+    LidarMotion or None
+        None: fewer than ten pairs matched (too little to judge from).
+    """
+    i = _pairs(np.asarray(usable, dtype=bool))
+    if i.size < 10:
+        return None
+    m = match_scan_pairs(bag.ranges_m[i], bag.ranges_m[i + 1], bag.angles_rad, None, ICPConfig(coarse=True))
+    ok = np.asarray(m.converged, dtype=bool)
+    if ok.sum() < 10:
+        return None
+    lidar = np.asarray(sensor_pose, dtype=float)
+    raw = np.asarray(m.poses, dtype=float)[ok]
+    return LidarMotion(i[ok], _robot_motion(raw, lidar), _robot_motion(raw * [1.0, -1.0, -1.0], lidar))
+
+
 def check_wheels_against_scans(
     bag: SelfcalBag,
     st: ArrayLike,
@@ -102,6 +186,7 @@ def check_wheels_against_scans(
     *,
     kind: str = DEFAULT_KIND,
     alternatives: Mapping[str, ArrayLike] | None = None,
+    motion: LidarMotion | None = None,
 ) -> None:
     """Refuse wheel data whose motion the lidar contradicts (module docstring).
 
@@ -122,6 +207,9 @@ def check_wheels_against_scans(
     alternatives : dict, optional
         Other readings of the wheel data (how they would be read, in words -> their ``(M, 3)``
         odometry at the scans): the one the lidar agrees with is named as the cause.
+    motion : LidarMotion, optional
+        The lidar's motion when it was matched already (:func:`lidar_motion` of the same scans
+        and pose); None: matched here.
 
     Raises
     ------
@@ -130,52 +218,126 @@ def check_wheels_against_scans(
         beyond :data:`TRAVEL_RATIO` (:data:`TURN_RATIO`) from what the lidar saw.
     """
     odo = np.asarray(odometry, dtype=float)
-    use = np.asarray(usable, dtype=bool)
     if odo.shape != (len(np.asarray(st)), 3) or len(bag.ranges_m) != len(odo):
         raise InputError(f"`odometry` must hold one pose per scan, got {odo.shape}", bag.source)
-    steps = _steps(odo)
-    i = _pairs(use)
-    if i.size < 10:
+    lm = lidar_motion(bag, usable, sensor_pose) if motion is None else motion
+    if lm is None:
         return
-    m = match_scan_pairs(bag.ranges_m[i], bag.ranges_m[i + 1], bag.angles_rad, None, ICPConfig(coarse=True))
-    ok = np.asarray(m.converged, dtype=bool)
-    if ok.sum() < 10:
+    wheel = _steps(odo)[lm.index]
+    _check_turn_signs(wheel, lm.seen, kind, bag)
+    other = {k: _steps(np.asarray(v, dtype=float))[lm.index] for k, v in (alternatives or {}).items()}
+    _check_scale(wheel, lm.seen, bag, other)
+
+
+def disagreement(wheel: ArrayLike, seen: ArrayLike) -> float:
+    """How far the wheels' motion over pairs of scans is from the lidar's: the lidar's travel and
+    turn each scaled to fit best (a scale at least 0), the share of each left unexplained,
+    averaged (0: the same motion; 1: the wheels explain none of it). A component the lidar
+    hardly saw (under 0.3 m of travel, 30 deg of turn) is left out (neither: 0).
+
+    Parameters
+    ----------
+    wheel, seen : array_like
+        ``(P, 3)`` the wheels' and the lidar's motions over the pairs, in the robot's frame.
+    """
+    w, s = np.asarray(wheel, dtype=float), np.asarray(seen, dtype=float)
+    shares = []
+    for part, least in ((slice(0, 2), _MIN_TRAVEL_M), (slice(2, 3), _MIN_TURN_RAD)):
+        ws, ss = w[:, part], s[:, part]
+        total = float(np.sum(np.linalg.norm(ss, axis=1)))
+        if total < least:
+            continue
+        a = max(float(np.sum(ws * ss)) / max(float(np.sum(ws * ws)), 1e-300), 0.0)
+        shares.append(float(np.sum(np.linalg.norm(a * ws - ss, axis=1))) / total)
+    return float(np.mean(shares)) if shares else 0.0
+
+
+def check_readings(
+    motion: LidarMotion | None, odometry: ArrayLike, readings: Sequence[tuple[str, ArrayLike]], source: str
+) -> None:
+    """Refuse joints whose motion the lidar contradicts where another reading of them agrees
+    (module docstring): the closest reading's cause named (several, when the driving cannot tell
+    them apart), and a lidar mounted upside down beside it when the mirrored scans agree as well
+    (then, where the lidar turns against the joints, as the check ``turn_direction``).
+
+    Parameters
+    ----------
+    motion : LidarMotion or None
+        The lidar's motion (:func:`lidar_motion`); None: nothing to judge from.
+    odometry : array_like
+        ``(M, 3)`` the nominal odometry of the joints as given at each scan.
+    readings : sequence of (str, array_like)
+        The other readings: what each means and what to give (a message's words), and its
+        ``(M, 3)`` odometry at the scans.
+    source : str
+        The recording, for the message.
+
+    Raises
+    ------
+    InputError
+        Another reading :data:`READING_FAR` times closer to the lidar's motion (the check
+        ``joint_order``, or ``turn_direction`` beside a lidar upside down).
+    """
+    if motion is None or not readings:
         return
-    lidar = np.asarray(sensor_pose, dtype=float)
-    raw = np.asarray(m.poses, dtype=float)[ok]
-    seen = se2.compose(lidar, se2.compose(raw, se2.inverse(lidar)))
-    # the travel of pairs that hardly turn is the sensor's own, whatever its nominal pose
-    c, si = math.cos(lidar[2]), math.sin(lidar[2])
-    own = np.column_stack([c * raw[:, 0] - si * raw[:, 1], si * raw[:, 0] + c * raw[:, 1]])
-    seen[:, :2] = np.where(np.abs(raw[:, 2:3]) < _STRAIGHT_RAD, own, seen[:, :2])
-    wheel = steps[i[ok]]
-    _check_turn_signs(wheel, seen, kind, bag)
-    other = {k: _steps(np.asarray(v, dtype=float))[i[ok]] for k, v in (alternatives or {}).items()}
-    _check_scale(wheel, seen, bag, other)
+    given = disagreement(_steps(np.asarray(odometry, dtype=float))[motion.index], motion.seen)
+    scores = [disagreement(_steps(np.asarray(o, dtype=float))[motion.index], motion.seen) for _, o in readings]
+    best = min(scores)
+    if not (best <= _READING_AGREES and given >= READING_FAR * best and given - best >= _READING_MARGIN):
+        return
+    near = [cause for (cause, _), d in sorted(zip(readings, scores), key=lambda x: x[1]) if d <= _READING_TIE * best]
+    cause = (
+        near[0]
+        if len(near) == 1
+        else f"one of these readings, which the driving cannot tell apart: {'; or '.join(near[:3])}"
+    )
+    wheel = _steps(np.asarray(odometry, dtype=float))[motion.index]
+    if disagreement(wheel, motion.mirrored) <= max(_READING_TIE * best, _READING_AGREES):
+        # a lidar upside down moves the robot alike: both named, as the turns against each other show
+        where = _turns_against(wheel, motion.seen)
+        if where is not None:
+            _refuse("turn_direction", f"{where}: {_UPSIDE_DOWN}, or {cause}", source)
+            return
+        cause += f"; or {_UPSIDE_DOWN}, which moves the robot alike"
+    _refuse(
+        "joint_order",
+        f"the joints as given move the robot otherwise than the lidar sees it move ({100 * given:.0f} % of its "
+        f"motion unexplained over {len(motion.index)} pairs of consecutive scans, {100 * best:.0f} % read "
+        f"otherwise): {cause}",
+        source,
+    )
+
+
+_UPSIDE_DOWN = (
+    "a lidar mounted upside down (its scans mirrored: its frame's z axis down; turn it over in the URDF or the driver)"
+)
+
+
+def _turns_against(wheel: FloatArray, seen: FloatArray) -> str | None:
+    """Where the lidar turns the other way from the wheels in most scan pairs that turn
+    (:data:`_AGAINST` of them, at least five), in words; else None."""
+    turning = (np.abs(seen[:, 2]) > _TURN_STEP_RAD) & (np.abs(wheel[:, 2]) > 0.1 * _TURN_STEP_RAD)
+    n = int(turning.sum())
+    against = int(np.sum(np.sign(seen[turning, 2]) != np.sign(wheel[turning, 2])))
+    if n < 5 or against < _AGAINST * n:
+        return None
+    return f"the lidar turns the other way from the wheels in {against} of {n} scan pairs that turn"
 
 
 def _check_turn_signs(wheel: FloatArray, seen: FloatArray, kind: str, bag: SelfcalBag) -> None:
     """Refuse turns the other way: mirrored scans (the lidar upside down) or wheels exchanged
     when the robot's forward travel agrees; wheels counted backwards when it does not."""
-    turning = (np.abs(seen[:, 2]) > _TURN_STEP_RAD) & (np.abs(wheel[:, 2]) > 0.1 * _TURN_STEP_RAD)
-    n = int(turning.sum())
-    against = int(np.sum(np.sign(seen[turning, 2]) != np.sign(wheel[turning, 2])))
-    if n < 5 or against < _AGAINST * n:
+    where = _turns_against(wheel, seen)
+    if where is None:
         return
     ahead = (np.abs(seen[:, 0]) > _STEP_M) & (np.abs(wheel[:, 0]) > 0.1 * _STEP_M)
     back = int(np.sum(np.sign(seen[ahead, 0]) != np.sign(wheel[ahead, 0])))
-    where = f"the lidar turns the other way from the wheels in {against} of {n} scan pairs that turn"
     causes = kind_named(kind)
     if ahead.sum() >= 5 and back >= _AGAINST * ahead.sum():
         backwards = causes.turn_backwards
         _refuse("turn_direction", f"{where}, and it moves back where they drive forward: {backwards}", bag.source)
         return
-    _refuse(
-        "turn_direction",
-        f"{where}: a lidar mounted upside down (its scans mirrored: its frame's z axis down; turn it over in the "
-        f"URDF or the driver), or {causes.turn_mirrored}",
-        bag.source,
-    )
+    _refuse("turn_direction", f"{where}: {_UPSIDE_DOWN}, or {causes.turn_mirrored}", bag.source)
 
 
 def _ratio(wheel: FloatArray, seen: FloatArray) -> tuple[float, float, str, str] | None:
