@@ -78,9 +78,12 @@ _AGAINST = 0.8  # the share of turning pairs turning the other way that names a 
 
 READING_FAR = 2.5
 """Another reading of the joints names itself when the joints as given are this many times
-further from the lidar's motion (:func:`disagreement`) and it agrees with the lidar."""
-_READING_MARGIN = 0.12  # ... and further by at least this much
-_READING_AGREES = 0.25  # ... and it is at most this far from the lidar
+further from the lidar's travel or turn (:func:`disagreement`) where it agrees with the lidar,
+and no further in the other."""
+_READING_MARGIN = 0.06  # ... and further by at least this much
+_READING_AGREES = 0.25  # ... where it leaves at most this share unexplained
+_READING_NOT_WORSE = 0.05  # ... and it leaves at most this much more of the other unexplained
+_READING_ROUGHLY = 0.5  # ... and at most this share of either
 _READING_TIE = 1.25  # readings within this factor of the closest are as close (the driving cannot tell them)
 
 
@@ -229,27 +232,48 @@ def check_wheels_against_scans(
     _check_scale(wheel, lm.seen, bag, other)
 
 
-def disagreement(wheel: ArrayLike, seen: ArrayLike) -> float:
+def disagreement(wheel: ArrayLike, seen: ArrayLike) -> FloatArray:
     """How far the wheels' motion over pairs of scans is from the lidar's: the lidar's travel and
-    turn each scaled to fit best (a scale at least 0), the share of each left unexplained,
-    averaged (0: the same motion; 1: the wheels explain none of it). A component the lidar
-    hardly saw (under 0.3 m of travel, 30 deg of turn) is left out (neither: 0).
+    its turn each scaled to fit best (a scale at least 0, so that a nominal size off does not
+    count) and the share of each left unexplained (0: the same motion; 1: the wheels explain
+    none of it).
 
     Parameters
     ----------
     wheel, seen : array_like
         ``(P, 3)`` the wheels' and the lidar's motions over the pairs, in the robot's frame.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(2,)`` the shares of the travel and of the turn; NaN where the lidar hardly saw it
+        (under 0.3 m of travel, 30 deg of turn over the pairs).
     """
     w, s = np.asarray(wheel, dtype=float), np.asarray(seen, dtype=float)
-    shares = []
-    for part, least in ((slice(0, 2), _MIN_TRAVEL_M), (slice(2, 3), _MIN_TURN_RAD)):
+    out = np.full(2, np.nan)
+    for k, (part, least) in enumerate(((slice(0, 2), _MIN_TRAVEL_M), (slice(2, 3), _MIN_TURN_RAD))):
         ws, ss = w[:, part], s[:, part]
         total = float(np.sum(np.linalg.norm(ss, axis=1)))
-        if total < least:
-            continue
-        a = max(float(np.sum(ws * ss)) / max(float(np.sum(ws * ws)), 1e-300), 0.0)
-        shares.append(float(np.sum(np.linalg.norm(a * ws - ss, axis=1))) / total)
-    return float(np.mean(shares)) if shares else 0.0
+        if total >= least:
+            a = max(float(np.sum(ws * ss)) / max(float(np.sum(ws * ws)), 1e-300), 0.0)
+            out[k] = min(float(np.sum(np.linalg.norm(a * ws - ss, axis=1))) / total, 1.0)  # no worse than none
+    return out
+
+
+def _far_closer(other: FloatArray, given: FloatArray) -> bool:
+    """Whether a reading is far closer to the lidar than the joints as given: no component
+    further, none far from the lidar (:data:`_READING_ROUGHLY`), one :data:`READING_FAR` times
+    closer (and by :data:`_READING_MARGIN`) and agreeing with the lidar (:data:`_READING_AGREES`)."""
+    both = np.isfinite(other) & np.isfinite(given)
+    o, g = other[both], given[both]
+    if o.size == 0 or np.any(o > g + _READING_NOT_WORSE) or np.any(o > _READING_ROUGHLY):
+        return False
+    return bool(np.any((o <= _READING_AGREES) & (g >= READING_FAR * o) & (g - o >= _READING_MARGIN)))
+
+
+def _shares(d: FloatArray) -> str:
+    """A disagreement in words: ``travel 60 %, turn 1 %``."""
+    return ", ".join(f"{what} {100 * v:.0f} %" for what, v in zip(("travel", "turn"), d) if np.isfinite(v))
 
 
 def check_readings(
@@ -275,24 +299,26 @@ def check_readings(
     Raises
     ------
     InputError
-        Another reading :data:`READING_FAR` times closer to the lidar's motion (the check
-        ``joint_order``, or ``turn_direction`` beside a lidar upside down).
+        Another reading far closer to the lidar's motion (:func:`disagreement`: no part of it
+        further, one part :data:`READING_FAR` times closer): the check ``joint_order``, or
+        ``turn_direction`` beside a lidar upside down.
     """
     if motion is None or not readings:
         return
-    given = disagreement(_steps(np.asarray(odometry, dtype=float))[motion.index], motion.seen)
+    wheel = _steps(np.asarray(odometry, dtype=float))[motion.index]
+    given = disagreement(wheel, motion.seen)
     scores = [disagreement(_steps(np.asarray(o, dtype=float))[motion.index], motion.seen) for _, o in readings]
-    best = min(scores)
-    if not (best <= _READING_AGREES and given >= READING_FAR * best and given - best >= _READING_MARGIN):
+    closer = sorted((float(np.nansum(d)), i) for i, d in enumerate(scores) if _far_closer(d, given))
+    if not closer:
         return
-    near = [cause for (cause, _), d in sorted(zip(readings, scores), key=lambda x: x[1]) if d <= _READING_TIE * best]
+    best = closer[0][0]
+    near = [readings[i][0] for total, i in closer if total <= _READING_TIE * best + 0.01]
     cause = (
         near[0]
         if len(near) == 1
         else f"one of these readings, which the driving cannot tell apart: {'; or '.join(near[:3])}"
     )
-    wheel = _steps(np.asarray(odometry, dtype=float))[motion.index]
-    if disagreement(wheel, motion.mirrored) <= max(_READING_TIE * best, _READING_AGREES):
+    if READING_FAR * np.nansum(disagreement(wheel, motion.mirrored)) <= np.nansum(given):
         # a lidar upside down moves the robot alike: both named, as the turns against each other show
         where = _turns_against(wheel, motion.seen)
         if where is not None:
@@ -301,9 +327,9 @@ def check_readings(
         cause += f"; or {_UPSIDE_DOWN}, which moves the robot alike"
     _refuse(
         "joint_order",
-        f"the joints as given move the robot otherwise than the lidar sees it move ({100 * given:.0f} % of its "
-        f"motion unexplained over {len(motion.index)} pairs of consecutive scans, {100 * best:.0f} % read "
-        f"otherwise): {cause}",
+        f"the joints as given move the robot otherwise than the lidar sees it move (unexplained over "
+        f"{len(motion.index)} pairs of consecutive scans: {_shares(given)} of its motion; read otherwise, "
+        f"{_shares(scores[closer[0][1]])}): {cause}",
         source,
     )
 
