@@ -505,11 +505,16 @@ class KinematicReport:
 
     def to_dict(self) -> dict[str, Any]:
         """The result's JSON (:meth:`KinematicSelfcalResult.to_dict`) with ``inputs`` (each bag's
-        :meth:`JointScanIntervals.to_dict`), ``keyframes`` and ``scan_delay`` (per bag, ``applied_s``)."""
+        :meth:`JointScanIntervals.to_dict`), ``keyframes``, ``scan_delay`` (per bag, ``applied_s``)
+        and ``joints`` (each role's joint name, as the bags' JointState messages name it: the
+        controller's parameters of an export name them)."""
         out = self.result.to_dict()
         out["inputs"] = [p.to_dict() for p in self.parts]
         out["keyframes"] = self.parts[0].keyframe_rule.to_dict() if self.parts else None
         out["scan_delay"] = [p.to_dict()["scan_delay"] for p in self.parts]
+        roles = self.result.nominal.joint_roles
+        names = tuple(self.parts[0].bag.joint_names) if self.parts else ()
+        out["joints"] = dict(zip(roles, names)) if len(names) == len(roles) else None
         return out
 
 
