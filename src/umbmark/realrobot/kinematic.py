@@ -74,6 +74,7 @@ from umbmark.realrobot.selfcal import (
 )
 
 __all__ = [
+    "check_joint_readings",
     "JointScanIntervals",
     "KinematicReport",
     "kinematic_bag_intervals",
@@ -407,6 +408,54 @@ def _check_readings(
     check_readings(motion, grid.odometry, readings, bag.source)
 
 
+def _require_joints(bag: SelfcalBag, nominal: Kinematics) -> None:
+    if bag.joint_positions is None or bag.joint_positions.shape[1] != len(nominal.joint_roles):
+        raise InputError(
+            f"the bag's joint data are not a {nominal.kind}'s ({', '.join(nominal.joint_roles)})", bag.source
+        )
+
+
+def check_joint_readings(
+    bag: SelfcalBag,
+    nominal: Kinematics,
+    options: IntervalOptions | None = None,
+    *,
+    motion: LidarMotion | None = None,
+) -> LidarMotion | None:
+    """The joints as given against the other readings their kind names, on the lidar's own motion
+    between consecutive scans: the first check of :func:`kinematic_bag_intervals`, alone.
+
+    Parameters
+    ----------
+    bag : SelfcalBag
+        With joint states in the kind's roles' order (:func:`joint_source`).
+    nominal : Kinematics
+        The nominal geometry.
+    options : IntervalOptions, optional
+        The lidar's nominal pose, the base frame and the wheel gap (the rest unused).
+    motion : LidarMotion, optional
+        The lidar's motion when it was matched already (the same scans and lidar pose).
+
+    Returns
+    -------
+    LidarMotion or None
+        The lidar's motion (to pass again for another reading of the same bag); None: too few
+        scan pairs matched to judge from.
+
+    Raises
+    ------
+    InputError
+        Another reading far closer to the lidar's motion (the check ``joint_order``: its cause and
+        the options to give), or beside a lidar upside down (``turn_direction``).
+    """
+    _require_joints(bag, nominal)
+    pipe = _Pipeline(bag, nominal, IntervalOptions() if options is None else options)
+    st, usable, grid, _ = pipe.plan(pipe.first)
+    seen = lidar_motion(bag, usable, pipe.l0) if motion is None else motion
+    _check_readings(bag, nominal, st, usable, grid, seen)
+    return seen
+
+
 def kinematic_bag_intervals(
     bag: SelfcalBag,
     nominal: Kinematics,
@@ -440,8 +489,7 @@ def kinematic_bag_intervals(
     """
     opts = IntervalOptions() if options is None else options
     src = bag.source
-    if bag.joint_positions is None or bag.joint_positions.shape[1] != len(nominal.joint_roles):
-        raise InputError(f"the bag's joint data are not a {nominal.kind}'s ({', '.join(nominal.joint_roles)})", src)
+    _require_joints(bag, nominal)
     pipe = _Pipeline(bag, nominal, opts)
     rule = opts.keyframes
     # 1-2: every pair of consecutive scans, matched from the nominal odometry (the joints first

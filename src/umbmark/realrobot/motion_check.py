@@ -85,6 +85,8 @@ _READING_AGREES = 0.25  # ... where it leaves at most this share unexplained
 _READING_NOT_WORSE = 0.05  # ... and it leaves at most this much more of the other unexplained
 _READING_ROUGHLY = 0.5  # ... and at most this share of either
 _READING_TIE = 1.25  # readings within this factor of the closest are as close (the driving cannot tell them)
+_READING_EVEN = 0.02  # ... or this much
+_MIRROR_SLACK = 0.2  # a lidar upside down as close as the closest reading but this much (its pose is not mirrored)
 
 
 def _pairs(usable: NDArray[np.bool_]) -> NDArray[np.int64]:
@@ -312,13 +314,14 @@ def check_readings(
     if not closer:
         return
     best = closer[0][0]
-    near = [readings[i][0] for total, i in closer if total <= _READING_TIE * best + 0.01]
+    near = [readings[i][0] for total, i in closer if total <= _READING_TIE * best + _READING_EVEN]
     cause = (
         near[0]
         if len(near) == 1
         else f"one of these readings, which the driving cannot tell apart: {'; or '.join(near[:3])}"
     )
-    if READING_FAR * np.nansum(disagreement(wheel, motion.mirrored)) <= np.nansum(given):
+    mirror = disagreement(wheel, motion.mirrored) - scores[closer[0][1]]
+    if np.all(np.nan_to_num(mirror) <= _MIRROR_SLACK):
         # a lidar upside down moves the robot alike: both named, as the turns against each other show
         where = _turns_against(wheel, motion.seen)
         if where is not None:
