@@ -113,7 +113,9 @@ def test_the_wheels_as_recorded_are_never_taken_for_exchanged(name):
 
     motion = lidar_motion(bag, (st > wt[0]) & (st < wt[-1]), (0.0, 0.0, 0.0))
     assert motion is not None
-    check_readings(motion, odometry(left, right), [("exchanged", odometry(right, left))], bag.source)  # no refusal
+    check_readings(
+        motion, odometry(left, right), [(("exchanged", "give them the other way"), odometry(right, left))], bag.source
+    )  # no refusal
     steps = [se2.between(o[:-1], o[1:])[motion.index] for o in (odometry(left, right), odometry(right, left))]
     as_recorded, exchanged = (disagreement(s, motion.seen) for s in steps)
     assert as_recorded[1] < 0.5 and exchanged[1] == 1.0  # exchanged, the wheels turn against the lidar

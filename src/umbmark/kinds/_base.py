@@ -600,10 +600,11 @@ class Kind:
         same = tuple(range(n))
         return tuple(Reading(p) for p in itertools.permutations(range(n)) if p != same)
 
-    def reading_cause(self, reading: Reading, names: Sequence[str]) -> str:
-        """What a reading the lidar agrees with means, and what to give: its words and the options
-        naming the joints so (``names``: the joints given, in the order given)."""
-        return f"{reading.words}: {self.joint_flags([names[i] for i in reading.order])}"
+    def reading_cause(self, reading: Reading, names: Sequence[str]) -> tuple[str, str]:
+        """What a reading the lidar agrees with means, and what to do: ``(words, remedy)``, by
+        default its words and the options naming the joints so (``names``: the joints given, in
+        the order given)."""
+        return reading.words, self.joint_flags([names[i] for i in reading.order])
 
     # ------------------------------------------------------------ exports
     def ros2_parameters(self, g: Kinematics) -> dict[str, Any]:

@@ -173,15 +173,15 @@ def steering_note(
 _EXCHANGED = "the drive and steering joints look exchanged"
 
 
-def _zero_off(shift: float, joint: str = "") -> str:
-    """The words of a steering zero ``-shift`` off (the reading that adds ``shift`` fits)."""
+def _zero_off(shift: float, joint: str = "") -> tuple[str, str]:
+    """The words and the remedy of a steering zero ``-shift`` off (the reading that adds ``shift`` fits)."""
     side = "right" if shift > 0 else "left"
     name = f" {joint}" if joint else ""
     return (
         f"the steering joint{name} reads {math.degrees(-shift):+.0f} deg (a quarter turn to the {side}) with the "
-        "wheel straight ahead: its zero is a quarter turn off (an offset, not degrees); move the zero where the "
-        f"angle is made (the steering joint's transmission: its <offset> {shift:+.6f} rad more, or the driver) "
-        "and record again"
+        "wheel straight ahead: its zero is a quarter turn off (an offset, not degrees)",
+        "move the zero where the angle is made (the steering joint's transmission: its <offset> "
+        f"{shift:+.6f} rad more, or the driver) and record again",
     )
 
 
@@ -240,9 +240,9 @@ class _TricycleKind(Kind):
         off either way (the reading adds the turn back)."""
         exchanged = tuple(Reading(r.order, words=_EXCHANGED) for r in super().readings())
         quarter = 0.5 * math.pi
-        return exchanged + tuple(Reading((0, 1), (0.0, s * quarter), _zero_off(s * quarter)) for s in (1.0, -1.0))
+        return exchanged + tuple(Reading((0, 1), (0.0, s * quarter), _zero_off(s * quarter)[0]) for s in (1.0, -1.0))
 
-    def reading_cause(self, reading: Reading, names: Sequence[str]) -> str:
+    def reading_cause(self, reading: Reading, names: Sequence[str]) -> tuple[str, str]:
         if any(reading.shift_rad):
             return _zero_off(reading.shift_rad[1], names[1])
         return super().reading_cause(reading, names)

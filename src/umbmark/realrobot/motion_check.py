@@ -86,6 +86,7 @@ _READING_NOT_WORSE = 0.05  # ... and it leaves at most this much more of the oth
 _READING_ROUGHLY = 0.5  # ... and at most this share of either
 _READING_TIE = 1.25  # readings within this factor of the closest are as close (the driving cannot tell them)
 _READING_EVEN = 0.02  # ... or this much
+_READINGS_NAMED = 4  # at most this many of them named (a mecanum robot that never moves sideways: four orders alike)
 _MIRROR_SLACK = 0.2  # a lidar upside down as close as the closest reading but this much (its pose is not mirrored)
 
 
@@ -279,7 +280,10 @@ def _shares(d: FloatArray) -> str:
 
 
 def check_readings(
-    motion: LidarMotion | None, odometry: ArrayLike, readings: Sequence[tuple[str, ArrayLike]], source: str
+    motion: LidarMotion | None,
+    odometry: ArrayLike,
+    readings: Sequence[tuple[tuple[str, str], ArrayLike]],
+    source: str,
 ) -> None:
     """Refuse joints whose motion the lidar contradicts where another reading of them agrees
     (module docstring): the closest reading's cause named (several, when the driving cannot tell
@@ -292,9 +296,10 @@ def check_readings(
         The lidar's motion (:func:`lidar_motion`); None: nothing to judge from.
     odometry : array_like
         ``(M, 3)`` the nominal odometry of the joints as given at each scan.
-    readings : sequence of (str, array_like)
-        The other readings: what each means and what to give (a message's words), and its
-        ``(M, 3)`` odometry at the scans.
+    readings : sequence of ((str, str), array_like)
+        The other readings: what each means and what to do (a message's words: ``(words,
+        remedy)``, :meth:`umbmark.kinds.Kind.reading_cause`), and its ``(M, 3)`` odometry at the
+        scans.
     source : str
         The recording, for the message.
 
@@ -315,11 +320,7 @@ def check_readings(
         return
     best = closer[0][0]
     near = [readings[i][0] for total, i in closer if total <= _READING_TIE * best + _READING_EVEN]
-    cause = (
-        near[0]
-        if len(near) == 1
-        else f"one of these readings, which the driving cannot tell apart: {'; or '.join(near[:3])}"
-    )
+    cause = _causes(near[:_READINGS_NAMED])
     mirror = disagreement(wheel, motion.mirrored) - scores[closer[0][1]]
     if np.all(np.nan_to_num(mirror) <= _MIRROR_SLACK):
         # a lidar upside down moves the robot alike: both named, as the turns against each other show
@@ -335,6 +336,18 @@ def check_readings(
         f"{_shares(scores[closer[0][1]])}): {cause}",
         source,
     )
+
+
+def _causes(near: list[tuple[str, str]]) -> str:
+    """The causes of the closest readings in words: one, or those the driving cannot tell apart
+    (the remedies of the same words together)."""
+    if len(near) == 1:
+        return f"{near[0][0]}: {near[0][1]}"
+    by_words: dict[str, list[str]] = {}
+    for words, remedy in near:
+        by_words.setdefault(words, []).append(remedy)
+    parts = [f"{words}: {'; or '.join(remedies)}" for words, remedies in by_words.items()]
+    return f"one of these, which the driving cannot tell apart: {'; or '.join(parts)}"
 
 
 _UPSIDE_DOWN = (
