@@ -171,7 +171,6 @@ _COMMON = (
 # flags of the differential drive's calibration the other kinds have no use for
 _REFUSED = {
     "ticks_topic": "--ticks-topic",
-    "odom_topic": "--odom-topic",
     "intervals_out": "--intervals-out",
 }
 
@@ -185,6 +184,9 @@ def kinematic_selfcal_cmd(kind: str, paths, min_intervals: int, keep_outliers: b
     for key, refused in _REFUSED.items():
         if kw.get(key):
             raise InputError(f"{refused} is not for --kinematics {kind}")
+    odom = kw.get("odom_topic") or None
+    if odom and not kind_named(kind).reads_odometry:
+        raise InputError(kind_named(kind).odometry_refusal())
     if record:
         raise InputError(f"--record keeps differential drives' calibrations; save a {kind}'s with --save")
     if kind_of(paths) != "bags":
@@ -206,6 +208,7 @@ def kinematic_selfcal_cmd(kind: str, paths, min_intervals: int, keep_outliers: b
             fit=fit,
             reject_outliers=not keep_outliers,
             progress=bars,
+            odom_topic=odom,
         )
     d = rep.to_dict()
     if save:
@@ -282,6 +285,9 @@ def _print(d: dict, save) -> None:
         c.print("  run again with --save selfcal.json, then")
     c.print(f"  {escape(f'umbmark export {cal} --format ros2 --out params.yaml')}", soft_wrap=True)
     c.print(f"  {escape(f'umbmark export {cal} --format urdf')}", soft_wrap=True)
+    for e in kind_named(d["kinematics"]).edited_files:
+        line = f"umbmark export {cal} --format {e.format} {flag(e.option)} {e.metavar} --out calibrated.yaml"
+        c.print(f"  {escape(line)}", soft_wrap=True)
 
 
 # the replay flags a robot of a kind of its own against a ground truth has use for (and every

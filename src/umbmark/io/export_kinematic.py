@@ -5,7 +5,7 @@ Formats (the kind's :attr:`~umbmark.kinds.Kind.export_formats`):
 
 * ``ros2``: the controller's parameter file (the kind's :attr:`~umbmark.kinds.Kind.controller`),
   its keys and types as in ros2_controllers' parameter definitions: the joints as the bag named
-  them (the JSON's ``joints``, :meth:`~umbmark.kinds.Kind.ros2_joint_parameters`) and the
+  them (the JSON's ``joints``, :meth:`~umbmark.kinds.Kind.ros2_joints`) and the
   calibrated values (:meth:`~umbmark.kinds.Kind.ros2_parameters`): every parameter the
   controller requires, a block that loads alone; a comment above it says that the controller's
   other parameters keep their defaults and how to keep one's own (load the file after them: a
@@ -35,6 +35,14 @@ Formats (the kind's :attr:`~umbmark.kinds.Kind.export_formats`):
   (:meth:`~umbmark.kinds.Kind.export_json`: a tricycle's steering offset and scale, a mecanum
   robot's per-wheel factors), the sensor pose.
 * ``urdf``, ``tf``: the lidar's mounting pose (as for a differential drive).
+* a parameter file of the robot's own software (:attr:`~umbmark.kinds.Kind.edited_files`: a
+  car's ``vesc``): the user's file with the values the calibration changes written in
+  (:meth:`~umbmark.kinds.Kind.edited_values`), every other line kept
+  (:func:`umbmark.io.param_file.edit_parameter_file`): :func:`format_edited_file`.
+
+The controller's parameters name the joints the recording shows (the JSON's ``joints``,
+:meth:`~umbmark.kinds.Kind.ros2_joints`: a car's ``traction_joints_names`` and
+``steering_joints_names``); a calibration read from an odometry has none, and the file says so.
 
 The differential drive's formats that another kind has no standard for (``ros1``,
 ``firmware``) are refused with what to use instead.
@@ -62,6 +70,7 @@ __all__ = [
     "KinematicCalibration",
     "kinematic_calibration_from_dict",
     "format_kinematic_export",
+    "format_edited_file",
 ]
 
 # what a format of the differential drive's that another kind lacks would be
@@ -100,8 +109,11 @@ class KinematicCalibration:
     source : str
     warnings : tuple of str
         The calibration's own warnings.
-    joints : tuple of str or None
-        The joints' names, one per role in the roles' order (None: the JSON names none).
+    nominal : Kinematics, optional
+        The nominal geometry the calibration started from (the JSON's ``nominal``).
+    joints : dict, optional
+        Each joint role's name in the recording (the JSON's ``joints``, else the joint data its
+        bag part describes); None when it read none (an odometry) or does not say.
     """
 
     kind: str
@@ -113,7 +125,8 @@ class KinematicCalibration:
     sensor_frame: str
     source: str
     warnings: tuple[str, ...] = ()
-    joints: tuple[str, ...] | None = None
+    nominal: Kinematics | None = None
+    joints: dict[str, str] | None = None
 
 
 # a joint's name as a parameter file and the transmission's XML may hold it
@@ -122,16 +135,16 @@ _JOINT_NAME = re.compile(r"[^\s\"'<>&`]+")
 _WHEEL_DATA = re.compile(r"JointState (.+) on \S+")
 
 
-def _joints(d: dict, kind: Kind, source: str) -> tuple[str, ...] | None:
-    """The joints' names in a self-calibration's JSON: ``joints`` (role -> name), else the joint
-    data its bag part describes (a JSON of an older umbmark); None where it names none.
+def _joints(d: dict, roles: tuple[str, ...], source: str) -> dict[str, str] | None:
+    """Each role's joint name in a self-calibration's JSON: ``joints`` (role -> name), else the
+    joint data its bag part describes (a JSON of an older umbmark); None where it names none (a
+    calibration read from an odometry).
 
     Raises
     ------
     InputError
         A ``joints`` that does not name each of the kind's roles with a joint's name.
     """
-    roles = kind.geometry.joint_roles
     given = d.get("joints")
     if given is None:
         inputs = d.get("inputs")
@@ -139,14 +152,14 @@ def _joints(d: dict, kind: Kind, source: str) -> tuple[str, ...] | None:
         m = _WHEEL_DATA.fullmatch(str(first.get("wheel_data", "")))
         names = m.group(1).split(", ") if m else []
         ok = len(names) == len(roles) and all(_JOINT_NAME.fullmatch(n) for n in names)
-        return tuple(names) if ok else None
+        return dict(zip(roles, names)) if ok else None
     if not (
         isinstance(given, dict)
         and set(given) == set(roles)
         and all(isinstance(v, str) and _JOINT_NAME.fullmatch(v) for v in given.values())
     ):
         raise InputError(f"'joints' must name the joint of each of {', '.join(roles)} (no spaces or quotes)", source)
-    return tuple(given[r] for r in roles)
+    return {r: given[r] for r in roles}
 
 
 def kinematic_calibration_from_dict(d: dict, source: str = "<json>") -> KinematicCalibration:
@@ -185,6 +198,7 @@ def kinematic_calibration_from_dict(d: dict, source: str = "<json>") -> Kinemati
         base_frame = str(first.get("base_frame") or base_frame)
         sensor_frame = str(first.get("scan_frame") or sensor_frame)
     warns = tuple(str(w) for w in d.get("warnings", []) if isinstance(w, str))
+    nominal = d.get("nominal")
     return KinematicCalibration(
         kind.name,
         geometry,
@@ -195,7 +209,8 @@ def kinematic_calibration_from_dict(d: dict, source: str = "<json>") -> Kinemati
         sensor_frame,
         source,
         warns,
-        _joints(d, kind, source),
+        kind.geometry_from_json(nominal, source)[0] if isinstance(nominal, dict) else None,
+        _joints(d, kind.geometry.joint_roles, source),
     )
 
 
@@ -258,6 +273,9 @@ def format_kinematic_export(
             "rad), is beyond half a turn: no steering transmission's offset (an angle in another unit?)"
         )
     head = f"umbmark self-calibration of a {kind.noun} from {cal.source}"
+    edited = [e for e in kind.edited_files if e.format == fmt]
+    if edited:
+        raise InputError(f"`fmt={fmt}` edits {edited[0].describe}: give it (`{edited[0].option}`)")
     if fmt == "urdf":
         warn = "".join(f"<!-- warning: {xml_comment(w)} -->\n" for w in cal.warnings)
         return f"<!-- {xml_comment(head)} -->\n{warn}{origin_element(cal.sensor_pose)}\n"
@@ -282,7 +300,7 @@ def _parameters(cal: KinematicCalibration) -> dict[str, Any]:
     """The controller's parameters: the joints' names (when the calibration has them) and the
     calibrated values."""
     kind = kind_named(cal.kind)
-    joints = {} if cal.joints is None else kind.ros2_joint_parameters(cal.joints)
+    joints = {} if cal.joints is None else kind.ros2_joints(cal.joints)
     return {**joints, **kind.ros2_parameters(cal.geometry)}
 
 
@@ -325,3 +343,55 @@ def read_kinematic_json(path: str | Path) -> dict | None:
     except (OSError, ValueError, RecursionError):  # ValueError: not UTF-8, not JSON, a number of 5000 digits
         return None
     return d if isinstance(d, dict) and _exported(d.get("kinematics")) is not None else None
+
+
+def format_edited_file(cal: KinematicCalibration, fmt: str, text: str, source: str) -> tuple[str, list[str]]:
+    """A parameter file of the robot's own software with the values the calibration changes written in.
+
+    Parameters
+    ----------
+    cal : KinematicCalibration
+        With its nominal geometry.
+    fmt : str
+        One of the kind's :attr:`~umbmark.kinds.Kind.edited_files` formats (a car's ``vesc``).
+    text : str
+        The user's file, as read.
+    source : str
+        Its name.
+
+    Returns
+    -------
+    tuple
+        ``(new_text, lines)``: the file to write and what changed, in words.
+
+    Raises
+    ------
+    InputError
+        A format the kind does not edit this way, a calibration without its nominal geometry, a
+        file without the values in use or with values that are not numbers or cannot be
+        calibrated (:func:`umbmark.io.param_file.edit_parameter_file`).
+    """
+    from umbmark.io.param_file import edit_parameter_file, number_text
+
+    kind = kind_named(cal.kind)
+    spec = next((e for e in kind.edited_files if e.format == fmt), None)
+    if spec is None:
+        raise InputError(
+            f"a {kind.noun}'s calibration edits no {fmt} file (its formats: {', '.join(kind.export_formats)})"
+        )
+    nominal = cal.nominal
+    if nominal is None:
+        raise InputError("no 'nominal' geometry: not the JSON of umbmark selfcal", cal.source)
+
+    def compute(in_use):
+        return kind.edited_values(fmt, cal.geometry, nominal, in_use)
+
+    header = f"{', '.join(spec.changed)} calibrated by umbmark from {cal.source}:"
+    new, edits = edit_parameter_file(text, source, spec.keys, compute, spec.describe, header)
+    lines = [
+        f"{e.key}{f' ({e.block})' if e.block else ''}: {number_text(e.old)} -> {number_text(e.new)}" for e in edits
+    ]
+    lines += [f"note: {n}" for n in kind.edited_notes(fmt, cal.geometry, cal.ci95)]
+    if cal.joints is not None and spec.from_joints:
+        lines.append(f"warning: {spec.from_joints}")
+    return new, lines

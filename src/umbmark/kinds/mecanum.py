@@ -236,17 +236,17 @@ class _MecanumKind(Kind):
             }
         }
 
-    def ros2_joint_parameters(self, names: Sequence[str]) -> dict[str, str]:
+    def ros2_joints(self, joints: Mapping[str, str]) -> dict[str, Any]:
         """mecanum_drive_controller's ``<wheel>_wheel_command_joint_name`` of each wheel (strings,
         required; its state joints are the command joints unless named otherwise)."""
-        return {f"{r}_wheel_command_joint_name": str(n) for r, n in zip(ROLES, names)}
+        return {f"{r}_wheel_command_joint_name": str(joints[r]) for r in ROLES}
 
     def ros2_notes(
         self,
         g: Kinematics,
         ci95: Mapping[str, Interval | None],
         steering_in_use: tuple[float, float],
-        joints: Sequence[str] | None = None,
+        joints: Mapping[str, str] | None = None,
     ) -> list[str]:
         diameters, cis = _wheels(g, ci95)
         factors, apart = wheel_factors(diameters, cis)

@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -44,7 +44,7 @@ from umbmark.kinds._base import (
 from umbmark.model.geometry import QUANTITIES, wrap_angle
 from umbmark.model.kinematics import Kinematics
 
-__all__ = ["Tricycle", "KIND", "MAX_STEERING_RAD"]
+__all__ = ["Tricycle", "KIND", "MAX_STEERING_RAD", "Steered", "steering_note"]
 
 FloatArray = NDArray[np.float64]
 
@@ -146,21 +146,33 @@ class Tricycle:
         return np.stack([speed * dt_s / (0.5 * self.wheel_diameter_m), measured], axis=-1)
 
 
+class Steered(Protocol):
+    """A geometry with a steering offset and scale (a tricycle, a car)."""
+
+    @property
+    def steering_offset_rad(self) -> float: ...
+
+    @property
+    def steering_scale(self) -> float: ...
+
+
 def steering_note(
-    g: Tricycle, scale_estimated: bool, offset0: float, reduction0: float, joint: str | None = None
+    g: Steered, scale_estimated: bool, offset0: float, reduction0: float, joint: str | None = None
 ) -> list[str]:
     """The steering joint's transmission that makes its angle the true one, composed with the one in use.
 
     ``true = scale (actuator / reduction0 + offset0) + offset = actuator / (reduction0 / scale) +
-    (scale offset0 + offset)`` (the scale 1 unless it was estimated). ``joint``: the steering
-    joint's name (None: a placeholder, ``STEERING_JOINT``, said so).
+    (scale offset0 + offset)`` (the scale 1 unless it was estimated). ``g`` has a
+    ``steering_offset_rad`` and a ``steering_scale`` (a tricycle, a car); ``joint`` the steering
+    joint's name (``STEERING_JOINT`` when the calibration does not say, and a line saying so).
     """
-    scale = g.steering_scale if scale_estimated else 1.0
-    off = scale * offset0 + g.steering_offset_rad
+    offset, scale = float(g.steering_offset_rad), float(g.steering_scale)
+    scale = scale if scale_estimated else 1.0
+    off = scale * offset0 + offset
     red = reduction0 / scale
     return [
-        f"the steering offset {math.degrees(g.steering_offset_rad):.4f} deg "
-        f"({g.steering_offset_rad:.6f} rad: true angle = measured + offset) belongs to the steering joint's",
+        f"the steering offset {math.degrees(offset):.4f} deg "
+        f"({offset:.6f} rad: true angle = measured + offset) belongs to the steering joint's",
         "transmission in the ros2_control hardware description (SimpleTransmission: joint = actuator /",
         f"mechanical_reduction + offset), composed with the one in use ({offset0:g} rad, reduction {reduction0:g}):",
         f'  <joint name="{joint or "STEERING_JOINT"}" role="joint1">',
@@ -170,7 +182,11 @@ def steering_note(
     ] + ([] if joint else ["(the calibration names no steering joint: put its name for STEERING_JOINT)"])
 
 
-_EXCHANGED = "the drive and steering joints look exchanged"
+EXCHANGED = "the drive and steering joints look exchanged"
+"""The words of a drive and a steering joint given the other way round (a tricycle's, a car's)."""
+
+DRIVE_STEER_WORDS = {"drive": (("traction",), ("drive",), ("wheel",)), "steer": (("steer",), ("steering",))}
+"""The words of a drive and a steering joint's names (a tricycle's, a car's)."""
 
 
 def _zero_off(shift: float, joint: str = "") -> tuple[str, str]:
@@ -233,12 +249,12 @@ class _TricycleKind(Kind):
     sim_joints = ("traction_wheel_joint", "steering_joint")
     turn_backwards = "the traction joint turns backwards when the robot drives forward"
     turn_mirrored = "the steering joint's angle clockwise positive (it must be counter-clockwise positive)"
-    role_words = {"drive": (("traction",), ("drive",), ("wheel",)), "steer": (("steer",), ("steering",))}
+    role_words = DRIVE_STEER_WORDS
 
     def readings(self) -> tuple[Reading, ...]:
         """The drive and steering joints exchanged, and the steering joint's zero a quarter turn
         off either way (the reading adds the turn back)."""
-        exchanged = tuple(Reading(r.order, words=_EXCHANGED) for r in super().readings())
+        exchanged = tuple(Reading(r.order, words=EXCHANGED) for r in super().readings())
         quarter = 0.5 * math.pi
         return exchanged + tuple(Reading((0, 1), (0.0, s * quarter), _zero_off(s * quarter)[0]) for s in (1.0, -1.0))
 
@@ -279,19 +295,19 @@ class _TricycleKind(Kind):
         assert isinstance(g, Tricycle)
         return {"wheelbase": float(g.wheelbase_m), "wheel_radius": float(0.5 * g.wheel_diameter_m)}
 
-    def ros2_joint_parameters(self, names: Sequence[str]) -> dict[str, str]:
+    def ros2_joints(self, joints: Mapping[str, str]) -> dict[str, str]:
         """tricycle_controller's ``traction_joint_name`` and ``steering_joint_name`` (strings, required)."""
-        return {"traction_joint_name": str(names[0]), "steering_joint_name": str(names[1])}
+        return {"traction_joint_name": str(joints["drive"]), "steering_joint_name": str(joints["steer"])}
 
     def ros2_notes(
         self,
         g: Kinematics,
         ci95: Mapping[str, Interval | None],
         steering_in_use: tuple[float, float],
-        joints: Sequence[str] | None = None,
+        joints: Mapping[str, str] | None = None,
     ) -> list[str]:
         assert isinstance(g, Tricycle)
-        steer = None if joints is None else joints[1]
+        steer = None if joints is None else joints.get("steer")
         return steering_note(g, ci95.get("steering_scale") is not None, *steering_in_use, joint=steer)
 
     def export_json(self, g: Kinematics, ci95: Mapping[str, Interval | None]) -> dict[str, float]:
