@@ -5,15 +5,16 @@
     python benchmarks/joint_order.py --robots 3 --jobs 2     # a quicker look
     python benchmarks/joint_order.py --out benchmarks/results
 
-Each robot is drawn by :func:`umbmark.studies.kinematic.draw_robot` (a tricycle, a mecanum robot;
-a differential drive of 150 mm wheels and a 340 mm wheelbase, each off by up to 2 % and 5 %) and
-drives for ``--seconds`` (default 40) with a 180-beam lidar, every move of its kind, and again
-without the moves that tell some mix-ups apart (a mecanum robot without sideways motion, a
-tricycle without spins), written as a bag. The check of the joints' readings
-(:func:`umbmark.realrobot.kinematic.check_joint_readings`, the first step of ``umbmark selfcal``)
-then runs on the joints as recorded, and on every mistake of its kind made in the data: a
-mecanum robot's 23 other orders of the wheels, a tricycle's drive and steering joints exchanged
-and its steering zero a quarter turn off either way, a differential drive's wheels exchanged.
+Each robot is drawn by :func:`umbmark.studies.kinematic.draw_robot` (a tricycle, a mecanum robot,
+a bicycle-model car, an Ackermann car; a differential drive of 150 mm wheels and a 340 mm
+wheelbase, each off by up to 2 % and 5 %) and drives for ``--seconds`` (default 40) with a
+180-beam lidar, every move of its kind, and again without the moves that tell some mix-ups apart
+(a mecanum robot without sideways motion, a tricycle without spins), written as a bag. The check
+of the joints' readings (:func:`umbmark.realrobot.kinematic.check_joint_readings`, the first step
+of ``umbmark selfcal``) then runs on the joints as recorded, and on every mistake its kind names
+(:meth:`umbmark.kinds.Kind.readings`) made in the data: a mecanum robot's or an Ackermann car's
+23 other orders of the joints, a tricycle's or a car's drive and steering joints exchanged, a
+tricycle's steering zero a quarter turn off either way, a differential drive's wheels exchanged.
 
 Reported per kind and drive: the recordings refused as recorded (the target: none), and of the
 mistakes, those named with the right remedy (the joints' flags in the right order, or the
@@ -24,7 +25,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import itertools
 import math
 import os
 import sys
@@ -66,25 +66,24 @@ def _diff_drive(seed: int):
     return DrawnRobot(KinematicRobot(nominal, true, pose, lidar), urdf, noise, 0.0, seed)
 
 
-def _mistakes(kind: str, n: int):
-    """The mistakes of a kind made in the data: (what, order of the columns, turn added to each, the
-    words that name the remedy given the recorded names)."""
-    if kind == "tricycle":
-        out = [("exchanged", (1, 0), (0.0, 0.0), lambda names: f"`drive_joint={names[0]}` `steer_joint={names[1]}`")]
-        for s in (1, -1):
-            out.append((f"zero {s * 90:+d} deg", (0, 1), (0.0, s * 0.5 * math.pi), lambda names: "quarter turn off"))
-        return out
-    same = tuple(range(n))
-    return [
-        (str(p), p, (0.0,) * n, lambda names: f"`joints={','.join(names)}` (in this order:")
-        for p in itertools.permutations(range(n))
-        if p != same
-    ]
+def _mistakes(kind, names: tuple[str, ...]):
+    """The mistakes a kind names, made in the data: for each of its readings
+    (:meth:`umbmark.kinds.Kind.readings`), the joints' columns and names as given (the reading's
+    order undone), the turn taken off each, and the remedy its message must hold."""
+    import numpy as np
+
+    out = []
+    for r in kind.readings():
+        given = tuple(int(i) for i in np.argsort(r.order))  # column j given holds role given[j]
+        shift = np.asarray(r.shift_rad or (0.0,) * len(names))
+        given_names = tuple(names[i] for i in given)
+        what = f"{r.words} {r.order}" + (f" {np.degrees(shift).round().tolist()} deg" if r.shift_rad else "")
+        out.append((what, given, -shift, kind.reading_cause(r, given_names)[1]))
+    return out
 
 
 def one(kind: str, seed: int, seconds: float, fewer: bool) -> dict:
     """Draw, simulate, write one robot; the check on its joints as recorded and on each mistake."""
-    import numpy as np
 
     from umbmark.errors import InputError
     from umbmark.io.rosbag import read_selfcal_bag
@@ -123,14 +122,14 @@ def one(kind: str, seed: int, seconds: float, fewer: bool) -> dict:
         out["as_recorded"] = err.message
     named = other = through = 0
     missed = []
-    for what, order, turn, remedy in _mistakes(kind, len(names)):
-        pos = bag.joint_positions[:, list(order)] + np.asarray(turn)
+    for what, order, turn, remedy in _mistakes(kind_of(nominal), names):
+        pos = bag.joint_positions[:, list(order)] + turn
         wrong = dataclasses.replace(bag, joint_positions=pos, joint_names=tuple(names[i] for i in order))
         msg = refusal(wrong, motion)
         if msg is None:
             through += 1
             missed.append(what)
-        elif remedy(names) in msg:
+        elif remedy in msg:
             named += 1
         else:
             other += 1
@@ -170,7 +169,9 @@ def page(res: dict) -> str:
         "`umbmark.realrobot.kinematic.check_joint_readings` (the first step of `umbmark selfcal`) as recorded "
         "and with each mistake of its kind made in its data. Named: the refusal gives the right remedy (the "
         "joints' flags in the right order, the steering's zero). Fewer moves: a mecanum robot that never moves "
-        "sideways (front and rear exchanged then move it alike), a tricycle that never spins.",
+        "sideways (front and rear exchanged then move it alike), a tricycle that never spins. An Ackermann car's "
+        "left and right traction joints (or steering joints) exchanged move it nearly alike (the controller "
+        "averages each pair): let through.",
         "",
         "| kind | drive | robots | refused as recorded | mistakes | named | named otherwise | let through |",
         "|---|---|---|---|---|---|---|---|",
@@ -190,7 +191,9 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--robots", type=int, default=8, help="robots of each kind (default 8)")
     p.add_argument("--seconds", type=float, default=40.0, help="each drive's length (default 40 s)")
-    p.add_argument("--kinds", default="tricycle,mecanum,diff_drive", help="the kinds (default all three)")
+    p.add_argument(
+        "--kinds", default="diff_drive,tricycle,mecanum,bicycle,ackermann", help="the kinds (default every one)"
+    )
     p.add_argument("--jobs", type=int, default=len(os.sched_getaffinity(0)), help="worker processes")
     add_out(p, "joint-order")
     args = p.parse_args(argv)
