@@ -11,7 +11,12 @@ two wheels:
    (:attr:`umbmark.kinds.Kind.reads_odometry`: a car's ``/odom``) has its joints made from the
    odometry's poses (:meth:`umbmark.kinds.Kind.joints_from_odometry`: the rolling joints
    interpolated as recorded, a steering angle held over each step of the odometry as its
-   integration held it).
+   integration held it). Before anything else, the joint states' motion is set against the
+   lidar's between consecutive scans (:mod:`umbmark.realrobot.motion_check`): the other
+   readings of the joints that the kind names (:meth:`umbmark.kinds.Kind.readings`: another
+   order, a drive and a steering joint exchanged, a steering zero a quarter turn off) are
+   tried, and one far closer to the lidar than the joints as given is named; then the units
+   and signs.
 2. **Every pair of consecutive scans matched** from the nominal odometry seen from the sensor
    at its nominal pose (``/tf_static``, given, or zero); from those matches the scans' delay
    (``auto``: :func:`umbmark.realrobot.selfcal.delay_from_turns`, the nominal odometry's
@@ -56,7 +61,7 @@ from umbmark.model.kinematics import (
     integrate_steps,
     twist_displacement,
 )
-from umbmark.realrobot.motion_check import check_wheels_against_scans
+from umbmark.realrobot.motion_check import LidarMotion, check_readings, check_wheels_against_scans, lidar_motion
 from umbmark.realrobot.selfcal import (
     STILL_M,
     IntervalOptions,
@@ -74,6 +79,7 @@ from umbmark.realrobot.selfcal import (
 )
 
 __all__ = [
+    "check_joint_readings",
     "JointScanIntervals",
     "KinematicReport",
     "kinematic_bag_intervals",
@@ -396,22 +402,106 @@ MAX_STEERING_RAD = math.pi
 """No steering joint turns further than this from straight ahead [rad]: beyond it, degrees."""
 
 
-def _check_steering(bag: SelfcalBag, nominal: Kinematics) -> None:
-    """Refuse a steering joint beyond :data:`MAX_STEERING_RAD` (degrees published as radians)."""
-    assert bag.joint_positions is not None
-    pos = np.asarray(bag.joint_positions, dtype=float)
+def _steering_top(pos: FloatArray, nominal: Kinematics) -> tuple[int, float] | None:
+    """The steering joint that turns furthest beyond :data:`MAX_STEERING_RAD` and how far, or None."""
+    worst = None
     for j, rolls in enumerate(nominal.rolling):
         if rolls or not pos.size:
             continue
         top = float(np.max(np.abs(pos[:, j])))
-        if top > MAX_STEERING_RAD:
-            name = bag.joint_names[j] if j < len(bag.joint_names) else f"joint {j + 1}"
-            raise InputError(
-                f"the steering joint {name} reaches {top:.4g} rad ({math.degrees(top):.4g} deg): no steering "
-                f"turns further than {math.degrees(MAX_STEERING_RAD):g} deg from straight; its positions look "
-                f"like degrees ({top:.4g} deg is {math.radians(top):.3g} rad): JointState positions are radians",
-                bag.source,
-            )
+        if top > MAX_STEERING_RAD and (worst is None or top > worst[1]):
+            worst = (j, top)
+    return worst
+
+
+def _check_steering(bag: SelfcalBag, nominal: Kinematics) -> None:
+    """Refuse a steering joint beyond :data:`MAX_STEERING_RAD` (degrees published as radians)."""
+    assert bag.joint_positions is not None
+    found = _steering_top(np.asarray(bag.joint_positions, dtype=float), nominal)
+    if found is None:
+        return
+    j, top = found
+    name = bag.joint_names[j] if j < len(bag.joint_names) else f"joint {j + 1}"
+    raise InputError(
+        f"the steering joint {name} reaches {top:.4g} rad ({math.degrees(top):.4g} deg): no steering "
+        f"turns further than {math.degrees(MAX_STEERING_RAD):g} deg from straight; its positions look "
+        f"like degrees ({top:.4g} deg is {math.radians(top):.3g} rad): JointState positions are radians",
+        bag.source,
+    )
+
+
+def _check_readings(
+    bag: SelfcalBag,
+    nominal: Kinematics,
+    st: FloatArray,
+    usable: NDArray[np.bool_],
+    grid: _Grid,
+    motion: LidarMotion | None,
+) -> None:
+    """The kind's other readings of the joints given (:meth:`umbmark.kinds.Kind.readings`) against
+    the lidar's motion (:func:`umbmark.realrobot.motion_check.check_readings`); a reading that
+    turns a steering joint beyond :data:`MAX_STEERING_RAD` is not one. Joints made from the
+    robot's own odometry (:func:`odometry_joints`) are in their roles already: not judged."""
+    if motion is None or _held(bag):
+        return
+    assert bag.joint_positions is not None
+    kind = kind_of(nominal)
+    pos, wt = np.asarray(bag.joint_positions, dtype=float), np.asarray(bag.wheel_t_s, dtype=float)
+    names = tuple(bag.joint_names) or tuple(f"joint {j + 1}" for j in range(pos.shape[1]))
+    readings = []
+    for r in kind.readings():
+        p = r.apply(pos, nominal.rolling)
+        if _steering_top(p, nominal) is None:
+            readings.append((kind.reading_cause(r, names), _grid_of(wt, p, nominal, st, usable).odometry))
+    check_readings(motion, grid.odometry, readings, bag.source)
+
+
+def _require_joints(bag: SelfcalBag, nominal: Kinematics) -> None:
+    if bag.joint_positions is None or bag.joint_positions.shape[1] != len(nominal.joint_roles):
+        raise InputError(
+            f"the bag's joint data are not a {nominal.kind}'s ({', '.join(nominal.joint_roles)})", bag.source
+        )
+
+
+def check_joint_readings(
+    bag: SelfcalBag,
+    nominal: Kinematics,
+    options: IntervalOptions | None = None,
+    *,
+    motion: LidarMotion | None = None,
+) -> LidarMotion | None:
+    """The joints as given against the other readings their kind names, on the lidar's own motion
+    between consecutive scans: the first check of :func:`kinematic_bag_intervals`, alone.
+
+    Parameters
+    ----------
+    bag : SelfcalBag
+        With joint states in the kind's roles' order (:func:`joint_source`).
+    nominal : Kinematics
+        The nominal geometry.
+    options : IntervalOptions, optional
+        The lidar's nominal pose, the base frame and the wheel gap (the rest unused).
+    motion : LidarMotion, optional
+        The lidar's motion when it was matched already (the same scans and lidar pose).
+
+    Returns
+    -------
+    LidarMotion or None
+        The lidar's motion (to pass again for another reading of the same bag); None: too few
+        scan pairs matched to judge from.
+
+    Raises
+    ------
+    InputError
+        Another reading far closer to the lidar's motion (the check ``joint_order``: its cause and
+        the options to give), or beside a lidar upside down (``turn_direction``).
+    """
+    _require_joints(bag, nominal)
+    pipe = _Pipeline(bag, nominal, IntervalOptions() if options is None else options)
+    st, usable, grid, _ = pipe.plan(pipe.first)
+    seen = lidar_motion(bag, usable, pipe.l0) if motion is None else motion
+    _check_readings(bag, nominal, st, usable, grid, seen)
+    return seen
 
 
 def kinematic_bag_intervals(
@@ -447,14 +537,16 @@ def kinematic_bag_intervals(
     """
     opts = IntervalOptions() if options is None else options
     src = bag.source
-    if bag.joint_positions is None or bag.joint_positions.shape[1] != len(nominal.joint_roles):
-        raise InputError(f"the bag's joint data are not a {nominal.kind}'s ({', '.join(nominal.joint_roles)})", src)
-    _check_steering(bag, nominal)
+    _require_joints(bag, nominal)
     pipe = _Pipeline(bag, nominal, opts)
     rule = opts.keyframes
-    # 1-2: every pair of consecutive scans, matched from the nominal odometry
+    # 1-2: every pair of consecutive scans, matched from the nominal odometry (the joints first
+    # read every way the kind names against the lidar's own motion, then their units and signs)
     st, usable, grid, warnings = pipe.plan(pipe.first)
-    check_wheels_against_scans(bag, st, usable, grid.odometry, pipe.l0, kind=nominal.kind)
+    seen = lidar_motion(bag, usable, pipe.l0)
+    _check_readings(bag, nominal, st, usable, grid, seen)
+    _check_steering(bag, nominal)
+    check_wheels_against_scans(bag, st, usable, grid.odometry, pipe.l0, kind=nominal.kind, motion=seen)
     every = np.array(KeyframeRule().select(st, grid.odometry, usable), dtype=np.int64).reshape(-1, 2)
     moving = _moving(grid, every, nominal)
     if not moving.any():
@@ -509,9 +601,9 @@ class KinematicReport:
 
     def to_dict(self) -> dict[str, Any]:
         """The result's JSON (:meth:`KinematicSelfcalResult.to_dict`) with ``joints`` (each role's
-        joint name, as the bags' joint states name them; null when read from an odometry),
-        ``inputs`` (each bag's :meth:`JointScanIntervals.to_dict`), ``keyframes`` and
-        ``scan_delay`` (per bag, ``applied_s``)."""
+        joint name, as the bags' joint states name them: the controller's parameters of an export
+        name them; null when read from an odometry), ``inputs`` (each bag's
+        :meth:`JointScanIntervals.to_dict`), ``keyframes`` and ``scan_delay`` (per bag, ``applied_s``)."""
         out = self.result.to_dict()
         first = self.parts[0].bag if self.parts else None
         roles = self.result.nominal.joint_roles

@@ -63,11 +63,12 @@ from umbmark.correct.selfcal.estimate import BLOCK_S, MAX_BLOCKS
 from umbmark.errors import InputError
 from umbmark.io.rosbag import SelfcalBag, StaticTransform
 from umbmark.io.wheels import WheelSource
+from umbmark.kinds import DEFAULT_KIND, kind_named
 from umbmark.model import se2
 from umbmark.model.drive import integrate_wheels
 from umbmark.model.geometry import WheelGeometry
 from umbmark.model.intervals import Intervals, IntervalSteps
-from umbmark.realrobot.motion_check import check_wheels_against_scans
+from umbmark.realrobot.motion_check import check_readings, check_wheels_against_scans, lidar_motion
 from umbmark.realrobot.scanmatch import ICPConfig, match_scan_pairs
 from umbmark.realrobot.wheels import recording_wheel_angles
 
@@ -1238,7 +1239,8 @@ def check_bag_motion(
 ) -> None:
     """The nominal odometry of a differential drive's recording at its scans against the lidar's
     own motion (:func:`umbmark.realrobot.motion_check.check_wheels_against_scans`; encoder
-    counts read as a running counter are also tried as counts per message).
+    counts read as a running counter are also tried as counts per message; wheel joints, in the
+    other order: :func:`umbmark.realrobot.motion_check.check_readings`).
 
     Parameters
     ----------
@@ -1272,7 +1274,16 @@ def check_bag_motion(
     other = {}
     if bag.wheel_kind == "ticks" and "(cumulative" in bag.wheel_description:
         other['counts per message (`ticks="incremental"`)'] = odometry(np.cumsum(left), np.cumsum(right))
-    check_wheels_against_scans(bag, st, usable, odometry(left, right), sensor_pose, alternatives=other)
+    seen = lidar_motion(bag, usable, sensor_pose)
+    given = odometry(left, right)
+    if bag.wheel_kind == "joints" and len(bag.joint_names) == 2:
+        kind, wheels = kind_named(DEFAULT_KIND), (left, right)
+        readings = [
+            (kind.reading_cause(r, bag.joint_names), odometry(wheels[r.order[0]], wheels[r.order[1]]))
+            for r in kind.readings()
+        ]
+        check_readings(seen, given, readings, bag.source)
+    check_wheels_against_scans(bag, st, usable, given, sensor_pose, alternatives=other, motion=seen)
 
 
 def bag_intervals(
