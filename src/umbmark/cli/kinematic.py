@@ -196,7 +196,7 @@ def kinematic_selfcal_cmd(
     from umbmark.cli.bags import Bars, interval_options, kind_of, start_kernels
     from umbmark.cli.history import print_recorded, record_if_requested, refuse_if_recorded
     from umbmark.cli.options import kinematic_joints, kinematic_nominal
-    from umbmark.realrobot.kinematic import kinematic_selfcal_from_bags
+    from umbmark.realrobot.kinematic_settings import KinematicSettings, kinematic_recordings
 
     robot, record, db = history
     for key, refused in _REFUSED.items():
@@ -204,25 +204,20 @@ def kinematic_selfcal_cmd(
             raise InputError(f"{refused} is not for --kinematics {kind}")
     if kind_of(paths) != "bags":
         raise InputError(f"--kinematics {kind} reads ROS bags (joint states and laser scans), not intervals files")
-    nominal = kinematic_nominal(kind, kw)
-    joints = kinematic_joints(kind, kw)
-    fit = _fit(kind_named(kind), kw)
-    options = interval_options(kw, min_intervals)
+    settings = KinematicSettings(
+        kinematic_nominal(kind, kw),
+        kinematic_joints(kind, kw),
+        joint_topic=kw["joint_topic"],
+        scan_topic=kw["scan_topic"],
+        scan_frame=kw["scan_frame"],
+        intervals=interval_options(kw, min_intervals),
+        fit=_fit(kind_named(kind), kw),
+        reject_outliers=not keep_outliers,
+    )  # the command's own --skip-check: applied around it
     refuse_if_recorded(robot, record, db, kind="selfcal", method="selfcal", paths=paths)  # windows too: they cover it
     start_kernels()
     with Bars(enabled=not as_json) as bars:
-        rep = kinematic_selfcal_from_bags(
-            list(paths),
-            nominal,
-            joints,
-            joint_topic=kw["joint_topic"],
-            scan_topic=kw["scan_topic"],
-            scan_frame=kw["scan_frame"],
-            options=options,
-            fit=fit,
-            reject_outliers=not keep_outliers,
-            progress=bars,
-        )
+        rep = kinematic_recordings(list(paths), settings, progress=bars)
     d = rep.to_dict()
     rec: dict | list | None = None
     if window_s is not None:
@@ -337,7 +332,10 @@ def kinematic_replay_cmd(kind: str, paths, method: str, save, as_json, record, k
     if method != "lsq":
         raise InputError(f"--kinematics {kind} fits along the path: --method lsq (bf and exact are UMBmark squares)")
     if record:
-        raise InputError(f"--record keeps differential drives' calibrations; save a {kind}'s with --save")
+        raise InputError(
+            f"--record keeps self-calibrations and a differential drive's replays: save a {kind}'s replay against a "
+            "ground truth with --save (its self-calibration records with umbmark selfcal --record)"
+        )
     if len(paths) != 1:
         raise InputError(f"--kinematics {kind} replays one bag at a time, got {len(paths)}")
     ctx = click.get_current_context(silent=True)

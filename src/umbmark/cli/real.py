@@ -1100,10 +1100,12 @@ def export(
                 pulses_per_wheel_rev=pulses_per_wheel_rev, dataset=dataset, left_multiplier=left_multiplier,
                 right_multiplier=right_multiplier, separation_multiplier=separation_multiplier,
             )  # fmt: skip
+            rec = _record_selfcal(calibration, robot, record, db) if record else None
             _export_kinematic(
-                kd, str(calibration), out_format, controller, sensor_z_mm, out, record,
+                kd, str(calibration), out_format, controller, sensor_z_mm, out,
                 (steering_offset_in_use_deg, steering_reduction_in_use), diff_drive_flags,
             )  # fmt: skip
+            _say_recorded(rec, out)
             return
     controller = "diff_drive_controller" if controller is None else controller
     if (steering_offset_in_use_deg, steering_reduction_in_use) != (0.0, 1.0):
@@ -1136,6 +1138,11 @@ def export(
     notes += cov_notes
     rec = _record_selfcal(calibration, robot, record, db) if record else None
     _emit_export(text, out, notes + export_warnings(cal, left_multiplier, right_multiplier, separation_multiplier))
+    _say_recorded(rec, out)
+
+
+def _say_recorded(rec, out) -> None:
+    """The line of ``export --record`` (on stderr when the export went to stdout)."""
     if rec is not None and out:
         print_recorded(rec)
     elif rec is not None and not is_quiet():  # the export went to stdout: the note to stderr
@@ -1219,7 +1226,7 @@ def _kinematic_json(path) -> dict | None:
     return read_kinematic_json(path)
 
 
-def _export_kinematic(d, src, out_format, controller, sensor_z_mm, out, record, steering, given) -> None:
+def _export_kinematic(d, src, out_format, controller, sensor_z_mm, out, steering, given) -> None:
     """``umbmark export`` of the self-calibration of a robot of a kind of its own (:mod:`umbmark.kinds`)."""
     from dataclasses import replace
 
@@ -1228,8 +1235,6 @@ def _export_kinematic(d, src, out_format, controller, sensor_z_mm, out, record, 
     for name, v in given.items():
         if v is not None and not (name.endswith("_multiplier") and v == 1.0):
             raise InputError(f"--{name.replace('_', '-')} is a differential drive's: not for a {d['kinematics']}", src)
-    if record:
-        raise InputError(f"--record keeps differential drives' calibrations, not a {d['kinematics']}'s", src)
     cal = kinematic_calibration_from_dict(d, src)
     if sensor_z_mm is not None:
         if not math.isfinite(sensor_z_mm):

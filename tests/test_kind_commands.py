@@ -1,0 +1,128 @@
+"""Every command for every kind of robot (umbmark.kinds), on a short simulated drive of a tricycle
+and of a mecanum robot: selfcal --save --robot --record --db (the history keeps the kind's own
+parameters, a recording once), --window, drift, history --export, report (a saved result and a
+record), validate against the base's true trajectory and the lidar's true relations with the
+kind's joint flags, export --record; the features a kind has not, one line each (exit 2)."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+
+import pytest
+
+pytest.importorskip("rosbags")
+from kinematic_bags import ROBOTS, write_short_drive  # noqa: E402
+from pages import check_page  # noqa: E402
+
+from umbmark.cli import main  # noqa: E402
+from umbmark.history import open_history  # noqa: E402
+from umbmark.kinds import kind_named  # noqa: E402
+
+
+def run(*args, code=0) -> str:
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        rc = main([str(a) for a in args])
+    assert rc == code, (rc, err.getvalue()[-800:], out.getvalue()[-300:])
+    if code == 0:
+        return out.getvalue()
+    lines = err.getvalue().strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("umbmark: error: ") and "Traceback" not in err.getvalue(), lines
+    return lines[0]
+
+
+@pytest.fixture(scope="module", params=list(ROBOTS))
+def kind(request, tmp_path_factory):
+    """A kind's short drive, self-calibrated, saved and recorded (robot R in db.sqlite)."""
+    tmp = tmp_path_factory.mktemp(request.param)
+    drive = write_short_drive(tmp, request.param)
+    db, cal = tmp / "db.sqlite", tmp / "cal.json"
+    head = ["-q", "selfcal", drive["bag"], "--kinematics", request.param, *drive["joints"], *drive["sizes"]]
+    d = json.loads(run(*head, "--save", cal, "--robot", "R", "--record", "--db", db, "--json"))
+    return {"name": request.param, "tmp": tmp, "db": db, "cal": cal, "d": d, "head": head, **drive}
+
+
+def test_selfcal_records_the_kinds_own_parameters_once(kind):
+    d, k = kind["d"], kind_named(kind["name"])
+    assert d["history"]["robot"] == "R" and d["kinematics"] == k.name and d["figures"]["maps"]
+    with open_history(kind["db"], create=False) as h:
+        rec = h.latest("R")
+    assert rec.kind == "selfcal" and rec.method == "selfcal" and rec.input_sha256
+    assert rec.parameters["kinematics"] == rec.parameters_in_use["kinematics"] == k.name
+    for p in k.parameters:  # the kind's parameters under its keys, the nominal ones in use
+        assert p.key[0] in rec.parameters and p.key[0] in rec.parameters_in_use
+    assert set(rec.parameters["sensor_pose"]) == {"x_mm", "y_mm", "yaw_deg"}
+    again = run(*kind["head"], "--robot", "R", "--record", "--db", kind["db"], code=2)
+    assert f"holds this recording already: record #{rec.id}" in again
+    exported = json.loads(run("history", "R", "--db", kind["db"], "--export", "-"))
+    assert exported["kinematics"] == k.name and exported["controller"] == k.controller
+    assert exported["controller_parameters"] == k.ros2_parameters(k.geometry_from_json(rec.parameters, "-")[0])
+
+
+def test_drift_reads_the_record_and_follows_the_kinds_parameters_over_windows(kind):
+    out = json.loads(run("drift", "R", "--db", kind["db"], "--json"))
+    assert out["sessions"] == 1 and not out["alarm"]
+    assert any("4 needed" in n for n in out["notes"])
+    k = kind_named(kind["name"])
+    db = kind["tmp"] / "windows.sqlite"
+    d = json.loads(run(*kind["head"], "--window", "12s", "--robot", "W", "--record", "--db", db, "--json"))
+    wins = [w for w in d["windows"] if w["result"] is not None]
+    assert len(wins) >= 4 and all("figures" not in w["result"] and w["history"] for w in wins)
+    trends = json.loads(run("drift", "W", "--db", db, "--json"))["trends"]
+    estimated = {p.path for p in k.parameters if p.name in k.default_fit()}  # not a steering scale held at 1
+    assert estimated | {"sensor_pose.x_mm", "sensor_pose.y_mm", "sensor_pose.yaw_deg"} == set(trends)
+    assert {t["sessions"] for t in trends.values()} == {len(wins)}
+
+
+def test_report_shows_the_kinds_estimates_and_figures(kind):
+    k = kind_named(kind["name"])
+    out = kind["tmp"] / "page.html"
+    summary = json.loads(run("report", kind["cal"], "--out", out, "--json"))
+    assert summary["kinematics"] == k.name and summary["maps"] == 1
+    page = out.read_text()
+    c = check_page(page)
+    assert len(c.images) == 3  # the map before and after, the lidar on the robot, the residuals
+    for p, v, ci in k.estimates_json(kind["d"]):
+        if ci is not None:  # each estimate with its interval, in the table
+            assert p.table_label in page and f"{v:.{p.digits}f}" in page and f"{ci[0]:.{p.digits}f} to" in page
+    assert k.controller in page and "The map, before and after" in page
+    rid = kind["d"]["history"]["record_id"]
+    run("report", "--id", rid, "--db", kind["db"], "--out", kind["tmp"] / "record.html")
+    assert f"{kind['d']['sensor_pose']['x_mm']:.2f}" in (kind["tmp"] / "record.html").read_text()
+
+
+@pytest.mark.parametrize("reference", ["--reference", "--relations"])
+def test_validate_with_the_kinds_joints_passes_against_the_truth(kind, reference):
+    ref = kind["tum"] if reference == "--reference" else kind["relations"]
+    args = ["validate", kind["bag"], kind["cal"], *kind["joints"], reference, ref, "--fail-on-worse", "--json"]
+    v = json.loads(run(*args))
+    assert v["verdict"] == "pass" and v["calibration"]["kinematics"] == kind["name"]
+    span = v["spans"][0]
+    for rule in span["rules"]:
+        assert rule["passed"] is not False, rule
+    assert span["after"]["short"]["translation"]["mse_m2"] < 0.2 * span["before"]["short"]["translation"]["mse_m2"]
+    if reference == "--reference":  # a true base trajectory, not a SLAM's: each odometry through its lidar pose
+        assert v["reference"]["base_trajectory"] == "true"
+
+
+def test_the_features_a_kind_has_not_are_one_line_each(kind):
+    base = ["validate", kind["bag"], kind["cal"], "--reference", kind["tum"]]
+    missing = run(*base, code=2)  # the kind's joint flags named
+    assert all(a in missing for a in kind["joints"] if a.startswith("--"))
+    assert "--ticks-topic is a differential drive's" in run(*base, *kind["joints"], "--ticks-topic", "/t", code=2)
+    assert "--wheelbase-mm is a differential drive's" in run(*base, *kind["joints"], "--wheelbase-mm", "300", code=2)
+    jitter = run(*kind["head"], "--no-wheel-jitter", code=2)
+    assert "--no-wheel-jitter" in jitter and "models no jitter" in jitter
+
+
+def test_export_records_a_kinds_saved_calibration(kind):
+    db = kind["tmp"] / "export.sqlite"
+    run("-q", "export", kind["cal"], "--format", "ros2", "--out", kind["tmp"] / "params.yaml", "--robot", "E",
+        "--record", "--db", db)  # fmt: skip
+    with open_history(db, create=False) as h:
+        assert h.latest("E").parameters["kinematics"] == kind["name"]
+    assert "holds this recording already" in run(
+        "export", kind["cal"], "--format", "json", "--robot", "E", "--record", "--db", db, code=2
+    )
