@@ -91,6 +91,10 @@ def test_report_shows_the_kinds_estimates_and_figures(kind):
     rid = kind["d"]["history"]["record_id"]
     run("report", "--id", rid, "--db", kind["db"], "--out", kind["tmp"] / "record.html")
     assert f"{kind['d']['sensor_pose']['x_mm']:.2f}" in (kind["tmp"] / "record.html").read_text()
+    run("report", "--robot", "R", "--db", kind["db"], "--out", kind["tmp"] / "history.html")
+    history = (kind["tmp"] / "history.html").read_text()
+    check_page(history)  # the robot's history: its kind's table, the plot of its parameters
+    assert f"<h3>{k.title}</h3>" in history and k.controller in history and "D_L [mm]" not in history
 
 
 @pytest.mark.parametrize("reference", ["--reference", "--relations"])
