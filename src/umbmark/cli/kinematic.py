@@ -181,10 +181,12 @@ _COMMON = (
 )
 
 # flags of the differential drive's calibration the other kinds have no use for
+# (and why: the kind's noun fills in)
 _REFUSED = {
-    "ticks_topic": "--ticks-topic",
-    "odom_topic": "--odom-topic",
-    "intervals_out": "--intervals-out",
+    "ticks_topic": "--ticks-topic reads two wheels' encoder counts: a {noun} is read from its joint states",
+    "odom_topic": "--odom-topic turns an odometry into two wheels' travel: a {noun} is read from its joint states",
+    "intervals_out": "--intervals-out writes two wheels' rotations (an intervals file's columns): a {noun}'s "
+    "intervals hold its own joints; keep its result with --save",
 }
 
 
@@ -199,9 +201,9 @@ def kinematic_selfcal_cmd(
     from umbmark.realrobot.kinematic_settings import KinematicSettings, kinematic_recordings
 
     robot, record, db = history
-    for key, refused in _REFUSED.items():
+    for key, why in _REFUSED.items():
         if kw.get(key):
-            raise InputError(f"{refused} is not for --kinematics {kind}")
+            raise InputError(why.format(noun=kind_named(kind).noun))
     if kind_of(paths) != "bags":
         raise InputError(f"--kinematics {kind} reads ROS bags (joint states and laser scans), not intervals files")
     settings = KinematicSettings(

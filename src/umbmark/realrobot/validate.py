@@ -865,12 +865,14 @@ def read_calibration(
 
 def calibration_kind(path: str | Path) -> Kind:
     """The kind of robot of a calibration's JSON (its ``kinematics``): another kind's, else the
-    differential drive's (also for a file that cannot be read: :func:`read_calibration` says why)."""
-    try:
-        d = _load_json(path)
-    except InputError:
-        return KINDS[DEFAULT_KIND]
-    return kind_in(d) or KINDS[DEFAULT_KIND]
+    differential drive's.
+
+    Raises
+    ------
+    InputError
+        A file that is missing, unreadable or not a JSON object (as :func:`read_calibration`).
+    """
+    return kind_in(_load_json(path)) or KINDS[DEFAULT_KIND]
 
 
 def _kind_calibration(

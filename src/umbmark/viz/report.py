@@ -446,7 +446,6 @@ def replay_analysis(result: dict[str, Any], source: str = "<replay>") -> tuple[A
     from umbmark.correct.analysis import Analysis
     from umbmark.correct.result import CorrectionResult
     from umbmark.errors import InputError
-    from umbmark.kinds import KINDS
     from umbmark.metrics import umbmark_figures
 
     if isinstance(result, dict) and {"cw", "ccw", "emax_syst_mm"} <= result.keys():
@@ -469,16 +468,12 @@ def replay_analysis(result: dict[str, Any], source: str = "<replay>") -> tuple[A
             "report that",
             source=source,
         )
-    named = result.get("kinematics") if isinstance(result, dict) else None
-    own = KINDS.get(named) if isinstance(named, str) else None
-    if own is not None and not own.differential:
-        kind = own.name
-        made = "replay against a ground truth" if "marker_pose" in result else "self-calibration"
-        robot = own.noun
+    own = kind_in(result)
+    if own is not None:  # (its self-calibration has a page of its own: umbmark.viz.kind_report)
         raise InputError(
-            f"a {robot}'s {made} (`kinematics={kind}`): the report shows a differential drive's results; the "
-            f"command's table holds its figures, and its export (`fmt=\"ros2\"`) writes the {kind} controller's "
-            "parameters",
+            f"a {own.noun}'s replay against a ground truth (`kinematics={own.name}`): the report draws a "
+            f"{own.noun}'s self-calibration and a differential drive's square runs; the command's table holds this "
+            f"one's figures, and its export (`fmt=\"ros2\"`) writes the {own.controller}'s parameters",
             source=source,
         )
     if not isinstance(result, dict) or "before" not in result or "method" not in result:
@@ -836,11 +831,12 @@ def _records_table(records: Iterable[Record]) -> str:
     for r in records:
         p = r.parameters
         src = Path(r.source).name if r.source else (r.input_sha256 or "-")[:12]
+        own = kind_in(p)
         rows.append(
             [
                 f"#{r.id}",
                 r.created_utc[:19].replace("T", " "),
-                f"{r.kind}/{r.method}",
+                f"{r.kind}/{r.method}" + ("" if own is None else f" ({own.noun})"),
                 fmt(r.emax_syst_mm),
                 fmt(r.ed, 6),
                 fmt(r.eb, 6),
