@@ -44,14 +44,17 @@ ROBOTS = {
 }
 
 
-def write_example_bag(path, kind: str, seed: int = 7):
-    """Write the example bag of a kind (``tricycle`` or ``mecanum``) to ``path``."""
+def write_example_bag(path, kind: str, seed: int = 7, tum=None):
+    """Write the example bag of a kind (``tricycle`` or ``mecanum``) to ``path`` (and with ``tum`` the
+    base's true poses at the scans there, a TUM trajectory)."""
     spec = ROBOTS[kind]
     robot = KinematicRobot(spec["nominal"], spec["true"], spec["lidar"], Lidar(n_beams=360, range_noise_m=0.005))
     moves, start = kinematic_program(robot, 150.0, seed=seed)
     noise = JointNoise(speed_rel_sd=0.01, slip_m_per_sqrt_m=2e-4, steer_sd_rad=math.radians(0.05))
     log = simulate_kinematic_drive(moves, robot, start_pose=start, joint_names=spec["joints"], noise=noise, seed=seed)
     drawn = dataclasses.replace(log, sensor_pose=spec["drawing"])  # /tf_static: the drawing
+    if tum is not None:
+        write_tum(Trajectory(EPOCH_S + log.scan_stamps_s, log.scan_pose), tum)
     return write_drive_bag(drawn, path, truth=True, odom=False)
 
 
