@@ -151,3 +151,23 @@ def test_drift_finds_a_step_in_one_wheel_of_a_mecanum_robot(tmp_path):
     assert [c["parameter"] for c in d["changes"]] == ["wheel_diameters_mm.front_left"]
     assert d["changes"][0]["step"] == pytest.approx(1.0, abs=0.05)
     assert {"lx_plus_ly_mm", "sensor_pose.x_mm"} <= set(d["trends"])
+
+
+def test_a_car_from_its_own_odometry_is_recorded_reported_and_checked(tmp_path):
+    """A kind the commands were not written for (a bicycle-model car, read from its /odom) gets them
+    all from its module."""
+    from umbmark.studies.cars import car_bag
+
+    bag = car_bag("f1tenth", tmp_path / "car.bag", tum=tmp_path / "true.tum")
+    db, cal = tmp_path / "h.sqlite", tmp_path / "car.json"
+    sizes = ["--wheel-diameter-mm", "110", "--wheelbase-mm", "330", "--fit-steering-scale"]
+    run("-q", "selfcal", bag, "--kinematics", "bicycle", "--odom-topic", "/odom", *sizes, "--save", cal,
+        "--robot", "car", "--record", "--db", db)  # fmt: skip
+    trends = json.loads(run("drift", "car", "--db", db, "--json"))
+    assert trends["sessions"] == 1 and not trends["alarm"]
+    summary = json.loads(run("report", cal, "--out", tmp_path / "car.html", "--json"))
+    assert summary["kinematics"] == "bicycle" and summary["maps"] == 1
+    args = ["validate", bag, cal, "--odom-topic", "/odom", "--reference", tmp_path / "true.tum"]
+    v = json.loads(run(*args, "--fail-on-worse", "--json"))
+    assert v["verdict"] == "pass" and v["wheel_data"].startswith("nav_msgs/Odometry")
+    assert "a bicycle-model car needs --drive-joint" in run(*args[:3], "--reference", tmp_path / "true.tum", code=2)

@@ -18,6 +18,8 @@ from umbmark.errors import InputError
 from umbmark.kinds import (
     DEFAULT_KIND,
     KINDS,
+    Ackermann,
+    Bicycle,
     DiffDrive,
     JointOption,
     Kind,
@@ -41,6 +43,8 @@ EXAMPLES = {
     "diff_drive": DiffDrive(0.151, 0.149, 0.35),
     "tricycle": Tricycle(0.2525, 0.79, math.radians(1.5), 1.02),
     "mecanum": Mecanum((0.101, 0.0995, 0.1003, 0.0998), 0.405),
+    "bicycle": Bicycle(0.1115, 0.33, math.radians(1.2), 1.04),
+    "ackermann": Ackermann(0.2025, 0.6, 0.45, 0.42, math.radians(1.0), 1.03),
 }
 
 
@@ -64,9 +68,10 @@ def test_a_kinds_description_fits_its_geometry(name):
 
 def test_an_unknown_kind_is_one_line_naming_the_kinds():
     with pytest.raises(
-        InputError, match="unknown kinematics 'bicycle' \\(choose from diff_drive, tricycle, mecanum\\)"
+        InputError,
+        match="unknown kinematics 'unicycle' \\(choose from diff_drive, tricycle, mecanum, bicycle, ackermann\\)",
     ):
-        kind_named("bicycle")
+        kind_named("unicycle")
     with pytest.raises(InputError, match="unknown kinematics"):
         kind_of(object())  # type: ignore[arg-type]
 

@@ -109,6 +109,7 @@ def files(tmp_path_factory):
         shutil.copy(REPO / "data" / "slam2d" / "mit-csail.bag", "robot.bag")
         shutil.copy(REPO / "data" / "slam2d" / "mit-csail.relations", "robot.relations")
         Path("robot.yaml").write_text("replay:\n  method: bf\nselfcal:\n  keyframe-mm: 100\n")
+        Path("vesc.yaml").write_text("/**:\n  ros__parameters:\n    speed_to_erpm_gain: 4614.0\n")
     finally:
         os.chdir(cwd)
     return d
@@ -120,7 +121,7 @@ BASE = {
     "bag-info": ["bag-info", "{bag}"],
     "calibrate": ["calibrate", "{runs_files}", "--wheelbase-mm", "340", "--side-mm", "4000", "--db", "{db}"],
     "convert": ["convert", "{paths}"],
-    "export": ["export", "{calibration}", "--format", "json", "--db", "{db}"],
+    "export": ["export", "{calibration}", "--format", "json", "--db", "{db}", "--vesc-config", "{vesc_config}"],
     "history": ["history", "r1", "--db", "{db}"],
     "drift": ["drift", "r1", "--db", "{db}"],
     "measure": [
@@ -170,6 +171,7 @@ INPUT_FILE = {
     ("calibrate", "runs_files"): "runs.csv",
     ("convert", "paths"): "log.csv",
     ("export", "calibration"): "cal.json",
+    ("export", "vesc_config"): "vesc.yaml",
     ("measure", "distances_file"): "distances.csv",
     ("replay", "paths"): "log.csv",
     ("replay", "sensor_pose"): "cal.json",

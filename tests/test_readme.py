@@ -269,6 +269,10 @@ def _write_gyro_bag(path, seed):
 # slip, a /tf_static with the drawing's lidar pose, and the true pose of the robot on /ground_truth (and
 # as a TUM trajectory, KIND_truth.tum).
 KINEMATIC_BAGS = ("tricycle_bag", "mecanum_bag")
+# The cars of docs/cars.md and docs/f1tenth.md (umbmark.studies.cars): 45 s of straights, figure-eights and
+# reversing arcs with joint states, the car's /odom as vesc_to_odom integrates it and the true pose; and
+# the vesc driver's parameter file of the examples.
+CAR_BAGS = {"f1tenth_bag": "f1tenth", "large_car_bag": "large", "ackermann_bag": "ackermann"}
 
 
 def write_example_bags(folder, text):
@@ -279,6 +283,15 @@ def write_example_bags(folder, text):
 
             kind = name.removesuffix("_bag")  # and the base's true trajectory, for validate
             write_example_bag(folder / name, kind, tum=folder / f"{kind}_truth.tum")
+    for name, car in CAR_BAGS.items():
+        if name in text:
+            from umbmark.studies.cars import car_bag
+
+            car_bag(car, folder / name, tum=folder / f"{car}_truth.tum")
+    if "vesc.yaml" in text:
+        from umbmark.studies.cars import VESC_YAML
+
+        (folder / "vesc.yaml").write_text(VESC_YAML)
     for name, spec in GYRO_BAGS.items():
         if name in text:
             _write_gyro_bag(folder / name, **spec)

@@ -63,8 +63,9 @@ CONTEXT = dict(help_option_names=["-h", "--help"], max_content_width=100)
 @click.option("-q", "--quiet", is_flag=True, help="Print only errors (and --json output).")
 @click.pass_context
 def app(ctx, quiet):
-    """Measure and correct the systematic odometry errors of differential-drive robots
-    (UMBmark, Borenstein & Feng).
+    """Measure and correct the systematic odometry errors of wheeled robots of every kind:
+    differential drives (UMBmark, Borenstein & Feng), tricycles, mecanum robots and cars
+    (selfcal --kinematics tricycle|mecanum|bicycle|ackermann).
 
     \b
     Start with:
@@ -165,6 +166,8 @@ PARAM_FLAGS = {
 PARAM_FLAGS.update(
     {n: "--" + n.replace("_", "-") for k in KINDS.values() for n in k.option_names() if n not in PARAM_FLAGS}
 )
+# the parameter files of the robots' own software an export edits (umbmark.kinds: --vesc-config)
+PARAM_FLAGS.update({e.option: "--" + e.option.replace("_", "-") for k in KINDS.values() for e in k.edited_files})
 # boolean parameters set False by a flag of their own
 PARAM_NO_FLAGS = {"fit_offset": "--no-fit-marker-offset"}
 _PARAM = re.compile(r"`(\w+)(?:=([^`]*))?`")

@@ -47,7 +47,7 @@ PATH_ROLES: dict[str, dict[str, str]] = {
     "calibrate": {"runs_files": "input", "save_runs": "output_dir", "db": "db"},
     "convert": {"paths": "input", "out": "output", "time_offset": "name"},
     "demo": {"out_dir": "output_dir"},
-    "export": {"calibration": "input", "dataset": "name", "out": "output", "db": "db"},
+    "export": {"calibration": "input", "dataset": "name", "out": "output", "db": "db", "vesc_config": "input"},
     "history": {"robot": "name", "db": "db", "plot_path": "output", "export_path": "output"},
     "drift": {"robot": "name", "db": "db", "plot_path": "output", "parameters": "name", "kind": "name"},
     "fleet": {"source": "input", "db": "db"},

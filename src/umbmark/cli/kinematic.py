@@ -184,7 +184,6 @@ _COMMON = (
 # (and why: the kind's noun fills in)
 _REFUSED = {
     "ticks_topic": "--ticks-topic reads two wheels' encoder counts: a {noun} is read from its joint states",
-    "odom_topic": "--odom-topic turns an odometry into two wheels' travel: a {noun} is read from its joint states",
     "intervals_out": "--intervals-out writes two wheels' rotations (an intervals file's columns): a {noun}'s "
     "intervals hold its own joints; keep its result with --save",
 }
@@ -204,6 +203,9 @@ def kinematic_selfcal_cmd(
     for key, why in _REFUSED.items():
         if kw.get(key):
             raise InputError(why.format(noun=kind_named(kind).noun))
+    odom = kw.get("odom_topic") or None
+    if odom and not kind_named(kind).reads_odometry:
+        raise InputError(kind_named(kind).odometry_refusal())
     if kind_of(paths) != "bags":
         raise InputError(f"--kinematics {kind} reads ROS bags (joint states and laser scans), not intervals files")
     settings = KinematicSettings(
@@ -215,6 +217,7 @@ def kinematic_selfcal_cmd(
         intervals=interval_options(kw, min_intervals),
         fit=_fit(kind_named(kind), kw),
         reject_outliers=not keep_outliers,
+        odom_topic=odom,
     )  # the command's own --skip-check: applied around it
     refuse_if_recorded(robot, record, db, kind="selfcal", method="selfcal", paths=paths)  # windows too: they cover it
     start_kernels()
@@ -310,6 +313,9 @@ def _print(d: dict, save) -> None:
         c.print("  run again with --save selfcal.json, then")
     c.print(f"  {escape(f'umbmark export {cal} --format ros2 --out params.yaml')}", soft_wrap=True)
     c.print(f"  {escape(f'umbmark export {cal} --format urdf')}", soft_wrap=True)
+    for e in kind_named(d["kinematics"]).edited_files:
+        line = f"umbmark export {cal} --format {e.format} {flag(e.option)} {e.metavar} --out calibrated.yaml"
+        c.print(f"  {escape(line)}", soft_wrap=True)
 
 
 # the replay flags a robot of a kind of its own against a ground truth has use for (and every

@@ -172,6 +172,8 @@ def kinematic_nominal(kind: str, kw: dict):
         else:
             positive_or_none(flag(s.option), kw.get(s.option))
             v = None if kw.get(s.option) is None else kw[s.option] * 1e-3
+        if v is None and s.fallback is not None:
+            continue  # the kind takes the other size's (umbmark.kinds.Kind.nominal)
         if v is None:
             other = "" if alt is None else f" or {flag(alt.option)} {alt.metavar} (one of them)"
             what = f" ({s.describe})" if s.describe else ""
@@ -185,16 +187,27 @@ def kinematic_joints(kind: str, kw: dict) -> tuple[str, ...]:
     (:attr:`umbmark.kinds.Kind.joints`: a tricycle's ``--drive-joint`` and ``--steer-joint``, a
     mecanum robot's ``--joints FL,FR,RL,RR``), in the kind's roles' order.
 
+    With ``--odom-topic`` (a kind that reads the robot's own odometry,
+    :attr:`umbmark.kinds.Kind.reads_odometry`) no joints: empty.
+
     Raises
     ------
     InputError
-        Missing names, or flags of another kind.
+        Missing names, flags of another kind, joints and an odometry both given, an odometry or
+        encoder counts for a kind that reads neither.
     """
     from umbmark.kinds import KINDS, kind_named, kinds_with
 
-    if kw.get("ticks_topic") or kw.get("odom_topic"):
-        raise InputError(f"a {kind} is read from its joint states (JointState), not --ticks-topic or --odom-topic")
     k = kind_named(kind)
+    if kw.get("ticks_topic"):
+        raise InputError(f"a {kind} is read from its joint states (JointState), not --ticks-topic")
+    if kw.get("odom_topic"):
+        if not k.reads_odometry:
+            raise InputError(k.odometry_refusal())
+        given = [flag(j.option) for j in k.joints if kw.get(j.option)]
+        if given:
+            raise InputError(f"give the joints ({' and '.join(given)}) or --odom-topic, not both")
+        return ()
     own = [j.option for j in k.joints]
     wanted = " and ".join(
         f"{flag(j.option)} {j.metavar}" + (f" ({j.describe})" if j.describe else "") for j in k.joints

@@ -18,6 +18,13 @@ if TYPE_CHECKING:
 
 from umbmark.cli.app import LOG_FORMAT_CHOICES, app, cli_message, console, emit_json, fmt, is_quiet, table
 from umbmark.cli.config import config_options
+from umbmark.cli.export_kinds import (
+    edited_file_options,
+    emit_export,
+    export_kinematic,
+    kinematic_json,
+    refuse_edited_files,
+)
 from umbmark.cli.guard import skip_check_option
 from umbmark.cli.history import (
     history_options,
@@ -955,7 +962,8 @@ def _ros_size_notes(cal, wheel_radius_m: float | None, wheel_separation_m: float
     required=True,
     help=f"ros2/ros1: diff_drive_controller parameters ({own_kinds()} self-calibration: "
     f"{own_controllers()}, ros2 only); json; firmware: C header (mm per pulse); "
-    "urdf, tf: the lidar pose of a self-calibration (URDF origin, static_transform_publisher).",
+    "urdf, tf: the lidar pose of a self-calibration (URDF origin, static_transform_publisher); vesc: a car's "
+    "vesc.yaml (--vesc-config) with its gains calibrated.",
 )
 @click.option("--dataset", default=None, help="Data set to take from a replay JSON of several.")
 @click.option("--c-left", type=float, default=None, help="Left wheel-travel factor (instead of CAL.json).")
@@ -1031,6 +1039,7 @@ def _ros_size_notes(cal, wheel_radius_m: float | None, wheel_separation_m: float
     "10 / 100 Hz by default) for twist_covariance_diagonal.",
 )
 @click.option("--out", type=click.Path(dir_okay=False), default=None, help="File to write (default: print).")
+@edited_file_options
 @history_options
 def export(
     calibration,
@@ -1057,12 +1066,16 @@ def export(
     steering_reduction_in_use=1.0,
     covariance_speed_mps=0.5,
     velocity_window_s=0.1,
+    **edited,
 ):
     """Write a calibration as ROS 2 / ROS 1 diff_drive_controller parameters, JSON or a
     firmware header; a lidar self-calibration also as the lidar's URDF origin or a
-    static_transform_publisher command. A tricycle's or mecanum robot's self-calibration becomes
-    tricycle_controller or mecanum_drive_controller parameters (ros2, the steering offset's
-    transmission or the per-wheel factors in comments).
+    static_transform_publisher command. The self-calibration of a robot of another kind becomes
+    its controller's parameters (ros2: tricycle_controller, mecanum_drive_controller,
+    bicycle_steering_controller, ackermann_steering_controller; the steering offset's
+    transmission or the per-wheel factors in comments); a car's also its vesc.yaml with
+    speed_to_erpm_gain, steering_angle_to_servo_gain and steering_angle_to_servo_offset
+    calibrated (--format vesc --vesc-config VESC.yaml --out NEW.yaml).
 
     The calibration comes from CAL.json (the output of `umbmark replay --json`,
     `umbmark analyze --json` or `umbmark selfcal --json`) or from --c-left/--c-right/--eb. ROS
@@ -1076,6 +1089,7 @@ def export(
       umbmark replay data/optiodom/square/230620202144 --save cal.json
       umbmark export cal.json --format ros2 --out params.yaml
       umbmark export selfcal.json --format urdf
+      umbmark export car.json --format vesc --vesc-config vesc.yaml --out vesc_calibrated.yaml
     """
 
     from umbmark.io.export import (
@@ -1092,7 +1106,7 @@ def export(
         if v is not None and not (math.isfinite(v) and v > 0):
             raise InputError(f"{flag} must be a positive number, got {v!r}")
     if calibration is not None:
-        kd = _kinematic_json(calibration)
+        kd = kinematic_json(calibration)
         if kd is not None:
             diff_drive_flags = dict(
                 c_left=c_left, c_right=c_right, eb=eb, wheel_radius_m=wheel_radius_m,
@@ -1101,12 +1115,13 @@ def export(
                 right_multiplier=right_multiplier, separation_multiplier=separation_multiplier,
             )  # fmt: skip
             rec = _record_selfcal(calibration, robot, record, db) if record else None
-            _export_kinematic(
+            export_kinematic(
                 kd, str(calibration), out_format, controller, sensor_z_mm, out,
-                (steering_offset_in_use_deg, steering_reduction_in_use), diff_drive_flags,
+                (steering_offset_in_use_deg, steering_reduction_in_use), diff_drive_flags, edited,
             )  # fmt: skip
             _say_recorded(rec, out)
             return
+    refuse_edited_files(edited, out_format)
     controller = "diff_drive_controller" if controller is None else controller
     if (steering_offset_in_use_deg, steering_reduction_in_use) != (0.0, 1.0):
         raise InputError(f"--steering-offset-in-use-deg and --steering-reduction-in-use are {own_kinds(steered=True)}")
@@ -1137,7 +1152,7 @@ def export(
     )
     notes += cov_notes
     rec = _record_selfcal(calibration, robot, record, db) if record else None
-    _emit_export(text, out, notes + export_warnings(cal, left_multiplier, right_multiplier, separation_multiplier))
+    emit_export(text, out, notes + export_warnings(cal, left_multiplier, right_multiplier, separation_multiplier))
     _say_recorded(rec, out)
 
 
@@ -1217,57 +1232,6 @@ def _with_sensor_height(cal, sensor_z_mm, out_format):
             f"{cal.sensor_frame}); give --sensor-z-mm, or the pose puts the lidar at the height of {cal.base_frame}"
         )
     return cal, notes
-
-
-def _kinematic_json(path) -> dict | None:
-    """The JSON of the self-calibration of a robot of a kind of its own (a tricycle's), else None."""
-    from umbmark.io.export_kinematic import read_kinematic_json
-
-    return read_kinematic_json(path)
-
-
-def _export_kinematic(d, src, out_format, controller, sensor_z_mm, out, steering, given) -> None:
-    """``umbmark export`` of the self-calibration of a robot of a kind of its own (:mod:`umbmark.kinds`)."""
-    from dataclasses import replace
-
-    from umbmark.io.export_kinematic import format_kinematic_export, kinematic_calibration_from_dict
-
-    for name, v in given.items():
-        if v is not None and not (name.endswith("_multiplier") and v == 1.0):
-            raise InputError(f"--{name.replace('_', '-')} is a differential drive's: not for a {d['kinematics']}", src)
-    cal = kinematic_calibration_from_dict(d, src)
-    if sensor_z_mm is not None:
-        if not math.isfinite(sensor_z_mm):
-            raise InputError(f"--sensor-z-mm must be a number of millimetres, got {sensor_z_mm}")
-        x, y, _, roll, pitch, yaw = cal.sensor_pose
-        cal = replace(cal, sensor_pose=(x, y, sensor_z_mm * 1e-3, roll, pitch, yaw), sensor_height_known=True)
-    offset_deg, reduction = steering
-    if not kind_named(cal.kind).steered and (offset_deg, reduction) != (0.0, 1.0):
-        raise InputError(
-            f"--steering-offset-in-use-deg and --steering-reduction-in-use are {own_kinds(steered=True)}", src
-        )
-    text = format_kinematic_export(
-        cal,
-        out_format,
-        controller,
-        steering_offset0_rad=math.radians(offset_deg),
-        steering_reduction0=reduction,
-    )
-    _emit_export(text, out, cal.warnings)
-
-
-def _emit_export(text: str, out, warnings) -> None:
-    """The warnings on stderr, then the export written to ``out`` (said) or printed."""
-    from umbmark.io.export import write_export
-
-    for w in warnings:
-        click.echo(f"warning: {cli_message(w)}", err=True)
-    if out:
-        write_export(text, out)
-        if not is_quiet():
-            console().print(f"wrote {out}", markup=False, soft_wrap=True)
-    else:
-        click.echo(text, nl=False)
 
 
 def _record_selfcal(calibration, robot, record, db):

@@ -292,7 +292,8 @@ def selfcal_cmd(
     sensor_dyaw_rad). Drive straights, arcs and spins both ways near walls for a few minutes.
     The wheel data: --joints (JointState), --ticks-topic (encoder counts) or --odom-topic
     (nav_msgs/Odometry). The result exports with `umbmark export` (diff_drive_controller
-    parameters, the URDF origin of the lidar, a static_transform_publisher line).
+    parameters, the URDF origin of the lidar, a static_transform_publisher line). Tricycles,
+    mecanum robots and cars: --kinematics with their joints (a car also from its --odom-topic).
 
     \b
     Example:

@@ -24,7 +24,7 @@ from umbmark.cli.kinematic import joint_options, kind_options
 from umbmark.cli.options import flag
 from umbmark.cli.selfcal import selfcal_cmd
 from umbmark.errors import InputError
-from umbmark.kinds import kind_in
+from umbmark.kinds import KINDS, kind_in
 
 __all__ = ["validate_cmd", "LEGEND", "READ_OPTIONS", "FAIL_EXIT_STATUS"]
 
@@ -270,9 +270,10 @@ def validate_cmd(
 
     LOG is a ROS 1 or ROS 2 bag with laser scans and the robot's wheel data (--odom-topic,
     --joints or --ticks-topic, read as umbmark selfcal reads them). CAL.json is the JSON of
-    `umbmark selfcal --save`, `umbmark replay --save` or `umbmark export --format json`. A
-    tricycle's or mecanum robot's calibration (`selfcal --kinematics KIND --save`) is checked on
-    its joints (--drive-joint and --steer-joint, --joints FL,FR,RL,RR): their odometry with the
+    `umbmark selfcal --save`, `umbmark replay --save` or `umbmark export --format json`. The
+    calibration of another kind of robot (`selfcal --kinematics KIND --save`) is checked on its
+    joints, with its kind's flags (a tricycle's --drive-joint and --steer-joint, a mecanum
+    robot's --joints FL,FR,RL,RR; a car's also its own --odom-topic): their odometry with the
     nominal geometry and with the calibrated one. The
     reference: --relations (the SLAM benchmark's format) or --reference (a TUM trajectory, e.g.
     saved from slam_toolbox or cartographer; relations are made from it between the scans).
@@ -315,6 +316,7 @@ def validate_cmd(
             wheels=wheels,
             joints=joints,
             joint_topic=kw["joint_topic"],
+            odom_topic=None if wheels is not None else kw["odom_topic"],
         )
     except InputError as e:
         raise InputError(_flags(e.message), e.source, e.line) from None
@@ -351,12 +353,14 @@ def _wheel_data(kind, kw: dict):
         return wheel_source(kw), None, given_nominal_m(kw)
     ctx = click.get_current_context(silent=True)
     for name in DIFF_DRIVE_OPTIONS:
+        if name == "odom_topic" and kind.reads_odometry:
+            continue  # a car's own odometry, in place of its joints
         if ctx is not None and ctx.get_parameter_source(name) not in (None, click.core.ParameterSource.DEFAULT):
             raise InputError(
                 f"{flag(name)} is a differential drive's: CAL.json is a {kind.noun}'s calibration, which holds its "
                 "nominal geometry, checked on its joints"
             )
-    return None, kinematic_joints(kind.name, kw), (None, None)
+    return None, kinematic_joints(kind.name, kw) or None, (None, None)
 
 
 # selfcal's options that read the bag's wheel data and give the nominal geometry, after the arguments
@@ -369,4 +373,5 @@ validate_cmd.params[_at:_at] = _joints
 for _p in validate_cmd.params[2 : 2 + len(READ_OPTIONS)]:
     if _p.name in DIFF_DRIVE_OPTIONS and isinstance(_p, click.Option) and _p.help:
         _text = _p.help.removeprefix("Bag: ")
-        _p.help = f"Differential drive: {_text[:1].lower()}{_text[1:]}"
+        _who = [k.title for k in KINDS.values() if k.differential or (_p.name == "odom_topic" and k.reads_odometry)]
+        _p.help = f"{', '.join(_who)}: {_text[:1].lower()}{_text[1:]}"

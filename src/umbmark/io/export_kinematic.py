@@ -27,6 +27,14 @@ Formats (the kind's :attr:`~umbmark.kinds.Kind.export_formats`):
 * ``json``: the controller's parameters, the kind's own keys (:meth:`~umbmark.kinds.Kind.export_json`:
   a tricycle's steering offset and scale, a mecanum robot's per-wheel factors), the sensor pose.
 * ``urdf``, ``tf``: the lidar's mounting pose (as for a differential drive).
+* a parameter file of the robot's own software (:attr:`~umbmark.kinds.Kind.edited_files`: a
+  car's ``vesc``): the user's file with the values the calibration changes written in
+  (:meth:`~umbmark.kinds.Kind.edited_values`), every other line kept
+  (:func:`umbmark.io.param_file.edit_parameter_file`): :func:`format_edited_file`.
+
+The controller's parameters name the joints the recording shows (the JSON's ``joints``,
+:meth:`~umbmark.kinds.Kind.ros2_joints`: a car's ``traction_joints_names`` and
+``steering_joints_names``); a calibration read from an odometry has none, and the file says so.
 
 The differential drive's formats that another kind has no standard for (``ros1``,
 ``firmware``) are refused with what to use instead.
@@ -53,6 +61,7 @@ __all__ = [
     "KinematicCalibration",
     "kinematic_calibration_from_dict",
     "format_kinematic_export",
+    "format_edited_file",
 ]
 
 # what a format of the differential drive's that another kind lacks would be
@@ -91,6 +100,11 @@ class KinematicCalibration:
     source : str
     warnings : tuple of str
         The calibration's own warnings.
+    nominal : Kinematics, optional
+        The nominal geometry the calibration started from (the JSON's ``nominal``).
+    joints : dict, optional
+        Each joint role's name in the recording (the JSON's ``joints``); None when it read none
+        (an odometry) or does not say.
     """
 
     kind: str
@@ -102,6 +116,8 @@ class KinematicCalibration:
     sensor_frame: str
     source: str
     warnings: tuple[str, ...] = ()
+    nominal: Kinematics | None = None
+    joints: dict[str, str] | None = None
 
 
 def kinematic_calibration_from_dict(d: dict, source: str = "<json>") -> KinematicCalibration:
@@ -140,9 +156,27 @@ def kinematic_calibration_from_dict(d: dict, source: str = "<json>") -> Kinemati
         base_frame = str(first.get("base_frame") or base_frame)
         sensor_frame = str(first.get("scan_frame") or sensor_frame)
     warns = tuple(str(w) for w in d.get("warnings", []) if isinstance(w, str))
+    nominal = d.get("nominal")
     return KinematicCalibration(
-        kind.name, geometry, cis, (x, y, z, roll, pitch, yaw), known, base_frame, sensor_frame, source, warns
+        kind.name,
+        geometry,
+        cis,
+        (x, y, z, roll, pitch, yaw),
+        known,
+        base_frame,
+        sensor_frame,
+        source,
+        warns,
+        kind.geometry_from_json(nominal, source)[0] if isinstance(nominal, dict) else None,
+        _joints(d.get("joints"), kind.geometry.joint_roles),
     )
+
+
+def _joints(v: Any, roles: tuple[str, ...]) -> dict[str, str] | None:
+    """A JSON's ``joints`` when it names every role's joint, else None."""
+    if not isinstance(v, dict) or set(v) != set(roles) or not all(isinstance(n, str) and n for n in v.values()):
+        return None
+    return {r: v[r] for r in roles}
 
 
 def _sensor_lines(cal: KinematicCalibration) -> list[str]:
@@ -204,6 +238,9 @@ def format_kinematic_export(
             "rad), is beyond half a turn: no steering transmission's offset (an angle in another unit?)"
         )
     head = f"umbmark self-calibration of a {kind.noun} from {cal.source}"
+    edited = [e for e in kind.edited_files if e.format == fmt]
+    if edited:
+        raise InputError(f"`fmt={fmt}` edits {edited[0].describe}: give it (`{edited[0].option}`)")
     if fmt == "urdf":
         warn = "".join(f"<!-- warning: {xml_comment(w)} -->\n" for w in cal.warnings)
         return f"<!-- {xml_comment(head)} -->\n{warn}{origin_element(cal.sensor_pose)}\n"
@@ -216,8 +253,8 @@ def format_kinematic_export(
         raise InputError(f"bad controller name {name!r} (letters, digits, _ / ~ . -)")
     import yaml
 
-    notes = kind.ros2_notes(cal.geometry, cal.ci95, (steering_offset0_rad, steering_reduction0))
-    params = kind.ros2_parameters(cal.geometry)
+    notes = kind.ros2_notes(cal.geometry, cal.ci95, (steering_offset0_rad, steering_reduction0), cal.joints)
+    params = {**({} if cal.joints is None else kind.ros2_joints(cal.joints)), **kind.ros2_parameters(cal.geometry)}
     text = hash_comment(head) + "".join(hash_comment("warning: " + w) for w in cal.warnings)
     text += yaml.safe_dump({name: {"ros__parameters": params}}, sort_keys=False, default_flow_style=False)
     return text + "".join(hash_comment(line) for line in notes + _sensor_lines(cal))
@@ -246,3 +283,55 @@ def read_kinematic_json(path: str | Path) -> dict | None:
     except (OSError, ValueError, RecursionError):  # ValueError: not UTF-8, not JSON, a number of 5000 digits
         return None
     return d if isinstance(d, dict) and _exported(d.get("kinematics")) is not None else None
+
+
+def format_edited_file(cal: KinematicCalibration, fmt: str, text: str, source: str) -> tuple[str, list[str]]:
+    """A parameter file of the robot's own software with the values the calibration changes written in.
+
+    Parameters
+    ----------
+    cal : KinematicCalibration
+        With its nominal geometry.
+    fmt : str
+        One of the kind's :attr:`~umbmark.kinds.Kind.edited_files` formats (a car's ``vesc``).
+    text : str
+        The user's file, as read.
+    source : str
+        Its name.
+
+    Returns
+    -------
+    tuple
+        ``(new_text, lines)``: the file to write and what changed, in words.
+
+    Raises
+    ------
+    InputError
+        A format the kind does not edit this way, a calibration without its nominal geometry, a
+        file without the values in use or with values that are not numbers or cannot be
+        calibrated (:func:`umbmark.io.param_file.edit_parameter_file`).
+    """
+    from umbmark.io.param_file import edit_parameter_file, number_text
+
+    kind = kind_named(cal.kind)
+    spec = next((e for e in kind.edited_files if e.format == fmt), None)
+    if spec is None:
+        raise InputError(
+            f"a {kind.noun}'s calibration edits no {fmt} file (its formats: {', '.join(kind.export_formats)})"
+        )
+    nominal = cal.nominal
+    if nominal is None:
+        raise InputError("no 'nominal' geometry: not the JSON of umbmark selfcal", cal.source)
+
+    def compute(in_use):
+        return kind.edited_values(fmt, cal.geometry, nominal, in_use)
+
+    header = f"{', '.join(spec.changed)} calibrated by umbmark from {cal.source}:"
+    new, edits = edit_parameter_file(text, source, spec.keys, compute, spec.describe, header)
+    lines = [
+        f"{e.key}{f' ({e.block})' if e.block else ''}: {number_text(e.old)} -> {number_text(e.new)}" for e in edits
+    ]
+    lines += [f"note: {n}" for n in kind.edited_notes(fmt, cal.geometry, cal.ci95)]
+    if cal.joints is not None and spec.from_joints:
+        lines.append(f"warning: {spec.from_joints}")
+    return new, lines

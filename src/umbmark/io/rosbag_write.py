@@ -20,7 +20,9 @@ stamp :attr:`umbmark.model.drive.DriveLog.scan_stamps_s`, late or jittered when 
   ``angle_max``, ``angle_increment``, ``range_min``, ``range_max``, ``scan_time``, the ranges
   as float32 with ``inf`` for no return (``time_increment`` 0: the scans are instantaneous);
 * ``/odom`` (``nav_msgs/Odometry``, ``odom`` -> ``base_link``, optional) at the wheel rate:
-  the odometry of the nominal geometry, its twist in the robot frame;
+  the odometry of the nominal geometry, its twist in the robot frame (any robot's integrated
+  exactly, or as a car's ``vesc_to_odom`` does: ``odom_scheme``,
+  :meth:`umbmark.model.kinematic_drive.JointDriveLog.odometry`);
 * ``/tf_static`` (``tf2_msgs/TFMessage``, optional), once at the start: ``base_link`` -> ``laser``, the
   sensor pose (latched in ROS 1, transient-local in ROS 2);
 * ``/ground_truth`` (``geometry_msgs/PoseStamped``, frame ``map``, optional) at the wheel rate:
@@ -50,7 +52,7 @@ from numpy.typing import ArrayLike
 
 from umbmark.errors import InputError
 from umbmark.model.drive import DriveLog
-from umbmark.model.kinematic_drive import JointDriveLog
+from umbmark.model.kinematic_drive import ODOMETRY_SCHEMES, JointDriveLog
 
 __all__ = [
     "STORAGES",
@@ -155,8 +157,10 @@ class _Messages:
         joints: tuple[str, ...],
         gyro: tuple[np.ndarray, np.ndarray] | None = None,
         ticks_per_rev: float | None = None,
+        odom_scheme: str = "exact",
     ) -> None:
         self.log, self.T, self.ros1, self.joints = log, ts.types, ros1, list(joints)
+        self.odom_scheme = odom_scheme
         self.separate_joints = False
         self.positions = _joint_positions(log)
         self.counts = None
@@ -218,7 +222,7 @@ class _Messages:
     def odom(self, k: int) -> Any:
         T, log = self.T, self.log
         if self._odom is None:
-            self._odom = log.odometry()
+            self._odom = log.odometry(scheme=self.odom_scheme) if isinstance(log, JointDriveLog) else log.odometry()
             self._twist = _odom_twist(log)
         x, y, yaw = self._odom[k]
         vx, vy, wz = self._twist[k]
@@ -347,6 +351,7 @@ def _write(
     gyro: tuple[np.ndarray, np.ndarray] | None = None,
     ticks_per_rev: float | None = None,
     separate_joints: bool = False,
+    odom_scheme: str = "exact",
 ) -> None:
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
@@ -354,7 +359,7 @@ def _write(
     ts = get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
     if _T["tf_static"][1] not in ts.types:  # the ROS 1 store has no tf2_msgs: its definition
         ts.register(get_types_from_msg("geometry_msgs/TransformStamped[] transforms", _T["tf_static"][1]))
-    msgs = _Messages(log, ts, ros1, epoch_s, joints, gyro, ticks_per_rev)
+    msgs = _Messages(log, ts, ros1, epoch_s, joints, gyro, ticks_per_rev, odom_scheme)
     msgs.separate_joints = separate_joints
     if ros1:
         from rosbags.rosbag1 import Writer as Writer1
@@ -400,6 +405,7 @@ def write_drive_bag(
     gyro: tuple[ArrayLike, ArrayLike] | None = None,
     ticks_per_rev: float | None = None,
     separate_joints: bool = False,
+    odom_scheme: str = "exact",
 ) -> Path:
     """Write ``log`` as a ROS bag (see the module docstring for the topics).
 
@@ -430,6 +436,9 @@ def write_drive_bag(
         Write ``/wheel_ticks``: encoder counters of this many pulses per wheel revolution.
     separate_joints : bool
         Publish each joint in a JointState message of its own (as a publisher per joint does).
+    odom_scheme : str
+        How ``/odom`` integrates a :class:`~umbmark.model.kinematic_drive.JointDriveLog`'s joints:
+        ``"exact"`` (as ros2_controllers do) or ``"euler"`` (as a car's ``vesc_to_odom`` does).
 
     Returns
     -------
@@ -452,6 +461,8 @@ def write_drive_bag(
         if g_t.shape != g_w.shape or not (np.all(np.isfinite(g_t)) and np.all(np.isfinite(g_w))):
             raise InputError("`gyro` must be two finite arrays of one length (times, turn rates)")
         rates = (g_t, g_w)
+    if odom_scheme not in ODOMETRY_SCHEMES:
+        raise InputError(f"`odom_scheme` must be one of {', '.join(ODOMETRY_SCHEMES)}, got {odom_scheme!r}")
     if ticks_per_rev is not None and not (math.isfinite(ticks_per_rev) and ticks_per_rev > 0):
         raise InputError(f"`ticks_per_rev` must be a positive number, got {ticks_per_rev!r}")
     dest = Path(path)
@@ -470,7 +481,10 @@ def write_drive_bag(
     work = Path(tempfile.mkdtemp(prefix=f".{dest.name}.", dir=parent))
     try:
         target = work / dest.name
-        _write(log, target, fmt, epoch_s, tuple(joints), odom, truth, tf_static, rates, ticks_per_rev, separate_joints)
+        _write(
+            log, target, fmt, epoch_s, tuple(joints), odom, truth, tf_static, rates, ticks_per_rev, separate_joints,
+            odom_scheme,
+        )  # fmt: skip
         if dest.exists() or dest.is_symlink():
             raise InputError("appeared while the bag was written: not overwriting it", str(dest))
         os.rename(target, dest)

@@ -2,7 +2,10 @@
 
 * :mod:`~umbmark.kinds.diff_drive`: the differential drive (the default kind);
 * :mod:`~umbmark.kinds.tricycle`: the tricycle (``tricycle_controller``);
-* :mod:`~umbmark.kinds.mecanum`: the mecanum robot (``mecanum_drive_controller``).
+* :mod:`~umbmark.kinds.mecanum`: the mecanum robot (``mecanum_drive_controller``);
+* :mod:`~umbmark.kinds.bicycle`: the car of the bicycle model (``bicycle_steering_controller``,
+  F1TENTH's and MuSHR's ``vesc_to_odom``);
+* :mod:`~umbmark.kinds.ackermann`: the Ackermann car (``ackermann_steering_controller``).
 
 Each module holds its geometry (the forward kinematics as its ros2 controller computes them)
 and a :class:`~umbmark.kinds._base.Kind` that describes it to the rest of the package: its
@@ -26,8 +29,10 @@ from types import MappingProxyType
 from typing import Any
 
 from umbmark.errors import InputError
-from umbmark.kinds import diff_drive, mecanum, tricycle
-from umbmark.kinds._base import Alternative, FitOption, JointOption, Kind, Parameter, Size
+from umbmark.kinds import ackermann, bicycle, diff_drive, mecanum, tricycle
+from umbmark.kinds._base import Alternative, EditedFile, FitOption, JointOption, Kind, Parameter, Size
+from umbmark.kinds.ackermann import Ackermann
+from umbmark.kinds.bicycle import Bicycle
 from umbmark.kinds.diff_drive import DiffDrive
 from umbmark.kinds.mecanum import Mecanum
 from umbmark.kinds.tricycle import Tricycle
@@ -43,9 +48,12 @@ __all__ = [
     "Alternative",
     "JointOption",
     "FitOption",
+    "EditedFile",
     "DiffDrive",
     "Tricycle",
     "Mecanum",
+    "Bicycle",
+    "Ackermann",
     "kind_named",
     "kind_of",
     "kind_in",
@@ -55,7 +63,7 @@ __all__ = [
 
 # the kinds' modules, in the order the command line lists them (append a new kind at the end:
 # the studies' random robots are seeded by their kind's place among the drawable ones)
-_MODULES = (diff_drive, tricycle, mecanum)
+_MODULES = (diff_drive, tricycle, mecanum, bicycle, ackermann)
 
 _REGISTRY: dict[str, Kind] = {m.KIND.name: m.KIND for m in _MODULES}
 KINDS: Mapping[str, Kind] = MappingProxyType(_REGISTRY)

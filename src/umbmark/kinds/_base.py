@@ -50,6 +50,7 @@ __all__ = [
     "Alternative",
     "JointOption",
     "FitOption",
+    "EditedFile",
     "Coverage",
     "positive_parameter",
     "finite_parameter",
@@ -183,6 +184,9 @@ class Size:
         The option's help (for the options of one kind only; a shared option has its command's).
     alternative : Alternative, optional
         Another option giving it in metres.
+    fallback : str, optional
+        Another size's option whose value it takes when it is not given (an Ackermann car's
+        steering track width, the traction track width unless said otherwise); None: it must be given.
     """
 
     option: str
@@ -193,6 +197,7 @@ class Size:
     describe: str = ""
     help: str = ""
     alternative: Alternative | None = None
+    fallback: str | None = None
 
 
 @dataclass(frozen=True)
@@ -233,11 +238,48 @@ class FitOption:
         The geometry's parameter it frees.
     help : str
         The option's help.
+    check : bool
+        When not asked for, the self-calibration estimates it anyway to see whether the data call
+        for it, and warns when they do (a car's steering scale: a wrong one biases every estimate).
     """
 
     option: str
     parameter: str
     help: str
+    check: bool = False
+
+
+@dataclass(frozen=True)
+class EditedFile:
+    """A parameter file of the robot's own software that an export edits: the user's file with the
+    values the calibration changes written in, every other line kept (F1TENTH's ``vesc.yaml``).
+
+    Attributes
+    ----------
+    format : str
+        The export format (one of the kind's :attr:`Kind.export_formats`).
+    option : str
+        The option naming the user's file (``vesc_config``).
+    metavar : str
+        The placeholder of its value (``VESC.yaml``).
+    keys : tuple of str
+        The values in use the file must hold (each a number): the calibration is applied to them.
+    changed : tuple of str
+        Of them, those the export writes anew (the rest kept).
+    describe : str
+        What the file is, for messages and the option's help.
+    from_joints : str
+        What the values written mean when the calibration read joint states rather than the
+        odometry the file's values made (empty: the same).
+    """
+
+    format: str
+    option: str
+    metavar: str
+    keys: tuple[str, ...]
+    changed: tuple[str, ...]
+    describe: str
+    from_joints: str = ""
 
 
 class Coverage(Protocol):
@@ -298,10 +340,18 @@ class Kind:
         The options naming its joints; their roles in order are the geometry's ``joint_roles``.
     fits : tuple of FitOption
         The parameters estimated only on request.
+    held : tuple of str
+        The parameters never estimated: held at the nominal values the command line gives (an
+        Ackermann car's track widths, which its odometry hardly depends on).
+    reads_odometry : bool
+        Its self-calibration also reads the robot's own odometry (``nav_msgs/Odometry``,
+        ``odom_topic``) in place of joint states (:meth:`joints_from_odometry`).
     controller : str
         The ros2_controllers controller of its kind (the parameter file's default name).
     export_formats : tuple of str
         The formats its calibration exports in.
+    edited_files : tuple of EditedFile
+        The formats among them that edit a parameter file of the user's (:meth:`edited_values`).
     differential : bool
         Calibrated by the differential drive's own pipeline (UMBmark's correction factors, its
         history): the default kind.
@@ -324,8 +374,11 @@ class Kind:
     sizes: ClassVar[tuple[Size, ...]]
     joints: ClassVar[tuple[JointOption, ...]]
     fits: ClassVar[tuple[FitOption, ...]] = ()
+    held: ClassVar[tuple[str, ...]] = ()
+    reads_odometry: ClassVar[bool] = False
     controller: ClassVar[str]
     export_formats: ClassVar[tuple[str, ...]] = ("ros2", "json", "urdf", "tf")
+    edited_files: ClassVar[tuple[EditedFile, ...]] = ()
     differential: ClassVar[bool] = False
     drawable: ClassVar[bool] = False
     legend: ClassVar[tuple[str, ...]] = ()
@@ -349,7 +402,8 @@ class Kind:
 
     def default_fit(self) -> tuple[str, ...]:
         """The parameters a self-calibration estimates unless asked otherwise."""
-        return tuple(n for n in self.geometry.parameter_names if n not in self.optional_parameters)
+        skip = set(self.optional_parameters) | set(self.held)
+        return tuple(n for n in self.geometry.parameter_names if n not in skip)
 
     def fit_of(self, asked: Iterable[str]) -> tuple[str, ...] | None:
         """The parameters to estimate when the fit options ``asked`` (names of :attr:`fits`) are set:
@@ -368,7 +422,8 @@ class Kind:
         if not asked:
             return None
         freed = {own[a] for a in asked}
-        return tuple(n for n in self.geometry.parameter_names if n not in self.optional_parameters or n in freed)
+        default = self.default_fit()
+        return tuple(n for n in self.geometry.parameter_names if n in default or n in freed)
 
     def option_names(self) -> tuple[str, ...]:
         """Every option of its own: joints, sizes (and their alternatives), fits."""
@@ -399,10 +454,13 @@ class Kind:
         """
         given: dict[str, float] = {}
         for s in self.sizes:
-            if sizes_m.get(s.option) is None:
+            v = sizes_m.get(s.option)
+            if v is None and s.fallback is not None:
+                v = sizes_m.get(s.fallback)
+            if v is None:
                 raise InputError(f"the nominal {s.label} of the {self.noun} (`{s.option}`) is missing")
             for name in s.parameters:
-                given[name] = float(sizes_m[s.option])
+                given[name] = float(v)
         values = []
         for p in self.parameters:
             v = given.get(p.name, p.nominal)
@@ -477,11 +535,8 @@ class Kind:
     def truth(self, g: Kinematics) -> dict[str, float]:
         """The values a self-calibration estimates by default, under their JSON keys as one string
         (:attr:`Parameter.path`) in the JSON's units."""
-        return {
-            p.path: float(v) * p.factor
-            for p, v in zip(self.parameters, g.vector())
-            if p.name not in self.optional_parameters
-        }
+        default = self.default_fit()
+        return {p.path: float(v) * p.factor for p, v in zip(self.parameters, g.vector()) if p.name in default}
 
     # ------------------------------------------------------------ self-calibration
     def steering_travel(self, nominal: Kinematics, values: FloatArray) -> tuple[float, float]:
@@ -511,13 +566,67 @@ class Kind:
         """
         return bad, "the joints are in another order or turn backwards"
 
+    # ------------------------------------------------------------ the robot's own odometry
+    def joints_from_odometry(self, nominal: Kinematics, pose: FloatArray) -> FloatArray:
+        """The joints an odometry computed with the nominal geometry turned into these poses
+        (:attr:`reads_odometry`): ``(K, J)`` positions in the roles' order at the poses' stamps,
+        rolling joints cumulative from 0, a steering joint the angle it held over the step that
+        ends at each stamp (the first stamp: the first step's).
+
+        Parameters
+        ----------
+        nominal : Kinematics
+            The geometry the odometry was computed with.
+        pose : numpy.ndarray
+            ``(K, 3)`` the odometry's poses ``(x_m, y_m, yaw_rad)`` in time order (yaw wrapped or not).
+
+        Raises
+        ------
+        InputError
+            A kind that reads no odometry (:meth:`odometry_refusal`).
+        """
+        raise InputError(self.odometry_refusal())
+
+    def odometry_refusal(self) -> str:
+        """Why its self-calibration reads no odometry (``odom_topic``), and what to give instead."""
+        return f"a {self.noun} is read from its joint states (JointState), not from an odometry (`odom_topic`)"
+
     # ------------------------------------------------------------ exports
+    def ros2_joints(self, joints: Mapping[str, str]) -> dict[str, Any]:
+        """The controller's parameters naming its joints (``traction_joints_names``), from the joints the
+        recording shows (role -> name, :attr:`JointOption.roles`); empty when it names none."""
+        return {}
+
+    def edited_values(
+        self, fmt: str, g: Kinematics, nominal: Kinematics, in_use: Mapping[str, float]
+    ) -> dict[str, float]:
+        """The values a parameter file of the user's gets (:attr:`edited_files`): its
+        :attr:`EditedFile.changed` keys calibrated from the values in use (every one of its
+        :attr:`EditedFile.keys`, numbers), by the estimate ``g`` against the nominal geometry.
+
+        Raises
+        ------
+        InputError
+            A value in use that cannot be calibrated (a gain of 0), naming its key; a format it does
+            not edit.
+        """
+        raise InputError(f"a {self.noun}'s calibration edits no {fmt} file")
+
+    def edited_notes(self, fmt: str, g: Kinematics, ci95: Mapping[str, Interval | None]) -> list[str]:
+        """What else the user's parameter file of ``fmt`` should change that the export does not write
+        (a value in another node's block, an estimate the file's keys do not hold)."""
+        return []
+
     def ros2_parameters(self, g: Kinematics) -> dict[str, Any]:
         """The controller's ``ros__parameters`` of a geometry (ros2_controllers' names and types)."""
         raise InputError(f"no ros2 controller's parameters of a {self.noun}")
 
     def ros2_notes(
-        self, g: Kinematics, ci95: Mapping[str, Interval | None], steering_in_use: tuple[float, float]
+        self,
+        g: Kinematics,
+        ci95: Mapping[str, Interval | None],
+        steering_in_use: tuple[float, float],
+        joints: Mapping[str, str] | None = None,
     ) -> list[str]:
         """The lines that follow the parameters in the file: what the controller has no parameter for.
 
@@ -529,6 +638,9 @@ class Kind:
         steering_in_use : tuple of float
             ``(offset_rad, mechanical_reduction)`` of a steering joint's transmission when the
             data were recorded.
+        joints : mapping, optional
+            The joints the recording shows (role -> name); None when the calibration read none
+            (an odometry).
         """
         return []
 
@@ -570,4 +682,14 @@ def check_fields(kind: Kind) -> list[str]:
             bad.append(f"no size gives {p.name} and it has no nominal value")
     if kind.drawable and len(kind.sim_joints) != len(g.joint_roles):
         bad.append("a drawable kind needs a simulated joint name per role")
+    for h in kind.held:
+        if h not in g.parameter_names or h in kind.optional_parameters:
+            bad.append(f"the held parameter {h} is not a parameter estimated by default")
+    options = {s.option for s in kind.sizes}
+    for s in kind.sizes:
+        if s.fallback is not None and s.fallback not in options:
+            bad.append(f"the size {s.option} falls back on {s.fallback}, not a size of the kind")
+    for e in kind.edited_files:
+        if e.format not in kind.export_formats or not set(e.changed) <= set(e.keys):
+            bad.append(f"the edited file of {e.format} is not an export format, or changes keys it does not read")
     return bad

@@ -231,7 +231,11 @@ class _MecanumKind(Kind):
         }
 
     def ros2_notes(
-        self, g: Kinematics, ci95: Mapping[str, Interval | None], steering_in_use: tuple[float, float]
+        self,
+        g: Kinematics,
+        ci95: Mapping[str, Interval | None],
+        steering_in_use: tuple[float, float],
+        joints: Mapping[str, str] | None = None,
     ) -> list[str]:
         diameters, cis = _wheels(g, ci95)
         factors, apart = wheel_factors(diameters, cis)

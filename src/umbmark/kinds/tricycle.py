@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
-from typing import ClassVar
+from typing import ClassVar, Protocol
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -43,7 +43,7 @@ from umbmark.kinds._base import (
 from umbmark.model.geometry import QUANTITIES, wrap_angle
 from umbmark.model.kinematics import Kinematics
 
-__all__ = ["Tricycle", "KIND", "MAX_STEERING_RAD"]
+__all__ = ["Tricycle", "KIND", "MAX_STEERING_RAD", "Steered", "steering_note"]
 
 FloatArray = NDArray[np.float64]
 
@@ -145,21 +145,36 @@ class Tricycle:
         return np.stack([speed * dt_s / (0.5 * self.wheel_diameter_m), measured], axis=-1)
 
 
-def steering_note(g: Tricycle, scale_estimated: bool, offset0: float, reduction0: float) -> list[str]:
+class Steered(Protocol):
+    """A geometry with a steering offset and scale (a tricycle, a car)."""
+
+    @property
+    def steering_offset_rad(self) -> float: ...
+
+    @property
+    def steering_scale(self) -> float: ...
+
+
+def steering_note(
+    g: Steered, scale_estimated: bool, offset0: float, reduction0: float, joint: str | None = None
+) -> list[str]:
     """The steering joint's transmission that makes its angle the true one, composed with the one in use.
 
     ``true = scale (actuator / reduction0 + offset0) + offset = actuator / (reduction0 / scale) +
-    (scale offset0 + offset)`` (the scale 1 unless it was estimated).
+    (scale offset0 + offset)`` (the scale 1 unless it was estimated). ``g`` has a
+    ``steering_offset_rad`` and a ``steering_scale`` (a tricycle, a car); ``joint`` the steering
+    joint's name (``STEERING_JOINT`` when the calibration does not say).
     """
-    scale = g.steering_scale if scale_estimated else 1.0
-    off = scale * offset0 + g.steering_offset_rad
+    offset, scale = float(g.steering_offset_rad), float(g.steering_scale)
+    scale = scale if scale_estimated else 1.0
+    off = scale * offset0 + offset
     red = reduction0 / scale
     return [
-        f"the steering offset {math.degrees(g.steering_offset_rad):.4f} deg "
-        f"({g.steering_offset_rad:.6f} rad: true angle = measured + offset) belongs to the steering joint's",
+        f"the steering offset {math.degrees(offset):.4f} deg "
+        f"({offset:.6f} rad: true angle = measured + offset) belongs to the steering joint's",
         "transmission in the ros2_control hardware description (SimpleTransmission: joint = actuator /",
         f"mechanical_reduction + offset), composed with the one in use ({offset0:g} rad, reduction {reduction0:g}):",
-        '  <joint name="STEERING_JOINT" role="joint1">',
+        f'  <joint name="{joint or "STEERING_JOINT"}" role="joint1">',
         f"    <mechanical_reduction>{red:.9g}</mechanical_reduction>",
         f"    <offset>{off:.9g}</offset>",
         "  </joint>",
@@ -248,10 +263,15 @@ class _TricycleKind(Kind):
         return {"wheelbase": float(g.wheelbase_m), "wheel_radius": float(0.5 * g.wheel_diameter_m)}
 
     def ros2_notes(
-        self, g: Kinematics, ci95: Mapping[str, Interval | None], steering_in_use: tuple[float, float]
+        self,
+        g: Kinematics,
+        ci95: Mapping[str, Interval | None],
+        steering_in_use: tuple[float, float],
+        joints: Mapping[str, str] | None = None,
     ) -> list[str]:
         assert isinstance(g, Tricycle)
-        return steering_note(g, ci95.get("steering_scale") is not None, *steering_in_use)
+        steer = None if joints is None else joints.get("steer")
+        return steering_note(g, ci95.get("steering_scale") is not None, *steering_in_use, joint=steer)
 
     def export_json(self, g: Kinematics, ci95: Mapping[str, Interval | None]) -> dict[str, float]:
         assert isinstance(g, Tricycle)

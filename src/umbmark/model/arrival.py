@@ -193,11 +193,13 @@ class LateRun:
         return self.earlier is not None
 
 
-def _local_scale(step: FloatArray) -> FloatArray:
-    """The median step of each step's neighbourhood (``_LOCAL`` either side)."""
+def _sided_scales(step: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """For each step, the median of the ``_LOCAL`` steps before it and of those after it (the
+    motion's scale on either side, without the step itself or its neighbour)."""
     pad = np.pad(step, _LOCAL, mode="edge")
-    win = np.lib.stride_tricks.sliding_window_view(pad, 2 * _LOCAL + 1)
-    return np.asarray(np.median(win, axis=1), dtype=float)
+    med = np.median(np.lib.stride_tricks.sliding_window_view(pad, _LOCAL), axis=1)
+    ns = step.size
+    return np.asarray(med[:ns], dtype=float), np.asarray(med[_LOCAL + 1 : _LOCAL + 1 + ns], dtype=float)
 
 
 def late_messages(content: ArrayLike) -> list[LateRun]:
@@ -207,11 +209,12 @@ def late_messages(content: ArrayLike) -> list[LateRun]:
 
     * **one message off the path**: message ``k`` lies farther from the chord between messages
       ``k - 1`` and ``k + 1`` than that chord is long, and farther than one and a half of the
-      steps around it (their median) and than the noise floor (four of the content's resolution,
-      such as an encoder's count, and a quarter of its median moving step): on a real path the
-      middle sample of three lies near their chord;
-    * **a run going back**: a step into message ``k`` six times the steps around it (and above
-      the floor), after which, within :data:`_MAX_RUN` messages, a message comes back to within
+      steps on its quieter side (the median of the ten before it or of the ten after it, the
+      smaller) and than the noise floor (four of the content's resolution, such as an encoder's
+      count, and a quarter of its median moving step): on a real path the middle sample of three
+      lies near their chord, within the shorter of its two steps;
+    * **a run going back**: a step into message ``k`` six times the steps on its busier side (the
+      larger median; and above the floor), after which, within :data:`_MAX_RUN` messages, a message comes back to within
       half that distance of message ``k - 1`` and within the few steps of motion the messages
       between them allow.
 
@@ -254,10 +257,12 @@ def _late_runs(x: FloatArray) -> list[LateRun]:
     if moving.size < 3:
         return []
     floor = max(4.0 * _granularity(x), 0.25 * float(np.median(moving)))
-    local = _local_scale(step)
+    before, after = _sided_scales(step)
     dev, chord = _off_chord(x)
-    single = (dev > chord) & (dev > 1.5 * local[:-1]) & (dev > floor)  # messages 1 .. n-2
-    far = np.flatnonzero(step > np.maximum(6.0 * local, floor)) + 1  # messages reached by a long step
+    around = np.minimum(before[:-1], after[1:])  # messages 1 .. n-2: the quieter side's steps
+    single = (dev > chord) & (dev > 1.5 * around) & (dev > floor)
+    busier = np.maximum(before, after)  # a long step: long against both sides (not a robot speeding up)
+    far = np.flatnonzero(step > np.maximum(6.0 * busier, floor)) + 1  # messages reached by a long step
     runs: list[LateRun] = []
     for c in np.union1d(np.flatnonzero(single) + 1, far):
         k = int(c)
@@ -266,7 +271,7 @@ def _late_runs(x: FloatArray) -> list[LateRun]:
         if k < n - 1 and single[k - 1]:
             run: LateRun | None = LateRun(k, k + 1, k - 1, _earlier(x, k, k - 1))
         else:
-            run = _run_from(x, k, local, floor)
+            run = _run_from(x, k, busier, floor)
         if run is not None:
             runs.append(run)
     if far.size and far[-1] == n - 1 and not (runs and runs[-1].stop >= n - 1):
@@ -303,12 +308,12 @@ def _off_chord(x: FloatArray) -> tuple[FloatArray, FloatArray]:
     return np.linalg.norm(m - foot, axis=1), np.sqrt(chord2)
 
 
-def _run_from(x: FloatArray, k: int, local: FloatArray, floor: float) -> LateRun | None:
+def _run_from(x: FloatArray, k: int, busier: FloatArray, floor: float) -> LateRun | None:
     """The run of late messages starting at ``k`` (reached by a long step from ``k - 1``), if one."""
     n = x.shape[0]
     f = k - 1
     out = np.linalg.norm(x[k : min(n, k + _MAX_RUN)] - x[f], axis=1)
-    scale = max(float(local[f]), floor / 4.0)
+    scale = max(float(busier[f]), floor / 4.0)
     for m in range(k + 1, min(n, k + _MAX_RUN + 1)):
         back = float(np.linalg.norm(x[m] - x[f]))
         away = float(out[: m - k].min())

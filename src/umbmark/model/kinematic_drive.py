@@ -44,7 +44,11 @@ __all__ = [
     "simulate_kinematic_drive",
     "kinematic_program",
     "MOVES",
+    "ODOMETRY_SCHEMES",
 ]
+
+ODOMETRY_SCHEMES = ("exact", "euler")
+"""How a simulated odometry integrates the joints (:meth:`JointDriveLog.odometry`)."""
 
 FloatArray = NDArray[np.float64]
 
@@ -135,6 +139,10 @@ class KinematicRobot:
         The lidar.
     steer_rate_radps : float
         How fast a steering joint turns [rad/s].
+    max_curvature_per_m : float, optional
+        The tightest turn a car's programs drive (:func:`kinematic_program`'s loops and reversing
+        arcs) [1/m]; default its nominal geometry's ``max_curvature_per_m`` (a car's full lock),
+        else 2 (a 0.5 m radius).
     """
 
     nominal: Kinematics
@@ -142,6 +150,7 @@ class KinematicRobot:
     sensor_pose: SensorPose = field(default_factory=SensorPose)
     lidar: Lidar = field(default_factory=Lidar)
     steer_rate_radps: float = 2.0
+    max_curvature_per_m: float | None = None
 
     def __post_init__(self) -> None:
         if type(self.nominal) is not type(self.true):
@@ -151,6 +160,16 @@ class KinematicRobot:
             )
         if not (math.isfinite(self.steer_rate_radps) and self.steer_rate_radps > 0):
             raise InputError(f"`steer_rate_radps` must be positive, got {self.steer_rate_radps!r}")
+        k = self.max_curvature_per_m
+        if k is not None and not (math.isfinite(k) and k > 0):
+            raise InputError(f"`max_curvature_per_m` must be positive, got {k!r}")
+
+    @property
+    def turn_limit_per_m(self) -> float:
+        """The tightest turn of a car's moves [1/m] (see ``max_curvature_per_m``)."""
+        if self.max_curvature_per_m is not None:
+            return float(self.max_curvature_per_m)
+        return float(getattr(self.nominal, "max_curvature_per_m", 2.0))
 
     @property
     def kind(self) -> str:
@@ -237,10 +256,29 @@ class JointDriveLog:
             vals[:, j] = np.diff(pos[:, j]) if rolls else 0.5 * (pos[1:, j] + pos[:-1, j])
         return JointSteps(vals, np.arange(len(t)), np.diff(t))
 
-    def odometry(self, kinematics: Kinematics | None = None) -> FloatArray:
-        """``(N + 1, 3)`` the odometry of the recorded joints (default the nominal geometry), from the origin."""
+    def odometry(self, kinematics: Kinematics | None = None, scheme: str = "exact") -> FloatArray:
+        """``(N + 1, 3)`` the odometry of the recorded joints (default the nominal geometry), from the origin.
+
+        Parameters
+        ----------
+        kinematics : Kinematics, optional
+            The geometry (default the nominal one).
+        scheme : str
+            ``"exact"``: each sample's constant twist integrated exactly (a steering joint at its
+            mean over the sample), as ros2_controllers' odometries do; ``"euler"``: as a car's
+            ``vesc_to_odom`` does, the steering at the sample's end and the position advanced
+            along the heading before the sample (:data:`ODOMETRY_SCHEMES`).
+        """
         k = self.nominal if kinematics is None else kinematics
-        return integrate_steps(twist_displacement(k.twist(self.joint_steps().values)))
+        if scheme not in ODOMETRY_SCHEMES:
+            raise InputError(f"`scheme` must be one of {', '.join(ODOMETRY_SCHEMES)}, got {scheme!r}")
+        if scheme == "exact":
+            return integrate_steps(twist_displacement(k.twist(self.joint_steps().values)))
+        vals = np.asarray(self.joint_steps().values, dtype=float).copy()
+        for j, rolls in enumerate(self.nominal.rolling):
+            if not rolls:
+                vals[:, j] = self.positions[1:, j]
+        return integrate_steps(k.twist(vals))
 
     def sensor_motion(self) -> FloatArray:
         """``(M - 1, 3)`` the true sensor motion between consecutive scans, in the sensor frame."""
@@ -419,14 +457,35 @@ def simulate_kinematic_drive(
 
 
 # ---------------------------------------------------------------- programs
-MOVES = ("straight", "back", "left", "right", "diagonal", "arc+", "arc-", "spin+", "spin-")
+MOVES = (
+    "straight", "back", "left", "right", "diagonal", "arc+", "arc-", "spin+", "spin-", "loop+", "loop-",
+    "reverse+", "reverse-",
+)  # fmt: skip
 """The moves :func:`kinematic_program` can draw: forward, backward, sideways left and right, in
-any direction, arcs and spins counter-clockwise (``+``) and clockwise (``-``). Each kind of robot
-names those it can make (:attr:`~umbmark.model.kinematics.Kinematics.moves`)."""
+any direction, arcs and spins counter-clockwise (``+``) and clockwise (``-``); a car's loops (150 to
+330 deg forward, 0.4 to 1 m/s; drawn as figure-eights, one way then the other) and reversing arcs
+(30 to 90 deg backward) at 0.8 to 1 and 0.6 to 1 times its tightest turn
+(:attr:`KinematicRobot.turn_limit_per_m`). Each kind of robot names those it can make
+(:attr:`~umbmark.model.kinematics.Kinematics.moves`)."""
 
 
-def _draw(kind: str, rng: np.random.Generator) -> Move:
-    """A random move of one kind."""
+def _draw_car(kind: str, rng: np.random.Generator, limit: float) -> Move:
+    """A random loop or reversing arc of a car whose tightest turn is ``limit`` [1/m]."""
+    sign = 1.0 if kind.endswith("+") else -1.0
+    if kind.startswith("loop"):
+        curvature = rng.uniform(0.8, 1.0) * limit
+        v, turn = rng.uniform(0.4, 1.0), math.radians(rng.uniform(150.0, 330.0))
+    else:
+        curvature = rng.uniform(0.6, 1.0) * limit
+        v, turn = -rng.uniform(0.2, 0.4), math.radians(rng.uniform(30.0, 90.0))
+    omega = sign * abs(v) * curvature
+    return Move(turn / abs(omega), v, 0.0, omega)
+
+
+def _draw(kind: str, rng: np.random.Generator, limit: float = 2.0) -> Move:
+    """A random move of one kind (a car's tightest turn ``limit`` [1/m])."""
+    if kind.startswith(("loop", "reverse")):
+        return _draw_car(kind, rng, limit)
     if kind == "straight":
         v = rng.uniform(0.15, 0.4)
         return Move(rng.uniform(0.5, 2.5) / v, v)
@@ -518,12 +577,12 @@ def kinematic_program(
     queue: list[str] = []
     while used < duration_s:
         if not queue:
-            queue = [pool[i] for i in rng.permutation(len(pool))]
+            queue = _figure_eights([pool[i] for i in rng.permutation(len(pool))])
         first = queue.pop(0)
         chosen = None
         for kind in [first] + [k for k in pool if k != first]:
             for _ in range(attempts):
-                cand = _draw(kind, rng)
+                cand = _draw(kind, rng, robot.turn_limit_per_m)
                 pause = Move(0.6 if steer is None else 0.2 + 1.2 / robot.steer_rate_radps)
                 seq = [Move(pause.duration_s, 0.0, 0.0, 0.0), cand]
                 seq[0] = _steer_first(seq[0], cand)
@@ -540,6 +599,16 @@ def kinematic_program(
         moves += seq
         used += sum(m.duration_s for m in seq)
     return tuple(moves), (float(start[0]), float(start[1]), float(start[2]))
+
+
+def _figure_eights(queue: list[str]) -> list[str]:
+    """A round of moves with a car's second loop right after its first (a figure-eight)."""
+    loops = [k for k in queue if k.startswith("loop")]
+    if len(loops) < 2:
+        return queue
+    rest = [k for k in queue if k != loops[1]]
+    at = rest.index(loops[0]) + 1
+    return rest[:at] + [loops[1]] + rest[at:]
 
 
 def _steer_first(pause: Move, nxt: Move) -> Move:

@@ -7,7 +7,11 @@ two wheels:
 1. **The joints on one time grid**: the joint states' stamps and the scans' (less their delay),
    the joints interpolated linearly to it; per step of the grid a rolling joint's increment and
    a steering joint's mean angle (:class:`umbmark.model.kinematics.JointSteps`). The nominal
-   odometry integrates them.
+   odometry integrates them. A kind that reads the robot's own odometry
+   (:attr:`umbmark.kinds.Kind.reads_odometry`: a car's ``/odom``) has its joints made from the
+   odometry's poses (:meth:`umbmark.kinds.Kind.joints_from_odometry`: the rolling joints
+   interpolated as recorded, a steering angle held over each step of the odometry as its
+   integration held it).
 2. **Every pair of consecutive scans matched** from the nominal odometry seen from the sensor
    at its nominal pose (``/tf_static``, given, or zero); from those matches the scans' delay
    (``auto``: :func:`umbmark.realrobot.selfcal.delay_from_turns`, the nominal odometry's
@@ -31,7 +35,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 from pathlib import Path
 from typing import Any
@@ -44,6 +48,7 @@ from umbmark.correct.selfcal.kinematic import KinematicSelfcalResult, kinematic_
 from umbmark.errors import InputError
 from umbmark.io.rosbag import SelfcalBag, read_selfcal_bag
 from umbmark.io.wheels import WheelSource
+from umbmark.kinds import kind_of
 from umbmark.model import se2
 from umbmark.model.kinematics import (
     JointIntervals,
@@ -77,6 +82,9 @@ __all__ = [
     "kinematic_selfcal_from_bags",
     "joint_source",
     "scan_odometry",
+    "odometry_joints",
+    "unfitted_notes",
+    "UNFITTED_REL",
 ]
 
 FloatArray = NDArray[np.float64]
@@ -123,18 +131,32 @@ class _Grid:
     at_scans: FloatArray
 
 
+def _held(bag: Any) -> bool:
+    """Whether the bag's steering joints hold their angle over each step that ends at a stamp (made
+    from an odometry) rather than move linearly between the stamps (joint states)."""
+    return getattr(bag, "wheel_kind", "joints") == "odom"
+
+
 def _grid(bag: SelfcalBag, nominal: Kinematics, st: FloatArray, usable: NDArray[np.bool_]) -> _Grid:
     assert bag.joint_positions is not None
-    return _grid_of(np.asarray(bag.wheel_t_s, float), np.asarray(bag.joint_positions, float), nominal, st, usable)
+    wt, pos = np.asarray(bag.wheel_t_s, float), np.asarray(bag.joint_positions, float)
+    return _grid_of(wt, pos, nominal, st, usable, _held(bag))
 
 
-def _grid_of(wt: FloatArray, pos: FloatArray, nominal: Kinematics, st: FloatArray, usable: NDArray[np.bool_]) -> _Grid:
-    """The joints ``pos`` at ``wt`` on the grid of ``wt`` and the usable times ``st``."""
+def _grid_of(
+    wt: FloatArray, pos: FloatArray, nominal: Kinematics, st: FloatArray, usable: NDArray[np.bool_], held: bool = False
+) -> _Grid:
+    """The joints ``pos`` at ``wt`` on the grid of ``wt`` and the usable times ``st`` (steering
+    angles ``held`` over each step that ends at a stamp of ``wt``, else linear between them)."""
     g = np.unique(np.concatenate([wt, st[usable]]))
     at = np.column_stack([np.interp(g, wt, pos[:, j]) for j in range(pos.shape[1])])
     vals = np.empty((len(g) - 1, pos.shape[1]))
+    ends = np.searchsorted(wt, g[1:], side="left").clip(0, len(wt) - 1)
     for j, rolls in enumerate(nominal.rolling):
-        vals[:, j] = np.diff(at[:, j]) if rolls else 0.5 * (at[1:, j] + at[:-1, j])
+        if rolls:
+            vals[:, j] = np.diff(at[:, j])
+        else:
+            vals[:, j] = pos[ends, j] if held else 0.5 * (at[1:, j] + at[:-1, j])
     odo = integrate_steps(twist_displacement(nominal.twist(vals)))
     idx = np.searchsorted(g, st).clip(0, len(g) - 1)
     return _Grid(vals, np.diff(g), idx, odo[idx], at[idx])
@@ -146,7 +168,10 @@ def _wheel_odometry(bag: Any, nominal: Kinematics) -> FloatArray:
     pos = np.asarray(bag.joint_positions, dtype=float)
     vals = np.empty((len(pos) - 1, pos.shape[1]))
     for j, rolls in enumerate(nominal.rolling):
-        vals[:, j] = np.diff(pos[:, j]) if rolls else 0.5 * (pos[1:, j] + pos[:-1, j])
+        if rolls:
+            vals[:, j] = np.diff(pos[:, j])
+        else:
+            vals[:, j] = pos[1:, j] if _held(bag) else 0.5 * (pos[1:, j] + pos[:-1, j])
     return integrate_steps(twist_displacement(nominal.twist(vals)))
 
 
@@ -172,6 +197,28 @@ def scan_odometry(bag: SelfcalBag, geometries: Sequence[Kinematics], scan_delay_
     st = np.asarray(bag.scan_t_s, dtype=float) - float(scan_delay_s)
     grid = _grid(bag, geometries[0], st, np.ones(len(st), dtype=bool))
     return [integrate_steps(twist_displacement(g.twist(grid.steps_values)))[grid.scan_index] for g in geometries]
+
+
+def odometry_joints(bag: SelfcalBag, nominal: Kinematics) -> SelfcalBag:
+    """A bag of a robot's own odometry with the joints that odometry turned into its poses
+    (:meth:`umbmark.kinds.Kind.joints_from_odometry`, through the nominal geometry).
+
+    Raises
+    ------
+    InputError
+        A bag without odometry poses, a kind that reads none, an odometry the kind refuses.
+    """
+    if bag.odom_pose is None:
+        raise InputError("the bag's wheel data are not an odometry", bag.source)
+    kind = kind_of(nominal)
+    if not kind.reads_odometry:
+        raise InputError(kind.odometry_refusal(), bag.source)
+    try:
+        pos = kind.joints_from_odometry(nominal, np.asarray(bag.odom_pose, dtype=float))
+    except InputError as err:
+        raise InputError(f"{bag.wheel_topic}: {err.message}", bag.source) from None
+    names = tuple(f"{role} of {bag.wheel_topic}" for role in nominal.joint_roles)
+    return replace(bag, joint_positions=pos, joint_names=names)
 
 
 def _steps_of(grid: _Grid, pairs: NDArray[np.int64]) -> JointSteps:
@@ -518,10 +565,16 @@ class KinematicReport:
         return {"residuals": encode_residuals(kinematic_residuals(iv, r), r.intervals_rejected, t, which), "maps": maps}
 
     def to_dict(self) -> dict[str, Any]:
-        """The result's JSON (:meth:`KinematicSelfcalResult.to_dict`) with ``inputs`` (each bag's
-        :meth:`JointScanIntervals.to_dict`), ``keyframes``, ``scan_delay`` (per bag, ``applied_s``)
-        and ``figures`` (:attr:`figures`, what ``umbmark report`` draws; not of a window)."""
+        """The result's JSON (:meth:`KinematicSelfcalResult.to_dict`) with ``joints`` (each role's
+        joint name, as the bags' joint states name them; null when read from an odometry),
+        ``inputs`` (each bag's :meth:`JointScanIntervals.to_dict`), ``keyframes``, ``scan_delay``
+        (per bag, ``applied_s``) and ``figures`` (:attr:`figures`, what ``umbmark report`` draws;
+        not of a window)."""
         out = self.result.to_dict()
+        first = self.parts[0].bag if self.parts else None
+        roles = self.result.nominal.joint_roles
+        named = first is not None and first.wheel_kind == "joints" and len(first.joint_names) == len(roles)
+        out["joints"] = dict(zip(roles, first.joint_names)) if named and first is not None else None
         out["inputs"] = [p.to_dict() for p in self.parts]
         out["keyframes"] = self.parts[0].keyframe_rule.to_dict() if self.parts else None
         out["scan_delay"] = [p.to_dict()["scan_delay"] for p in self.parts]
@@ -548,6 +601,7 @@ def kinematic_selfcal_from_bags(
     fit: Sequence[str] | None = None,
     reject_outliers: bool = True,
     progress: StageProgress | None = None,
+    odom_topic: str | None = None,
 ) -> KinematicReport:
     """Self-calibrate a tricycle or mecanum robot (any kind) from bags: read, match, estimate.
 
@@ -559,7 +613,8 @@ def kinematic_selfcal_from_bags(
         The nominal geometry.
     joints : sequence of str
         The joint names in the kind's roles' order (a tricycle's drive and steering joints; a
-        mecanum robot's front left, front right, rear left and rear right wheels).
+        mecanum robot's front left, front right, rear left and rear right wheels); empty with
+        ``odom_topic``.
     joint_topic, scan_topic, scan_frame : str
         Where the joint states and scans are.
     options : IntervalOptions, optional
@@ -569,6 +624,9 @@ def kinematic_selfcal_from_bags(
         Set aside intervals far beyond the rest (failed matches).
     progress : callable, optional
         ``progress(stage, done, total)``.
+    odom_topic : str, optional
+        Read the robot's own odometry (``nav_msgs/Odometry``) in place of joint states: a kind
+        that reads one (:attr:`umbmark.kinds.Kind.reads_odometry`, :func:`odometry_joints`).
 
     Returns
     -------
@@ -582,17 +640,67 @@ def kinematic_selfcal_from_bags(
     if not paths:
         raise InputError("give at least one bag")
     check_distinct_inputs([str(p) for p in paths])
-    source = joint_source(nominal, joints, joint_topic)
+    if odom_topic is not None:
+        if tuple(joints):
+            raise InputError("give the joints or an odometry (`odom_topic`), not both")
+        if not kind_of(nominal).reads_odometry:
+            raise InputError(kind_of(nominal).odometry_refusal())
+        source = WheelSource.odometry(odom_topic)
+    else:
+        source = joint_source(nominal, joints, joint_topic)
     parts = []
     for p in paths:
         read = None if progress is None else (lambda d, t, p=p: progress(f"reading {p}", d, t))
         bag = read_selfcal_bag(
             p, wheels=source, scan_topic=scan_topic, scan_frame=scan_frame, progress=read, two_wheels=False
         )
+        if odom_topic is not None:
+            bag = odometry_joints(bag, nominal)
         step = None if progress is None else (lambda d, t, p=p: progress(f"matching {p}", d, t))
         parts.append(kinematic_bag_intervals(bag, nominal, options, progress=step))
     ivs = [p.intervals for p in parts]
     blocks = interval_blocks(parts)
     iv = JointIntervals.concatenate(ivs, source=", ".join(str(p) for p in paths))
     result = kinematic_selfcal(iv, nominal, fit=fit, blocks=blocks, reject_outliers=reject_outliers)
+    notes = unfitted_notes(iv, nominal, fit, blocks, reject_outliers)
+    if notes:
+        result = replace(result, warnings=[*result.warnings, *notes])
     return KinematicReport(result, tuple(parts))
+
+
+UNFITTED_REL = 0.005
+"""A parameter held at its nominal value that the data put this far from it (relative, and beyond
+its 95 % interval) is named (:func:`unfitted_notes`)."""
+
+
+def unfitted_notes(
+    iv: JointIntervals,
+    nominal: Kinematics,
+    fit: Sequence[str] | None,
+    blocks: Any = None,
+    reject_outliers: bool = True,
+) -> list[str]:
+    """The parameters held at their nominal values that the data say are not: each of the kind's
+    fits to check (:attr:`umbmark.kinds.FitOption.check`) not asked for is estimated as well, and
+    named when it comes out more than :data:`UNFITTED_REL` from its nominal value and beyond its
+    95 % interval (the estimates held it and rest on it)."""
+    kind = kind_of(nominal)
+    used = set(kind.default_fit() if fit is None else fit)
+    values = dict(zip(nominal.parameter_names, nominal.vector()))
+    out = []
+    for f in kind.fits:
+        if not f.check or f.parameter in used:
+            continue
+        wider = tuple(n for n in nominal.parameter_names if n in used or n == f.parameter)
+        try:
+            r = kinematic_selfcal(iv, nominal, fit=wider, blocks=blocks, reject_outliers=reject_outliers)
+        except InputError:
+            continue
+        est, ci, v0 = dict(zip(r.parameters, r.estimate))[f.parameter], r.ci95.get(f.parameter), values[f.parameter]
+        if ci is None or ci[0] <= v0 <= ci[1] or abs(est - v0) <= UNFITTED_REL * abs(v0):
+            continue
+        out.append(
+            f"held at {v0:g}, `{f.parameter}` comes out {est:.4g} (95 % interval {ci[0]:.4g} to {ci[1]:.4g}) when "
+            f"estimated: the estimates above rest on it; run again with `{f.option}`"
+        )
+    return out

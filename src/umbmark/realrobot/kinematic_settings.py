@@ -34,7 +34,8 @@ class KinematicSettings:
     nominal : Kinematics
         The nominal geometry (its kind: :attr:`kind`).
     joints : tuple of str
-        The joint names in the kind's roles' order (:attr:`umbmark.kinds.Kind.joints`).
+        The joint names in the kind's roles' order (:attr:`umbmark.kinds.Kind.joints`); none with
+        ``odom_topic``.
     joint_topic, scan_topic : str
         Where the joint states and the laser scans are.
     scan_frame : str, optional
@@ -48,11 +49,15 @@ class KinematicSettings:
         Set aside intervals far beyond the rest.
     skip_checks : frozenset of str
         The plausibility checks (:data:`umbmark._check.CHECKS`) that let the recordings through.
+    odom_topic : str, optional
+        Read the robot's own odometry (``nav_msgs/Odometry``) in place of joint states: a kind
+        that reads one (:attr:`umbmark.kinds.Kind.reads_odometry`).
 
     Raises
     ------
     InputError
-        Not one joint per role, a parameter the kind has not, an unknown check.
+        Not one joint per role (or joints and an odometry both), a kind that reads no odometry
+        given one, a parameter the kind has not, an unknown check.
     """
 
     nominal: Kinematics
@@ -64,11 +69,17 @@ class KinematicSettings:
     fit: tuple[str, ...] | None = None
     reject_outliers: bool = True
     skip_checks: frozenset[str] = frozenset()
+    odom_topic: str | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "joints", tuple(self.joints))
         object.__setattr__(self, "skip_checks", frozenset(self.skip_checks))
-        joint_source(self.nominal, self.joints, self.joint_topic)  # one name per role
+        if self.odom_topic is None:
+            joint_source(self.nominal, self.joints, self.joint_topic)  # one name per role
+        elif self.joints:
+            raise InputError("give the joints or an odometry (`odom_topic`), not both")
+        elif not kind_of(self.nominal).reads_odometry:
+            raise InputError(kind_of(self.nominal).odometry_refusal())
         names = self.nominal.parameter_names
         unknown = [n for n in self.fit or () if n not in names]
         if unknown:
@@ -121,4 +132,5 @@ def kinematic_recordings(
             fit=settings.fit,
             reject_outliers=settings.reject_outliers,
             progress=progress,
+            odom_topic=settings.odom_topic,
         )

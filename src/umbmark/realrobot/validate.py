@@ -2110,6 +2110,38 @@ def validate(
     )
 
 
+def _kind_log(
+    bag_path: str | Path,
+    cal: CheckedCalibration,
+    nominal: Kinematics,
+    joints: Sequence[str] | None,
+    joint_topic: str,
+    odom_topic: str | None,
+    scan_topic: str,
+) -> SelfcalBag:
+    """The log of a robot of a kind of its own: its joints, or (a kind that reads one) its odometry
+    turned into its joints with the nominal geometry."""
+    from umbmark.io.rosbag import read_selfcal_bag
+    from umbmark.realrobot.kinematic import joint_source, odometry_joints
+
+    own = cal.robot_kind
+    if odom_topic is not None:
+        if joints:
+            raise InputError("give the joints or an odometry (`odom_topic`), not both")
+        if not own.reads_odometry:
+            raise InputError(own.odometry_refusal(), cal.source)
+        bag = read_selfcal_bag(
+            bag_path, wheels=WheelSource.odometry(odom_topic), scan_topic=scan_topic, two_wheels=False
+        )
+        return odometry_joints(bag, nominal)
+    if not joints:
+        wanted = " and ".join(f"`{j.option}` ({', '.join(j.roles)})" for j in own.joints)
+        raise InputError(f"a {own.noun}'s calibration: give its joints, {wanted}", cal.source)
+    return read_selfcal_bag(
+        bag_path, wheels=joint_source(nominal, joints, joint_topic), scan_topic=scan_topic, two_wheels=False
+    )
+
+
 def validate_log(
     bag_path: str | Path,
     calibration_path: str | Path,
@@ -2131,6 +2163,7 @@ def validate_log(
     scan_topic: str = "/scan",
     joints: Sequence[str] | None = None,
     joint_topic: str = "/joint_states",
+    odom_topic: str | None = None,
 ) -> Validation:
     """Read a log, a calibration and a reference, and :func:`validate`.
 
@@ -2161,6 +2194,10 @@ def validate_log(
         left and rear right wheels: :attr:`umbmark.kinds.Kind.joints`).
     joint_topic : str
         Their ``sensor_msgs/JointState`` topic.
+    odom_topic : str, optional
+        In place of the joints of a kind that reads the robot's own odometry
+        (:attr:`umbmark.kinds.Kind.reads_odometry`: a car's ``nav_msgs/Odometry``), turned into its
+        joints with the calibration's nominal geometry.
 
     Returns
     -------
@@ -2192,13 +2229,7 @@ def validate_log(
 
     both = cal.kinematics
     if both is not None:
-        from umbmark.realrobot.kinematic import joint_source
-
-        if not joints:
-            wanted = " and ".join(f"`{j.option}` ({', '.join(j.roles)})" for j in cal.robot_kind.joints)
-            raise InputError(f"a {cal.robot_kind.noun}'s calibration: give its joints, {wanted}", cal.source)
-        source = joint_source(both[0], joints, joint_topic)
-        bag = read_selfcal_bag(bag_path, wheels=source, scan_topic=scan_topic, two_wheels=False)
+        bag = _kind_log(bag_path, cal, both[0], joints, joint_topic, odom_topic, scan_topic)
     elif wheels is None:
         raise InputError("a differential drive's calibration: give the log's wheel data (`wheels`)", cal.source)
     else:
