@@ -1132,10 +1132,12 @@ def export(
                 pulses_per_wheel_rev=pulses_per_wheel_rev, dataset=dataset, left_multiplier=left_multiplier,
                 right_multiplier=right_multiplier, separation_multiplier=separation_multiplier,
             )  # fmt: skip
+            rec = _record_selfcal(calibration, robot, record, db) if record else None
             export_kinematic(
-                kd, str(calibration), out_format, controller, sensor_z_mm, out, record,
+                kd, str(calibration), out_format, controller, sensor_z_mm, out,
                 (steering_offset_in_use_deg, steering_reduction_in_use), diff_drive_flags, edited,
             )  # fmt: skip
+            _say_recorded(rec, out)
             return
     refuse_edited_files(edited, out_format)
     controller = "diff_drive_controller" if controller is None else controller
@@ -1169,6 +1171,11 @@ def export(
     notes += cov_notes
     rec = _record_selfcal(calibration, robot, record, db) if record else None
     emit_export(text, out, notes + export_warnings(cal, left_multiplier, right_multiplier, separation_multiplier))
+    _say_recorded(rec, out)
+
+
+def _say_recorded(rec, out) -> None:
+    """The line of ``export --record`` (on stderr when the export went to stdout)."""
     if rec is not None and out:
         print_recorded(rec)
     elif rec is not None and not is_quiet():  # the export went to stdout: the note to stderr

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from types import MappingProxyType
+from typing import Any
 
 from umbmark.errors import InputError
 from umbmark.kinds import ackermann, bicycle, diff_drive, mecanum, tricycle
@@ -56,6 +57,7 @@ __all__ = [
     "Ackermann",
     "kind_named",
     "kind_of",
+    "kind_in",
     "kinds_with",
     "quantity_named",
     "joint_flags_for",
@@ -97,6 +99,14 @@ def kind_of(geometry: Kinematics) -> Kind:
         A geometry of no known kind.
     """
     return kind_named(getattr(geometry, "kind", None))  # type: ignore[arg-type]
+
+
+def kind_in(d: Any) -> Kind | None:
+    """The kind a result's JSON names (its ``kinematics``) when it is a kind of its own (not calibrated
+    by the differential drive's pipeline), else None (a differential drive's result, or no result)."""
+    name = d.get("kinematics") if isinstance(d, Mapping) else None
+    k = KINDS.get(name) if isinstance(name, str) else None
+    return None if k is None or k.differential else k
 
 
 def kinds_with(option: str) -> tuple[Kind, ...]:

@@ -575,6 +575,25 @@ class Kind:
         except InputError as err:
             raise InputError(f"not a {self.noun}'s geometry: {err.message}", source) from None
 
+    def estimates_json(self, d: Mapping[str, Any]) -> list[tuple[Parameter, float, Interval | None]]:
+        """Each parameter's value and 95 % interval in a result's JSON, in the JSON's units (the
+        interval None where it was not estimated); a parameter the JSON lacks is left out."""
+        out = []
+        for p in self.parameters:
+            v = _get(d, p.key)
+            if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v):
+                out.append((p, float(v), _interval(_get(d, p.ci_key))))
+        return out
+
+    def describe_json(self, d: Mapping[str, Any], estimated: bool = True) -> str:
+        """A result's geometry in words: ``wheel diameter 252.483 mm, wheelbase 789.966 mm, ...``
+        (``estimated``: only the parameters estimated, those with an interval)."""
+        return ", ".join(
+            f"{p.label} {v:.{p.digits}f}{' ' + p.unit if p.unit else ''}"
+            for p, v, ci in self.estimates_json(d)
+            if ci is not None or not estimated
+        )
+
     def truth(self, g: Kinematics) -> dict[str, float]:
         """The values a self-calibration estimates by default, under their JSON keys as one string
         (:attr:`Parameter.path`) in the JSON's units."""

@@ -39,8 +39,9 @@ Imports numpy, :mod:`umbmark.model`, :mod:`umbmark.io`, :mod:`umbmark.correct.se
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -48,7 +49,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from umbmark._files import check_distinct_inputs
-from umbmark.correct.selfcal.kinematic import KinematicSelfcalResult, kinematic_selfcal
+from umbmark.correct.selfcal.kinematic import KinematicSelfcalResult, kinematic_residuals, kinematic_selfcal
 from umbmark.errors import InputError
 from umbmark.io.rosbag import SelfcalBag, read_selfcal_bag
 from umbmark.io.wheels import WheelSource
@@ -75,6 +76,7 @@ from umbmark.realrobot.selfcal import (
     interval_blocks,
     match_pairs,
     nominal_sensor_pose_of,
+    selfcal_history_fields,
     usable_scans,
 )
 
@@ -85,6 +87,7 @@ __all__ = [
     "kinematic_bag_intervals",
     "kinematic_selfcal_from_bags",
     "joint_source",
+    "scan_odometry",
     "odometry_joints",
     "unfitted_notes",
     "UNFITTED_REL",
@@ -176,6 +179,30 @@ def _wheel_odometry(bag: Any, nominal: Kinematics) -> FloatArray:
         else:
             vals[:, j] = pos[1:, j] if _held(bag) else 0.5 * (pos[1:, j] + pos[:-1, j])
     return integrate_steps(twist_displacement(nominal.twist(vals)))
+
+
+def scan_odometry(bag: SelfcalBag, geometries: Sequence[Kinematics], scan_delay_s: float = 0.0) -> list[FloatArray]:
+    """The odometry of each geometry at every scan of a bag of joint states: the joints on the grid
+    of the joint and scan stamps (step 1 of the module docstring), integrated from the first.
+
+    Parameters
+    ----------
+    bag : SelfcalBag
+        With joint states in the kind's roles' order.
+    geometries : sequence of Kinematics
+        Of one kind (the first gives the joints' roles).
+    scan_delay_s : float
+        How late the scans are stamped [s]: the joints are read at ``stamp - scan_delay_s``.
+
+    Returns
+    -------
+    list of numpy.ndarray
+        Per geometry ``(M, 3)`` poses at the ``M`` scans (a scan beyond the joint data: the pose
+        at its end).
+    """
+    st = np.asarray(bag.scan_t_s, dtype=float) - float(scan_delay_s)
+    grid = _grid(bag, geometries[0], st, np.ones(len(st), dtype=bool))
+    return [integrate_steps(twist_displacement(g.twist(grid.steps_values)))[grid.scan_index] for g in geometries]
 
 
 def odometry_joints(bag: SelfcalBag, nominal: Kinematics) -> SelfcalBag:
@@ -594,16 +621,48 @@ class KinematicReport:
     ----------
     result : KinematicSelfcalResult
     parts : tuple of JointScanIntervals
+    draw : bool
+        Its JSON holds the data of the report's figures (:attr:`figures`); a window of a longer
+        recording's has none.
+    intervals : JointIntervals, optional
+        The pooled intervals the estimate was made from (default: the parts', pooled).
     """
 
     result: KinematicSelfcalResult
     parts: tuple[JointScanIntervals, ...]
+    draw: bool = True
+    intervals: JointIntervals | None = None
+
+    @cached_property
+    def figures(self) -> dict[str, Any]:
+        """The data of the report's figures (as a differential drive's,
+        :func:`umbmark.realrobot.selfcal_map.selfcal_figures`): each interval's residual over time,
+        and a map per bag: its keyframes placed by the joints' odometry with the nominal geometry
+        and lidar pose, and with the calibrated ones."""
+        from umbmark.realrobot.selfcal_map import encode_map, encode_residuals, map_keys
+
+        r = self.result
+        iv = self.intervals or JointIntervals.concatenate([p.intervals for p in self.parts])
+        times, maps = [], []
+        for p in self.parts:
+            scan_t = np.asarray(p.bag.scan_t_s, dtype=float)
+            times.append(np.asarray(p.start_s, dtype=float) - scan_t[0])
+            keys = map_keys(p.pairs)
+            nominal, calibrated = scan_odometry(p.bag, (r.nominal, r.kinematics), p.scan_delay_s)
+            bases = tuple(se2.compose(se2.inverse(b[keys[0]]), b[keys]) for b in (nominal, calibrated))
+            x, y, _, _, _, yaw = p.nominal_sensor_pose
+            maps.append(encode_map(p.bag, keys, (bases[0], bases[1]), ((x, y, yaw), r.sensor_pose)))
+        which = np.repeat(np.arange(len(self.parts)), [len(p.intervals) for p in self.parts])
+        t = np.concatenate(times) if times else np.zeros(0)
+        return {"residuals": encode_residuals(kinematic_residuals(iv, r), r.intervals_rejected, t, which), "maps": maps}
 
     def to_dict(self) -> dict[str, Any]:
         """The result's JSON (:meth:`KinematicSelfcalResult.to_dict`) with ``joints`` (each role's
         joint name, as the bags' joint states name them: the controller's parameters of an export
         name them; null when read from an odometry), ``inputs`` (each bag's
-        :meth:`JointScanIntervals.to_dict`), ``keyframes`` and ``scan_delay`` (per bag, ``applied_s``)."""
+        :meth:`JointScanIntervals.to_dict`), ``keyframes``, ``scan_delay`` (per bag,
+        ``applied_s``) and ``figures`` (:attr:`figures`, what ``umbmark report`` draws; not of a
+        window)."""
         out = self.result.to_dict()
         first = self.parts[0].bag if self.parts else None
         roles = self.result.nominal.joint_roles
@@ -612,7 +671,15 @@ class KinematicReport:
         out["inputs"] = [p.to_dict() for p in self.parts]
         out["keyframes"] = self.parts[0].keyframe_rule.to_dict() if self.parts else None
         out["scan_delay"] = [p.to_dict()["scan_delay"] for p in self.parts]
+        if self.draw:
+            out["figures"] = self.figures
         return out
+
+    def history_fields(self, kind: str = "selfcal", file_hash: Callable[[str], str] | None = None) -> dict[str, Any]:
+        """The keyword arguments of :func:`umbmark.history.record_result` for this result, as a
+        differential drive's (:meth:`umbmark.realrobot.selfcal.SelfcalReport.history_fields`): its
+        ``parameters`` the kind's own (:func:`umbmark.realrobot.selfcal.selfcal_history_fields`)."""
+        return selfcal_history_fields(self.to_dict(), kind, file_hash)
 
 
 def kinematic_selfcal_from_bags(
