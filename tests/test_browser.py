@@ -43,8 +43,8 @@ def _keep(result: dict) -> None:
 
 @pytest.fixture(scope="module")
 def reports(tmp_path_factory):
-    """An analysis report, the pages of a self-calibration, a calibration loop and a gyro
-    result, and a history page."""
+    """An analysis report, the pages of a self-calibration (a differential drive's and a mecanum
+    robot's), a calibration loop and a gyro result, and a history page."""
     pytest.importorskip("rosbags")
     from umbmark.cli import main
     from umbmark.correct.analysis import analyze
@@ -91,12 +91,21 @@ def reports(tmp_path_factory):
     gyro = ["replay", str(gbag), "--imu-topic", "/imu", *geo, "--save", str(tmp / "gyro.json")]
     assert main(["-q", *gyro]) == 0
     assert main(["-q", "report", str(tmp / "gyro.json"), "--out", str(tmp / "gyro.html")]) == 0
+    # another kind of robot's self-calibration (a mecanum robot's)
+    from kinematic_bags import write_short_drive
+
+    (tmp / "mecanum").mkdir()
+    drive = write_short_drive(tmp / "mecanum", "mecanum")
+    kind = ["selfcal", str(drive["bag"]), "--kinematics", "mecanum", *drive["joints"], *drive["sizes"]]
+    assert main(["-q", *kind, "--save", str(tmp / "kind.json")]) == 0
+    assert main(["-q", "report", str(tmp / "kind.json"), "--out", str(tmp / "kind_selfcal.html")]) == 0
     return tmp
 
 
 @needs_browser
 @pytest.mark.parametrize(
-    "name, images", [("analysis", 1), ("selfcal", 3), ("calibrate", 1), ("gyro", 1), ("history", 1)]
+    "name, images",
+    [("analysis", 1), ("selfcal", 3), ("calibrate", 1), ("gyro", 1), ("history", 1), ("kind_selfcal", 3)],
 )
 def test_reports_render(reports, tmp_path, name, images):
     page = reports / f"{name}.html"

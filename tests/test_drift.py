@@ -262,11 +262,11 @@ def test_windows_of_a_long_recording_are_calibrated_and_recorded_each(tmp_path):
     assert [r.time.strftime("%H:%M") for r in recs] == ["08:00", "08:02", "08:04", "08:06"]
     assert [w["history"]["record_id"] for w in wins] == [r.id for r in recs]
     assert recs[0].note.startswith("window 1 (0-120 s) of")
-    # windows no shorter than 10 s, a duration as written, a differential drive's
+    # windows no shorter than 10 s, a duration as written; another kind's windows are of its bags
     for window, message in [("5s", "10 s to a week"), ("ten", "no duration"), ("1e9", "no duration")]:
         code, _, err = run(*base, "--window", window)
         assert code == 2 and message in err, err
     code, _, err = run(
         *base, "--window", "1min", "--kinematics", "mecanum", "--joints", "a,b,c,d", "--lx-plus-ly-mm", "400"
     )
-    assert code == 2 and "--window is for a differential drive" in err
+    assert code == 2 and "reads ROS bags" in err

@@ -50,6 +50,7 @@ def test_the_json_has_the_pinned_keys_each_estimate_with_its_interval(case):
     for key in PINNED[drawn.kind]:
         assert key in d
     assert d["kinematics"] == drawn.kind
+    assert d["joints"] == dict(zip(drawn.robot.nominal.joint_roles, JOINTS[drawn.kind]))  # what an export names
     for k in ("x_mm", "y_mm", "yaw_deg"):
         assert len(d["sensor_pose"][f"{k}_ci95"]) == 2
     if drawn.kind == "mecanum":
@@ -164,10 +165,20 @@ def test_the_scale_of_the_steering_is_estimated_on_request(case):
     assert math.isfinite(d["wheelbase_mm"])
 
 
-# the parameters of the controllers as ros2_controllers defines them: name -> (type, must be positive)
+# the parameters the controllers require as ros2_controllers defines them: name -> (type, must be
+# positive, or the joint it names in the simulated bag)
 SCHEMA = {
-    "tricycle": {"wheelbase": (float, True), "wheel_radius": (float, True)},
+    "tricycle": {
+        "traction_joint_name": (str, JOINTS["tricycle"][0]),
+        "steering_joint_name": (str, JOINTS["tricycle"][1]),
+        "wheelbase": (float, True),
+        "wheel_radius": (float, True),
+    },
     "mecanum": {
+        **{
+            f"{r}_wheel_command_joint_name": (str, n)
+            for r, n in zip(("front_left", "front_right", "rear_left", "rear_right"), JOINTS["mecanum"])
+        },
         "kinematics.wheels_radius": (float, True),
         "kinematics.sum_of_robot_center_projection_on_X_Y_axis": (float, False),
     },
@@ -195,14 +206,17 @@ def test_the_ros2_export_is_the_controllers_parameter_file(case, tmp_path):
     run(["export", str(cal), "--format", "ros2", "--out", str(out)])
     doc = yaml.safe_load(out.read_text())
     params = _flat(doc[CONTROLLER[drawn.kind]]["ros__parameters"])
-    assert set(params) == set(SCHEMA[drawn.kind])
-    for key, (kind, pos) in SCHEMA[drawn.kind].items():
-        assert isinstance(params[key], kind) and (params[key] > 0 or not pos)
+    assert set(params) == set(SCHEMA[drawn.kind])  # every parameter the controller requires: loadable alone
+    for key, (kind, want) in SCHEMA[drawn.kind].items():
+        assert isinstance(params[key], kind)
+        assert params[key] == want if kind is str else (params[key] > 0 or not want)
     truth = truth_of(drawn)
     text = out.read_text()
+    assert f"a complete {CONTROLLER[drawn.kind]} block, loadable alone" in text and "STEERING_JOINT" not in text
     if drawn.kind == "tricycle":
         assert params["wheel_radius"] == pytest.approx(0.5e-3 * truth["wheel_diameter_mm"], rel=0.003)
         assert params["wheelbase"] == pytest.approx(1e-3 * truth["wheelbase_mm"], rel=0.003)
+        assert f'<joint name="{JOINTS["tricycle"][1]}" role="joint1">' in text  # the transmission names its joint
         offset = float(text.split("<offset>")[1].split("<")[0])
         assert math.degrees(offset) == pytest.approx(truth["steering_offset_deg"], abs=0.1)
     else:

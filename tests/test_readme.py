@@ -266,7 +266,8 @@ def _write_gyro_bag(path, seed):
 
 # The tricycle and mecanum robots of docs/tricycle.md and docs/mecanum.md (tests/kinematic_bags.py): a
 # 2.5-minute drive of every move the kind makes, a 360-beam lidar with 5 mm noise, joint-speed jitter and
-# slip, a /tf_static with the drawing's lidar pose, and the true pose of the robot on /ground_truth.
+# slip, a /tf_static with the drawing's lidar pose, and the true pose of the robot on /ground_truth (and
+# as a TUM trajectory, KIND_truth.tum).
 KINEMATIC_BAGS = ("tricycle_bag", "mecanum_bag")
 # The cars of docs/cars.md and docs/f1tenth.md (umbmark.studies.cars): 45 s of straights, figure-eights and
 # reversing arcs with joint states, the car's /odom as vesc_to_odom integrates it and the true pose; and
@@ -280,12 +281,13 @@ def write_example_bags(folder, text):
         if name in text:
             from kinematic_bags import write_example_bag
 
-            write_example_bag(folder / name, name.removesuffix("_bag"))
+            kind = name.removesuffix("_bag")  # and the base's true trajectory, for validate
+            write_example_bag(folder / name, kind, tum=folder / f"{kind}_truth.tum")
     for name, car in CAR_BAGS.items():
         if name in text:
             from umbmark.studies.cars import car_bag
 
-            car_bag(car, folder / name)
+            car_bag(car, folder / name, tum=folder / f"{car}_truth.tum")
     if "vesc.yaml" in text:
         from umbmark.studies.cars import VESC_YAML
 

@@ -4,7 +4,8 @@ and none warns of a cause that is not there.
 * ``data/slam2d/`` (the Freiburg SLAM benchmark's ACES and MIT CSAIL logs: laser scans and the
   robots' ``/odom``): the whole self-calibration (the wheel data's stamps, repeats, bursts, late
   messages, spikes and resets; the scans' units; the wheels against the lidar; the sensor pose;
-  the fit's plausibility). Each warning it gives is checked against the log itself.
+  the fit's plausibility). Each warning it gives is checked against the log itself. The wheels
+  as recorded are never taken for exchanged ones (the check of the joints' readings).
 * ``data/optiodom/`` (32 data sets of a real differential drive with a motion capture): the
   wheel stream's checks on every run's encoder counts, and the replay with its checks (the
   wheels' turns against the ground truth's, the time offset, the marker's offset, the fit).
@@ -88,6 +89,36 @@ def test_every_warning_on_the_real_logs_has_its_cause_in_the_log(slam2d):
     for w in d["warnings"]:
         assert _cause_is_there(w, bag, delay), w
     assert 180 < d["wheel_diameter_left_mm"] < 220 and 350 < d["wheelbase_mm"] < 420
+
+
+@pytest.mark.parametrize("name", ["aces", "mit-csail"])
+def test_the_wheels_as_recorded_are_never_taken_for_exchanged(name):
+    """The readings' check (:func:`umbmark.realrobot.motion_check.check_readings`, which a bag of
+    wheel joints gets) on the real logs' wheels, made from their odometry: as recorded they pass,
+    and they are closer to the lidar's motion than the wheels exchanged."""
+    from umbmark.io.rosbag import read_selfcal_bag
+    from umbmark.io.wheels import WheelSource
+    from umbmark.model import se2
+    from umbmark.model.drive import integrate_wheels
+    from umbmark.model.geometry import WheelGeometry
+    from umbmark.realrobot.motion_check import check_readings, disagreement, lidar_motion
+    from umbmark.realrobot.wheels import recording_wheel_angles
+
+    bag = read_selfcal_bag(SLAM2D / f"{name}.bag", wheels=WheelSource(odom_topic="/odom"))
+    left, right = recording_wheel_angles(bag, WheelGeometry(0.2, 0.2, 0.4))
+    wt, st = np.asarray(bag.wheel_t_s), np.asarray(bag.scan_t_s)
+
+    def odometry(a, b):
+        return integrate_wheels(0.1 * np.diff(np.interp(st, wt, a)), 0.1 * np.diff(np.interp(st, wt, b)), 0.4)
+
+    motion = lidar_motion(bag, (st > wt[0]) & (st < wt[-1]), (0.0, 0.0, 0.0))
+    assert motion is not None
+    check_readings(
+        motion, odometry(left, right), [(("exchanged", "give them the other way"), odometry(right, left))], bag.source
+    )  # no refusal
+    steps = [se2.between(o[:-1], o[1:])[motion.index] for o in (odometry(left, right), odometry(right, left))]
+    as_recorded, exchanged = (disagreement(s, motion.seen) for s in steps)
+    assert as_recorded[1] < 0.5 and exchanged[1] == 1.0  # exchanged, the wheels turn against the lidar
 
 
 @pytest.mark.parametrize("folder", OPTIODOM, ids=lambda f: "/".join(Path(f).parts[-2:]))

@@ -32,6 +32,7 @@ CHECKS: dict[str, str] = {
     "stamp_order": "a stream's stamps go back for longer than a late message (a clock that jumped back)",
     "wheel_units": "the wheels' travel or turn against the lidar's at another scale (another unit)",
     "turn_direction": "the lidar turning against the wheels (a lidar upside down, wheels exchanged)",
+    "joint_order": "the joints moving the robot as the lidar sees it only in another order or role",
     "degree_turns": "the wheels turning 57.3 times as far as the ground truth (angles in degrees)",
     "running_counters": "counts per message that move as a running counter does",
     "scan_units": "lidar ranges in millimetres or centimetres",

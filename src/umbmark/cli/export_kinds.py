@@ -78,7 +78,7 @@ def _edited_path(kind: Kind, out_format: str, files: dict, src: str) -> str | No
     return str(files[spec.option])
 
 
-def export_kinematic(d, src, out_format, controller, sensor_z_mm, out, record, steering, given, files) -> None:
+def export_kinematic(d, src, out_format, controller, sensor_z_mm, out, steering, given, files) -> None:
     """``umbmark export`` of the self-calibration of a robot of a kind of its own (:mod:`umbmark.kinds`)."""
     from dataclasses import replace
 
@@ -92,8 +92,6 @@ def export_kinematic(d, src, out_format, controller, sensor_z_mm, out, record, s
     for name, v in given.items():
         if v is not None and not (name.endswith("_multiplier") and v == 1.0):
             raise InputError(f"--{name.replace('_', '-')} is a differential drive's: not for a {d['kinematics']}", src)
-    if record:
-        raise InputError(f"--record keeps differential drives' calibrations, not a {d['kinematics']}'s", src)
     cal = kinematic_calibration_from_dict(d, src)
     if sensor_z_mm is not None:
         if not math.isfinite(sensor_z_mm):

@@ -372,11 +372,14 @@ def _print_records(robot: str, recs, plot_path, exported) -> None:
         ["id", "time (UTC)", "kind/method", "E_max,syst [mm]", "E_d", "E_b", "wheelbase [mm]", "c_left", "c_right"]
     ):
         t.add_column(escape(col), justify="left" if i < 3 else "right", no_wrap=i < 3)
+    from umbmark.kinds import kind_in
+
     for r in recs:
+        own = kind_in(r.parameters)  # another kind of robot's record: named
         t.add_row(
             f"#{r.id}",
             r.created_utc[:16].replace("T", " "),
-            escape(f"{r.kind}/{r.method}"),
+            escape(f"{r.kind}/{r.method}" + ("" if own is None else f" ({own.noun})")),
             fmt(r.emax_syst_mm),
             fmt(r.ed, 6),
             fmt(r.eb, 6),

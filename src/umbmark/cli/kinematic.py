@@ -26,6 +26,7 @@ __all__ = [
     "kinematic_selfcal_cmd",
     "kinematic_replay_cmd",
     "kinematic_options",
+    "joint_options",
     "kind_options",
     "refuse_kind_options",
     "joints_help",
@@ -105,6 +106,17 @@ def kinematic_options(f):
     return f
 
 
+def joint_options(f):
+    """The options naming the joints of the kinds that the differential drive's ``--joints`` does not
+    (``--drive-joint``, ``--steer-joint``), for a command that takes the kind from its input
+    (``umbmark validate``: the calibration's)."""
+    joints = {j.option for k in KINDS.values() for j in k.joints}
+    for name, kinds in reversed(list(kind_options().items())):
+        if name in joints:
+            f = _option(name, kinds)(f)
+    return f
+
+
 def joints_help(text: str) -> str:
     """``--joints``'s help: ``text`` and the order each other kind that names its joints with it wants."""
     other = [
@@ -169,57 +181,73 @@ _COMMON = (
 )
 
 # flags of the differential drive's calibration the other kinds have no use for
+# (and why: the kind's noun fills in)
 _REFUSED = {
-    "ticks_topic": "--ticks-topic",
-    "intervals_out": "--intervals-out",
+    "ticks_topic": "--ticks-topic reads two wheels' encoder counts: a {noun} is read from its joint states",
+    "intervals_out": "--intervals-out writes two wheels' rotations (an intervals file's columns): a {noun}'s "
+    "intervals hold its own joints; keep its result with --save",
 }
 
 
-def kinematic_selfcal_cmd(kind: str, paths, min_intervals: int, keep_outliers: bool, save, as_json, record, kw) -> None:
-    """Run the self-calibration of a robot of a kind of its own for ``umbmark selfcal``."""
+def kinematic_selfcal_cmd(
+    kind: str, paths, min_intervals: int, keep_outliers: bool, save, as_json, history, window_s, kw
+) -> None:
+    """Run the self-calibration of a robot of a kind of its own for ``umbmark selfcal``: ``history``
+    is ``--robot``, ``--record``, ``--db``; ``window_s`` the ``--window`` in seconds (or None)."""
     from umbmark.cli.bags import Bars, interval_options, kind_of, start_kernels
+    from umbmark.cli.history import print_recorded, record_if_requested, refuse_if_recorded
     from umbmark.cli.options import kinematic_joints, kinematic_nominal
-    from umbmark.realrobot.kinematic import kinematic_selfcal_from_bags
+    from umbmark.realrobot.kinematic_settings import KinematicSettings, kinematic_recordings
 
-    for key, refused in _REFUSED.items():
+    robot, record, db = history
+    for key, why in _REFUSED.items():
         if kw.get(key):
-            raise InputError(f"{refused} is not for --kinematics {kind}")
+            raise InputError(why.format(noun=kind_named(kind).noun))
     odom = kw.get("odom_topic") or None
     if odom and not kind_named(kind).reads_odometry:
         raise InputError(kind_named(kind).odometry_refusal())
-    if record:
-        raise InputError(f"--record keeps differential drives' calibrations; save a {kind}'s with --save")
     if kind_of(paths) != "bags":
         raise InputError(f"--kinematics {kind} reads ROS bags (joint states and laser scans), not intervals files")
-    nominal = kinematic_nominal(kind, kw)
-    joints = kinematic_joints(kind, kw)
-    fit = _fit(kind_named(kind), kw)
-    options = interval_options(kw, min_intervals)
+    settings = KinematicSettings(
+        kinematic_nominal(kind, kw),
+        kinematic_joints(kind, kw),
+        joint_topic=kw["joint_topic"],
+        scan_topic=kw["scan_topic"],
+        scan_frame=kw["scan_frame"],
+        intervals=interval_options(kw, min_intervals),
+        fit=_fit(kind_named(kind), kw),
+        reject_outliers=not keep_outliers,
+        odom_topic=odom,
+    )  # the command's own --skip-check: applied around it
+    refuse_if_recorded(robot, record, db, kind="selfcal", method="selfcal", paths=paths)  # windows too: they cover it
     start_kernels()
     with Bars(enabled=not as_json) as bars:
-        rep = kinematic_selfcal_from_bags(
-            list(paths),
-            nominal,
-            joints,
-            joint_topic=kw["joint_topic"],
-            scan_topic=kw["scan_topic"],
-            scan_frame=kw["scan_frame"],
-            options=options,
-            fit=fit,
-            reject_outliers=not keep_outliers,
-            progress=bars,
-            odom_topic=odom,
-        )
+        rep = kinematic_recordings(list(paths), settings, progress=bars)
     d = rep.to_dict()
+    rec: dict | list | None = None
+    if window_s is not None:
+        from umbmark.cli.selfcal_windows import selfcal_windows_cmd
+
+        d["windows"], rec = selfcal_windows_cmd(rep, window_s, {"reject_outliers": not keep_outliers}, *history)
     if save:
         from umbmark.io.atomic import write_json
 
         write_json(save, d)
+    if record and window_s is None:
+        from umbmark.history import file_sha256
+
+        rec = record_if_requested(robot, record, db, **rep.history_fields(kind="selfcal", file_hash=file_sha256))
     if as_json:
-        emit_json(d)
+        emit_json(d if rec is None else {**d, "history": rec})
         return
-    if not is_quiet():
-        _print(d, save)
+    if is_quiet():
+        return
+    _print(d, save)
+    if window_s is not None:
+        from umbmark.cli.selfcal_windows import print_windows
+
+        print_windows(d["windows"])
+    print_recorded(rec)
 
 
 def _ci(lo_hi, digits: int) -> str:
@@ -312,7 +340,10 @@ def kinematic_replay_cmd(kind: str, paths, method: str, save, as_json, record, k
     if method != "lsq":
         raise InputError(f"--kinematics {kind} fits along the path: --method lsq (bf and exact are UMBmark squares)")
     if record:
-        raise InputError(f"--record keeps differential drives' calibrations; save a {kind}'s with --save")
+        raise InputError(
+            f"--record keeps self-calibrations and a differential drive's replays: save a {kind}'s replay against a "
+            "ground truth with --save (its self-calibration records with umbmark selfcal --record)"
+        )
     if len(paths) != 1:
         raise InputError(f"--kinematics {kind} replays one bag at a time, got {len(paths)}")
     ctx = click.get_current_context(silent=True)

@@ -851,13 +851,31 @@ def bag_info_cmd(bag, as_json):
     if as_json:
         emit_json(info.to_dict())
     elif not is_quiet():
-        console().print(
+        c = console()
+        c.print(
             table(
                 f"{bag}: {info.messages} messages, {info.duration_s:.1f} s",
                 ["topic", "type", "messages", "rate [Hz]", "joints / frames"],
                 [[t.topic, t.type, t.messages, fmt(t.rate_hz, 1), t.describe()] for t in info.topics],
             )
         )
+        for t in info.topics:
+            if t.joint_names:
+                _print_joint_flags(c, t.topic, t.joint_names)
+
+
+def _print_joint_flags(c, topic: str, names) -> None:
+    """The joints of a JointState topic in the order each kind's flags want them (by their names)."""
+    from rich.markup import escape
+
+    from umbmark.kinds import joint_flags_for
+
+    c.print(escape(f"The joints of {topic} as each kind's flags take them, in the order they want:"))
+    for k, flags, found in joint_flags_for(names):
+        kind = "" if k.differential else f"--kinematics {k.name} "
+        how = "found by their names (check them)" if found else "the names do not tell which is which"
+        c.print(escape(f"  {k.noun}: {kind}{cli_message(flags)}; {how}"), soft_wrap=True)
+    c.print("selfcal sets the joints' motion against the lidar's and names another order that fits far better.")
 
 
 @app.command()
@@ -1114,10 +1132,12 @@ def export(
                 pulses_per_wheel_rev=pulses_per_wheel_rev, dataset=dataset, left_multiplier=left_multiplier,
                 right_multiplier=right_multiplier, separation_multiplier=separation_multiplier,
             )  # fmt: skip
+            rec = _record_selfcal(calibration, robot, record, db) if record else None
             export_kinematic(
-                kd, str(calibration), out_format, controller, sensor_z_mm, out, record,
+                kd, str(calibration), out_format, controller, sensor_z_mm, out,
                 (steering_offset_in_use_deg, steering_reduction_in_use), diff_drive_flags, edited,
             )  # fmt: skip
+            _say_recorded(rec, out)
             return
     refuse_edited_files(edited, out_format)
     controller = "diff_drive_controller" if controller is None else controller
@@ -1151,6 +1171,11 @@ def export(
     notes += cov_notes
     rec = _record_selfcal(calibration, robot, record, db) if record else None
     emit_export(text, out, notes + export_warnings(cal, left_multiplier, right_multiplier, separation_multiplier))
+    _say_recorded(rec, out)
+
+
+def _say_recorded(rec, out) -> None:
+    """The line of ``export --record`` (on stderr when the export went to stdout)."""
     if rec is not None and out:
         print_recorded(rec)
     elif rec is not None and not is_quiet():  # the export went to stdout: the note to stderr

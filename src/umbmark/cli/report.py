@@ -146,15 +146,19 @@ def _result_input(runs_file, record_id, db) -> dict | None:
     analysis, a replay: the runs readers take those)."""
     import json
 
+    from umbmark.viz.kind_report import is_kind_selfcal_result
     from umbmark.viz.result_pages import is_calibrate_result, is_gyro_result
     from umbmark.viz.selfcal_report import is_selfcal_result
+
+    def is_selfcal(d) -> bool:  # a self-calibration of any kind of robot
+        return is_selfcal_result(d) or is_kind_selfcal_result(d)
 
     if record_id is not None:
         from umbmark.history import open_history
 
         with open_history(db, create=False) as h:
             rec = h.get(record_id)
-        if rec.method == "selfcal" and is_selfcal_result(rec.results):
+        if rec.method == "selfcal" and is_selfcal(rec.results):
             kind = "selfcal"
         elif rec.kind == "calibrate" and is_calibrate_result(rec.results):
             kind = "calibrate"
@@ -171,7 +175,7 @@ def _result_input(runs_file, record_id, db) -> dict | None:
         d = json.loads(Path(runs_file).read_text(encoding="utf-8"))
     except (OSError, ValueError, RecursionError):  # not UTF-8, not JSON, a number of thousands of digits
         return None  # the replay reader says what is wrong with it
-    kinds = (("selfcal", is_selfcal_result), ("calibrate", is_calibrate_result), ("gyro", is_gyro_result))
+    kinds = (("selfcal", is_selfcal), ("calibrate", is_calibrate_result), ("gyro", is_gyro_result))
     found = next((k for k, is_kind in kinds if is_kind(d)), None)
     if found is None:
         return None
@@ -205,30 +209,37 @@ def _other_page(r: dict, out_path, robot) -> dict:
 
 
 def _selfcal_page(sc: dict, out_path, attach, robot) -> dict:
-    """Write the HTML page of a self-calibration; the JSON summary."""
+    """Write the HTML page of a self-calibration (of any kind of robot); the JSON summary: a
+    differential drive's diameters and wheelbase, or another kind's ``kinematics`` and geometry."""
     from umbmark.io.atomic import atomic_write
+    from umbmark.kinds import kind_in
+    from umbmark.viz.kind_report import kind_selfcal_page
     from umbmark.viz.selfcal_report import selfcal_page
 
     robot = robot or sc["robot"]
+    d = sc["d"]
+    own = kind_in(d)
     what = sc["label"] or (Path(sc["source"]).name if sc["source"] else "self-calibration")
-    page = selfcal_page(
-        sc["d"],
+    page = (selfcal_page if own is None else kind_selfcal_page)(
+        d,
         title=f"Self-calibration report: {robot + ', ' if robot else ''}{what}",
         source=sc["source"],
         source_sha256=sc["sha"],
         robot=robot,
         exported=_attached(attach) or None,
-        load_commands=_load_commands(sc["source"]),
+        load_commands=_load_commands(sc["source"], controller=None if own is None else own.controller),
     )
     atomic_write(out_path, page)
-    d = sc["d"]
     figures = d.get("figures") if isinstance(d.get("figures"), dict) else {}
+    if own is None:
+        keys = ("wheel_diameter_left_mm", "wheel_diameter_right_mm", "wheelbase_mm")
+        geometry = {k: d.get(k) for k in keys}
+    else:
+        geometry = {"kinematics": own.name, **{k: d.get(k) for k in dict.fromkeys(p.key[0] for p in own.parameters)}}
     return {
         "out": out_path,
         "kind": "selfcal",
-        "wheel_diameter_left_mm": d.get("wheel_diameter_left_mm"),
-        "wheel_diameter_right_mm": d.get("wheel_diameter_right_mm"),
-        "wheelbase_mm": d.get("wheelbase_mm"),
+        **geometry,
         "sensor_pose": d.get("sensor_pose"),
         "maps": len(figures.get("maps") or []),
     }
@@ -255,11 +266,14 @@ _EXPORT_COMMANDS = {
 }
 
 
-def _load_commands(source: str | None, kind: str = "selfcal") -> str:
-    """The commands that export a result of ``kind`` for the robot, naming its file."""
+def _load_commands(source: str | None, kind: str = "selfcal", controller: str | None = None) -> str:
+    """The commands that export a result of ``kind`` for the robot, naming its file (``controller``:
+    the controller of a robot of a kind of its own, which its ros2 export writes)."""
     import shlex
 
     default, made_by, commands = _EXPORT_COMMANDS[kind]
+    if controller is not None:
+        commands = tuple((c, controller if why == "diff_drive_controller" else why) for c, why in commands)
     name = shlex.quote(source) if source else default
     width = max(len(c) for c, _ in commands)
     text = "\n".join(f"umbmark export {name} {c.ljust(width)}   # {why}" for c, why in commands)

@@ -310,18 +310,21 @@ def selfcal_cmd(
     if not kind_named(kinematics).differential:
         from umbmark.cli.kinematic import kinematic_selfcal_cmd
 
-        if window_s is not None:
-            raise InputError(f"--window is for a differential drive, not --kinematics {kinematics}")
-
         if not wheel_jitter:
-            raise InputError(f"--no-wheel-jitter is for a differential drive, not --kinematics {kinematics}")
+            raise InputError(
+                f"--no-wheel-jitter: the self-calibration of a {kind_named(kinematics).noun} takes the joint data "
+                "as exact already (it models no jitter of their stamps; a differential drive's does)"
+            )
         sizes = dict(
             wheel_diameter_mm=wheel_diameter_mm,
             wheel_radius_m=wheel_radius_m,
             wheelbase_mm=wheelbase_mm,
             wheel_separation_m=wheel_separation_m,
         )
-        kinematic_selfcal_cmd(kinematics, paths, min_intervals, keep_outliers, save, as_json, record, {**kw, **sizes})
+        history = (robot, record, db)
+        kinematic_selfcal_cmd(
+            kinematics, paths, min_intervals, keep_outliers, save, as_json, history, window_s, {**kw, **sizes}
+        )
         return
     params = dict(
         kw,

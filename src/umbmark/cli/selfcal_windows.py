@@ -109,7 +109,14 @@ def record_windows(
 
 
 def print_windows(windows: list[dict]) -> None:
-    """The windows as a table: when, the diameters, the wheelbase, E_d, E_b, the lidar."""
+    """The windows as a table: when, the diameters, the wheelbase, E_d, E_b, the lidar (another kind of
+    robot: its geometry in words, the lidar)."""
+    from umbmark.kinds import kind_in
+
+    own = next((kind_in(w["result"]) for w in windows if w["result"] is not None), None)
+    if own is not None:
+        _print_kind_windows(windows, own)
+        return
     rows = []
     for w in windows:
         r = w["result"]
@@ -134,3 +141,17 @@ def print_windows(windows: list[dict]) -> None:
             rows,
         )
     )
+
+
+def _print_kind_windows(windows: list[dict], own) -> None:
+    rows = []
+    for w in windows:
+        r = w["result"]
+        start = w["start_utc"][:19].replace("T", " ")
+        if r is None:
+            rows.append([w["window"] + 1, start, "-", w["error"]])
+            continue
+        lidar = f"x {fmt(r['sensor_pose']['x_mm'], 1)}, y {fmt(r['sensor_pose']['y_mm'], 1)} mm"
+        rows.append([w["window"] + 1, start, own.describe_json(r), lidar])
+    title = f"Windows (each self-calibrated on its own; a {own.noun})"
+    console().print(table(title, ["#", "start (UTC)", "geometry", "lidar / why not"], rows))

@@ -20,8 +20,11 @@ from umbmark._numbers import strict_float
 from umbmark.cli.app import app, cli_message, console, emit_json, fmt, is_quiet, table
 from umbmark.cli.config import config_options
 from umbmark.cli.guard import skip_check_option
+from umbmark.cli.kinematic import joint_options, kind_options
+from umbmark.cli.options import flag
 from umbmark.cli.selfcal import selfcal_cmd
 from umbmark.errors import InputError
+from umbmark.kinds import KINDS, kind_in
 
 __all__ = ["validate_cmd", "LEGEND", "READ_OPTIONS", "FAIL_EXIT_STATUS"]
 
@@ -44,6 +47,20 @@ READ_OPTIONS = (
     "wheel_radius_m",
     "wheel_separation_m",
     "base_frame",
+)
+
+# READ_OPTIONS that only a differential drive's calibration reads (another kind's: its joints)
+DIFF_DRIVE_OPTIONS = (
+    "ticks_topic",
+    "left_field",
+    "right_field",
+    "pulses_per_wheel_rev",
+    "ticks",
+    "odom_topic",
+    "wheel_diameter_mm",
+    "wheelbase_mm",
+    "wheel_radius_m",
+    "wheel_separation_m",
 )
 
 # the library's parameters of this command -> its flags (the shared ones are in umbmark.cli.app)
@@ -141,13 +158,19 @@ def _print_report(d: dict) -> None:
     )
     n, k = cal["nominal"], cal["calibrated"]
     ns, ks = cal["nominal_sensor_pose"], cal["sensor_pose"]
+    own = kind_in(cal)
+    if own is None:
+        geometry = (
+            f"D_L {k['diameter_left_mm']:.3f}, D_R {k['diameter_right_mm']:.3f}, wheelbase {k['wheelbase_mm']:.3f} mm "
+            f"(nominal {n['diameter_left_mm']:g}, {n['diameter_right_mm']:g}, {n['wheelbase_mm']:g})"
+        )
+    else:
+        geometry = f"a {own.noun}, {own.describe_json(k, False)} (nominal {own.describe_json(n, False)})"
     c.print(
         escape(
-            f"  calibration {cal['path']} ({cal['kind']}): D_L {k['diameter_left_mm']:.3f}, D_R "
-            f"{k['diameter_right_mm']:.3f}, wheelbase {k['wheelbase_mm']:.3f} mm (nominal "
-            f"{n['diameter_left_mm']:g}, {n['diameter_right_mm']:g}, {n['wheelbase_mm']:g}); lidar x "
-            f"{ks['x_mm']:.1f} mm, y {ks['y_mm']:.1f} mm, yaw {ks['yaw_deg']:.2f} deg (nominal {ns['x_mm']:.1f}, "
-            f"{ns['y_mm']:.1f}, {ns['yaw_deg']:.2f}: {ns['source']})"
+            f"  calibration {cal['path']} ({cal['kind']}): {geometry}; lidar x {ks['x_mm']:.1f} mm, y {ks['y_mm']:.1f} "
+            f"mm, yaw {ks['yaw_deg']:.2f} deg (nominal {ns['x_mm']:.1f}, {ns['y_mm']:.1f}, {ns['yaw_deg']:.2f}: "
+            f"{ns['source']})"
         )
     )
     for span in d["spans"]:
@@ -222,6 +245,7 @@ def _print_report(d: dict) -> None:
     help=f"Exit with status {FAIL_EXIT_STATUS} when a rule fails (default: 0 whatever the verdict).",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+@joint_options
 @config_options
 @skip_check_option
 def validate_cmd(
@@ -247,6 +271,10 @@ def validate_cmd(
     LOG is a ROS 1 or ROS 2 bag with laser scans and the robot's wheel data (--odom-topic,
     --joints or --ticks-topic, read as umbmark selfcal reads them). CAL.json is the JSON of
     `umbmark selfcal --save`, `umbmark replay --save` or `umbmark export --format json`. The
+    calibration of another kind of robot (`selfcal --kinematics KIND --save`) is checked on its
+    joints, with its kind's flags (a tricycle's --drive-joint and --steer-joint, a mecanum
+    robot's --joints FL,FR,RL,RR; a car's also its own --odom-topic): their odometry with the
+    nominal geometry and with the calibrated one. The
     reference: --relations (the SLAM benchmark's format) or --reference (a TUM trajectory, e.g.
     saved from slam_toolbox or cartographer; relations are made from it between the scans).
     --wheel-diameter-mm and --wheelbase-mm (or --wheel-radius-m, --wheel-separation-m) give the
@@ -263,16 +291,11 @@ def validate_cmd(
       umbmark validate robot_bag selfcal.json --joints left_wheel_joint,right_wheel_joint --reference slam.tum --halves
       umbmark validate robot_bag cal.json --odom-topic /odom --reference slam.tum --window 0:120 --json
     """
-    from umbmark.cli.options import given_nominal_m, wheel_source
-    from umbmark.realrobot.validate import validate_log
+    from umbmark.realrobot.validate import calibration_kind, validate_log
 
     if reference_frame is not None and reference is None:
         raise InputError("--reference-frame is the frame of a --reference trajectory; the relations are the lidar's")
-    if kw["pulses_per_wheel_rev"] is not None and not (
-        math.isfinite(kw["pulses_per_wheel_rev"]) and kw["pulses_per_wheel_rev"] > 0
-    ):
-        raise InputError(f"--pulses-per-wheel-rev must be a positive number, got {kw['pulses_per_wheel_rev']!r}")
-    d_m, b_m = given_nominal_m(kw)
+    wheels, joints, (d_m, b_m) = _wheel_data(calibration_kind(calibration), kw)
     try:
         v = validate_log(
             log,
@@ -290,7 +313,10 @@ def validate_cmd(
             base_frame=kw["base_frame"],
             tolerance_s=stamp_tolerance_s,
             scan_topic=kw["scan_topic"],
-            wheels=wheel_source(kw),
+            wheels=wheels,
+            joints=joints,
+            joint_topic=kw["joint_topic"],
+            odom_topic=None if wheels is not None else kw["odom_topic"],
         )
     except InputError as e:
         raise InputError(_flags(e.message), e.source, e.line) from None
@@ -304,6 +330,48 @@ def validate_cmd(
         raise click.exceptions.Exit(FAIL_EXIT_STATUS)
 
 
+def _wheel_data(kind, kw: dict):
+    """The log's wheel data for a calibration of ``kind``: a differential drive's wheel source and
+    the nominal sizes given, or another kind's joint names (its joint flags; the differential
+    drive's flags refused with why).
+
+    Returns
+    -------
+    tuple
+        ``(wheels, joints, (wheel_diameter_m, wheelbase_m))``: one of ``wheels`` and ``joints`` None.
+    """
+    from umbmark.cli.options import given_nominal_m, kinematic_joints, wheel_source
+
+    if kind.differential:
+        for name in kind_options():
+            if kw.get(name):
+                raise InputError(f"{flag(name)} names a joint of another kind of robot: CAL.json is a {kind.noun}'s")
+        if kw["pulses_per_wheel_rev"] is not None and not (
+            math.isfinite(kw["pulses_per_wheel_rev"]) and kw["pulses_per_wheel_rev"] > 0
+        ):
+            raise InputError(f"--pulses-per-wheel-rev must be a positive number, got {kw['pulses_per_wheel_rev']!r}")
+        return wheel_source(kw), None, given_nominal_m(kw)
+    ctx = click.get_current_context(silent=True)
+    for name in DIFF_DRIVE_OPTIONS:
+        if name == "odom_topic" and kind.reads_odometry:
+            continue  # a car's own odometry, in place of its joints
+        if ctx is not None and ctx.get_parameter_source(name) not in (None, click.core.ParameterSource.DEFAULT):
+            raise InputError(
+                f"{flag(name)} is a differential drive's: CAL.json is a {kind.noun}'s calibration, which holds its "
+                "nominal geometry, checked on its joints"
+            )
+    return None, kinematic_joints(kind.name, kw) or None, (None, None)
+
+
 # selfcal's options that read the bag's wheel data and give the nominal geometry, after the arguments
 _selfcal_params = {p.name: p for p in selfcal_cmd.params}
 validate_cmd.params[2:2] = [copy.copy(_selfcal_params[name]) for name in READ_OPTIONS]
+_joints = [p for p in validate_cmd.params if p.name in kind_options()]  # next to --joints
+validate_cmd.params = [p for p in validate_cmd.params if p not in _joints]
+_at = [p.name for p in validate_cmd.params].index("joints") + 1
+validate_cmd.params[_at:_at] = _joints
+for _p in validate_cmd.params[2 : 2 + len(READ_OPTIONS)]:
+    if _p.name in DIFF_DRIVE_OPTIONS and isinstance(_p, click.Option) and _p.help:
+        _text = _p.help.removeprefix("Bag: ")
+        _who = [k.title for k in KINDS.values() if k.differential or (_p.name == "odom_topic" and k.reads_odometry)]
+        _p.help = f"{', '.join(_who)}: {_text[:1].lower()}{_text[1:]}"

@@ -1,8 +1,9 @@
 """What every history backend shares: where the database is, the schema, the record type,
 the rows, the base class of the backends, and the parameter export of a record.
 
-Imports only the standard library, :mod:`umbmark.errors` and :mod:`umbmark.jsonutil` (and, for the
-type checker only, :mod:`umbmark.model`)."""
+Imports only the standard library, :mod:`umbmark.errors` and :mod:`umbmark.jsonutil` (and, when a
+record of a robot of a kind of its own is exported, :mod:`umbmark.kinds`; for the type checker
+only, :mod:`umbmark.model`)."""
 
 from __future__ import annotations
 
@@ -26,6 +27,7 @@ from umbmark.errors import InputError, UmbmarkError
 from umbmark.jsonutil import dumps, jsonable
 
 if TYPE_CHECKING:
+    from umbmark.kinds import Kind
     from umbmark.model.geometry import Calibration
     from umbmark.model.runs import RunsTable
 
@@ -1255,6 +1257,11 @@ def export_parameters(record: Record) -> dict[str, Any]:
         ``parameters_in_use`` (what the robot ran with, as recorded); the measured
         ``emax_syst_mm_measured`` and the ``software_version`` that made it.
     """
+    from umbmark.kinds import kind_in
+
+    own = kind_in(record.parameters)
+    if own is not None:
+        return _kind_export(record, own)
     p = record.parameters
     wb_mm = _num(p.get("wheelbase_mm"))
     wb_m = _num(p.get("wheelbase_m"))
@@ -1300,6 +1307,42 @@ def export_parameters(record: Record) -> dict[str, Any]:
     return d
 
 
+def _kind_export(record: Record, own: Kind) -> dict[str, Any]:
+    """:func:`export_parameters` of a record of a robot of a kind of its own: its geometry (the
+    kind's JSON keys), its controller's parameters and the kind's own values to load
+    (:meth:`umbmark.kinds.Kind.ros2_parameters`, :meth:`~umbmark.kinds.Kind.export_json`: as
+    ``umbmark export --format json`` writes them), the lidar's pose and what the robot ran with.
+
+    Raises
+    ------
+    HistoryError
+        A geometry that is not the kind's (nothing to load).
+    """
+    p = record.parameters
+    try:
+        g, cis = own.geometry_from_json(p, f"record #{record.id}")
+    except InputError as e:
+        raise HistoryError(f"record #{record.id} of robot {record.robot!r} holds no usable geometry: {e}") from None
+    sp = p.get("sensor_pose")
+    d: dict[str, Any] = {
+        "robot": record.robot,
+        "record_id": record.id,
+        "time_utc": record.created_utc,
+        "kind": record.kind,
+        "method": record.method,
+        "kinematics": own.name,
+        **own.geometry_json(g),
+        "controller": own.controller,
+        "controller_parameters": own.ros2_parameters(g),
+        **own.export_json(g, {n: ci for n, ci in cis.items() if ci is not None}),
+    }
+    if isinstance(sp, dict) and all(_num(sp.get(k)) is not None for k in ("x_mm", "y_mm", "yaw_deg")):
+        d["sensor_pose"] = {k: _num(sp[k]) for k in ("x_mm", "y_mm", "yaw_deg")}
+    d["parameters_in_use"] = record.parameters_in_use if isinstance(record.parameters_in_use, dict) else {}
+    d["software_version"] = record.software_version
+    return d
+
+
 def _scale_observed(record: Record) -> bool | None:
     """Whether the method behind a record measured the mean wheel scale (None: not known)."""
     res = record.results if isinstance(record.results, dict) else {}
@@ -1339,7 +1382,7 @@ def format_export(record: Record, fmt: str = "json", db: str | Path | None = Non
         If the record holds no usable wheel factors or E_b (nothing to load).
     """
     d = jsonable(export_parameters(record))
-    for k in ("c_left", "c_right", "Eb"):
+    for k in () if "kinematics" in d else ("c_left", "c_right", "Eb"):
         if not (d.get(k) is not None and d[k] > 0):
             raise HistoryError(
                 f"record #{record.id} of robot {record.robot!r}"

@@ -1,8 +1,10 @@
 """Drift of a robot's calibration over its recorded sessions: slow wear and sudden changes.
 
 Every recorded calibration that holds a parameter with its 95 % interval (the self-calibration's
-wheel diameters, wheelbase, ``Ed``, ``Eb`` and lidar pose; a replay's or an analysis's ``Ed``,
-``Eb`` and wheelbase) is a point of that parameter's time series: its value, its standard error
+wheel diameters, wheelbase, ``Ed``, ``Eb`` and lidar pose, or the parameters another kind of
+robot's self-calibration estimated, such as a tricycle's steering offset or a mecanum robot's
+``lx_plus_ly_mm``; a replay's or an analysis's ``Ed``, ``Eb`` and wheelbase)
+is a point of that parameter's time series: its value, its standard error
 (the interval's half-width / 1.96) and its date.
 
 The model of one series is a straight line in time (wear: a rate per day) with steps (a wheel
@@ -37,6 +39,7 @@ import numpy as np
 
 from umbmark.errors import InputError
 from umbmark.history.base import KINDS, Record, parts_overlap, recording_part
+from umbmark.kinds import kind_in
 
 __all__ = [
     "DEFAULT_FALSE_ALARM",
@@ -204,7 +207,16 @@ def _sd_of(ci: Any, value: float) -> float | None:
 
 
 def _numbers(results: dict[str, Any]) -> Iterable[tuple[str, float, float | None]]:
-    """``(parameter, value, sd)`` of every number of a result that has its 95 % interval."""
+    """``(parameter, value, sd)`` of every number of a result that has its 95 % interval: a robot of a
+    kind of its own (its ``kinematics``) the parameters its self-calibration estimated, under their
+    JSON keys (``wheel_diameters_mm.front_left``), and its sensor pose."""
+    own = kind_in(results)
+    if own is not None:
+        for p, v, ci in own.estimates_json(results):
+            if ci is not None:
+                yield p.path, v, _sd_of(list(ci), v)
+        sp = results.get("sensor_pose")
+        results = {"sensor_pose": sp} if isinstance(sp, dict) else {}
     for key, v in results.items():
         if isinstance(v, dict):
             for sub, w in v.items():

@@ -4,18 +4,25 @@ a tricycle, a mecanum robot; its JSON's ``kinematics`` names the kind) in the fo
 Formats (the kind's :attr:`~umbmark.kinds.Kind.export_formats`):
 
 * ``ros2``: the controller's parameter file (the kind's :attr:`~umbmark.kinds.Kind.controller`),
-  its keys and types as in ros2_controllers' parameter definitions
-  (:meth:`~umbmark.kinds.Kind.ros2_parameters`), then as comments what the controller has no
-  parameter for (:meth:`~umbmark.kinds.Kind.ros2_notes`):
+  its keys and types as in ros2_controllers' parameter definitions: the joints as the bag named
+  them (the JSON's ``joints``, :meth:`~umbmark.kinds.Kind.ros2_joints`) and the
+  calibrated values (:meth:`~umbmark.kinds.Kind.ros2_parameters`): every parameter the
+  controller requires, a block that loads alone; a comment above it says that the controller's
+  other parameters keep their defaults and how to keep one's own (load the file after them: a
+  later parameter file overrides the keys it holds). Then, as comments, what the controller has
+  no parameter for (:meth:`~umbmark.kinds.Kind.ros2_notes`):
 
-  - tricycle_controller: ``wheelbase`` and ``wheel_radius`` (doubles, metres). The steering
+  - tricycle_controller: ``traction_joint_name``, ``steering_joint_name``, ``wheelbase`` and
+    ``wheel_radius`` (doubles, metres). The steering
     offset has no parameter there: it belongs to the steering joint's transmission in the
     ros2_control hardware description (``transmission_interface/SimpleTransmission``, whose
     joint position is ``actuator / mechanical_reduction + offset``): the file ends with the
-    ``<joint>`` element of that transmission as a comment, its ``<offset>`` the old one plus
+    ``<joint>`` element of that transmission (named as the steering joint) as a comment, its
+    ``<offset>`` the old one plus
     the estimate (and its ``<mechanical_reduction>`` the old one over the steering scale when
     that was estimated);
-  - mecanum_drive_controller: ``kinematics.wheels_radius`` (the four wheels' mean) and
+  - mecanum_drive_controller: each wheel's ``<wheel>_wheel_command_joint_name``,
+    ``kinematics.wheels_radius`` (the four wheels' mean) and
     ``kinematics.sum_of_robot_center_projection_on_X_Y_axis`` (doubles, metres). The
     controller has one radius for all wheels: where the four diameters differ beyond their 95 %
     intervals the file says so and gives each wheel's factor ``r_i / r_mean``, applied by
@@ -24,8 +31,9 @@ Formats (the kind's :attr:`~umbmark.kinds.Kind.export_formats`):
 
   The lidar's URDF origin and ``static_transform_publisher`` command end the file as
   comments.
-* ``json``: the controller's parameters, the kind's own keys (:meth:`~umbmark.kinds.Kind.export_json`:
-  a tricycle's steering offset and scale, a mecanum robot's per-wheel factors), the sensor pose.
+* ``json``: the controller's parameters (with the joints' names), the kind's own keys
+  (:meth:`~umbmark.kinds.Kind.export_json`: a tricycle's steering offset and scale, a mecanum
+  robot's per-wheel factors), the sensor pose.
 * ``urdf``, ``tf``: the lidar's mounting pose (as for a differential drive).
 * a parameter file of the robot's own software (:attr:`~umbmark.kinds.Kind.edited_files`: a
   car's ``vesc``): the user's file with the values the calibration changes written in
@@ -47,6 +55,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -103,8 +112,8 @@ class KinematicCalibration:
     nominal : Kinematics, optional
         The nominal geometry the calibration started from (the JSON's ``nominal``).
     joints : dict, optional
-        Each joint role's name in the recording (the JSON's ``joints``); None when it read none
-        (an odometry) or does not say.
+        Each joint role's name in the recording (the JSON's ``joints``, else the joint data its
+        bag part describes); None when it read none (an odometry) or does not say.
     """
 
     kind: str
@@ -118,6 +127,39 @@ class KinematicCalibration:
     warnings: tuple[str, ...] = ()
     nominal: Kinematics | None = None
     joints: dict[str, str] | None = None
+
+
+# a joint's name as a parameter file and the transmission's XML may hold it
+_JOINT_NAME = re.compile(r"[^\s\"'<>&`]+")
+# how the self-calibration's JSON describes its joint data (``inputs[0].wheel_data``)
+_WHEEL_DATA = re.compile(r"JointState (.+) on \S+")
+
+
+def _joints(d: dict, roles: tuple[str, ...], source: str) -> dict[str, str] | None:
+    """Each role's joint name in a self-calibration's JSON: ``joints`` (role -> name), else the
+    joint data its bag part describes (a JSON of an older umbmark); None where it names none (a
+    calibration read from an odometry).
+
+    Raises
+    ------
+    InputError
+        A ``joints`` that does not name each of the kind's roles with a joint's name.
+    """
+    given = d.get("joints")
+    if given is None:
+        inputs = d.get("inputs")
+        first = inputs[0] if isinstance(inputs, list) and inputs and isinstance(inputs[0], dict) else {}
+        m = _WHEEL_DATA.fullmatch(str(first.get("wheel_data", "")))
+        names = m.group(1).split(", ") if m else []
+        ok = len(names) == len(roles) and all(_JOINT_NAME.fullmatch(n) for n in names)
+        return dict(zip(roles, names)) if ok else None
+    if not (
+        isinstance(given, dict)
+        and set(given) == set(roles)
+        and all(isinstance(v, str) and _JOINT_NAME.fullmatch(v) for v in given.values())
+    ):
+        raise InputError(f"'joints' must name the joint of each of {', '.join(roles)} (no spaces or quotes)", source)
+    return {r: given[r] for r in roles}
 
 
 def kinematic_calibration_from_dict(d: dict, source: str = "<json>") -> KinematicCalibration:
@@ -168,15 +210,8 @@ def kinematic_calibration_from_dict(d: dict, source: str = "<json>") -> Kinemati
         source,
         warns,
         kind.geometry_from_json(nominal, source)[0] if isinstance(nominal, dict) else None,
-        _joints(d.get("joints"), kind.geometry.joint_roles),
+        _joints(d, kind.geometry.joint_roles, source),
     )
-
-
-def _joints(v: Any, roles: tuple[str, ...]) -> dict[str, str] | None:
-    """A JSON's ``joints`` when it names every role's joint, else None."""
-    if not isinstance(v, dict) or set(v) != set(roles) or not all(isinstance(n, str) and n for n in v.values()):
-        return None
-    return {r: v[r] for r in roles}
 
 
 def _sensor_lines(cal: KinematicCalibration) -> list[str]:
@@ -254,10 +289,35 @@ def format_kinematic_export(
     import yaml
 
     notes = kind.ros2_notes(cal.geometry, cal.ci95, (steering_offset0_rad, steering_reduction0), cal.joints)
-    params = {**({} if cal.joints is None else kind.ros2_joints(cal.joints)), **kind.ros2_parameters(cal.geometry)}
+    params = _parameters(cal)
     text = hash_comment(head) + "".join(hash_comment("warning: " + w) for w in cal.warnings)
+    text += "".join(hash_comment(line) for line in _load_note(cal, name, params))
     text += yaml.safe_dump({name: {"ros__parameters": params}}, sort_keys=False, default_flow_style=False)
     return text + "".join(hash_comment(line) for line in notes + _sensor_lines(cal))
+
+
+def _parameters(cal: KinematicCalibration) -> dict[str, Any]:
+    """The controller's parameters: the joints' names (when the calibration has them) and the
+    calibrated values."""
+    kind = kind_named(cal.kind)
+    joints = {} if cal.joints is None else kind.ros2_joints(cal.joints)
+    return {**joints, **kind.ros2_parameters(cal.geometry)}
+
+
+def _load_note(cal: KinematicCalibration, name: str, params: dict[str, Any]) -> list[str]:
+    """How the block is loaded: alone (every parameter the controller requires), or merged."""
+    kind = kind_named(cal.kind)
+    later = "load this file after yours (a later parameter file overrides the keys it holds)"
+    if cal.joints is not None and len(params) > len(kind.ros2_parameters(cal.geometry)):
+        return [
+            f"a complete {name} block, loadable alone: the joints as the bag named them and the calibrated",
+            f"values, every parameter {kind.controller} requires. Its other parameters keep their defaults:",
+            f"to keep your own, {later}.",
+        ]
+    return [
+        f"the calibrated values only (the calibration names no joints): merge them into your {name}",
+        f"parameters, which name the joints, or {later}.",
+    ]
 
 
 def _json(cal: KinematicCalibration) -> dict[str, Any]:
@@ -266,7 +326,7 @@ def _json(cal: KinematicCalibration) -> dict[str, Any]:
     out: dict[str, Any] = {
         "kinematics": cal.kind,
         "source": cal.source,
-        "parameters": kind.ros2_parameters(cal.geometry),
+        "parameters": _parameters(cal),
         **kind.export_json(cal.geometry, cal.ci95),
     }
     out["sensor_pose"] = {"x_m": x, "y_m": y, "z_m": z, "roll_rad": roll, "pitch_rad": pitch, "yaw_rad": yaw}

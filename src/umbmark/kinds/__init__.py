@@ -24,12 +24,13 @@ a kind.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from types import MappingProxyType
+from typing import Any
 
 from umbmark.errors import InputError
 from umbmark.kinds import ackermann, bicycle, diff_drive, mecanum, tricycle
-from umbmark.kinds._base import Alternative, EditedFile, FitOption, JointOption, Kind, Parameter, Size
+from umbmark.kinds._base import Alternative, EditedFile, FitOption, JointOption, Kind, Parameter, Reading, Size
 from umbmark.kinds.ackermann import Ackermann
 from umbmark.kinds.bicycle import Bicycle
 from umbmark.kinds.diff_drive import DiffDrive
@@ -47,6 +48,7 @@ __all__ = [
     "Alternative",
     "JointOption",
     "FitOption",
+    "Reading",
     "EditedFile",
     "DiffDrive",
     "Tricycle",
@@ -55,8 +57,10 @@ __all__ = [
     "Ackermann",
     "kind_named",
     "kind_of",
+    "kind_in",
     "kinds_with",
     "quantity_named",
+    "joint_flags_for",
 ]
 
 # the kinds' modules, in the order the command line lists them (append a new kind at the end:
@@ -97,6 +101,14 @@ def kind_of(geometry: Kinematics) -> Kind:
     return kind_named(getattr(geometry, "kind", None))  # type: ignore[arg-type]
 
 
+def kind_in(d: Any) -> Kind | None:
+    """The kind a result's JSON names (its ``kinematics``) when it is a kind of its own (not calibrated
+    by the differential drive's pipeline), else None (a differential drive's result, or no result)."""
+    name = d.get("kinematics") if isinstance(d, Mapping) else None
+    k = KINDS.get(name) if isinstance(name, str) else None
+    return None if k is None or k.differential else k
+
+
 def kinds_with(option: str) -> tuple[Kind, ...]:
     """The kinds that have an option of their own (:meth:`~umbmark.kinds._base.Kind.option_names`)."""
     return tuple(k for k in KINDS.values() if option in k.option_names())
@@ -118,3 +130,27 @@ def quantity_named(name: str) -> Quantity:
             if s.quantity.name == name:
                 return s.quantity
     raise InputError(f"unknown size {name!r}")
+
+
+def joint_flags_for(names: Sequence[str]) -> list[tuple[Kind, str, bool]]:
+    """How each kind's options would name the joints of a JointState topic (``umbmark bag-info``).
+
+    Parameters
+    ----------
+    names : sequence of str
+        The topic's joint names, in the messages' order.
+
+    Returns
+    -------
+    list of tuple
+        For each kind with no more joints than the topic has, in the registry's order: the kind,
+        its options naming the joints in the order they want them (:meth:`Kind.joint_flags`:
+        the names their words fit, :meth:`Kind.guess_joints`; else the options' placeholders),
+        and whether the names were found.
+    """
+    out = []
+    for k in KINDS.values():
+        if len(k.geometry.joint_roles) <= len(names):
+            guess = k.guess_joints(names)
+            out.append((k, k.joint_flags(guess), guess is not None))
+    return out

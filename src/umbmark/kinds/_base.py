@@ -8,15 +8,18 @@ A kind holds in one place everything the rest of the package asks of it:
 * its **parameters** (:class:`Parameter`: the library's name, the JSON key, the table's label),
   the **nominal sizes** a command line gives (:class:`Size`: the option, the quantity whose unit
   slips the checks name, the plausible range), its **joints** (:class:`JointOption`: the options
-  naming them, in the order the geometry wants) and the parameters estimated only on request
-  (:class:`FitOption`);
+  naming them, in the order the geometry wants; the words their names carry,
+  :meth:`Kind.guess_joints`) and the parameters estimated only on request (:class:`FitOption`);
+* the other **readings of the joints given** worth trying against the lidar's motion
+  (:class:`Reading`, :meth:`Kind.readings`: other orders, a drive and a steering joint
+  exchanged, a steering zero a quarter turn off) and what each means (:meth:`Kind.reading_cause`);
 * the **self-calibration**'s judgement of its kind: how far the steering turned each way
   (:meth:`Kind.steering_travel`), what driving the data lack (:meth:`Kind.advice`), what a fitted
   size below zero means (:meth:`Kind.negative`), what joints turning the other way from the lidar
   mean (:attr:`Kind.turn_backwards`, :attr:`Kind.turn_mirrored`);
 * its **exports**: the formats (:attr:`Kind.export_formats`), the controller and its parameters
-  (:meth:`Kind.ros2_parameters`), the notes of its parameter file (:meth:`Kind.ros2_notes`), the
-  JSON (:meth:`Kind.export_json`);
+  (:meth:`Kind.ros2_parameters`, the joints' :meth:`Kind.ros2_joints`), the notes of
+  its parameter file (:meth:`Kind.ros2_notes`), the JSON (:meth:`Kind.export_json`);
 * its **report**: the table of its estimates (:attr:`Parameter.label`) and the legend
   (:attr:`Kind.legend`);
 * the random robots of the **studies** (:meth:`Kind.draw`).
@@ -29,8 +32,10 @@ Imports numpy, :mod:`umbmark.model` and the base modules.
 
 from __future__ import annotations
 
+import itertools
 import math
-from collections.abc import Callable, Iterable, Mapping
+import re
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, ClassVar, Protocol
 
@@ -50,6 +55,7 @@ __all__ = [
     "Alternative",
     "JointOption",
     "FitOption",
+    "Reading",
     "EditedFile",
     "Coverage",
     "positive_parameter",
@@ -282,6 +288,57 @@ class EditedFile:
     from_joints: str = ""
 
 
+@dataclass(frozen=True)
+class Reading:
+    """Another way the joints given may have been meant (:meth:`Kind.readings`): which joint given
+    plays each role, and a turn added to a joint's position.
+
+    Attributes
+    ----------
+    order : tuple of int
+        Per role (the geometry's ``joint_roles``), the index of the joint given that plays it.
+    shift_rad : tuple of float
+        Per role, what to add to its position [rad] (a steering joint's zero a quarter turn
+        off); empty: nothing.
+    words : str
+        What the reading means, for a message (``the joints look like they are in another order``).
+    """
+
+    order: tuple[int, ...]
+    shift_rad: tuple[float, ...] = ()
+    words: str = "the joints look like they are in another order"
+
+    def apply(self, positions: ArrayLike, rolling: Sequence[bool]) -> FloatArray:
+        """The joints' positions ``(K, J)`` (given order) read so: reordered, a joint that rolls
+        now but did not as given unwrapped (a steering angle the reader left as it was), shifted.
+
+        Parameters
+        ----------
+        positions : array_like
+            ``(K, J)`` the positions of the joints given, in the order given.
+        rolling : sequence of bool
+            Per role, whether its joint rolls (the geometry's ``rolling``).
+        """
+        pos = np.asarray(positions, dtype=float)
+        out = pos[:, list(self.order)].copy()
+        for j, (i, rolls) in enumerate(zip(self.order, rolling)):
+            if rolls and not rolling[i]:
+                out[:, j] = np.unwrap(out[:, j])
+        if self.shift_rad:
+            out += np.asarray(self.shift_rad, dtype=float)
+        return np.asarray(out, dtype=float)
+
+
+_WORD = re.compile(r"[A-Z]?[a-z]+|[A-Z]+(?![a-z])|\d+")
+
+
+def name_words(name: str) -> frozenset[str]:
+    """The words of a joint's name, lower case (``FrontLeftWheel_joint``: front, left, wheel, joint;
+    ``back`` read as ``rear``)."""
+    words = {w.lower() for w in _WORD.findall(name)}
+    return frozenset("rear" if w == "back" else w for w in words)
+
+
 class Coverage(Protocol):
     """How a robot drove over a self-calibration's intervals
     (:class:`umbmark.correct.selfcal.kinematic.DrivingCoverage`)."""
@@ -364,6 +421,10 @@ class Kind:
     turn_backwards, turn_mirrored : str
         The likely causes when the lidar turns the other way from the joints: with the robot
         also moving back where the joints drive forward, and without.
+    role_words : mapping
+        Per role, the words a joint's name carries when it plays it (alternatives, each a tuple
+        of words all in the name: :func:`name_words`); a role missing: the words of its name
+        (``front_left``: front and left).
     """
 
     name: ClassVar[str]
@@ -385,6 +446,7 @@ class Kind:
     sim_joints: ClassVar[tuple[str, ...]] = ()
     turn_backwards: ClassVar[str] = "the joints turn backwards when the robot drives forward"
     turn_mirrored: ClassVar[str] = "the joints given in another order"
+    role_words: ClassVar[Mapping[str, tuple[tuple[str, ...], ...]]] = {}
 
     def __repr__(self) -> str:
         return f"<kind {self.name}>"
@@ -513,6 +575,25 @@ class Kind:
         except InputError as err:
             raise InputError(f"not a {self.noun}'s geometry: {err.message}", source) from None
 
+    def estimates_json(self, d: Mapping[str, Any]) -> list[tuple[Parameter, float, Interval | None]]:
+        """Each parameter's value and 95 % interval in a result's JSON, in the JSON's units (the
+        interval None where it was not estimated); a parameter the JSON lacks is left out."""
+        out = []
+        for p in self.parameters:
+            v = _get(d, p.key)
+            if isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v):
+                out.append((p, float(v), _interval(_get(d, p.ci_key))))
+        return out
+
+    def describe_json(self, d: Mapping[str, Any], estimated: bool = True) -> str:
+        """A result's geometry in words: ``wheel diameter 252.483 mm, wheelbase 789.966 mm, ...``
+        (``estimated``: only the parameters estimated, those with an interval)."""
+        return ", ".join(
+            f"{p.label} {v:.{p.digits}f}{' ' + p.unit if p.unit else ''}"
+            for p, v, ci in self.estimates_json(d)
+            if ci is not None or not estimated
+        )
+
     def truth(self, g: Kinematics) -> dict[str, float]:
         """The values a self-calibration estimates by default, under their JSON keys as one string
         (:attr:`Parameter.path`) in the JSON's units."""
@@ -546,6 +627,58 @@ class Kind:
             ``(names, why)``: no names when the fit is a geometry after all.
         """
         return bad, "the joints are in another order or turn backwards"
+
+    # ------------------------------------------------------------ joints
+    def joint_flags(self, names: Sequence[str] | None = None) -> str:
+        """The options naming joints, as messages name options: ``names`` (one per role, in the
+        roles' order) or, without them, the options' placeholders.
+
+        ``joints=a,b,c,d (in this order: front_left, front_right, rear_left, rear_right)`` for an
+        option of several roles, ``drive_joint=a steer_joint=b`` for options of one, each
+        option in backticks (the command line prints its flag).
+        """
+        parts, i = [], 0
+        for j in self.joints:
+            n = len(j.roles)
+            value = j.metavar if names is None else ",".join(names[i : i + n])
+            i += n
+            order = f" (in this order: {', '.join(j.roles)})" if n > 1 else ""
+            parts.append(f"`{j.option}={value}`{order}")
+        return " ".join(parts)
+
+    def guess_joints(self, names: Sequence[str]) -> tuple[str, ...] | None:
+        """The joints of a JointState topic that play the roles, by the words of their names
+        (:attr:`role_words`): one per role, in the roles' order; None where the words do not
+        tell (a role no name or several names fit)."""
+        words = {n: name_words(n) for n in names}
+
+        def fits(role: str, n: str) -> bool:
+            alts = self.role_words.get(role) or (tuple(role.split("_")),)
+            return any(set(a) <= words[n] for a in alts)
+
+        roles = self.geometry.joint_roles
+        found = {r: [n for n in names if fits(r, n)] for r in roles}
+        shared = {n for r in roles for n in found[r] if sum(n in found[q] for q in roles) > 1}
+        picked = [[n for n in found[r] if n not in shared] for r in roles]
+        if any(len(p) != 1 for p in picked):
+            return None
+        return tuple(p[0] for p in picked)
+
+    def readings(self) -> tuple[Reading, ...]:
+        """The other readings of the joints given that a self-calibration tries against the lidar's
+        motion (:mod:`umbmark.realrobot.kinematic`): by default every other order of them (up to
+        five joints)."""
+        n = len(self.geometry.joint_roles)
+        if n > 5:
+            return ()
+        same = tuple(range(n))
+        return tuple(Reading(p) for p in itertools.permutations(range(n)) if p != same)
+
+    def reading_cause(self, reading: Reading, names: Sequence[str]) -> tuple[str, str]:
+        """What a reading the lidar agrees with means, and what to do: ``(words, remedy)``, by
+        default its words and the options naming the joints so (``names``: the joints given, in
+        the order given)."""
+        return reading.words, self.joint_flags([names[i] for i in reading.order])
 
     # ------------------------------------------------------------ the robot's own odometry
     def joints_from_odometry(self, nominal: Kinematics, pose: FloatArray) -> FloatArray:

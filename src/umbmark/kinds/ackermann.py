@@ -278,6 +278,12 @@ class _AckermannKind(Kind):
         "front_right_steering_joint",
     )
     turn_backwards = "the traction joints turn backwards when the car drives forward, or are given right before left"
+    role_words = {
+        "traction_left": (("rear", "left"), ("traction", "left"), ("drive", "left")),
+        "traction_right": (("rear", "right"), ("traction", "right"), ("drive", "right")),
+        "steering_left": (("steer", "left"), ("steering", "left")),
+        "steering_right": (("steer", "right"), ("steering", "right")),
+    }
     turn_mirrored = (
         "the steering angles clockwise positive (they must be counter-clockwise positive), or the joints given right "
         "before left (`traction_joints` and `steering_joints` take LEFT,RIGHT)"

@@ -49,12 +49,13 @@ from umbmark.kinds._base import (
     JointOption,
     Kind,
     Parameter,
+    Reading,
     Size,
     Uniform,
     finite_parameter,
     positive_parameter,
 )
-from umbmark.kinds.tricycle import steering_note
+from umbmark.kinds.tricycle import DRIVE_STEER_WORDS, EXCHANGED, steering_note
 from umbmark.model.geometry import QUANTITIES, wrap_angle
 from umbmark.model.kinematics import Kinematics
 
@@ -376,6 +377,11 @@ class _BicycleKind(Kind):
     sim_joints = ("rear_wheel_joint", "steering_joint")
     turn_backwards = "the traction joint turns backwards when the car drives forward"
     turn_mirrored = "the steering angle clockwise positive (it must be counter-clockwise positive)"
+    role_words = DRIVE_STEER_WORDS
+
+    def readings(self) -> tuple[Reading, ...]:
+        """The drive and steering joints exchanged."""
+        return tuple(Reading(r.order, words=EXCHANGED) for r in super().readings())
 
     def steering_travel(self, nominal: Kinematics, values: FloatArray) -> tuple[float, float]:
         assert isinstance(nominal, Bicycle)

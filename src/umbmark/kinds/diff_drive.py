@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from umbmark.errors import InputError
-from umbmark.kinds._base import Alternative, JointOption, Kind, Parameter, Size, positive_parameter
+from umbmark.kinds._base import Alternative, JointOption, Kind, Parameter, Reading, Size, positive_parameter
 from umbmark.model.geometry import QUANTITIES
 
 __all__ = ["DiffDrive", "KIND"]
@@ -124,6 +124,10 @@ class _DiffDriveKind(Kind):
     )
     turn_backwards = "both wheels' angles count backwards when the robot drives forward (negate them)"
     turn_mirrored = "the wheels given right before left (`joints`)"
+
+    def readings(self) -> tuple[Reading, ...]:
+        """The wheels exchanged."""
+        return (Reading((1, 0), words="the wheels given right before left"),)
 
 
 KIND = _DiffDriveKind()

@@ -199,6 +199,12 @@ class _MecanumKind(Kind):
         "(FL,FR,RL,RR)"
     )
     turn_mirrored = "the wheels' joints given in another order (`joints` FL,FR,RL,RR)"
+    role_words = {
+        "front_left": (("front", "left"), ("fl",), ("lf",)),
+        "front_right": (("front", "right"), ("fr",), ("rf",)),
+        "rear_left": (("rear", "left"), ("rl",), ("lr",), ("bl",), ("lb",)),
+        "rear_right": (("rear", "right"), ("rr",), ("br",), ("rb",)),
+    }
 
     def advice(self, coverage: Coverage) -> list[str]:
         if coverage.sideways_m >= 0.05 * max(coverage.travel_m, 1e-9):
@@ -229,6 +235,11 @@ class _MecanumKind(Kind):
                 "sum_of_robot_center_projection_on_X_Y_axis": float(g.lx_plus_ly_m),
             }
         }
+
+    def ros2_joints(self, joints: Mapping[str, str]) -> dict[str, Any]:
+        """mecanum_drive_controller's ``<wheel>_wheel_command_joint_name`` of each wheel (strings,
+        required; its state joints are the command joints unless named otherwise)."""
+        return {f"{r}_wheel_command_joint_name": str(joints[r]) for r in ROLES}
 
     def ros2_notes(
         self,

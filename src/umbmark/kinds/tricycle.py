@@ -19,7 +19,7 @@ Imports numpy, :mod:`umbmark.model` and :mod:`umbmark.kinds._base`.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import ClassVar, Protocol
 
@@ -35,6 +35,7 @@ from umbmark.kinds._base import (
     JointOption,
     Kind,
     Parameter,
+    Reading,
     Size,
     Uniform,
     finite_parameter,
@@ -163,7 +164,7 @@ def steering_note(
     ``true = scale (actuator / reduction0 + offset0) + offset = actuator / (reduction0 / scale) +
     (scale offset0 + offset)`` (the scale 1 unless it was estimated). ``g`` has a
     ``steering_offset_rad`` and a ``steering_scale`` (a tricycle, a car); ``joint`` the steering
-    joint's name (``STEERING_JOINT`` when the calibration does not say).
+    joint's name (``STEERING_JOINT`` when the calibration does not say, and a line saying so).
     """
     offset, scale = float(g.steering_offset_rad), float(g.steering_scale)
     scale = scale if scale_estimated else 1.0
@@ -178,7 +179,26 @@ def steering_note(
         f"    <mechanical_reduction>{red:.9g}</mechanical_reduction>",
         f"    <offset>{off:.9g}</offset>",
         "  </joint>",
-    ]
+    ] + ([] if joint else ["(the calibration names no steering joint: put its name for STEERING_JOINT)"])
+
+
+EXCHANGED = "the drive and steering joints look exchanged"
+"""The words of a drive and a steering joint given the other way round (a tricycle's, a car's)."""
+
+DRIVE_STEER_WORDS = {"drive": (("traction",), ("drive",), ("wheel",)), "steer": (("steer",), ("steering",))}
+"""The words of a drive and a steering joint's names (a tricycle's, a car's)."""
+
+
+def _zero_off(shift: float, joint: str = "") -> tuple[str, str]:
+    """The words and the remedy of a steering zero ``-shift`` off (the reading that adds ``shift`` fits)."""
+    side = "right" if shift > 0 else "left"
+    name = f" {joint}" if joint else ""
+    return (
+        f"the steering joint{name} reads {math.degrees(-shift):+.0f} deg (a quarter turn to the {side}) with the "
+        "wheel straight ahead: its zero is a quarter turn off (an offset, not degrees)",
+        "move the zero where the angle is made (the steering joint's transmission: its <offset> "
+        f"{shift:+.6f} rad more, or the driver) and record again",
+    )
 
 
 class _TricycleKind(Kind):
@@ -229,6 +249,19 @@ class _TricycleKind(Kind):
     sim_joints = ("traction_wheel_joint", "steering_joint")
     turn_backwards = "the traction joint turns backwards when the robot drives forward"
     turn_mirrored = "the steering joint's angle clockwise positive (it must be counter-clockwise positive)"
+    role_words = DRIVE_STEER_WORDS
+
+    def readings(self) -> tuple[Reading, ...]:
+        """The drive and steering joints exchanged, and the steering joint's zero a quarter turn
+        off either way (the reading adds the turn back)."""
+        exchanged = tuple(Reading(r.order, words=EXCHANGED) for r in super().readings())
+        quarter = 0.5 * math.pi
+        return exchanged + tuple(Reading((0, 1), (0.0, s * quarter), _zero_off(s * quarter)[0]) for s in (1.0, -1.0))
+
+    def reading_cause(self, reading: Reading, names: Sequence[str]) -> tuple[str, str]:
+        if any(reading.shift_rad):
+            return _zero_off(reading.shift_rad[1], names[1])
+        return super().reading_cause(reading, names)
 
     def steering_travel(self, nominal: Kinematics, values: FloatArray) -> tuple[float, float]:
         assert isinstance(nominal, Tricycle)
@@ -261,6 +294,10 @@ class _TricycleKind(Kind):
         """tricycle_controller's ``wheelbase`` and ``wheel_radius`` (doubles, metres)."""
         assert isinstance(g, Tricycle)
         return {"wheelbase": float(g.wheelbase_m), "wheel_radius": float(0.5 * g.wheel_diameter_m)}
+
+    def ros2_joints(self, joints: Mapping[str, str]) -> dict[str, str]:
+        """tricycle_controller's ``traction_joint_name`` and ``steering_joint_name`` (strings, required)."""
+        return {"traction_joint_name": str(joints["drive"]), "steering_joint_name": str(joints["steer"])}
 
     def ros2_notes(
         self,

@@ -11,7 +11,12 @@ two wheels:
    (:attr:`umbmark.kinds.Kind.reads_odometry`: a car's ``/odom``) has its joints made from the
    odometry's poses (:meth:`umbmark.kinds.Kind.joints_from_odometry`: the rolling joints
    interpolated as recorded, a steering angle held over each step of the odometry as its
-   integration held it).
+   integration held it). Before anything else, the joint states' motion is set against the
+   lidar's between consecutive scans (:mod:`umbmark.realrobot.motion_check`): the other
+   readings of the joints that the kind names (:meth:`umbmark.kinds.Kind.readings`: another
+   order, a drive and a steering joint exchanged, a steering zero a quarter turn off) are
+   tried, and one far closer to the lidar than the joints as given is named; then the units
+   and signs.
 2. **Every pair of consecutive scans matched** from the nominal odometry seen from the sensor
    at its nominal pose (``/tf_static``, given, or zero); from those matches the scans' delay
    (``auto``: :func:`umbmark.realrobot.selfcal.delay_from_turns`, the nominal odometry's
@@ -34,8 +39,9 @@ Imports numpy, :mod:`umbmark.model`, :mod:`umbmark.io`, :mod:`umbmark.correct.se
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -43,7 +49,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from umbmark._files import check_distinct_inputs
-from umbmark.correct.selfcal.kinematic import KinematicSelfcalResult, kinematic_selfcal
+from umbmark.correct.selfcal.kinematic import KinematicSelfcalResult, kinematic_residuals, kinematic_selfcal
 from umbmark.errors import InputError
 from umbmark.io.rosbag import SelfcalBag, read_selfcal_bag
 from umbmark.io.wheels import WheelSource
@@ -56,7 +62,7 @@ from umbmark.model.kinematics import (
     integrate_steps,
     twist_displacement,
 )
-from umbmark.realrobot.motion_check import check_wheels_against_scans
+from umbmark.realrobot.motion_check import LidarMotion, check_readings, check_wheels_against_scans, lidar_motion
 from umbmark.realrobot.selfcal import (
     STILL_M,
     IntervalOptions,
@@ -70,15 +76,18 @@ from umbmark.realrobot.selfcal import (
     interval_blocks,
     match_pairs,
     nominal_sensor_pose_of,
+    selfcal_history_fields,
     usable_scans,
 )
 
 __all__ = [
+    "check_joint_readings",
     "JointScanIntervals",
     "KinematicReport",
     "kinematic_bag_intervals",
     "kinematic_selfcal_from_bags",
     "joint_source",
+    "scan_odometry",
     "odometry_joints",
     "unfitted_notes",
     "UNFITTED_REL",
@@ -170,6 +179,30 @@ def _wheel_odometry(bag: Any, nominal: Kinematics) -> FloatArray:
         else:
             vals[:, j] = pos[1:, j] if _held(bag) else 0.5 * (pos[1:, j] + pos[:-1, j])
     return integrate_steps(twist_displacement(nominal.twist(vals)))
+
+
+def scan_odometry(bag: SelfcalBag, geometries: Sequence[Kinematics], scan_delay_s: float = 0.0) -> list[FloatArray]:
+    """The odometry of each geometry at every scan of a bag of joint states: the joints on the grid
+    of the joint and scan stamps (step 1 of the module docstring), integrated from the first.
+
+    Parameters
+    ----------
+    bag : SelfcalBag
+        With joint states in the kind's roles' order.
+    geometries : sequence of Kinematics
+        Of one kind (the first gives the joints' roles).
+    scan_delay_s : float
+        How late the scans are stamped [s]: the joints are read at ``stamp - scan_delay_s``.
+
+    Returns
+    -------
+    list of numpy.ndarray
+        Per geometry ``(M, 3)`` poses at the ``M`` scans (a scan beyond the joint data: the pose
+        at its end).
+    """
+    st = np.asarray(bag.scan_t_s, dtype=float) - float(scan_delay_s)
+    grid = _grid(bag, geometries[0], st, np.ones(len(st), dtype=bool))
+    return [integrate_steps(twist_displacement(g.twist(grid.steps_values)))[grid.scan_index] for g in geometries]
 
 
 def odometry_joints(bag: SelfcalBag, nominal: Kinematics) -> SelfcalBag:
@@ -396,22 +429,106 @@ MAX_STEERING_RAD = math.pi
 """No steering joint turns further than this from straight ahead [rad]: beyond it, degrees."""
 
 
-def _check_steering(bag: SelfcalBag, nominal: Kinematics) -> None:
-    """Refuse a steering joint beyond :data:`MAX_STEERING_RAD` (degrees published as radians)."""
-    assert bag.joint_positions is not None
-    pos = np.asarray(bag.joint_positions, dtype=float)
+def _steering_top(pos: FloatArray, nominal: Kinematics) -> tuple[int, float] | None:
+    """The steering joint that turns furthest beyond :data:`MAX_STEERING_RAD` and how far, or None."""
+    worst = None
     for j, rolls in enumerate(nominal.rolling):
         if rolls or not pos.size:
             continue
         top = float(np.max(np.abs(pos[:, j])))
-        if top > MAX_STEERING_RAD:
-            name = bag.joint_names[j] if j < len(bag.joint_names) else f"joint {j + 1}"
-            raise InputError(
-                f"the steering joint {name} reaches {top:.4g} rad ({math.degrees(top):.4g} deg): no steering "
-                f"turns further than {math.degrees(MAX_STEERING_RAD):g} deg from straight; its positions look "
-                f"like degrees ({top:.4g} deg is {math.radians(top):.3g} rad): JointState positions are radians",
-                bag.source,
-            )
+        if top > MAX_STEERING_RAD and (worst is None or top > worst[1]):
+            worst = (j, top)
+    return worst
+
+
+def _check_steering(bag: SelfcalBag, nominal: Kinematics) -> None:
+    """Refuse a steering joint beyond :data:`MAX_STEERING_RAD` (degrees published as radians)."""
+    assert bag.joint_positions is not None
+    found = _steering_top(np.asarray(bag.joint_positions, dtype=float), nominal)
+    if found is None:
+        return
+    j, top = found
+    name = bag.joint_names[j] if j < len(bag.joint_names) else f"joint {j + 1}"
+    raise InputError(
+        f"the steering joint {name} reaches {top:.4g} rad ({math.degrees(top):.4g} deg): no steering "
+        f"turns further than {math.degrees(MAX_STEERING_RAD):g} deg from straight; its positions look "
+        f"like degrees ({top:.4g} deg is {math.radians(top):.3g} rad): JointState positions are radians",
+        bag.source,
+    )
+
+
+def _check_readings(
+    bag: SelfcalBag,
+    nominal: Kinematics,
+    st: FloatArray,
+    usable: NDArray[np.bool_],
+    grid: _Grid,
+    motion: LidarMotion | None,
+) -> None:
+    """The kind's other readings of the joints given (:meth:`umbmark.kinds.Kind.readings`) against
+    the lidar's motion (:func:`umbmark.realrobot.motion_check.check_readings`); a reading that
+    turns a steering joint beyond :data:`MAX_STEERING_RAD` is not one. Joints made from the
+    robot's own odometry (:func:`odometry_joints`) are in their roles already: not judged."""
+    if motion is None or _held(bag):
+        return
+    assert bag.joint_positions is not None
+    kind = kind_of(nominal)
+    pos, wt = np.asarray(bag.joint_positions, dtype=float), np.asarray(bag.wheel_t_s, dtype=float)
+    names = tuple(bag.joint_names) or tuple(f"joint {j + 1}" for j in range(pos.shape[1]))
+    readings = []
+    for r in kind.readings():
+        p = r.apply(pos, nominal.rolling)
+        if _steering_top(p, nominal) is None:
+            readings.append((kind.reading_cause(r, names), _grid_of(wt, p, nominal, st, usable).odometry))
+    check_readings(motion, grid.odometry, readings, bag.source)
+
+
+def _require_joints(bag: SelfcalBag, nominal: Kinematics) -> None:
+    if bag.joint_positions is None or bag.joint_positions.shape[1] != len(nominal.joint_roles):
+        raise InputError(
+            f"the bag's joint data are not a {nominal.kind}'s ({', '.join(nominal.joint_roles)})", bag.source
+        )
+
+
+def check_joint_readings(
+    bag: SelfcalBag,
+    nominal: Kinematics,
+    options: IntervalOptions | None = None,
+    *,
+    motion: LidarMotion | None = None,
+) -> LidarMotion | None:
+    """The joints as given against the other readings their kind names, on the lidar's own motion
+    between consecutive scans: the first check of :func:`kinematic_bag_intervals`, alone.
+
+    Parameters
+    ----------
+    bag : SelfcalBag
+        With joint states in the kind's roles' order (:func:`joint_source`).
+    nominal : Kinematics
+        The nominal geometry.
+    options : IntervalOptions, optional
+        The lidar's nominal pose, the base frame and the wheel gap (the rest unused).
+    motion : LidarMotion, optional
+        The lidar's motion when it was matched already (the same scans and lidar pose).
+
+    Returns
+    -------
+    LidarMotion or None
+        The lidar's motion (to pass again for another reading of the same bag); None: too few
+        scan pairs matched to judge from.
+
+    Raises
+    ------
+    InputError
+        Another reading far closer to the lidar's motion (the check ``joint_order``: its cause and
+        the options to give), or beside a lidar upside down (``turn_direction``).
+    """
+    _require_joints(bag, nominal)
+    pipe = _Pipeline(bag, nominal, IntervalOptions() if options is None else options)
+    st, usable, grid, _ = pipe.plan(pipe.first)
+    seen = lidar_motion(bag, usable, pipe.l0) if motion is None else motion
+    _check_readings(bag, nominal, st, usable, grid, seen)
+    return seen
 
 
 def kinematic_bag_intervals(
@@ -447,14 +564,16 @@ def kinematic_bag_intervals(
     """
     opts = IntervalOptions() if options is None else options
     src = bag.source
-    if bag.joint_positions is None or bag.joint_positions.shape[1] != len(nominal.joint_roles):
-        raise InputError(f"the bag's joint data are not a {nominal.kind}'s ({', '.join(nominal.joint_roles)})", src)
-    _check_steering(bag, nominal)
+    _require_joints(bag, nominal)
     pipe = _Pipeline(bag, nominal, opts)
     rule = opts.keyframes
-    # 1-2: every pair of consecutive scans, matched from the nominal odometry
+    # 1-2: every pair of consecutive scans, matched from the nominal odometry (the joints first
+    # read every way the kind names against the lidar's own motion, then their units and signs)
     st, usable, grid, warnings = pipe.plan(pipe.first)
-    check_wheels_against_scans(bag, st, usable, grid.odometry, pipe.l0, kind=nominal.kind)
+    seen = lidar_motion(bag, usable, pipe.l0)
+    _check_readings(bag, nominal, st, usable, grid, seen)
+    _check_steering(bag, nominal)
+    check_wheels_against_scans(bag, st, usable, grid.odometry, pipe.l0, kind=nominal.kind, motion=seen)
     every = np.array(KeyframeRule().select(st, grid.odometry, usable), dtype=np.int64).reshape(-1, 2)
     moving = _moving(grid, every, nominal)
     if not moving.any():
@@ -502,16 +621,48 @@ class KinematicReport:
     ----------
     result : KinematicSelfcalResult
     parts : tuple of JointScanIntervals
+    draw : bool
+        Its JSON holds the data of the report's figures (:attr:`figures`); a window of a longer
+        recording's has none.
+    intervals : JointIntervals, optional
+        The pooled intervals the estimate was made from (default: the parts', pooled).
     """
 
     result: KinematicSelfcalResult
     parts: tuple[JointScanIntervals, ...]
+    draw: bool = True
+    intervals: JointIntervals | None = None
+
+    @cached_property
+    def figures(self) -> dict[str, Any]:
+        """The data of the report's figures (as a differential drive's,
+        :func:`umbmark.realrobot.selfcal_map.selfcal_figures`): each interval's residual over time,
+        and a map per bag: its keyframes placed by the joints' odometry with the nominal geometry
+        and lidar pose, and with the calibrated ones."""
+        from umbmark.realrobot.selfcal_map import encode_map, encode_residuals, map_keys
+
+        r = self.result
+        iv = self.intervals or JointIntervals.concatenate([p.intervals for p in self.parts])
+        times, maps = [], []
+        for p in self.parts:
+            scan_t = np.asarray(p.bag.scan_t_s, dtype=float)
+            times.append(np.asarray(p.start_s, dtype=float) - scan_t[0])
+            keys = map_keys(p.pairs)
+            nominal, calibrated = scan_odometry(p.bag, (r.nominal, r.kinematics), p.scan_delay_s)
+            bases = tuple(se2.compose(se2.inverse(b[keys[0]]), b[keys]) for b in (nominal, calibrated))
+            x, y, _, _, _, yaw = p.nominal_sensor_pose
+            maps.append(encode_map(p.bag, keys, (bases[0], bases[1]), ((x, y, yaw), r.sensor_pose)))
+        which = np.repeat(np.arange(len(self.parts)), [len(p.intervals) for p in self.parts])
+        t = np.concatenate(times) if times else np.zeros(0)
+        return {"residuals": encode_residuals(kinematic_residuals(iv, r), r.intervals_rejected, t, which), "maps": maps}
 
     def to_dict(self) -> dict[str, Any]:
         """The result's JSON (:meth:`KinematicSelfcalResult.to_dict`) with ``joints`` (each role's
-        joint name, as the bags' joint states name them; null when read from an odometry),
-        ``inputs`` (each bag's :meth:`JointScanIntervals.to_dict`), ``keyframes`` and
-        ``scan_delay`` (per bag, ``applied_s``)."""
+        joint name, as the bags' joint states name them: the controller's parameters of an export
+        name them; null when read from an odometry), ``inputs`` (each bag's
+        :meth:`JointScanIntervals.to_dict`), ``keyframes``, ``scan_delay`` (per bag,
+        ``applied_s``) and ``figures`` (:attr:`figures`, what ``umbmark report`` draws; not of a
+        window)."""
         out = self.result.to_dict()
         first = self.parts[0].bag if self.parts else None
         roles = self.result.nominal.joint_roles
@@ -520,7 +671,15 @@ class KinematicReport:
         out["inputs"] = [p.to_dict() for p in self.parts]
         out["keyframes"] = self.parts[0].keyframe_rule.to_dict() if self.parts else None
         out["scan_delay"] = [p.to_dict()["scan_delay"] for p in self.parts]
+        if self.draw:
+            out["figures"] = self.figures
         return out
+
+    def history_fields(self, kind: str = "selfcal", file_hash: Callable[[str], str] | None = None) -> dict[str, Any]:
+        """The keyword arguments of :func:`umbmark.history.record_result` for this result, as a
+        differential drive's (:meth:`umbmark.realrobot.selfcal.SelfcalReport.history_fields`): its
+        ``parameters`` the kind's own (:func:`umbmark.realrobot.selfcal.selfcal_history_fields`)."""
+        return selfcal_history_fields(self.to_dict(), kind, file_hash)
 
 
 def kinematic_selfcal_from_bags(

@@ -15,6 +15,13 @@ odometry's over the same scans.
   :data:`TRAVEL_RATIO` either way (the turns' beyond :data:`TURN_RATIO` when the robot only
   spins: a skid-steer robot turns less than its wheels say): the factor is named, 57.3 as
   degrees, a factor near nothing as counts per message read as a counter.
+* **The joints read otherwise** (:func:`check_readings`): the joints given in another order,
+  a drive and a steering joint exchanged, a steering zero a quarter turn off. Each reading's
+  odometry is set against the lidar's motion (:func:`disagreement`: what is left of the lidar's
+  travel and turn once each is scaled to fit best, so that a nominal size off does not count);
+  a reading far closer to the lidar than the joints as given names itself.
+
+The lidar's motion is matched once (:func:`lidar_motion`) and serves every check.
 
 SI units. Imports numpy, :mod:`umbmark.model.se2`, :mod:`umbmark.kinds` (the causes each kind
 names) and the scan matcher.
@@ -23,7 +30,8 @@ names) and the scan matcher.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -35,7 +43,17 @@ from umbmark.kinds import DEFAULT_KIND, kind_named
 from umbmark.model import se2
 from umbmark.realrobot.scanmatch import ICPConfig, match_scan_pairs
 
-__all__ = ["check_wheels_against_scans", "TRAVEL_RATIO", "TURN_RATIO", "DEGREE"]
+__all__ = [
+    "check_wheels_against_scans",
+    "check_readings",
+    "lidar_motion",
+    "disagreement",
+    "LidarMotion",
+    "TRAVEL_RATIO",
+    "TURN_RATIO",
+    "DEGREE",
+    "READING_FAR",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -57,6 +75,19 @@ _STRAIGHT_RAD = math.radians(1.0)  # a pair turning less counts for the travel r
 _TURN_STEP_RAD = math.radians(0.5)  # a pair turning less is left out of the sign count
 _STEP_M = 0.005  # a pair moving less than this forward is left out of the direction count
 _AGAINST = 0.8  # the share of turning pairs turning the other way that names a mirror
+
+READING_FAR = 2.5
+"""Another reading of the joints names itself when the joints as given are this many times
+further from the lidar's travel or turn (:func:`disagreement`) where it agrees with the lidar,
+and no further in the other."""
+_READING_MARGIN = 0.06  # ... and further by at least this much
+_READING_AGREES = 0.25  # ... where it leaves at most this share unexplained
+_READING_NOT_WORSE = 0.05  # ... and it leaves at most this much more of the other unexplained
+_READING_ROUGHLY = 0.5  # ... and at most this share of either
+_READING_TIE = 1.25  # readings within this factor of the closest are as close (the driving cannot tell them)
+_READING_EVEN = 0.02  # ... or this much
+_READINGS_NAMED = 4  # at most this many of them named (a mecanum robot that never moves sideways: four orders alike)
+_MIRROR_SLACK = 0.2  # a lidar upside down as close as the closest reading but this much (its pose is not mirrored)
 
 
 def _pairs(usable: NDArray[np.bool_]) -> NDArray[np.int64]:
@@ -93,6 +124,65 @@ def _unit_cause(ratio: float, wheel_kind: str) -> str:
     )
 
 
+@dataclass(frozen=True, eq=False)
+class LidarMotion:
+    """The lidar's own motion between consecutive scans, matched from no motion at all.
+
+    Attributes
+    ----------
+    index : numpy.ndarray
+        ``(P,)`` the first scan of each pair that matched (the second is the next).
+    seen : numpy.ndarray
+        ``(P, 3)`` the robot's motion over each pair as the lidar saw it (at its nominal pose;
+        pairs that hardly turn: the sensor's own travel, whatever its nominal position).
+    mirrored : numpy.ndarray
+        ``(P, 3)`` the same of the scans mirrored (what a lidar mounted upside down would have seen).
+    """
+
+    index: NDArray[np.int64]
+    seen: FloatArray
+    mirrored: FloatArray
+
+
+def _robot_motion(raw: FloatArray, lidar: FloatArray) -> FloatArray:
+    seen = se2.compose(lidar, se2.compose(raw, se2.inverse(lidar)))
+    # the travel of pairs that hardly turn is the sensor's own, whatever its nominal pose
+    c, si = math.cos(lidar[2]), math.sin(lidar[2])
+    own = np.column_stack([c * raw[:, 0] - si * raw[:, 1], si * raw[:, 0] + c * raw[:, 1]])
+    seen[:, :2] = np.where(np.abs(raw[:, 2:3]) < _STRAIGHT_RAD, own, seen[:, :2])
+    return np.asarray(seen, dtype=float)
+
+
+def lidar_motion(bag: SelfcalBag, usable: ArrayLike, sensor_pose: ArrayLike) -> LidarMotion | None:
+    """Up to :data:`_PAIRS` consecutive usable scans (spread over the recording) matched from no
+    motion (the coarse matcher), in the robot's frame.
+
+    Parameters
+    ----------
+    bag : SelfcalBag
+        The recording (its scans).
+    usable : array_like
+        ``(M,)`` the scans with wheel data around them.
+    sensor_pose : array_like
+        ``(3,)`` the lidar's nominal mounting pose ``(x_m, y_m, yaw_rad)``.
+
+    Returns
+    -------
+    LidarMotion or None
+        None: fewer than ten pairs matched (too little to judge from).
+    """
+    i = _pairs(np.asarray(usable, dtype=bool))
+    if i.size < 10:
+        return None
+    m = match_scan_pairs(bag.ranges_m[i], bag.ranges_m[i + 1], bag.angles_rad, None, ICPConfig(coarse=True))
+    ok = np.asarray(m.converged, dtype=bool)
+    if ok.sum() < 10:
+        return None
+    lidar = np.asarray(sensor_pose, dtype=float)
+    raw = np.asarray(m.poses, dtype=float)[ok]
+    return LidarMotion(i[ok], _robot_motion(raw, lidar), _robot_motion(raw * [1.0, -1.0, -1.0], lidar))
+
+
 def check_wheels_against_scans(
     bag: SelfcalBag,
     st: ArrayLike,
@@ -102,6 +192,7 @@ def check_wheels_against_scans(
     *,
     kind: str = DEFAULT_KIND,
     alternatives: Mapping[str, ArrayLike] | None = None,
+    motion: LidarMotion | None = None,
 ) -> None:
     """Refuse wheel data whose motion the lidar contradicts (module docstring).
 
@@ -122,6 +213,9 @@ def check_wheels_against_scans(
     alternatives : dict, optional
         Other readings of the wheel data (how they would be read, in words -> their ``(M, 3)``
         odometry at the scans): the one the lidar agrees with is named as the cause.
+    motion : LidarMotion, optional
+        The lidar's motion when it was matched already (:func:`lidar_motion` of the same scans
+        and pose); None: matched here.
 
     Raises
     ------
@@ -130,52 +224,162 @@ def check_wheels_against_scans(
         beyond :data:`TRAVEL_RATIO` (:data:`TURN_RATIO`) from what the lidar saw.
     """
     odo = np.asarray(odometry, dtype=float)
-    use = np.asarray(usable, dtype=bool)
     if odo.shape != (len(np.asarray(st)), 3) or len(bag.ranges_m) != len(odo):
         raise InputError(f"`odometry` must hold one pose per scan, got {odo.shape}", bag.source)
-    steps = _steps(odo)
-    i = _pairs(use)
-    if i.size < 10:
+    lm = lidar_motion(bag, usable, sensor_pose) if motion is None else motion
+    if lm is None:
         return
-    m = match_scan_pairs(bag.ranges_m[i], bag.ranges_m[i + 1], bag.angles_rad, None, ICPConfig(coarse=True))
-    ok = np.asarray(m.converged, dtype=bool)
-    if ok.sum() < 10:
+    wheel = _steps(odo)[lm.index]
+    _check_turn_signs(wheel, lm.seen, kind, bag)
+    other = {k: _steps(np.asarray(v, dtype=float))[lm.index] for k, v in (alternatives or {}).items()}
+    _check_scale(wheel, lm.seen, bag, other)
+
+
+def disagreement(wheel: ArrayLike, seen: ArrayLike) -> FloatArray:
+    """How far the wheels' motion over pairs of scans is from the lidar's: the lidar's travel and
+    its turn each scaled to fit best (a scale at least 0, so that a nominal size off does not
+    count) and the share of each left unexplained (0: the same motion; 1: the wheels explain
+    none of it).
+
+    Parameters
+    ----------
+    wheel, seen : array_like
+        ``(P, 3)`` the wheels' and the lidar's motions over the pairs, in the robot's frame.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(2,)`` the shares of the travel and of the turn; NaN where the lidar hardly saw it
+        (under 0.3 m of travel, 30 deg of turn over the pairs).
+    """
+    w, s = np.asarray(wheel, dtype=float), np.asarray(seen, dtype=float)
+    out = np.full(2, np.nan)
+    for k, (part, least) in enumerate(((slice(0, 2), _MIN_TRAVEL_M), (slice(2, 3), _MIN_TURN_RAD))):
+        ws, ss = w[:, part], s[:, part]
+        total = float(np.sum(np.linalg.norm(ss, axis=1)))
+        if total >= least:
+            a = max(float(np.sum(ws * ss)) / max(float(np.sum(ws * ws)), 1e-300), 0.0)
+            out[k] = min(float(np.sum(np.linalg.norm(a * ws - ss, axis=1))) / total, 1.0)  # no worse than none
+    return out
+
+
+def _far_closer(other: FloatArray, given: FloatArray) -> bool:
+    """Whether a reading is far closer to the lidar than the joints as given: no component
+    further, none far from the lidar (:data:`_READING_ROUGHLY`), one :data:`READING_FAR` times
+    closer (and by :data:`_READING_MARGIN`) and agreeing with the lidar (:data:`_READING_AGREES`)."""
+    both = np.isfinite(other) & np.isfinite(given)
+    o, g = other[both], given[both]
+    if o.size == 0 or np.any(o > g + _READING_NOT_WORSE) or np.any(o > _READING_ROUGHLY):
+        return False
+    return bool(np.any((o <= _READING_AGREES) & (g >= READING_FAR * o) & (g - o >= _READING_MARGIN)))
+
+
+def _shares(d: FloatArray) -> str:
+    """A disagreement in words: ``travel 60 %, turn 1 %``."""
+    return ", ".join(f"{what} {100 * v:.0f} %" for what, v in zip(("travel", "turn"), d) if np.isfinite(v))
+
+
+def check_readings(
+    motion: LidarMotion | None,
+    odometry: ArrayLike,
+    readings: Sequence[tuple[tuple[str, str], ArrayLike]],
+    source: str,
+) -> None:
+    """Refuse joints whose motion the lidar contradicts where another reading of them agrees
+    (module docstring): the closest reading's cause named (several, when the driving cannot tell
+    them apart), and a lidar mounted upside down beside it when the mirrored scans agree as well
+    (then, where the lidar turns against the joints, as the check ``turn_direction``).
+
+    Parameters
+    ----------
+    motion : LidarMotion or None
+        The lidar's motion (:func:`lidar_motion`); None: nothing to judge from.
+    odometry : array_like
+        ``(M, 3)`` the nominal odometry of the joints as given at each scan.
+    readings : sequence of ((str, str), array_like)
+        The other readings: what each means and what to do (a message's words: ``(words,
+        remedy)``, :meth:`umbmark.kinds.Kind.reading_cause`), and its ``(M, 3)`` odometry at the
+        scans.
+    source : str
+        The recording, for the message.
+
+    Raises
+    ------
+    InputError
+        Another reading far closer to the lidar's motion (:func:`disagreement`: no part of it
+        further, one part :data:`READING_FAR` times closer): the check ``joint_order``, or
+        ``turn_direction`` beside a lidar upside down.
+    """
+    if motion is None or not readings:
         return
-    lidar = np.asarray(sensor_pose, dtype=float)
-    raw = np.asarray(m.poses, dtype=float)[ok]
-    seen = se2.compose(lidar, se2.compose(raw, se2.inverse(lidar)))
-    # the travel of pairs that hardly turn is the sensor's own, whatever its nominal pose
-    c, si = math.cos(lidar[2]), math.sin(lidar[2])
-    own = np.column_stack([c * raw[:, 0] - si * raw[:, 1], si * raw[:, 0] + c * raw[:, 1]])
-    seen[:, :2] = np.where(np.abs(raw[:, 2:3]) < _STRAIGHT_RAD, own, seen[:, :2])
-    wheel = steps[i[ok]]
-    _check_turn_signs(wheel, seen, kind, bag)
-    other = {k: _steps(np.asarray(v, dtype=float))[i[ok]] for k, v in (alternatives or {}).items()}
-    _check_scale(wheel, seen, bag, other)
+    wheel = _steps(np.asarray(odometry, dtype=float))[motion.index]
+    given = disagreement(wheel, motion.seen)
+    scores = [disagreement(_steps(np.asarray(o, dtype=float))[motion.index], motion.seen) for _, o in readings]
+    closer = sorted((float(np.nansum(d)), i) for i, d in enumerate(scores) if _far_closer(d, given))
+    if not closer:
+        return
+    best = closer[0][0]
+    near = [readings[i][0] for total, i in closer if total <= _READING_TIE * best + _READING_EVEN]
+    cause = _causes(near[:_READINGS_NAMED])
+    mirror = disagreement(wheel, motion.mirrored) - scores[closer[0][1]]
+    if np.all(np.nan_to_num(mirror) <= _MIRROR_SLACK):
+        # a lidar upside down moves the robot alike: both named, as the turns against each other show
+        where = _turns_against(wheel, motion.seen)
+        if where is not None:
+            _refuse("turn_direction", f"{where}: {_UPSIDE_DOWN}, or {cause}", source)
+            return
+        cause += f"; or {_UPSIDE_DOWN}, which moves the robot alike"
+    _refuse(
+        "joint_order",
+        f"the joints as given move the robot otherwise than the lidar sees it move (unexplained over "
+        f"{len(motion.index)} pairs of consecutive scans: {_shares(given)} of its motion; read otherwise, "
+        f"{_shares(scores[closer[0][1]])}): {cause}",
+        source,
+    )
+
+
+def _causes(near: list[tuple[str, str]]) -> str:
+    """The causes of the closest readings in words: one, or those the driving cannot tell apart
+    (the remedies of the same words together)."""
+    if len(near) == 1:
+        return f"{near[0][0]}: {near[0][1]}"
+    by_words: dict[str, list[str]] = {}
+    for words, remedy in near:
+        by_words.setdefault(words, []).append(remedy)
+    parts = [f"{words}: {'; or '.join(remedies)}" for words, remedies in by_words.items()]
+    return f"one of these, which the driving cannot tell apart: {'; or '.join(parts)}"
+
+
+_UPSIDE_DOWN = (
+    "a lidar mounted upside down (its scans mirrored: its frame's z axis down; turn it over in the URDF or the driver)"
+)
+
+
+def _turns_against(wheel: FloatArray, seen: FloatArray) -> str | None:
+    """Where the lidar turns the other way from the wheels in most scan pairs that turn
+    (:data:`_AGAINST` of them, at least five), in words; else None."""
+    turning = (np.abs(seen[:, 2]) > _TURN_STEP_RAD) & (np.abs(wheel[:, 2]) > 0.1 * _TURN_STEP_RAD)
+    n = int(turning.sum())
+    against = int(np.sum(np.sign(seen[turning, 2]) != np.sign(wheel[turning, 2])))
+    if n < 5 or against < _AGAINST * n:
+        return None
+    return f"the lidar turns the other way from the wheels in {against} of {n} scan pairs that turn"
 
 
 def _check_turn_signs(wheel: FloatArray, seen: FloatArray, kind: str, bag: SelfcalBag) -> None:
     """Refuse turns the other way: mirrored scans (the lidar upside down) or wheels exchanged
     when the robot's forward travel agrees; wheels counted backwards when it does not."""
-    turning = (np.abs(seen[:, 2]) > _TURN_STEP_RAD) & (np.abs(wheel[:, 2]) > 0.1 * _TURN_STEP_RAD)
-    n = int(turning.sum())
-    against = int(np.sum(np.sign(seen[turning, 2]) != np.sign(wheel[turning, 2])))
-    if n < 5 or against < _AGAINST * n:
+    where = _turns_against(wheel, seen)
+    if where is None:
         return
     ahead = (np.abs(seen[:, 0]) > _STEP_M) & (np.abs(wheel[:, 0]) > 0.1 * _STEP_M)
     back = int(np.sum(np.sign(seen[ahead, 0]) != np.sign(wheel[ahead, 0])))
-    where = f"the lidar turns the other way from the wheels in {against} of {n} scan pairs that turn"
     causes = kind_named(kind)
     if ahead.sum() >= 5 and back >= _AGAINST * ahead.sum():
         backwards = causes.turn_backwards
         _refuse("turn_direction", f"{where}, and it moves back where they drive forward: {backwards}", bag.source)
         return
-    _refuse(
-        "turn_direction",
-        f"{where}: a lidar mounted upside down (its scans mirrored: its frame's z axis down; turn it over in the "
-        f"URDF or the driver), or {causes.turn_mirrored}",
-        bag.source,
-    )
+    _refuse("turn_direction", f"{where}: {_UPSIDE_DOWN}, or {causes.turn_mirrored}", bag.source)
 
 
 def _ratio(wheel: FloatArray, seen: FloatArray) -> tuple[float, float, str, str] | None:

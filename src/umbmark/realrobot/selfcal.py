@@ -63,11 +63,12 @@ from umbmark.correct.selfcal.estimate import BLOCK_S, MAX_BLOCKS
 from umbmark.errors import InputError
 from umbmark.io.rosbag import SelfcalBag, StaticTransform
 from umbmark.io.wheels import WheelSource
+from umbmark.kinds import DEFAULT_KIND, Kind, kind_in, kind_named
 from umbmark.model import se2
 from umbmark.model.drive import integrate_wheels
 from umbmark.model.geometry import WheelGeometry
 from umbmark.model.intervals import Intervals, IntervalSteps
-from umbmark.realrobot.motion_check import check_wheels_against_scans
+from umbmark.realrobot.motion_check import check_readings, check_wheels_against_scans, lidar_motion
 from umbmark.realrobot.scanmatch import ICPConfig, match_scan_pairs
 from umbmark.realrobot.wheels import recording_wheel_angles
 
@@ -1238,7 +1239,8 @@ def check_bag_motion(
 ) -> None:
     """The nominal odometry of a differential drive's recording at its scans against the lidar's
     own motion (:func:`umbmark.realrobot.motion_check.check_wheels_against_scans`; encoder
-    counts read as a running counter are also tried as counts per message).
+    counts read as a running counter are also tried as counts per message; wheel joints, in the
+    other order: :func:`umbmark.realrobot.motion_check.check_readings`).
 
     Parameters
     ----------
@@ -1272,7 +1274,16 @@ def check_bag_motion(
     other = {}
     if bag.wheel_kind == "ticks" and "(cumulative" in bag.wheel_description:
         other['counts per message (`ticks="incremental"`)'] = odometry(np.cumsum(left), np.cumsum(right))
-    check_wheels_against_scans(bag, st, usable, odometry(left, right), sensor_pose, alternatives=other)
+    seen = lidar_motion(bag, usable, sensor_pose)
+    given = odometry(left, right)
+    if bag.wheel_kind == "joints" and len(bag.joint_names) == 2:
+        kind, wheels = kind_named(DEFAULT_KIND), (left, right)
+        readings = [
+            (kind.reading_cause(r, bag.joint_names), odometry(wheels[r.order[0]], wheels[r.order[1]]))
+            for r in kind.readings()
+        ]
+        check_readings(seen, given, readings, bag.source)
+    check_wheels_against_scans(bag, st, usable, given, sensor_pose, alternatives=other, motion=seen)
 
 
 def bag_intervals(
@@ -1588,7 +1599,12 @@ def selfcal_history_fields(
     d: dict[str, Any], kind: str = "selfcal", file_hash: Callable[[str], str] | None = None
 ) -> dict[str, Any]:
     """The keyword arguments of :func:`umbmark.history.record_result` for a self-calibration
-    given as its JSON (:meth:`SelfcalReport.to_dict`, the output of ``umbmark selfcal --json``).
+    given as its JSON (:meth:`SelfcalReport.to_dict`, the output of ``umbmark selfcal --json``), of
+    any kind of robot: a differential drive's ``parameters`` are ``c_left``, ``c_right``,
+    ``wheelbase_mm``, ``Ed``, ``Eb``; another kind's (its JSON's ``kinematics``) are ``kinematics``
+    and its geometry under its JSON keys (a tricycle's ``wheel_diameter_mm``, ``wheelbase_mm``,
+    ``steering_offset_deg``, ``steering_scale``), and ``parameters_in_use`` its nominal geometry;
+    both with ``sensor_pose``.
 
     Parameters
     ----------
@@ -1610,35 +1626,65 @@ def selfcal_history_fields(
     InputError
         If ``d`` is not a self-calibration's JSON.
     """
-    missing = [k for k in ("c_left", "c_right", "wheelbase_mm", "Ed", "Eb", "sensor_pose") if k not in d]
-    if missing or not isinstance(d.get("sensor_pose"), dict):
-        raise InputError("not the JSON of a self-calibration (missing " + ", ".join(missing or ["sensor_pose"]) + ")")
+    own = kind_in(d)
+    if own is not None:
+        parameters, in_use = _kind_parameters(d, own)
+    else:
+        missing = [k for k in ("c_left", "c_right", "wheelbase_mm", "Ed", "Eb", "sensor_pose") if k not in d]
+        if missing or not isinstance(d.get("sensor_pose"), dict):
+            raise InputError(
+                "not the JSON of a self-calibration (missing " + ", ".join(missing or ["sensor_pose"]) + ")"
+            )
+        parameters = {k: d[k] for k in ("c_left", "c_right", "wheelbase_mm", "Ed", "Eb")}
+        in_use = {
+            "wheel_diameter_mm": d.get("nominal_wheel_diameter_mm"),
+            "wheelbase_mm": d.get("nominal_wheelbase_mm"),
+            "sensor_pose": d.get("nominal_sensor_pose"),
+        }
     paths = [i["path"] for i in d.get("inputs", []) if isinstance(i, dict) and "path" in i]
     sp = d["sensor_pose"]
+    parameters["sensor_pose"] = {k: sp.get(k) for k in ("x_mm", "y_mm", "yaw_deg")}
     first = Path(paths[0]) if paths else None
     return {
         "kind": kind,
         "method": "selfcal",
         "results": d,
-        "parameters": {
-            "c_left": d["c_left"],
-            "c_right": d["c_right"],
-            "wheelbase_mm": d["wheelbase_mm"],
-            "Ed": d["Ed"],
-            "Eb": d["Eb"],
-            "sensor_pose": {k: sp.get(k) for k in ("x_mm", "y_mm", "yaw_deg")},
-        },
-        "parameters_in_use": {
-            "wheel_diameter_mm": d.get("nominal_wheel_diameter_mm"),
-            "wheelbase_mm": d.get("nominal_wheelbase_mm"),
-            "sensor_pose": d.get("nominal_sensor_pose"),
-        },
+        "parameters": parameters,
+        "parameters_in_use": in_use,
         "source": None if first is None else str(first.resolve() if first.exists() else first),
         "input_sha256": (
             inputs_sha256(paths, file_hash) if paths and file_hash and all(Path(p).exists() for p in paths) else None
         ),
         "inputs": {"paths": paths},
     }
+
+
+def _kind_parameters(d: dict[str, Any], own: Kind) -> tuple[dict[str, Any], dict[str, Any]]:
+    """The recommended parameters and those in use of the self-calibration of a robot of a kind of
+    its own: ``kinematics`` and its geometry under the kind's JSON keys (the calibrated geometry,
+    and the nominal one with the first bag's nominal sensor pose).
+
+    Raises
+    ------
+    InputError
+        No sensor pose, or a geometry that is not the kind's.
+    """
+    if not isinstance(d.get("sensor_pose"), dict):
+        raise InputError(f"not the JSON of a {own.noun}'s self-calibration (missing sensor_pose)")
+    own.geometry_from_json(d, "the self-calibration")
+    got = d.get("nominal")
+    nominal: dict[str, Any] = got if isinstance(got, dict) else {}
+    inputs = [i for i in d.get("inputs") or [] if isinstance(i, dict)]
+    keys = dict.fromkeys(p.key[0] for p in own.parameters)
+    parameters: dict[str, Any] = {"kinematics": own.name}
+    for k in keys:  # each estimate and its 95 % interval (null: not estimated)
+        parameters.update({k: d[k], f"{k}_ci95": d.get(f"{k}_ci95")})
+    in_use = {
+        "kinematics": own.name,
+        **{k: nominal.get(k) for k in keys},
+        "sensor_pose": inputs[0].get("nominal_sensor_pose") if inputs else None,
+    }
+    return parameters, in_use
 
 
 # an estimated sensor yaw beyond this, with no transform to compare it with, is named (a sensor

@@ -40,7 +40,10 @@ __all__ = [
     "MAP_RANGE_M",
     "SPREAD_NEAR_M",
     "scan_map",
+    "map_keys",
+    "encode_map",
     "interval_residuals",
+    "encode_residuals",
     "map_points",
     "map_spread",
     "selfcal_figures",
@@ -68,6 +71,70 @@ def _scan_points(ranges: FloatArray, angles: FloatArray, max_points: int) -> Flo
         idx = idx[np.linspace(0, idx.size - 1, max_points).round().astype(np.intp)]
     r, a = ranges[idx], angles[idx]
     return np.column_stack([r * np.cos(a), r * np.sin(a)])
+
+
+def map_keys(pairs: ArrayLike, max_scans: int = MAP_SCANS) -> NDArray[np.intp]:
+    """The scans of a bag's map: its keyframes (the scans of its matched pairs), at most ``max_scans``
+    spread evenly over them."""
+    keys = np.unique(np.asarray(pairs, dtype=np.intp))
+    if keys.size > max_scans:
+        keys = keys[np.linspace(0, keys.size - 1, max_scans).round().astype(np.intp)]
+    return keys
+
+
+def encode_map(
+    bag: Any,
+    keys: ArrayLike,
+    bases: tuple[ArrayLike, ArrayLike],
+    sensor_poses: tuple[ArrayLike, ArrayLike],
+    max_points: int = MAP_POINTS,
+) -> dict[str, Any]:
+    """The map of a bag's scans ``keys`` placed by two odometries (any kind of robot's).
+
+    Parameters
+    ----------
+    bag : SelfcalBag
+        Its scans (``ranges_m``, ``angles_rad``, ``scan_t_s``, ``source``).
+    keys : array_like
+        ``(n,)`` the scans drawn (:func:`map_keys`).
+    bases : tuple of array_like
+        ``(nominal, calibrated)``: ``(n, 3)`` the robot's poses at those scans, from the first.
+    sensor_poses : tuple of array_like
+        ``(nominal, calibrated)``: ``(x_m, y_m, yaw_rad)`` the lidar on the robot.
+    max_points : int
+        At most this many points per scan.
+
+    Returns
+    -------
+    dict
+        As :func:`scan_map`.
+    """
+    keys = np.asarray(keys, dtype=np.intp)
+    nominal, calibrated = (np.asarray(b, dtype=float) for b in bases)
+    angles = np.asarray(bag.angles_rad, dtype=float)
+    ranges = np.asarray(bag.ranges_m, dtype=float)
+    clouds = [_scan_points(ranges[k], angles, max_points) for k in keys]
+    counts = np.array([len(c) for c in clouds], dtype=np.int64)
+    pts = np.concatenate(clouds) if clouds else np.zeros((0, 2))
+    pts_mm = np.round(pts * 1e3)
+    l_nom, l_cal = (np.asarray(p, dtype=float).reshape(3) for p in sensor_poses)
+    scan_t = np.asarray(bag.scan_t_s, dtype=float)
+    spread = {
+        "nominal": map_spread(map_points(nominal, l_nom, pts_mm * 1e-3, counts)) * 1e3,
+        "calibrated": map_spread(map_points(calibrated, l_cal, pts_mm * 1e-3, counts)) * 1e3,
+    }
+    return {
+        "bag": bag.source,
+        "scans": int(keys.size),
+        "t_s": encode_array(scan_t[keys] - scan_t[0], "<f8"),
+        "base_nominal": encode_array(nominal, "<f8"),
+        "base_calibrated": encode_array(calibrated, "<f8"),
+        "sensor_nominal": [float(v) for v in l_nom],
+        "sensor_calibrated": [float(v) for v in l_cal],
+        "counts": encode_array(counts, "<u2"),
+        "points_mm": encode_array(pts_mm, "<i2"),
+        "spread_mm": spread,
+    }
 
 
 def scan_map(
@@ -99,9 +166,7 @@ def scan_map(
         encoded arrays; ``spread_mm`` (``nominal``, ``calibrated``: :func:`map_spread`).
     """
     bag = plan.bag
-    keys = np.unique(np.asarray(plan.pairs, dtype=np.intp))
-    if keys.size > max_scans:
-        keys = keys[np.linspace(0, keys.size - 1, max_scans).round().astype(np.intp)]
+    keys = map_keys(plan.pairs, max_scans)
     r_nom = 0.5 * result.nominal_wheel_diameter_m
     d_nom = result.nominal_wheel_diameter_m
     sl, sr = scan_wheel_angles(bag, WheelGeometry(d_nom, d_nom, result.nominal_wheelbase_m), plan.scan_delay_s)
@@ -109,32 +174,8 @@ def scan_map(
     dl, dr = np.diff(sl[first : last + 1]), np.diff(sr[first : last + 1])
     nominal = integrate_wheels(r_nom * dl, r_nom * dr, result.nominal_wheelbase_m)[keys - first]
     calibrated = integrate_wheels(result.r_left_m * dl, result.r_right_m * dr, result.wheelbase_m)[keys - first]
-    angles = np.asarray(bag.angles_rad, dtype=float)
-    ranges = np.asarray(bag.ranges_m, dtype=float)
-    clouds = [_scan_points(ranges[k], angles, max_points) for k in keys]
-    counts = np.array([len(c) for c in clouds], dtype=np.int64)
-    pts = np.concatenate(clouds) if clouds else np.zeros((0, 2))
-    pts_mm = np.round(pts * 1e3)
     x, y, _, _, _, yaw = plan.nominal_sensor_pose
-    l_nom = np.array([x, y, yaw], dtype=float)
-    l_cal = np.asarray(result.sensor_pose, dtype=float)
-    scan_t = np.asarray(bag.scan_t_s, dtype=float)
-    spread = {
-        "nominal": map_spread(map_points(nominal, l_nom, pts_mm * 1e-3, counts)) * 1e3,
-        "calibrated": map_spread(map_points(calibrated, l_cal, pts_mm * 1e-3, counts)) * 1e3,
-    }
-    return {
-        "bag": bag.source,
-        "scans": int(keys.size),
-        "t_s": encode_array(scan_t[keys] - scan_t[0], "<f8"),
-        "base_nominal": encode_array(nominal, "<f8"),
-        "base_calibrated": encode_array(calibrated, "<f8"),
-        "sensor_nominal": [float(v) for v in l_nom],
-        "sensor_calibrated": [float(v) for v in l_cal],
-        "counts": encode_array(counts, "<u2"),
-        "points_mm": encode_array(pts_mm, "<i2"),
-        "spread_mm": spread,
-    }
+    return encode_map(bag, keys, (nominal, calibrated), ((x, y, yaw), result.sensor_pose), max_points)
 
 
 def map_points(base: ArrayLike, sensor_pose: ArrayLike, points_m: ArrayLike, counts: ArrayLike) -> FloatArray:
@@ -197,6 +238,36 @@ def map_spread(points: ArrayLike, near_m: float = SPREAD_NEAR_M) -> float:
     return float(np.median(d)) if d.size else math.nan
 
 
+def encode_residuals(r: ArrayLike, rejected: ArrayLike, t_s: ArrayLike, inputs: ArrayLike) -> dict[str, Any]:
+    """Residuals of intervals as the report's JSON (any kind of robot's).
+
+    Parameters
+    ----------
+    r : array_like
+        ``(K, 3)`` measured minus predicted sensor displacements ``(dx_m, dy_m, dyaw_rad)``.
+    rejected : array_like
+        The indices of the intervals rejected as outliers.
+    t_s, inputs : array_like
+        ``(K,)`` each interval's start in its input [s], and the index of its input.
+
+    Returns
+    -------
+    dict
+        ``t_s``, ``input``, ``dx_mm``, ``dy_mm``, ``dyaw_deg``, ``rejected`` as encoded arrays.
+    """
+    r = np.asarray(r, dtype=float).reshape(-1, 3)
+    bad = np.zeros(len(r), dtype=bool)
+    bad[np.asarray(rejected, dtype=np.intp).reshape(-1)] = True
+    return {
+        "t_s": encode_array(t_s, "<f8"),
+        "input": encode_array(inputs, "<u2"),
+        "dx_mm": encode_array(r[:, 0] * 1e3, "<f4"),
+        "dy_mm": encode_array(r[:, 1] * 1e3, "<f4"),
+        "dyaw_deg": encode_array(np.degrees(r[:, 2]), "<f4"),
+        "rejected": encode_array(bad, "|u1"),
+    }
+
+
 def interval_residuals(intervals: Intervals, result: SelfcalResult, t_s: ArrayLike, inputs: ArrayLike) -> dict:
     """Each interval's measured minus predicted sensor displacement, over time.
 
@@ -214,19 +285,10 @@ def interval_residuals(intervals: Intervals, result: SelfcalResult, t_s: ArrayLi
     Returns
     -------
     dict
-        ``t_s``, ``input``, ``dx_mm``, ``dy_mm``, ``dyaw_deg``, ``rejected`` as encoded arrays.
+        :func:`encode_residuals`.
     """
     r = residuals(result.params, intervals.left_rad, intervals.right_rad, intervals.sensor, intervals.steps)
-    rejected = np.zeros(len(r), dtype=bool)
-    rejected[list(result.intervals_rejected)] = True
-    return {
-        "t_s": encode_array(t_s, "<f8"),
-        "input": encode_array(inputs, "<u2"),
-        "dx_mm": encode_array(r[:, 0] * 1e3, "<f4"),
-        "dy_mm": encode_array(r[:, 1] * 1e3, "<f4"),
-        "dyaw_deg": encode_array(np.degrees(r[:, 2]), "<f4"),
-        "rejected": encode_array(rejected, "|u1"),
-    }
+    return encode_residuals(r, result.intervals_rejected, t_s, inputs)
 
 
 def selfcal_figures(

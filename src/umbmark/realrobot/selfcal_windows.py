@@ -16,7 +16,9 @@ from typing import Any
 
 import numpy as np
 
+from umbmark.correct.selfcal.kinematic import kinematic_selfcal
 from umbmark.errors import InputError
+from umbmark.realrobot.kinematic import KinematicReport
 from umbmark.realrobot.selfcal import ScanIntervals, SelfcalReport, selfcal_report
 
 __all__ = ["SelfcalWindow", "selfcal_windows", "window_edges", "window_start", "MIN_WINDOW_S", "WALL_CLOCK_FROM_S"]
@@ -71,7 +73,7 @@ class SelfcalWindow:
     start_s: float
     end_s: float
     stamp_s: float | None
-    report: SelfcalReport | None
+    report: SelfcalReport | KinematicReport | None
     error: str | None = None
 
     def time(self, base: datetime | None = None) -> datetime:
@@ -106,17 +108,20 @@ def _times(part: ScanIntervals | str, n: int, dt: np.ndarray) -> tuple[np.ndarra
     return np.cumsum(dt) - dt, None
 
 
-def selfcal_windows(report: SelfcalReport, window_s: float, **options: Any) -> list[SelfcalWindow]:
+def selfcal_windows(report: SelfcalReport | KinematicReport, window_s: float, **options: Any) -> list[SelfcalWindow]:
     """Cut the inputs of a self-calibration into windows of about ``window_s`` and self-calibrate each.
 
     Parameters
     ----------
-    report : SelfcalReport
-        The self-calibration of the whole inputs (its intervals and inputs are cut).
+    report : SelfcalReport or KinematicReport
+        The self-calibration of the whole inputs (its intervals and inputs are cut): a
+        differential drive's, or another kind of robot's (each window estimates the parameters
+        the whole did).
     window_s : float
         The windows' length [s], at least :data:`MIN_WINDOW_S`.
     **options
-        Keyword arguments of :func:`umbmark.correct.selfcal.selfcal`.
+        Keyword arguments of :func:`umbmark.correct.selfcal.selfcal` (another kind:
+        ``reject_outliers``).
 
     Returns
     -------
@@ -130,6 +135,8 @@ def selfcal_windows(report: SelfcalReport, window_s: float, **options: Any) -> l
     """
     if not (math.isfinite(window_s) and window_s >= MIN_WINDOW_S):
         raise InputError(f"a window of {window_s:g} s: windows are at least {MIN_WINDOW_S:g} s long")
+    if isinstance(report, KinematicReport):
+        return _kinematic_windows(report, window_s, **options)
     r = report.result
     sizes = report.sizes or (len(report.intervals.dt_s),)
     out: list[SelfcalWindow] = []
@@ -156,4 +163,32 @@ def selfcal_windows(report: SelfcalReport, window_s: float, **options: Any) -> l
                 out.append(SelfcalWindow(str(name), k, a, b, stamp, rep))
             except InputError as e:
                 out.append(SelfcalWindow(str(name), k, a, b, stamp, None, str(e)))
+    return out
+
+
+def _kinematic_windows(report: KinematicReport, window_s: float, reject_outliers: bool = True) -> list[SelfcalWindow]:
+    """:func:`selfcal_windows` of another kind of robot: each bag's intervals cut by their start."""
+    r = report.result
+    fit = tuple(n for n in r.nominal.parameter_names if n in r.parameters)
+    out: list[SelfcalWindow] = []
+    for part in report.parts:
+        st = np.asarray(part.start_s, dtype=float)
+        t0 = float(np.asarray(part.bag.scan_t_s, dtype=float)[0])
+        t = st - t0
+        length = float(t[-1] + part.intervals.dt_s[-1]) if len(t) else 0.0
+        edges, which = window_edges(t, length, window_s)
+        name = str(part.bag.source)
+        for k in range(len(edges) - 1):
+            sel = np.flatnonzero(which == k)
+            a, b = float(edges[k]), float(edges[k + 1])
+            stamp = t0 + a if t0 >= WALL_CLOCK_FROM_S else None
+            try:
+                if sel.size == 0:
+                    raise InputError("no intervals in this window")
+                iv = part.intervals.subset(sel)
+                res = kinematic_selfcal(iv, r.nominal, fit=fit, reject_outliers=reject_outliers)
+                rep = KinematicReport(res, (part,), draw=False, intervals=iv)
+                out.append(SelfcalWindow(name, k, a, b, stamp, rep))
+            except InputError as e:
+                out.append(SelfcalWindow(name, k, a, b, stamp, None, str(e)))
     return out

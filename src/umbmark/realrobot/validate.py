@@ -59,8 +59,8 @@ calibration readers) and :mod:`umbmark.realrobot.selfcal` (the odometry's wheel 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
-from dataclasses import dataclass, field
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -74,10 +74,12 @@ from umbmark.io.relations import Relations, read_relations
 from umbmark.io.rosbag import SelfcalBag
 from umbmark.io.tum import Trajectory, read_tum
 from umbmark.io.wheels import WheelSource
+from umbmark.kinds import DEFAULT_KIND, KINDS, Kind, kind_in
 from umbmark.model import se2
 from umbmark.model.dataset import wheel_angles_from_poses
 from umbmark.model.drive import integrate_wheels
 from umbmark.model.geometry import WheelGeometry, nominal_slip, unit_slip
+from umbmark.model.kinematics import Kinematics
 from umbmark.model.se2 import Pose
 from umbmark.realrobot.selfcal import nominal_sensor_pose_of
 from umbmark.realrobot.wheels import scan_wheel_angles
@@ -101,6 +103,7 @@ __all__ = [
     "SystematicErrors",
     "CheckedCalibration",
     "read_calibration",
+    "calibration_kind",
     "relations_from_trajectory",
     "OdometryFigures",
     "Rule",
@@ -554,8 +557,10 @@ class CheckedCalibration:
     kind : str
         What the JSON was: ``selfcal``, ``replay``, ``export``, ``analyze``, ``calibrate`` or
         ``history`` (a history export).
-    nominal, calibrated : WheelGeometry
-        The geometry the odometry was computed with, and the calibration's.
+    nominal, calibrated : WheelGeometry or Kinematics
+        The geometry the odometry was computed with, and the calibration's: a differential
+        drive's, or the geometry of a robot of another kind (:mod:`umbmark.kinds`: its joints'
+        odometry is replayed with each).
     nominal_sensor_pose : tuple of float or None
         ``(x_m, y_m, yaw_rad)`` of the lidar the calibration started from (a
         self-calibration's); None: the log's ``/tf_static``.
@@ -577,8 +582,8 @@ class CheckedCalibration:
     """
 
     kind: str
-    nominal: WheelGeometry
-    calibrated: WheelGeometry
+    nominal: WheelGeometry | Kinematics
+    calibrated: WheelGeometry | Kinematics
     nominal_sensor_pose: Pose | None = None
     nominal_sensor_pose_source: str | None = None
     sensor_pose: Pose | None = None
@@ -597,8 +602,25 @@ class CheckedCalibration:
             ``path``, ``kind``, ``method``, ``nominal`` and ``calibrated`` (``diameter_left_mm``,
             ``diameter_right_mm``, ``wheelbase_mm``), ``Ed``, ``Eb``, ``c_left``, ``c_right``
             (the calibrated geometry against the nominal), ``scan_delay_s``,
-            ``scan_delay_source``.
+            ``scan_delay_source``. Another kind of robot: ``kinematics`` (its name) and its
+            ``nominal`` and ``calibrated`` geometry under its JSON keys (a tricycle's
+            ``wheel_diameter_mm``, ``wheelbase_mm``, ...) in place of the differential drive's
+            sizes and factors.
         """
+        both = self.kinematics
+        if both is not None:
+            own = self.robot_kind
+            return {
+                "path": self.source,
+                "kind": self.kind,
+                "method": self.method,
+                "kinematics": own.name,
+                "nominal": own.geometry_json(both[0]),
+                "calibrated": own.geometry_json(both[1]),
+                "scan_delay_s": self.scan_delay_s,
+                "scan_delay_source": self.scan_delay_source,
+            }
+        assert isinstance(self.nominal, WheelGeometry) and isinstance(self.calibrated, WheelGeometry)
         rel = self.calibrated.relative_to(self.nominal)
         return {
             "path": self.source,
@@ -610,6 +632,19 @@ class CheckedCalibration:
             "scan_delay_s": self.scan_delay_s,
             "scan_delay_source": self.scan_delay_source,
         }
+
+    @property
+    def kinematics(self) -> tuple[Kinematics, Kinematics] | None:
+        """``(nominal, calibrated)`` of a robot of a kind of its own; None for a differential drive's."""
+        nom, cal = self.nominal, self.calibrated
+        if isinstance(nom, WheelGeometry) or isinstance(cal, WheelGeometry):
+            return None
+        return nom, cal
+
+    @property
+    def robot_kind(self) -> Kind:
+        """The kind of robot (:data:`umbmark.kinds.KINDS`): the differential drive's for its geometry."""
+        return KINDS[getattr(self.nominal, "kind", DEFAULT_KIND)]
 
 
 def _load_json(path: str | Path) -> dict:
@@ -754,6 +789,9 @@ def read_calibration(
         if v is not None and not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
             raise InputError(f"`{name}` must be a positive number, got {v!r}")
     d = _load_json(path)
+    own = kind_in(d)
+    if own is not None:
+        return _kind_calibration(d, own, src, wheel_diameter_m, wheelbase_m)
     kind = _kind(d)
     if kind == "validate":
         raise InputError(f"this is the output of umbmark validate, a report, not a calibration; {_EXPECTED}", src)
@@ -822,6 +860,71 @@ def read_calibration(
         method=method,
         source=src,
         warnings=tuple(warnings + geo_warnings),
+    )
+
+
+def calibration_kind(path: str | Path) -> Kind:
+    """The kind of robot of a calibration's JSON (its ``kinematics``): another kind's, else the
+    differential drive's.
+
+    Raises
+    ------
+    InputError
+        A file that is missing, unreadable or not a JSON object (as :func:`read_calibration`).
+    """
+    return kind_in(_load_json(path)) or KINDS[DEFAULT_KIND]
+
+
+def _kind_calibration(
+    d: dict, own: Kind, src: str, wheel_diameter_m: float | None, wheelbase_m: float | None
+) -> CheckedCalibration:
+    """The calibration of a robot of a kind of its own: the JSON of its self-calibration
+    (``umbmark selfcal --kinematics KIND --save``) or of its replay against a ground truth (whose
+    ``sensor_pose`` is the marker's: the lidar keeps its nominal pose)."""
+    given = [n for n, v in (("wheel_diameter_m", wheel_diameter_m), ("wheelbase_m", wheelbase_m)) if v is not None]
+    if given:
+        raise InputError(
+            f"a {own.noun}'s calibration holds its own nominal geometry: `{given[0]}` is a differential drive's", src
+        )
+    if not isinstance(d.get("nominal"), dict):
+        what = "export" if "parameters" in d else "calibration"
+        raise InputError(
+            f"a {own.noun}'s {what} without the nominal geometry the odometry ran with ('nominal'): check the JSON "
+            "that its self-calibration (umbmark selfcal) saved",
+            src,
+        )
+    calibrated, _ = own.geometry_from_json(d, src)
+    nominal, _ = own.geometry_from_json(d["nominal"], src)
+    for size in own.sizes:
+        idx = [own.geometry.parameter_names.index(p) for p in size.parameters]
+        n, c = (float(sum(g.vector()[i] for i in idx)) / len(idx) for g in (nominal, calibrated))
+        for what, v in (("nominal", n), ("calibrated", c)):
+            slip = unit_slip(size.quantity, v, "mm")
+            if slip is not None:
+                raise InputError(f"the {what} {size.label}: {slip}", src)
+        slip = nominal_slip(size.quantity, c / n)
+        if slip is not None:
+            raise InputError(
+                f"the calibrated {size.label} is {c / n:.3g} times the calibration's nominal one: no calibration "
+                f"corrects a robot's size that much ({slip})",
+                src,
+            )
+    replay = "marker_pose" in d
+    inputs = [i for i in d.get("inputs") or [] if isinstance(i, dict)]
+    nsp = inputs[0].get("nominal_sensor_pose") if inputs else None
+    delay, delay_src, warnings = _selfcal_delay(d, src)
+    return CheckedCalibration(
+        kind="replay" if replay else "selfcal",
+        nominal=nominal,
+        calibrated=calibrated,
+        nominal_sensor_pose=None if not isinstance(nsp, dict) else _pose_mm_deg(nsp, "nominal_sensor_pose", src),
+        nominal_sensor_pose_source=None if not isinstance(nsp, dict) else str(nsp.get("source") or "the calibration"),
+        sensor_pose=None if replay else _pose_mm_deg(d.get("sensor_pose"), "sensor_pose", src),
+        scan_delay_s=delay,
+        scan_delay_source=delay_src,
+        method=str(d.get("method") or "selfcal"),
+        source=src,
+        warnings=tuple(warnings),
     )
 
 
@@ -981,6 +1084,11 @@ class ReferenceSummary:
         The scans a trajectory gave a pose to.
     mode : str or None
         ``matched`` or ``interpolated`` (:func:`relations_from_trajectory`).
+    base_trajectory : str or None
+        How a trajectory of the base frame was read (:func:`_read_base`): ``slam`` (a SLAM's,
+        made with the nominal lidar pose: turned into the lidar's with it) or ``true`` (the
+        robot's own, a motion capture's or a simulation's: each odometry compared with it
+        through its own lidar pose).
     """
 
     kind: str
@@ -993,6 +1101,7 @@ class ReferenceSummary:
     poses: int | None = None
     scans_with_pose: int | None = None
     mode: str | None = None
+    base_trajectory: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """As JSON.
@@ -1014,6 +1123,8 @@ class ReferenceSummary:
             d.update(
                 {"frame": self.frame, "poses": self.poses, "scans_with_pose": self.scans_with_pose, "mode": self.mode}
             )
+            if self.base_trajectory is not None:
+                d["base_trajectory"] = self.base_trajectory
         return d
 
 
@@ -1564,6 +1675,39 @@ def _reference_relations(
     return rel, mode, with_pose, "trajectory", warnings
 
 
+# a trajectory of the base frame that agrees this many times better (mean squared error of the short
+# relations, as MISTAKE_RATIO's) with the calibrated odometry as the robot's true base trajectory than
+# as a SLAM's is read as the robot's true base trajectory
+TRUE_BASE_RATIO = 2.0
+
+
+def _read_base(odo: _Odometries, sel: NDArray[np.bool_]) -> tuple[_Odometries, str, list[str]]:
+    """How to read a trajectory of the base frame: a SLAM's (its poses the lidar's through the nominal
+    lidar pose it ran with: turned back with it, for both odometries) or the robot's true base
+    trajectory (a motion capture's or a simulation's: each odometry compared with it through its own
+    lidar pose, the calibrated one after), whichever the calibrated odometry agrees with
+    :data:`TRUE_BASE_RATIO` times better (a SLAM's when they agree alike); the odometries with the
+    reference after, ``slam`` or ``true``, and a note of the latter."""
+    if int(sel.sum()) < 5 or odo.poses.after == odo.poses.nominal:
+        return odo, "slam", []
+    base = in_sensor_frame(odo.reference, se2.inverse(np.asarray(odo.poses.nominal, dtype=float)))
+    truth = in_sensor_frame(base, odo.poses.after)
+    q = in_sensor_frame(se2.between(odo.after[odo.k1[sel]], odo.after[odo.k2[sel]]), odo.poses.after)
+
+    def mse(reference: FloatArray) -> float:
+        et, er = relation_errors(q, reference[sel])
+        return float(np.mean(et**2 + er**2))
+
+    if TRUE_BASE_RATIO * mse(truth) < mse(odo.reference):
+        note = (
+            "the trajectory agrees with the calibrated odometry as the robot's true base trajectory (a motion "
+            "capture's or a simulation's), not as a SLAM's made with the nominal lidar pose: each odometry is "
+            "compared with it through its own lidar pose"
+        )
+        return replace(odo, reference_after=truth), "true", [note]
+    return odo, "slam", []
+
+
 # a reference that agrees with the odometry this many times better (mean squared error of the
 # short relations, translation plus rotation at 1 m per radian) after undoing a likely mistake
 # than as given, and misses it by more than MISTAKE_FLOOR_M2 as given, is refused as that mistake
@@ -1740,13 +1884,16 @@ class _Odometries:
     k2: NDArray[np.int64]
     reference: FloatArray
     short: NDArray[np.bool_]
+    reference_after: FloatArray | None = None
 
     def figures(self, sel: NDArray[np.bool_]) -> tuple[OdometryFigures, OdometryFigures]:
-        """The figures before and after the calibration on the selected relations."""
-        args = (self.k1[sel], self.k2[sel], self.reference[sel])
+        """The figures before and after the calibration on the selected relations (after: against
+        :attr:`reference_after` when the reference is the robot's true base trajectory)."""
+        k1, k2, short = self.k1[sel], self.k2[sel], self.short[sel]
+        after = self.reference if self.reference_after is None else self.reference_after
         return (
-            OdometryFigures.compute(self.before, *args, self.poses.nominal, self.short[sel]),
-            OdometryFigures.compute(self.after, *args, self.poses.after, self.short[sel]),
+            OdometryFigures.compute(self.before, k1, k2, self.reference[sel], self.poses.nominal, short),
+            OdometryFigures.compute(self.after, k1, k2, after[sel], self.poses.after, short),
         )
 
 
@@ -1759,9 +1906,19 @@ def _odometries(
     rel: Relations,
     short_max_s: float,
 ) -> _Odometries:
-    """The odometries (step 1): the wheel angles at the scans integrated with each geometry."""
-    left, right = wheel_angles_at_scans(bag, calibration.nominal, delay)
+    """The odometries (step 1): the wheel angles at the scans integrated with each geometry (another
+    kind of robot: its joints on the grid of their stamps and the scans', with each geometry)."""
+    both = calibration.kinematics
+    if both is not None:
+        from umbmark.realrobot.kinematic import scan_odometry
+
+        if bag.joint_positions is None or bag.joint_positions.shape[1] != len(both[0].joint_roles):
+            raise InputError(f"the log's joint data are not a {calibration.robot_kind.noun}'s", bag.source)
+        before, after = scan_odometry(bag, both, delay)
+        return _Odometries(before, after, poses, matched.k1, matched.k2, rel.pose, rel.span_s < short_max_s)
     nom, cal = calibration.nominal, calibration.calibrated
+    assert isinstance(nom, WheelGeometry) and isinstance(cal, WheelGeometry)
+    left, right = wheel_angles_at_scans(bag, nom, delay)
     before_odo = odometry_from_wheels(
         left, right, 0.5 * nom.diameter_left_m, 0.5 * nom.diameter_right_m, nom.wheelbase_m
     )
@@ -1918,6 +2075,10 @@ def validate(
     what = "relations" if kind == "relations" else "relations made from the trajectory"
     alternatives = _alternatives(reference, rel, st[in_win], reference_frame, poses.nominal, short_max, tol)
     _refuse_mistakes(odo, sel, alternatives, what, rel.source)  # a likely mistake in the reference, named
+    base_read = None
+    if kind == "trajectory" and reference_frame == "base":
+        odo, base_read, w = _read_base(odo, sel)
+        warnings += w
     warnings += _plausibility(
         odo.before, k1[sel], k2[sel], rel.pose[sel], poses.nominal, odo.figures(inside)[0], what, rel.source
     )
@@ -1925,7 +2086,9 @@ def validate(
     whole = "whole log" if window_s is None else "window"
     spans, crossing, w = _check_spans(odo, inside, st - origin, in_win, (lo, hi), halves, whole)
     warnings += w
-    summary = _reference_summary(kind, reference, rel, matched, reference_frame, with_pose, mode)
+    summary = replace(
+        _reference_summary(kind, reference, rel, matched, reference_frame, with_pose, mode), base_trajectory=base_read
+    )
     return Validation(
         log=src,
         wheel_data=bag.wheel_description,
@@ -1947,6 +2110,38 @@ def validate(
     )
 
 
+def _kind_log(
+    bag_path: str | Path,
+    cal: CheckedCalibration,
+    nominal: Kinematics,
+    joints: Sequence[str] | None,
+    joint_topic: str,
+    odom_topic: str | None,
+    scan_topic: str,
+) -> SelfcalBag:
+    """The log of a robot of a kind of its own: its joints, or (a kind that reads one) its odometry
+    turned into its joints with the nominal geometry."""
+    from umbmark.io.rosbag import read_selfcal_bag
+    from umbmark.realrobot.kinematic import joint_source, odometry_joints
+
+    own = cal.robot_kind
+    if odom_topic is not None:
+        if joints:
+            raise InputError("give the joints or an odometry (`odom_topic`), not both")
+        if not own.reads_odometry:
+            raise InputError(own.odometry_refusal(), cal.source)
+        bag = read_selfcal_bag(
+            bag_path, wheels=WheelSource.odometry(odom_topic), scan_topic=scan_topic, two_wheels=False
+        )
+        return odometry_joints(bag, nominal)
+    if not joints:
+        wanted = " and ".join(f"`{j.option}` ({', '.join(j.roles)})" for j in own.joints)
+        raise InputError(f"a {own.noun}'s calibration: give its joints, {wanted}", cal.source)
+    return read_selfcal_bag(
+        bag_path, wheels=joint_source(nominal, joints, joint_topic), scan_topic=scan_topic, two_wheels=False
+    )
+
+
 def validate_log(
     bag_path: str | Path,
     calibration_path: str | Path,
@@ -1964,8 +2159,11 @@ def validate_log(
     base_frame: str | None = None,
     tolerance_s: float = STAMP_TOLERANCE_S,
     progress: StageNotice | None = None,
-    wheels: WheelSource,
+    wheels: WheelSource | None = None,
     scan_topic: str = "/scan",
+    joints: Sequence[str] | None = None,
+    joint_topic: str = "/joint_states",
+    odom_topic: str | None = None,
 ) -> Validation:
     """Read a log, a calibration and a reference, and :func:`validate`.
 
@@ -1986,10 +2184,20 @@ def validate_log(
         As :func:`validate`.
     progress : callable, optional
         Called with the name of each stage as it starts.
-    wheels : WheelSource
-        The log's wheel data (:mod:`umbmark.io.wheels`).
+    wheels : WheelSource, optional
+        The log's wheel data (:mod:`umbmark.io.wheels`) of a differential drive's calibration.
     scan_topic : str
         The ``sensor_msgs/LaserScan`` topic.
+    joints : sequence of str, optional
+        The joint names of a calibration of another kind of robot, in its roles' order (a
+        tricycle's drive and steering joints; a mecanum robot's front left, front right, rear
+        left and rear right wheels: :attr:`umbmark.kinds.Kind.joints`).
+    joint_topic : str
+        Their ``sensor_msgs/JointState`` topic.
+    odom_topic : str, optional
+        In place of the joints of a kind that reads the robot's own odometry
+        (:attr:`umbmark.kinds.Kind.reads_odometry`: a car's ``nav_msgs/Odometry``), turned into its
+        joints with the calibration's nominal geometry.
 
     Returns
     -------
@@ -1998,7 +2206,9 @@ def validate_log(
     Raises
     ------
     InputError
-        Not exactly one reference; what the readers and :func:`validate` refuse.
+        Not exactly one reference; no wheel data of the calibration's kind of robot (``wheels``
+        for a differential drive's, ``joints`` for another kind's); what the readers and
+        :func:`validate` refuse.
     """
     say = progress or (lambda stage: None)
     if (relations_path is None) == (reference_path is None):
@@ -2017,7 +2227,13 @@ def validate_log(
     say("read log")
     from umbmark.io.rosbag import read_selfcal_bag
 
-    bag = read_selfcal_bag(bag_path, wheels=wheels, scan_topic=scan_topic)
+    both = cal.kinematics
+    if both is not None:
+        bag = _kind_log(bag_path, cal, both[0], joints, joint_topic, odom_topic, scan_topic)
+    elif wheels is None:
+        raise InputError("a differential drive's calibration: give the log's wheel data (`wheels`)", cal.source)
+    else:
+        bag = read_selfcal_bag(bag_path, wheels=wheels, scan_topic=scan_topic)
     say("validate")
     return validate(
         bag,

@@ -153,8 +153,11 @@ vesc_to_odom_node:
 _NOISE = JointNoise(speed_rel_sd=0.01, slip_m_per_sqrt_m=2e-4, steer_sd_rad=math.radians(0.05))
 
 
-def car_bag(name: str, path: str | Path, duration_s: float = 45.0, seed: int = 2) -> Path:
-    """Drive a car of :data:`CARS` for about ``duration_s`` and write its bag (see the module docstring).
+def car_bag(
+    name: str, path: str | Path, duration_s: float = 45.0, seed: int = 2, tum: str | Path | None = None
+) -> Path:
+    """Drive a car of :data:`CARS` for about ``duration_s`` and write its bag (see the module docstring),
+    and with ``tum`` the car's true poses at the scans there (a TUM trajectory of its base frame).
 
     Raises
     ------
@@ -168,6 +171,11 @@ def car_bag(name: str, path: str | Path, duration_s: float = 45.0, seed: int = 2
     log = simulate_kinematic_drive(
         moves, robot, room, start_pose=start, joint_names=car.joints, noise=_NOISE, seed=seed
     )
+    if tum is not None:
+        from umbmark.io.rosbag_write import EPOCH_S
+        from umbmark.io.tum import Trajectory, write_tum
+
+        write_tum(Trajectory(EPOCH_S + log.scan_stamps_s, log.scan_pose), tum)
     return write_drive_bag(log, path, truth=True, odom=True, odom_scheme="euler")
 
 

@@ -9,6 +9,7 @@ from datetime import datetime
 from typing import TYPE_CHECKING, Any
 
 from umbmark.history.base import Record
+from umbmark.kinds import kind_in
 from umbmark.viz.text import interval95
 
 if TYPE_CHECKING:
@@ -52,7 +53,7 @@ def series(records: Sequence[Record]) -> _Series:
         s.emax_syst_mm.append(r.emax_syst_mm)
         s.ed.append(r.ed)
         s.eb.append(r.eb)
-        s.wheelbase_mm.append(r.wheelbase_mm)
+        s.wheelbase_mm.append(None if kind_in(r.parameters) else r.wheelbase_mm)  # another kind's: its own panels
         s.ids.append(r.id)
     return s
 
@@ -112,6 +113,32 @@ def _selfcal_value(r: Record, key: str, pose: bool = False) -> tuple[float | Non
     return float(src[key]), _ci(src, f"{key}_ci95")
 
 
+_Panel = tuple[str, list[tuple[str, list[float | None], list[_Interval]]]]
+
+
+def _kind_panels(records: Sequence[Record]) -> list[_Panel]:
+    """The panels of the parameters that the self-calibrations of another kind of robot estimated:
+    one per JSON key (a mecanum robot's four wheel diameters in one), labelled with the kind."""
+    out: list[_Panel] = []
+    for own in dict.fromkeys(k for r in records if (k := kind_in(r.results)) is not None):
+        got = [{p.name: (v, ci) for p, v, ci in own.estimates_json(r.results)} if kind_in(r.results) is own else {}
+               for r in records]  # fmt: skip
+        groups: dict[str, list[Any]] = {}
+        for p in own.parameters:
+            if any(g.get(p.name, (None, None))[1] is not None for g in got):
+                groups.setdefault(p.key[0], []).append(p)
+        for key, params in groups.items():
+            what = params[0].label if len(params) == 1 else key.removesuffix(f"_{params[0].unit}").replace("_", " ")
+            unit = f" [{params[0].unit}]" if params[0].unit else ""
+            lines = [
+                ("" if len(params) == 1 else p.key[-1].replace("_", " "),
+                 [g.get(p.name, (None, None))[0] for g in got], [g.get(p.name, (None, None))[1] for g in got])
+                for p in params
+            ]  # fmt: skip
+            out.append((f"{what}{unit}\n({own.noun})", lines))
+    return out
+
+
 def history_figure(records: Sequence[Record], title: str | None = None) -> Figure:
     """E_max,syst, E_d, E_b and the recommended wheelbase over time (one panel each), with the
     records' 95 % intervals where they hold them; with self-calibrations also the wheel
@@ -135,7 +162,7 @@ def history_figure(records: Sequence[Record], title: str | None = None) -> Figur
     res = [r.results if isinstance(r.results, dict) else {} for r in records]
     plain: list[_Interval] = [None] * len(records)
     # (label, [(line name, values, intervals), ...]) of each panel
-    panels: list[tuple[str, list[tuple[str, list[float | None], list[_Interval]]]]] = [
+    panels: list[_Panel] = [
         ("E_max,syst [mm]\n(measured, before)", [("", s.emax_syst_mm, plain)]),
         ("E_d = D_R / D_L", [("", s.ed, [_ci(x, "Ed_ci95") for x in res])]),
         ("E_b", [("", s.eb, [_ci(x, "Eb_ci95") for x in res])]),
@@ -153,6 +180,8 @@ def history_figure(records: Sequence[Record], title: str | None = None) -> Figur
                 [(lab, [v for v, _ in vals], [c for _, c in vals]) for lab, vals in zip(("D_L", "D_R"), sc)],
             )
         )
+    panels += _kind_panels(records)
+    if any(v is not None for v, _ in pose[0]):
         panels.append(
             (
                 "lidar position [mm]\n(self-calibration)",
@@ -164,7 +193,7 @@ def history_figure(records: Sequence[Record], title: str | None = None) -> Figur
     axes = fig.subplots(max(len(panels), 1), 1, sharex=True, squeeze=False)[:, 0]
     for ax, (label, lines) in zip(axes, panels):
         for j, (name, vals, cis) in enumerate(lines):
-            colour = "tab:blue" if j == 0 else "tab:orange"
+            colour = ("tab:blue", "tab:orange", "tab:green", "tab:red")[j % 4]
             pts = [(t, v, c, i) for t, v, c, i in zip(s.times, vals, cis, s.ids) if v is not None]
             if not pts:
                 continue

@@ -28,6 +28,7 @@ import numpy as np
 
 from umbmark._version import __version__
 from umbmark.errors import CorrectionUndefined, InputError
+from umbmark.kinds import KINDS, Kind, kind_in
 from umbmark.viz.text import fmt, interval95
 
 if TYPE_CHECKING:
@@ -445,7 +446,6 @@ def replay_analysis(result: dict[str, Any], source: str = "<replay>") -> tuple[A
     from umbmark.correct.analysis import Analysis
     from umbmark.correct.result import CorrectionResult
     from umbmark.errors import InputError
-    from umbmark.kinds import KINDS
     from umbmark.metrics import umbmark_figures
 
     if isinstance(result, dict) and {"cw", "ccw", "emax_syst_mm"} <= result.keys():
@@ -468,16 +468,12 @@ def replay_analysis(result: dict[str, Any], source: str = "<replay>") -> tuple[A
             "report that",
             source=source,
         )
-    named = result.get("kinematics") if isinstance(result, dict) else None
-    own = KINDS.get(named) if isinstance(named, str) else None
-    if own is not None and not own.differential:
-        kind = own.name
-        made = "replay against a ground truth" if "marker_pose" in result else "self-calibration"
-        robot = own.noun
+    own = kind_in(result)
+    if own is not None:  # (its self-calibration has a page of its own: umbmark.viz.kind_report)
         raise InputError(
-            f"a {robot}'s {made} (`kinematics={kind}`): the report shows a differential drive's results; the "
-            f"command's table holds its figures, and its export (`fmt=\"ros2\"`) writes the {kind} controller's "
-            "parameters",
+            f"a {own.noun}'s replay against a ground truth (`kinematics={own.name}`): the report draws a "
+            f"{own.noun}'s self-calibration and a differential drive's square runs; the command's table holds this "
+            f"one's figures, and its export (`fmt=\"ros2\"`) writes the {own.controller}'s parameters",
             source=source,
         )
     if not isinstance(result, dict) or "before" not in result or "method" not in result:
@@ -726,8 +722,15 @@ _UMBMARK_DEFINITIONS = (
 )
 
 
+def _definitions_of(r: Record) -> str:
+    """Whose definitions a record needs: ``umbmark``, ``selfcal`` or a kind's name (its self-calibration)."""
+    own = kind_in(r.results)
+    return own.name if own is not None else "selfcal" if r.method == "selfcal" else "umbmark"
+
+
 def _definitions(kinds: set[str] | None = None) -> str:
-    """The Definitions section: UMBmark's, and the self-calibration's when ``kinds`` holds it."""
+    """The Definitions section: UMBmark's, and the self-calibration's when ``kinds`` holds it (a
+    kind's name: the words of that kind of robot's, :attr:`umbmark.kinds.Kind.legend`)."""
 
     if kinds is None or kinds == {"umbmark"}:
         return f'<h2>Definitions</h2><p class="meta">{_UMBMARK_DEFINITIONS}</p>'
@@ -736,6 +739,8 @@ def _definitions(kinds: set[str] | None = None) -> str:
         parts.append(f'<p class="meta"><b>Square runs (analyze, replay, calibrate):</b> {_UMBMARK_DEFINITIONS}</p>')
     if "selfcal" in kinds:
         parts.append(f'<p class="meta"><b>Self-calibrations:</b> {_e(SELFCAL_DEFINITIONS)}</p>')
+    for k in (KINDS[n] for n in KINDS if n in kinds):  # another kind of robot's self-calibrations
+        parts.append(f'<p class="meta"><b>{_e(k.title)}:</b> {_e(" ".join(k.legend))}</p>')
     return "<h2>Definitions</h2>" + "".join(parts)
 
 
@@ -787,17 +792,51 @@ def _selfcal_table(records: Iterable[Record]) -> str:
     )
 
 
+def _estimate_cell(v: float | None, ci: tuple[float, float] | None, digits: int) -> str:
+    """A value and its 95 % interval in one cell (``-`` without a value)."""
+    if v is None:
+        return "-"
+    return fmt(v, digits) + ("" if ci is None else f" [{fmt(ci[0], digits)}, {fmt(ci[1], digits)}]")
+
+
+def _kind_selfcal_table(records: Iterable[Record], own: Kind) -> str:
+    """One row per self-calibration record of a robot of a kind of its own: each parameter it
+    estimated and the lidar pose, with intervals."""
+    recs = list(records)
+    got: list[dict[str, tuple[float | None, tuple[float, float] | None]]] = [
+        {p.name: (v, ci) for p, v, ci in own.estimates_json(r.results)} for r in recs
+    ]
+    params = [p for p in own.parameters if any(g.get(p.name, (None, None))[1] is not None for g in got)]
+    rows = []
+    for r, g in zip(recs, got):
+        d = r.results
+        sp = d.get("sensor_pose")
+        sp = sp if isinstance(sp, dict) else {}
+        rows.append(
+            [
+                f"#{r.id}",
+                r.created_utc[:19].replace("T", " "),
+                *(_estimate_cell(*g.get(p.name, (None, None)), p.digits) for p in params),
+                f"{fmt(sp.get('x_mm'), 1)}, {fmt(sp.get('y_mm'), 1)}, {fmt(sp.get('yaw_deg'), 2)}",
+                f"{d.get('intervals_used', '-')} / {len(d.get('intervals_rejected') or [])}",
+            ]
+        )
+    head = [f"{p.table_label} [95 %]" for p in params]
+    return _table(["id", "time (UTC)", *head, "lidar x, y [mm], yaw [deg]", "intervals used / rejected"], rows)
+
+
 def _records_table(records: Iterable[Record]) -> str:
     """One row per record: id, time, kind, method, the figures and the parameters, its input."""
     rows = []
     for r in records:
         p = r.parameters
         src = Path(r.source).name if r.source else (r.input_sha256 or "-")[:12]
+        own = kind_in(p)
         rows.append(
             [
                 f"#{r.id}",
                 r.created_utc[:19].replace("T", " "),
-                f"{r.kind}/{r.method}",
+                f"{r.kind}/{r.method}" + ("" if own is None else f" ({own.noun})"),
                 fmt(r.emax_syst_mm),
                 fmt(r.ed, 6),
                 fmt(r.eb, 6),
@@ -918,10 +957,16 @@ def history_report(records: Sequence[Record], *, title: str | None = None, db_pa
     if selfcals:
         body.append("<h2>Self-calibrations</h2>")
         body.append(
-            "<p>The wheel diameters, wheelbase and lidar pose each self-calibration found, with their 95 % "
-            "intervals (each record also has a page of its own, by its id).</p>"
+            "<p>The geometry (the wheel diameters, wheelbase, and another kind of robot's own parameters) and "
+            "lidar pose each self-calibration found, with their 95 % intervals (each record also has a page of "
+            "its own, by its id).</p>"
         )
-        body.append(_selfcal_table(selfcals))
+        diff_drives = [r for r in selfcals if kind_in(r.results) is None]
+        if diff_drives:
+            body.append(_selfcal_table(diff_drives))
+        for own in dict.fromkeys(k for r in selfcals if (k := kind_in(r.results)) is not None):
+            body.append(f"<h3>{_e(own.title)}</h3>")
+            body.append(_kind_selfcal_table([r for r in selfcals if kind_in(r.results) is own], own))
     body.append("<h2>Over time</h2>")
     body.append(_img(figure_data_uri(history_figure(records)), "history plot"))
     body += _drift_section(records)
@@ -939,11 +984,20 @@ def history_report(records: Sequence[Record], *, title: str | None = None, db_pa
             f" mm; the lidar at x = {fmt(sp.get('x_mm'), 1)} mm, y = {fmt(sp.get('y_mm'), 1)} mm, yaw = "
             f"{fmt(sp.get('yaw_deg'), 2)} deg.</p>"
         )
-    body.append(
-        f'<div class="box"><p>Record #{latest.id} ({_e(latest.created_utc)}): '
-        f"<b>c_left = {fmt(ex['c_left'], 6)}</b>, <b>c_right = {fmt(ex['c_right'], 6)}</b>, "
-        f"<b>wheelbase = {fmt(ex['corrected_wheelbase_mm'], 2)} mm</b>.</p>{extra}</div>"
-    )
+    latest_kind = kind_in(latest.parameters)
+    if latest_kind is not None:
+        loaded = ", ".join(f"{k} = {v!r}" for k, v in ex["controller_parameters"].items())
+        body.append(
+            f'<div class="box"><p>Record #{latest.id} ({_e(latest.created_utc)}), a {_e(latest_kind.noun)}: '
+            f"<b>{_e(latest_kind.describe_json(latest.parameters))}</b>.</p>"
+            f"<p>{_e(latest_kind.controller)}: {_e(loaded)}</p></div>"
+        )
+    else:
+        body.append(
+            f'<div class="box"><p>Record #{latest.id} ({_e(latest.created_utc)}): '
+            f"<b>c_left = {fmt(ex['c_left'], 6)}</b>, <b>c_right = {fmt(ex['c_right'], 6)}</b>, "
+            f"<b>wheelbase = {fmt(ex['corrected_wheelbase_mm'], 2)} mm</b>.</p>{extra}</div>"
+        )
     runs_rows = latest.inputs.get("runs") if isinstance(latest.inputs, dict) else None
     if runs_rows:
         try:
@@ -954,5 +1008,5 @@ def history_report(records: Sequence[Record], *, title: str | None = None, db_pa
             )
         except Exception:  # noqa: BLE001  a malformed stored input must not stop the report
             body.append('<p class="warn">The latest record\'s runs could not be drawn.</p>')
-    body.append(_definitions({"selfcal" if r.method == "selfcal" else "umbmark" for r in records}))
+    body.append(_definitions({_definitions_of(r) for r in records}))
     return _page(title, "\n".join(body), body_cls="wide")

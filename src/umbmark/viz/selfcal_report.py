@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -39,6 +40,9 @@ if TYPE_CHECKING:
 __all__ = [
     "is_selfcal_result",
     "selfcal_page",
+    "PageParts",
+    "page_sections",
+    "lidar_figure",
     "map_figure",
     "mount_figure",
     "residuals_figure",
@@ -95,35 +99,39 @@ def _estimates_table(d: dict[str, Any]) -> str:
     return _table(["", "estimate", "95 % interval", "nominal"], rows)
 
 
-def _correlations(d: dict[str, Any]) -> str:
+def _correlations(
+    d: dict[str, Any],
+    names: Sequence[str] = _PARAM_NAMES,
+    meaning: str = "r_L, r_R: wheel radii; b: wheelbase; x, y, yaw: the lidar on the robot.",
+    what: str = "spins both ways for the wheelbase against the lidar's x; arcs both ways",
+) -> str:
+    """The correlations of the estimates (``names``, in the order of the JSON's ``covariance``),
+    those beyond 0.9 named with what to drive (``what``)."""
     cov = d.get("covariance")
+    n = len(names)
     try:
         c = np.asarray(cov, dtype=float)
     except (TypeError, ValueError):
         return ""
-    if c.shape != (6, 6) or not np.all(np.isfinite(c)):
+    if c.shape != (n, n) or not np.all(np.isfinite(c)):
         return ""
     sd = np.sqrt(np.maximum(np.diag(c), 0.0))
     with np.errstate(invalid="ignore", divide="ignore"):
         rho = c / np.outer(sd, sd)
-    rows = [[_PARAM_NAMES[i]] + [fmt(rho[i, j], 2) if i != j else "1" for j in range(6)] for i in range(6)]
-    strong = [
-        f"{_PARAM_NAMES[i]} and {_PARAM_NAMES[j]} ({rho[i, j]:+.2f})"
-        for i in range(6)
-        for j in range(i + 1, 6)
-        if abs(rho[i, j]) > 0.9
-    ]
+    rows = [[names[i]] + [fmt(rho[i, j], 2) if i != j else "1" for j in range(n)] for i in range(n)]
+    pairs = [(i, j) for i in range(n) for j in range(i + 1, n) if abs(rho[i, j]) > 0.9]
+    strong = [f"{names[i]} and {names[j]} ({rho[i, j]:+.2f})" for i, j in pairs]
     note = (
         "<p>The data tell these apart poorly (|correlation| over 0.9): " + _e(", ".join(strong)) + ". Drive more of "
-        "what separates them (spins both ways for the wheelbase against the lidar's x; arcs both ways).</p>"
+        f"what separates them ({_e(what)}).</p>"
         if strong
         else "<p>No two parameters correlate beyond 0.9: the drive determined each of them.</p>"
     )
     return (
         "<h3>How the estimates depend on each other</h3>"
-        + _table(["correlation", *_PARAM_NAMES], rows)
+        + _table(["correlation", *names], rows)
         + note
-        + '<p class="meta">r_L, r_R: wheel radii; b: wheelbase; x, y, yaw: the lidar on the robot.</p>'
+        + f'<p class="meta">{_e(meaning)}</p>'
     )
 
 
@@ -217,22 +225,32 @@ def mount_figure(d: dict[str, Any]) -> Figure:
     -------
     matplotlib.figure.Figure
     """
+    b = float(d["wheelbase_mm"])
+    b_nom = float(d.get("nominal_wheelbase_mm") or b)
+    fig, ax, half_len = lidar_figure(d, b_nom, d.get("nominal_sensor_pose") or {}, (3, 4))
+    for side, key in ((1, "wheel_diameter_left_mm"), (-1, "wheel_diameter_right_mm")):
+        dia = float(d[key])
+        ax.add_patch(_rect(-dia / 2, side * b / 2 - 0.04 * b_nom, dia, 0.08 * b_nom, fc="0.25", ec="0.1"))
+    fig.tight_layout()
+    return fig
+
+
+def lidar_figure(
+    d: dict[str, Any], size_mm: float, nom: dict[str, Any], xy: tuple[int, int] | None
+) -> tuple[Figure, Axes, float]:
+    """The robot from above (a box about its origin of about ``size_mm``) and its lidar at the
+    nominal pose ``nom`` and the estimated one (``d``'s ``sensor_pose``; its 95 % ellipse from the
+    covariance's entries ``xy``, drawn 10 x larger): the figure, its axes and the box's half length."""
     from umbmark._stats import chi2_isf
     from umbmark.viz.plots import new_figure
 
     fig = new_figure((5.6, 5.0))
     ax = fig.subplots()
-    b = float(d["wheelbase_mm"])
-    b_nom = float(d.get("nominal_wheelbase_mm") or b)
     sp = d["sensor_pose"]
-    nom = d.get("nominal_sensor_pose") or {}
     xs = [float(sp["x_mm"]), float(nom.get("x_mm", 0.0)), 0.0]
-    half_len = max(0.6 * b_nom, 1.3 * max(abs(v) for v in xs))
-    half_w = 0.5 * b_nom + 0.12 * b_nom
+    half_len = max(0.6 * size_mm, 1.3 * max(abs(v) for v in xs))
+    half_w = 0.5 * size_mm + 0.12 * size_mm
     ax.add_patch(_rect(-half_len, -half_w, 2 * half_len, 2 * half_w, fill=False, ec="0.4", lw=1.2))
-    for side, key in ((1, "wheel_diameter_left_mm"), (-1, "wheel_diameter_right_mm")):
-        dia = float(d[key])
-        ax.add_patch(_rect(-dia / 2, side * b / 2 - 0.04 * b_nom, dia, 0.08 * b_nom, fc="0.25", ec="0.1"))
     ax.plot([0], [0], "k+", ms=10)
     ax.annotate("", xy=(0.45 * half_len, 0), xytext=(0, 0), arrowprops=dict(arrowstyle="->", color="0.3"))
     arrow = 0.25 * half_len
@@ -250,9 +268,11 @@ def mount_figure(d: dict[str, Any]) -> Figure:
             xytext=(x, y),
             arrowprops=dict(arrowstyle="->", color=colour, lw=1.5),
         )
-    cov = d.get("covariance")
     try:
-        c = np.asarray(cov, dtype=float)[3:5, 3:5] * 1e6  # m^2 -> mm^2
+        if xy is None:
+            raise ValueError("no covariance of the lidar's position")
+        i, j = xy
+        c = np.asarray(d.get("covariance"), dtype=float)[[i, j]][:, [i, j]] * 1e6  # m^2 -> mm^2
         if c.shape == (2, 2) and np.all(np.isfinite(c)):
             k95 = math.sqrt(chi2_isf(0.05, 2))  # the 95 % ellipse of a 2-D Gaussian, in standard deviations
             _ellipse(ax, float(sp["x_mm"]), float(sp["y_mm"]), c, 10 * k95, color="tab:red", lw=0.8, ls="--")
@@ -264,8 +284,7 @@ def mount_figure(d: dict[str, Any]) -> Figure:
     ax.set_title("The lidar on the robot (95 % ellipse drawn 10 x larger)", fontsize=9)
     ax.grid(True, lw=0.3)
     ax.legend(fontsize=7, loc="lower right")
-    fig.tight_layout()
-    return fig
+    return fig, ax, half_len
 
 
 def _rect(x: float, y: float, w: float, h: float, **kw: Any) -> Rectangle:
@@ -329,6 +348,113 @@ def residuals_figure(res: dict[str, NDArray[Any]], names: Sequence[str] | None =
     return fig
 
 
+@dataclass(frozen=True, eq=False)
+class PageParts:
+    """What a self-calibration's page shows of its kind of robot (the rest is every kind's).
+
+    Attributes
+    ----------
+    box : str
+        The result in one box (HTML).
+    estimates : str
+        The table of the estimates and what they mean (HTML).
+    correlations : str
+        How the estimates depend on each other (HTML).
+    mount : Figure
+        The lidar on the robot.
+    load : list of str
+        How to load the result into the robot (HTML).
+    definitions : str
+        The words of the page.
+    """
+
+    box: str
+    estimates: str
+    correlations: str
+    mount: Figure
+    load: list[str]
+    definitions: str
+
+
+def page_sections(d: dict[str, Any], parts: PageParts, exported: dict[str, str] | None) -> list[str]:
+    """The sections of a self-calibration's page (any kind of robot's JSON, :class:`PageParts` its
+    own): what it was made from, the result, the estimates, the noise, the warnings and
+    identifiability, the map before and after, the lidar on the robot, the residuals over time,
+    how to load it, the attached files, the definitions."""
+    from umbmark.realrobot.selfcal_map import decode_map, decode_residuals
+
+    body: list[str] = []
+    inputs = [i for i in (d.get("inputs") or []) if isinstance(i, dict)]
+    names = [Path(str(i.get("path", "?"))).name for i in inputs]
+    used = d.get("intervals_used")
+    rejected = d.get("intervals_rejected") or []
+    span = d.get("time_span_s")
+    if span is None and inputs:
+        spans = [v for i in inputs if isinstance(v := i.get("time_span_s"), (int, float))]
+        span = sum(spans) if len(spans) == len(inputs) else None
+    summary = f"From {used} intervals ({len(rejected)} rejected as outliers)"
+    if names:
+        summary += " of " + ", ".join(names)
+    if span:
+        summary += f", {fmt(span / 60.0, 3)} minutes of driving"
+    body.append(f"<p>{_e(summary)}.</p>")
+    body.append(parts.box)
+    body.append("<h2>Estimates</h2>")
+    body.append(parts.estimates)
+    figures = d.get("figures")
+    if not isinstance(figures, dict):
+        figures = {}
+    try:
+        res = decode_residuals(figures["residuals"])
+    except (ValueError, KeyError, TypeError):
+        res = None
+    body.append(_noise(d, res))
+    warnings = [w for w in (d.get("warnings") or []) if isinstance(w, str)]
+    body.append("<h2>Warnings and identifiability</h2>")
+    body.append(_warnings_list(warnings))
+    body.append(parts.correlations)
+    body.append("<h2>The map, before and after</h2>")
+    maps: list[dict[str, Any]] = []
+    broken = False
+    for m in figures.get("maps") or []:
+        try:
+            maps.append(decode_map(m))
+        except (ValueError, KeyError, TypeError):
+            broken = True
+    if maps:
+        body.append(
+            "<p>The same scans placed by the wheel odometry: on the left with the nominal geometry and lidar pose, on "
+            "the right with the calibrated ones. Where the calibration is right the walls come out sharp. Wall "
+            "spread: the median distance from a point to the nearest point of another scan (points within "
+            "0.3 m of one).</p>"
+        )
+        body.append(_img(figure_data_uri(map_figure(maps[:4])), "map before and after calibration"))
+        if len(maps) > 4:
+            body.append(f"<p>{len(maps) - 4} more bags are not drawn.</p>")
+    elif broken:
+        body.append('<p class="warn">The result\'s map is damaged and is not drawn.</p>')
+    else:
+        body.append("<p>No map: this result was made from intervals files (no scans), or by an older umbmark.</p>")
+    body.append("<h2>The lidar on the robot</h2>")
+    body.append(_img(figure_data_uri(parts.mount), "the lidar on the robot"))
+    body.append("<h2>Residuals over time</h2>")
+    if res is not None and len(res["t_s"]):
+        body.append(
+            "<p>Where the matches failed or the wheels slipped the residuals leave the band; rejected intervals "
+            "(outliers) are crosses.</p>"
+        )
+        body.append(_img(figure_data_uri(residuals_figure(res, names)), "residuals over time"))
+    else:
+        body.append("<p>No residuals in this result.</p>")
+    body.extend(parts.load)
+    if exported:
+        body.append("<h2>Attached files</h2>")
+        for name, text in exported.items():
+            body.append(f"<h3>{_e(name)}</h3><pre>{_e(text)}</pre>")
+    body.append(f'<h2>Definitions</h2><p class="meta">{_e(parts.definitions)}</p>')
+    return body
+
+
 def selfcal_page(
     d: dict[str, Any],
     *,
@@ -367,81 +493,24 @@ def selfcal_page(
     str
         One self-contained HTML document.
     """
-    from umbmark.realrobot.selfcal_map import decode_map, decode_residuals
-
-    title = title or "Self-calibration report"
-    body = _header(title, when, robot, f"result {source}" if source else None, source_sha256)
-    inputs = [i for i in (d.get("inputs") or []) if isinstance(i, dict)]
-    names = [Path(str(i.get("path", "?"))).name for i in inputs]
-    used = d.get("intervals_used")
-    rejected = d.get("intervals_rejected") or []
-    span = d.get("time_span_s")
-    summary = f"From {used} intervals ({len(rejected)} rejected as outliers)"
-    if names:
-        summary += " of " + ", ".join(names)
-    if span:
-        summary += f", {fmt(span / 60.0, 3)} minutes of driving"
-    body.append(f"<p>{_e(summary)}.</p>")
-    body.append(
+    sp = d["sensor_pose"]
+    box = (
         '<div class="box"><p class="big">'
         f"D_L = {_e(fmt(d.get('wheel_diameter_left_mm'), 3))} mm, D_R = {_e(fmt(d.get('wheel_diameter_right_mm'), 3))}"
         f" mm, wheelbase = {_e(fmt(d.get('wheelbase_mm'), 3))} mm</p>"
-        f"<p>lidar at x = {_e(fmt(d['sensor_pose'].get('x_mm'), 2))} mm, y = {_e(fmt(d['sensor_pose'].get('y_mm'), 2))}"
-        f" mm, yaw = {_e(fmt(d['sensor_pose'].get('yaw_deg'), 3))} deg; c_left = {_e(fmt(d.get('c_left'), 6))}, "
+        f"<p>lidar at x = {_e(fmt(sp.get('x_mm'), 2))} mm, y = {_e(fmt(sp.get('y_mm'), 2))}"
+        f" mm, yaw = {_e(fmt(sp.get('yaw_deg'), 3))} deg; c_left = {_e(fmt(d.get('c_left'), 6))}, "
         f"c_right = {_e(fmt(d.get('c_right'), 6))}, E_b = {_e(fmt(d.get('Eb'), 6))}</p></div>"
     )
-    body.append("<h2>Estimates</h2>")
-    body.append(_estimates_table(d))
-    body.append(f'<p class="meta">{_e(_MEANING)}</p>')
-    figures = d.get("figures")
-    if not isinstance(figures, dict):
-        figures = {}
-    try:
-        res = decode_residuals(figures["residuals"])
-    except (ValueError, KeyError, TypeError):
-        res = None
-    body.append(_noise(d, res))
-    warnings = [w for w in (d.get("warnings") or []) if isinstance(w, str)]
-    body.append("<h2>Warnings and identifiability</h2>")
-    body.append(_warnings_list(warnings))
-    body.append(_correlations(d))
-    body.append("<h2>The map, before and after</h2>")
-    maps: list[dict[str, Any]] = []
-    broken = False
-    for m in figures.get("maps") or []:
-        try:
-            maps.append(decode_map(m))
-        except (ValueError, KeyError, TypeError):
-            broken = True
-    if maps:
-        body.append(
-            "<p>The same scans placed by the wheel odometry: on the left with the nominal geometry and lidar pose, on "
-            "the right with the calibrated ones. Where the calibration is right the walls come out sharp. Wall "
-            "spread: the median distance from a point to the nearest point of another scan (points within "
-            "0.3 m of one).</p>"
-        )
-        body.append(_img(figure_data_uri(map_figure(maps[:4])), "map before and after calibration"))
-        if len(maps) > 4:
-            body.append(f"<p>{len(maps) - 4} more bags are not drawn.</p>")
-    elif broken:
-        body.append('<p class="warn">The result\'s map is damaged and is not drawn.</p>')
-    else:
-        body.append("<p>No map: this result was made from intervals files (no scans), or by an older umbmark.</p>")
-    body.append("<h2>The lidar on the robot</h2>")
-    body.append(_img(figure_data_uri(mount_figure(d)), "the lidar on the robot"))
-    body.append("<h2>Residuals over time</h2>")
-    if res is not None and len(res["t_s"]):
-        body.append(
-            "<p>Where the matches failed or the wheels slipped the residuals leave the band; rejected intervals "
-            "(outliers) are crosses.</p>"
-        )
-        body.append(_img(figure_data_uri(residuals_figure(res, names)), "residuals over time"))
-    else:
-        body.append("<p>No residuals in this result.</p>")
-    body.extend(_load_section(d, source or "<selfcal>", load_commands, _SELFCAL_EXPORTS))
-    if exported:
-        body.append("<h2>Attached files</h2>")
-        for name, text in exported.items():
-            body.append(f"<h3>{_e(name)}</h3><pre>{_e(text)}</pre>")
-    body.append(f'<h2>Definitions</h2><p class="meta">{_e(SELFCAL_DEFINITIONS)}</p>')
+    title = title or "Self-calibration report"
+    parts = PageParts(
+        box=box,
+        estimates=_estimates_table(d) + f'<p class="meta">{_e(_MEANING)}</p>',
+        correlations=_correlations(d),
+        mount=mount_figure(d),
+        load=_load_section(d, source or "<selfcal>", load_commands, _SELFCAL_EXPORTS),
+        definitions=SELFCAL_DEFINITIONS,
+    )
+    body = _header(title, when, robot, f"result {source}" if source else None, source_sha256)
+    body += page_sections(d, parts, exported)
     return _page(title, "\n".join(body))

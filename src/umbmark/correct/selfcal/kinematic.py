@@ -63,6 +63,7 @@ from umbmark.model.kinematics import JointIntervals, Kinematics, twist_displacem
 __all__ = [
     "KinematicSelfcalResult",
     "kinematic_selfcal",
+    "kinematic_residuals",
     "KinematicLimits",
     "DrivingCoverage",
     "driving",
@@ -538,6 +539,25 @@ def kinematic_selfcal(
         prob, result, noise, labels, _judge(prob, driving(intervals, nominal), limits or KinematicLimits())
     )
     return _result(prob, result, unc, intervals, nominal)
+
+
+def kinematic_residuals(intervals: JointIntervals, result: KinematicSelfcalResult) -> FloatArray:
+    """Each interval's measured minus predicted sensor displacement at the estimate (the heading wrapped).
+
+    Parameters
+    ----------
+    intervals : JointIntervals
+        The intervals the estimate was made from.
+    result : KinematicSelfcalResult
+
+    Returns
+    -------
+    numpy.ndarray
+        ``(K, 3)`` ``(dx_m, dy_m, dyaw_rad)`` in the sensor's frame.
+    """
+    names = result.nominal.parameter_names
+    prob = KinematicProblem(intervals, result.nominal, [n in result.parameters for n in names])
+    return prob.res(np.asarray(result.estimate, dtype=float), prob.all)
 
 
 def _refuse_negative(nominal: Kinematics, g: FloatArray, source: str | None) -> None:
