@@ -75,6 +75,7 @@ _STRAIGHT_RAD = math.radians(1.0)  # a pair turning less counts for the travel r
 _TURN_STEP_RAD = math.radians(0.5)  # a pair turning less is left out of the sign count
 _STEP_M = 0.005  # a pair moving less than this forward is left out of the direction count
 _AGAINST = 0.8  # the share of turning pairs turning the other way that names a mirror
+_SURE_INLIERS = 0.8  # a match from no motion that matched less of the points is searched for widely
 
 READING_FAR = 2.5
 """Another reading of the joints names itself when the joints as given are this many times
@@ -153,9 +154,25 @@ def _robot_motion(raw: FloatArray, lidar: FloatArray) -> FloatArray:
     return np.asarray(seen, dtype=float)
 
 
+def _matched_from_rest(bag: SelfcalBag, i: NDArray[np.int64]) -> tuple[FloatArray, NDArray[np.bool_]]:
+    """The scans ``i`` matched to the next ones from no motion: the plain matcher first, the wide
+    search (a hundred times the cost) where it did not converge or matched less than
+    :data:`_SURE_INLIERS` of the points (a local minimum a wide search may leave)."""
+    ref, cur = bag.ranges_m[i], bag.ranges_m[i + 1]
+    m = match_scan_pairs(ref, cur, bag.angles_rad, None, ICPConfig())
+    poses = np.array(m.poses, dtype=float)
+    ok = np.asarray(m.converged, dtype=bool).copy()
+    again = np.flatnonzero(~ok | (np.asarray(m.inlier_fraction) < _SURE_INLIERS))
+    if again.size:
+        w = match_scan_pairs(ref[again], cur[again], bag.angles_rad, None, ICPConfig(coarse=True))
+        poses[again] = w.poses
+        ok[again] = w.converged
+    return poses, ok
+
+
 def lidar_motion(bag: SelfcalBag, usable: ArrayLike, sensor_pose: ArrayLike) -> LidarMotion | None:
     """Up to :data:`_PAIRS` consecutive usable scans (spread over the recording) matched from no
-    motion (the coarse matcher), in the robot's frame.
+    motion (the plain matcher, the wide search where it is not sure), in the robot's frame.
 
     Parameters
     ----------
@@ -174,12 +191,11 @@ def lidar_motion(bag: SelfcalBag, usable: ArrayLike, sensor_pose: ArrayLike) -> 
     i = _pairs(np.asarray(usable, dtype=bool))
     if i.size < 10:
         return None
-    m = match_scan_pairs(bag.ranges_m[i], bag.ranges_m[i + 1], bag.angles_rad, None, ICPConfig(coarse=True))
-    ok = np.asarray(m.converged, dtype=bool)
+    poses, ok = _matched_from_rest(bag, i)
     if ok.sum() < 10:
         return None
     lidar = np.asarray(sensor_pose, dtype=float)
-    raw = np.asarray(m.poses, dtype=float)[ok]
+    raw = poses[ok]
     return LidarMotion(i[ok], _robot_motion(raw, lidar), _robot_motion(raw * [1.0, -1.0, -1.0], lidar))
 
 
