@@ -331,3 +331,36 @@ def test_skipped_checks_reach_the_workers_self_calibration(tmp_path, monkeypatch
     monkeypatch.setattr(selfcal, "selfcal_from_intervals", spy)
     assert calibrate_job(job).fields is not None and seen == [True]
     assert not skipped("wheel_units")  # only inside the job
+
+
+def test_a_manifest_names_each_robots_kind(tmp_path, client):
+    """A tricycle's recording beside a differential drive's, its kind named in the manifest: each
+    calibrated by its own kind's self-calibration and recorded with its own parameters, which
+    drift reads; a kind given twice, or one no robot is, named by line."""
+    import kinematic_bags
+
+    drive = kinematic_bags.write_short_drive(tmp_path, "tricycle", duration_s=30.0)
+    _fleet_dir(tmp_path / "fleet", 1, 1)
+    manifest = tmp_path / "fleet.yaml"
+    joints, sizes = " ".join(drive["joints"]), " ".join(drive["sizes"])
+    manifest.write_text(
+        "robots:\n"
+        f"  agv:\n    kind: tricycle\n    recordings: [drive.bag]\n    args: {joints} {sizes}\n"
+        "  diff:\n    recordings: [fleet/robot-00/s000.csv]\n    args: --wheel-diameter-mm 100 --wheelbase-mm 300\n"
+    )
+    db = str(tmp_path / "h.sqlite")
+    code, out, err = run("fleet", str(manifest), "--db", db, "--scheduler", client.scheduler.address, "--json")
+    assert code == 0 and json.loads(out)["recorded"] == 2, err
+    with open_history(db) as h:
+        agv = h.latest("agv")
+    assert agv.parameters["kinematics"] == "tricycle" and "wheelbase_mm" in agv.parameters
+    code, out, err = run("drift", "agv", "--db", db, "--json")
+    assert code == 0, err
+    for bad, said in (
+        (f"    kind: tricycle\n    recordings: [drive.bag]\n    args: --kinematics tricycle {joints} {sizes}\n",
+         "the manifest's `kind:` names it"),
+        ("    kind: hovercraft\n    recordings: [drive.bag]\n", "hovercraft"),
+    ):  # fmt: skip
+        manifest.write_text(f"robots:\n  agv:\n{bad}")
+        code, out, err = run("fleet", str(manifest), "--db", db)
+        assert code == 2 and said in err and "fleet.yaml:" in err and len(err.strip().splitlines()) == 1, err

@@ -53,13 +53,6 @@ def _parse(args: tuple[str, ...], path: str, where: str) -> click.Context:
     for name, why in NOT_FOR_THE_FLEET.items():
         if ctx.get_parameter_source(name) not in (default, None):
             raise InputError(f"{_flag(selfcal, name)} among the self-calibration's options{where}: {why}")
-    from umbmark.kinds import kind_named
-
-    if not kind_named(ctx.params["kinematics"]).differential:
-        raise InputError(
-            f"--kinematics {ctx.params['kinematics']} among the self-calibration's options{where}: the fleet "
-            "records differential drives' calibrations (another kind's self-calibration: umbmark selfcal with --save)"
-        )
     extra = [p for p in ctx.params["paths"] if p != path]
     if extra:
         raise InputError(f"the self-calibration's options{where} hold {extra[0]}, not an option (a recording?)")
@@ -70,12 +63,39 @@ def _parse(args: tuple[str, ...], path: str, where: str) -> click.Context:
     return ctx
 
 
+def _settings(ctx: click.Context, kinds: set[str]):
+    """The settings of one set of selfcal's options: a differential drive's, or a robot's of
+    another kind (from bags only)."""
+    from umbmark.cli.kinematic import kinematic_settings
+    from umbmark.cli.selfcal import selfcal_settings
+    from umbmark.kinds import kind_named
+
+    kw = ctx.params
+    if kind_named(kw["kinematics"]).differential:
+        return selfcal_settings(kw, kinds)
+    kind = kw["kinematics"]
+    if kinds != {"bags"}:
+        raise InputError(f"--kinematics {kind} reads ROS bags (joint states and laser scans), not intervals files")
+    if not kw["wheel_jitter"]:
+        noun = kind_named(kind).noun
+        raise InputError(f"--no-wheel-jitter: the self-calibration of a {noun} takes the joint data as exact")
+    return kinematic_settings(kind, kw["min_intervals"], kw["keep_outliers"], kw)
+
+
+def _with_kind(job, where: str) -> tuple[str, ...]:
+    """A job's selfcal options with the kind its manifest names (``kind:``) as ``--kinematics``."""
+    if job.kind is None:
+        return tuple(job.args)
+    if any(a == "--kinematics" or a.startswith("--kinematics=") for a in job.args):
+        raise InputError(f"--kinematics among the self-calibration's options{where}: the manifest's `kind:` names it")
+    return ("--kinematics", job.kind, *job.args)
+
+
 def _with_settings(jobs: list, where_of) -> list:
     """Each job with the settings of its options, each set of options parsed and checked once."""
     from dataclasses import replace
 
-    from umbmark.cli.selfcal import selfcal_settings
-
+    jobs = [replace(j, args=_with_kind(j, where_of(j))) for j in jobs]
     groups: dict[tuple[str, ...], list] = {}
     for j in jobs:
         groups.setdefault(j.args, []).append(j)
@@ -85,7 +105,7 @@ def _with_settings(jobs: list, where_of) -> list:
         ctx = _parse(args, group[0].path, where)
         kinds = {"intervals" if j.is_intervals else "bags" for j in group}
         try:
-            settings[args] = selfcal_settings(ctx.params, kinds)
+            settings[args] = _settings(ctx, kinds)
         except InputError as e:
             raise InputError(f"the self-calibration's options{where}: {e}") from None
     return [replace(j, settings=settings[j.args]) for j in jobs]

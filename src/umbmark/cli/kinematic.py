@@ -189,26 +189,20 @@ _REFUSED = {
 }
 
 
-def kinematic_selfcal_cmd(
-    kind: str, paths, min_intervals: int, keep_outliers: bool, save, as_json, history, window_s, kw
-) -> None:
-    """Run the self-calibration of a robot of a kind of its own for ``umbmark selfcal``: ``history``
-    is ``--robot``, ``--record``, ``--db``; ``window_s`` the ``--window`` in seconds (or None)."""
-    from umbmark.cli.bags import Bars, interval_options, kind_of, start_kernels
-    from umbmark.cli.history import print_recorded, record_if_requested, refuse_if_recorded
+def kinematic_settings(kind: str, min_intervals: int, keep_outliers: bool, kw: dict):
+    """The :class:`~umbmark.realrobot.kinematic_settings.KinematicSettings` of selfcal's options for
+    a robot of ``kind``, checked before anything is read (the fleet's too)."""
+    from umbmark.cli.bags import interval_options
     from umbmark.cli.options import kinematic_joints, kinematic_nominal
-    from umbmark.realrobot.kinematic_settings import KinematicSettings, kinematic_recordings
+    from umbmark.realrobot.kinematic_settings import KinematicSettings
 
-    robot, record, db = history
     for key, why in _REFUSED.items():
         if kw.get(key):
             raise InputError(why.format(noun=kind_named(kind).noun))
     odom = kw.get("odom_topic") or None
     if odom and not kind_named(kind).reads_odometry:
         raise InputError(kind_named(kind).odometry_refusal())
-    if kind_of(paths) != "bags":
-        raise InputError(f"--kinematics {kind} reads ROS bags (joint states and laser scans), not intervals files")
-    settings = KinematicSettings(
+    return KinematicSettings(
         kinematic_nominal(kind, kw),
         kinematic_joints(kind, kw),
         joint_topic=kw["joint_topic"],
@@ -218,7 +212,23 @@ def kinematic_selfcal_cmd(
         fit=_fit(kind_named(kind), kw),
         reject_outliers=not keep_outliers,
         odom_topic=odom,
-    )  # the command's own --skip-check: applied around it
+        skip_checks=frozenset(kw.get("skip_check") or ()),  # the command's own: also applied around it
+    )
+
+
+def kinematic_selfcal_cmd(
+    kind: str, paths, min_intervals: int, keep_outliers: bool, save, as_json, history, window_s, kw
+) -> None:
+    """Run the self-calibration of a robot of a kind of its own for ``umbmark selfcal``: ``history``
+    is ``--robot``, ``--record``, ``--db``; ``window_s`` the ``--window`` in seconds (or None)."""
+    from umbmark.cli.bags import Bars, kind_of, start_kernels
+    from umbmark.cli.history import print_recorded, record_if_requested, refuse_if_recorded
+    from umbmark.realrobot.kinematic_settings import kinematic_recordings
+
+    robot, record, db = history
+    settings = kinematic_settings(kind, min_intervals, keep_outliers, kw)
+    if kind_of(paths) != "bags":
+        raise InputError(f"--kinematics {kind} reads ROS bags (joint states and laser scans), not intervals files")
     refuse_if_recorded(robot, record, db, kind="selfcal", method="selfcal", paths=paths)  # windows too: they cover it
     start_kernels()
     with Bars(enabled=not as_json) as bars:

@@ -27,6 +27,7 @@ from umbmark.errors import InputError
 if TYPE_CHECKING:
     import yaml
 
+    from umbmark.realrobot.kinematic_settings import KinematicSettings
     from umbmark.realrobot.selfcal_settings import SelfcalSettings
 
 __all__ = ["FleetJob", "RECORDING_SUFFIXES", "MANIFEST_KEYS", "ROBOT_KEYS", "plan_fleet", "read_manifest"]
@@ -37,7 +38,7 @@ RECORDING_SUFFIXES = (".bag", ".mcap", ".db3", ".csv")
 MANIFEST_KEYS = ("robots",)
 """The keys of a manifest."""
 
-ROBOT_KEYS = ("recordings", "args")
+ROBOT_KEYS = ("recordings", "kind", "args")
 """The keys of a robot's entry in a manifest."""
 
 MAX_MANIFEST_BYTES = 16 * 2**20
@@ -63,8 +64,12 @@ class FleetJob:
         ISO 8601 UTC: when the recording's file was last written, the date of its record.
     origin : str, optional
         Where ``args`` were given (``MANIFEST:LINE``), for messages.
-    settings : SelfcalSettings, optional
-        Its self-calibration's settings (made from ``args``; needed to run it).
+    kind : str, optional
+        The robot's kind as its manifest names it (:data:`umbmark.kinds.KINDS`; None: as its
+        options say, by default a differential drive).
+    settings : SelfcalSettings or KinematicSettings, optional
+        Its self-calibration's settings (made from ``args``; needed to run it): a differential
+        drive's, or a robot's of another kind.
     """
 
     robot: str
@@ -73,7 +78,8 @@ class FleetJob:
     args: tuple[str, ...] = ()
     when: str | None = None
     origin: str | None = None
-    settings: SelfcalSettings | None = None
+    settings: SelfcalSettings | KinematicSettings | None = None
+    kind: str | None = None
 
     @property
     def is_intervals(self) -> bool:
@@ -215,9 +221,23 @@ class _Manifest:
         return [(n.value, n) for n in node.value]
 
 
+def _kind(m: _Manifest, robot: str, node: yaml.Node) -> str:
+    """The kind a robot's entry names (``kind:``)."""
+    from umbmark.kinds import KINDS, kind_named
+
+    words = m.strings(node, f"robot {robot!r}: `kind:`", words=True)
+    if len(words) != 1:
+        raise m.fail(f"robot {robot!r}: `kind:` is one of {', '.join(KINDS)}", node)
+    try:
+        return kind_named(words[0][0]).name
+    except InputError as e:
+        raise m.fail(f"robot {robot!r}: `kind:` {e}", node) from None
+
+
 def read_manifest(path: str | Path, file_hash: Callable[[str | Path], str] | None = None) -> list[FleetJob]:
-    """The jobs of a manifest: YAML ``{robots: {NAME: {recordings: [paths], args: [options]}}}``
-    (paths relative to the manifest's folder; ``args`` a list, or one line of options).
+    """The jobs of a manifest: YAML ``{robots: {NAME: {recordings: [paths], kind: KIND, args: [options]}}}``
+    (paths relative to the manifest's folder; ``kind`` the robot's kind, :data:`umbmark.kinds.KINDS`,
+    default the differential drive; ``args`` a list, or one line of options).
 
     Raises
     ------
@@ -250,6 +270,7 @@ def read_manifest(path: str | Path, file_hash: Callable[[str | Path], str] | Non
             raise m.fail(f"robot {robot!r} needs `recordings:`, a list of paths", entry["recordings"])
         given = m.strings(entry["args"], f"robot {robot!r}: `args:`", words=True) if "args" in entry else []
         args = tuple(a for a, _ in given)
+        kind = _kind(m, robot, entry["kind"]) if "kind" in entry else None
         origin = f"{path}:{key.start_mark.line + 1}"
         for r, node in recs:
             p = (path.parent / r) if not Path(r).is_absolute() else Path(r)
@@ -259,5 +280,5 @@ def read_manifest(path: str | Path, file_hash: Callable[[str | Path], str] | Non
                 was, line = listed[p.resolve()]
                 raise m.fail(f"robot {robot!r}: recording {r} is listed already (line {line}, robot {was!r})", node)
             listed[p.resolve()] = (robot, node.start_mark.line + 1)
-            jobs.append(FleetJob(robot, str(p), h(p), args, _modified(p), origin))
+            jobs.append(FleetJob(robot, str(p), h(p), args, _modified(p), origin, kind=kind))
     return jobs

@@ -110,12 +110,16 @@ def calibrate_job(job: FleetJob) -> JobResult:
     JobResult
         The record's fields, or the one-line reason it failed (bad input, an unreadable file).
     """
+    from umbmark.realrobot.kinematic_settings import KinematicSettings, kinematic_recordings
     from umbmark.realrobot.selfcal_settings import selfcal_recordings
 
     if job.settings is None:
         return JobResult(error="no settings for its self-calibration")
     try:
-        report = selfcal_recordings([job.path], job.settings)
+        if isinstance(job.settings, KinematicSettings):  # a robot of another kind than a differential drive
+            report: Any = kinematic_recordings([job.path], job.settings)
+        else:
+            report = selfcal_recordings([job.path], job.settings)
         return JobResult(fields=report.history_fields(kind="selfcal"))
     except UmbmarkError as e:
         return JobResult(error=str(e))
