@@ -189,7 +189,15 @@ def test_no_import_cycles():
     assert not cycles, "\n".join(cycles)
 
 
-REAL_ROBOT_COMMANDS = ("umbmark.cli.real", "umbmark.cli.selfcal", "umbmark.cli.validate", "umbmark.cli.fleet")
+REAL_ROBOT_COMMANDS = (
+    "umbmark.cli.replay",
+    "umbmark.cli.convert",
+    "umbmark.cli.bag_info",
+    "umbmark.cli.export",
+    "umbmark.cli.selfcal",
+    "umbmark.cli.validate",
+    "umbmark.cli.fleet",
+)
 
 
 def _closure(start: str) -> dict[str, str]:

@@ -268,7 +268,7 @@ def test_replay_increments_dispatch_matches_the_oracle(rows, k, integral, seed):
 
 
 def test_replay_method_choices_are_the_librarys():
-    from umbmark.cli.real import REPLAY_METHOD_CHOICES
+    from umbmark.cli.replay import REPLAY_METHOD_CHOICES
     from umbmark.realrobot.replay import method_names
 
     assert list(REPLAY_METHOD_CHOICES) == method_names()

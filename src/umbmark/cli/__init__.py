@@ -19,16 +19,19 @@ import click
 
 # Each module registers its subcommands on ``app``.
 from umbmark.cli import (
+    bag_info,  # noqa: F401,E402  bag-info
     bench,  # noqa: F401,E402  bench (group)
     bench_accuracy,  # noqa: F401,E402  bench accuracy
     bench_speed,  # noqa: F401,E402  bench speed
     calibrate,  # noqa: F401,E402  calibrate
+    convert,  # noqa: F401,E402  convert
     core,  # noqa: F401,E402  simulate, analyze, demo
     drift,  # noqa: F401,E402  drift
+    export,  # noqa: F401,E402  export
     field,  # noqa: F401,E402  guide, measure
     fleet,  # noqa: F401,E402  fleet
     history,  # noqa: F401,E402  history
-    real,  # noqa: F401,E402  replay, export
+    replay,  # noqa: F401,E402  replay
     report,  # noqa: F401,E402  report
     reproduce,  # noqa: F401,E402  reproduce
     selfcal,  # noqa: F401,E402  selfcal

@@ -1,0 +1,149 @@
+"""The options that say how to read a log (``replay``, ``convert``) and the reading of the logs
+given into data sets.
+
+The library does the work (:mod:`umbmark.io.load`); no numerical module is imported before a
+command runs.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+
+from umbmark.cli.app import LOG_FORMAT_CHOICES
+from umbmark.cli.guard import skip_check_option
+from umbmark.cli.progress import progress, track
+
+__all__ = ["log_options", "datasets", "all_bags"]
+
+
+def log_options(f):
+    """Add the options that describe how to read a log (geometry for formats that lack it, bag
+    topics) to a click command.
+
+    Parameters
+    ----------
+    f : callable
+        The command function; it receives ``log_format`` and the keyword arguments of
+        :func:`umbmark.io.load.load_logs`.
+
+    Returns
+    -------
+    callable
+        The decorated command.
+    """
+    opts = [
+        click.option(
+            "--format",
+            "log_format",
+            type=click.Choice(LOG_FORMAT_CHOICES),
+            default="auto",
+            show_default=True,
+            help="Log format: an optiodom data-set folder, a generic CSV log, a ROS 1/2 bag.",
+        ),
+        click.option(
+            "--side-mm",
+            type=float,
+            default=None,
+            help="Square side: the runs are UMBmark squares (optiodom: from the metadata).",
+        ),
+        click.option("--wheel-diameter-mm", type=float, default=None, help="Nominal wheel diameter (CSV, bags)."),
+        click.option(
+            "--wheel-radius-m", type=float, default=None, help="Nominal wheel radius, ROS's wheel_radius (instead)."
+        ),
+        click.option("--left-diameter-mm", type=float, default=None, help="Nominal left wheel diameter."),
+        click.option("--right-diameter-mm", type=float, default=None, help="Nominal right wheel diameter."),
+        click.option("--wheelbase-mm", type=float, default=None, help="Nominal wheelbase (CSV, bags)."),
+        click.option(
+            "--wheel-separation-m",
+            type=float,
+            default=None,
+            help="Nominal wheelbase, ROS's wheel_separation (instead).",
+        ),
+        click.option(
+            "--pulses-per-wheel-rev",
+            type=float,
+            default=None,
+            help="Encoder pulses per wheel revolution (CSV, bag ticks).",
+        ),
+        click.option(
+            "--ticks",
+            type=click.Choice(["cumulative", "incremental"]),
+            default="cumulative",
+            show_default=True,
+            help="Encoder counts are a running counter or per-sample counts.",
+        ),
+        click.option("--joints", default=None, metavar="LEFT,RIGHT", help="Bag: JointState names of the wheels."),
+        click.option("--joint-topic", default="/joint_states", show_default=True, help="Bag: JointState topic."),
+        click.option("--ticks-topic", default=None, help="Bag: topic with encoder counts."),
+        click.option("--left-field", default=None, help="Bag: field of the left count, e.g. data[0]."),
+        click.option("--right-field", default=None, help="Bag: field of the right count, e.g. data[1]."),
+        click.option(
+            "--odom-topic",
+            default=None,
+            help="Bag: nav_msgs/Odometry as the wheels (its increments through the nominal geometry).",
+        ),
+        click.option("--gt-topic", default=None, help="Bag: ground truth (PoseStamped, Odometry or /tf)."),
+        click.option("--gt-frame", default=None, help="Bag, /tf ground truth: the tracked child frame."),
+        click.option("--gt-parent", default=None, help="Bag, /tf ground truth: its parent frame (optional)."),
+        click.option(
+            "--ranges",
+            default=None,
+            metavar="A-B,C-D",
+            help="Bag: cut runs at these time ranges (seconds from the first wheel sample).",
+        ),
+        click.option("--split-stops", is_flag=True, help="Bag: cut runs where both wheels stand still."),
+        click.option(
+            "--stop-s",
+            type=float,
+            default=1.0,
+            show_default=True,
+            help="Bag: the stillness (seconds) that ends a run with --split-stops.",
+        ),
+        click.option(
+            "--time-offset",
+            default=None,
+            metavar="auto|SECONDS",
+            help="How late the ground truth is against the wheels. Bags with --gt-topic: without it "
+            "the offset is estimated (cross-correlation of the turn rates), reported in the JSON "
+            "key time_offset and warned about when over 50 ms; auto subtracts the estimate; SECONDS "
+            "subtracts that (positive: ground truth late). CSV logs, optiodom: applied when given.",
+        ),
+        skip_check_option,
+    ]
+    for o in reversed(opts):
+        f = o(f)
+    return f
+
+
+def _load(paths, log_format, kw):
+    from umbmark.cli.options import read_options
+    from umbmark.io.load import load_logs
+
+    return load_logs(paths, log_format, read_options(kw))
+
+
+def datasets(paths, log_format, kw):
+    """Each PATH is a data set, except CSV files and bags: all CSV files given form one data
+    set, and so do all bags given (the runs of one test)."""
+    paths = list(paths)
+    if log_format in ("csv",) or (
+        log_format == "auto" and all(Path(p).is_file() and Path(p).suffix.lower() == ".csv" for p in paths)
+    ):
+        with progress(f"reading {len(paths)} CSV log(s)"):
+            return [_load(paths, "csv", kw)]
+    if len(paths) > 1 and all_bags(paths, log_format):
+        with progress(f"reading {len(paths)} bags"):
+            return [_load(paths, "bag", kw)]
+    return [_load([p], log_format, kw) for p in track(paths, "reading logs")]
+
+
+def all_bags(paths, log_format) -> bool:
+    if log_format == "bag":
+        return True
+    if log_format != "auto":
+        return False
+    from umbmark.io.load import detect_format
+
+    return all(detect_format(p) == "bag" for p in paths)
