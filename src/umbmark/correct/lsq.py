@@ -50,6 +50,7 @@ import numpy.typing as npt
 from umbmark.correct.registry import register_path
 from umbmark.errors import InputError
 from umbmark.model.dataset import FAST_MIN_SAMPLES, Dataset, WheelGeometry, replay_increments
+from umbmark.model.defaults import HEADING_WEIGHT_M, LSQ_MODES, LSQ_SCALES, POINTS_PER_RUN
 from umbmark.model.geometry import OdometryParams, wrap_angle
 
 __all__ = ["LsqStd", "LsqResult", "fit_lsq", "lsq_method", "LSQ_DEFAULTS"]
@@ -359,10 +360,10 @@ def _scale_decision(datasets: Sequence[Dataset], mode: str, scale: str) -> tuple
 
 def fit_lsq(
     datasets: Dataset | Sequence[Dataset],
-    mode: str = "auto",
-    scale: str = "auto",
-    heading_weight_m: float = 0.5,
-    points_per_run: int = 100,
+    mode: str = LSQ_MODES[0],
+    scale: str = LSQ_SCALES[0],
+    heading_weight_m: float = HEADING_WEIGHT_M,
+    points_per_run: int = POINTS_PER_RUN,
     start: WheelGeometry | None = None,
     fit_offset: bool = False,
 ) -> LsqResult:
@@ -451,6 +452,11 @@ def fit_lsq(
     )
 
 
+def _either(names: Sequence[str]) -> str:
+    """``auto, sampled or end``."""
+    return f"{', '.join(names[:-1])} or {names[-1]}"
+
+
 def _checked_mode(
     datasets: list[Dataset], mode: str, scale: str, heading_weight_m: float, points_per_run: int, fit_offset: bool
 ) -> str:
@@ -458,10 +464,10 @@ def _checked_mode(
     along its path); an error for a run without the ground truth the mode needs."""
     if not datasets:
         raise InputError("lsq: no data")
-    if mode not in ("auto", "sampled", "end"):
-        raise InputError(f"unknown lsq mode {mode!r} (use auto, sampled or end)")
-    if scale not in ("auto", "fit", "fixed"):
-        raise InputError(f"unknown lsq scale option {scale!r} (use auto, fit or fixed)")
+    if mode not in LSQ_MODES:
+        raise InputError(f"unknown lsq mode {mode!r} (use {_either(LSQ_MODES)})")
+    if scale not in LSQ_SCALES:
+        raise InputError(f"unknown lsq scale option {scale!r} (use {_either(LSQ_SCALES)})")
     if not (math.isfinite(heading_weight_m) and heading_weight_m >= 0):
         raise InputError(f"heading weight must be >= 0, got {heading_weight_m!r}")
     if points_per_run < 1:

@@ -46,6 +46,7 @@ from umbmark._check import positive
 from umbmark.errors import InputError
 from umbmark.io._text import parse_json
 from umbmark.io.atomic import atomic_write
+from umbmark.kinds import DEFAULT_KIND, KINDS
 from umbmark.model.geometry import unit_slip
 
 __all__ = [
@@ -67,7 +68,9 @@ __all__ = [
     "IN_USE_LIMITS",
 ]
 
-FORMATS = ("ros2", "ros1", "json", "firmware", "urdf", "tf")
+FORMATS = KINDS[DEFAULT_KIND].export_formats
+"""The formats of a differential drive's calibration: its kind's (:attr:`umbmark.kinds.Kind.export_formats`,
+the registry the command line's choice of export formats is made from)."""
 _SENSOR_FORMATS = ("urdf", "tf")
 # the arguments of ROS 2's tf2_ros static_transform_publisher, in its order
 _TF2_ARGS = ("x", "y", "z", "roll", "pitch", "yaw", "frame-id", "child-frame-id")

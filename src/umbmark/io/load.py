@@ -17,6 +17,7 @@ from umbmark._numbers import strict_float
 from umbmark.errors import InputError
 from umbmark.io.wheels import TICK_MODES, WheelSource
 from umbmark.model.dataset import Dataset, Run, WheelGeometry, check_stop_s
+from umbmark.model.defaults import LOG_FORMATS, STOP_S
 
 __all__ = [
     "LOG_FORMATS",
@@ -28,8 +29,6 @@ __all__ = [
     "load_logs",
     "parse_ranges",
 ]
-
-LOG_FORMATS = ("auto", "optiodom", "csv", "bag")
 
 
 def detect_format(path: str | Path) -> str:
@@ -117,13 +116,13 @@ class LogOptions:
     diameter_right_m: float | None = None
     wheelbase_m: float | None = None
     pulses_per_wheel_rev: float | None = None
-    ticks: str = "cumulative"
+    ticks: str = TICK_MODES[0]
     wheels: WheelSource = field(default_factory=WheelSource)
     truth: TruthSource = field(default_factory=TruthSource)
     side_m: float | None = None
     ranges_s: tuple[tuple[float, float], ...] | None = None
     split_stops: bool = False
-    stop_s: float = 1.0
+    stop_s: float = STOP_S
     time_offset: float | str | None = None
 
 

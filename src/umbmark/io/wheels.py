@@ -31,15 +31,13 @@ from numpy.typing import NDArray
 
 from umbmark.errors import InputError
 from umbmark.model.dataset import wheel_angles_from_poses
+from umbmark.model.defaults import JOINT_TOPIC, TICK_MODES
 from umbmark.model.geometry import WheelGeometry
 from umbmark.model.wheel_stream import StreamReport
 
 __all__ = ["WheelSource", "WheelData", "TICK_MODES", "WHEEL_KINDS", "MAX_PULSES_PER_WHEEL_REV", "ONE_WHEEL_SOURCE"]
 
 FloatArray = NDArray[np.float64]
-
-TICK_MODES = ("cumulative", "incremental")
-"""How encoder counts are published: a running counter, or the counts since the last message."""
 
 WHEEL_KINDS = ("joints", "ticks", "odom")
 """The kinds of wheel data: joint states, encoder counts, an odometry."""
@@ -88,23 +86,23 @@ class WheelSource:
     """
 
     joints: tuple[str, ...] | None = None
-    joint_topic: str = "/joint_states"
+    joint_topic: str = JOINT_TOPIC
     ticks_topic: str | None = None
     left_field: str | None = None
     right_field: str | None = None
-    ticks: str = "cumulative"
+    ticks: str = TICK_MODES[0]
     pulses_per_wheel_rev: float | None = None
     odom_topic: str | None = None
     steer_joints: tuple[str, ...] = ()
 
     @classmethod
-    def joint_states(cls, left: str, right: str, topic: str = "/joint_states") -> WheelSource:
+    def joint_states(cls, left: str, right: str, topic: str = JOINT_TOPIC) -> WheelSource:
         """The wheel joints ``left`` and ``right`` of the JointState messages on ``topic``."""
         return cls(joints=(left, right), joint_topic=topic)
 
     @classmethod
     def robot_joints(
-        cls, joints: tuple[str, ...], steer_joints: tuple[str, ...] = (), topic: str = "/joint_states"
+        cls, joints: tuple[str, ...], steer_joints: tuple[str, ...] = (), topic: str = JOINT_TOPIC
     ) -> WheelSource:
         """The joints of any kind of robot (its roles' order), ``steer_joints`` among them."""
         return cls(joints=tuple(joints), joint_topic=topic, steer_joints=tuple(steer_joints))
@@ -121,7 +119,7 @@ class WheelSource:
 
     @classmethod
     def encoder_counts(
-        cls, topic: str, left_field: str, right_field: str, pulses_per_wheel_rev: float, ticks: str = "cumulative"
+        cls, topic: str, left_field: str, right_field: str, pulses_per_wheel_rev: float, ticks: str = TICK_MODES[0]
     ) -> WheelSource:
         """Encoder counts in the fields ``left_field`` and ``right_field`` of the messages on ``topic``."""
         return cls(

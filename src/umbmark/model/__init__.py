@@ -23,6 +23,9 @@ imports no other layer of umbmark.
 * :mod:`~umbmark.model.timing`: the stamps of logged streams, their checks and time offsets
   (with :mod:`~umbmark.model.stamps`, :mod:`~umbmark.model.arrival` for streams stamped on
   arrival, and :mod:`~umbmark.model.wheel_stream` for the wheel data's one check).
+* :mod:`~umbmark.model.defaults`: the defaults and choices of the options a person sets (topics,
+  keyframes, the least squares' weights, log formats), shared by the library's settings and the
+  command line's options.
 
 The names below are importable from here (``from umbmark.model import simulate_batch``); each
 module is imported when one of its names is first used, so importing a submodule costs only

@@ -30,6 +30,7 @@ from numpy.typing import ArrayLike
 
 from umbmark.errors import InputError
 from umbmark.model import odometry
+from umbmark.model.defaults import STOP_S
 from umbmark.model.geometry import OdometryParams, WheelGeometry
 
 __all__ = [
@@ -397,7 +398,7 @@ def check_stop_s(stop_s, source: str | None = None) -> float:
 
 
 def split_at_stops(
-    run: Run, units_per_wheel_rev: float, stop_s: float = 1.0, min_samples: int = 5, still_units: float = 0.0
+    run: Run, units_per_wheel_rev: float, stop_s: float = STOP_S, min_samples: int = 5, still_units: float = 0.0
 ) -> list[Run]:
     """Split a run where both wheels stand still for at least ``stop_s`` seconds.
 

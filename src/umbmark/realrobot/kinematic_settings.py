@@ -18,6 +18,7 @@ from pathlib import Path
 from umbmark._check import CHECKS, skipping_checks
 from umbmark.errors import InputError
 from umbmark.kinds import kind_of
+from umbmark.model.defaults import JOINT_TOPIC, SCAN_TOPIC
 from umbmark.model.kinematics import Kinematics
 from umbmark.realrobot.kinematic import KinematicReport, joint_source, kinematic_selfcal_from_bags
 from umbmark.realrobot.selfcal import IntervalOptions, StageProgress
@@ -62,8 +63,8 @@ class KinematicSettings:
 
     nominal: Kinematics
     joints: tuple[str, ...]
-    joint_topic: str = "/joint_states"
-    scan_topic: str = "/scan"
+    joint_topic: str = JOINT_TOPIC
+    scan_topic: str = SCAN_TOPIC
     scan_frame: str | None = None
     intervals: IntervalOptions = field(default_factory=IntervalOptions)
     fit: tuple[str, ...] | None = None

@@ -17,6 +17,7 @@ from umbmark._check import CHECKS, positive, skipping_checks
 from umbmark.errors import InputError
 from umbmark.io.wheels import WheelSource
 from umbmark.kinds import DEFAULT_KIND, kind_named
+from umbmark.model.defaults import SCAN_TOPIC
 from umbmark.realrobot.selfcal import IntervalOptions, SelfcalReport, StageProgress
 
 __all__ = ["SelfcalSettings", "recording_kind", "selfcal_recordings"]
@@ -59,7 +60,7 @@ class SelfcalSettings:
     wheel_diameter_m: float
     wheelbase_m: float
     wheels: WheelSource = field(default_factory=WheelSource)
-    scan_topic: str = "/scan"
+    scan_topic: str = SCAN_TOPIC
     scan_frame: str | None = None
     intervals: IntervalOptions = field(default_factory=IntervalOptions)
     reject_outliers: bool = True
