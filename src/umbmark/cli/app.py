@@ -16,6 +16,7 @@ from umbmark.cli.guard import GuardedGroup
 from umbmark.errors import InputError
 from umbmark.jsonutil import dumps
 from umbmark.kinds import KINDS
+from umbmark.model.defaults import LOG_FORMATS
 from umbmark.viz.text import fmt
 
 if TYPE_CHECKING:
@@ -49,7 +50,7 @@ __all__ = [
 # line imports no numerical module (tests/test_cli_help.py checks each against the library).
 METHOD_CHOICES = ("bf", "exact")  # sorted(umbmark.correct.METHODS)
 NOISE_CHOICES = ("none", "paper")  # sorted(umbmark.model.simulate.NOISE_PRESETS)
-LOG_FORMAT_CHOICES = ("auto", "optiodom", "csv", "bag")  # umbmark.io.load.LOG_FORMATS
+LOG_FORMAT_CHOICES = LOG_FORMATS  # the library's (light: umbmark.model.defaults)
 LABMATE_WHEEL_DIAMETER_MM = 150.0  # umbmark.model.geometry.LABMATE.wheel_diameter_m, in mm
 LABMATE_WHEELBASE_MM = 340.0  # umbmark.model.geometry.LABMATE.wheelbase_m, in mm
 REPRODUCE_TAPE_LAYER_MM = 0.02  # umbmark.studies.reproduce.TAPE_LAYER_M, in mm

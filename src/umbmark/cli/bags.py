@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 from contextlib import ExitStack
+from typing import TYPE_CHECKING
 
 import click
 
@@ -15,6 +16,10 @@ from umbmark._numbers import strict_float
 from umbmark.cli.app import cli_message, is_quiet
 from umbmark.cli.progress import progress
 from umbmark.errors import InputError
+
+if TYPE_CHECKING:
+    from umbmark.cli.command_config import KeyframesConfig, ScansConfig
+    from umbmark.realrobot.selfcal import IntervalOptions
 
 __all__ = ["float_list", "kind_of", "Bars", "start_kernels", "interval_options", "stream_text"]
 
@@ -109,19 +114,26 @@ def start_kernels() -> None:
         click.echo("compiling the scan matcher (once per machine, about 10 s)", err=True)
 
 
-def interval_options(kw, min_intervals: int):
-    """The :class:`~umbmark.realrobot.selfcal.IntervalOptions` of the bag flags (keyframes, sensor
-    pose, base frame, wheel gap, matcher, scans' delay)."""
+def interval_options(keyframes: KeyframesConfig, scans: ScansConfig, min_intervals: int) -> IntervalOptions:
+    """The :class:`~umbmark.realrobot.selfcal.IntervalOptions` of the bag options (keyframes, sensor
+    pose, base frame, wheel gap, matcher, scans' delay), checked.
+
+    Raises
+    ------
+    InputError
+        A keyframe threshold, wheel gap or count of intervals out of its bounds, a bad sensor pose
+        or scans' delay.
+    """
     from umbmark.realrobot.scanmatch import ICPConfig
     from umbmark.realrobot.selfcal import IntervalOptions, KeyframeRule, parse_scan_delay
 
     for flag, (top, why) in KEYFRAME_BOUNDS.items():
-        v = kw[flag]
+        v = getattr(keyframes, flag)
         if not (math.isfinite(v) and v >= 0):
             raise InputError(f"--{flag.replace('_', '-')} must be a number >= 0, got {v!r}")
         if v > top:
             raise InputError(f"--{flag.replace('_', '-')} {v:g} is beyond {top:g}: {why}")
-    v = kw["max_wheel_gap_s"]
+    v = keyframes.max_wheel_gap_s
     if not (math.isfinite(v) and v > 0):
         raise InputError(f"--max-wheel-gap-s must be a positive number, got {v!r}")
     lo, hi = WHEEL_GAP_S
@@ -135,43 +147,51 @@ def interval_options(kw, min_intervals: int):
             f"--min-intervals {min_intervals} is beyond {MAX_MIN_INTERVALS}: a self-calibration needs tens to "
             "hundreds of intervals (a recording of hours gives tens of thousands)"
         )
-    if kw["keyframe_s"] > 0 and kw["keyframe_s"] < kw["keyframe_min_s"]:
-        raise InputError(f"--keyframe-s {kw['keyframe_s']:g} is below --keyframe-min-s {kw['keyframe_min_s']:g}")
+    k = keyframes
+    if k.keyframe_s > 0 and k.keyframe_s < k.keyframe_min_s:
+        raise InputError(f"--keyframe-s {k.keyframe_s:g} is below --keyframe-min-s {k.keyframe_min_s:g}")
     rule = KeyframeRule(
-        min_distance_m=kw["keyframe_mm"] * 1e-3,
-        min_rotation_rad=math.radians(kw["keyframe_deg"]),
-        min_interval_s=kw["keyframe_min_s"],
-        max_interval_s=kw["keyframe_s"] if kw["keyframe_s"] > 0 else math.inf,
+        min_distance_m=k.keyframe_mm * 1e-3,
+        min_rotation_rad=math.radians(k.keyframe_deg),
+        min_interval_s=k.keyframe_min_s,
+        max_interval_s=k.keyframe_s if k.keyframe_s > 0 else math.inf,
     )
-    pose = None
-    if kw["sensor_pose"] is not None:
-        from umbmark.realrobot.scan_truth import check_sensor_pose
-
-        x, y, yaw = float_list(kw["sensor_pose"], 3, "--sensor-pose", "X_MM,Y_MM,YAW_DEG")
-        if abs(yaw) > 360.0:
-            raise InputError(
-                f"--sensor-pose turns the sensor {yaw:g} deg: a mounting yaw is within +-360 deg (the yaw in degrees)"
-            )
-        pose = (x * 1e-3, y * 1e-3, math.radians(yaw))
-        for w in check_sensor_pose(pose):
-            click.echo(f"warning: {cli_message(w)}", err=True)
+    pose = _sensor_pose(scans.sensor_pose)
     try:
-        scan_delay = parse_scan_delay(kw["scan_delay"])
+        scan_delay = parse_scan_delay(scans.scan_delay)
     except InputError as err:
         if "beyond" in err.message:
             raise
         raise InputError(
-            f"--scan-delay must be auto, off or seconds (positive: the scans are late), got {_shown(kw['scan_delay'])}"
+            f"--scan-delay must be auto, off or seconds (positive: the scans are late), got {_shown(scans.scan_delay)}"
         ) from None
     return IntervalOptions(
         keyframes=rule,
         sensor_pose=pose,
-        base_frame=kw["base_frame"],
-        max_wheel_gap_s=kw["max_wheel_gap_s"],
-        icp=ICPConfig(coarse=True) if kw["coarse"] else None,
+        base_frame=scans.base_frame,
+        max_wheel_gap_s=keyframes.max_wheel_gap_s,
+        icp=ICPConfig(coarse=True) if scans.coarse else None,
         min_intervals=min_intervals,
         scan_delay=scan_delay,
     )
+
+
+def _sensor_pose(text: str | None) -> tuple[float, float, float] | None:
+    """The pose of ``--sensor-pose X_MM,Y_MM,YAW_DEG`` (metres, radians), warned about when it looks
+    like another unit; None when not given."""
+    if text is None:
+        return None
+    from umbmark.realrobot.scan_truth import check_sensor_pose
+
+    x, y, yaw = float_list(text, 3, "--sensor-pose", "X_MM,Y_MM,YAW_DEG")
+    if abs(yaw) > 360.0:
+        raise InputError(
+            f"--sensor-pose turns the sensor {yaw:g} deg: a mounting yaw is within +-360 deg (the yaw in degrees)"
+        )
+    pose = (x * 1e-3, y * 1e-3, math.radians(yaw))
+    for w in check_sensor_pose(pose):
+        click.echo(f"warning: {cli_message(w)}", err=True)
+    return pose
 
 
 def stream_text(d: dict) -> str:

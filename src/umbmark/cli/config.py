@@ -14,6 +14,10 @@ would be typed::
     replay:
       joints: left_wheel_joint,right_wheel_joint
 
+The keys are the options of the command's typed configuration (:mod:`umbmark.cli.command_config`:
+``selfcal``'s and ``replay``'s, whose defaults the options show); a repeatable option's values
+are written and read as one line, ``skip-check: stamp_order,wheel_units``.
+
 The file gives the options' defaults: an option given on the command line wins. A section
 named like no command that reads a configuration, a section given twice and an option given
 twice are refused naming the lines (YAML would keep the last and drop the rest without a word);
@@ -30,11 +34,16 @@ from __future__ import annotations
 
 import functools
 from collections.abc import Callable
-from typing import Any
+from typing import Any, TypeVar
 
 import click
 
-__all__ = ["config_options", "read_config", "config_text"]
+from umbmark.cli.command_config import Section
+from umbmark.cli.guard import SKIPPED_CHECKS
+
+__all__ = ["config_options", "read_config", "config_text", "option_of"]
+
+F = TypeVar("F", bound=Callable[..., Any])
 
 _OWN = ("config", "write_config")
 
@@ -120,7 +129,10 @@ def read_config(path: str, command: click.Command, section: str, sections: tuple
                 raise bad(f"{flag}: {value!r} is not a number: '_' is not a digit", line)
             if p.is_flag and value.lower() not in ("true", "false", "yes", "no", "on", "off", "1", "0"):
                 raise bad(f"{flag} is a flag: true or false, not {value!r}", line)
-            out[name] = value.lower() in ("true", "yes", "on", "1") if p.is_flag else value
+            if p.is_flag:
+                out[name] = value.lower() in ("true", "yes", "on", "1")
+            else:  # a repeatable option's values as --write-config writes them: a,b
+                out[name] = tuple(v.strip() for v in value.split(",")) if p.multiple else value
     return out
 
 
@@ -171,9 +183,10 @@ def config_options(f: Callable[..., Any]) -> Callable[..., Any]:
         from umbmark.io.atomic import atomic_write
 
         ctx = click.get_current_context()
+        values = {**ctx.params, "skip_check": ctx.meta.get(SKIPPED_CHECKS, ())}  # those applied around the command too
         given = {
             k: _plain(v)
-            for k, v in kwargs.items()
+            for k, v in values.items()
             if k in _options_of(ctx.command)
             and ctx.get_parameter_source(k)
             in (click.core.ParameterSource.COMMANDLINE, click.core.ParameterSource.DEFAULT_MAP)
@@ -210,6 +223,29 @@ def config_options(f: Callable[..., Any]) -> Callable[..., Any]:
         help="Read options from a configuration file (YAML, a section per command, keys as the flags without "
         "the dashes); options given here win.",
     )(run)
+
+
+def option_of(config: type[Section]) -> Callable[..., Callable[[F], F]]:
+    """``click.option`` with the option's default taken from ``config`` (a typed configuration of
+    :mod:`umbmark.cli.command_config`) by the option's parameter name: no option declares a
+    default of its own.
+
+    Raises
+    ------
+    KeyError
+        An option that ``config`` has not (when the command is built).
+    TypeError
+        A default given besides.
+    """
+
+    def option(*decls: str, **attrs: Any) -> Callable[[F], F]:
+        if "default" in attrs:
+            raise TypeError(f"{decls[0]}: the default is the configuration's ({config.__name__})")
+        name = click.Option(decls).name
+        assert name is not None
+        return click.option(*decls, default=config.default(name), **attrs)
+
+    return option
 
 
 def _plain(v: Any) -> Any:

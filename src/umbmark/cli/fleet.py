@@ -9,12 +9,16 @@ prints the outcomes.
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 
 from umbmark.cli.app import app, cli_message, console, emit_json, is_quiet
 from umbmark.errors import InputError
+
+if TYPE_CHECKING:
+    from umbmark.realrobot.kinematic_settings import KinematicSettings
+    from umbmark.realrobot.selfcal_settings import SelfcalSettings
 
 __all__ = ["fleet_cmd", "NOT_FOR_THE_FLEET"]
 
@@ -63,23 +67,24 @@ def _parse(args: tuple[str, ...], path: str, where: str) -> click.Context:
     return ctx
 
 
-def _settings(ctx: click.Context, kinds: set[str]):
+def _settings(ctx: click.Context, kinds: set[str]) -> SelfcalSettings | KinematicSettings:
     """The settings of one set of selfcal's options: a differential drive's, or a robot's of
     another kind (from bags only)."""
+    from umbmark.cli.command_config import SelfcalConfig
     from umbmark.cli.kinematic import kinematic_settings
     from umbmark.cli.selfcal import selfcal_settings
     from umbmark.kinds import kind_named
 
-    kw = ctx.params
-    if kind_named(kw["kinematics"]).differential:
-        return selfcal_settings(kw, kinds)
-    kind = kw["kinematics"]
+    cfg = SelfcalConfig.from_params(ctx.params)
+    kind = cfg.kind.kinematics
+    if kind_named(kind).differential:
+        return selfcal_settings(cfg, kinds)
     if kinds != {"bags"}:
         raise InputError(f"--kinematics {kind} reads ROS bags (joint states and laser scans), not intervals files")
-    if not kw["wheel_jitter"]:
+    if not cfg.fit.wheel_jitter:
         noun = kind_named(kind).noun
         raise InputError(f"--no-wheel-jitter: the self-calibration of a {noun} takes the joint data as exact")
-    return kinematic_settings(kind, kw["min_intervals"], kw["keep_outliers"], kw)
+    return kinematic_settings(cfg)
 
 
 def _with_kind(job, where: str) -> tuple[str, ...]:

@@ -361,6 +361,7 @@ class GuardedCommand(click.Command):
     def invoke(self, ctx: click.Context):
         absurd = self.check_params(ctx)
         skip = ctx.params.pop("skip_check", None) or ()
+        ctx.meta[SKIPPED_CHECKS] = tuple(skip)  # for --write-config, which the command's callback runs
         from umbmark._check import skipping_checks
 
         with skipping_checks(skip):
@@ -419,6 +420,11 @@ class GuardedGroup(click.Group):
 
     command_class = GuardedCommand
     group_class = type  # subgroups are GuardedGroups too
+
+
+SKIPPED_CHECKS = "umbmark.skip_check"
+"""The key of :attr:`click.Context.meta` that holds the ``--skip-check`` values given (the command's
+callback does not receive them: they are applied around it)."""
 
 
 def skip_check_option(f):

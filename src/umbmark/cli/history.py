@@ -40,6 +40,8 @@ from umbmark.cli.app import (
     is_quiet,
     table,
 )
+from umbmark.cli.command_config import HistoryConfig
+from umbmark.cli.config import option_of
 
 __all__ = [
     "history_options",
@@ -110,25 +112,24 @@ def history_options(f):
             click.get_current_context().meta[_RECORDED_AT] = _recorded_at(when)
         return f(*args, **kwargs)
 
-    wrapper = click.option(
+    _option = option_of(HistoryConfig)
+    wrapper = _option(
         "--recorded-at",
         metavar="ISO8601",
-        default=None,
         help="--record: the session's date and time (e.g. 2026-05-01T14:30, UTC unless a zone is given; "
         "default: now). For a history of sessions recorded later, as for `umbmark drift`.",
     )(wrapper)
-    wrapper = click.option(
+    wrapper = _option(
         "--db",
         type=click.Path(dir_okay=False),
-        default=None,
         help="History database (default: $UMBMARK_DB, else $XDG_DATA_HOME/umbmark/history.sqlite).",
     )(wrapper)
-    wrapper = click.option(
+    wrapper = _option(
         "--record", is_flag=True, help="Store the result in the robot's calibration history (needs --robot)."
     )(wrapper)
-    wrapper = click.option(
-        "--robot", metavar="NAME", default=None, help="Robot name, for the calibration history (see --record)."
-    )(wrapper)
+    wrapper = _option("--robot", metavar="NAME", help="Robot name, for the calibration history (see --record).")(
+        wrapper
+    )
     return wrapper
 
 

@@ -13,14 +13,25 @@ result's ``to_dict()`` or a table made from it.
 from __future__ import annotations
 
 import shlex
-from typing import Any
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import click
 
 from umbmark.cli.app import cli_message, console, emit_json, fmt, is_quiet, table
+from umbmark.cli.command_config import KindConfig, kind_options
+from umbmark.cli.config import option_of
 from umbmark.cli.options import flag
 from umbmark.errors import InputError
-from umbmark.kinds import DEFAULT_KIND, KINDS, Kind, kind_named
+from umbmark.kinds import KINDS, Kind, kind_named
+
+if TYPE_CHECKING:
+    from umbmark.cli.command_config import SelfcalConfig
+    from umbmark.realrobot.kinematic_settings import KinematicSettings
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+_kind_option = option_of(KindConfig)
 
 __all__ = [
     "kinematic_selfcal_cmd",
@@ -44,18 +55,6 @@ def _nouns(kinds, possessive: bool = False) -> str:
     return "a " + " or ".join(f"{k.noun}{s}" for k in kinds)
 
 
-def kind_options() -> dict[str, tuple[Kind, ...]]:
-    """The options of the kinds that the default kind (the differential drive) has not: option ->
-    the kinds that have it, in the registry's order."""
-    own = set(KINDS[DEFAULT_KIND].option_names())
-    out: dict[str, list[Kind]] = {}
-    for k in KINDS.values():
-        for name in k.option_names():
-            if name not in own:
-                out.setdefault(name, []).append(k)
-    return {name: tuple(ks) for name, ks in out.items()}
-
-
 def _kind_help() -> str:
     parts = []
     for k in KINDS.values():
@@ -69,33 +68,33 @@ def _kind_help() -> str:
     return f"The kind of robot: {', '.join(parts[:-1])} or {parts[-1]}."
 
 
-def _option(name: str, kinds: tuple[Kind, ...]):
-    """The click option of a kind's own option (its help prefixed by the kinds that have it)."""
+def _option(name: str, kinds: tuple[Kind, ...]) -> Callable[[F], F]:
+    """The click option of a kind's own option (its help prefixed by the kinds that have it), its
+    default :class:`~umbmark.cli.command_config.KindConfig`'s."""
     who = ", ".join(k.title for k in kinds)
     k = kinds[0]
     for j in k.joints:
         if j.option == name:
-            return click.option(flag(name), default=None, metavar=j.metavar, help=f"{who}: {j.help}")
+            return _kind_option(flag(name), metavar=j.metavar, help=f"{who}: {j.help}")
     for f in k.fits:
         if f.option == name:
-            return click.option(flag(name), is_flag=True, help=f"{who}: {f.help}")
+            return _kind_option(flag(name), is_flag=True, help=f"{who}: {f.help}")
     for s in k.sizes:
         if s.option == name:
-            return click.option(flag(name), type=float, default=None, help=f"{who}: {s.help}")
+            return _kind_option(flag(name), type=float, help=f"{who}: {s.help}")
         if s.alternative is not None and s.alternative.option == name:
-            return click.option(flag(name), type=float, default=None, help=f"{who}: {s.label} [m].")
+            return _kind_option(flag(name), type=float, help=f"{who}: {s.label} [m].")
     raise AssertionError(name)  # an option the kind does not describe
 
 
-def kinematic_options(f):
+def kinematic_options(f: F) -> F:
     """The options of the kind of robot (``selfcal`` and ``replay``): ``--kinematics`` (a choice of
     :data:`umbmark.kinds.KINDS`) and each kind's options the differential drive has not
     (``--drive-joint``, ``--steer-joint``, ``--lx-plus-ly-mm``, ``--fit-steering-scale``)."""
     options = [
-        click.option(
+        _kind_option(
             "--kinematics",
             type=click.Choice(list(KINDS)),
-            default=DEFAULT_KIND,
             show_default=True,
             help=_kind_help(),
         ),
@@ -189,44 +188,51 @@ _REFUSED = {
 }
 
 
-def kinematic_settings(kind: str, min_intervals: int, keep_outliers: bool, kw: dict):
+def kinematic_settings(cfg: SelfcalConfig) -> KinematicSettings:
     """The :class:`~umbmark.realrobot.kinematic_settings.KinematicSettings` of selfcal's options for
-    a robot of ``kind``, checked before anything is read (the fleet's too)."""
+    a robot of the kind ``--kinematics`` names, checked before anything is read (the fleet's too).
+
+    Raises
+    ------
+    InputError
+        An option of a differential drive's the kind has no use for, an odometry for a kind that
+        reads none, the kind's sizes or joints missing or of another kind, the interval options.
+    """
     from umbmark.cli.bags import interval_options
     from umbmark.cli.options import kinematic_joints, kinematic_nominal
     from umbmark.realrobot.kinematic_settings import KinematicSettings
 
+    kind, kw = cfg.kind.kinematics, cfg.params()
     for key, why in _REFUSED.items():
         if kw.get(key):
             raise InputError(why.format(noun=kind_named(kind).noun))
-    odom = kw.get("odom_topic") or None
+    odom = cfg.wheels.odom_topic or None
     if odom and not kind_named(kind).reads_odometry:
         raise InputError(kind_named(kind).odometry_refusal())
     return KinematicSettings(
         kinematic_nominal(kind, kw),
         kinematic_joints(kind, kw),
-        joint_topic=kw["joint_topic"],
-        scan_topic=kw["scan_topic"],
-        scan_frame=kw["scan_frame"],
-        intervals=interval_options(kw, min_intervals),
+        joint_topic=cfg.wheels.joint_topic,
+        scan_topic=cfg.scans.scan_topic,
+        scan_frame=cfg.scans.scan_frame,
+        intervals=interval_options(cfg.keyframes, cfg.scans, cfg.fit.min_intervals),
         fit=_fit(kind_named(kind), kw),
-        reject_outliers=not keep_outliers,
+        reject_outliers=not cfg.fit.keep_outliers,
         odom_topic=odom,
-        skip_checks=frozenset(kw.get("skip_check") or ()),  # the command's own: also applied around it
+        skip_checks=frozenset(cfg.fit.skip_check),  # the command's own: also applied around it
     )
 
 
-def kinematic_selfcal_cmd(
-    kind: str, paths, min_intervals: int, keep_outliers: bool, save, as_json, history, window_s, kw
-) -> None:
-    """Run the self-calibration of a robot of a kind of its own for ``umbmark selfcal``: ``history``
-    is ``--robot``, ``--record``, ``--db``; ``window_s`` the ``--window`` in seconds (or None)."""
+def kinematic_selfcal_cmd(paths: tuple[str, ...], cfg: SelfcalConfig, window_s: float | None) -> None:
+    """Run the self-calibration of a robot of a kind of its own for ``umbmark selfcal``: ``window_s``
+    the ``--window`` in seconds (or None)."""
     from umbmark.cli.bags import Bars, kind_of, start_kernels
     from umbmark.cli.history import print_recorded, record_if_requested, refuse_if_recorded
     from umbmark.realrobot.kinematic_settings import kinematic_recordings
 
-    robot, record, db = history
-    settings = kinematic_settings(kind, min_intervals, keep_outliers, kw)
+    kind, save, as_json = cfg.kind.kinematics, cfg.outputs.save, cfg.outputs.as_json
+    history = robot, record, db = cfg.history.robot, cfg.history.record, cfg.history.db
+    settings = kinematic_settings(cfg)
     if kind_of(paths) != "bags":
         raise InputError(f"--kinematics {kind} reads ROS bags (joint states and laser scans), not intervals files")
     refuse_if_recorded(robot, record, db, kind="selfcal", method="selfcal", paths=paths)  # windows too: they cover it
@@ -238,7 +244,7 @@ def kinematic_selfcal_cmd(
     if window_s is not None:
         from umbmark.cli.selfcal_windows import selfcal_windows_cmd
 
-        d["windows"], rec = selfcal_windows_cmd(rep, window_s, {"reject_outliers": not keep_outliers}, *history)
+        d["windows"], rec = selfcal_windows_cmd(rep, window_s, {"reject_outliers": settings.reject_outliers}, *history)
     if save:
         from umbmark.io.atomic import write_json
 

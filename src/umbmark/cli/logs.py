@@ -12,10 +12,15 @@ from pathlib import Path
 import click
 
 from umbmark.cli.app import LOG_FORMAT_CHOICES
+from umbmark.cli.command_config import LogConfig
+from umbmark.cli.config import option_of
 from umbmark.cli.guard import skip_check_option
 from umbmark.cli.progress import progress, track
+from umbmark.model.defaults import TICK_MODES
 
 __all__ = ["log_options", "datasets", "all_bags"]
+
+_option = option_of(LogConfig)
 
 
 def log_options(f):
@@ -34,76 +39,65 @@ def log_options(f):
         The decorated command.
     """
     opts = [
-        click.option(
+        _option(
             "--format",
             "log_format",
             type=click.Choice(LOG_FORMAT_CHOICES),
-            default="auto",
             show_default=True,
             help="Log format: an optiodom data-set folder, a generic CSV log, a ROS 1/2 bag.",
         ),
-        click.option(
+        _option(
             "--side-mm",
             type=float,
-            default=None,
             help="Square side: the runs are UMBmark squares (optiodom: from the metadata).",
         ),
-        click.option("--wheel-diameter-mm", type=float, default=None, help="Nominal wheel diameter (CSV, bags)."),
-        click.option(
-            "--wheel-radius-m", type=float, default=None, help="Nominal wheel radius, ROS's wheel_radius (instead)."
-        ),
-        click.option("--left-diameter-mm", type=float, default=None, help="Nominal left wheel diameter."),
-        click.option("--right-diameter-mm", type=float, default=None, help="Nominal right wheel diameter."),
-        click.option("--wheelbase-mm", type=float, default=None, help="Nominal wheelbase (CSV, bags)."),
-        click.option(
+        _option("--wheel-diameter-mm", type=float, help="Nominal wheel diameter (CSV, bags)."),
+        _option("--wheel-radius-m", type=float, help="Nominal wheel radius, ROS's wheel_radius (instead)."),
+        _option("--left-diameter-mm", type=float, help="Nominal left wheel diameter."),
+        _option("--right-diameter-mm", type=float, help="Nominal right wheel diameter."),
+        _option("--wheelbase-mm", type=float, help="Nominal wheelbase (CSV, bags)."),
+        _option(
             "--wheel-separation-m",
             type=float,
-            default=None,
             help="Nominal wheelbase, ROS's wheel_separation (instead).",
         ),
-        click.option(
+        _option(
             "--pulses-per-wheel-rev",
             type=float,
-            default=None,
             help="Encoder pulses per wheel revolution (CSV, bag ticks).",
         ),
-        click.option(
+        _option(
             "--ticks",
-            type=click.Choice(["cumulative", "incremental"]),
-            default="cumulative",
+            type=click.Choice(TICK_MODES),
             show_default=True,
             help="Encoder counts are a running counter or per-sample counts.",
         ),
-        click.option("--joints", default=None, metavar="LEFT,RIGHT", help="Bag: JointState names of the wheels."),
-        click.option("--joint-topic", default="/joint_states", show_default=True, help="Bag: JointState topic."),
-        click.option("--ticks-topic", default=None, help="Bag: topic with encoder counts."),
-        click.option("--left-field", default=None, help="Bag: field of the left count, e.g. data[0]."),
-        click.option("--right-field", default=None, help="Bag: field of the right count, e.g. data[1]."),
-        click.option(
+        _option("--joints", metavar="LEFT,RIGHT", help="Bag: JointState names of the wheels."),
+        _option("--joint-topic", show_default=True, help="Bag: JointState topic."),
+        _option("--ticks-topic", help="Bag: topic with encoder counts."),
+        _option("--left-field", help="Bag: field of the left count, e.g. data[0]."),
+        _option("--right-field", help="Bag: field of the right count, e.g. data[1]."),
+        _option(
             "--odom-topic",
-            default=None,
             help="Bag: nav_msgs/Odometry as the wheels (its increments through the nominal geometry).",
         ),
-        click.option("--gt-topic", default=None, help="Bag: ground truth (PoseStamped, Odometry or /tf)."),
-        click.option("--gt-frame", default=None, help="Bag, /tf ground truth: the tracked child frame."),
-        click.option("--gt-parent", default=None, help="Bag, /tf ground truth: its parent frame (optional)."),
-        click.option(
+        _option("--gt-topic", help="Bag: ground truth (PoseStamped, Odometry or /tf)."),
+        _option("--gt-frame", help="Bag, /tf ground truth: the tracked child frame."),
+        _option("--gt-parent", help="Bag, /tf ground truth: its parent frame (optional)."),
+        _option(
             "--ranges",
-            default=None,
             metavar="A-B,C-D",
             help="Bag: cut runs at these time ranges (seconds from the first wheel sample).",
         ),
-        click.option("--split-stops", is_flag=True, help="Bag: cut runs where both wheels stand still."),
-        click.option(
+        _option("--split-stops", is_flag=True, help="Bag: cut runs where both wheels stand still."),
+        _option(
             "--stop-s",
             type=float,
-            default=1.0,
             show_default=True,
             help="Bag: the stillness (seconds) that ends a run with --split-stops.",
         ),
-        click.option(
+        _option(
             "--time-offset",
-            default=None,
             metavar="auto|SECONDS",
             help="How late the ground truth is against the wheels. Bags with --gt-topic: without it "
             "the offset is estimated (cross-correlation of the turn rates), reported in the JSON "

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import click
 
@@ -19,7 +19,8 @@ if TYPE_CHECKING:
     from umbmark.realrobot.results import MultiReplayReport, PooledReport, ReplayReport
 
 from umbmark.cli.app import app, cli_message, emit_json, is_quiet
-from umbmark.cli.config import config_options
+from umbmark.cli.command_config import ReplayConfig
+from umbmark.cli.config import config_options, option_of
 from umbmark.cli.history import (
     history_options,
     print_recorded,
@@ -32,7 +33,8 @@ from umbmark.cli.logs import all_bags, datasets, log_options
 from umbmark.cli.progress import progress
 from umbmark.cli.replay_print import print_gyro, print_replay, print_stream
 from umbmark.errors import InputError
-from umbmark.kinds import DEFAULT_KIND, kind_named
+from umbmark.kinds import kind_named
+from umbmark.model.defaults import LSQ_MODES, LSQ_SCALES
 
 __all__ = ["REPLAY_METHOD_CHOICES", "replay"]
 
@@ -41,83 +43,77 @@ __all__ = ["REPLAY_METHOD_CHOICES", "replay"]
 REPLAY_METHOD_CHOICES = ("bf", "exact", "lsq")
 
 
+_option = option_of(ReplayConfig)
+
+
 @app.command()
 @click.argument("paths", nargs=-1, required=True, metavar="DATASET...")
-@click.option(
+@_option(
     "--method",
     type=click.Choice(REPLAY_METHOD_CHOICES),
-    default="bf",
     show_default=True,
     help="bf: the paper's correction; exact (when available); lsq: general-path least squares.",
 )
 @log_options
-@click.option(
+@_option(
     "--gt-scan-topic",
-    default=None,
     metavar="TOPIC",
     help="Bag: the robot's lidar as the ground truth (LaserScan topic): each run's first scan after "
     "the wheels stop registered against its last scan before they start (the robot at rest).",
 )
-@click.option(
+@_option(
     "--sensor-pose",
-    default=None,
     metavar="X_MM,Y_MM,YAW_DEG|SELFCAL.json",
     help="--gt-scan-topic: the lidar's mounting pose in the robot frame, or the sensor_pose of a "
     "`umbmark selfcal` JSON (default: the bag's /tf_static).",
 )
-@click.option(
+@_option(
     "--imu-topic",
-    default=None,
     metavar="TOPIC",
     help="Bag: the gyro (sensor_msgs/Imu angular_velocity.z) as a rotation reference: the effective "
     "wheelbase (wheel_separation_multiplier; skid-steer robots too) from the turns on the spot, its "
     "bias removed at rest; the gyro's scale from the lidar (--gt-scan-topic) or --full-turns. "
     "Without a ground truth (or a square side), only this (JSON block `gyro`).",
 )
-@click.option(
+@_option(
     "--full-turns",
     is_flag=True,
     help="--imu-topic: every spin on the spot was a whole number of revolutions (counted): the gyro's scale from them.",
 )
-@click.option(
+@_option(
     "--pool", is_flag=True, help="lsq: fit one geometry to all data sets together (held out: leave-one-data-set-out)."
 )
-@click.option(
+@_option(
     "--lsq-mode",
-    type=click.Choice(["auto", "sampled", "end"]),
-    default="auto",
+    type=click.Choice(LSQ_MODES),
     show_default=True,
     help="lsq: minimise errors at poses sampled along the path, or end-pose errors only.",
 )
-@click.option(
+@_option(
     "--scale",
-    type=click.Choice(["auto", "fit", "fixed"]),
-    default="auto",
+    type=click.Choice(LSQ_SCALES),
     show_default=True,
     help="lsq: fit D_L, D_R, b (fit), or E_d and b with D_avg at nominal (fixed).",
 )
-@click.option(
+@_option(
     "--heading-weight-m",
     type=float,
-    default=0.5,
     show_default=True,
     help="lsq: metres of position error worth one radian of heading error.",
 )
-@click.option(
+@_option(
     "--points-per-run",
     type=click.IntRange(min=1),
-    default=100,
     show_default=True,
     help="lsq, sampled mode: poses compared per run.",
 )
-@click.option(
+@_option(
     "--fit-marker-offset/--no-fit-marker-offset",
-    default=None,
     help="lsq, sampled mode: also fit where the tracked point sits relative to the axle midpoint "
     "[default: where the data determine it, with a warning saying so].",
 )
-@click.option("--no-heldout", is_flag=True, help="Skip the held-out (leave-one-run-out) figures.")
-@click.option(
+@_option("--no-heldout", is_flag=True, help="Skip the held-out (leave-one-run-out) figures.")
+@_option(
     "--noise",
     is_flag=True,
     help="Also estimate the odometry's random error (each wheel's variance per metre) from the ground "
@@ -125,60 +121,35 @@ REPLAY_METHOD_CHOICES = ("bf", "exact", "lsq")
     "run's time offset (JSON odometry_noise_strides); where the per-metre model holds at every length, "
     "odometry_noise (export's covariances), else a warning.",
 )
-@click.option(
+@_option(
     "--window",
     metavar="DURATION",
-    default=None,
     help="Also group the runs of a long recording (a bag or CSV log cut into runs) into windows of about "
     "DURATION (10min, 600s, 1h) by the recording's clock and calibrate each (JSON key windows); with "
     "--record, each window is recorded with its own date (for `umbmark drift`).",
 )
-@click.option(
+@_option(
     "--save",
     type=click.Path(dir_okay=False),
-    default=None,
     help="Also write the JSON report to this file (input of `umbmark export`).",
 )
-@click.option(
+@_option(
     "--stream",
     is_flag=True,
     help="Replay ONE long CSV log in bounded memory with the given geometry: "
     "end pose and errors only (no calibration).",
 )
-@click.option("--decimate", type=click.IntRange(min=1), default=None, help="--stream: keep every N-th pose.")
-@click.option(
+@_option("--decimate", type=click.IntRange(min=1), help="--stream: keep every N-th pose.")
+@_option(
     "--poses-out",
     type=click.Path(dir_okay=False),
-    default=None,
     help="--stream: write the kept poses (CSV) to this file.",
 )
-@click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+@_option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @kinematic_options
 @history_options
 @config_options
-def replay(
-    paths,
-    method,
-    log_format,
-    pool,
-    lsq_mode,
-    scale,
-    heading_weight_m,
-    points_per_run,
-    fit_marker_offset,
-    no_heldout,
-    save,
-    as_json,
-    window=None,
-    noise=False,
-    robot=None,
-    record=False,
-    db=None,
-    stream=False,
-    decimate=None,
-    poses_out=None,
-    **kw,
-):
+def replay(paths: tuple[str, ...], **params: Any) -> None:
     """Replay real-robot logs, calibrate, and compare the odometry before and after.
 
     Each DATASET is an optiodom data-set folder; or (all together, the runs of one test) ROS
@@ -204,27 +175,34 @@ def replay(
       umbmark replay spins_bag --imu-topic /imu --joints left_wheel_joint,right_wheel_joint \\
         --wheel-radius-m 0.1 --wheel-separation-m 0.4
     """
-    if not (math.isfinite(heading_weight_m) and heading_weight_m >= 0):
-        raise InputError(f"--heading-weight-m must be >= 0, got {heading_weight_m!r}")
-    kinematics = kw.pop("kinematics", DEFAULT_KIND)
-    window_s = _window_s(window, kinematics, pool, stream, noise)
+    cfg = ReplayConfig.from_params(params)
+    lsq, evaluation, stream, out = cfg.lsq, cfg.evaluation, cfg.stream, cfg.outputs
+    history = robot, record, db = cfg.history.robot, cfg.history.record, cfg.history.db
+    method, log_format = cfg.method, cfg.log.log_format
+    if not (math.isfinite(lsq.heading_weight_m) and lsq.heading_weight_m >= 0):
+        raise InputError(f"--heading-weight-m must be >= 0, got {lsq.heading_weight_m!r}")
+    kinematics = cfg.kind.kinematics
+    window_s = _window_s(evaluation.window, kinematics, lsq.pool, stream.stream, evaluation.noise)
+    # the options that read the logs (and the kinds' own), in the order given
+    reading = (set(cfg.log.params()) | set(cfg.references.params()) | set(cfg.kind.options)) - {"log_format"}
+    kw = {k: v for k, v in params.items() if k in reading}
     if not kind_named(kinematics).differential:
         from umbmark.cli.kinematic import kinematic_replay_cmd
 
-        kinematic_replay_cmd(kinematics, paths, method, save, as_json, record, kw)
+        kinematic_replay_cmd(kinematics, paths, method, out.save, out.as_json, record, kw)
         return
     refuse_kind_options(kw, pop=True)
     from umbmark._files import check_distinct_inputs
 
     check_distinct_inputs([p for p in paths if Path(p).exists()])
-    if not stream:  # the windows of a recording cover it: refused with it
+    if not stream.stream:  # the windows of a recording cover it: refused with it
         refuse_if_recorded(robot, record, db, kind="replay", method=method, paths=paths, each=True)
-    if stream or decimate or poses_out:
-        if not stream:
+    if stream.stream or stream.decimate or stream.poses_out:
+        if not stream.stream:
             raise InputError("--decimate and --poses-out work with --stream")
-        if poses_out and not decimate:
+        if stream.poses_out and not stream.decimate:
             raise InputError("--poses-out needs --decimate N (keep the pose after every N-th sample)")
-        _stream(paths, log_format, decimate, poses_out, as_json, kw)
+        _stream(paths, log_format, stream.decimate, stream.poses_out, out.as_json, kw)
         return
     gyro = None
     if kw.get("imu_topic") is not None or kw.get("full_turns"):
@@ -234,7 +212,7 @@ def replay(
                 raise InputError(
                     "--window needs runs with a ground truth (--gt-topic, or --gt-scan-topic and --side-mm)"
                 )
-            _emit_gyro(gyro, save, as_json, (robot, record, db), list(paths))
+            _emit_gyro(gyro, out.save, out.as_json, history, list(paths))
             return
     scan_truth = None
     if kw.get("gt_scan_topic") is not None or kw.get("sensor_pose") is not None:
@@ -242,26 +220,27 @@ def replay(
     else:
         sets = datasets(paths, log_format, kw)
     lsq_opts = {
-        "mode": lsq_mode,
-        "scale": scale,
-        "heading_weight_m": heading_weight_m,
-        "points_per_run": points_per_run,
-        "fit_offset": fit_marker_offset,
+        "mode": lsq.lsq_mode,
+        "scale": lsq.scale,
+        "heading_weight_m": lsq.heading_weight_m,
+        "points_per_run": lsq.points_per_run,
+        "fit_offset": lsq.fit_marker_offset,
     }
-    rep = _calibrate_sets(sets, method, pool, lsq_opts, not no_heldout)
+    heldout = not evaluation.no_heldout
+    rep = _calibrate_sets(sets, method, lsq.pool, lsq_opts, heldout)
     if scan_truth is not None:
         rep = _with_warnings(rep, scan_truth.warnings)
     d = _report_dict(rep, scan_truth, gyro)
     rec, noise_fits = _replay_extras(
-        d, sets, rep, (window_s, noise), (method, lsq_opts, not no_heldout), list(paths), (robot, record, db)
+        d, sets, rep, (window_s, evaluation.noise), (method, lsq_opts, heldout), list(paths), history
     )
-    if save:
+    if out.save:
         from umbmark.io.atomic import write_json
 
-        write_json(save, d)
+        write_json(out.save, d)
     if window_s is None:
         rec = record_report_if_requested(robot, record, db, rep, list(paths), kind="replay", method=method)
-    if as_json:
+    if out.as_json:
         for w in dict.fromkeys(_json_warnings(d)):  # on stderr too, as every command's warnings
             click.echo(f"warning: {cli_message(w)}", err=True)
         emit_json(d if rec is None else {**d, "history": rec})

@@ -14,17 +14,24 @@ import math
 import shlex
 from collections.abc import Callable, Collection
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import click
 
 from umbmark.cli.app import app, cli_message, console, emit_json, fmt, is_quiet, table
 from umbmark.cli.bags import Bars, interval_options, kind_of, start_kernels, stream_text
-from umbmark.cli.config import config_options
+from umbmark.cli.command_config import SELFCAL, KeyframesConfig, SelfcalConfig
+from umbmark.cli.config import config_options, option_of
 from umbmark.cli.guard import skip_check_option
 from umbmark.cli.history import history_options, print_recorded, record_if_requested, refuse_if_recorded
 from umbmark.cli.kinematic import joints_help, kinematic_options, refuse_kind_options
 from umbmark.errors import InputError
 from umbmark.kinds import kind_named
+from umbmark.model.defaults import TICK_MODES
+
+if TYPE_CHECKING:
+    from umbmark.realrobot.selfcal import SelfcalReport
+    from umbmark.realrobot.selfcal_settings import SelfcalSettings
 
 __all__ = ["selfcal_cmd", "selfcal_settings", "LEGEND"]
 
@@ -154,77 +161,67 @@ def _print_report(d: dict, again: str, export: str) -> None:
     c.print(f"  {escape(export.replace('--format ros2 --out params.yaml', '--format urdf'))}", soft_wrap=True)
 
 
+_option = option_of(SelfcalConfig)
+
+
 @app.command("selfcal")
 @click.argument("paths", nargs=-1, required=True, metavar="INPUT...")
 @kinematic_options
-@click.option("--scan-topic", default="/scan", show_default=True, help="Bag: the sensor_msgs/LaserScan topic.")
-@click.option(
+@_option("--scan-topic", show_default=True, help="Bag: the sensor_msgs/LaserScan topic.")
+@_option(
     "--joints",
-    default=None,
     metavar="LEFT,RIGHT",
     help=joints_help("Bag: JointState names of the wheels"),
 )
-@click.option("--joint-topic", default="/joint_states", show_default=True, help="Bag: JointState topic.")
-@click.option("--ticks-topic", default=None, help="Bag: topic with encoder counts (instead of --joints).")
-@click.option("--left-field", default=None, help="Bag: field of the left count, e.g. data[0].")
-@click.option("--right-field", default=None, help="Bag: field of the right count, e.g. data[1].")
-@click.option("--pulses-per-wheel-rev", type=float, default=None, help="Bag: encoder pulses per wheel revolution.")
-@click.option(
+@_option("--joint-topic", show_default=True, help="Bag: JointState topic.")
+@_option("--ticks-topic", help="Bag: topic with encoder counts (instead of --joints).")
+@_option("--left-field", help="Bag: field of the left count, e.g. data[0].")
+@_option("--right-field", help="Bag: field of the right count, e.g. data[1].")
+@_option("--pulses-per-wheel-rev", type=float, help="Bag: encoder pulses per wheel revolution.")
+@_option(
     "--ticks",
-    type=click.Choice(["cumulative", "incremental"]),
-    default="cumulative",
+    type=click.Choice(TICK_MODES),
     show_default=True,
     help="Bag: encoder counts are a running counter or per-message counts.",
 )
-@click.option(
+@_option(
     "--odom-topic",
-    default=None,
     help="Bag: nav_msgs/Odometry of the wheels (instead of --joints), turned into wheel travel "
     "with the nominal geometry.",
 )
-@click.option("--wheel-diameter-mm", type=float, default=None, help="Nominal wheel diameter.")
-@click.option("--wheelbase-mm", type=float, default=None, help="Nominal wheelbase.")
-@click.option(
-    "--wheel-radius-m", type=float, default=None, help="Nominal wheel radius (instead of --wheel-diameter-mm)."
-)
-@click.option(
-    "--wheel-separation-m", type=float, default=None, help="Nominal wheel separation (instead of --wheelbase-mm)."
-)
-@click.option(
+@_option("--wheel-diameter-mm", type=float, help="Nominal wheel diameter.")
+@_option("--wheelbase-mm", type=float, help="Nominal wheelbase.")
+@_option("--wheel-radius-m", type=float, help="Nominal wheel radius (instead of --wheel-diameter-mm).")
+@_option("--wheel-separation-m", type=float, help="Nominal wheel separation (instead of --wheelbase-mm).")
+@_option(
     "--sensor-pose",
-    default=None,
     metavar="X_MM,Y_MM,YAW_DEG",
     help="Bag: the lidar pose the scan matching starts from (default: /tf_static, else zero).",
 )
-@click.option(
-    "--base-frame", default=None, help="Bag: the robot frame in /tf_static (default base_link, base_footprint)."
-)
-@click.option("--scan-frame", default=None, help="Bag: refuse scans in another frame than this.")
-@click.option(
+@_option("--base-frame", help="Bag: the robot frame in /tf_static (default base_link, base_footprint).")
+@_option("--scan-frame", help="Bag: refuse scans in another frame than this.")
+@_option(
     "--keyframe-mm",
     type=float,
-    default=100.0,
     show_default=True,
     help="Bag: the next keyframe after this much travel (0: no travel condition; all four 0: every scan).",
 )
-@click.option("--keyframe-deg", type=float, default=10.0, show_default=True, help="Bag: ... or this much turn.")
-@click.option("--keyframe-s", type=float, default=2.0, show_default=True, help="Bag: ... or this much time (0: none).")
-@click.option("--keyframe-min-s", type=float, default=0.5, show_default=True, help="Bag: least time between keyframes.")
-@click.option(
+@_option("--keyframe-deg", type=float, show_default=True, help="Bag: ... or this much turn.")
+@_option("--keyframe-s", type=float, show_default=True, help="Bag: ... or this much time (0: none).")
+@_option("--keyframe-min-s", type=float, show_default=True, help="Bag: least time between keyframes.")
+@_option(
     "--max-wheel-gap-s",
     type=float,
-    default=0.5,
     show_default=True,
     help="Bag: scans in longer gaps of the wheel data are not used.",
 )
-@click.option(
+@_option(
     "--coarse",
     is_flag=True,
     help="Bag: search widely before each scan match (odometry far off, or keyframes far apart).",
 )
-@click.option(
+@_option(
     "--scan-delay",
-    default="auto",
     show_default=True,
     metavar="auto|off|SECONDS",
     help="Bag: how late the scans are stamped against the wheel data. auto estimates it (the "
@@ -232,58 +229,36 @@ def _print_report(d: dict, again: str, export: str) -> None:
     "stamps; off (or 0) takes the stamps as recorded; a number of seconds is applied as given. "
     "Printed per bag; JSON key scan_delay.",
 )
-@click.option(
-    "--min-intervals", type=click.IntRange(min=3), default=10, show_default=True, help="Fewest matched intervals."
-)
-@click.option("--keep-outliers", is_flag=True, help="Fit every interval (no outlier rejection).")
-@click.option(
+@_option("--min-intervals", type=click.IntRange(min=3), show_default=True, help="Fewest matched intervals.")
+@_option("--keep-outliers", is_flag=True, help="Fit every interval (no outlier rejection).")
+@_option(
     "--wheel-jitter/--no-wheel-jitter",
-    default=True,
     show_default=True,
     help="Model errors in the wheel data from their stamps' jitter against the scans' (estimated with the "
     "noise; bags, and intervals files with the wheel-rate columns; JSON key wheel_jitter_ms). Taken as "
     "exact, such errors make the wheels and turns come out small.",
 )
-@click.option(
+@_option(
     "--save",
     type=click.Path(dir_okay=False),
-    default=None,
     help="Also write the JSON result to this file (input of `umbmark export`).",
 )
-@click.option(
+@_option(
     "--intervals-out",
     type=click.Path(dir_okay=False),
-    default=None,
     help="Bag: write the matched intervals as an intervals file (CSV).",
 )
-@click.option(
+@_option(
     "--window",
     metavar="DURATION",
-    default=None,
     help="Also cut each input into windows of about DURATION (10min, 600s, 1h) and self-calibrate each "
     "(JSON key windows); with --record, each window is recorded with its own date (for `umbmark drift`).",
 )
-@click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
+@_option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @skip_check_option
 @history_options
 @config_options
-def selfcal_cmd(
-    paths,
-    kinematics,
-    wheel_diameter_mm,
-    wheelbase_mm,
-    wheel_radius_m,
-    wheel_separation_m,
-    min_intervals,
-    keep_outliers,
-    wheel_jitter,
-    save,
-    as_json,
-    robot=None,
-    record=False,
-    db=None,
-    **kw,
-):
+def selfcal_cmd(paths: tuple[str, ...], **params: Any) -> None:
     """Self-calibrate the wheel diameters, the wheelbase and the lidar's mounting pose from the
     lidar's own motion (Censi et al., IEEE T-RO 2013).
 
@@ -301,73 +276,51 @@ def selfcal_cmd(
       umbmark selfcal drive_bag --odom-topic /odom --wheel-radius-m 0.075 --wheel-separation-m 0.34 --save cal.json
       umbmark export cal.json --format urdf
     """
-    window = kw.pop("window", None)
+    cfg = SelfcalConfig.from_params(params)
     window_s = None
-    if window is not None:
+    if cfg.outputs.window is not None:
         from umbmark.cli.selfcal_windows import window_seconds
 
-        window_s = window_seconds(window)
-    if not kind_named(kinematics).differential:
+        window_s = window_seconds(cfg.outputs.window)
+    kind = kind_named(cfg.kind.kinematics)
+    if not kind.differential:
         from umbmark.cli.kinematic import kinematic_selfcal_cmd
 
-        if not wheel_jitter:
+        if not cfg.fit.wheel_jitter:
             raise InputError(
-                f"--no-wheel-jitter: the self-calibration of a {kind_named(kinematics).noun} takes the joint data "
+                f"--no-wheel-jitter: the self-calibration of a {kind.noun} takes the joint data "
                 "as exact already (it models no jitter of their stamps; a differential drive's does)"
             )
-        sizes = dict(
-            wheel_diameter_mm=wheel_diameter_mm,
-            wheel_radius_m=wheel_radius_m,
-            wheelbase_mm=wheelbase_mm,
-            wheel_separation_m=wheel_separation_m,
-        )
-        history = (robot, record, db)
-        kinematic_selfcal_cmd(
-            kinematics, paths, min_intervals, keep_outliers, save, as_json, history, window_s, {**kw, **sizes}
-        )
+        kinematic_selfcal_cmd(paths, cfg, window_s)
         return
-    params = dict(
-        kw,
-        wheel_diameter_mm=wheel_diameter_mm,
-        wheel_radius_m=wheel_radius_m,
-        wheelbase_mm=wheelbase_mm,
-        wheel_separation_m=wheel_separation_m,
-        min_intervals=min_intervals,
-        keep_outliers=keep_outliers,
-        wheel_jitter=wheel_jitter,
-    )
-    kind = functools.cache(lambda: kind_of(paths))
-    settings = selfcal_settings(params, lambda: {kind()})
+    robot, record, db = cfg.history.robot, cfg.history.record, cfg.history.db
+    inputs = functools.cache(lambda: kind_of(paths))
+    settings = selfcal_settings(cfg, lambda: {inputs()})
     refuse_if_recorded(robot, record, db, kind="selfcal", method="selfcal", paths=paths)  # windows too: they cover it
-    rep = _selfcal(paths, settings, kind() == "bags", kw["intervals_out"], as_json)
-    opts = settings.fit_options
-    flags = _bag_flags(kw) if kind() == "bags" else []
-    if keep_outliers:
-        flags.append("--keep-outliers")
-    if min_intervals != 10:
-        flags.append(f"--min-intervals {min_intervals}")
+    bags = inputs() == "bags"
+    rep = _selfcal(paths, settings, bags, cfg.outputs.intervals_out, cfg.outputs.as_json)
     d = rep.to_dict()
     rec: dict | list | None = None
     if window_s is not None:
         from umbmark.cli.selfcal_windows import selfcal_windows_cmd
 
-        d["windows"], rec = selfcal_windows_cmd(rep, window_s, opts, robot, record, db)
-    if save:
+        d["windows"], rec = selfcal_windows_cmd(rep, window_s, settings.fit_options, robot, record, db)
+    if cfg.outputs.save:
         from umbmark.io.atomic import write_json
 
-        write_json(save, d)
+        write_json(cfg.outputs.save, d)
     if record and window_s is None:
         from umbmark.history import file_sha256
 
         fields = rep.history_fields(kind="selfcal", file_hash=file_sha256)
         rec = record_if_requested(robot, record, db, **fields)
-    if as_json:
+    if cfg.outputs.as_json:
         emit_json(d if rec is None else {**d, "history": rec})
         return
     if is_quiet():
         return
     d_m, b_m = settings.wheel_diameter_m, settings.wheelbase_m
-    _print_report(d, *_next_command(paths, save, d_m, b_m, flags + ([] if wheel_jitter else ["--no-wheel-jitter"])))
+    _print_report(d, *_next_command(paths, cfg.outputs.save, d_m, b_m, _fit_flags(cfg, bags)))
     if window_s is not None:
         from umbmark.cli.selfcal_windows import print_windows
 
@@ -375,43 +328,47 @@ def selfcal_cmd(
     print_recorded(rec)
 
 
-def _bag_flags(kw) -> list[str]:
-    """The options that read the bags, for the command shown as the next step."""
-    q = shlex.quote
+# the options that read bags, in the order the next command names them
+_BAG_OPTIONS = (
+    "scan_topic", "joints", "joint_topic", "ticks_topic", "left_field", "right_field", "odom_topic",
+    "pulses_per_wheel_rev", "sensor_pose", "base_frame", "scan_frame", "intervals_out", "ticks", "scan_delay",
+    "keyframe_mm", "keyframe_deg", "keyframe_s", "keyframe_min_s", "max_wheel_gap_s", "coarse",
+)  # fmt: skip
+
+
+def _bag_flags(cfg: SelfcalConfig) -> list[str]:
+    """The options that read the bags given other values than their defaults, as flags (for the
+    command shown as the next step)."""
+    given, default = cfg.params(), SelfcalConfig.defaults()
+    numbers = set(KeyframesConfig.defaults())
     out = []
-    for name in ("scan_topic", "joints", "joint_topic", "ticks_topic", "left_field", "right_field", "odom_topic"):
-        v = kw[name]
-        default = {"scan_topic": "/scan", "joint_topic": "/joint_states"}.get(name)
-        if v is not None and v != default:
-            out.append(f"--{name.replace('_', '-')} {q(str(v))}")
-    for name in (
-        "pulses_per_wheel_rev",
-        "sensor_pose",
-        "base_frame",
-        "scan_frame",
-        "intervals_out",
-    ):
-        if kw[name] is not None:
-            out.append(f"--{name.replace('_', '-')} {q(str(kw[name]))}")
-    if kw["ticks"] != "cumulative":
-        out.append(f"--ticks {kw['ticks']}")
-    if str(kw["scan_delay"]).strip().lower() != "auto":
-        out.append(f"--scan-delay {q(str(kw['scan_delay']))}")
-    for name, usual in (
-        ("keyframe_mm", 100.0),
-        ("keyframe_deg", 10.0),
-        ("keyframe_s", 2.0),
-        ("keyframe_min_s", 0.5),
-        ("max_wheel_gap_s", 0.5),
-    ):
-        if kw[name] != usual:
-            out.append(f"--{name.replace('_', '-')} {kw[name]:g}")
-    if kw["coarse"]:
-        out.append("--coarse")
+    for name in _BAG_OPTIONS:
+        v = given[name]
+        if name == "scan_delay" and str(v).strip().lower() == default[name]:
+            continue
+        if v == default[name]:
+            continue
+        flag = f"--{name.replace('_', '-')}"
+        if isinstance(v, bool):
+            out.append(flag)
+        elif name in numbers:
+            out.append(f"{flag} {v:g}")
+        else:
+            out.append(f"{flag} {shlex.quote(str(v))}")
     return out
 
 
-def selfcal_settings(kw: dict, kinds: Collection[str] | Callable[[], Collection[str]]):
+def _fit_flags(cfg: SelfcalConfig, bags: bool) -> list[str]:
+    """The options of the bags and of the fit given other values than their defaults, as flags."""
+    flags = _bag_flags(cfg) if bags else []
+    if cfg.fit.keep_outliers:
+        flags.append("--keep-outliers")
+    if cfg.fit.min_intervals != SELFCAL.fit.min_intervals:
+        flags.append(f"--min-intervals {cfg.fit.min_intervals}")
+    return flags + ([] if cfg.fit.wheel_jitter else ["--no-wheel-jitter"])
+
+
+def selfcal_settings(cfg: SelfcalConfig, kinds: Collection[str] | Callable[[], Collection[str]]) -> SelfcalSettings:
     """The :class:`~umbmark.realrobot.selfcal_settings.SelfcalSettings` of selfcal's options for
     a differential drive, checked before anything is read: no option of another kind, the
     nominal geometry, no bag option when every input is an intervals file, the interval options
@@ -419,45 +376,52 @@ def selfcal_settings(kw: dict, kinds: Collection[str] | Callable[[], Collection[
 
     Parameters
     ----------
-    kw : dict
-        The parsed options (``wheel_diameter_mm``, ..., ``min_intervals``, ``keep_outliers``,
-        ``wheel_jitter`` and the bag options).
+    cfg : SelfcalConfig
+        The options.
     kinds : collection of str, or a callable returning one
         The inputs' kinds (``bags``, ``intervals``); a callable is asked once the geometry is
         checked.
+
+    Raises
+    ------
+    InputError
+        As the checks above.
     """
     from umbmark.cli.options import nominal_m, wheel_source
     from umbmark.realrobot.selfcal_settings import SelfcalSettings
 
-    refuse_kind_options(kw)
-    d_m, b_m = nominal_m(kw)
+    refuse_kind_options(dict(cfg.kind.options))
+    d_m, b_m = nominal_m(cfg.nominal.params())
     given = set(kinds() if callable(kinds) else kinds)
-    common = dict(
-        reject_outliers=not kw["keep_outliers"],
-        time_jitter=kw["wheel_jitter"],
-        skip_checks=frozenset(kw.get("skip_check") or ()),  # the command's own: applied around it
-    )
+    fit = cfg.fit
+    skip = frozenset(fit.skip_check)  # the command's own: applied around it
     if "bags" not in given:
-        flags = _bag_flags(kw)
+        flags = _bag_flags(cfg)
         if flags:
             raise InputError(f"{flags[0].split()[0]} reads bags; the inputs are intervals files")
-        return SelfcalSettings(d_m, b_m, **common)
-    options = interval_options(kw, kw["min_intervals"])
-    wheels = wheel_source(kw)
+        return SelfcalSettings(
+            d_m, b_m, reject_outliers=not fit.keep_outliers, time_jitter=fit.wheel_jitter, skip_checks=skip
+        )
+    options = interval_options(cfg.keyframes, cfg.scans, cfg.fit.min_intervals)
+    wheels = wheel_source(cfg.wheels.params())
     if wheels.given:
         wheels.check()  # before anything is compiled or read
     return SelfcalSettings(
         d_m,
         b_m,
         wheels=wheels,
-        scan_topic=kw["scan_topic"],
-        scan_frame=kw["scan_frame"],
+        scan_topic=cfg.scans.scan_topic,
+        scan_frame=cfg.scans.scan_frame,
         intervals=options,
-        **common,
+        reject_outliers=not fit.keep_outliers,
+        time_jitter=fit.wheel_jitter,
+        skip_checks=skip,
     )
 
 
-def _selfcal(paths, settings, bags: bool, intervals_out, as_json):
+def _selfcal(
+    paths: tuple[str, ...], settings: SelfcalSettings, bags: bool, intervals_out: str | None, as_json: bool
+) -> SelfcalReport:
     """The self-calibration (:func:`umbmark.realrobot.selfcal_settings.selfcal_recordings`) with
     progress bars; the matched intervals written when ``--intervals-out`` asks."""
     from umbmark.realrobot.selfcal_settings import selfcal_recordings
