@@ -13,7 +13,10 @@ import signal
 import sys
 import tempfile
 import threading
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from types import FrameType
+from typing import Any
 
 import click
 
@@ -152,11 +155,11 @@ class _Terminated(BaseException):
     """SIGTERM: unwinds like Ctrl-C, so every write in progress removes its temporary file."""
 
 
-def _on_sigterm(signum, frame) -> None:
+def _on_sigterm(signum: int, frame: FrameType | None) -> None:
     raise _Terminated()
 
 
-def _catch_sigterm():
+def _catch_sigterm() -> Callable[[int, FrameType | None], Any] | int | None:
     """Install the SIGTERM handler (main thread only); the handler it replaces, or None."""
     if threading.current_thread() is not threading.main_thread():
         return None
@@ -166,7 +169,7 @@ def _catch_sigterm():
         return None
 
 
-def main(argv=None) -> int:
+def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``umbmark`` console script.
 
     Parameters

@@ -6,7 +6,8 @@ import math
 import os
 import re
 import sys
-from typing import TYPE_CHECKING, Literal
+from collections.abc import Callable, Iterable
+from typing import TYPE_CHECKING, Any, Literal, TypeVar
 
 import click
 
@@ -18,6 +19,8 @@ from umbmark.jsonutil import dumps
 from umbmark.kinds import KINDS
 from umbmark.model.defaults import LOG_FORMATS
 from umbmark.viz.text import fmt
+
+F = TypeVar("F", bound=Callable[..., Any])
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -63,7 +66,7 @@ CONTEXT = dict(help_option_names=["-h", "--help"], max_content_width=100)
 @click.version_option(__version__, prog_name="umbmark")
 @click.option("-q", "--quiet", is_flag=True, help="Print only errors (and --json output).")
 @click.pass_context
-def app(ctx, quiet):
+def app(ctx: click.Context, quiet: bool) -> None:
     """Measure and correct the systematic odometry errors of wheeled robots of every kind:
     differential drives (UMBmark, Borenstein & Feng), tricycles, mecanum robots and cars
     (selfcal --kinematics tricycle|mecanum|bicycle|ackermann).
@@ -179,7 +182,7 @@ _PARAM = re.compile(r"`(\w+)(?:=([^`]*))?`")
 _GIVEN: list[str] = []
 
 
-def keep_as_given(strings, reset: bool = False) -> None:
+def keep_as_given(strings: Iterable[object], reset: bool = False) -> None:
     """Mark strings (the command line's arguments, a file's name) as data: :func:`cli_message`
     prints them as given.
 
@@ -240,11 +243,11 @@ _DATA_KEYS = frozenset(
 )  # fmt: skip
 
 
-def _is_data_key(key) -> bool:
+def _is_data_key(key: object) -> bool:
     return isinstance(key, str) and (key in _DATA_KEYS or key.endswith(("_topic", "_frame", "_path")))
 
 
-def _cli_strings(obj):
+def _cli_strings(obj: Any) -> Any:
     if isinstance(obj, str):
         return cli_message(obj)
     if isinstance(obj, dict):
@@ -254,7 +257,7 @@ def _cli_strings(obj):
     return obj
 
 
-def emit_json(obj) -> None:
+def emit_json(obj: Any) -> None:
     """Print one JSON object on stdout, indented.
 
     NaN and infinities become null (strict JSON); the messages in it name the command's flags
@@ -304,7 +307,7 @@ def table(
     return t
 
 
-def prior_options(f):
+def prior_options(f: F) -> F:
     """Add ``--c-left`` / ``--c-right`` (the correction factors the robot's odometry ran with) to a command.
 
     Parameters

@@ -6,9 +6,15 @@ The library does the work (:func:`umbmark.io.rosbag.bag_info`); this module prin
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
 import click
 
 from umbmark.cli.app import app, cli_message, console, emit_json, fmt, is_quiet, table
+
+if TYPE_CHECKING:
+    from rich.console import Console
 
 __all__ = ["bag_info_cmd"]
 
@@ -16,7 +22,7 @@ __all__ = ["bag_info_cmd"]
 @app.command(name="bag-info")
 @click.argument("bag")
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
-def bag_info_cmd(bag, as_json):
+def bag_info_cmd(bag: str, as_json: bool) -> None:
     """List the topics of a ROS 1 or ROS 2 bag (to choose --joints, --gt-topic ...): types,
     message counts and rates, the joint names of JointState topics, the frames of poses,
     odometry, scans and transforms.
@@ -45,7 +51,7 @@ def bag_info_cmd(bag, as_json):
                 _print_joint_flags(c, t.topic, t.joint_names)
 
 
-def _print_joint_flags(c, topic: str, names) -> None:
+def _print_joint_flags(c: Console, topic: str, names: Sequence[str]) -> None:
     """The joints of a JointState topic in the order each kind's flags want them (by their names)."""
     from rich.markup import escape
 

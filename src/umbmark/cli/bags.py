@@ -7,7 +7,9 @@ Thin: no numerical module is imported before a command runs.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from contextlib import ExitStack
+from pathlib import Path
 from typing import TYPE_CHECKING
 
 import click
@@ -56,7 +58,7 @@ def float_list(text: str, n: int, flag: str, meta: str) -> list[float]:
     return vals
 
 
-def kind_of(paths) -> str:
+def kind_of(paths: Sequence[str | Path]) -> str:
     """``bags`` or ``intervals`` (CSV files): all inputs must be of one kind
     (:func:`umbmark.realrobot.selfcal_settings.recording_kind`)."""
     from umbmark.realrobot.selfcal_settings import recording_kind
@@ -74,10 +76,10 @@ class Bars:
         self.stack = ExitStack()
         self.bars: dict[str, tuple] = {}
 
-    def __enter__(self):
+    def __enter__(self) -> Bars:
         return self
 
-    def __exit__(self, *exc):
+    def __exit__(self, *exc: object) -> None:
         self.stack.close()
 
     def __call__(self, stage: str, done: int, total: int) -> None:

@@ -12,5 +12,5 @@ BENCH_SPEED_OUT = "umbmark-bench-speed"
 
 
 @app.group()
-def bench():
+def bench() -> None:
     """Benchmarks of speed and accuracy (results written into --out, by default a new folder here)."""

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import click
 
 from umbmark.cli.app import console, emit_json, fmt, is_quiet, table
@@ -42,7 +44,17 @@ __all__ = ["accuracy"]
 )
 @scale_options
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as one JSON object.")
-def accuracy(quick, robots, seed, sample_period_ms, fixed_wheelbase, out_dir, workers, dask, as_json):
+def accuracy(
+    quick: bool,
+    robots: int | None,
+    seed: int | None,
+    sample_period_ms: float | None,
+    fixed_wheelbase: str,
+    out_dir: str,
+    workers: int | None,
+    dask: str | None,
+    as_json: bool,
+) -> None:
     """Accuracy of the corrections: bf one pass, bf two passes, exact one and two passes.
 
     Monte Carlo over a grid of true errors (|E_d - 1| from 0.05 % to 5 %, E_b from 0.5 to
@@ -62,7 +74,7 @@ def accuracy(quick, robots, seed, sample_period_ms, fixed_wheelbase, out_dir, wo
     from umbmark.studies.accuracy import QUICK, AccuracyConfig, run_accuracy, write_results
 
     cfg = QUICK if quick else AccuracyConfig()
-    changes = {k: v for k, v in (("robots", robots), ("seed", seed)) if v is not None}
+    changes: dict[str, Any] = {k: v for k, v in (("robots", robots), ("seed", seed)) if v is not None}
     changes["workers"] = workers  # None: all local cores
     changes["fixed_wheelbase"] = fixed_wheelbase
     if sample_period_ms is not None:

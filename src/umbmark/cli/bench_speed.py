@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, cast
 
 import click
 
@@ -13,10 +14,13 @@ from umbmark.cli.progress import progress as progress_bar
 from umbmark.cli.scaleout import scale_options
 from umbmark.errors import InputError
 
+if TYPE_CHECKING:
+    from rich.console import Console
+
 __all__ = ["bench_speed"]
 
 
-def _ints(text, name):
+def _ints(text: str | None, name: str) -> list[int] | None:
     if text is None:
         return None
     try:
@@ -28,7 +32,7 @@ def _ints(text, name):
     return vals
 
 
-def _n_cases(quick, overrides, dask, workers):
+def _n_cases(quick: bool, overrides: dict[str, Any], dask: str | None, workers: int | None) -> int | None:
     """How many cases the benchmark will run (for the progress bar; None if unknown)."""
     from umbmark.studies import speed as speedbench
 
@@ -71,7 +75,16 @@ def _n_cases(quick, overrides, dask, workers):
 )
 @scale_options
 @click.option("--json", "as_json", is_flag=True, help="Print the results as JSON.")
-def bench_speed(quick, out_dir, replay_sizes, robots, isolate, workers, dask, as_json):
+def bench_speed(
+    quick: bool,
+    out_dir: str,
+    replay_sizes: str | None,
+    robots: str | None,
+    isolate: bool | None,
+    workers: int | None,
+    dask: str | None,
+    as_json: bool,
+) -> None:
     """Speed and memory of odometry replay and batched simulation, side by side with the
     per-sample Python loop and plain numpy, measured in the same run.
 
@@ -90,16 +103,17 @@ def bench_speed(quick, out_dir, replay_sizes, robots, isolate, workers, dask, as
     rob = _ints(robots, "--robots")
     if isolate is None:
         isolate = not quick
-    overrides = {}
+    overrides: dict[str, Any] = {}
     if sizes:
         overrides["replay_sizes"] = sizes
-        overrides["replay_inmem_max"] = max(min(10**7, max(sizes)), speedbench.QUICK["replay_inmem_max"])
+        quick_most = cast(int, speedbench.QUICK["replay_inmem_max"])
+        overrides["replay_inmem_max"] = max(min(10**7, max(sizes)), quick_most)
     if rob:
         overrides["sim_robots"] = rob
     show = not (as_json or is_quiet())
     con = console()
 
-    def progress(c):
+    def progress(c: dict[str, Any]) -> None:
         advance()
         if show:
             what = f"{c['kind']} {c['impl']} n={c['n']}"
@@ -128,12 +142,12 @@ def bench_speed(quick, out_dir, replay_sizes, robots, isolate, workers, dask, as
     _print_speed(res, con, out, stem)
 
 
-def _print_speed(res: dict, con, out, stem: str) -> None:
+def _print_speed(res: dict, con: Console, out: Path, stem: str) -> None:
     """The replay and simulation tables of the speed benchmark, the sweeps, the targets, the files."""
     rows = []
     for row in res["summary"]["replay"]:
 
-        def cell(k, row=row):
+        def cell(k: str, row: dict = row) -> str:
             v = row.get(k)
             return "-" if not v else f"{v['samples_per_s'] / 1e6:.2f} ({fmt(v['x_reference'], 0)}x)"
 
@@ -152,7 +166,7 @@ def _print_speed(res: dict, con, out, stem: str) -> None:
     rows = []
     for row in res["summary"]["sim"]:
 
-        def cell(k, row=row):
+        def cell(k: str, row: dict = row) -> str:
             v = row.get(k)
             return "-" if not v else f"{v['experiments_per_s']:.1f} ({fmt(v['x_reference'], 0)}x)"
 

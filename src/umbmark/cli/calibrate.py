@@ -5,6 +5,7 @@ imported before the command runs."""
 from __future__ import annotations
 
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
@@ -26,11 +27,14 @@ from umbmark.cli.history import history_options, print_recorded, record_if_reque
 from umbmark.cli.progress import progress
 from umbmark.errors import InputError
 
+if TYPE_CHECKING:
+    from umbmark.studies.iterate import LoopResult
+
 __all__ = ["calibrate"]
 
 
-def _pass_rows(loop):
-    rows = []
+def _pass_rows(loop: LoopResult) -> list[list[object]]:
+    rows: list[list[object]] = []
     for p in loop.passes:
         cal = p.calibration_used
         used = "nominal" if cal is None else f"{cal.c_left:.5f}/{cal.c_right:.5f}"
@@ -55,7 +59,7 @@ def _pass_rows(loop):
     return rows
 
 
-def _print_loop(loop, title):
+def _print_loop(loop: LoopResult, title: str) -> None:
     from rich.markup import escape
 
     c = console()
@@ -84,7 +88,7 @@ def _print_loop(loop, title):
     if cal is not None:
         c.print(
             f"final calibration: c_left = {cal.c_left:.6f}, c_right = {cal.c_right:.6f}, "
-            f"wheelbase = {cal.wheelbase_m * 1e3:.2f} mm (E_d = {cal.ed:.6f})"
+            f"wheelbase = {fmt(None if cal.wheelbase_m is None else cal.wheelbase_m * 1e3, 2)} mm (E_d = {cal.ed:.6f})"
         )
     if loop.errors is not None:
         e = loop.errors
@@ -127,26 +131,26 @@ def _print_loop(loop, title):
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @history_options
 def calibrate(
-    runs_files,
-    ed,
-    eb,
-    n_runs,
-    noise,
-    seed,
-    max_passes,
-    method,
-    sample_period_ms,
-    save_runs,
-    wheelbase_mm,
-    side_mm,
-    wheel_diameter_mm,
-    c_left,
-    c_right,
-    as_json,
-    robot=None,
-    record=False,
-    db=None,
-):
+    runs_files: tuple[str, ...],
+    ed: float,
+    eb: float,
+    n_runs: int,
+    noise: str,
+    seed: int,
+    max_passes: int,
+    method: str,
+    sample_period_ms: float,
+    save_runs: str | None,
+    wheelbase_mm: float,
+    side_mm: float,
+    wheel_diameter_mm: float,
+    c_left: float,
+    c_right: float,
+    as_json: bool,
+    robot: str | None = None,
+    record: bool = False,
+    db: str | None = None,
+) -> None:
     """Iterate the calibration until it stops paying.
 
     Without files (simulator): a robot with true errors --ed/--eb runs the test; while

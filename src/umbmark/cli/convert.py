@@ -7,6 +7,7 @@ module is imported before the command runs.
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -29,7 +30,7 @@ __all__ = ["convert"]
     help="csv: the generic log CSV; runs: a UMBmark runs file (square runs, nominal odometry).",
 )
 @click.option("--out", type=click.Path(dir_okay=False), required=True, help="File to write.")
-def convert(paths, log_format, target, out, **kw):
+def convert(paths: tuple[str, ...], log_format: str, target: str, out: str, **kw: Any) -> None:
     """Convert logs: to the generic CSV log, or (square runs) to a runs file for `analyze`.
 
     Several bags (or CSV logs) are the runs of one data set. The generic CSV log records the
@@ -66,6 +67,7 @@ def convert(paths, log_format, target, out, **kw):
         c = console()
         c.print(f"wrote {out} ({len(ds.runs)} runs)", markup=False, soft_wrap=True)
         if target == "runs":
+            assert ds.side_m is not None  # square runs have their side
             c.print(
                 f"analyze it with: umbmark analyze {out} --wheelbase-mm {ds.nominal.wheelbase_m * 1e3:g} "
                 f"--side-mm {ds.side_m * 1e3:g}",

@@ -6,8 +6,9 @@ Building these commands imports no numerical module: the library is imported whe
 from __future__ import annotations
 
 import shlex
+from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import click
 
@@ -31,6 +32,8 @@ from umbmark.cli.history import history_options, print_recorded, record_if_reque
 from umbmark.cli.progress import progress
 
 if TYPE_CHECKING:
+    from rich.table import Table
+
     from umbmark.correct.analysis import Analysis
     from umbmark.metrics import UMBmarkResult
     from umbmark.model.geometry import Calibration
@@ -38,8 +41,10 @@ if TYPE_CHECKING:
 
 __all__ = ["analyze", "demo", "geometry_options", "prior_options", "simulate"]
 
+F = TypeVar("F", bound=Callable[..., Any])
 
-def geometry_options(f):
+
+def geometry_options(f: F) -> F:
     """Add ``--wheelbase-mm``, ``--side-mm`` and ``--wheel-diameter-mm`` (the LabMate's by default).
 
     Parameters
@@ -70,7 +75,7 @@ def geometry_options(f):
 MAX_SPEED_M_S = 10.0
 
 
-def _speed(speed_m_s) -> float:
+def _speed(speed_m_s: float) -> float:
     """``--speed`` in m/s: positive and at most :data:`MAX_SPEED_M_S` (mm/s named as such)."""
     from umbmark.errors import InputError
 
@@ -83,7 +88,7 @@ def _speed(speed_m_s) -> float:
     return v
 
 
-def _prior(c_left, c_right, wheelbase_mm=None) -> Calibration | None:
+def _prior(c_left: float, c_right: float, wheelbase_mm: float | None = None) -> Calibration | None:
     from umbmark.model.geometry import Calibration
 
     for name, v in (("--c-left", c_left), ("--c-right", c_right)):
@@ -134,8 +139,8 @@ def _legend(text: str) -> str:
     return f"[dim]{escape(text)}[/dim]"
 
 
-def _stats_table(title: str, res: UMBmarkResult):
-    rows = []
+def _stats_table(title: str, res: UMBmarkResult) -> Table:
+    rows: list[list[object]] = []
     for st in (res.cw, res.ccw):
         d = st.to_dict()
         rows.append(
@@ -159,7 +164,7 @@ _CI_LABELS = {
 }
 
 
-def _angles_table(a: Analysis, d: dict):
+def _angles_table(a: Analysis, d: dict) -> tuple[Table, bool]:
     """alpha, beta, E_d, E_b of the correction: from x, from y and used (the bf method), or used only.
 
     Returns the table and whether it has the from x / from y columns.
@@ -202,7 +207,16 @@ def _calibration_rows(a: Analysis, d: dict) -> list[list[str]]:
     return rows
 
 
-def _next_commands(a: Analysis, runs_file, side_mm, method, c_left, c_right, loss, straight_mm) -> tuple[str, str]:
+def _next_commands(
+    a: Analysis,
+    runs_file: str,
+    side_mm: float,
+    method: str,
+    c_left: float,
+    c_right: float,
+    loss: str | None,
+    straight_mm: tuple[float, float] | None,
+) -> tuple[str, str]:
     """The commands that analyse the calibrated robot's runs, and that save this analysis as JSON."""
     q = shlex.quote
     cal = a.correction.calibration
@@ -307,23 +321,23 @@ def _print_analysis(a: Analysis, again: str, export: str, plausibility: list[str
 @click.option("--speed", "speed_m_s", type=float, default=0.2, show_default=True, help="Speed on the legs [m/s].")
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary.")
 def simulate(
-    ed,
-    eb,
-    es,
-    n_runs,
-    seed,
-    noise,
-    out,
-    wheelbase_mm,
-    side_mm,
-    wheel_diameter_mm,
-    c_left,
-    c_right,
-    model_wheelbase_mm,
-    sample_period_ms,
-    speed_m_s,
-    as_json,
-):
+    ed: float,
+    eb: float,
+    es: float,
+    n_runs: int,
+    seed: int,
+    noise: str,
+    out: str,
+    wheelbase_mm: float,
+    side_mm: float,
+    wheel_diameter_mm: float,
+    c_left: float,
+    c_right: float,
+    model_wheelbase_mm: float | None,
+    sample_period_ms: float,
+    speed_m_s: float,
+    as_json: bool,
+) -> None:
     """Simulate the bi-directional UMBmark test and write a runs file.
 
     A robot with true errors E_d, E_b (and E_s) drives the cw and ccw squares closed-loop on
@@ -413,20 +427,20 @@ def simulate(
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 @history_options
 def analyze(
-    runs_file,
-    wheelbase_mm,
-    side_mm,
-    method,
-    c_left,
-    c_right,
-    loss,
-    straight_mm,
-    plot_path,
-    as_json,
-    robot=None,
-    record=False,
-    db=None,
-):
+    runs_file: str,
+    wheelbase_mm: float,
+    side_mm: float,
+    method: str,
+    c_left: float,
+    c_right: float,
+    loss: str | None,
+    straight_mm: tuple[float, float] | None,
+    plot_path: str | None,
+    as_json: bool,
+    robot: str | None = None,
+    record: bool = False,
+    db: str | None = None,
+) -> None:
     """Benchmark a runs file (UMBmark) and compute the calibration.
 
     FILE.csv has columns direction (cw/ccw), x_abs, y_abs, x_odo, y_odo in millimetres
@@ -449,7 +463,7 @@ def analyze(
     side_m = positive("--side-mm", side_mm) * 1e-3
     wheelbase_m = positive("--wheelbase-mm", wheelbase_mm) * 1e-3
     plausibility = check_geometry(side_m, wheelbase_m)
-    options = {}
+    options: dict[str, Any] = {}
     if loss is not None:
         options["loss"] = loss
     if straight_mm:
@@ -497,7 +511,7 @@ def analyze(
 @click.option("--runs", "n_runs", type=click.IntRange(min=2), default=5, show_default=True, help="Runs per direction.")
 @click.option("--noise", type=click.Choice(NOISE_CHOICES), default="paper", show_default=True)
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
-def demo(out_dir, seed, n_runs, noise, as_json):
+def demo(out_dir: str, seed: int, n_runs: int, noise: str, as_json: bool) -> None:
     """The paper's experiment in simulation, end to end.
 
     A simulated LabMate (wheelbase 340 mm) with the errors of the paper's Fig. 11

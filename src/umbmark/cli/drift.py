@@ -3,9 +3,14 @@ an alarm."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import click
 
 from umbmark.cli.app import app, cli_message, console, emit_json, fmt, is_quiet, table
+
+if TYPE_CHECKING:
+    from umbmark.history.drift import DriftReport
 
 __all__ = ["drift_cmd", "ALARM_STATUS"]
 
@@ -51,7 +56,15 @@ ALARM_STATUS = 3
     help="Draw each parameter over time with its intervals, trend and changes (PNG, SVG or PDF).",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print JSON (keys: changes, trends, ...).")
-def drift_cmd(robot, db, kind, parameters, false_alarm, plot_path, as_json):
+def drift_cmd(
+    robot: str,
+    db: str | None,
+    kind: str | None,
+    parameters: tuple[str, ...],
+    false_alarm: float | None,
+    plot_path: str | None,
+    as_json: bool,
+) -> int:
     """Changes and wear in a robot's calibration history: exit status 3 on an alarm.
 
     Every recorded calibration holding a parameter with its 95 % interval is a point of that
@@ -93,7 +106,7 @@ def drift_cmd(robot, db, kind, parameters, false_alarm, plot_path, as_json):
     return ALARM_STATUS if rep.alarm else 0
 
 
-def _print(rep, plot_path) -> None:
+def _print(rep: DriftReport, plot_path: str | None) -> None:
     from rich.markup import escape
 
     from umbmark.history.drift import MIN_SESSIONS

@@ -10,6 +10,7 @@ export. No numerical module is imported before the command runs.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import click
 
@@ -25,10 +26,15 @@ from umbmark.cli.history import history_options, print_recorded, record_if_reque
 from umbmark.cli.kinematic import export_formats, own_controllers, own_kinds, steered_titles
 from umbmark.errors import InputError
 
+if TYPE_CHECKING:
+    from umbmark.io.export import ExportCalibration
+
 __all__ = ["export"]
 
 
-def _ros_size_notes(cal, wheel_radius_m: float | None, wheel_separation_m: float | None) -> list[str]:
+def _ros_size_notes(
+    cal: ExportCalibration, wheel_radius_m: float | None, wheel_separation_m: float | None
+) -> list[str]:
     """Warnings for --wheel-radius-m / --wheel-separation-m that look like another unit or
     quantity: millimetres given as metres, a diameter as the radius, or far from the
     calibration's nominal geometry."""
@@ -151,32 +157,32 @@ def _ros_size_notes(cal, wheel_radius_m: float | None, wheel_separation_m: float
 @edited_file_options
 @history_options
 def export(
-    calibration,
-    out_format,
-    dataset,
-    c_left,
-    c_right,
-    eb,
-    controller,
-    left_multiplier,
-    right_multiplier,
-    separation_multiplier,
-    wheel_radius_m,
-    wheel_separation_m,
-    wheel_diameter_mm,
-    wheelbase_mm,
-    pulses_per_wheel_rev,
-    sensor_z_mm,
-    out,
-    robot,
-    record,
-    db,
-    steering_offset_in_use_deg=0.0,
-    steering_reduction_in_use=1.0,
-    covariance_speed_mps=0.5,
-    velocity_window_s=0.1,
-    **edited,
-):
+    calibration: str | None,
+    out_format: str,
+    dataset: str | None,
+    c_left: float | None,
+    c_right: float | None,
+    eb: float | None,
+    controller: str | None,
+    left_multiplier: float,
+    right_multiplier: float,
+    separation_multiplier: float,
+    wheel_radius_m: float | None,
+    wheel_separation_m: float | None,
+    wheel_diameter_mm: float | None,
+    wheelbase_mm: float | None,
+    pulses_per_wheel_rev: float | None,
+    sensor_z_mm: float | None,
+    out: str | None,
+    robot: str | None,
+    record: bool,
+    db: str | None,
+    steering_offset_in_use_deg: float = 0.0,
+    steering_reduction_in_use: float = 1.0,
+    covariance_speed_mps: float = 0.5,
+    velocity_window_s: float = 0.1,
+    **edited: str | None,
+) -> None:
     """Write a calibration as ROS 2 / ROS 1 diff_drive_controller parameters, JSON or a
     firmware header; a lidar self-calibration also as the lidar's URDF origin or a
     static_transform_publisher command. The self-calibration of a robot of another kind becomes
@@ -239,7 +245,7 @@ def export(
             raise InputError("give CAL.json or --c-left/--c-right/--eb, not both")
         cal = calibration_from_json(calibration, dataset)
     else:
-        if any(v is None for v in flags):
+        if c_left is None or c_right is None or eb is None:
             raise InputError("give CAL.json (from replay/analyze --json) or all of --c-left, --c-right, --eb")
         cal = ExportCalibration(c_left, c_right, eb, source="command line")
     cal = _with_nominal(cal, wheel_diameter_mm, wheelbase_mm, pulses_per_wheel_rev)
@@ -265,7 +271,7 @@ def export(
     _say_recorded(rec, out)
 
 
-def _say_recorded(rec, out) -> None:
+def _say_recorded(rec: dict | None, out: str | None) -> None:
     """The line of ``export --record`` (on stderr when the export went to stdout)."""
     if rec is not None and out:
         print_recorded(rec)
@@ -273,7 +279,12 @@ def _say_recorded(rec, out) -> None:
         click.echo(f"recorded as #{rec['record_id']} in the history of {rec['robot']} ({rec['db']})", err=True)
 
 
-def _with_nominal(cal, wheel_diameter_mm, wheelbase_mm, pulses_per_wheel_rev):
+def _with_nominal(
+    cal: ExportCalibration,
+    wheel_diameter_mm: float | None,
+    wheelbase_mm: float | None,
+    pulses_per_wheel_rev: float | None,
+) -> ExportCalibration:
     """The calibration with the nominal geometry and pulses given on the command line."""
     from dataclasses import replace
 
@@ -297,7 +308,14 @@ def _with_nominal(cal, wheel_diameter_mm, wheelbase_mm, pulses_per_wheel_rev):
     return cal
 
 
-def _export_covariances(cal, out_format, wheel_separation_m, separation_multiplier, speed_mps, window_s):
+def _export_covariances(
+    cal: ExportCalibration,
+    out_format: str,
+    wheel_separation_m: float | None,
+    separation_multiplier: float,
+    speed_mps: float,
+    window_s: float,
+) -> tuple[dict[str, list[float]] | None, list[str]]:
     """The controller's covariance diagonals for a calibration that measured the odometry's noise
     (None otherwise), and notes on why none could be written."""
     for flag, v, top in (("--covariance-speed-mps", speed_mps, 20.0), ("--velocity-window-s", window_s, 10.0)):
@@ -319,7 +337,9 @@ def _export_covariances(cal, out_format, wheel_separation_m, separation_multipli
     return controller_covariances(cal.odometry_noise_m, wheelbase_m, speed_mps, window_s), []
 
 
-def _with_sensor_height(cal, sensor_z_mm, out_format):
+def _with_sensor_height(
+    cal: ExportCalibration, sensor_z_mm: float | None, out_format: str
+) -> tuple[ExportCalibration, list[str]]:
     """The calibration with the lidar's height of ``--sensor-z-mm``, and notes on that height."""
     from dataclasses import replace
 
@@ -343,7 +363,7 @@ def _with_sensor_height(cal, sensor_z_mm, out_format):
     return cal, notes
 
 
-def _record_selfcal(calibration, robot, record, db):
+def _record_selfcal(calibration: str | None, robot: str | None, record: bool, db: str | None) -> dict | None:
     """Record the self-calibration in CAL.json in the robot's history (``export --record``)."""
     from umbmark.history import file_sha256
     from umbmark.io._text import parse_json, read_text

@@ -11,6 +11,9 @@ user's file, and writes the export to ``--out`` (atomically) or prints it.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Iterable, Mapping
+from pathlib import Path
+from typing import Any, TypeVar
 
 import click
 
@@ -18,6 +21,8 @@ from umbmark.cli.app import cli_message, console, is_quiet
 from umbmark.cli.options import flag
 from umbmark.errors import InputError
 from umbmark.kinds import KINDS, EditedFile, Kind, kind_named
+
+F = TypeVar("F", bound=Callable[..., Any])
 
 __all__ = [
     "edited_file_options",
@@ -40,7 +45,7 @@ def edited_files() -> dict[str, tuple[EditedFile, tuple[Kind, ...]]]:
     return out
 
 
-def edited_file_options(f):
+def edited_file_options(f: F) -> F:
     """``umbmark export``'s options naming the user's parameter files it edits (``--vesc-config``)."""
     for option, (e, kinds) in reversed(list(edited_files().items())):
         f = click.option(
@@ -54,14 +59,14 @@ def edited_file_options(f):
     return f
 
 
-def kinematic_json(path) -> dict | None:
+def kinematic_json(path: str | Path) -> dict | None:
     """The JSON of the self-calibration of a robot of a kind of its own (a tricycle's), else None."""
     from umbmark.io.export_kinematic import read_kinematic_json
 
     return read_kinematic_json(path)
 
 
-def _edited_path(kind: Kind, out_format: str, files: dict, src: str) -> str | None:
+def _edited_path(kind: Kind, out_format: str, files: Mapping[str, str | None], src: str) -> str | None:
     """The user's parameter file that ``--format`` edits (None: a format that edits none)."""
     spec = next((e for e in kind.edited_files if e.format == out_format), None)
     for option, v in files.items():
@@ -78,8 +83,20 @@ def _edited_path(kind: Kind, out_format: str, files: dict, src: str) -> str | No
     return str(files[spec.option])
 
 
-def export_kinematic(d, src, out_format, controller, sensor_z_mm, out, steering, given, files) -> None:
-    """``umbmark export`` of the self-calibration of a robot of a kind of its own (:mod:`umbmark.kinds`)."""
+def export_kinematic(
+    d: dict,
+    src: str,
+    out_format: str,
+    controller: str | None,
+    sensor_z_mm: float | None,
+    out: str | None,
+    steering: tuple[float, float],
+    given: Mapping[str, object],
+    files: Mapping[str, str | None],
+) -> None:
+    """``umbmark export`` of the self-calibration of a robot of a kind of its own (:mod:`umbmark.kinds`):
+    ``steering`` is the steering joint's offset [deg] and reduction in use, ``given`` the options of a
+    differential drive's export (refused), ``files`` the parameter files to edit by option."""
     from dataclasses import replace
 
     from umbmark.cli.kinematic import own_kinds
@@ -142,7 +159,7 @@ def refuse_edited_files(files: dict, out_format: str) -> None:
             raise InputError(f"{flag(option)} is for --format {e.format} of a {nouns} self-calibration")
 
 
-def emit_export(text: str, out, warnings) -> None:
+def emit_export(text: str, out: str | None, warnings: Iterable[str]) -> None:
     """The warnings on stderr, then the export written to ``out`` (said) or printed."""
     from umbmark.io.export import write_export
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import click
 
@@ -21,6 +22,10 @@ from umbmark.cli.app import (
     table,
 )
 from umbmark.errors import InputError
+
+if TYPE_CHECKING:
+    from umbmark.io.distances_csv import MeasuredRun
+    from umbmark.realrobot.measure import RobotMarks
 
 __all__ = ["guide_cmd", "measure_cmd", "POINT", "PointType"]
 
@@ -44,7 +49,17 @@ __all__ = ["guide_cmd", "measure_cmd", "POINT", "PointType"]
 @click.option(
     "--pause-s", type=float, default=8.0, show_default=True, help="--ros2-script: rest between runs (seconds)."
 )
-def guide_cmd(side_mm, runs, ros2_script, speed_m_s, turn_rate_deg_s, cmd_vel_topic, odom_topic, stamped, pause_s):
+def guide_cmd(
+    side_mm: float,
+    runs: int,
+    ros2_script: bool,
+    speed_m_s: float,
+    turn_rate_deg_s: float,
+    cmd_vel_topic: str,
+    odom_topic: str,
+    stamped: bool,
+    pause_s: float,
+) -> None:
     """Print the field procedure of the UMBmark test, step by step.
 
     Where to start, how to measure the return position with a tape in the start frame, 5 runs
@@ -77,10 +92,10 @@ class PointType(click.ParamType):
 
     name = "X,Y"
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: object, param: click.Parameter | None, ctx: click.Context | None) -> tuple[float, float]:
         """Parse ``value`` (a tuple is kept as it is); a bad value is a usage error."""
         if isinstance(value, tuple):
-            return value
+            return (value[0], value[1])
         parts = str(value).replace(";", ",").split(",")
         try:
             x, y = (strict_float(p) for p in parts)
@@ -103,11 +118,13 @@ class TypedNumber(click.ParamType):
     def __init__(self, lo: float, hi: float, unit: str, empty: bool = False):
         self.lo, self.hi, self.unit, self.empty = lo, hi, unit, empty
 
-    def convert(self, value, param, ctx):
+    def convert(self, value: object, param: click.Parameter | None, ctx: click.Context | None) -> float | str:
         """The number in ``value`` (``""`` for an empty answer where allowed); anything else
         fails (and click asks again)."""
-        if isinstance(value, float) or (self.empty and not str(value).strip()):
+        if isinstance(value, float):
             return value
+        if self.empty and not str(value).strip():
+            return str(value)
         try:
             v = strict_float(str(value))
         except ValueError:
@@ -155,7 +172,18 @@ _ODO_DEG_OR_NONE = TypedNumber(-720.0, 720.0, "deg (the odometry's end heading),
     help="With --interactive: runs per direction.",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-def measure_cmd(distances_file, front, rear, back, side_wall, resolution_mm, out_path, interactive, n_runs, as_json):
+def measure_cmd(
+    distances_file: str | None,
+    front: tuple[float, float],
+    rear: tuple[float, float],
+    back: tuple[float, float],
+    side_wall: str,
+    resolution_mm: float,
+    out_path: str,
+    interactive: bool,
+    n_runs: int,
+    as_json: bool,
+) -> None:
     """Turn tape-measured wall distances into a runs file (the paper's section 3.1).
 
     The start is near the corner of two perpendicular walls. Before and after each run, measure
@@ -180,7 +208,7 @@ def measure_cmd(distances_file, front, rear, back, side_wall, resolution_mm, out
         raise InputError(
             f"--resolution-mm must be a number from 0 to 100 (a tape's resolution in mm), got {resolution_mm!r}"
         )
-    marks = RobotMarks(tuple(v * 1e-3 for v in front), tuple(v * 1e-3 for v in rear), tuple(v * 1e-3 for v in back))
+    marks = RobotMarks(_metres(front), _metres(rear), _metres(back))
     resolution_m = resolution_mm * 1e-3
     if interactive:
         if distances_file:
@@ -225,11 +253,17 @@ def measure_cmd(distances_file, front, rear, back, side_wall, resolution_mm, out
     )
 
 
-def _interactive(marks, side_wall, resolution_m, out_path, n_runs):
+def _metres(point_mm: tuple[float, float]) -> tuple[float, float]:
+    return point_mm[0] * 1e-3, point_mm[1] * 1e-3
+
+
+def _interactive(
+    marks: RobotMarks, side_wall: str, resolution_m: float, out_path: str, n_runs: int
+) -> list[MeasuredRun]:
     """:func:`_prompt_runs`; the input ending (end of file) before the last run is an error
     naming the run and the files that hold the runs entered."""
     raw_path = str(Path(out_path).with_suffix("")) + ".distances.csv"
-    rows: list = []
+    rows: list[MeasuredRun] = []
     try:
         return _prompt_runs(marks, side_wall, resolution_m, out_path, n_runs, rows)
     except click.exceptions.Abort as e:
@@ -241,7 +275,9 @@ def _interactive(marks, side_wall, resolution_m, out_path, n_runs):
         ) from None
 
 
-def _prompt_runs(marks, side_wall, resolution_m, out_path, n_runs, rows):
+def _prompt_runs(
+    marks: RobotMarks, side_wall: str, resolution_m: float, out_path: str, n_runs: int, rows: list[MeasuredRun]
+) -> list[MeasuredRun]:
     """Prompt for every run; after each run, save the distances (``<out>.distances.csv``) and the
     runs file so far (``rows`` grows with the runs entered)."""
     from umbmark.io.atomic import atomic_write
@@ -288,7 +324,7 @@ def _prompt_runs(marks, side_wall, resolution_m, out_path, n_runs, rows):
                         th = click.prompt("  odometry theta at the end [deg]", type=_ODO_DEG)
                     else:
                         th = ""
-                default = prev[i] if (prev is not None and i < 3) else None
+                default: float | None = prev[i] if (prev is not None and i < 3) else None
                 vals[c] = click.prompt(f"  {labels[c]} [mm]", type=_TAPE_MM, default=default)
             theta = None
             if str(th).strip():

@@ -9,6 +9,7 @@ prints the outcomes.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import click
@@ -17,6 +18,7 @@ from umbmark.cli.app import app, cli_message, console, emit_json, is_quiet
 from umbmark.errors import InputError
 
 if TYPE_CHECKING:
+    from umbmark.fleet import FleetJob, FleetOutcome
     from umbmark.realrobot.kinematic_settings import KinematicSettings
     from umbmark.realrobot.selfcal_settings import SelfcalSettings
 
@@ -87,7 +89,7 @@ def _settings(ctx: click.Context, kinds: set[str]) -> SelfcalSettings | Kinemati
     return kinematic_settings(cfg)
 
 
-def _with_kind(job, where: str) -> tuple[str, ...]:
+def _with_kind(job: FleetJob, where: str) -> tuple[str, ...]:
     """A job's selfcal options with the kind its manifest names (``kind:``) as ``--kinematics``."""
     if job.kind is None:
         return tuple(job.args)
@@ -96,15 +98,15 @@ def _with_kind(job, where: str) -> tuple[str, ...]:
     return ("--kinematics", job.kind, *job.args)
 
 
-def _with_settings(jobs: list, where_of) -> list:
+def _with_settings(jobs: list[FleetJob], where_of: Callable[[FleetJob], str]) -> list[FleetJob]:
     """Each job with the settings of its options, each set of options parsed and checked once."""
     from dataclasses import replace
 
     jobs = [replace(j, args=_with_kind(j, where_of(j))) for j in jobs]
-    groups: dict[tuple[str, ...], list] = {}
+    groups: dict[tuple[str, ...], list[FleetJob]] = {}
     for j in jobs:
         groups.setdefault(j.args, []).append(j)
-    settings = {}
+    settings: dict[tuple[str, ...], SelfcalSettings | KinematicSettings] = {}
     for args, group in groups.items():
         where = where_of(group[0])
         ctx = _parse(args, group[0].path, where)
@@ -116,7 +118,7 @@ def _with_settings(jobs: list, where_of) -> list:
     return [replace(j, settings=settings[j.args]) for j in jobs]
 
 
-def _jobs(source: str, args: tuple[str, ...]) -> list:
+def _jobs(source: str, args: tuple[str, ...]) -> list[FleetJob]:
     """The jobs of a fleet folder or a manifest, with their settings."""
     from pathlib import Path
 
@@ -151,8 +153,8 @@ class _Once(click.Option):
         return values[-1] if values else None
 
 
-def _told(as_json: bool):
-    def told(outcome: Any, done: int, total: int) -> None:
+def _told(as_json: bool) -> Callable[[FleetOutcome, int, int], None]:
+    def told(outcome: FleetOutcome, done: int, total: int) -> None:
         if as_json or is_quiet():
             return
         mark = {"recorded": f"recorded as #{outcome.record_id}", "skipped": "already recorded"}.get(
@@ -185,7 +187,9 @@ def _told(as_json: bool):
 @click.option("--workers", type=click.IntRange(1, 512), default=2, show_default=True, help="Local cluster: processes.")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON (every recording's outcome).")
 @click.pass_context
-def fleet_cmd(ctx, source, db, scheduler, workers, as_json):
+def fleet_cmd(
+    ctx: click.Context, source: str, db: str | None, scheduler: str | None, workers: int, as_json: bool
+) -> int:
     """Self-calibrate every robot's recordings in parallel and record each once in one history.
 
     DIR holds one folder per robot (its name the robot's), each with the robot's recordings: bag

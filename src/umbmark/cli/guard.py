@@ -27,12 +27,19 @@ from __future__ import annotations
 import math
 import os
 import warnings
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import click
 
 from umbmark.errors import UmbmarkError
 from umbmark.model.geometry import Quantity, unit_slip
+
+if TYPE_CHECKING:
+    from umbmark.kinds import Size
+
+F = TypeVar("F", bound=Callable[..., Any])
 
 __all__ = ["MAX_SIZE_M", "PATH_ROLES", "ROLES", "GuardedCommand", "GuardedGroup", "check_paths", "path_roles"]
 
@@ -125,7 +132,7 @@ def path_roles(command_path: str) -> dict[str, str]:
     return PATH_ROLES.get(command_path, {})
 
 
-def _values(v) -> list[str]:
+def _values(v: object) -> list[str]:
     if v is None:
         return []
     if isinstance(v, (list, tuple)):
@@ -162,7 +169,7 @@ def _special(path: str) -> bool:
         return False
 
 
-def _db_file(value, outputs: list[str]) -> str | None:
+def _db_file(value: str | None, outputs: list[str]) -> str | None:
     """The history database file a command uses (``--db``, else ``$UMBMARK_DB``, else the
     default file; None for a database URL). The default is looked up only when an output is
     called like it (the lookup imports the history package)."""
@@ -267,7 +274,7 @@ def _slip(p: click.Parameter, v: float) -> str | None:
     return unit_slip(kind, v * (1e-3 if unit == "mm" else 1.0), unit)
 
 
-def _kind_sizes():
+def _kind_sizes() -> list[Size]:
     """Every kind's nominal sizes (:attr:`umbmark.kinds.Kind.sizes`)."""
     from umbmark.kinds import KINDS
 
@@ -279,7 +286,7 @@ def _size_message(p: click.Parameter, v: float) -> str:
     return f"must be a finite size below {MAX_SIZE_M * (1e3 if unit == 'mm' else 1.0):g} {unit}, got {v!r}"
 
 
-def _values_num(v) -> list[float]:
+def _values_num(v: Any) -> list[float]:
     if v is None:
         return []
     if isinstance(v, (list, tuple)):
@@ -358,7 +365,7 @@ class GuardedCommand(click.Command):
                         ) from None
             raise
 
-    def invoke(self, ctx: click.Context):
+    def invoke(self, ctx: click.Context) -> Any:
         absurd = self.check_params(ctx)
         skip = ctx.params.pop("skip_check", None) or ()
         ctx.meta[SKIPPED_CHECKS] = tuple(skip)  # for --write-config, which the command's callback runs
@@ -396,7 +403,7 @@ class GuardedCommand(click.Command):
                         raise click.BadParameter(slip, ctx=ctx, param=p)
         return absurd
 
-    def _invoke_absurd(self, ctx: click.Context, absurd: list[tuple[click.Parameter, float]]):
+    def _invoke_absurd(self, ctx: click.Context, absurd: list[tuple[click.Parameter, float]]) -> Any:
         # a size no robot has: the command's own checks speak first; what they do not catch
         # (an overflow deep in the numbers) is reported as that size, in one line
         with warnings.catch_warnings(record=True) as caught:
@@ -427,7 +434,7 @@ SKIPPED_CHECKS = "umbmark.skip_check"
 callback does not receive them: they are applied around it)."""
 
 
-def skip_check_option(f):
+def skip_check_option(f: F) -> F:
     """Add ``--skip-check CHECK`` (repeatable) to a command that reads recordings: the named
     plausibility checks (:data:`umbmark._check.CHECKS`) let the data through
     (:class:`GuardedCommand` applies it around the command)."""

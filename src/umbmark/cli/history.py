@@ -27,7 +27,9 @@ from __future__ import annotations
 
 import functools
 import sys
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, TypeVar, cast
 
 import click
 
@@ -42,6 +44,13 @@ from umbmark.cli.app import (
 )
 from umbmark.cli.command_config import HistoryConfig
 from umbmark.cli.config import option_of
+
+if TYPE_CHECKING:
+    from umbmark.history import AnalysisLike, Record
+    from umbmark.model.geometry import Calibration
+    from umbmark.realrobot.results import MultiReplayReport, PooledReport, ReplayReport
+
+F = TypeVar("F", bound=Callable[..., Any])
 
 __all__ = [
     "history_options",
@@ -87,7 +96,7 @@ def _when() -> str | None:
     return None if ctx is None else ctx.find_root().meta.get(_RECORDED_AT)
 
 
-def history_options(f):
+def history_options(f: F) -> F:
     """Add ``--robot NAME``, ``--record`` and ``--db PATH`` to a click command.
 
     Parameters
@@ -102,7 +111,7 @@ def history_options(f):
     """
 
     @functools.wraps(f)
-    def wrapper(*args, **kwargs):
+    def wrapper(*args: Any, **kwargs: Any) -> Any:
         if kwargs.get("record") and not kwargs.get("robot"):
             raise click.UsageError("--record needs --robot NAME (the robot whose history gets the result)")
         when = kwargs.pop("recorded_at", None)
@@ -130,11 +139,20 @@ def history_options(f):
     wrapper = _option("--robot", metavar="NAME", help="Robot name, for the calibration history (see --record).")(
         wrapper
     )
-    return wrapper
+    return cast(F, wrapper)
 
 
 def record_if_requested(
-    robot, record, db, *, analysis=None, kind: str = "analyze", source=None, prior=None, note=None, **fields
+    robot: str | None,
+    record: bool,
+    db: str | None,
+    *,
+    analysis: AnalysisLike | None = None,
+    kind: str = "analyze",
+    source: str | Path | None = None,
+    prior: Calibration | None = None,
+    note: str | None = None,
+    **fields: Any,
 ) -> dict | None:
     """Record a result in the robot's history when ``--record`` was given.
 
@@ -157,6 +175,7 @@ def record_if_requested(
     """
     if not record:
         return None
+    assert robot is not None  # --record needs --robot (history_options)
     from umbmark.history import display_db, record_analysis, record_result, resolve_db
 
     path = resolve_db(db)
@@ -169,17 +188,34 @@ def record_if_requested(
     return {"record_id": rid, "robot": robot, "db": display_db(path)}
 
 
-def refuse_if_recorded(robot, record, db, *, kind: str, method: str, paths, each: bool = False) -> None:
+def refuse_if_recorded(
+    robot: str | None,
+    record: bool,
+    db: str | None,
+    *,
+    kind: str,
+    method: str,
+    paths: Iterable[str | Path],
+    each: bool = False,
+) -> None:
     """With ``--record``: refuse, before the command computes anything, inputs the robot's history
     holds already (:func:`umbmark.history.refuse_recorded`; ``each``: one record per input)."""
     if record:
         from umbmark.history import refuse_recorded, resolve_db
 
+        assert robot is not None  # --record needs --robot (history_options)
         refuse_recorded(robot, kind=kind, method=method, paths=list(paths), each=each, db=resolve_db(db))
 
 
 def record_report_if_requested(
-    robot, record, db, rep, paths, *, kind: str = "replay", method: str | None = None
+    robot: str | None,
+    record: bool,
+    db: str | None,
+    rep: ReplayReport | MultiReplayReport | PooledReport | dict,
+    paths: Sequence[str | Path],
+    *,
+    kind: str = "replay",
+    method: str | None = None,
 ) -> list[dict] | None:
     """Record a replay report when ``--record`` was given: one record per data set.
 
@@ -211,7 +247,7 @@ def record_report_if_requested(
     return [r for r in records if r is not None]
 
 
-def print_recorded(rec) -> None:
+def print_recorded(rec: dict | list[dict] | list[dict | None] | None) -> None:
     """Print one line per record unless ``--quiet``.
 
     Parameters
@@ -261,7 +297,15 @@ def print_recorded(rec) -> None:
     help="Print one record in full (inputs and results) as JSON.",
 )
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
-def history_cmd(robot, db, plot_path, export_path, limit, show_id, as_json):
+def history_cmd(
+    robot: str | None,
+    db: str | None,
+    plot_path: str | None,
+    export_path: str | None,
+    limit: int | None,
+    show_id: int | None,
+    as_json: bool,
+) -> None:
     """List the recorded calibrations (all robots, or one robot's history).
 
     Results get into the history with --robot NAME --record on analyze (and replay, calibrate).
@@ -336,7 +380,7 @@ def print_warnings(warnings: list[str]) -> None:
         click.echo(f"warning: {cli_message(w)}", err=True)
 
 
-def _print_robots(db_path, robots: list[dict]) -> None:
+def _print_robots(db_path: str | Path, robots: list[dict]) -> None:
     """The robots of a history (:meth:`History.robots`) as a table."""
     rows = [
         [
@@ -359,7 +403,7 @@ def _print_robots(db_path, robots: list[dict]) -> None:
     )
 
 
-def _print_records(robot: str, recs, plot_path, exported) -> None:
+def _print_records(robot: str, recs: Sequence[Record], plot_path: str | None, exported: str | None) -> None:
     """One robot's records as a table, and the files written."""
     from rich.markup import escape
     from rich.table import Table

@@ -13,7 +13,7 @@ result's ``to_dict()`` or a table made from it.
 from __future__ import annotations
 
 import shlex
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Sequence
 from typing import TYPE_CHECKING, Any, TypeVar
 
 import click
@@ -49,7 +49,7 @@ __all__ = [
 ]
 
 
-def _nouns(kinds, possessive: bool = False) -> str:
+def _nouns(kinds: Iterable[Kind], possessive: bool = False) -> str:
     """``a tricycle or mecanum robot`` (``a tricycle's or mecanum robot's``)."""
     s = "'s" if possessive else ""
     return "a " + " or ".join(f"{k.noun}{s}" for k in kinds)
@@ -105,7 +105,7 @@ def kinematic_options(f: F) -> F:
     return f
 
 
-def joint_options(f):
+def joint_options(f: F) -> F:
     """The options naming the joints of the kinds that the differential drive's ``--joints`` does not
     (``--drive-joint``, ``--steer-joint``), for a command that takes the kind from its input
     (``umbmark validate``: the calibration's)."""
@@ -266,7 +266,7 @@ def kinematic_selfcal_cmd(paths: tuple[str, ...], cfg: SelfcalConfig, window_s: 
     print_recorded(rec)
 
 
-def _ci(lo_hi, digits: int) -> str:
+def _ci(lo_hi: Sequence[float] | None, digits: int) -> str:
     return "fixed" if lo_hi is None else f"{lo_hi[0]:.{digits}f} to {lo_hi[1]:.{digits}f}"
 
 
@@ -294,7 +294,7 @@ def _rows(d: dict) -> list[list[str]]:
     ]
 
 
-def _print(d: dict, save) -> None:
+def _print(d: dict, save: str | None) -> None:
     from rich.markup import escape
 
     c = console()
@@ -346,7 +346,15 @@ def _replay_keep() -> set[str]:
     return _REPLAY_KEEP | {name for k in KINDS.values() for name in k.option_names()}
 
 
-def kinematic_replay_cmd(kind: str, paths, method: str, save, as_json, record, kw) -> None:
+def kinematic_replay_cmd(
+    kind: str,
+    paths: tuple[str, ...],
+    method: str,
+    save: str | None,
+    as_json: bool,
+    record: bool,
+    kw: dict[str, Any],
+) -> None:
     """Run ``umbmark replay --kinematics KIND``: the geometry and the marker's pose against the
     bag's ground truth (least squares along the path)."""
     from umbmark.cli.options import kinematic_joints, kinematic_nominal

@@ -5,11 +5,19 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from umbmark.kinds import Kind
+    from umbmark.model.kinematics import Kinematics
+    from umbmark.studies.kinematic import DrawnRobot
 
 __all__ = ["selfcal_args", "car_selfcal_args"]
 
 
-def selfcal_args(drawn, bag) -> list[str]:
+def selfcal_args(drawn: DrawnRobot, bag: str | Path) -> list[str]:
     """The arguments of ``umbmark selfcal`` for the drawn robot's bag (the pinned interface, with the
     URDF's guess of the lidar as the matching's start): its kind's joint flags with the simulated
     joints' names (:attr:`umbmark.kinds.Kind.sim_joints`) and its nominal sizes' flags."""
@@ -22,7 +30,7 @@ def selfcal_args(drawn, bag) -> list[str]:
     return args + ["--sensor-pose", f"{x * 1e3:.3f},{y * 1e3:.3f},{math.degrees(yaw):.4f}", "--json"]
 
 
-def car_selfcal_args(name: str, bag, source: str = "joints") -> list[str]:
+def car_selfcal_args(name: str, bag: str | Path, source: str = "joints") -> list[str]:
     """The arguments of ``umbmark selfcal`` for a simulated car's bag
     (:data:`umbmark.studies.cars.CARS`) with ``--fit-steering-scale``: from its joints (its kind's
     joint flags) or from ``/odom`` (``source``), with its nominal sizes' flags."""
@@ -37,7 +45,7 @@ def car_selfcal_args(name: str, bag, source: str = "joints") -> list[str]:
     return args + ["--fit-steering-scale", "--json"]
 
 
-def _joint_flags(kind, names) -> list[str]:
+def _joint_flags(kind: Kind, names: Iterable[str]) -> list[str]:
     """A kind's joint flags naming the joints ``names`` (in its roles' order)."""
     from umbmark.cli.options import flag
 
@@ -45,7 +53,7 @@ def _joint_flags(kind, names) -> list[str]:
     return [a for j in kind.joints for a in (flag(j.option), ",".join(next(it) for _ in j.roles))]
 
 
-def _size_flags(nominal) -> list[str]:
+def _size_flags(nominal: Kinematics) -> list[str]:
     """The nominal sizes' flags of a geometry (millimetres)."""
     from umbmark.cli.options import flag
     from umbmark.kinds import kind_of

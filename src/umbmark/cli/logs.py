@@ -7,7 +7,9 @@ command runs.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import click
 
@@ -18,12 +20,17 @@ from umbmark.cli.guard import skip_check_option
 from umbmark.cli.progress import progress, track
 from umbmark.model.defaults import TICK_MODES
 
+if TYPE_CHECKING:
+    from umbmark.model.dataset import Dataset
+
+F = TypeVar("F", bound=Callable[..., Any])
+
 __all__ = ["log_options", "datasets", "all_bags"]
 
 _option = option_of(LogConfig)
 
 
-def log_options(f):
+def log_options(f: F) -> F:
     """Add the options that describe how to read a log (geometry for formats that lack it, bag
     topics) to a click command.
 
@@ -111,14 +118,14 @@ def log_options(f):
     return f
 
 
-def _load(paths, log_format, kw):
+def _load(paths: Sequence[str], log_format: str, kw: Mapping[str, Any]) -> Dataset:
     from umbmark.cli.options import read_options
     from umbmark.io.load import load_logs
 
     return load_logs(paths, log_format, read_options(kw))
 
 
-def datasets(paths, log_format, kw):
+def datasets(paths: Iterable[str], log_format: str, kw: Mapping[str, Any]) -> list[Dataset]:
     """Each PATH is a data set, except CSV files and bags: all CSV files given form one data
     set, and so do all bags given (the runs of one test)."""
     paths = list(paths)
@@ -133,7 +140,8 @@ def datasets(paths, log_format, kw):
     return [_load([p], log_format, kw) for p in track(paths, "reading logs")]
 
 
-def all_bags(paths, log_format) -> bool:
+def all_bags(paths: Iterable[str], log_format: str) -> bool:
+    """Every path is a bag (told by its format, or by ``--format bag``)."""
     if log_format == "bag":
         return True
     if log_format != "auto":

@@ -8,9 +8,16 @@ Only the command line knows flags; the library takes these types.
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
 
 from umbmark._check import positive_or_none
 from umbmark.errors import InputError
+
+if TYPE_CHECKING:
+    from umbmark.io.load import LogOptions
+    from umbmark.io.wheels import WheelSource
+    from umbmark.model.kinematics import Kinematics
 
 __all__ = ["flag", "wheel_source", "read_options", "length_m", "given_nominal_m", "nominal_m", "parse_joints"]
 
@@ -34,7 +41,7 @@ def parse_joints(text: str) -> tuple[str, str]:
     return parts[0], parts[1]
 
 
-def wheel_source(kw: dict):
+def wheel_source(kw: Mapping[str, Any]) -> WheelSource:
     """The :class:`~umbmark.io.wheels.WheelSource` of the bag flags (``--joints``, ``--joint-topic``,
     ``--ticks-topic``, ``--left-field``, ``--right-field``, ``--ticks``,
     ``--pulses-per-wheel-rev``, ``--odom-topic``), the readers' defaults where not given."""
@@ -53,7 +60,9 @@ def wheel_source(kw: dict):
     )
 
 
-def length_m(kw: dict, mm_key: str, m_key: str, m_factor: float = 1.0, both: str = "agree") -> float | None:
+def length_m(
+    kw: Mapping[str, Any], mm_key: str, m_key: str, m_factor: float = 1.0, both: str = "agree"
+) -> float | None:
     """A length given in millimetres (``mm_key``) or in ROS's metres (``m_key``, times
     ``m_factor``: 2 for a radius given for a diameter) [m]; None when neither is given.
 
@@ -80,7 +89,7 @@ def length_m(kw: dict, mm_key: str, m_key: str, m_factor: float = 1.0, both: str
     return m * m_factor
 
 
-def given_nominal_m(kw: dict) -> tuple[float | None, float | None]:
+def given_nominal_m(kw: Mapping[str, Any]) -> tuple[float | None, float | None]:
     """The nominal wheel diameter and wheelbase [m] of ``--wheel-diameter-mm`` or ``--wheel-radius-m``
     and ``--wheelbase-mm`` or ``--wheel-separation-m`` (one form of each), None where not given.
 
@@ -94,7 +103,7 @@ def given_nominal_m(kw: dict) -> tuple[float | None, float | None]:
     return d, b
 
 
-def nominal_m(kw: dict) -> tuple[float, float]:
+def nominal_m(kw: Mapping[str, Any]) -> tuple[float, float]:
     """As :func:`given_nominal_m`, both needed.
 
     Raises
@@ -110,7 +119,7 @@ def nominal_m(kw: dict) -> tuple[float, float]:
     return d, b
 
 
-def read_options(kw: dict):
+def read_options(kw: Mapping[str, Any]) -> LogOptions:
     """The :class:`~umbmark.io.load.LogOptions` of the log flags of ``replay`` and ``convert``.
 
     Raises
@@ -142,7 +151,7 @@ def read_options(kw: dict):
     )
 
 
-def kinematic_nominal(kind: str, kw: dict):
+def kinematic_nominal(kind: str, kw: Mapping[str, Any]) -> Kinematics:
     """The nominal geometry of a robot of a kind of its own from its sizes' flags
     (:attr:`umbmark.kinds.Kind.sizes`: ``--wheel-diameter-mm`` or ``--wheel-radius-m``, a
     tricycle's ``--wheelbase-mm``, a mecanum robot's ``--lx-plus-ly-mm``).
@@ -182,7 +191,7 @@ def kinematic_nominal(kind: str, kw: dict):
     return k.nominal(sizes)
 
 
-def kinematic_joints(kind: str, kw: dict) -> tuple[str, ...]:
+def kinematic_joints(kind: str, kw: Mapping[str, Any]) -> tuple[str, ...]:
     """The joint names of a robot of a kind of its own from its joints' flags
     (:attr:`umbmark.kinds.Kind.joints`: a tricycle's ``--drive-joint`` and ``--steer-joint``, a
     mecanum robot's ``--joints FL,FR,RL,RR``), in the kind's roles' order.

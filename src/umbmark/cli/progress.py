@@ -17,8 +17,9 @@ otherwise the helpers do nothing (so pipes, files and tests see no bar)::
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable, Iterable, Iterator, Sized
 from contextlib import contextmanager
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, TypeVar
 
 from umbmark.cli.app import is_quiet
 
@@ -26,6 +27,8 @@ if TYPE_CHECKING:
     from rich.console import Console
 
 __all__ = ["progress", "track", "progress_enabled"]
+
+T = TypeVar("T")
 
 
 def _console() -> Console:
@@ -51,7 +54,7 @@ def progress_enabled(console: Console | None = None) -> bool:
 
 
 @contextmanager
-def progress(description: str, total: int | None = None):
+def progress(description: str, total: int | None = None) -> Iterator[Callable[..., None]]:
     """A bar (or a spinner when ``total`` is None) on stderr while the block runs.
 
     Parameters
@@ -87,7 +90,7 @@ def _stdout_is_terminal() -> bool:
         return False
 
 
-def track(iterable, description: str, total: int | None = None):
+def track(iterable: Iterable[T], description: str, total: int | None = None) -> Iterator[T]:
     """Iterate with a progress bar (see :func:`progress`).
 
     Parameters
@@ -104,7 +107,7 @@ def track(iterable, description: str, total: int | None = None):
     object
         The items of ``iterable``.
     """
-    if total is None and hasattr(iterable, "__len__"):
+    if total is None and isinstance(iterable, Sized):
         total = len(iterable)
     with progress(description, total) as advance:
         for item in iterable:

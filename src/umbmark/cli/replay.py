@@ -10,13 +10,17 @@ before the command runs.
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import click
 
 if TYPE_CHECKING:
+    from umbmark.model.dataset import Dataset
+    from umbmark.realrobot.gyro import GyroReference
     from umbmark.realrobot.results import MultiReplayReport, PooledReport, ReplayReport
+    from umbmark.realrobot.scan_truth import ScanTruth
 
 from umbmark.cli.app import app, cli_message, emit_json, is_quiet
 from umbmark.cli.command_config import ReplayConfig
@@ -249,7 +253,9 @@ def replay(paths: tuple[str, ...], **params: Any) -> None:
         print_replay(rep, rec, scan_truth, gyro, d.get("windows"), noise_fits)
 
 
-def _calibrate_sets(sets, method, pool, lsq_opts, heldout) -> ReplayReport | MultiReplayReport | PooledReport:
+def _calibrate_sets(
+    sets: list[Dataset], method: str, pool: bool, lsq_opts: dict[str, Any], heldout: bool
+) -> ReplayReport | MultiReplayReport | PooledReport:
     """The data sets replayed and calibrated: pooled (``--pool``, lsq) or each on its own."""
     from umbmark.realrobot.replay import pooled_report, replay_report
 
@@ -265,7 +271,7 @@ def _calibrate_sets(sets, method, pool, lsq_opts, heldout) -> ReplayReport | Mul
     return rep
 
 
-def _window_s(window, kinematics, pool, stream, noise=False) -> float | None:
+def _window_s(window: str | None, kinematics: str, pool: bool, stream: bool, noise: bool = False) -> float | None:
     """``--window``'s length [s], or None; ``--window`` and ``--noise`` refused with the options
     they do not go with."""
     for asked, name in ((window is not None, "--window"), (noise, "--noise")):
@@ -283,9 +289,20 @@ def _window_s(window, kinematics, pool, stream, noise=False) -> float | None:
     return window_seconds(window)
 
 
-def _replay_extras(d, sets, rep, asked, calibration, paths, history) -> tuple[list | None, list | None]:
+def _replay_extras(
+    d: dict[str, Any],
+    sets: list[Dataset],
+    rep: ReplayReport | MultiReplayReport | PooledReport,
+    asked: tuple[float | None, bool],
+    calibration: tuple[str, dict[str, Any], bool],
+    paths: list[str],
+    history: tuple[str | None, bool, str | None],
+) -> tuple[list | None, list | None]:
     """``--window`` and ``--noise``: the windows calibrated (recorded when asked) and the noise
-    estimated, into the JSON ``d``; the windows' records and the noise's fits (or None)."""
+    estimated, into the JSON ``d``; the windows' records and the noise's fits (or None). ``asked``
+    is the window's length [s] and whether the noise is asked; ``calibration`` the method, the
+    least squares' options and whether the held-out figures are; ``history`` ``--robot``,
+    ``--record``, ``--db``."""
     (window_s, noise), (method, lsq_opts, heldout) = asked, calibration
     rec, fits = None, None
     if noise:
@@ -301,7 +318,7 @@ def _replay_extras(d, sets, rep, asked, calibration, paths, history) -> tuple[li
     return rec, fits
 
 
-def _json_warnings(d) -> list[str]:
+def _json_warnings(d: object) -> list[str]:
     """Every ``warnings`` entry of a replay's JSON, its data sets' and blocks' included, in order."""
     out: list[str] = []
     if isinstance(d, dict):
@@ -316,7 +333,7 @@ def _json_warnings(d) -> list[str]:
     return out
 
 
-def _scan_truth(paths, log_format, kw):
+def _scan_truth(paths: tuple[str, ...], log_format: str, kw: dict[str, Any]) -> tuple[list[Dataset], ScanTruth]:
     """``replay --gt-scan-topic``: the data sets with each run's end pose measured by the lidar."""
     from umbmark.cli.options import wheel_source
     from umbmark.realrobot.scan_truth import attach_scan_truth, check_sensor_pose, parse_sensor_pose
@@ -337,7 +354,9 @@ def _scan_truth(paths, log_format, kw):
         return attach_scan_truth(sets, topic, sensor_pose=pose, sensor_pose_source=pose_src, wheels=wheel_source(kw))
 
 
-def _with_warnings(rep, warnings):
+def _with_warnings(
+    rep: ReplayReport | MultiReplayReport | PooledReport, warnings: Sequence[str]
+) -> ReplayReport | MultiReplayReport | PooledReport:
     """A replay report with more warnings first (each data set's report of several)."""
     from dataclasses import replace
 
@@ -348,13 +367,19 @@ def _with_warnings(rep, warnings):
     if isinstance(rep, ReplayReport):
         return replace(rep, warnings=tuple(warnings) + tuple(rep.warnings))
     if isinstance(rep, MultiReplayReport):
-        return replace(rep, reports=tuple(_with_warnings(r, warnings) for r in rep.reports))
+        return replace(
+            rep, reports=tuple(replace(r, warnings=tuple(warnings) + tuple(r.warnings)) for r in rep.reports)
+        )
     for w in warnings:  # a pooled report has no warnings of its own
         click.echo(f"umbmark: warning: {cli_message(w)}", err=True)
     return rep
 
 
-def _report_dict(rep, scan_truth, gyro=None) -> dict:
+def _report_dict(
+    rep: ReplayReport | MultiReplayReport | PooledReport,
+    scan_truth: ScanTruth | None,
+    gyro: GyroReference | None = None,
+) -> dict:
     """The JSON of a replay report, with the lidar ground truth's ``scan_truth`` block and the
     gyro's ``gyro`` block."""
     d = rep.to_dict()
@@ -365,7 +390,7 @@ def _report_dict(rep, scan_truth, gyro=None) -> dict:
     return d
 
 
-def _gyro(paths, log_format, kw):
+def _gyro(paths: tuple[str, ...], log_format: str, kw: dict[str, Any]) -> GyroReference:
     """``replay --imu-topic``: the gyro's effective wheelbase (and scale) from the bags' turns."""
     from umbmark.cli.options import read_options
     from umbmark.io.load import nominal_geometry
@@ -394,7 +419,13 @@ def _gyro(paths, log_format, kw):
     return gyro_reference(bags, nominal, full_turns=bool(kw.get("full_turns")), scans=scans, sensor_pose=pose)
 
 
-def _emit_gyro(gyro, save, as_json, history, paths) -> None:
+def _emit_gyro(
+    gyro: GyroReference,
+    save: str | None,
+    as_json: bool,
+    history: tuple[str | None, bool, str | None],
+    paths: list[str],
+) -> None:
     """``replay --imu-topic`` without a ground truth: the gyro's block alone (recorded with
     ``--robot NAME --record``)."""
     from umbmark.history import file_sha256
@@ -414,7 +445,14 @@ def _emit_gyro(gyro, save, as_json, history, paths) -> None:
         print_recorded(rec)
 
 
-def _stream(paths, log_format, decimate, poses_out, as_json, kw) -> None:
+def _stream(
+    paths: tuple[str, ...],
+    log_format: str,
+    decimate: int | None,
+    poses_out: str | None,
+    as_json: bool,
+    kw: dict[str, Any],
+) -> None:
     """``replay --stream``: one long CSV log in bounded memory (no calibration)."""
     from umbmark.cli.options import read_options
     from umbmark.realrobot.replay import stream_log

@@ -9,9 +9,16 @@ is imported before a command runs.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any
 
 from umbmark.cli.app import cli_message, console, fmt, table
 from umbmark.cli.history import print_recorded
+
+if TYPE_CHECKING:
+    from umbmark.realrobot.gyro import GyroReference
+    from umbmark.realrobot.results import MultiReplayReport, PooledReport, ReplayReport, StreamReport
+    from umbmark.realrobot.scan_truth import ScanTruth
 
 __all__ = ["print_replay", "print_stream", "print_gyro"]
 
@@ -20,19 +27,19 @@ def _mm(v: float | None) -> float | None:
     return None if v is None else v * 1e3
 
 
-def _escape(text) -> str:
+def _escape(text: object) -> str:
     from rich.markup import escape
 
     return escape(str(text))
 
 
-def _print_report(rep) -> None:
+def _print_report(rep: ReplayReport) -> None:
     """A :class:`~umbmark.realrobot.results.ReplayReport` as tables."""
     c = console()
     sq = rep.kind == "square"
+    path = f"square {rep.side_m * 1e3:.0f} mm" if sq and rep.side_m is not None else "general path"
     c.print(
-        f"[bold]{_escape(rep.dataset)}[/bold] ({rep.format}, {len(rep.runs)} runs, "
-        f"{'square ' + format(rep.side_m * 1e3, '.0f') + ' mm' if sq else 'general path'}), method "
+        f"[bold]{_escape(rep.dataset)}[/bold] ({rep.format}, {len(rep.runs)} runs, {path}), method "
         f"[bold]{_escape(rep.method)}[/bold]"
     )
     h = rep.heldout.summary if rep.heldout is not None else None
@@ -85,11 +92,11 @@ def _print_report(rep) -> None:
     if lsq is not None:
         c.print(f"scale: {lsq.scale_reason}")
         if lsq.marker_offset_m is not None and lsq.marker_offset_std_m is not None:
-            o = [v * 1e3 for v in lsq.marker_offset_m]
-            e = [v * 1e3 for v in lsq.marker_offset_std_m]
+            off = [v * 1e3 for v in lsq.marker_offset_m]
+            err = [v * 1e3 for v in lsq.marker_offset_std_m]
             c.print(
-                f"tracked point offset from the axle midpoint: x {o[0]:.1f} +- {e[0]:.1f} mm, "
-                f"y {o[1]:.1f} +- {e[1]:.1f} mm (robot frame)"
+                f"tracked point offset from the axle midpoint: x {off[0]:.1f} +- {err[0]:.1f} mm, "
+                f"y {off[1]:.1f} +- {err[1]:.1f} mm (robot frame)"
             )
         s = rep.std
         if s is not None:
@@ -115,7 +122,7 @@ def _print_report(rep) -> None:
         c.print(f"[yellow]warning:[/yellow] {escape(cli_message(w))}")
 
 
-def _print_pooled(rep) -> None:
+def _print_pooled(rep: PooledReport) -> None:
     """A :class:`~umbmark.realrobot.results.PooledReport` as a table and a line."""
     c = console()
     rows = [
@@ -135,6 +142,7 @@ def _print_pooled(rep) -> None:
         )
     )
     g, cal = rep.calibration.geometry, rep.calibration
+    assert cal.lsq is not None  # a pooled fit is the least squares'
     c.print(
         f"D_L = {g.diameter_left_m * 1e3:.3f} mm, D_R = {g.diameter_right_m * 1e3:.3f} mm, wheelbase = "
         f"{g.wheelbase_m * 1e3:.3f} mm, E_d = {cal.ed:.6f}, "
@@ -142,7 +150,7 @@ def _print_pooled(rep) -> None:
     )
 
 
-def _print_across(rep) -> None:
+def _print_across(rep: MultiReplayReport) -> None:
     """The across-data-set rows of a :class:`~umbmark.realrobot.results.MultiReplayReport`."""
     rows = [
         [a.calibrated_on, a.evaluated_on, fmt(_mm(a.evaluation.emax_syst_m)), fmt(_mm(a.evaluation.end_position_rms_m))]
@@ -157,7 +165,7 @@ def _print_across(rep) -> None:
     )
 
 
-def print_stream(rep) -> None:
+def print_stream(rep: StreamReport) -> None:
     """A :class:`~umbmark.realrobot.results.StreamReport` as a table and lines."""
     e, g = rep.end_pose, rep.end_truth or (None, None, None)
     rows = [
@@ -177,11 +185,18 @@ def print_stream(rep) -> None:
         f"end position error {fmt(_mm(rep.end_position_error_m))} mm, along-path position RMS "
         f"{fmt(_mm(rep.path_position_rms_m))} mm"
     )
-    if rep.poses_out is not None:
+    if rep.poses_out is not None and rep.kept is not None:
         c.print(f"wrote {len(rep.kept)} poses to {rep.poses_out}", markup=False, soft_wrap=True)
 
 
-def print_replay(rep, rec, scan_truth, gyro, windows=None, noise_fits=None) -> None:
+def print_replay(
+    rep: ReplayReport | MultiReplayReport | PooledReport,
+    rec: dict | list | None,
+    scan_truth: ScanTruth | None,
+    gyro: GyroReference | None,
+    windows: list[dict[str, Any]] | None = None,
+    noise_fits: list[tuple[str, dict[str, Any]]] | None = None,
+) -> None:
     """A replay's report as tables: a pooled fit, one data set's or several's; the lidar's and
     the gyro's lines; the noise's and the windows' tables."""
     from umbmark.realrobot.results import MultiReplayReport, PooledReport
@@ -211,7 +226,7 @@ def print_replay(rep, rec, scan_truth, gyro, windows=None, noise_fits=None) -> N
         print_replay_windows(windows)
 
 
-def _print_scan_truth(st) -> None:
+def _print_scan_truth(st: ScanTruth) -> None:
     """One line on how the lidar measured the runs."""
     kept = [r for r in st.runs if r.displacement is not None]
     x, y, yaw = st.sensor_pose
@@ -226,11 +241,11 @@ def _print_scan_truth(st) -> None:
     console().print(line)
 
 
-def print_gyro(g) -> None:
+def print_gyro(g: GyroReference) -> None:
     """The gyro's verdict as a table and lines."""
     from rich.markup import escape
 
-    def ci(p, f, k=1.0):
+    def ci(p: Sequence[float] | None, f: Callable[[float], str], k: float = 1.0) -> str:
         return "-" if p is None else f"{f(p[0] * k)} .. {f(p[1] * k)}"
 
     rows = [

@@ -7,6 +7,7 @@ writes the page.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from pathlib import Path
 
 import click
@@ -74,22 +75,22 @@ __all__ = ["report_cmd"]
 @click.option("--db", type=click.Path(dir_okay=False), default=None, help="History database (see umbmark history).")
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON summary.")
 def report_cmd(
-    runs_file,
-    out_path,
-    wheelbase_mm,
-    side_mm,
-    method,
-    c_left,
-    c_right,
-    after_file,
-    attach,
-    n_boot,
-    seed,
-    robot,
-    record_id,
-    db,
-    as_json,
-):
+    runs_file: str | None,
+    out_path: str,
+    wheelbase_mm: float | None,
+    side_mm: float | None,
+    method: str,
+    c_left: float,
+    c_right: float,
+    after_file: str | None,
+    attach: tuple[str, ...],
+    n_boot: int | None,
+    seed: int,
+    robot: str | None,
+    record_id: int | None,
+    db: str | None,
+    as_json: bool,
+) -> None:
     """Write a self-contained HTML report (figures embedded): one analysis, or one robot's history.
 
     With FILE.csv: the UMBmark numbers with 95 % intervals, the scatter (before and, with
@@ -130,6 +131,7 @@ def report_cmd(
                 raise click.UsageError("give either FILE.csv or --id, not both")
             a = _record_analysis(record_id, db)
         else:
+            assert runs_file is not None  # neither given: the history's page above
             a = _file_analysis(runs_file, wheelbase_mm, side_mm, method, c_left, c_right, robot)
         summary = _analysis_page(a, out_path, after_file, attach, n_boot, seed)
     if as_json:
@@ -140,7 +142,7 @@ def report_cmd(
         console().print(escape(f"report: {out_path}"))
 
 
-def _result_input(runs_file, record_id, db) -> dict | None:
+def _result_input(runs_file: str | None, record_id: int | None, db: str | None) -> dict | None:
     """A self-calibration, calibration loop or gyro result to report: its JSON, ``kind``
     (``selfcal``, ``calibrate`` or ``gyro``) and where it came from; None for another kind (an
     analysis, a replay: the runs readers take those)."""
@@ -150,7 +152,7 @@ def _result_input(runs_file, record_id, db) -> dict | None:
     from umbmark.viz.result_pages import is_calibrate_result, is_gyro_result
     from umbmark.viz.selfcal_report import is_selfcal_result
 
-    def is_selfcal(d) -> bool:  # a self-calibration of any kind of robot
+    def is_selfcal(d: object) -> bool:  # a self-calibration of any kind of robot
         return is_selfcal_result(d) or is_kind_selfcal_result(d)
 
     if record_id is not None:
@@ -169,7 +171,7 @@ def _result_input(runs_file, record_id, db) -> dict | None:
         label = f"record #{rec.id} of {rec.created_utc[:16].replace('T', ' ')} UTC"
         return {"d": rec.results, "kind": kind, "source": None, "sha": rec.input_sha256, "robot": rec.robot,
                 "label": label}  # fmt: skip
-    if not _is_json(runs_file):
+    if runs_file is None or not _is_json(runs_file):
         return None
     try:
         d = json.loads(Path(runs_file).read_text(encoding="utf-8"))
@@ -191,7 +193,7 @@ def _result_input(runs_file, record_id, db) -> dict | None:
     }
 
 
-def _other_page(r: dict, out_path, robot) -> dict:
+def _other_page(r: dict, out_path: str, robot: str | None) -> dict:
     """Write the HTML page of a calibration loop or a gyro result; the JSON summary."""
     from umbmark.io.atomic import atomic_write
     from umbmark.viz.result_pages import calibrate_page, gyro_page
@@ -208,7 +210,7 @@ def _other_page(r: dict, out_path, robot) -> dict:
     return {"out": out_path, "kind": r["kind"]}
 
 
-def _selfcal_page(sc: dict, out_path, attach, robot) -> dict:
+def _selfcal_page(sc: dict, out_path: str, attach: tuple[str, ...], robot: str | None) -> dict:
     """Write the HTML page of a self-calibration (of any kind of robot); the JSON summary: a
     differential drive's diameters and wheelbase, or another kind's ``kinematics`` and geometry."""
     from umbmark.io.atomic import atomic_write
@@ -282,7 +284,7 @@ def _load_commands(source: str | None, kind: str = "selfcal", controller: str | 
     return text
 
 
-def _attached(attach) -> dict[str, str]:
+def _attached(attach: Iterable[str]) -> dict[str, str]:
     """File name -> text of the files given with --attach."""
     exported = {}
     for f in attach:
@@ -296,7 +298,7 @@ def _attached(attach) -> dict[str, str]:
     return exported
 
 
-def _history_page(robot: str, db, out_path) -> dict:
+def _history_page(robot: str, db: str | None, out_path: str) -> dict:
     """Write the HTML page of one robot's history; the JSON summary."""
     from umbmark.history import open_history
     from umbmark.io.atomic import atomic_write
@@ -313,7 +315,7 @@ def _history_page(robot: str, db, out_path) -> dict:
     return {"out": out_path, "robot": robot, "records": len(recs), "warnings": warnings}
 
 
-def _record_analysis(record_id: int, db) -> dict:
+def _record_analysis(record_id: int, db: str | None) -> dict:
     """What a report of a recorded analysis needs: its runs and inputs, the prior it ran with."""
     from umbmark.history import open_history, runs_from_rows
     from umbmark.model.geometry import Calibration
@@ -358,7 +360,7 @@ def _record_analysis(record_id: int, db) -> dict:
     }
 
 
-def _is_json(path) -> bool:
+def _is_json(path: str) -> bool:
     """Whether a file holds JSON (a replay result) rather than a runs table."""
     try:
         with open(path, "rb") as f:
@@ -368,7 +370,7 @@ def _is_json(path) -> bool:
     return head.startswith(b"{")
 
 
-def _any_json(path) -> bool:
+def _any_json(path: str) -> bool:
     """Whether a file (of at most a megabyte) is JSON of any shape (``[]``, ``null``, ``"x"``)."""
     import json
 
@@ -382,7 +384,7 @@ def _any_json(path) -> bool:
     return True
 
 
-def _geometry_flags(wheelbase_mm, side_mm, c_left, c_right) -> list[str]:
+def _geometry_flags(wheelbase_mm: float | None, side_mm: float | None, c_left: float, c_right: float) -> list[str]:
     """The geometry and calibration flags given (a saved result holds its own)."""
     return [
         flag
@@ -396,7 +398,15 @@ def _geometry_flags(wheelbase_mm, side_mm, c_left, c_right) -> list[str]:
     ]
 
 
-def _replay_file_analysis(runs_file, wheelbase_mm, side_mm, method, c_left, c_right, robot) -> dict:
+def _replay_file_analysis(
+    runs_file: str,
+    wheelbase_mm: float | None,
+    side_mm: float | None,
+    method: str,
+    c_left: float,
+    c_right: float,
+    robot: str | None,
+) -> dict:
     """What a report of a replay result (``replay --save``) needs (as :func:`_record_analysis`)."""
     from umbmark.history import file_sha256
     from umbmark.io._text import parse_json
@@ -432,7 +442,15 @@ def _replay_file_analysis(runs_file, wheelbase_mm, side_mm, method, c_left, c_ri
     }
 
 
-def _file_analysis(runs_file, wheelbase_mm, side_mm, method, c_left, c_right, robot) -> dict:
+def _file_analysis(
+    runs_file: str,
+    wheelbase_mm: float | None,
+    side_mm: float | None,
+    method: str,
+    c_left: float,
+    c_right: float,
+    robot: str | None,
+) -> dict:
     """What a report of a runs file or of a replay result needs (as :func:`_record_analysis`)."""
     from umbmark.history import file_sha256
     from umbmark.io.runs_csv import read_runs_csv
@@ -466,7 +484,9 @@ def _file_analysis(runs_file, wheelbase_mm, side_mm, method, c_left, c_right, ro
     }
 
 
-def _analysis_page(a: dict, out_path, after_file, attach, n_boot, seed) -> dict:
+def _analysis_page(
+    a: dict, out_path: str, after_file: str | None, attach: tuple[str, ...], n_boot: int | None, seed: int
+) -> dict:
     """Analyse the runs of ``a``, write the HTML page; the JSON summary."""
     from umbmark._files import same_inputs
     from umbmark.cli.progress import progress

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import click
 
 from umbmark.cli.app import (
@@ -16,6 +18,11 @@ from umbmark.cli.app import (
 )
 from umbmark.cli.progress import progress
 from umbmark.cli.scaleout import scale_options
+
+if TYPE_CHECKING:
+    from rich.console import Console
+
+    from umbmark.studies.reproduce import Study, StudyConfig
 
 __all__ = ["reproduce_cmd", "DEFAULT_SEEDS"]
 
@@ -91,20 +98,20 @@ DEFAULT_SEEDS = 200
 @scale_options
 @click.option("--json", "as_json", is_flag=True, help="Print one JSON object.")
 def reproduce_cmd(
-    seed,
-    seeds,
-    n_runs,
-    sample_period_ms,
-    quantise,
-    tape_thickness_mm,
-    variation,
-    no_pitfall,
-    report_dir,
-    exaggerate,
-    workers,
-    dask,
-    as_json,
-):
+    seed: int,
+    seeds: int,
+    n_runs: int,
+    sample_period_ms: float,
+    quantise: bool,
+    tape_thickness_mm: float,
+    variation: float,
+    no_pitfall: bool,
+    report_dir: str | None,
+    exaggerate: float,
+    workers: int | None,
+    dask: str | None,
+    as_json: bool,
+) -> None:
     """Reproduce the paper's section 5 in simulation: Table I (eight experiments, the 3 x SEM
     rule and the second compensation pass), its distribution over many seeds, and the
     uni-directional pitfall of section 3.1.
@@ -134,7 +141,7 @@ def reproduce_cmd(
     with progress(f"simulating {seeds} seeds x 8 experiments", total=seeds) as advance:
         shown = 0
 
-        def on_progress(done, _total):  # seeds done so far -> advance the bar by the new ones
+        def on_progress(done: int, _total: int) -> None:  # seeds done so far -> advance the bar by the new ones
             nonlocal shown
             advance(done - shown)
             shown = done
@@ -158,7 +165,7 @@ def reproduce_cmd(
     _print(study, d)
 
 
-def _command(cfg, seeds, quantise, no_pitfall) -> str:
+def _command(cfg: StudyConfig, seeds: int, quantise: bool, no_pitfall: bool) -> str:
     from umbmark.studies import reproduce as rep
 
     parts = ["umbmark reproduce", f"--seed {cfg.seed}", f"--seeds {seeds}"]
@@ -177,7 +184,7 @@ def _command(cfg, seeds, quantise, no_pitfall) -> str:
     return " ".join(parts)
 
 
-def _print(study, d):
+def _print(study: Study, d: dict) -> None:
     """The human output of ``umbmark reproduce``: Table I, the distribution, the second passes, the pitfall."""
     c = console()
     _print_table_i(c, d)
@@ -196,7 +203,7 @@ def _print(study, d):
         c.print(f"report: {d['report']}", markup=False, soft_wrap=True)
 
 
-def _print_table_i(c, d):
+def _print_table_i(c: Console, d: dict) -> None:
     """Table I of the first seed, the paper's numbers in brackets."""
     from umbmark.studies import reproduce as rep
 
@@ -238,7 +245,7 @@ def _print_table_i(c, d):
     )
 
 
-def _print_distribution(c, d):
+def _print_distribution(c: Console, d: dict) -> None:
     """Medians and percentiles over all seeds, the second-pass share and the spread."""
     from umbmark.studies import reproduce as rep
 
@@ -269,7 +276,7 @@ def _print_distribution(c, d):
     )
 
 
-def _print_second_passes(c, d):
+def _print_second_passes(c: Console, d: dict) -> None:
     """The first experiments where the 3 x SEM rule called for a second pass."""
     ex = d["second_pass_examples"]
     if ex:
@@ -301,7 +308,7 @@ def _print_second_passes(c, d):
         )
 
 
-def _print_pitfall(c, d):
+def _print_pitfall(c: Console, d: dict) -> None:
     """The uni-directional pitfall, when the study has it."""
     if "pitfall" in d:
         p = d["pitfall"]

@@ -5,12 +5,17 @@ such as tcp://host:8786, or ``local``). Use ``@scale_options`` on a command; it 
 
 from __future__ import annotations
 
+from collections.abc import Callable
+from typing import Any, TypeVar
+
 import click
 
 __all__ = ["scale_options"]
 
+F = TypeVar("F", bound=Callable[..., Any])
 
-def scale_options(f):
+
+def scale_options(f: F) -> F:
     """Add ``--workers N`` and ``--dask ADDRESS`` to a command (see the module docstring).
 
     Parameters

@@ -12,7 +12,7 @@ from __future__ import annotations
 import functools
 import math
 import shlex
-from collections.abc import Callable, Collection
+from collections.abc import Callable, Collection, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -51,7 +51,7 @@ LEGEND = (
 )
 
 
-def _next_command(paths, save, d_m, b_m, flags: list[str]) -> tuple[str, str]:
+def _next_command(paths: Sequence[str], save: str | None, d_m: float, b_m: float, flags: list[str]) -> tuple[str, str]:
     """The command that saves this result (when it was not saved), and the export command."""
     q = shlex.quote
     cal = save or "selfcal.json"
@@ -75,7 +75,7 @@ def _delay_text(d: dict) -> str:
     )
 
 
-def _ci(lo_hi, digits: int) -> str:
+def _ci(lo_hi: Sequence[float], digits: int) -> str:
     return f"{lo_hi[0]:.{digits}f} to {lo_hi[1]:.{digits}f}"
 
 

@@ -8,13 +8,16 @@ import re
 from collections.abc import Callable
 from datetime import datetime
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import click
 
 from umbmark.cli.app import console, fmt, table
 from umbmark.cli.history import _when, record_if_requested
 from umbmark.errors import InputError
+
+if TYPE_CHECKING:
+    from umbmark.kinds import Kind
 
 __all__ = ["window_seconds", "selfcal_windows_cmd", "record_windows"]
 
@@ -38,7 +41,9 @@ def window_seconds(text: str) -> float:
     return s
 
 
-def selfcal_windows_cmd(rep: Any, window_s: float, opts: dict, robot, record, db) -> tuple[list[dict], list]:
+def selfcal_windows_cmd(
+    rep: Any, window_s: float, opts: dict, robot: str | None, record: bool, db: str | None
+) -> tuple[list[dict], list]:
     """Self-calibrate the windows of ``rep``'s inputs; record each calibrated one when asked.
 
     Returns
@@ -143,7 +148,7 @@ def print_windows(windows: list[dict]) -> None:
     )
 
 
-def _print_kind_windows(windows: list[dict], own) -> None:
+def _print_kind_windows(windows: list[dict], own: Kind) -> None:
     rows = []
     for w in windows:
         r = w["result"]

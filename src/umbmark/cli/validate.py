@@ -13,6 +13,7 @@ from __future__ import annotations
 import copy
 import math
 import re
+from typing import TYPE_CHECKING, Any
 
 import click
 
@@ -25,6 +26,10 @@ from umbmark.cli.options import flag
 from umbmark.cli.selfcal import selfcal_cmd
 from umbmark.errors import InputError
 from umbmark.kinds import KINDS, kind_in
+
+if TYPE_CHECKING:
+    from umbmark.io.wheels import WheelSource
+    from umbmark.kinds import Kind
 
 __all__ = ["validate_cmd", "LEGEND", "READ_OPTIONS", "FAIL_EXIT_STATUS"]
 
@@ -106,7 +111,7 @@ _RULE_ROW = {
 }
 
 
-def _mm(v):
+def _mm(v: float | None) -> float | None:
     return None if v is None else v * 1e3
 
 
@@ -128,7 +133,7 @@ def _window(text: str | None) -> tuple[float, float] | None:
     return lo, hi
 
 
-def _cell(v, digits: int) -> str:
+def _cell(v: float | None, digits: int) -> str:
     return "" if v is None or (isinstance(v, float) and not math.isfinite(v)) else fmt(v, digits)
 
 
@@ -249,21 +254,21 @@ def _print_report(d: dict) -> None:
 @config_options
 @skip_check_option
 def validate_cmd(
-    log,
-    calibration,
-    relations,
-    reference,
-    reference_frame,
-    dataset,
-    window,
-    halves,
-    short_max_s,
-    scan_delay,
-    stamp_tolerance_s,
-    fail_on_worse,
-    as_json,
-    **kw,
-):
+    log: str,
+    calibration: str,
+    relations: str | None,
+    reference: str | None,
+    reference_frame: str | None,
+    dataset: str | None,
+    window: str | None,
+    halves: bool,
+    short_max_s: float,
+    scan_delay: float | None,
+    stamp_tolerance_s: float,
+    fail_on_worse: bool,
+    as_json: bool,
+    **kw: Any,
+) -> None:
     """Check a calibration on a real log against a SLAM reference: the odometry's relation errors,
     distance and turn scale and heading drift, before (nominal geometry and lidar pose) and
     after (the calibration's), with pass rules.
@@ -330,7 +335,9 @@ def validate_cmd(
         raise click.exceptions.Exit(FAIL_EXIT_STATUS)
 
 
-def _wheel_data(kind, kw: dict):
+def _wheel_data(
+    kind: Kind, kw: dict[str, Any]
+) -> tuple[WheelSource | None, tuple[str, ...] | None, tuple[float | None, float | None]]:
     """The log's wheel data for a calibration of ``kind``: a differential drive's wheel source and
     the nominal sizes given, or another kind's joint names (its joint flags; the differential
     drive's flags refused with why).
