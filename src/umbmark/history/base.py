@@ -41,10 +41,12 @@ from umbmark.history.parameters import (
     runs_from_rows,
     runs_to_rows,
 )
+from umbmark.history.records import CLOCK_SKEW as CLOCK_SKEW
 from umbmark.history.records import KINDS, DamagedRecord, HistoryError, NoHistory, Record, _short, check_robot
 from umbmark.history.records import session_time_problem as session_time_problem
 from umbmark.history.same_recording import SameRecording, parts_overlap, recording_part
 from umbmark.history.schema import MAX_INT, MIGRATIONS, SCHEMA_VERSION, _record, make_row, retry_while_locked
+from umbmark.history.schema import TABLE_COLUMNS as TABLE_COLUMNS
 
 __all__ = [
     "ENV_VAR",

@@ -92,7 +92,10 @@ from umbmark.realrobot.selfcal_plan import (
     plan_intervals,
 )
 from umbmark.realrobot.selfcal_plan import usable_scans as usable_scans
+from umbmark.realrobot.selfcal_pool import MISREAD_COST as MISREAD_COST
+from umbmark.realrobot.selfcal_pool import MISREAD_SIZE as MISREAD_SIZE
 from umbmark.realrobot.selfcal_pool import POSE_WARN_M, POSE_WARN_RAD, SelfcalReport, interval_blocks, selfcal_report
+from umbmark.realrobot.selfcal_pool import SIDEWAYS_RAD as SIDEWAYS_RAD
 from umbmark.realrobot.selfcal_tf import BASE_FRAMES, MAX_TILT_RAD, sensor_pose_from_tf
 from umbmark.realrobot.selfcal_tf import nominal_sensor_pose_of as nominal_sensor_pose_of
 

@@ -101,6 +101,9 @@ from umbmark.realrobot.validate_figures import (
     magnitude_scale,
     relation_errors,
 )
+from umbmark.realrobot.validate_mistakes import MISTAKE_FLOOR_M2 as MISTAKE_FLOOR_M2
+from umbmark.realrobot.validate_mistakes import MISTAKE_RATIO as MISTAKE_RATIO
+from umbmark.realrobot.validate_mistakes import TRUE_BASE_RATIO as TRUE_BASE_RATIO
 from umbmark.realrobot.validate_mistakes import _alternatives, _plausibility, _read_base, _refuse_mistakes
 from umbmark.realrobot.validate_odometry import (
     _Odometries,
