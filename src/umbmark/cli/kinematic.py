@@ -13,6 +13,7 @@ result's ``to_dict()`` or a table made from it.
 from __future__ import annotations
 
 import shlex
+from pathlib import Path
 from typing import Any
 
 import click
@@ -225,7 +226,10 @@ def kinematic_selfcal_cmd(
     from umbmark.cli.history import print_recorded, record_if_requested, refuse_if_recorded
     from umbmark.realrobot.kinematic_settings import kinematic_recordings
 
+    from umbmark._files import check_distinct_inputs
+
     robot, record, db = history
+    check_distinct_inputs([p for p in paths if Path(p).exists()])  # the repeat named before any other mistake
     settings = kinematic_settings(kind, min_intervals, keep_outliers, kw)
     if kind_of(paths) != "bags":
         raise InputError(f"--kinematics {kind} reads ROS bags (joint states and laser scans), not intervals files")
