@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import shlex
 from collections.abc import Callable, Iterable, Sequence
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeVar
 
 import click
@@ -226,12 +227,14 @@ def kinematic_settings(cfg: SelfcalConfig) -> KinematicSettings:
 def kinematic_selfcal_cmd(paths: tuple[str, ...], cfg: SelfcalConfig, window_s: float | None) -> None:
     """Run the self-calibration of a robot of a kind of its own for ``umbmark selfcal``: ``window_s``
     the ``--window`` in seconds (or None)."""
+    from umbmark._files import check_distinct_inputs
     from umbmark.cli.bags import Bars, kind_of, start_kernels
     from umbmark.cli.history import print_recorded, record_if_requested, refuse_if_recorded
     from umbmark.realrobot.kinematic_settings import kinematic_recordings
 
     kind, save, as_json = cfg.kind.kinematics, cfg.outputs.save, cfg.outputs.as_json
     history = robot, record, db = cfg.history.robot, cfg.history.record, cfg.history.db
+    check_distinct_inputs([p for p in paths if Path(p).exists()])  # the repeat named before any other mistake
     settings = kinematic_settings(cfg)
     if kind_of(paths) != "bags":
         raise InputError(f"--kinematics {kind} reads ROS bags (joint states and laser scans), not intervals files")

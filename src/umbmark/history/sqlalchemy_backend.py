@@ -19,17 +19,10 @@ from typing import TYPE_CHECKING, Any, TypeVar
 
 from umbmark._version import __version__
 from umbmark.errors import InputError
-from umbmark.history.base import (
-    SCHEMA_VERSION,
-    TABLE_COLUMNS,
-    HistoryError,
-    NoHistory,
-    _Backend,
-    _split_userinfo,
-    display_db,
-    mask_secrets,
-    retry_while_locked,
-)
+from umbmark.history.address import _split_userinfo, display_db, mask_secrets
+from umbmark.history.base import _Backend
+from umbmark.history.records import HistoryError, NoHistory
+from umbmark.history.schema import SCHEMA_VERSION, TABLE_COLUMNS, retry_while_locked
 
 if TYPE_CHECKING:  # SQLAlchemy is an optional dependency: imported at run time by _import only
     from sqlalchemy import URL, Connection, Engine, MetaData, Select, Table

@@ -12,17 +12,10 @@ from typing import Any
 from urllib.parse import quote
 
 from umbmark._version import __version__
-from umbmark.history.base import (
-    _SELECT,
-    MIGRATIONS,
-    SCHEMA_VERSION,
-    TABLE_COLUMNS,
-    HistoryError,
-    NoHistory,
-    _Backend,
-    resolve_db_path,
-    retry_while_locked,
-)
+from umbmark.history.address import resolve_db_path
+from umbmark.history.base import _Backend
+from umbmark.history.records import HistoryError, NoHistory
+from umbmark.history.schema import _SELECT, MIGRATIONS, SCHEMA_VERSION, TABLE_COLUMNS, retry_while_locked
 
 __all__ = ["History"]
 
