@@ -157,7 +157,7 @@ def main(argv: list[str] | None = None) -> int:
     t0 = time.perf_counter()
     rows = run(a.seeds)
     m = machine("rosbags", "scipy", "numba")
-    cmd = command("benchmarks/recorded_artefacts.py", argv)
+    cmd = command("recorded_artefacts", argv)
     res = {"command": cmd, "machine": m, "wall_s": time.perf_counter() - t0, "rows": rows}
     write_results(a.out, "recorded_artefacts", res, page(rows, m, cmd), show=True)
     return 0
