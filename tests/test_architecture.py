@@ -15,6 +15,7 @@ including those inside functions):
 from __future__ import annotations
 
 import ast
+import functools
 import re
 import subprocess
 import sys
@@ -43,6 +44,12 @@ ALLOWED: dict[str, set[str]] = {
 FLAG = re.compile(r"(?<![\w-])--[a-z][a-z0-9]*(?:-[a-z0-9]+)*")
 
 
+@functools.lru_cache(maxsize=None)
+def _parse(source: str) -> ast.Module:
+    """The syntax tree of a source (each module parsed once for all the rules; read only)."""
+    return ast.parse(source)
+
+
 def module_name(path: Path) -> str:
     parts = list(path.relative_to(SRC.parent).with_suffix("").parts)
     if parts[-1] == "__init__":
@@ -66,7 +73,7 @@ def imports_of(path: Path) -> list[tuple[int, str]]:
 
 def imports_in(source: str, package: str) -> list[tuple[int, str]]:
     out = []
-    for node in ast.walk(ast.parse(source)):
+    for node in ast.walk(_parse(source)):
         if isinstance(node, ast.Import):
             out += [(node.lineno, a.name) for a in node.names]
         elif isinstance(node, ast.ImportFrom):
@@ -143,13 +150,18 @@ def test_only_the_cli_names_flags():
     for mod, path in MODULES.items():
         if layer_of(mod) == "cli" or mod == "umbmark.realrobot.guide":
             continue  # the field guide prints the commands to type
-        for node in _strings(ast.parse(path.read_text())):
+        for node in _strings(_parse(path.read_text())):
             for flag in FLAG.findall(node.value):
                 bad.append(f"{path.relative_to(REPO)}:{node.lineno}: {flag}")
     assert not bad, "flags named outside umbmark.cli:\n" + "\n".join(bad)
 
 
 def _graph() -> dict[str, set[str]]:
+    return {m: set(t) for m, t in _import_graph().items()}  # a copy: a rule may prune it
+
+
+@functools.lru_cache(maxsize=1)
+def _import_graph() -> dict[str, set[str]]:
     g: dict[str, set[str]] = {m: set() for m in MODULES}
     for mod, path in MODULES.items():
         for _, t in imports_of(path):
@@ -232,7 +244,7 @@ def test_the_fleet_command_calls_the_library_not_the_command_line():
     assert "umbmark.cli" not in imported and "umbmark.fleet" in imported
     calls = {
         n.func.id
-        for n in ast.walk(ast.parse(path.read_text()))
+        for n in ast.walk(_parse(path.read_text()))
         if isinstance(n, ast.Call) and isinstance(n.func, ast.Name)
     }
     assert "main" not in calls
@@ -247,7 +259,7 @@ def test_the_closure_sees_a_study():
 def _extra_reads(source: str) -> list[int]:
     """Lines reading a key of an ``extra`` attribute: ``x.extra[...]``, ``x.extra.get(...)``, ``x.extra.items()``."""
     lines = []
-    for node in ast.walk(ast.parse(source)):
+    for node in ast.walk(_parse(source)):
         target = None
         if isinstance(node, ast.Subscript):
             target = node.value
@@ -289,7 +301,7 @@ def _kernels(tree: ast.Module) -> set[str]:
 
 def _long_functions(source: str, most: int = MAX_FUNCTION_LINES) -> list[tuple[str, int, int]]:
     """``(name, line, length)`` of the functions longer than ``most`` lines, but the kernels."""
-    tree = ast.parse(source)
+    tree = _parse(source)
     kernels = _kernels(tree)
     out = []
     for node in ast.walk(tree):
@@ -354,7 +366,7 @@ def _kind_branches(source: str, names: set[str]) -> list[int]:
         return False
 
     lines = []
-    for node in ast.walk(ast.parse(source)):
+    for node in ast.walk(_parse(source)):
         hit = False
         if isinstance(node, ast.Compare):
             hit = any(named(x) for x in [node.left, *node.comparators])
