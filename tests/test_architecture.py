@@ -44,7 +44,7 @@ ALLOWED: dict[str, set[str]] = {
 FLAG = re.compile(r"(?<![\w-])--[a-z][a-z0-9]*(?:-[a-z0-9]+)*")
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _parse(source: str) -> ast.Module:
     """The syntax tree of a source (each module parsed once for all the rules; read only)."""
     return ast.parse(source)

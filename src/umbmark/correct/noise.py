@@ -310,17 +310,16 @@ def _nll_grad(
         ]
     )
     f = 0.5 * float(np.sum(np.log(det)) + np.sum(u * e))
-    unit = np.zeros((3, 1, 6))
-    unit[np.arange(3), 0, np.arange(3)] = 1.0
-    weights = np.array([1.0, 1.0, 1.0, 2.0, 2.0, 2.0])  # off-diagonal entries count twice in a trace
     uu = np.column_stack(
         [u[:, 0] ** 2, u[:, 1] ** 2, u[:, 2] ** 2, u[:, 0] * u[:, 1], u[:, 0] * u[:, 2], u[:, 1] * u[:, 2]]
     )
-    grad = np.empty(len(theta))
-    for m, shape in enumerate([*terms, *unit]):
-        total = np.sum(np.broadcast_to(shape, inv.shape) * (inv - uu) * weights)
-        grad[m] = 0.5 * math.exp(theta[m]) * float(total)
-    return f, grad
+    d = inv - uu
+    d[:, 3:] *= 2.0  # off-diagonal entries count twice in a trace
+    n = len(terms)
+    total = np.empty(len(theta))
+    total[:n] = np.tensordot(terms, d, axes=([1, 2], [0, 1])) if n else 0.0
+    total[n : n + 3] = d[:, :3].sum(axis=0)  # the diagonal's three unit terms
+    return f, 0.5 * np.exp(theta) * total
 
 
 def _sym6(g: FloatArray, w: FloatArray) -> FloatArray:
