@@ -199,7 +199,7 @@ def page(res: dict) -> str:
         "|---|---|",
         f"| read the bag (`read_selfcal_bag`) | {st['read_bag_s']:.2f} |",
         f"| matched intervals (`bag_intervals`) | {st['intervals_s']:.2f} |",
-        f"| of which the wheels against the lidar (`check_bag_motion`, coarse matches) | {st['motion_check_s']:.2f} |",
+        f"| of which the wheels against the lidar (`check_bag_motion`) | {st['motion_check_s']:.2f} |",
         f"| estimate and its report (`selfcal_report`, `to_dict`) | {st['estimate_s']:.2f} |",
         f"| **one bag** | **{st['total_s']:.2f}** |",
     ]
