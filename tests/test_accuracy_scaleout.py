@@ -42,6 +42,7 @@ def test_bad_workers_are_rejected():
         run_accuracy(replace(SMALL, workers=0))
 
 
+@pytest.mark.slow
 def test_cli_workers_and_json_stay_pure(tmp_path, capsys):
     outs = []
     for w in ("1", "2"):

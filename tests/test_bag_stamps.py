@@ -342,6 +342,7 @@ def test_selfcal_bag_spike_is_dropped_and_a_jump_cuts_the_stream(clean, tmp_path
     assert cut.wheel_stream is not None and cut.wheel_stream.resets == 1
 
 
+@pytest.mark.slow
 def test_selfcal_scan_delay_auto_and_seconds(tmp_path, capsys):
     """Scans stamped 0.2 s late against the wheels: ``selfcal`` (``--scan-delay auto``, the
     default) finds the delay (scan-matched turns against the wheels' turns) and moves the scans

@@ -145,6 +145,7 @@ def test_kinds_are_not_mixed_and_short_histories_are_noted(tmp_path):
         detect_drift(recs, robot="r", false_alarm=0.7)
 
 
+@pytest.mark.slow
 def test_a_simulated_fleet(tmp_path):
     # the acceptance's fleet, smaller: every session self-calibrated from its own intervals
     fleet = draw_fleet(8, 30, 3, seed=4)

@@ -97,6 +97,7 @@ def test_accuracy_cells_with_many_runs_agree_with_the_reference():
     heading=st.booleans(),
     seed=st.integers(0, 2**16),
 )
+@pytest.mark.slow
 def test_random_robots_with_many_runs_agree_with_the_reference(ed, eb, side, b, n, heading, seed):
     geo = replace(LABMATE, wheelbase_m=b)
     runs = simulate_umbmark(

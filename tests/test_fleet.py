@@ -288,6 +288,7 @@ def test_two_fleets_at_once_on_one_history_record_each_recording_once(tmp_path, 
     assert len(counts) == 6 and set(counts.values()) == {1}
 
 
+@pytest.mark.slow
 def test_a_killed_worker_s_recording_is_done_again_and_recorded_once(tmp_path, fleet_db, client):
     # 100 recordings on a local cluster of two workers; one worker killed while it calibrates
     # (last in the module: the cluster's nanny starts a new worker)

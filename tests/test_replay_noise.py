@@ -418,6 +418,7 @@ def test_optiodom_runs_have_time_offsets_of_their_own():
     assert max(abs(v) for v in rest.values()) < 0.01
 
 
+@pytest.mark.slow
 def test_optiodom_the_heading_jitter_explains_the_stride_dependence():
     """circular/231220200121 (a circle at 0.1 m/s): without the ground truth's heading jitter the
     per-metre noise falls with the stride, about as 1 / stride (the timing, v and omega times a time
@@ -461,6 +462,7 @@ def _write_csv_log(ds: Dataset, path: Path) -> Path:
     return path
 
 
+@pytest.mark.slow
 def test_replay_noise_command_and_its_export(tmp_path):
     """`umbmark replay --noise` on a simulated log: the model holds at every interval length, the
     wheels' noise is given as odometry_noise (within 20 %) and `umbmark export` turns it into the

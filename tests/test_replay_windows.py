@@ -65,6 +65,7 @@ def step_bag(tmp_path_factory):
     return _long_bag(tmp_path_factory.mktemp("win") / "step", [A, A, A, A, B, B])
 
 
+@pytest.mark.slow
 def test_windows_follow_the_bag_clock_and_show_the_step(step_bag):
     d = _json(["replay", step_bag, *BAG, *GEOMETRY, "--method", "exact", "--window", "190s", "--json"])
     wins = d["windows"]
@@ -85,6 +86,7 @@ def test_windows_follow_the_bag_clock_and_show_the_step(step_bag):
     assert eb[:4].mean() < d["Eb"] < eb[4:].mean()
 
 
+@pytest.mark.slow
 def test_recorded_windows_and_drift_find_the_step(step_bag, tmp_path):
     db = str(tmp_path / "h.sqlite")
     args = ["replay", step_bag, *BAG, *GEOMETRY, "--method", "exact", "--window", "190s"]

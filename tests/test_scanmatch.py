@@ -478,6 +478,7 @@ def test_selfcal_says_when_the_matching_will_be_slow(monkeypatch, capsys, state,
     assert started == ([True] if state == "compile" else [])  # the compile starts before the bags are read
 
 
+@pytest.mark.slow
 def test_a_machine_without_the_kernels_compiles_them_in_two_processes(tmp_path):
     """An empty numba cache: kernel_state says "compile"; start_compiling's second process writes
     the matching kernels into the cache (the first match waits for them and loads them); the

@@ -249,6 +249,7 @@ def test_intervals_cover_the_truth_over_100_simulated_robots():
     assert 0.85 < np.sqrt(np.mean(np.square(z))) < 1.15
 
 
+@pytest.mark.slow
 def test_given_covariances_weigh_each_interval():
     """Noise that differs per interval: given covariances give intervals that cover the truth
     and smaller errors than a common noise estimate."""

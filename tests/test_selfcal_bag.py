@@ -136,6 +136,7 @@ def test_keyframes_every_few_cm_or_degrees(bags, log):
     assert d["keyframe_rule"]["description"] == "every 50 mm or 5 deg or 1 s"
 
 
+@pytest.mark.slow
 def test_scans_stamped_on_arrival_late_and_with_jitter(log, tmp_path):
     """A lidar driver that stamps each scan on arrival: 30 ms late, scattered by 10 ms. The
     wheels' rotations between two stamps hold errors of the size of the motion over 10 ms at

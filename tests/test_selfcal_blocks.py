@@ -5,6 +5,7 @@ intervals."""
 import math
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -91,6 +92,7 @@ def _halves_apart(iv):
     return max(z)
 
 
+@pytest.mark.slow
 def test_halves_with_an_error_shared_over_tens_of_seconds_agree_within_their_intervals(monkeypatch):
     recordings = [_recording(seed) for seed in range(20)]
     agree = sum(_halves_apart(iv) <= 1.0 for iv in recordings)

@@ -295,6 +295,7 @@ def test_recomputed_odometry_keeps_the_recorded_heading():
         assert np.median(gap) < 5e-3 and np.all(gap <= np.hypot(step_rec[:, 0], step_rec[:, 1]) + 1e-9)
 
 
+@pytest.mark.slow
 def test_real_slice_results_that_do_not_depend_on_the_nominal_geometry(mit):
     """c_left, c_right (estimated over nominal diameter), E_b, the lidar pose, the scan delay and
     every odometry's error against the relations are the same for either nominal geometry; the
