@@ -147,10 +147,11 @@ def test_kinds_are_not_mixed_and_short_histories_are_noted(tmp_path):
 
 @pytest.mark.slow
 def test_a_simulated_fleet(tmp_path):
-    # the acceptance's fleet, smaller: every session self-calibrated from its own intervals
-    fleet = draw_fleet(8, 30, 3, seed=4)
+    # the acceptance's fleet, smaller (8 robots, 20 sessions each; benchmarks/drift_fleet.py runs
+    # the whole one): every session self-calibrated from its own intervals
+    fleet = draw_fleet(8, 20, 3, seed=4)
     db = tmp_path / "fleet.sqlite"
-    record_fleet(fleet, db, 30, seed=4)
+    record_fleet(fleet, db, 20, seed=4)
     s = score_fleet(fleet, db)
     assert s["steps"] == 3 and s["steps_found"] == 3, s["details"]
     assert s["false_alarms"] == 0, s["details"]
