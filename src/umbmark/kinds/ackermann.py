@@ -39,9 +39,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from umbmark.errors import InputError
 from umbmark.kinds._base import (
-    Alternative,
     Coverage,
-    FitOption,
     Interval,
     JointOption,
     Kind,
@@ -51,9 +49,24 @@ from umbmark.kinds._base import (
     finite_parameter,
     positive_parameter,
 )
-from umbmark.kinds.bicycle import FULL_LOCK_RAD, MAX_OFFSET_RAD, car_advice, car_negative, car_steering, travel_steered
-from umbmark.kinds.tricycle import steering_note
-from umbmark.model.geometry import QUANTITIES, ROBOT_SIZES_M, Quantity
+from umbmark.kinds.bicycle import (
+    CAR_FITS,
+    FULL_LOCK_RAD,
+    MAX_OFFSET_RAD,
+    car_advice,
+    car_negative,
+    car_steering,
+    travel_steered,
+)
+from umbmark.kinds.tricycle import (
+    STEERING,
+    WHEEL_DIAMETER,
+    WHEEL_DIAMETER_SIZE,
+    WHEELBASE,
+    steering_note,
+    wheelbase_size,
+)
+from umbmark.model.geometry import ROBOT_SIZES_M, Quantity
 from umbmark.model.kinematics import Kinematics
 
 __all__ = ["Ackermann", "KIND", "ROLES", "TRACK_WIDTH"]
@@ -198,23 +211,15 @@ class _AckermannKind(Kind):
     controller = "ackermann_steering_controller"
     drawable = True
     parameters = (
-        Parameter("wheel_diameter_m", ("wheel_diameter_mm",), "mm", "wheel diameter"),
-        Parameter("wheelbase_m", ("wheelbase_mm",), "mm", "wheelbase"),
+        WHEEL_DIAMETER,
+        WHEELBASE,
         Parameter("traction_track_m", ("traction_track_width_mm",), "mm", "traction track width"),
         Parameter("steering_track_m", ("steering_track_width_mm",), "mm", "steering track width"),
-        Parameter("steering_offset_rad", ("steering_offset_deg",), "deg", "steering offset", nominal=0.0),
-        Parameter("steering_scale", ("steering_scale",), "", "steering scale", digits=5, nominal=1.0),
+        *STEERING,
     )
     sizes = (
-        Size(
-            "wheel_diameter_mm",
-            ("wheel_diameter_m",),
-            QUANTITIES["diameter"],
-            "wheel diameter",
-            "D",
-            alternative=Alternative("wheel_radius_m", 2.0, "R"),
-        ),
-        Size("wheelbase_mm", ("wheelbase_m",), QUANTITIES["wheelbase"], "wheelbase", "L", "rear axle to front axle"),
+        WHEEL_DIAMETER_SIZE,
+        wheelbase_size("rear axle to front axle"),
         Size(
             "traction_track_width_mm",
             ("traction_track_m",),
@@ -251,20 +256,7 @@ class _AckermannKind(Kind):
             "JointState names of the steering joints, left then right (radians, counter-clockwise positive).",
         ),
     )
-    fits = (
-        FitOption(
-            "fit_steering_scale",
-            "steering_scale",
-            "also estimate the steering scale (true over measured angle; needs large steering angles).",
-            check=True,
-        ),
-        FitOption(
-            "fit_wheelbase",
-            "wheelbase_m",
-            "also estimate the wheelbase (it separates from the steering scale only through tan at large "
-            "steering angles: drive near full lock; else held at the nominal wheelbase).",
-        ),
-    )
+    fits = CAR_FITS
     held = ("traction_track_m", "steering_track_m")
     legend = (
         "wheel diameter: the traction (rear) wheels'; wheelbase: rear axle to front axle (held at the nominal one "

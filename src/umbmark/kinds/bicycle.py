@@ -31,6 +31,7 @@ Imports numpy, :mod:`umbmark.model` and :mod:`umbmark.kinds._base`.
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -41,27 +42,34 @@ from numpy.typing import ArrayLike, NDArray
 
 from umbmark.errors import InputError
 from umbmark.kinds._base import (
-    Alternative,
     Coverage,
     EditedFile,
     FitOption,
     Interval,
-    JointOption,
     Kind,
-    Parameter,
     Reading,
-    Size,
     Uniform,
-    finite_parameter,
-    positive_parameter,
 )
-from umbmark.kinds.tricycle import DRIVE_STEER_WORDS, EXCHANGED, steering_note
-from umbmark.model.geometry import QUANTITIES, wrap_angle
+from umbmark.kinds.tricycle import (
+    DRIVE_STEER_JOINTS,
+    DRIVE_STEER_WORDS,
+    EXCHANGED,
+    FIT_STEERING_SCALE,
+    STEERING,
+    WHEEL_DIAMETER,
+    WHEEL_DIAMETER_SIZE,
+    WHEELBASE,
+    DriveSteer,
+    steering_note,
+    wheelbase_size,
+)
+from umbmark.model.geometry import wrap_angle
 from umbmark.model.kinematics import Kinematics
 
 __all__ = [
     "Bicycle",
     "KIND",
+    "CAR_FITS",
     "FULL_LOCK_RAD",
     "MAX_OFFSET_RAD",
     "VESC_KEYS",
@@ -87,6 +95,18 @@ _STILL_M = 1e-6  # an odometry step shorter than this holds the steering angle o
 
 VESC_KEYS = ("speed_to_erpm_gain", "steering_angle_to_servo_gain", "steering_angle_to_servo_offset")
 """The vesc driver's parameters a car's calibration changes (each computed from its value in use)."""
+
+
+CAR_FITS = (
+    dataclasses.replace(FIT_STEERING_SCALE, check=True),
+    FitOption(
+        "fit_wheelbase",
+        "wheelbase_m",
+        "also estimate the wheelbase (it separates from the steering scale only through tan at large "
+        "steering angles: drive near full lock; else held at the nominal wheelbase).",
+    ),
+)
+"""A car's fits: the steering scale (estimated anyway to check that 1 holds) and the wheelbase."""
 
 
 def car_steering(vx_mps: ArrayLike, omega_radps: ArrayLike, wheelbase_m: float) -> tuple[FloatArray, FloatArray]:
@@ -118,7 +138,7 @@ def car_steering(vx_mps: ArrayLike, omega_radps: ArrayLike, wheelbase_m: float) 
 
 
 @dataclass(frozen=True)
-class Bicycle:
+class Bicycle(DriveSteer):
     """A car of the bicycle model: rear-wheel drive and one steering angle (see the module docstring).
 
     Parameters
@@ -133,44 +153,10 @@ class Bicycle:
         True over measured steering angle (1: the steering reads true angles).
     """
 
-    wheel_diameter_m: float
-    wheelbase_m: float
-    steering_offset_rad: float = 0.0
-    steering_scale: float = 1.0
-
     kind: ClassVar[str] = "bicycle"
-    joint_roles: ClassVar[tuple[str, ...]] = ("drive", "steer")
-    rolling: ClassVar[tuple[bool, ...]] = (True, False)
-    parameter_names: ClassVar[tuple[str, ...]] = (
-        "wheel_diameter_m",
-        "wheelbase_m",
-        "steering_offset_rad",
-        "steering_scale",
-    )
     moves: ClassVar[tuple[str, ...]] = ("straight", "back", "loop+", "loop-", "reverse+", "reverse-")
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "wheel_diameter_m", positive_parameter("wheel_diameter_m", self.wheel_diameter_m))
-        object.__setattr__(self, "wheelbase_m", positive_parameter("wheelbase_m", self.wheelbase_m))
-        off = finite_parameter("steering_offset_rad", self.steering_offset_rad)
-        if abs(off) > MAX_OFFSET_RAD:
-            raise InputError(f"`steering_offset_rad` must be within {math.degrees(MAX_OFFSET_RAD):g} deg, got {off!r}")
-        object.__setattr__(self, "steering_offset_rad", off)
-        object.__setattr__(self, "steering_scale", positive_parameter("steering_scale", self.steering_scale))
-
-    @classmethod
-    def from_vector(cls, p: ArrayLike) -> Bicycle:
-        q = np.asarray(p, dtype=float)
-        return cls(float(q[0]), float(q[1]), float(q[2]), float(q[3]))
-
-    def vector(self) -> FloatArray:
-        return np.array([self.wheel_diameter_m, self.wheelbase_m, self.steering_offset_rad, self.steering_scale])
-
-    def with_vector(self, p: ArrayLike) -> Bicycle:
-        return self.from_vector(p)
-
-    def rolling_diameters_m(self) -> FloatArray:
-        return np.array([self.wheel_diameter_m])
+    max_offset_rad: ClassVar[float] = MAX_OFFSET_RAD
+    offset_bound: ClassVar[str] = f"{math.degrees(MAX_OFFSET_RAD):g} deg"
 
     @property
     def max_curvature_per_m(self) -> float:
@@ -315,46 +301,10 @@ class _BicycleKind(Kind):
     export_formats = ("ros2", "json", "urdf", "tf", "vesc")
     drawable = True
     reads_odometry = True
-    parameters = (
-        Parameter("wheel_diameter_m", ("wheel_diameter_mm",), "mm", "wheel diameter"),
-        Parameter("wheelbase_m", ("wheelbase_mm",), "mm", "wheelbase"),
-        Parameter("steering_offset_rad", ("steering_offset_deg",), "deg", "steering offset", nominal=0.0),
-        Parameter("steering_scale", ("steering_scale",), "", "steering scale", digits=5, nominal=1.0),
-    )
-    sizes = (
-        Size(
-            "wheel_diameter_mm",
-            ("wheel_diameter_m",),
-            QUANTITIES["diameter"],
-            "wheel diameter",
-            "D",
-            alternative=Alternative("wheel_radius_m", 2.0, "R"),
-        ),
-        Size("wheelbase_mm", ("wheelbase_m",), QUANTITIES["wheelbase"], "wheelbase", "L", "rear axle to front axle"),
-    )
-    joints = (
-        JointOption("drive_joint", ("drive",), "NAME", "the traction wheel", "JointState name of the traction wheel."),
-        JointOption(
-            "steer_joint",
-            ("steer",),
-            "NAME",
-            help="JointState name of the steering joint (radians, counter-clockwise positive, 0 straight).",
-        ),
-    )
-    fits = (
-        FitOption(
-            "fit_steering_scale",
-            "steering_scale",
-            "also estimate the steering scale (true over measured angle; needs large steering angles).",
-            check=True,
-        ),
-        FitOption(
-            "fit_wheelbase",
-            "wheelbase_m",
-            "also estimate the wheelbase (it separates from the steering scale only through tan at large "
-            "steering angles: drive near full lock; else held at the nominal wheelbase).",
-        ),
-    )
+    parameters = (WHEEL_DIAMETER, WHEELBASE, *STEERING)
+    sizes = (WHEEL_DIAMETER_SIZE, wheelbase_size("rear axle to front axle"))
+    joints = DRIVE_STEER_JOINTS
+    fits = CAR_FITS
     edited_files = (
         EditedFile(
             "vesc",

@@ -21,7 +21,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import ClassVar, Protocol
+from typing import ClassVar, Protocol, TypeVar
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -44,7 +44,21 @@ from umbmark.kinds._base import (
 from umbmark.model.geometry import QUANTITIES, wrap_angle
 from umbmark.model.kinematics import Kinematics
 
-__all__ = ["Tricycle", "KIND", "MAX_STEERING_RAD", "Steered", "steering_note"]
+__all__ = [
+    "Tricycle",
+    "KIND",
+    "MAX_STEERING_RAD",
+    "DriveSteer",
+    "Steered",
+    "steering_note",
+    "WHEEL_DIAMETER",
+    "WHEELBASE",
+    "STEERING",
+    "WHEEL_DIAMETER_SIZE",
+    "wheelbase_size",
+    "DRIVE_STEER_JOINTS",
+    "FIT_STEERING_SCALE",
+]
 
 FloatArray = NDArray[np.float64]
 
@@ -55,8 +69,71 @@ robots that spin about the rear axle, with room for an offset)."""
 _STEER_SIDE_RAD = math.radians(5.0)
 
 
+_G = TypeVar("_G", bound="DriveSteer")
+
+
 @dataclass(frozen=True)
-class Tricycle:
+class DriveSteer:
+    """A geometry of one traction wheel's size, a wheelbase and one steering angle (a tricycle, a
+    bicycle-model car): its four parameters, their checks and their vector. A kind's geometry
+    subclasses it with its kinematics, its ``kind`` and its largest steering offset.
+
+    Parameters
+    ----------
+    wheel_diameter_m : float
+        The traction wheel's diameter [m].
+    wheelbase_m : float
+        From the rear axle to the steered wheel or axle [m].
+    steering_offset_rad : float
+        True steering angle less the measured one at a measured 0 [rad].
+    steering_scale : float
+        True over measured steering angle (1: the steering joint reads true angles).
+    """
+
+    wheel_diameter_m: float
+    wheelbase_m: float
+    steering_offset_rad: float = 0.0
+    steering_scale: float = 1.0
+
+    joint_roles: ClassVar[tuple[str, ...]] = ("drive", "steer")
+    rolling: ClassVar[tuple[bool, ...]] = (True, False)
+    parameter_names: ClassVar[tuple[str, ...]] = (
+        "wheel_diameter_m",
+        "wheelbase_m",
+        "steering_offset_rad",
+        "steering_scale",
+    )
+    max_offset_rad: ClassVar[float] = 0.5 * math.pi
+    """The largest steering offset the geometry takes."""
+    offset_bound: ClassVar[str] = "a quarter turn"
+    """That bound in the words of its refusal."""
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "wheel_diameter_m", positive_parameter("wheel_diameter_m", self.wheel_diameter_m))
+        object.__setattr__(self, "wheelbase_m", positive_parameter("wheelbase_m", self.wheelbase_m))
+        off = finite_parameter("steering_offset_rad", self.steering_offset_rad)
+        if abs(off) > self.max_offset_rad:
+            raise InputError(f"`steering_offset_rad` must be within {self.offset_bound}, got {off!r}")
+        object.__setattr__(self, "steering_offset_rad", off)
+        object.__setattr__(self, "steering_scale", positive_parameter("steering_scale", self.steering_scale))
+
+    @classmethod
+    def from_vector(cls: type[_G], p: ArrayLike) -> _G:
+        q = np.asarray(p, dtype=float)
+        return cls(float(q[0]), float(q[1]), float(q[2]), float(q[3]))
+
+    def vector(self) -> FloatArray:
+        return np.array([self.wheel_diameter_m, self.wheelbase_m, self.steering_offset_rad, self.steering_scale])
+
+    def with_vector(self: _G, p: ArrayLike) -> _G:
+        return self.from_vector(p)
+
+    def rolling_diameters_m(self) -> FloatArray:
+        return np.array([self.wheel_diameter_m])
+
+
+@dataclass(frozen=True)
+class Tricycle(DriveSteer):
     """A tricycle: one steered and driven wheel ahead of a passive rear axle (see the module docstring).
 
     Parameters
@@ -71,44 +148,8 @@ class Tricycle:
         True over measured steering angle (1: the steering joint reads true angles).
     """
 
-    wheel_diameter_m: float
-    wheelbase_m: float
-    steering_offset_rad: float = 0.0
-    steering_scale: float = 1.0
-
     kind: ClassVar[str] = "tricycle"
-    joint_roles: ClassVar[tuple[str, ...]] = ("drive", "steer")
-    rolling: ClassVar[tuple[bool, ...]] = (True, False)
-    parameter_names: ClassVar[tuple[str, ...]] = (
-        "wheel_diameter_m",
-        "wheelbase_m",
-        "steering_offset_rad",
-        "steering_scale",
-    )
     moves: ClassVar[tuple[str, ...]] = ("straight", "back", "arc+", "arc-", "spin+", "spin-")
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "wheel_diameter_m", positive_parameter("wheel_diameter_m", self.wheel_diameter_m))
-        object.__setattr__(self, "wheelbase_m", positive_parameter("wheelbase_m", self.wheelbase_m))
-        off = finite_parameter("steering_offset_rad", self.steering_offset_rad)
-        if abs(off) > 0.5 * math.pi:
-            raise InputError(f"`steering_offset_rad` must be within a quarter turn, got {off!r}")
-        object.__setattr__(self, "steering_offset_rad", off)
-        object.__setattr__(self, "steering_scale", positive_parameter("steering_scale", self.steering_scale))
-
-    @classmethod
-    def from_vector(cls, p: ArrayLike) -> Tricycle:
-        q = np.asarray(p, dtype=float)
-        return cls(float(q[0]), float(q[1]), float(q[2]), float(q[3]))
-
-    def vector(self) -> FloatArray:
-        return np.array([self.wheel_diameter_m, self.wheelbase_m, self.steering_offset_rad, self.steering_scale])
-
-    def with_vector(self, p: ArrayLike) -> Tricycle:
-        return self.from_vector(p)
-
-    def rolling_diameters_m(self) -> FloatArray:
-        return np.array([self.wheel_diameter_m])
 
     def twist(self, values: ArrayLike, p: ArrayLike | None = None) -> FloatArray:
         q = self.vector() if p is None else np.asarray(p, dtype=float)
@@ -188,6 +229,42 @@ EXCHANGED = "the drive and steering joints look exchanged"
 DRIVE_STEER_WORDS = {"drive": (("traction",), ("drive",), ("wheel",)), "steer": (("steer",), ("steering",))}
 """The words of a drive and a steering joint's names (a tricycle's, a car's)."""
 
+# The parameters, sizes, joints and fit of a robot with one traction wheel size, a wheelbase and one
+# steering angle (a tricycle's, a car's), as its kind declares them.
+WHEEL_DIAMETER = Parameter("wheel_diameter_m", ("wheel_diameter_mm",), "mm", "wheel diameter")
+WHEELBASE = Parameter("wheelbase_m", ("wheelbase_mm",), "mm", "wheelbase")
+STEERING = (
+    Parameter("steering_offset_rad", ("steering_offset_deg",), "deg", "steering offset", nominal=0.0),
+    Parameter("steering_scale", ("steering_scale",), "", "steering scale", digits=5, nominal=1.0),
+)
+WHEEL_DIAMETER_SIZE = Size(
+    "wheel_diameter_mm",
+    ("wheel_diameter_m",),
+    QUANTITIES["diameter"],
+    "wheel diameter",
+    "D",
+    alternative=Alternative("wheel_radius_m", 2.0, "R"),
+)
+DRIVE_STEER_JOINTS = (
+    JointOption("drive_joint", ("drive",), "NAME", "the traction wheel", "JointState name of the traction wheel."),
+    JointOption(
+        "steer_joint",
+        ("steer",),
+        "NAME",
+        help="JointState name of the steering joint (radians, counter-clockwise positive, 0 straight).",
+    ),
+)
+FIT_STEERING_SCALE = FitOption(
+    "fit_steering_scale",
+    "steering_scale",
+    "also estimate the steering scale (true over measured angle; needs large steering angles).",
+)
+
+
+def wheelbase_size(between: str) -> Size:
+    """The wheelbase's size option, ``between`` saying from where to where it is measured."""
+    return Size("wheelbase_mm", ("wheelbase_m",), QUANTITIES["wheelbase"], "wheelbase", "L", between)
+
 
 def _zero_off(shift: float, joint: str = "") -> tuple[str, str]:
     """The words and the remedy of a steering zero ``-shift`` off (the reading that adds ``shift`` fits)."""
@@ -208,39 +285,10 @@ class _TricycleKind(Kind):
     geometry = Tricycle
     controller = "tricycle_controller"
     drawable = True
-    parameters = (
-        Parameter("wheel_diameter_m", ("wheel_diameter_mm",), "mm", "wheel diameter"),
-        Parameter("wheelbase_m", ("wheelbase_mm",), "mm", "wheelbase"),
-        Parameter("steering_offset_rad", ("steering_offset_deg",), "deg", "steering offset", nominal=0.0),
-        Parameter("steering_scale", ("steering_scale",), "", "steering scale", digits=5, nominal=1.0),
-    )
-    sizes = (
-        Size(
-            "wheel_diameter_mm",
-            ("wheel_diameter_m",),
-            QUANTITIES["diameter"],
-            "wheel diameter",
-            "D",
-            alternative=Alternative("wheel_radius_m", 2.0, "R"),
-        ),
-        Size("wheelbase_mm", ("wheelbase_m",), QUANTITIES["wheelbase"], "wheelbase", "L", "rear axle to steered wheel"),
-    )
-    joints = (
-        JointOption("drive_joint", ("drive",), "NAME", "the traction wheel", "JointState name of the traction wheel."),
-        JointOption(
-            "steer_joint",
-            ("steer",),
-            "NAME",
-            help="JointState name of the steering joint (radians, counter-clockwise positive, 0 straight).",
-        ),
-    )
-    fits = (
-        FitOption(
-            "fit_steering_scale",
-            "steering_scale",
-            "also estimate the steering scale (true over measured angle; needs large steering angles).",
-        ),
-    )
+    parameters = (WHEEL_DIAMETER, WHEELBASE, *STEERING)
+    sizes = (WHEEL_DIAMETER_SIZE, wheelbase_size("rear axle to steered wheel"))
+    joints = DRIVE_STEER_JOINTS
+    fits = (FIT_STEERING_SCALE,)
     legend = (
         "wheel diameter: the traction wheel's; wheelbase: from the rear axle's midpoint to the steered wheel; "
         "steering offset: the true steering angle less the measured one (counter-clockwise positive), the "
