@@ -79,6 +79,7 @@ from umbmark.realrobot.selfcal import (
     selfcal_history_fields,
     usable_scans,
 )
+from umbmark.realrobot.selfcal_match import bag_part_json, scan_delay_json
 
 __all__ = [
     "check_joint_readings",
@@ -286,40 +287,24 @@ class JointScanIntervals:
 
     def to_dict(self) -> dict[str, Any]:
         """What the pipeline did with the bag, as JSON (the keys of a differential drive's bag part)."""
-        x, y, z, roll, pitch, yaw = self.nominal_sensor_pose
-        delay: dict[str, Any] = {"bag": self.bag.source, "requested": self.scan_delay_requested}
-        if self.scan_delay is not None:
-            delay.update(self.scan_delay.to_dict())
-        delay["applied_s"] = self.scan_delay_s
-        return {
-            "path": self.bag.source,
-            "kind": "bag",
-            "scan_topic": self.bag.scan_topic,
-            "scan_frame": self.bag.scan_frame,
-            "base_frame": self.base_frame,
-            "wheel_data": self.bag.wheel_description,
-            "scans_read": self.bag.n_scans,
-            "scans_usable": self.scans_usable,
-            "keyframes": self.keyframes,
-            "intervals_still": self.intervals_still,
-            "pairs_matched": self.pairs_matched,
-            "pairs_chained": self.pairs_chained,
-            "pairs_failed": self.pairs_failed,
-            "failure_reasons": dict(self.failure_reasons),
-            "match_rms_mm": self.match_rms_m * 1e3,
-            "time_span_s": self.time_span_s,
-            "wheel_stream": None if self.bag.wheel_stream is None else self.bag.wheel_stream.to_dict(),
-            "scan_delay": delay,
-            "nominal_sensor_pose": {
-                "x_mm": x * 1e3,
-                "y_mm": y * 1e3,
-                "z_mm": z * 1e3,
-                "roll_deg": math.degrees(roll),
-                "pitch_deg": math.degrees(pitch),
-                "yaw_deg": math.degrees(yaw),
-                "source": self.sensor_pose_source,
+        return bag_part_json(
+            self.bag,
+            self.base_frame,
+            {
+                "scans_usable": self.scans_usable,
+                "keyframes": self.keyframes,
+                "intervals_still": self.intervals_still,
+                "pairs_matched": self.pairs_matched,
+                "pairs_chained": self.pairs_chained,
+                "pairs_failed": self.pairs_failed,
+                "failure_reasons": dict(self.failure_reasons),
+                "match_rms_mm": self.match_rms_m * 1e3,
+                "time_span_s": self.time_span_s,
             },
-        }
+            scan_delay_json(self.bag, self.scan_delay_requested, self.scan_delay, self.scan_delay_s),
+            self.nominal_sensor_pose,
+            self.sensor_pose_source,
+        )
 
 
 def _moving(grid: _Grid, pairs: NDArray[np.int64], nominal: Kinematics) -> NDArray[np.bool_]:

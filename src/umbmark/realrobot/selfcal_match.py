@@ -58,6 +58,8 @@ __all__ = [
     "bag_intervals",
     "matched_motion",
     "composed_matches",
+    "scan_delay_json",
+    "bag_part_json",
 ]
 
 _CHUNK = 500  # scan pairs per call of the matcher (the progress steps)
@@ -125,11 +127,7 @@ class ScanIntervals:
             ``bag``, ``requested`` (``auto`` or seconds), ``applied_s`` and, when estimated,
             :meth:`ScanDelay.to_dict`'s keys.
         """
-        out: dict[str, Any] = {"bag": self.plan.bag.source, "requested": self.scan_delay_requested}
-        if self.scan_delay is not None:
-            out.update(self.scan_delay.to_dict())
-        out["applied_s"] = self.plan.scan_delay_s
-        return out
+        return scan_delay_json(self.plan.bag, self.scan_delay_requested, self.scan_delay, self.plan.scan_delay_s)
 
     def to_dict(self) -> dict[str, Any]:
         """What the pipeline did with the bag, as JSON.
@@ -146,36 +144,71 @@ class ScanIntervals:
             (``x_mm``, ``y_mm``, ``z_mm``, ``roll_deg``, ``pitch_deg``, ``yaw_deg``, ``source``).
         """
         p = self.plan
-        x, y, z, roll, pitch, yaw = p.nominal_sensor_pose
-        return {
-            "path": p.bag.source,
-            "kind": "bag",
-            "scan_topic": p.bag.scan_topic,
-            "scan_frame": p.bag.scan_frame,
-            "base_frame": p.base_frame,
-            "wheel_data": p.bag.wheel_description,
-            "scans_read": p.bag.n_scans,
-            "scans_usable": p.scans_usable,
-            "keyframes": p.keyframes,
-            "intervals_still": p.intervals_still,
-            "pairs_matched": self.pairs_matched,
-            "pairs_chained": self.pairs_chained,
-            "pairs_failed": self.pairs_failed,
-            "failure_reasons": dict(self.failure_reasons),
-            "match_rms_mm": self.match_rms_m * 1e3,
-            "time_span_s": p.time_span_s,
-            "wheel_stream": None if p.bag.wheel_stream is None else p.bag.wheel_stream.to_dict(),
-            "scan_delay": self.delay_dict(),
-            "nominal_sensor_pose": {
-                "x_mm": x * 1e3,
-                "y_mm": y * 1e3,
-                "z_mm": z * 1e3,
-                "roll_deg": math.degrees(roll),
-                "pitch_deg": math.degrees(pitch),
-                "yaw_deg": math.degrees(yaw),
-                "source": p.sensor_pose_source,
+        return bag_part_json(
+            p.bag,
+            p.base_frame,
+            {
+                "scans_usable": p.scans_usable,
+                "keyframes": p.keyframes,
+                "intervals_still": p.intervals_still,
+                "pairs_matched": self.pairs_matched,
+                "pairs_chained": self.pairs_chained,
+                "pairs_failed": self.pairs_failed,
+                "failure_reasons": dict(self.failure_reasons),
+                "match_rms_mm": self.match_rms_m * 1e3,
+                "time_span_s": p.time_span_s,
             },
-        }
+            self.delay_dict(),
+            p.nominal_sensor_pose,
+            p.sensor_pose_source,
+        )
+
+
+def scan_delay_json(bag: SelfcalBag, requested: str, delay: ScanDelay | None, applied_s: float) -> dict[str, Any]:
+    """A bag's scan delay as JSON (an element of a report's ``scan_delay``, any kind of robot):
+    ``bag``, ``requested`` (``auto`` or seconds), the estimate's keys (:meth:`ScanDelay.to_dict`)
+    when it was estimated, ``applied_s``."""
+    out: dict[str, Any] = {"bag": bag.source, "requested": requested}
+    if delay is not None:
+        out.update(delay.to_dict())
+    out["applied_s"] = applied_s
+    return out
+
+
+def bag_part_json(
+    bag: SelfcalBag,
+    base_frame: str,
+    counts: dict[str, Any],
+    delay: dict[str, Any],
+    nominal_sensor_pose: Sequence[float],
+    sensor_pose_source: str,
+) -> dict[str, Any]:
+    """What the pipeline did with one bag, as JSON (an element of a report's ``inputs``, any kind
+    of robot; the keys of :meth:`ScanIntervals.to_dict`): the bag's own keys, then ``counts`` (in
+    their order), the wheel data's check, ``delay`` (:func:`scan_delay_json`) and the nominal
+    sensor pose ``(x, y, z, roll, pitch, yaw)`` the matching started from with its source."""
+    x, y, z, roll, pitch, yaw = nominal_sensor_pose
+    return {
+        "path": bag.source,
+        "kind": "bag",
+        "scan_topic": bag.scan_topic,
+        "scan_frame": bag.scan_frame,
+        "base_frame": base_frame,
+        "wheel_data": bag.wheel_description,
+        "scans_read": bag.n_scans,
+        **counts,
+        "wheel_stream": None if bag.wheel_stream is None else bag.wheel_stream.to_dict(),
+        "scan_delay": delay,
+        "nominal_sensor_pose": {
+            "x_mm": x * 1e3,
+            "y_mm": y * 1e3,
+            "z_mm": z * 1e3,
+            "roll_deg": math.degrees(roll),
+            "pitch_deg": math.degrees(pitch),
+            "yaw_deg": math.degrees(yaw),
+            "source": sensor_pose_source,
+        },
+    }
 
 
 def match_intervals(
