@@ -15,7 +15,7 @@ from typing import Any
 
 from umbmark.errors import InputError
 from umbmark.kinds import Kind, kind_in
-from umbmark.viz.report import _e, _header, _page, _table
+from umbmark.viz.report import _e, _header, _load_section, _page, _table
 from umbmark.viz.selfcal_report import PageParts, _correlations, lidar_figure, page_sections
 from umbmark.viz.text import fmt
 
@@ -80,17 +80,9 @@ def _load(d: dict[str, Any], source: str | None, commands: str | None) -> list[s
     """How to load it: the commands, and the texts they write (the kind's exports)."""
     from umbmark.io.export_kinematic import format_kinematic_export, kinematic_calibration_from_dict
 
-    out = ["<h2>Load it into the robot</h2>"]
-    if commands:
-        out.append(f"<pre>{_e(commands)}</pre>")
-        out.append('<p class="meta">The texts below are what those commands write for this result.</p>')
-    try:
-        cal = kinematic_calibration_from_dict(d, source or "<selfcal>")
-        for fmt_name, label in KIND_EXPORTS:
-            out.append(f"<h3>{_e(label)}</h3><pre>{_e(format_kinematic_export(cal, fmt_name))}</pre>")
-    except InputError as e:
-        out.append(f'<p class="warn">The export of this result fails: {_e(e)}</p>')
-    return out
+    return _load_section(
+        d, source or "<selfcal>", commands, KIND_EXPORTS, kinematic_calibration_from_dict, format_kinematic_export
+    )
 
 
 def _mount(d: dict[str, Any], own: Kind) -> Any:

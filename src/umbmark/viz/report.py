@@ -153,21 +153,29 @@ def _warnings_list(items: list[str]) -> str:
 
 
 def _load_section(
-    d: dict[str, Any], source: str | None, commands: str | None, formats: tuple[tuple[str, str], ...]
+    d: dict[str, Any],
+    source: str | None,
+    commands: str | None,
+    formats: tuple[tuple[str, str], ...],
+    read: Callable[[dict[str, Any], str], Any] | None = None,
+    write: Callable[[Any, str], str] | None = None,
 ) -> list[str]:
     """The commands that load a result into the robot, and the texts they write: ``formats``
-    holds (export format, label) pairs (:func:`umbmark.io.export.format_export`)."""
+    holds (export format, label) pairs; ``read`` makes the calibration of the result's JSON and
+    ``write`` its text in a format (a differential drive's by default:
+    :func:`umbmark.io.export.calibration_from_dict`, :func:`umbmark.io.export.format_export`)."""
     from umbmark.errors import InputError
     from umbmark.io.export import calibration_from_dict, format_export
 
+    read, write = read or calibration_from_dict, write or format_export
     out = ["<h2>Load it into the robot</h2>"]
     if commands:
         out.append(f"<pre>{_e(commands)}</pre>")
         out.append('<p class="meta">The texts below are what those commands write for this result.</p>')
     try:
-        cal = calibration_from_dict(d, source or "<result>")
+        cal = read(d, source or "<result>")
         for fmt_name, label in formats:
-            out.append(f"<h3>{_e(label)}</h3><pre>{_e(format_export(cal, fmt_name))}</pre>")
+            out.append(f"<h3>{_e(label)}</h3><pre>{_e(write(cal, fmt_name))}</pre>")
     except InputError as e:
         out.append(f'<p class="warn">The export of this result fails: {_e(e)}</p>')
     return out
